@@ -1,0 +1,1 @@
+//! Pure displacement analysis and alert rules (to be written).

@@ -1,0 +1,38 @@
+//! `cliffwatch adjust EPOCH.json [--model orthogonal|central] [--truth TRUTH.json]`: prints the
+//! adjustment report of the contract.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use cliffwatch::photogrammetry::{adjust, AdjustOptions, EpochInput, Model};
+
+/// Arguments of `cliffwatch adjust`.
+#[derive(clap::Args)]
+pub struct AdjustArgs {
+    /// Epoch in the upload form (JSON).
+    pub epoch: PathBuf,
+    /// Projection model: orthogonal or central.
+    #[arg(long, default_value = "orthogonal")]
+    pub model: Model,
+    /// Truth file (form of shared/data/*.truth.json): adds index3_rmse_mm and index4_rmse_mm.
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+}
+
+/// Runs `cliffwatch adjust`.
+pub fn run(args: AdjustArgs) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(&args.epoch)
+        .with_context(|| format!("reading {}", args.epoch.display()))?;
+    let input: EpochInput = serde_json::from_str(&text)
+        .with_context(|| format!("parsing {}", args.epoch.display()))?;
+    let options = AdjustOptions {
+        model: args.model,
+        ..AdjustOptions::default()
+    };
+    let adjustment = adjust(&input, &options).context("adjusting the epoch")?;
+    let report = adjustment.report;
+    // --truth is wired in once the quality indexes exist.
+    let _ = args.truth;
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}

@@ -1,0 +1,33 @@
+//! # cliffwatch
+//!
+//! A daemon that watches rock cliffs for movement. For each epoch (a campaign of images) it takes the
+//! targets' image coordinates, runs a bundle adjustment with the orthogonal projection model (Ono &
+//! Hattori) and a self-calibrated principal distance, stores coordinates with their precision, computes
+//! displacements against a reference epoch and raises alerts.
+//!
+//! ## Module map
+//! The pure core (no I/O, no async, no database):
+//! - [`photogrammetry`]: the upload form, start values, the orthogonal and central bundle adjustments,
+//!   datum, precision, blunder detection, the adjustment report.
+//! - [`detect`]: images → circular targets with sub-pixel centres → identified observations.
+//! - [`analysis`]: stable-point datum, congruence test, displacements, velocity, time-to-failure, alert rules.
+//! - [`simulate`]: scenes with truth for tests and benchmarks.
+//!
+//! The shell around it:
+//! - [`config`]: layered configuration (file, environment, flags).
+//! - [`store`]: SQLite through sqlx; migrations under `migrations/`.
+//! - [`ingest`]: the one path of an epoch (validate → adjust → analyse → store in one transaction).
+//! - [`api`]: the HTTP API (axum), auth, errors, OpenAPI.
+//! - [`webhooks`]: the outbox worker that signs and delivers alerts.
+//! - [`watch`]: the watched directory.
+
+pub mod analysis;
+pub mod api;
+pub mod config;
+pub mod detect;
+pub mod ingest;
+pub mod photogrammetry;
+pub mod simulate;
+pub mod store;
+pub mod watch;
+pub mod webhooks;

@@ -1,0 +1,180 @@
+//! Interior orientation: pixel ↔ mm conversion and Brown distortion corrections (contract conventions).
+
+use super::epoch::CameraInput;
+use super::error::EpochError;
+
+/// Names of the interior parameters, in the order of [`Camera::params`].
+pub const INTERIOR_NAMES: [&str; 8] = ["c", "x0", "y0", "k1", "k2", "k3", "p1", "p2"];
+/// Index of c in [`Camera::params`].
+pub const C: usize = 0;
+
+/// A validated camera: interior parameters, which of them to estimate, pixel geometry, a-priori σ.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Camera {
+    /// Camera identifier.
+    pub id: String,
+    /// Interior parameters `[c, x0, y0, k1, k2, k3, p1, p2]`: c, x0, y0 in mm; k1 mm⁻², k2 mm⁻⁴,
+    /// k3 mm⁻⁶, p1 and p2 mm⁻¹.
+    pub params: [f64; 8],
+    /// Which of `params` are estimated (self-calibration).
+    pub calibrate: [bool; 8],
+    /// Pixel size in mm, if known.
+    pub pixel_size_mm: Option<f64>,
+    /// Image size in pixels (width, height), if known.
+    pub size_px: Option<(u32, u32)>,
+    /// A-priori σ of one image coordinate in mm.
+    pub sigma_mm: f64,
+}
+
+/// Default a-priori σ in mm when neither `sigma_mm` nor the pixel size is given.
+pub const DEFAULT_SIGMA_MM: f64 = 0.002;
+
+impl Camera {
+    /// Validates a camera of the upload form.
+    pub fn from_input(c: &CameraInput) -> Result<Self, EpochError> {
+        let item = format!("camera '{}'", c.id);
+        let params = [c.c_mm, c.x0_mm, c.y0_mm, c.k1, c.k2, c.k3, c.p1, c.p2];
+        for (v, name) in params.iter().zip(INTERIOR_NAMES) {
+            if !v.is_finite() {
+                return Err(EpochError::NotFinite {
+                    item: item.clone(),
+                    field: name.to_string(),
+                });
+            }
+        }
+        if c.c_mm <= 0.0 {
+            return Err(EpochError::OutOfRange {
+                item,
+                field: "c_mm".into(),
+                reason: "must be positive".into(),
+            });
+        }
+        let mut calibrate = [false; 8];
+        calibrate[C] = c.calibrate_c;
+        if let Some(list) = &c.calibrate {
+            for name in list {
+                let k = INTERIOR_NAMES
+                    .iter()
+                    .position(|n| n == name)
+                    .ok_or_else(|| EpochError::OutOfRange {
+                        item: item.clone(),
+                        field: "calibrate".into(),
+                        reason: format!("unknown parameter '{name}' (c, x0, y0, k1, k2, k3, p1, p2)"),
+                    })?;
+                calibrate[k] = true;
+            }
+        }
+        let pixel_size_mm = match c.pixel_size_mm {
+            Some(p) if !(p.is_finite() && p > 0.0) => {
+                return Err(EpochError::OutOfRange {
+                    item,
+                    field: "pixel_size_mm".into(),
+                    reason: "must be a positive number".into(),
+                })
+            }
+            p => p,
+        };
+        let size_px = match (c.width_px, c.height_px) {
+            (Some(w), Some(h)) if w > 0 && h > 0 => Some((w, h)),
+            (None, None) => None,
+            _ => {
+                return Err(EpochError::OutOfRange {
+                    item,
+                    field: "width_px/height_px".into(),
+                    reason: "give both, positive".into(),
+                })
+            }
+        };
+        let sigma_mm = match c.sigma_mm {
+            Some(s) if !(s.is_finite() && s > 0.0) => {
+                return Err(EpochError::OutOfRange {
+                    item,
+                    field: "sigma_mm".into(),
+                    reason: "must be a positive number".into(),
+                })
+            }
+            Some(s) => s,
+            None => pixel_size_mm.map_or(DEFAULT_SIGMA_MM, |p| 0.5 * p),
+        };
+        Ok(Camera {
+            id: c.id.clone(),
+            params,
+            calibrate,
+            pixel_size_mm,
+            size_px,
+            sigma_mm,
+        })
+    }
+
+    /// Principal distance c in mm.
+    pub fn c(&self) -> f64 {
+        self.params[C]
+    }
+
+    /// Converts a pixel position (col, row; top-left pixel centre (0, 0), row down) to image mm
+    /// (x right, y up, origin at the principal point): `x = (col − (w−1)/2)·px − x0`,
+    /// `y = ((h−1)/2 − row)·px − y0`. None without pixel size and image size.
+    ///
+    /// The principal point offset is applied here only for the *fixed* x0, y0 of the upload form; the
+    /// returned coordinates are relative to the image centre when x0, y0 are 0.
+    pub fn pixel_to_mm(&self, col: f64, row: f64) -> Option<[f64; 2]> {
+        let px = self.pixel_size_mm?;
+        let (w, h) = self.size_px?;
+        Some([
+            (col - (w as f64 - 1.0) / 2.0) * px,
+            ((h as f64 - 1.0) / 2.0 - row) * px,
+        ])
+    }
+
+    /// Inverse of [`Camera::pixel_to_mm`]: image mm (relative to the image centre) to (col, row).
+    pub fn mm_to_pixel(&self, xy: [f64; 2]) -> Option<[f64; 2]> {
+        let px = self.pixel_size_mm?;
+        let (w, h) = self.size_px?;
+        Some([
+            xy[0] / px + (w as f64 - 1.0) / 2.0,
+            (h as f64 - 1.0) / 2.0 - xy[1] / px,
+        ])
+    }
+}
+
+/// Brown correction of a measured image point (contract and Australis convention): with
+/// x̄ = x − x0, ȳ = y − y0, r² = x̄² + ȳ²,
+/// `x_c = x̄ + x̄(k1 r² + k2 r⁴ + k3 r⁶) + p1(r² + 2x̄²) + 2 p2 x̄ ȳ`,
+/// `y_c = ȳ + ȳ(k1 r² + k2 r⁴ + k3 r⁶) + p2(r² + 2ȳ²) + 2 p1 x̄ ȳ`.
+/// `params` is `[c, x0, y0, k1, k2, k3, p1, p2]`; input and output in mm. Generic so that the
+/// adjustment can differentiate it.
+pub fn brown_correct<T>(xy: [T; 2], params: &[T; 8]) -> [T; 2]
+where
+    T: Copy
+        + std::ops::Add<Output = T>
+        + std::ops::Sub<Output = T>
+        + std::ops::Mul<Output = T>
+        + From<f64>,
+{
+    let two = T::from(2.0);
+    let xb = xy[0] - params[1];
+    let yb = xy[1] - params[2];
+    let r2 = xb * xb + yb * yb;
+    let radial = params[3] * r2 + params[4] * r2 * r2 + params[5] * r2 * r2 * r2;
+    [
+        xb + xb * radial + params[6] * (r2 + two * xb * xb) + two * params[7] * xb * yb,
+        yb + yb * radial + params[7] * (r2 + two * yb * yb) + two * params[6] * xb * yb,
+    ]
+}
+
+/// Inverse of [`brown_correct`] by fixed-point iteration: the measured point whose corrected
+/// position is `xy_c` (mm). Used to predict measurements from the projection equations.
+pub fn brown_distort(xy_c: [f64; 2], params: &[f64; 8]) -> [f64; 2] {
+    let mut xy = [xy_c[0] + params[1], xy_c[1] + params[2]];
+    for _ in 0..50 {
+        let c = brown_correct(xy, params);
+        let dx = xy_c[0] - c[0];
+        let dy = xy_c[1] - c[1];
+        xy[0] += dx;
+        xy[1] += dy;
+        if dx.abs() + dy.abs() < 1e-13 {
+            break;
+        }
+    }
+    xy
+}

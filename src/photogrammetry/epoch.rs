@@ -1,0 +1,390 @@
+//! The upload form of an epoch (`docs/api-contract.md`) and its validation into an [`EpochProblem`].
+//!
+//! Object coordinates are metres in the site frame; image coordinates are mm (x right, y up, from the
+//! principal point) or pixels (`col`, `row`, top-left pixel centre at (0, 0), row down).
+
+use std::collections::{BTreeMap, HashMap, HashSet};
+
+use chrono::{DateTime, Utc};
+use serde::{Deserialize, Serialize};
+
+use super::camera::Camera;
+use super::error::EpochError;
+
+/// One campaign at one site as uploaded (JSON form of the contract).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpochInput {
+    /// When the images were taken (RFC 3339, UTC).
+    pub observed_at: String,
+    /// Free text label.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub label: Option<String>,
+    /// Cameras (interior orientation) used by the images.
+    #[serde(default)]
+    pub cameras: Vec<CameraInput>,
+    /// Images with their target observations.
+    #[serde(default)]
+    pub images: Vec<ImageInput>,
+    /// Points with known coordinates, weighted by `sigma_m`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub control: Vec<ControlInput>,
+    /// Start values only.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub approx: Vec<ApproxInput>,
+}
+
+/// A camera (interior orientation) of the upload form. Only `c_mm` is required.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CameraInput {
+    /// Camera identifier referenced by images.
+    pub id: String,
+    /// Principal distance c in mm.
+    pub c_mm: f64,
+    /// Estimate c (shorthand for `calibrate: ["c"]`).
+    #[serde(default)]
+    pub calibrate_c: bool,
+    /// Names of the parameters to estimate: any of c, x0, y0, k1, k2, k3, p1, p2.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibrate: Option<Vec<String>>,
+    /// Pixel size in mm (needed for pixel observations).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel_size_mm: Option<f64>,
+    /// Image width in pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_px: Option<u32>,
+    /// Image height in pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height_px: Option<u32>,
+    /// Principal point offset x0 in mm.
+    #[serde(default)]
+    pub x0_mm: f64,
+    /// Principal point offset y0 in mm.
+    #[serde(default)]
+    pub y0_mm: f64,
+    /// Radial distortion k1 (mm⁻²).
+    #[serde(default)]
+    pub k1: f64,
+    /// Radial distortion k2 (mm⁻⁴).
+    #[serde(default)]
+    pub k2: f64,
+    /// Radial distortion k3 (mm⁻⁶).
+    #[serde(default)]
+    pub k3: f64,
+    /// Decentring distortion p1 (mm⁻¹).
+    #[serde(default)]
+    pub p1: f64,
+    /// Decentring distortion p2 (mm⁻¹).
+    #[serde(default)]
+    pub p2: f64,
+    /// A-priori standard deviation of one image coordinate in mm
+    /// (default 0.5 px when the pixel size is known, else 0.002 mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_mm: Option<f64>,
+}
+
+/// One image of the upload form.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ImageInput {
+    /// Image identifier, unique within the epoch.
+    pub id: String,
+    /// The camera id that took it.
+    pub camera: String,
+    /// The station (camera set-up position) name; defaults to the image id.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub station: Option<String>,
+    /// Target observations.
+    #[serde(default)]
+    pub observations: Vec<ObservationInput>,
+}
+
+/// One target observation: either (`x_mm`, `y_mm`) or (`col`, `row`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObservationInput {
+    /// Point name.
+    pub point: String,
+    /// Image x in mm (right, from the principal point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x_mm: Option<f64>,
+    /// Image y in mm (up, from the principal point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y_mm: Option<f64>,
+    /// Pixel column (centre of the top-left pixel is 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub col: Option<f64>,
+    /// Pixel row (grows downward).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub row: Option<f64>,
+}
+
+/// A control point: known coordinates (m) weighted by `sigma_m`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[allow(non_snake_case)]
+pub struct ControlInput {
+    /// Point name.
+    pub point: String,
+    /// X in m.
+    pub X: f64,
+    /// Y in m.
+    pub Y: f64,
+    /// Z in m.
+    pub Z: f64,
+    /// Standard deviation of each coordinate in m (default 0.001 m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_m: Option<f64>,
+}
+
+/// Approximate coordinates (m): start values only.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[allow(non_snake_case)]
+pub struct ApproxInput {
+    /// Point name.
+    pub point: String,
+    /// X in m.
+    pub X: f64,
+    /// Y in m.
+    pub Y: f64,
+    /// Z in m.
+    pub Z: f64,
+}
+
+/// Default σ of a control coordinate when `sigma_m` is absent, in m.
+pub const DEFAULT_CONTROL_SIGMA_M: f64 = 0.001;
+
+/// One validated observation: point index and image coordinates in mm
+/// (x right, y up, from the principal point, *before* distortion correction).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Observation {
+    /// Index into [`EpochProblem::points`].
+    pub point: usize,
+    /// Measured image coordinates in mm.
+    pub xy: [f64; 2],
+}
+
+/// One validated image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    /// Image identifier.
+    pub id: String,
+    /// Station name (defaults to the image id).
+    pub station: String,
+    /// Index into [`EpochProblem::cameras`].
+    pub camera: usize,
+    /// Observations, at most one per point.
+    pub observations: Vec<Observation>,
+}
+
+/// A control point of the validated epoch: coordinates in m and σ per coordinate in m.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Control {
+    /// Known coordinates in m (site frame).
+    pub xyz: [f64; 3],
+    /// σ of each coordinate in m.
+    pub sigma_m: f64,
+}
+
+/// A validated epoch: everything indexed, image coordinates in mm, ready for the adjustment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EpochProblem {
+    /// Observation time.
+    pub observed_at: DateTime<Utc>,
+    /// Cameras in input order.
+    pub cameras: Vec<Camera>,
+    /// Images in input order.
+    pub images: Vec<Image>,
+    /// Point names; indices are used everywhere else.
+    pub points: Vec<String>,
+    /// Control per point (None if the point is not a control point).
+    pub control: Vec<Option<Control>>,
+    /// Approximate coordinates per point in m (from `approx`, or `control`).
+    pub approx: Vec<Option<[f64; 3]>>,
+}
+
+impl EpochProblem {
+    /// Index of a point by name.
+    pub fn point_index(&self, name: &str) -> Option<usize> {
+        self.points.iter().position(|p| p == name)
+    }
+
+    /// Number of observations (each has two coordinates).
+    pub fn observation_count(&self) -> usize {
+        self.images.iter().map(|i| i.observations.len()).sum()
+    }
+}
+
+/// True when `s` is a valid user identifier (`[A-Za-z0-9._-]{1,64}`).
+pub fn is_valid_identifier(s: &str) -> bool {
+    !s.is_empty()
+        && s.len() <= 64
+        && s
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '.' || c == '_' || c == '-')
+}
+
+fn finite(value: f64, item: &str, field: &str) -> Result<f64, EpochError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(EpochError::NotFinite {
+            item: item.to_string(),
+            field: field.to_string(),
+        })
+    }
+}
+
+impl EpochInput {
+    /// Parses the observation time.
+    pub fn observed_at(&self) -> Result<DateTime<Utc>, EpochError> {
+        DateTime::parse_from_rfc3339(&self.observed_at)
+            .map(|t| t.with_timezone(&Utc))
+            .map_err(|_| EpochError::BadTimestamp(self.observed_at.clone()))
+    }
+
+    /// Validates the upload form into an [`EpochProblem`]: identifiers, finite numbers, known cameras,
+    /// no duplicate observations, pixel geometry where pixel observations are used.
+    ///
+    /// Geometric sufficiency (≥ 4 known points per image, each point in ≥ 2 images) is checked by the
+    /// adjustment, because earlier epochs of a site may supply the known points.
+    pub fn validate(&self) -> Result<EpochProblem, EpochError> {
+        let observed_at = self.observed_at()?;
+        if self.images.is_empty() {
+            return Err(EpochError::Empty);
+        }
+        let mut cameras = Vec::with_capacity(self.cameras.len());
+        let mut camera_index = HashMap::new();
+        for c in &self.cameras {
+            if !is_valid_identifier(&c.id) {
+                return Err(EpochError::BadIdentifier(format!("camera '{}'", c.id)));
+            }
+            if camera_index.insert(c.id.clone(), cameras.len()).is_some() {
+                return Err(EpochError::DuplicateCamera(c.id.clone()));
+            }
+            cameras.push(Camera::from_input(c)?);
+        }
+        let mut points: Vec<String> = Vec::new();
+        let mut point_index: HashMap<String, usize> = HashMap::new();
+        let mut intern = |name: &str, points: &mut Vec<String>| -> Result<usize, EpochError> {
+            if let Some(&i) = point_index.get(name) {
+                return Ok(i);
+            }
+            if !is_valid_identifier(name) {
+                return Err(EpochError::BadIdentifier(format!("point '{name}'")));
+            }
+            point_index.insert(name.to_string(), points.len());
+            points.push(name.to_string());
+            Ok(points.len() - 1)
+        };
+        let mut images = Vec::with_capacity(self.images.len());
+        let mut image_ids = HashSet::new();
+        for im in &self.images {
+            if !is_valid_identifier(&im.id) {
+                return Err(EpochError::BadIdentifier(format!("image '{}'", im.id)));
+            }
+            if !image_ids.insert(im.id.clone()) {
+                return Err(EpochError::DuplicateImage(im.id.clone()));
+            }
+            let &cam = camera_index
+                .get(&im.camera)
+                .ok_or_else(|| EpochError::UnknownCamera {
+                    image: im.id.clone(),
+                    camera: im.camera.clone(),
+                })?;
+            let camera = &cameras[cam];
+            let mut seen = HashSet::new();
+            let mut observations = Vec::with_capacity(im.observations.len());
+            for o in &im.observations {
+                let item = format!("image '{}' point '{}'", im.id, o.point);
+                let p = intern(&o.point, &mut points)?;
+                if !seen.insert(p) {
+                    return Err(EpochError::DuplicateObservation {
+                        image: im.id.clone(),
+                        point: o.point.clone(),
+                    });
+                }
+                let xy = match (o.x_mm, o.y_mm, o.col, o.row) {
+                    (Some(x), Some(y), None, None) => {
+                        [finite(x, &item, "x_mm")?, finite(y, &item, "y_mm")?]
+                    }
+                    (None, None, Some(col), Some(row)) => {
+                        let col = finite(col, &item, "col")?;
+                        let row = finite(row, &item, "row")?;
+                        camera
+                            .pixel_to_mm(col, row)
+                            .ok_or_else(|| EpochError::PixelWithoutGeometry {
+                                image: im.id.clone(),
+                                camera: camera.id.clone(),
+                            })?
+                    }
+                    _ => return Err(EpochError::MissingCoordinate { item }),
+                };
+                observations.push(Observation { point: p, xy });
+            }
+            images.push(Image {
+                id: im.id.clone(),
+                station: im.station.clone().unwrap_or_else(|| im.id.clone()),
+                camera: cam,
+                observations,
+            });
+        }
+        let mut control = vec![None; points.len()];
+        let mut approx = vec![None; points.len()];
+        let mut seen_control = HashSet::new();
+        for c in &self.control {
+            let item = format!("control point '{}'", c.point);
+            let xyz = [
+                finite(c.X, &item, "X")?,
+                finite(c.Y, &item, "Y")?,
+                finite(c.Z, &item, "Z")?,
+            ];
+            let sigma_m = finite(c.sigma_m.unwrap_or(DEFAULT_CONTROL_SIGMA_M), &item, "sigma_m")?;
+            if sigma_m <= 0.0 {
+                return Err(EpochError::OutOfRange {
+                    item,
+                    field: "sigma_m".into(),
+                    reason: "must be positive".into(),
+                });
+            }
+            if !seen_control.insert(c.point.clone()) {
+                return Err(EpochError::DuplicatePoint(c.point.clone()));
+            }
+            // Control points nobody observed are ignored: they carry no information.
+            if let Some(i) = points.iter().position(|p| p == &c.point) {
+                control[i] = Some(Control { xyz, sigma_m });
+                approx[i] = Some(xyz);
+            }
+        }
+        let mut seen_approx = HashSet::new();
+        for a in &self.approx {
+            let item = format!("approx point '{}'", a.point);
+            let xyz = [
+                finite(a.X, &item, "X")?,
+                finite(a.Y, &item, "Y")?,
+                finite(a.Z, &item, "Z")?,
+            ];
+            if !seen_approx.insert(a.point.clone()) {
+                return Err(EpochError::DuplicatePoint(a.point.clone()));
+            }
+            if let Some(i) = points.iter().position(|p| p == &a.point) {
+                if approx[i].is_none() {
+                    approx[i] = Some(xyz);
+                }
+            }
+        }
+        Ok(EpochProblem {
+            observed_at,
+            cameras,
+            images,
+            points,
+            control,
+            approx,
+        })
+    }
+
+    /// The canonical form used for idempotency: the parsed body re-serialized (key order fixed by the
+    /// types), so that bodies compare as parsed JSON, not bytes.
+    pub fn canonical_json(&self) -> String {
+        serde_json::to_string(self).unwrap_or_default()
+    }
+}
+
+/// Known coordinates (m) of points from earlier epochs of the site, used as start values.
+pub type PriorCoordinates = BTreeMap<String, [f64; 3]>;

@@ -1,0 +1,125 @@
+//! Typed errors of the photogrammetric core. Every variant names the item at fault.
+
+use thiserror::Error;
+
+/// The upload form is not a valid epoch.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum EpochError {
+    /// No images.
+    #[error("the epoch has no images")]
+    Empty,
+    /// `observed_at` is not RFC 3339.
+    #[error("observed_at '{0}' is not an RFC 3339 time")]
+    BadTimestamp(String),
+    /// An identifier outside `[A-Za-z0-9._-]{{1,64}}`.
+    #[error("{0}: identifiers must match [A-Za-z0-9._-]{{1,64}}")]
+    BadIdentifier(String),
+    /// Two cameras with one id.
+    #[error("camera '{0}' is defined twice")]
+    DuplicateCamera(String),
+    /// Two images with one id.
+    #[error("image '{0}' is defined twice")]
+    DuplicateImage(String),
+    /// A point listed twice in `control` or twice in `approx`.
+    #[error("point '{0}' is listed twice")]
+    DuplicatePoint(String),
+    /// An image refers to a camera that is not defined.
+    #[error("image '{image}' refers to unknown camera '{camera}'")]
+    UnknownCamera {
+        /// Image id.
+        image: String,
+        /// The unknown camera id.
+        camera: String,
+    },
+    /// One point observed twice in one image.
+    #[error("image '{image}' observes point '{point}' twice")]
+    DuplicateObservation {
+        /// Image id.
+        image: String,
+        /// Point name.
+        point: String,
+    },
+    /// NaN or infinite number.
+    #[error("{item}: {field} is not a finite number")]
+    NotFinite {
+        /// The item (camera, image and point, control point).
+        item: String,
+        /// The field name.
+        field: String,
+    },
+    /// A value out of its range.
+    #[error("{item}: {field} {reason}")]
+    OutOfRange {
+        /// The item at fault.
+        item: String,
+        /// The field name.
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// An observation without a complete (x_mm, y_mm) or (col, row) pair.
+    #[error("{item}: give either x_mm and y_mm or col and row")]
+    MissingCoordinate {
+        /// Image and point.
+        item: String,
+    },
+    /// Pixel observations for a camera without pixel size or image size.
+    #[error("image '{image}' has pixel observations but camera '{camera}' lacks pixel_size_mm, width_px or height_px")]
+    PixelWithoutGeometry {
+        /// Image id.
+        image: String,
+        /// Camera id.
+        camera: String,
+    },
+}
+
+/// The epoch is valid but cannot be adjusted.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum AdjustError {
+    /// The upload form is invalid.
+    #[error(transparent)]
+    Invalid(#[from] EpochError),
+    /// An image sees fewer than four points of known (control, approximate or prior) coordinates.
+    #[error("image '{image}' sees {known} points of known coordinates; at least 4 are needed")]
+    TooFewKnownPoints {
+        /// Image id.
+        image: String,
+        /// How many known points it sees.
+        known: usize,
+    },
+    /// A point observed in fewer than two images.
+    #[error("point '{point}' is observed in {images} image(s); at least 2 are needed")]
+    PointInTooFewImages {
+        /// Point name.
+        point: String,
+        /// Number of images that observe it.
+        images: usize,
+    },
+    /// An image whose known points are degenerate (collinear) so no start can be found.
+    #[error("image '{image}': no start values: {reason}")]
+    NoStart {
+        /// Image id.
+        image: String,
+        /// What went wrong.
+        reason: String,
+    },
+    /// Not enough observations for the unknowns.
+    #[error("the epoch has {observations} observation equations for {unknowns} unknowns")]
+    TooFewObservations {
+        /// Number of observation equations.
+        observations: usize,
+        /// Number of unknowns (after the datum).
+        unknowns: usize,
+    },
+    /// The iteration did not converge.
+    #[error("the adjustment did not converge in {iterations} iterations (last σ0 {sigma0_mm} mm)")]
+    NoConvergence {
+        /// Iterations done.
+        iterations: usize,
+        /// σ0 of the last iterate in mm.
+        sigma0_mm: f64,
+    },
+    /// The normal equations are singular.
+    #[error("the normal equations are singular: {0}")]
+    Singular(String),
+}

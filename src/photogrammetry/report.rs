@@ -1,0 +1,159 @@
+//! The adjustment report of the contract (field names are part of the contract) and the richer
+//! in-memory result the service and the displacement analysis use.
+
+use serde::{Deserialize, Serialize};
+
+/// Which projection model an adjustment uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Model {
+    /// Ono & Hattori's orthogonal projection model (eqs 5, 9–14) with self-calibrated c.
+    #[default]
+    Orthogonal,
+    /// Collinearity (central perspective) with selectable self-calibration.
+    Central,
+}
+
+impl Model {
+    /// The contract's name of the model.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Model::Orthogonal => "orthogonal",
+            Model::Central => "central",
+        }
+    }
+}
+
+impl std::str::FromStr for Model {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "orthogonal" => Ok(Model::Orthogonal),
+            "central" => Ok(Model::Central),
+            other => Err(format!("unknown model '{other}' (orthogonal or central)")),
+        }
+    }
+}
+
+/// Adjusted interior orientation of one camera.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CameraReport {
+    /// Camera id.
+    pub id: String,
+    /// Principal distance in mm.
+    pub c_mm: f64,
+    /// σ of c in mm (None when c was held fixed).
+    pub c_sigma_mm: Option<f64>,
+    /// Every estimated interior parameter (name, value, σ), in the units of the upload form.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub calibrated: Vec<CalibratedParameter>,
+}
+
+/// One estimated interior parameter.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibratedParameter {
+    /// c, x0, y0, k1, k2, k3, p1 or p2.
+    pub name: String,
+    /// Estimate (units of the upload form).
+    pub value: f64,
+    /// Its σ.
+    pub sigma: f64,
+}
+
+/// Adjusted coordinates of one point: metres in the site frame, σ in mm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[allow(non_snake_case)]
+pub struct PointReport {
+    /// Point name.
+    pub point: String,
+    /// X in m.
+    pub X: f64,
+    /// Y in m.
+    pub Y: f64,
+    /// Z in m.
+    pub Z: f64,
+    /// σ of X in mm.
+    pub sigma_X_mm: f64,
+    /// σ of Y in mm.
+    pub sigma_Y_mm: f64,
+    /// σ of Z in mm.
+    pub sigma_Z_mm: f64,
+}
+
+/// Per-image summary.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ImageReport {
+    /// Image id.
+    pub id: String,
+    /// Observations used (not dropped).
+    pub observations: usize,
+    /// RMS of the residuals (both coordinates) in mm.
+    pub rms_mm: f64,
+}
+
+/// An observation dropped by data snooping.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DroppedObservation {
+    /// Image id.
+    pub image: String,
+    /// Point name.
+    pub point: String,
+    /// Normalized residual (Baarda's w) when dropped.
+    pub w: f64,
+}
+
+/// Residual of one observation (mm) and its normalized residual.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResidualReport {
+    /// Image id.
+    pub image: String,
+    /// Point name.
+    pub point: String,
+    /// Residual in x (observed − computed), mm.
+    pub vx_mm: f64,
+    /// Residual in y, mm.
+    pub vy_mm: f64,
+    /// Largest |w| of the two coordinates.
+    pub w: f64,
+    /// True when data snooping dropped it (then v is the misclosure against the final solution).
+    pub dropped: bool,
+}
+
+/// The adjustment report of the contract.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AdjustmentReport {
+    /// `orthogonal` or `central`.
+    pub model: Model,
+    /// Whether the iteration converged.
+    pub converged: bool,
+    /// Gauss–Newton/LM iterations of the final adjustment.
+    pub iterations: usize,
+    /// A-posteriori σ0 = √(vᵀPv/dof) in image mm.
+    pub sigma0_mm: f64,
+    /// Degrees of freedom (redundancy).
+    pub dof: i64,
+    /// (σ0 / a-priori σ)².
+    pub variance_factor: f64,
+    /// Adjusted cameras.
+    pub cameras: Vec<CameraReport>,
+    /// Adjusted points.
+    pub points: Vec<PointReport>,
+    /// Per-image residual summary.
+    pub images: Vec<ImageReport>,
+    /// Observations dropped as blunders.
+    pub dropped: Vec<DroppedObservation>,
+    /// Warnings (weak geometry, held parameters, …).
+    pub warnings: Vec<String>,
+    /// Residuals of every observation (the full report).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub residuals: Vec<ResidualReport>,
+    /// The datum: `free network (inner constraints)`, `control points`.
+    #[serde(default)]
+    pub datum: String,
+    /// Index 3 with `--truth`: RMSE [x, y, z, xyz] in mm after a similarity fit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub index3_rmse_mm: Option<[f64; 4]>,
+    /// Index 4 with `--truth`: RMSE [x, y, z, xyz] in mm after a 3-D affine fit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub index4_rmse_mm: Option<[f64; 4]>,
+}
