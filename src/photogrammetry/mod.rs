@@ -10,6 +10,7 @@ pub mod camera;
 pub mod epoch;
 pub mod error;
 pub mod report;
+pub mod quality;
 pub mod result;
 
 pub use adjust::{adjust, adjust_problem};
