@@ -189,10 +189,9 @@ pub fn adjust_problem(
         images,
         image_camera: problem.images.iter().map(|i| i.camera).collect(),
         interior: problem.cameras.iter().map(|c| c.params).collect(),
-        free: free
-            .iter()
-            .map(|f| [f[0], false, false, false, false, false, false, false])
-            .collect(),
+        // Stage 1 holds the interior orientation: a free c is nearly indeterminate at long range until
+        // the exterior orientations and points have settled.
+        free: vec![[false; 8]; problem.cameras.len()],
         sigma: problem.cameras.iter().map(|c| c.sigma_mm).collect(),
         points: start_points.clone(),
         obs,
@@ -221,6 +220,14 @@ pub fn adjust_problem(
     };
 
     let mut outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
+    let stage2: Vec<[bool; 8]> = free
+        .iter()
+        .map(|f| [f[0], false, false, false, false, false, false, false])
+        .collect();
+    if stage2.iter().flatten().any(|&f| f) {
+        bundle.free = stage2;
+        outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
+    }
     if options.model == Model::Central {
         // Start the collinearity adjustment from the orthogonal solution.
         bundle.images = bundle
