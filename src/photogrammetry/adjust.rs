@@ -85,6 +85,41 @@ fn rescue(bundle: &mut Bundle, initial: &Bundle) {
     *bundle = trial;
 }
 
+/// Planar point sets give two mirror orientations per image that the perspective of a single image may
+/// not tell apart at long range; keep, image by image, the one with which the whole network fits
+/// better ("the one consistent with the other images").
+fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) {
+    if mirrors.iter().all(Option::is_none) {
+        return;
+    }
+    let fit = |b: &Bundle| {
+        let mut t = b.clone();
+        levenberg_marquardt(&mut t, 4 * ROBUST_ITERATIONS).cost
+    };
+    let mut best = fit(bundle);
+    let mut current: Vec<ImageState> = bundle.images.clone();
+    let mut alternative: Vec<Option<ImageState>> = mirrors.to_vec();
+    for _pass in 0..3 {
+        let mut changed = false;
+        for j in 0..alternative.len() {
+            let Some(m) = alternative[j] else { continue };
+            let mut trial = bundle.clone();
+            trial.images[j] = m;
+            let cost = fit(&trial);
+            if cost < best {
+                best = cost;
+                alternative[j] = Some(current[j]);
+                current[j] = m;
+                *bundle = trial;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+}
+
 /// Iterations per round of the reweighted first stage.
 const ROBUST_ITERATIONS: usize = 10;
 
@@ -298,17 +333,20 @@ pub fn adjust_problem(
         ));
     }
     let zbar = 0.0;
+    let state = |j: usize, r: &Matrix3<f64>, xo: &Vector3<f64>| -> ImageState {
+        let c = problem.cameras[problem.images[j].camera].c();
+        let r_w = frame.rotation_to_working(r);
+        let o = OrthoImage::from_center(r_w, to_w(xo), c, zbar);
+        ImageState {
+            rotation: r_w,
+            p: [o.m, o.a4, o.a8],
+        }
+    };
     let images: Vec<ImageState> = (0..nimg)
-        .map(|j| {
-            let c = problem.cameras[problem.images[j].camera].c();
-            let r_w = frame.rotation_to_working(&start.rotations[j]);
-            let xo_w = to_w(&start.centers[j]);
-            let o = OrthoImage::from_center(r_w, xo_w, c, zbar);
-            ImageState {
-                rotation: r_w,
-                p: [o.m, o.a4, o.a8],
-            }
-        })
+        .map(|j| state(j, &start.rotations[j], &start.centers[j]))
+        .collect();
+    let mirrors: Vec<Option<ImageState>> = (0..nimg)
+        .map(|j| start.mirrors[j].map(|(r, xo)| state(j, &r, &xo)))
         .collect();
     let mut obs = Vec::new();
     let mut point_obs = vec![Vec::new(); np];
@@ -373,6 +411,7 @@ pub fn adjust_problem(
 
     // Stage 1: interior held; with snooping on, iteratively reweighted from the start so that a gross
     // error cannot pull the solution into a wrong basin; then gross residuals are set aside.
+    choose_mirrors(&mut bundle, &mirrors);
     let initial = bundle.clone();
     let mut outcome = if options.snooping {
         robust_rounds(&mut bundle, ROBUST_ITERATIONS);
