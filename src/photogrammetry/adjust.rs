@@ -85,6 +85,21 @@ fn rescue(bundle: &mut Bundle, initial: &Bundle) {
     *bundle = trial;
 }
 
+/// The first stage from the start values: with `robust`, reweighted rounds (and the leave-one-image-out
+/// rescue when they end in a poor fit) followed by the screening of gross residuals; then plain
+/// Levenberg–Marquardt.
+fn first_stage(bundle: &mut Bundle, robust: bool, max_iterations: usize) -> LmOutcome {
+    if robust {
+        let initial = bundle.clone();
+        robust_rounds(bundle, ROBUST_ITERATIONS);
+        if residual_scale(bundle, &residual_norms(bundle)) > RESCUE_SCALE {
+            rescue(bundle, &initial);
+        }
+        screen(bundle);
+    }
+    levenberg_marquardt(bundle, max_iterations)
+}
+
 /// Planar point sets give two mirror orientations per image that the perspective of a single image may
 /// not tell apart at long range; keep, image by image, the one with which the whole network fits
 /// better ("the one consistent with the other images").
@@ -412,27 +427,23 @@ pub fn adjust_problem(
     // Stage 1: interior held; with snooping on, iteratively reweighted from the start so that a gross
     // error cannot pull the solution into a wrong basin; then gross residuals are set aside.
     choose_mirrors(&mut bundle, &mirrors);
-    let initial = bundle.clone();
-    let mut outcome = if options.snooping {
-        robust_rounds(&mut bundle, ROBUST_ITERATIONS);
-        if residual_scale(&bundle, &residual_norms(&bundle)) > RESCUE_SCALE {
-            rescue(&mut bundle, &initial);
+    let robust = options.snooping;
+    let mut outcome = if options.model == Model::Orthogonal {
+        let outcome = first_stage(&mut bundle, robust, options.max_iterations);
+        let stage2: Vec<[bool; 8]> = free
+            .iter()
+            .map(|f| [f[0], false, false, false, false, false, false, false])
+            .collect();
+        if stage2.iter().flatten().any(|&f| f) {
+            bundle.free = stage2;
+            levenberg_marquardt(&mut bundle, options.max_iterations)
+        } else {
+            outcome
         }
-        screen(&mut bundle);
-        levenberg_marquardt(&mut bundle, options.max_iterations)
     } else {
-        levenberg_marquardt(&mut bundle, options.max_iterations)
-    };
-    let stage2: Vec<[bool; 8]> = free
-        .iter()
-        .map(|f| [f[0], false, false, false, false, false, false, false])
-        .collect();
-    if stage2.iter().flatten().any(|&f| f) {
-        bundle.free = stage2;
-        outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
-    }
-    if options.model == Model::Central {
-        // Start the collinearity adjustment from the orthogonal solution.
+        // The orthogonal solution (interior held) starts the collinearity adjustment; gross errors are
+        // screened only once the interior orientation (e.g. strong distortion) is modelled.
+        levenberg_marquardt(&mut bundle, options.max_iterations);
         bundle.images = bundle
             .images
             .iter()
@@ -454,8 +465,9 @@ pub fn adjust_problem(
             .collect();
         bundle.model = Model::Central;
         bundle.free = free.clone();
-        outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
-    }
+        levenberg_marquardt(&mut bundle, options.max_iterations);
+        first_stage(&mut bundle, robust, options.max_iterations)
+    };
 
     // Data snooping, one observation at a time.
     let mut dropped: Vec<DroppedObservation> = Vec::new();
