@@ -100,6 +100,9 @@ fn first_stage(bundle: &mut Bundle, robust: bool, max_iterations: usize) -> LmOu
     levenberg_marquardt(bundle, max_iterations)
 }
 
+/// Up to this many images with a mirror candidate, every combination is tried; beyond, greedy passes.
+const EXHAUSTIVE_MIRRORS: usize = 6;
+
 /// Planar point sets give two mirror orientations per image that the perspective of a single image may
 /// not tell apart at long range; keep, image by image, the one with which the whole network fits
 /// better ("the one consistent with the other images").
@@ -109,8 +112,28 @@ fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) {
     }
     let fit = |b: &Bundle| {
         let mut t = b.clone();
-        levenberg_marquardt(&mut t, 4 * ROBUST_ITERATIONS).cost
+        levenberg_marquardt(&mut t, 2 * ROBUST_ITERATIONS).cost
     };
+    let with_mirror: Vec<usize> = (0..mirrors.len()).filter(|&j| mirrors[j].is_some()).collect();
+    if with_mirror.len() <= EXHAUSTIVE_MIRRORS {
+        // Every combination (2^k small networks).
+        let base = bundle.clone();
+        let mut best = (f64::INFINITY, base.clone());
+        for mask in 0u32..(1 << with_mirror.len()) {
+            let mut trial = base.clone();
+            for (bit, &j) in with_mirror.iter().enumerate() {
+                if mask & (1 << bit) != 0 {
+                    trial.images[j] = mirrors[j].expect("has a mirror");
+                }
+            }
+            let cost = fit(&trial);
+            if cost < best.0 {
+                best = (cost, trial);
+            }
+        }
+        *bundle = best.1;
+        return;
+    }
     let mut best = fit(bundle);
     let mut current: Vec<ImageState> = bundle.images.clone();
     let mut alternative: Vec<Option<ImageState>> = mirrors.to_vec();
