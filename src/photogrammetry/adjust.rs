@@ -20,7 +20,7 @@ use super::report::{
     PointReport, ResidualReport,
 };
 use super::result::{AdjustOptions, AdjustedPoint, Adjustment, ImageOrientation, JointCovariance};
-use super::snooping::{droppable, normalized_residual};
+use super::snooping::{normalized_residual, ActiveCounts};
 use super::start::{start_values, StartImage};
 
 /// Relative weight of the prior on point increments that holds the free network's datum during the
@@ -228,11 +228,13 @@ fn screen(bundle: &mut Bundle) -> usize {
     order.sort_by(|&a, &b| norms[b].total_cmp(&norms[a]));
     let cap = bundle.obs.len() / 5;
     let mut n = 0;
+    let mut counts = ActiveCounts::of(bundle);
     for k in order {
         if n >= cap {
             break;
         }
-        if droppable(bundle, k) {
+        if counts.droppable(bundle, k) {
+            counts.drop(bundle, k);
             bundle.obs[k].active = false;
             n += 1;
         }
@@ -502,8 +504,9 @@ pub fn adjust_problem(
     if options.snooping {
         loop {
             let mut worst: Option<(usize, f64)> = None;
+            let counts = ActiveCounts::of(&bundle);
             for k in 0..bundle.obs.len() {
-                if !bundle.obs[k].active || !droppable(&bundle, k) {
+                if !bundle.obs[k].active || !counts.droppable(&bundle, k) {
                     continue;
                 }
                 let w = normalized_residual(&bundle, &cof, k);

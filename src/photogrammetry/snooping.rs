@@ -33,18 +33,40 @@ pub fn normalized_residual(b: &Bundle, q: &Cofactors, o_index: usize) -> [f64; 2
     w
 }
 
-/// Whether dropping observation `o_index` keeps the network determinable: its point stays in ≥ 2
-/// images and its image keeps ≥ 4 observations.
-pub fn droppable(b: &Bundle, o_index: usize) -> bool {
-    let o = &b.obs[o_index];
-    let point_images = b.point_obs[o.point]
-        .iter()
-        .filter(|&&k| b.obs[k].active)
-        .count();
-    let image_obs = b
-        .obs
-        .iter()
-        .filter(|x| x.active && x.image == o.image)
-        .count();
-    point_images > 2 && image_obs > 4
+/// Active observations per image and per point: what decides whether one more may be dropped.
+#[derive(Debug, Clone)]
+pub struct ActiveCounts {
+    /// Active observations per image.
+    pub per_image: Vec<usize>,
+    /// Active observations (images) per point.
+    pub per_point: Vec<usize>,
+}
+
+impl ActiveCounts {
+    /// Counts the active observations of the bundle.
+    pub fn of(b: &Bundle) -> Self {
+        let mut c = ActiveCounts {
+            per_image: vec![0; b.images.len()],
+            per_point: vec![0; b.points.len()],
+        };
+        for o in b.obs.iter().filter(|o| o.active) {
+            c.per_image[o.image] += 1;
+            c.per_point[o.point] += 1;
+        }
+        c
+    }
+
+    /// Whether dropping observation `o_index` keeps the network determinable: its point stays in ≥ 2
+    /// images and its image keeps ≥ 4 observations.
+    pub fn droppable(&self, b: &Bundle, o_index: usize) -> bool {
+        let o = &b.obs[o_index];
+        self.per_point[o.point] > 2 && self.per_image[o.image] > 4
+    }
+
+    /// Records that observation `o_index` was deactivated.
+    pub fn drop(&mut self, b: &Bundle, o_index: usize) {
+        let o = &b.obs[o_index];
+        self.per_point[o.point] -= 1;
+        self.per_image[o.image] -= 1;
+    }
 }
