@@ -193,6 +193,7 @@ pub fn analyse_epoch(
         let kin = kinematics(
             &samples,
             config.velocity_window,
+            config.failure.window,
             config.confidence,
             config.failure.acceleration_confidence,
         );

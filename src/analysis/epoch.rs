@@ -143,7 +143,7 @@ pub enum Window {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct FailureConfig {
-    /// Epochs whose velocities enter the 1/v fit.
+    /// Epochs whose velocities enter the 1/v fit; also the window of the acceleration (parabola) fit.
     pub window: Window,
     /// Smoothing: each velocity is the least-squares slope over this many consecutive epochs, placed at
     /// their mean time (≥ 2).
@@ -157,8 +157,8 @@ pub struct FailureConfig {
 impl Default for FailureConfig {
     fn default() -> Self {
         FailureConfig {
-            window: Window::Epochs(8),
-            smoothing_epochs: 3,
+            window: Window::Epochs(16),
+            smoothing_epochs: 6,
             acceleration_confidence: 0.99,
             min_r2: 0.5,
         }

@@ -48,12 +48,15 @@ pub fn forecast(samples: &[Sample], config: &FailureConfig) -> Option<FailureFor
     if n < 3 {
         return None;
     }
-    let nf = n as f64;
-    let tm = t.iter().sum::<f64>() / nf;
-    let ym = inv.iter().sum::<f64>() / nf;
-    let stt: f64 = t.iter().map(|x| (x - tm).powi(2)).sum();
-    let sty: f64 = t.iter().zip(&inv).map(|(x, y)| (x - tm) * (y - ym)).sum();
-    let syy: f64 = inv.iter().map(|y| (y - ym).powi(2)).sum();
+    // Weighted line y = a + b t with weights v² (residuals in velocity terms: v (a + b t) − 1), so the
+    // noisy 1/v of slow epochs does not dominate the fast, well-determined ones.
+    let w: Vec<f64> = inv.iter().map(|y| 1.0 / (y * y)).collect();
+    let sw: f64 = w.iter().sum();
+    let tm = t.iter().zip(&w).map(|(x, w)| w * x).sum::<f64>() / sw;
+    let ym = inv.iter().zip(&w).map(|(y, w)| w * y).sum::<f64>() / sw;
+    let stt: f64 = t.iter().zip(&w).map(|(x, w)| w * (x - tm).powi(2)).sum();
+    let sty: f64 = t.iter().zip(&inv).zip(&w).map(|((x, y), w)| w * (x - tm) * (y - ym)).sum();
+    let syy: f64 = inv.iter().zip(&w).map(|(y, w)| w * (y - ym).powi(2)).sum();
     if !(stt > 0.0) || !(syy > 0.0) {
         return None;
     }
@@ -67,11 +70,12 @@ pub fn forecast(samples: &[Sample], config: &FailureConfig) -> Option<FailureFor
         return None;
     }
     let tf_days = -a / b;
-    // σ: residual variance of the line, propagated to t_f = −a/b.
-    let s2 = if n > 2 { (syy - b * sty).max(0.0) / (nf - 2.0) } else { 0.0 };
-    let var_b = s2 / stt;
-    let var_a = s2 * (1.0 / nf + tm * tm / stt);
-    let cov_ab = -s2 * tm / stt;
+    // σ: weighted residual variance of the line, propagated to t_f = −a/b.
+    let nf = n as f64;
+    let s2 = (syy - b * sty).max(0.0) / (nf - 2.0) * nf / sw;
+    let var_b = s2 / (stt / sw * nf);
+    let var_a = s2 * (1.0 / nf + tm * tm / (stt / sw * nf));
+    let cov_ab = -s2 * tm / (stt / sw * nf);
     let (da, db) = (-1.0 / b, a / (b * b));
     let var_tf = da * da * var_a + db * db * var_b + 2.0 * da * db * cov_ab;
     let out = FailureForecast {

@@ -1,7 +1,8 @@
 //! Velocity and acceleration of a point by weighted least squares over a window of epochs.
 //!
 //! The displacement magnitude `d_mm` of the window's epochs is fitted by a straight line (velocity) and by
-//! a parabola (acceleration), weights 1/σ², time in days relative to the current epoch. σ of the
+//! a parabola (acceleration, over the longer failure window), weights 1/σ², time in days relative to the
+//! current epoch. σ of the
 //! parameters from the inverted normal matrix, scaled by the a-posteriori variance factor when it exceeds 1
 //! (model misfit). The reported velocity is the parabola's slope at the current epoch when the acceleration
 //! is significant (a straight line lags behind an accelerating point), else the line's slope.
@@ -103,16 +104,19 @@ pub fn window_slice(samples: &[Sample], window: Window) -> &[Sample] {
     }
 }
 
-/// Velocity and acceleration over the window; `None` with fewer than 2 epochs.
+/// Velocity over `window` and acceleration over `acceleration_window` (usually longer: an acceleration needs
+/// a longer baseline than a velocity); `None` with fewer than 2 epochs.
 pub fn kinematics(
     samples: &[Sample],
     window: Window,
+    acceleration_window: Window,
     confidence: f64,
     acceleration_confidence: f64,
 ) -> Option<Kinematics> {
     let s = window_slice(samples, window);
     let line = fit_polynomial(s, 1)?;
-    let parabola = if s.len() >= 4 { fit_polynomial(s, 2) } else { None };
+    let sa = window_slice(samples, acceleration_window);
+    let parabola = if sa.len() >= 4 { fit_polynomial(sa, 2) } else { None };
     let (acc, sacc) = match &parabola {
         Some(p) => (Some(2.0 * p.coef[2]), Some(2.0 * p.cov[(2, 2)].max(0.0).sqrt())),
         None => (None, None),

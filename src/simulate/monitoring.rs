@@ -59,7 +59,7 @@ impl Default for MonitoringScenario {
             creep_mm_per_day: 0.5,
             acceleration_start_days: Some(10.0),
             failure_days: 30.0,
-            direction: [0.0, -0.8, -0.6],
+            direction: [0.3, -0.4, -0.866],
             moved_stable: None,
             radius_m: 50.0,
         }
