@@ -466,8 +466,10 @@ fn apply(site: &str, state: &mut AlertState, up: Update<'_>, now: DateTime<Utc>,
             a.value = up.value.or(a.value);
             a.epoch = up.epoch.or(a.epoch);
             a.observed_at = up.observed_at.or(a.observed_at);
-            if !up.points.is_empty() {
-                a.points = up.points;
+            for p in up.points {
+                if !a.points.contains(&p) {
+                    a.points.push(p);
+                }
             }
             match level {
                 None => {
@@ -499,8 +501,8 @@ fn apply(site: &str, state: &mut AlertState, up: Update<'_>, now: DateTime<Utc>,
 /// Evaluates the rules against one epoch's analysis: returns the new state and the events (in order).
 ///
 /// Points absent from the analysis keep their state. An open `campaign_overdue` resolves (an epoch
-/// arrived); `reference_unstable` is raised while the congruence test excludes stable points and resolves
-/// when an epoch's stable points are congruent again. Invalid rules (see [`AlertRule::validate`]) never
+/// arrived); `reference_unstable` is raised when the congruence test excludes stable points (its `points`
+/// grow with later exclusions) and stays open until resolved by hand ([`resolve`]). Invalid rules (see [`AlertRule::validate`]) never
 /// trigger.
 pub fn evaluate_alerts(
     config: &AlertConfig,
@@ -583,6 +585,7 @@ pub fn evaluate_alerts(
     // Site level: reference stability.
     let excluded = &analysis.datum.excluded;
     let first = analysis.datum.congruence.first();
+    let open_unstable = st.find(None, AlertKind::ReferenceUnstable).map(|a| a.level);
     apply(
         site,
         &mut st,
@@ -590,7 +593,14 @@ pub fn evaluate_alerts(
             point: None,
             points: excluded.clone(),
             kind: AlertKind::ReferenceUnstable,
-            level: (!excluded.is_empty()).then_some(config.reference_unstable_level),
+            // Raised when stable points are excluded; it does not resolve by itself (a moved reference point
+            // does not move back, and the test's power near its threshold would make it flap): resolve it by
+            // hand once the point's role was changed.
+            level: if excluded.is_empty() {
+                open_unstable
+            } else {
+                Some(config.reference_unstable_level)
+            },
             value: first.map(|t| t.statistic),
             threshold: first.map(|t| t.critical),
             unit: "",
