@@ -5,11 +5,17 @@ use chrono::Duration;
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 
 use cliffwatch::analysis::{
-    analyse_epoch, evaluate_alerts, AlertConfig, AlertRule, AlertState, AnalysisConfig, DisplacementRecord, History,
+    analyse_epoch, evaluate_alerts, AlertConfig, AlertRule, AlertState, AnalysisConfig,
+    DisplacementRecord, History,
 };
 use cliffwatch::simulate::monitoring::MonitoringScenario;
 
-fn setup() -> (MonitoringScenario, cliffwatch::simulate::monitoring::MonitoringSeries, History, AlertConfig) {
+fn setup() -> (
+    MonitoringScenario,
+    cliffwatch::simulate::monitoring::MonitoringSeries,
+    History,
+    AlertConfig,
+) {
     let sc = MonitoringScenario {
         seed: 9,
         stable_points: 20,
@@ -65,20 +71,37 @@ fn bench(c: &mut Criterion) {
     let config = AnalysisConfig::default();
     let (reference, current) = (&series.epochs[0].coordinates, &series.epochs[1].coordinates);
     let state = AlertState::default();
-    c.bench_function("analyse_epoch+evaluate_alerts 500 points, 10 y daily history", |b| {
-        b.iter(|| {
-            let a = analyse_epoch(reference, current, &series.points, black_box(&history), &config).expect("analysis");
-            let (s, ev) = evaluate_alerts(&alerts, &state, &a, a.observed_at);
-            black_box((s, ev))
-        })
-    });
+    c.bench_function(
+        "analyse_epoch+evaluate_alerts 500 points, 10 y daily history",
+        |b| {
+            b.iter(|| {
+                let a = analyse_epoch(
+                    reference,
+                    current,
+                    &series.points,
+                    black_box(&history),
+                    &config,
+                )
+                .expect("analysis");
+                let (s, ev) = evaluate_alerts(&alerts, &state, &a, a.observed_at);
+                black_box((s, ev))
+            })
+        },
+    );
     let no_stable: Vec<_> = series
         .points
         .iter()
-        .map(|p| cliffwatch::analysis::PointConfig { role: cliffwatch::analysis::PointRole::Monitored, ..p.clone() })
+        .map(|p| cliffwatch::analysis::PointConfig {
+            role: cliffwatch::analysis::PointRole::Monitored,
+            ..p.clone()
+        })
         .collect();
     c.bench_function("analyse_epoch 500 points, IWST (no stable points)", |b| {
-        b.iter(|| black_box(analyse_epoch(reference, current, &no_stable, &history, &config).expect("analysis")))
+        b.iter(|| {
+            black_box(
+                analyse_epoch(reference, current, &no_stable, &history, &config).expect("analysis"),
+            )
+        })
     });
 }
 

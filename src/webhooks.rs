@@ -18,8 +18,8 @@ pub mod sign;
 
 pub use deliver::{deliver, DeliveryOutcome};
 pub use payload::{
-    accepts, alertmanager_body, message_id, AlertmanagerAlert, AlertmanagerBody, PayloadFormat, WebhookData,
-    WebhookEndpoint, WebhookPayload,
+    accepts, alertmanager_body, message_id, AlertmanagerAlert, AlertmanagerBody, PayloadFormat,
+    WebhookData, WebhookEndpoint, WebhookPayload,
 };
 pub use retry::{backoff_delay, next_retry, parse_retry_after, RetryPolicy};
 pub use sign::{sign, signing_key, verify, WebhookError};

@@ -4,16 +4,24 @@
 use chrono::{DateTime, Duration, TimeZone, Utc};
 
 use cliffwatch::analysis::{
-    acknowledge, check_overdue, evaluate_alerts, resolve, AlertConfig, AlertEventType, AlertKind, AlertLevel,
-    AlertRule, AlertState, AlertStatus, DatumMethod, DatumReport, DisplacementRecord, EpochAnalysis, PointAnalysis,
-    PointRole,
+    acknowledge, check_overdue, evaluate_alerts, resolve, AlertConfig, AlertEventType, AlertKind,
+    AlertLevel, AlertRule, AlertState, AlertStatus, DatumMethod, DatumReport, DisplacementRecord,
+    EpochAnalysis, PointAnalysis, PointRole,
 };
 
 fn t0() -> DateTime<Utc> {
-    Utc.with_ymd_and_hms(2026, 11, 1, 9, 0, 0).single().expect("time")
+    Utc.with_ymd_and_hms(2026, 11, 1, 9, 0, 0)
+        .single()
+        .expect("time")
 }
 
-fn analysis(epoch: i64, d_mm: f64, significant: bool, group: Option<&str>, excluded: &[&str]) -> EpochAnalysis {
+fn analysis(
+    epoch: i64,
+    d_mm: f64,
+    significant: bool,
+    group: Option<&str>,
+    excluded: &[&str],
+) -> EpochAnalysis {
     let at = t0() + Duration::days(epoch);
     let record = DisplacementRecord {
         point: "T1".into(),
@@ -71,12 +79,17 @@ fn contract_config() -> AlertConfig {
             {"level": "alarm",   "metric": "time_to_failure_hours", "below": 48.0}]"#,
     )
     .expect("contract rule JSON parses");
-    assert!(rules.iter().all(|r| r.require_significant && r.validate().is_ok()));
+    assert!(rules
+        .iter()
+        .all(|r| r.require_significant && r.validate().is_ok()));
     AlertConfig::new("kamo", rules)
 }
 
 /// Feeds a series of (d_mm, significant) and returns the event types per epoch and the final state.
-fn feed(cfg: &AlertConfig, series: &[(f64, bool)]) -> (Vec<Vec<(AlertEventType, AlertLevel)>>, AlertState) {
+fn feed(
+    cfg: &AlertConfig,
+    series: &[(f64, bool)],
+) -> (Vec<Vec<(AlertEventType, AlertLevel)>>, AlertState) {
     let mut st = AlertState::default();
     let mut out = vec![];
     for (k, &(d, s)) in series.iter().enumerate() {
@@ -95,7 +108,15 @@ fn raise_escalate_deescalate_resolve_with_hysteresis() {
     let cfg = contract_config();
     let (ev, st) = feed(
         &cfg,
-        &[(3.0, true), (5.5, true), (11.0, true), (9.0, true), (4.5, true), (3.9, true), (6.0, true)],
+        &[
+            (3.0, true),
+            (5.5, true),
+            (11.0, true),
+            (9.0, true),
+            (4.5, true),
+            (3.9, true),
+            (6.0, true),
+        ],
     );
     assert_eq!(ev[0], vec![]);
     assert_eq!(ev[1], vec![(Raised, Watch)]);
@@ -130,7 +151,10 @@ fn quiet_epochs_delay_clearing() {
     assert_eq!(ev[0], vec![(AlertEventType::Raised, AlertLevel::Warning)]);
     assert_eq!(ev[1], vec![]);
     assert_eq!(ev[2], vec![]);
-    assert_eq!(ev[3], vec![(AlertEventType::Deescalated, AlertLevel::Watch)]);
+    assert_eq!(
+        ev[3],
+        vec![(AlertEventType::Deescalated, AlertLevel::Watch)]
+    );
 }
 
 #[test]
@@ -199,7 +223,11 @@ fn site_level_alerts() {
     let a = analysis(3, 1.0, false, None, &[]);
     let (st, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
     assert!(ev.is_empty());
-    let id = st.find(None, AlertKind::ReferenceUnstable).expect("open").id.clone();
+    let id = st
+        .find(None, AlertKind::ReferenceUnstable)
+        .expect("open")
+        .id
+        .clone();
     let (st, ev) = resolve(&st, &id, "ops", t0()).expect("resolve");
     assert_eq!(ev.event_type, AlertEventType::Resolved);
     assert!(st.alerts.is_empty());
@@ -207,10 +235,16 @@ fn site_level_alerts() {
 
 #[test]
 fn invalid_rules_are_reported() {
-    let bad: AlertRule = serde_json::from_str(r#"{"level": "watch", "metric": "displacement_mm"}"#).expect("parses");
-    assert!(bad.validate().is_err());
     let bad: AlertRule =
-        serde_json::from_str(r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "clear_below": 6}"#).expect("parses");
+        serde_json::from_str(r#"{"level": "watch", "metric": "displacement_mm"}"#).expect("parses");
     assert!(bad.validate().is_err());
-    assert!(serde_json::from_str::<AlertRule>(r#"{"level": "severe", "metric": "displacement_mm", "above": 5}"#).is_err());
+    let bad: AlertRule = serde_json::from_str(
+        r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "clear_below": 6}"#,
+    )
+    .expect("parses");
+    assert!(bad.validate().is_err());
+    assert!(serde_json::from_str::<AlertRule>(
+        r#"{"level": "severe", "metric": "displacement_mm", "above": 5}"#
+    )
+    .is_err());
 }

@@ -19,8 +19,8 @@ use sha2::Sha256;
 
 use cliffwatch::analysis::{Alert, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertStatus};
 use cliffwatch::webhooks::{
-    accepts, alertmanager_body, backoff_delay, deliver, message_id, next_retry, parse_retry_after, sign, verify,
-    DeliveryOutcome, PayloadFormat, RetryPolicy, WebhookEndpoint, WebhookPayload,
+    accepts, alertmanager_body, backoff_delay, deliver, message_id, next_retry, parse_retry_after,
+    sign, verify, DeliveryOutcome, PayloadFormat, RetryPolicy, WebhookEndpoint, WebhookPayload,
 };
 
 const SECRET: &str = "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw";
@@ -28,15 +28,35 @@ const SECRET: &str = "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw";
 #[test]
 fn signature_matches_the_published_standard_webhooks_vector() {
     // Test vector of the Standard Webhooks reference libraries.
-    let sig = sign(SECRET, "msg_p5jXN8AQM9LWM0D4loKWxJek", 1614265330, br#"{"test": 2432232314}"#).expect("sign");
+    let sig = sign(
+        SECRET,
+        "msg_p5jXN8AQM9LWM0D4loKWxJek",
+        1614265330,
+        br#"{"test": 2432232314}"#,
+    )
+    .expect("sign");
     assert_eq!(sig, "v1,g0hM9SsE+OTPJTGt/tmIKtSyZlE3uFJELVlNIOLJ1OE=");
-    assert!(verify(SECRET, "msg_p5jXN8AQM9LWM0D4loKWxJek", 1614265330, br#"{"test": 2432232314}"#, &format!("v1,bm9wZQ== {sig}")));
-    assert!(!verify(SECRET, "msg_p5jXN8AQM9LWM0D4loKWxJek", 1614265331, br#"{"test": 2432232314}"#, &sig));
+    assert!(verify(
+        SECRET,
+        "msg_p5jXN8AQM9LWM0D4loKWxJek",
+        1614265330,
+        br#"{"test": 2432232314}"#,
+        &format!("v1,bm9wZQ== {sig}")
+    ));
+    assert!(!verify(
+        SECRET,
+        "msg_p5jXN8AQM9LWM0D4loKWxJek",
+        1614265331,
+        br#"{"test": 2432232314}"#,
+        &sig
+    ));
     assert!(sign("whsec_not base64!", "id", 1, b"").is_err());
 }
 
 fn hmac_by_hand(secret: &str, id: &str, ts: &str, body: &[u8]) -> String {
-    let key = STANDARD.decode(secret.trim_start_matches("whsec_")).expect("b64");
+    let key = STANDARD
+        .decode(secret.trim_start_matches("whsec_"))
+        .expect("b64");
     let mut m = <Hmac<Sha256> as Mac>::new_from_slice(&key).expect("key");
     m.update(format!("{id}.{ts}.").as_bytes());
     m.update(body);
@@ -44,8 +64,14 @@ fn hmac_by_hand(secret: &str, id: &str, ts: &str, body: &[u8]) -> String {
 }
 
 fn event(ty: AlertEventType, level: AlertLevel) -> AlertEvent {
-    let t = Utc.with_ymd_and_hms(2026, 11, 21, 9, 0, 5).single().expect("time");
-    let obs = Utc.with_ymd_and_hms(2026, 11, 21, 9, 0, 0).single().expect("time");
+    let t = Utc
+        .with_ymd_and_hms(2026, 11, 21, 9, 0, 5)
+        .single()
+        .expect("time");
+    let obs = Utc
+        .with_ymd_and_hms(2026, 11, 21, 9, 0, 0)
+        .single()
+        .expect("time");
     AlertEvent {
         event_type: ty,
         timestamp: t,
@@ -80,7 +106,10 @@ fn payload_has_the_contract_shape() {
     assert_eq!(v["timestamp"], "2026-11-21T09:00:05Z");
     let d = &v["data"];
     for (k, want) in [
-        ("alert_id", serde_json::json!("kamo/T103/displacement_mm/17")),
+        (
+            "alert_id",
+            serde_json::json!("kamo/T103/displacement_mm/17"),
+        ),
         ("site", serde_json::json!("kamo")),
         ("point", serde_json::json!("T103")),
         ("level", serde_json::json!("warning")),
@@ -104,7 +133,11 @@ fn payload_has_the_contract_shape() {
     assert_eq!(v["data"]["points"], serde_json::json!(["R3"]));
     assert_eq!(v["data"]["rule"], "reference_unstable");
     // Alertmanager body.
-    let am = serde_json::to_value(alertmanager_body(&event(AlertEventType::Resolved, AlertLevel::Watch), "ops")).expect("json");
+    let am = serde_json::to_value(alertmanager_body(
+        &event(AlertEventType::Resolved, AlertLevel::Watch),
+        "ops",
+    ))
+    .expect("json");
     assert_eq!(am["version"], "4");
     assert_eq!(am["status"], "resolved");
     assert_eq!(am["alerts"][0]["labels"]["severity"], "watch");
@@ -124,7 +157,10 @@ fn endpoints_filter_by_minimum_level() {
     let watch = event(AlertEventType::Raised, AlertLevel::Watch);
     assert!(accepts(&ep(None), &watch));
     assert!(!accepts(&ep(Some(AlertLevel::Warning)), &watch));
-    assert!(accepts(&ep(Some(AlertLevel::Warning)), &event(AlertEventType::Raised, AlertLevel::Alarm)));
+    assert!(accepts(
+        &ep(Some(AlertLevel::Warning)),
+        &event(AlertEventType::Raised, AlertLevel::Alarm)
+    ));
     // De-escalated to watch after peaking at warning: still delivered to a warning endpoint.
     let mut de = event(AlertEventType::Deescalated, AlertLevel::Watch);
     de.alert.peak_level = AlertLevel::Warning;
@@ -139,21 +175,45 @@ fn endpoints_filter_by_minimum_level() {
 
 #[test]
 fn backoff_stays_within_its_bounds() {
-    let policy = RetryPolicy { base_seconds: 2.0, max_delay_seconds: 600.0, max_attempts: 10, max_retry_after_seconds: 3600.0 };
+    let policy = RetryPolicy {
+        base_seconds: 2.0,
+        max_delay_seconds: 600.0,
+        max_attempts: 10,
+        max_retry_after_seconds: 3600.0,
+    };
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     for attempt in 0..40u32 {
         let d = (2.0 * 2f64.powi(attempt as i32)).min(600.0);
         for _ in 0..200 {
             let s = backoff_delay(&policy, attempt, &mut rng).as_secs_f64();
-            assert!(s >= 0.5 * d - 1e-9 && s <= d + 1e-9, "attempt {attempt}: {s} outside [{}, {d}]", d / 2.0);
+            assert!(
+                s >= 0.5 * d - 1e-9 && s <= d + 1e-9,
+                "attempt {attempt}: {s} outside [{}, {d}]",
+                d / 2.0
+            );
         }
     }
     assert_eq!(next_retry(&policy, 10, None, &mut rng), None);
-    assert_eq!(next_retry(&policy, 3, Some(Duration::from_secs(120)), &mut rng), Some(Duration::from_secs(120)));
-    assert_eq!(next_retry(&policy, 3, Some(Duration::from_secs(99_999)), &mut rng), Some(Duration::from_secs(3600)));
-    let now = Utc.with_ymd_and_hms(2015, 10, 21, 7, 28, 0).single().expect("time");
-    assert_eq!(parse_retry_after("120", now), Some(Duration::from_secs(120)));
-    assert_eq!(parse_retry_after("Wed, 21 Oct 2015 07:30:00 GMT", now), Some(Duration::from_secs(120)));
+    assert_eq!(
+        next_retry(&policy, 3, Some(Duration::from_secs(120)), &mut rng),
+        Some(Duration::from_secs(120))
+    );
+    assert_eq!(
+        next_retry(&policy, 3, Some(Duration::from_secs(99_999)), &mut rng),
+        Some(Duration::from_secs(3600))
+    );
+    let now = Utc
+        .with_ymd_and_hms(2015, 10, 21, 7, 28, 0)
+        .single()
+        .expect("time");
+    assert_eq!(
+        parse_retry_after("120", now),
+        Some(Duration::from_secs(120))
+    );
+    assert_eq!(
+        parse_retry_after("Wed, 21 Oct 2015 07:30:00 GMT", now),
+        Some(Duration::from_secs(120))
+    );
     assert_eq!(parse_retry_after("soon", now), None);
 }
 
@@ -165,27 +225,57 @@ struct Receiver {
     got: Arc<Mutex<Vec<(String, bool, serde_json::Value)>>>,
 }
 
-async fn hook(State(r): State<Receiver>, headers: HeaderMap, body: axum::body::Bytes) -> impl IntoResponse {
-    let h = |k: &str| headers.get(k).and_then(|v| v.to_str().ok()).unwrap_or("").to_string();
-    let (id, ts, sig) = (h("webhook-id"), h("webhook-timestamp"), h("webhook-signature"));
-    let ok = sig.split(' ').any(|s| s == hmac_by_hand(SECRET, &id, &ts, &body));
+async fn hook(
+    State(r): State<Receiver>,
+    headers: HeaderMap,
+    body: axum::body::Bytes,
+) -> impl IntoResponse {
+    let h = |k: &str| {
+        headers
+            .get(k)
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or("")
+            .to_string()
+    };
+    let (id, ts, sig) = (
+        h("webhook-id"),
+        h("webhook-timestamp"),
+        h("webhook-signature"),
+    );
+    let ok = sig
+        .split(' ')
+        .any(|s| s == hmac_by_hand(SECRET, &id, &ts, &body));
     let json = serde_json::from_slice(&body).unwrap_or(serde_json::Value::Null);
     r.got.lock().expect("lock").push((id, ok, json));
     let next = {
         let mut s = r.script.lock().expect("lock");
-        if s.is_empty() { (200, None) } else { s.remove(0) }
+        if s.is_empty() {
+            (200, None)
+        } else {
+            s.remove(0)
+        }
     };
-    let mut resp = StatusCode::from_u16(next.0).expect("status").into_response();
+    let mut resp = StatusCode::from_u16(next.0)
+        .expect("status")
+        .into_response();
     if let Some(ra) = next.1 {
-        resp.headers_mut().insert("retry-after", ra.parse().expect("header"));
+        resp.headers_mut()
+            .insert("retry-after", ra.parse().expect("header"));
     }
     resp
 }
 
 async fn start(script: Vec<(u16, Option<&'static str>)>) -> (String, Receiver) {
-    let r = Receiver { script: Arc::new(Mutex::new(script)), ..Default::default() };
-    let app = Router::new().route("/hook", post(hook)).with_state(r.clone());
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+    let r = Receiver {
+        script: Arc::new(Mutex::new(script)),
+        ..Default::default()
+    };
+    let app = Router::new()
+        .route("/hook", post(hook))
+        .with_state(r.clone());
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+        .await
+        .expect("bind");
     let addr = listener.local_addr().expect("addr");
     tokio::spawn(async move {
         let _ = axum::serve(listener, app).await;
@@ -196,11 +286,19 @@ async fn start(script: Vec<(u16, Option<&'static str>)>) -> (String, Receiver) {
 #[tokio::test]
 async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
     let (url, rx) = start(vec![(503, None), (429, Some("1")), (500, None)]).await;
-    let client = reqwest::Client::builder().timeout(Duration::from_secs(5)).build().expect("client");
+    let client = reqwest::Client::builder()
+        .timeout(Duration::from_secs(5))
+        .build()
+        .expect("client");
     let ev = event(AlertEventType::Raised, AlertLevel::Warning);
     let body = serde_json::to_vec(&WebhookPayload::from_event(&ev)).expect("body");
     let id = message_id(&ev);
-    let policy = RetryPolicy { base_seconds: 0.01, max_delay_seconds: 0.05, max_attempts: 6, max_retry_after_seconds: 2.0 };
+    let policy = RetryPolicy {
+        base_seconds: 0.01,
+        max_delay_seconds: 0.05,
+        max_attempts: 6,
+        max_retry_after_seconds: 2.0,
+    };
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let mut outcomes = vec![];
     let mut attempts = 0;
@@ -210,7 +308,8 @@ async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
         outcomes.push(out.clone());
         match out {
             DeliveryOutcome::Retry { retry_after, .. } => {
-                let wait = next_retry(&policy, attempts, retry_after, &mut rng).expect("within the attempt limit");
+                let wait = next_retry(&policy, attempts, retry_after, &mut rng)
+                    .expect("within the attempt limit");
                 if retry_after.is_some() {
                     assert_eq!(wait, Duration::from_secs(1), "Retry-After honoured");
                 }
@@ -219,19 +318,39 @@ async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
             _ => break,
         }
     }
-    assert_eq!(outcomes.last(), Some(&DeliveryOutcome::Delivered { status: 200 }));
-    assert!(matches!(outcomes[1], DeliveryOutcome::Retry { status: Some(429), retry_after: Some(d), .. } if d == Duration::from_secs(1)));
+    assert_eq!(
+        outcomes.last(),
+        Some(&DeliveryOutcome::Delivered { status: 200 })
+    );
+    assert!(
+        matches!(outcomes[1], DeliveryOutcome::Retry { status: Some(429), retry_after: Some(d), .. } if d == Duration::from_secs(1))
+    );
     let got = rx.got.lock().expect("lock").clone();
     assert_eq!(got.len(), 4);
-    assert!(got.iter().all(|(gid, ok, _)| gid == &id && *ok), "same id, valid signature on every attempt");
+    assert!(
+        got.iter().all(|(gid, ok, _)| gid == &id && *ok),
+        "same id, valid signature on every attempt"
+    );
     assert_eq!(got[3].2["data"]["alert_id"], "kamo/T103/displacement_mm/17");
 
     // 410 Gone: the endpoint is to be disabled; 404: permanent failure, no retry.
     let (url, _rx) = start(vec![(410, None)]).await;
-    assert_eq!(deliver(&client, &url, SECRET, &id, &body, Utc::now()).await, DeliveryOutcome::Gone);
+    assert_eq!(
+        deliver(&client, &url, SECRET, &id, &body, Utc::now()).await,
+        DeliveryOutcome::Gone
+    );
     let (url, _rx) = start(vec![(404, None)]).await;
-    assert!(matches!(deliver(&client, &url, SECRET, &id, &body, Utc::now()).await, DeliveryOutcome::Failed { status: Some(404), .. }));
+    assert!(matches!(
+        deliver(&client, &url, SECRET, &id, &body, Utc::now()).await,
+        DeliveryOutcome::Failed {
+            status: Some(404),
+            ..
+        }
+    ));
     // Nobody listening: transient.
     let dead = "http://127.0.0.1:9/hook";
-    assert!(matches!(deliver(&client, dead, SECRET, &id, &body, Utc::now()).await, DeliveryOutcome::Retry { status: None, .. }));
+    assert!(matches!(
+        deliver(&client, dead, SECRET, &id, &body, Utc::now()).await,
+        DeliveryOutcome::Retry { status: None, .. }
+    ));
 }

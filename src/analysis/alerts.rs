@@ -77,7 +77,9 @@ impl Metric {
                 r.significant && p.kinematics.is_some_and(|k| k.velocity_significant),
             ),
             // A forecast exists only for a significant, accelerating point.
-            Metric::TimeToFailureHours => (r.time_to_failure_hours, r.time_to_failure_hours.is_some()),
+            Metric::TimeToFailureHours => {
+                (r.time_to_failure_hours, r.time_to_failure_hours.is_some())
+            }
         }
     }
 }
@@ -163,7 +165,12 @@ impl AlertRule {
     /// Checks that exactly one of `above` / `below` is set, finite, and that the clear threshold lies on the
     /// right side.
     pub fn validate(&self) -> Result<(), AnalysisError> {
-        let bad = |m: &str| Err(AnalysisError::InvalidConfig(format!("alert rule {:?}: {m}", self.metric)));
+        let bad = |m: &str| {
+            Err(AnalysisError::InvalidConfig(format!(
+                "alert rule {:?}: {m}",
+                self.metric
+            )))
+        };
         match (self.above, self.below) {
             (Some(a), None) if a.is_finite() => {
                 if self.clear_below.is_some_and(|c| !(c <= a)) {
@@ -350,12 +357,18 @@ pub struct AlertState {
 impl AlertState {
     /// The open alert of a point (None for site level) and kind.
     pub fn find(&self, point: Option<&str>, kind: AlertKind) -> Option<&Alert> {
-        self.alerts.iter().find(|a| a.point.as_deref() == point && a.rule == kind)
+        self.alerts
+            .iter()
+            .find(|a| a.point.as_deref() == point && a.rule == kind)
     }
 
     /// Highest open level of a point (for `GET .../points`).
     pub fn level_of(&self, point: &str) -> Option<AlertLevel> {
-        self.alerts.iter().filter(|a| a.point.as_deref() == Some(point)).map(|a| a.level).max()
+        self.alerts
+            .iter()
+            .filter(|a| a.point.as_deref() == Some(point))
+            .map(|a| a.level)
+            .max()
     }
 }
 
@@ -408,7 +421,15 @@ fn fmt_time(t: DateTime<Utc>) -> String {
     t.to_rfc3339_opts(SecondsFormat::Secs, true)
 }
 
-fn message(site: &str, point: Option<&str>, kind: AlertKind, level: AlertLevel, value: Option<f64>, rule: Option<&AlertRule>, unit: &str) -> String {
+fn message(
+    site: &str,
+    point: Option<&str>,
+    kind: AlertKind,
+    level: AlertLevel,
+    value: Option<f64>,
+    rule: Option<&AlertRule>,
+    unit: &str,
+) -> String {
     let who = point.map_or_else(|| format!("site {site}"), |p| format!("{site}/{p}"));
     let cmp = match rule {
         Some(r) if r.above.is_some() => format!(" above {} {unit}", r.above.unwrap_or_default()),
@@ -433,13 +454,27 @@ struct Update<'a> {
     id_suffix: String,
 }
 
-fn apply(site: &str, state: &mut AlertState, up: Update<'_>, now: DateTime<Utc>, events: &mut Vec<AlertEvent>) {
-    let pos = state.alerts.iter().position(|a| a.point.as_deref() == up.point && a.rule == up.kind);
+fn apply(
+    site: &str,
+    state: &mut AlertState,
+    up: Update<'_>,
+    now: DateTime<Utc>,
+    events: &mut Vec<AlertEvent>,
+) {
+    let pos = state
+        .alerts
+        .iter()
+        .position(|a| a.point.as_deref() == up.point && a.rule == up.kind);
     match (pos, up.level) {
         (None, None) => {}
         (None, Some(level)) => {
             let alert = Alert {
-                id: format!("{site}/{}/{}/{}", up.point.unwrap_or("-"), up.kind.as_str(), up.id_suffix),
+                id: format!(
+                    "{site}/{}/{}/{}",
+                    up.point.unwrap_or("-"),
+                    up.kind.as_str(),
+                    up.id_suffix
+                ),
                 site: site.to_string(),
                 point: up.point.map(str::to_string),
                 points: up.points,
@@ -459,7 +494,11 @@ fn apply(site: &str, state: &mut AlertState, up: Update<'_>, now: DateTime<Utc>,
                 message: message(site, up.point, up.kind, level, up.value, up.rule, up.unit),
             };
             state.alerts.push(alert.clone());
-            events.push(AlertEvent { event_type: AlertEventType::Raised, timestamp: now, alert });
+            events.push(AlertEvent {
+                event_type: AlertEventType::Raised,
+                timestamp: now,
+                alert,
+            });
         }
         (Some(i), level) => {
             let a = &mut state.alerts[i];
@@ -475,12 +514,23 @@ fn apply(site: &str, state: &mut AlertState, up: Update<'_>, now: DateTime<Utc>,
                 None => {
                     a.status = AlertStatus::Resolved;
                     a.updated_at = now;
-                    a.message = format!("{} — resolved", message(site, up.point, up.kind, a.level, a.value, None, up.unit));
+                    a.message = format!(
+                        "{} — resolved",
+                        message(site, up.point, up.kind, a.level, a.value, None, up.unit)
+                    );
                     let alert = state.alerts.remove(i);
-                    events.push(AlertEvent { event_type: AlertEventType::Resolved, timestamp: now, alert });
+                    events.push(AlertEvent {
+                        event_type: AlertEventType::Resolved,
+                        timestamp: now,
+                        alert,
+                    });
                 }
                 Some(l) if l != a.level => {
-                    let ty = if l > a.level { AlertEventType::Escalated } else { AlertEventType::Deescalated };
+                    let ty = if l > a.level {
+                        AlertEventType::Escalated
+                    } else {
+                        AlertEventType::Deescalated
+                    };
                     if l > a.level {
                         // A higher level needs a new acknowledgement.
                         a.status = AlertStatus::Open;
@@ -490,7 +540,11 @@ fn apply(site: &str, state: &mut AlertState, up: Update<'_>, now: DateTime<Utc>,
                     a.threshold = up.threshold;
                     a.updated_at = now;
                     a.message = message(site, up.point, up.kind, l, a.value, up.rule, up.unit);
-                    events.push(AlertEvent { event_type: ty, timestamp: now, alert: a.clone() });
+                    events.push(AlertEvent {
+                        event_type: ty,
+                        timestamp: now,
+                        alert: a.clone(),
+                    });
                 }
                 Some(_) => {}
             }
@@ -513,7 +567,11 @@ pub fn evaluate_alerts(
     let mut st = state.clone();
     let mut events = vec![];
     let site = config.site.as_str();
-    let rules: Vec<&AlertRule> = config.rules.iter().filter(|r| r.validate().is_ok()).collect();
+    let rules: Vec<&AlertRule> = config
+        .rules
+        .iter()
+        .filter(|r| r.validate().is_ok())
+        .collect();
     let suffix = analysis.epoch.to_string();
     for p in &analysis.points {
         let name = p.record.point.as_str();
@@ -526,13 +584,19 @@ pub fn evaluate_alerts(
         for m in metrics {
             let (value, significant) = m.value(p);
             let mut top: Option<&AlertRule> = None;
-            for r in rules.iter().filter(|r| r.metric == m && r.applies_to(p.group.as_deref())) {
+            for r in rules
+                .iter()
+                .filter(|r| r.metric == m && r.applies_to(p.group.as_deref()))
+            {
                 let key = format!("{name}|{}", r.key());
                 let mut mem = st.rules.get(&key).copied().unwrap_or_default();
                 let ok = !r.require_significant || significant;
                 let triggered = value.is_some_and(|v| ok && r.triggers(v));
                 if triggered {
-                    mem = RuleMemory { active: true, quiet_epochs: 0 };
+                    mem = RuleMemory {
+                        active: true,
+                        quiet_epochs: 0,
+                    };
                 } else if mem.active {
                     let cleared = match value {
                         Some(v) if ok => r.clears(v),
@@ -546,7 +610,9 @@ pub fn evaluate_alerts(
                         }
                         None => {
                             mem.quiet_epochs += 1;
-                            if mem.quiet_epochs >= r.quiet_epochs.unwrap_or(config.quiet_epochs).max(1) {
+                            if mem.quiet_epochs
+                                >= r.quiet_epochs.unwrap_or(config.quiet_epochs).max(1)
+                            {
                                 mem = RuleMemory::default();
                             }
                         }
@@ -612,9 +678,15 @@ pub fn evaluate_alerts(
         now,
         &mut events,
     );
-    if let Some(e) = events.last_mut().filter(|e| e.alert.rule == AlertKind::ReferenceUnstable) {
+    if let Some(e) = events
+        .last_mut()
+        .filter(|e| e.alert.rule == AlertKind::ReferenceUnstable)
+    {
         if e.event_type == AlertEventType::Raised {
-            e.alert.message = format!("site {site}: stable point(s) {} moved; excluded from the datum", excluded.join(", "));
+            e.alert.message = format!(
+                "site {site}: stable point(s) {} moved; excluded from the datum",
+                excluded.join(", ")
+            );
             if let Some(a) = st.alerts.iter_mut().find(|a| a.id == e.alert.id) {
                 a.message = e.alert.message.clone();
             }
@@ -658,7 +730,10 @@ pub fn check_overdue(
         return (st, events);
     };
     let hours = (now - last).num_seconds() as f64 / 3600.0;
-    if schedule > 0.0 && hours > schedule * (1.0 + config.overdue_grace.max(0.0)) && st.find(None, AlertKind::CampaignOverdue).is_none() {
+    if schedule > 0.0
+        && hours > schedule * (1.0 + config.overdue_grace.max(0.0))
+        && st.find(None, AlertKind::CampaignOverdue).is_none()
+    {
         apply(
             &config.site,
             &mut st,
@@ -709,7 +784,14 @@ pub fn acknowledge(
     a.comment = comment.map(str::to_string);
     a.updated_at = now;
     let alert = a.clone();
-    Ok((st, AlertEvent { event_type: AlertEventType::Acknowledged, timestamp: now, alert }))
+    Ok((
+        st,
+        AlertEvent {
+            event_type: AlertEventType::Acknowledged,
+            timestamp: now,
+            alert,
+        },
+    ))
 }
 
 /// Resolves an alert by hand (e.g. after a stable point was re-surveyed). Its rules are reset, so it is
@@ -734,5 +816,12 @@ pub fn resolve(
     alert.status = AlertStatus::Resolved;
     alert.acknowledged_by.get_or_insert_with(|| by.to_string());
     alert.updated_at = now;
-    Ok((st, AlertEvent { event_type: AlertEventType::Resolved, timestamp: now, alert }))
+    Ok((
+        st,
+        AlertEvent {
+            event_type: AlertEventType::Resolved,
+            timestamp: now,
+            alert,
+        },
+    ))
 }

@@ -70,7 +70,11 @@ impl EpochAnalysis {
     }
 }
 
-fn samples_of(history: Option<&Vec<DisplacementRecord>>, now: DateTime<Utc>, config: &AnalysisConfig) -> Vec<Sample> {
+fn samples_of(
+    history: Option<&Vec<DisplacementRecord>>,
+    now: DateTime<Utc>,
+    config: &AnalysisConfig,
+) -> Vec<Sample> {
     let Some(h) = history else { return vec![] };
     let end = h.partition_point(|r| r.observed_at < now);
     let past = &h[..end];
@@ -87,7 +91,11 @@ fn samples_of(history: Option<&Vec<DisplacementRecord>>, now: DateTime<Utc>, con
     past[start..]
         .iter()
         .filter(|r| r.d_mm.is_finite() && r.sigma_mm.is_finite())
-        .map(|r| Sample { t_days: days_between(now, r.observed_at), d_mm: r.d_mm, sigma_mm: r.sigma_mm })
+        .map(|r| Sample {
+            t_days: days_between(now, r.observed_at),
+            d_mm: r.d_mm,
+            sigma_mm: r.sigma_mm,
+        })
         .collect()
 }
 
@@ -116,22 +124,42 @@ pub fn analyse_epoch(
     let role = |name: &str| cfg.get(name).map(|c| c.role).unwrap_or_default();
     let mut warnings = vec![];
     let new_points: Vec<String> = {
-        let common: std::collections::HashSet<&str> = diffs.names.iter().map(String::as_str).collect();
-        current.points.iter().filter(|p| !common.contains(p.name.as_str())).map(|p| p.name.clone()).collect()
+        let common: std::collections::HashSet<&str> =
+            diffs.names.iter().map(String::as_str).collect();
+        current
+            .points
+            .iter()
+            .filter(|p| !common.contains(p.name.as_str()))
+            .map(|p| p.name.clone())
+            .collect()
     };
     if diffs.len() < kind.min_points() {
-        return Err(AnalysisError::TooFewDatumPoints { found: diffs.len(), needed: kind.min_points() });
+        return Err(AnalysisError::TooFewDatumPoints {
+            found: diffs.len(),
+            needed: kind.min_points(),
+        });
     }
     let same_epoch = reference.epoch == current.epoch;
-    let stable: Vec<usize> = (0..diffs.len()).filter(|&i| role(&diffs.names[i]) == PointRole::Stable).collect();
+    let stable: Vec<usize> = (0..diffs.len())
+        .filter(|&i| role(&diffs.names[i]) == PointRole::Stable)
+        .collect();
     let all: Vec<usize> = (0..diffs.len()).collect();
     let mut congruence = vec![];
     let mut excluded = vec![];
     let iwst = || -> Result<(DatumFit, DatumMethod), AnalysisError> {
-        Ok((fit_iwst(&diffs, &all, kind, config.iwst_max_iterations)?, DatumMethod::Iwst))
+        Ok((
+            fit_iwst(&diffs, &all, kind, config.iwst_max_iterations)?,
+            DatumMethod::Iwst,
+        ))
     };
     let (fit, method) = if stable.len() >= kind.min_points() {
-        match test_and_localise(&diffs, &stable, kind, config.congruence_confidence, config.variance_dof) {
+        match test_and_localise(
+            &diffs,
+            &stable,
+            kind,
+            config.congruence_confidence,
+            config.variance_dof,
+        ) {
             Ok(c) => {
                 congruence = c.tests;
                 excluded = c.excluded;
@@ -141,7 +169,9 @@ pub fn analyse_epoch(
                 (c.fit, DatumMethod::StablePoints)
             }
             Err(e) => {
-                warnings.push(format!("stable-point datum failed ({e}); robust IWST over all points instead"));
+                warnings.push(format!(
+                    "stable-point datum failed ({e}); robust IWST over all points instead"
+                ));
                 iwst()?
             }
         }
@@ -180,16 +210,26 @@ pub fn analyse_epoch(
         let significant = !same_epoch && test.significant;
         let d_mm = d.norm();
         let sigma_mm = sigma_length(&d, &cov);
-        let dir = pc.and_then(|c| c.direction).map(Vector3::from).filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
+        let dir = pc
+            .and_then(|c| c.direction)
+            .map(Vector3::from)
+            .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
         let (d_along, s_along) = match dir {
             Some(v) => {
                 let n = v / v.norm();
-                (Some(n.dot(&d)), Some((n.transpose() * cov * n)[(0, 0)].max(0.0).sqrt()))
+                (
+                    Some(n.dot(&d)),
+                    Some((n.transpose() * cov * n)[(0, 0)].max(0.0).sqrt()),
+                )
             }
             None => (None, None),
         };
         let mut samples = samples_of(history.get(name), current.observed_at, config);
-        samples.push(Sample { t_days: 0.0, d_mm, sigma_mm: sigma_mm.max(1e-6) });
+        samples.push(Sample {
+            t_days: 0.0,
+            d_mm,
+            sigma_mm: sigma_mm.max(1e-6),
+        });
         let kin = kinematics(
             &samples,
             config.velocity_window,

@@ -72,7 +72,9 @@ pub(crate) fn test_and_localise(
     let mut tests = vec![];
     let mut excluded = vec![];
     loop {
-        let Some(t) = test_of(diffs, &fit, confidence, variance_dof) else { break };
+        let Some(t) = test_of(diffs, &fit, confidence, variance_dof) else {
+            break;
+        };
         let passed = t.passed;
         tests.push(t);
         if passed || datum.len() <= kind.min_points() {
@@ -81,8 +83,15 @@ pub(crate) fn test_and_localise(
         // Candidate whose exclusion reduces Ω most.
         let mut best: Option<(f64, usize, DatumFit)> = None;
         for k in 0..datum.len() {
-            let rest: Vec<usize> = datum.iter().enumerate().filter(|&(j, _)| j != k).map(|(_, &i)| i).collect();
-            let Ok(f) = fit_weighted(diffs, &rest, kind) else { continue };
+            let rest: Vec<usize> = datum
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != k)
+                .map(|(_, &i)| i)
+                .collect();
+            let Ok(f) = fit_weighted(diffs, &rest, kind) else {
+                continue;
+            };
             let gain = fit.omega - f.omega;
             if best.as_ref().is_none_or(|b| gain > b.0) {
                 best = Some((gain, k, f));
@@ -92,5 +101,9 @@ pub(crate) fn test_and_localise(
         excluded.push(datum.remove(k));
         fit = f;
     }
-    Ok(Congruence { fit, tests, excluded })
+    Ok(Congruence {
+        fit,
+        tests,
+        excluded,
+    })
 }

@@ -44,7 +44,9 @@ fn check_finite(what: &str, xs: impl IntoIterator<Item = f64>) -> Result<(), Ana
     if xs.into_iter().all(f64::is_finite) {
         Ok(())
     } else {
-        Err(AnalysisError::NonFinite { what: what.to_string() })
+        Err(AnalysisError::NonFinite {
+            what: what.to_string(),
+        })
     }
 }
 
@@ -56,20 +58,41 @@ fn joint_index(
         Some(j) => {
             let n = 3 * j.points.len();
             if j.matrix_m2.len() != n * n {
-                return Err(AnalysisError::BadJointCovariance { len: j.matrix_m2.len(), expected: n * n });
+                return Err(AnalysisError::BadJointCovariance {
+                    len: j.matrix_m2.len(),
+                    expected: n * n,
+                });
             }
-            check_finite(&format!("joint covariance of epoch {}", epoch.epoch), j.matrix_m2.iter().copied())?;
-            let idx = j.points.iter().enumerate().map(|(i, p)| (p.as_str(), i)).collect();
-            Ok((idx, Some((n, j.matrix_m2.iter().map(|v| v * 1e6).collect()))))
+            check_finite(
+                &format!("joint covariance of epoch {}", epoch.epoch),
+                j.matrix_m2.iter().copied(),
+            )?;
+            let idx = j
+                .points
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (p.as_str(), i))
+                .collect();
+            Ok((
+                idx,
+                Some((n, j.matrix_m2.iter().map(|v| v * 1e6).collect())),
+            ))
         }
     }
 }
 
 impl Differences {
     /// Matches the points of both epochs by name (in the order of the current epoch).
-    pub fn new(reference: &EpochCoordinates, current: &EpochCoordinates) -> Result<Self, AnalysisError> {
-        let by_name: HashMap<&str, usize> =
-            reference.points.iter().enumerate().map(|(i, p)| (p.name.as_str(), i)).collect();
+    pub fn new(
+        reference: &EpochCoordinates,
+        current: &EpochCoordinates,
+    ) -> Result<Self, AnalysisError> {
+        let by_name: HashMap<&str, usize> = reference
+            .points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.name.as_str(), i))
+            .collect();
         let (jr, ref_matrix) = joint_index(reference)?;
         let (jc, cur_matrix) = joint_index(current)?;
         let mut out = Differences {
@@ -83,12 +106,17 @@ impl Differences {
             cur_matrix,
         };
         for c in &current.points {
-            let Some(&ri) = by_name.get(c.name.as_str()) else { continue };
+            let Some(&ri) = by_name.get(c.name.as_str()) else {
+                continue;
+            };
             let r = &reference.points[ri];
             for (p, e) in [(c, current.epoch), (r, reference.epoch)] {
                 check_finite(
                     &format!("point {} of epoch {e}", p.name),
-                    p.xyz_m.iter().chain(p.covariance_m2.iter().flatten()).copied(),
+                    p.xyz_m
+                        .iter()
+                        .chain(p.covariance_m2.iter().flatten())
+                        .copied(),
                 )?;
             }
             let xr = Vector3::from(r.xyz_m);
@@ -97,7 +125,8 @@ impl Differences {
             out.names.push(c.name.clone());
             out.xyz_m.push(xr);
             out.d_mm.push((xc - xr) * 1e3);
-            out.cov_mm2.push(cm(&c.covariance_m2) + cm(&r.covariance_m2));
+            out.cov_mm2
+                .push(cm(&c.covariance_m2) + cm(&r.covariance_m2));
             out.joint_ref.push(jr.get(c.name.as_str()).copied());
             out.joint_cur.push(jc.get(c.name.as_str()).copied());
         }
@@ -120,7 +149,10 @@ impl Differences {
             return self.cov_mm2[i];
         }
         let mut m = Matrix3::zeros();
-        for (idx, mat) in [(&self.joint_ref, &self.ref_matrix), (&self.joint_cur, &self.cur_matrix)] {
+        for (idx, mat) in [
+            (&self.joint_ref, &self.ref_matrix),
+            (&self.joint_cur, &self.cur_matrix),
+        ] {
             if let (Some(a), Some(b), Some((n, v))) = (idx[i], idx[j], mat) {
                 for r in 0..3 {
                     for c in 0..3 {
@@ -183,12 +215,18 @@ fn centroid(diffs: &Differences, datum: &[usize]) -> Vector3<f64> {
     c / datum.len().max(1) as f64
 }
 
-fn design(diffs: &Differences, datum: &[usize], c: &Vector3<f64>, u: usize) -> (DMatrix<f64>, DVector<f64>) {
+fn design(
+    diffs: &Differences,
+    datum: &[usize],
+    c: &Vector3<f64>,
+    u: usize,
+) -> (DMatrix<f64>, DVector<f64>) {
     let m = datum.len();
     let mut g = DMatrix::zeros(3 * m, u);
     let mut d = DVector::zeros(3 * m);
     for (k, &i) in datum.iter().enumerate() {
-        g.view_mut((3 * k, 0), (3, u)).copy_from(&helmert_rows(&(diffs.xyz_m[i] - c), u));
+        g.view_mut((3 * k, 0), (3, u))
+            .copy_from(&helmert_rows(&(diffs.xyz_m[i] - c), u));
         for r in 0..3 {
             d[3 * k + r] = diffs.d_mm[i][r];
         }
@@ -203,7 +241,8 @@ pub(crate) fn datum_covariance(diffs: &Differences, datum: &[usize]) -> DMatrix<
     for (k, &i) in datum.iter().enumerate() {
         for (l, &j) in datum.iter().enumerate() {
             if k == l || (diffs.in_joint(i) && diffs.in_joint(j)) {
-                s.view_mut((3 * k, 3 * l), (3, 3)).copy_from(&diffs.cross(i, j));
+                s.view_mut((3 * k, 3 * l), (3, 3))
+                    .copy_from(&diffs.cross(i, j));
             }
         }
     }
@@ -237,7 +276,11 @@ pub(crate) fn sym_inverse(s: &DMatrix<f64>) -> Option<(DMatrix<f64>, usize)> {
     Some((v * DMatrix::from_diagonal(&inv_vals) * v.transpose(), rank))
 }
 
-fn solve(g: &DMatrix<f64>, w: &DMatrix<f64>, d: &DVector<f64>) -> Result<(DVector<f64>, DMatrix<f64>), AnalysisError> {
+fn solve(
+    g: &DMatrix<f64>,
+    w: &DMatrix<f64>,
+    d: &DVector<f64>,
+) -> Result<(DVector<f64>, DMatrix<f64>), AnalysisError> {
     let gtw = g.transpose() * w;
     let n = &gtw * g;
     let ch = n.cholesky().ok_or_else(|| AnalysisError::Singular {
@@ -256,17 +299,29 @@ pub(crate) fn fit_weighted(
 ) -> Result<DatumFit, AnalysisError> {
     let u = kind.parameters();
     if datum.len() < kind.min_points() {
-        return Err(AnalysisError::TooFewDatumPoints { found: datum.len(), needed: kind.min_points() });
+        return Err(AnalysisError::TooFewDatumPoints {
+            found: datum.len(),
+            needed: kind.min_points(),
+        });
     }
     let c = centroid(diffs, datum);
     let (g, d) = design(diffs, datum, &c, u);
-    let (w, rank) = sym_inverse(&datum_covariance(diffs, datum)).ok_or_else(|| AnalysisError::Singular {
-        what: "covariance of the datum points' differences".into(),
-    })?;
+    let (w, rank) =
+        sym_inverse(&datum_covariance(diffs, datum)).ok_or_else(|| AnalysisError::Singular {
+            what: "covariance of the datum points' differences".into(),
+        })?;
     let (p, a) = solve(&g, &w, &d)?;
     let v = &d - &g * &p;
     let omega = (v.transpose() * &w * &v)[(0, 0)];
-    Ok(DatumFit { datum: datum.to_vec(), centroid: c, params: p, a, omega, redundancy: rank.saturating_sub(u), u })
+    Ok(DatumFit {
+        datum: datum.to_vec(),
+        centroid: c,
+        params: p,
+        a,
+        omega,
+        redundancy: rank.saturating_sub(u),
+        u,
+    })
 }
 
 /// IWST over `datum`: L1 (Σ|d'|/σ) fit by iteratively reweighted least squares.
@@ -278,7 +333,10 @@ pub(crate) fn fit_iwst(
 ) -> Result<DatumFit, AnalysisError> {
     let u = kind.parameters();
     if datum.len() < kind.min_points() {
-        return Err(AnalysisError::TooFewDatumPoints { found: datum.len(), needed: kind.min_points() });
+        return Err(AnalysisError::TooFewDatumPoints {
+            found: datum.len(),
+            needed: kind.min_points(),
+        });
     }
     let c = centroid(diffs, datum);
     let (g, d) = design(diffs, datum, &c, u);
@@ -304,15 +362,28 @@ pub(crate) fn fit_iwst(
             break;
         }
     }
-    Ok(DatumFit { datum: datum.to_vec(), centroid: c, params: p, a, omega: f64::NAN, redundancy: 0, u })
+    Ok(DatumFit {
+        datum: datum.to_vec(),
+        centroid: c,
+        params: p,
+        a,
+        omega: f64::NAN,
+        redundancy: 0,
+        u,
+    })
 }
 
 /// Transformed difference (mm) and its covariance (mm²) of every common point.
-pub(crate) fn transform_all(diffs: &Differences, fit: &DatumFit) -> Vec<(Vector3<f64>, Matrix3<f64>)> {
+pub(crate) fn transform_all(
+    diffs: &Differences,
+    fit: &DatumFit,
+) -> Vec<(Vector3<f64>, Matrix3<f64>)> {
     let u = fit.u;
     let m = fit.datum.len();
     // A split in u × 3 blocks per datum point.
-    let a_blocks: Vec<DMatrix<f64>> = (0..m).map(|k| fit.a.columns(3 * k, 3).into_owned()).collect();
+    let a_blocks: Vec<DMatrix<f64>> = (0..m)
+        .map(|k| fit.a.columns(3 * k, 3).into_owned())
+        .collect();
     // P = A Σ_SS Aᵀ, exploiting block sparsity.
     let mut p = DMatrix::<f64>::zeros(u, u);
     let joint: Vec<usize> = (0..m).filter(|&k| diffs.in_joint(fit.datum[k])).collect();
@@ -328,7 +399,8 @@ pub(crate) fn transform_all(diffs: &Differences, fit: &DatumFit) -> Vec<(Vector3
             }
         }
     }
-    let pos_in_datum: HashMap<usize, usize> = fit.datum.iter().enumerate().map(|(k, &i)| (i, k)).collect();
+    let pos_in_datum: HashMap<usize, usize> =
+        fit.datum.iter().enumerate().map(|(k, &i)| (i, k)).collect();
     (0..diffs.len())
         .map(|i| {
             let g = helmert_rows(&(diffs.xyz_m[i] - fit.centroid), u);

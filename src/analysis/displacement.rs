@@ -82,19 +82,39 @@ pub(crate) struct PointTest {
     pub significant: bool,
 }
 
-pub(crate) fn point_test(d: &Vector3<f64>, cov: &Matrix3<f64>, confidence: f64, variance_dof: Option<f64>) -> PointTest {
+pub(crate) fn point_test(
+    d: &Vector3<f64>,
+    cov: &Matrix3<f64>,
+    confidence: f64,
+    variance_dof: Option<f64>,
+) -> PointTest {
     let m = DMatrix::from_fn(3, 3, |r, c| cov[(r, c)]);
     let Some((inv, rank)) = sym_inverse(&m) else {
-        return PointTest { statistic: f64::INFINITY, dof: 0, critical: f64::INFINITY, significant: false };
+        return PointTest {
+            statistic: f64::INFINITY,
+            dof: 0,
+            critical: f64::INFINITY,
+            significant: false,
+        };
     };
     if rank == 0 {
-        return PointTest { statistic: 0.0, dof: 0, critical: f64::INFINITY, significant: false };
+        return PointTest {
+            statistic: 0.0,
+            dof: 0,
+            critical: f64::INFINITY,
+            significant: false,
+        };
     }
     let dv = DMatrix::from_fn(3, 1, |r, _| d[r]);
     let statistic = (dv.transpose() * inv * &dv)[(0, 0)];
     let h = rank as f64;
     let critical = h * f_quantile(confidence, h, variance_dof.unwrap_or(f64::INFINITY));
-    PointTest { statistic, dof: rank, critical, significant: statistic > critical }
+    PointTest {
+        statistic,
+        dof: rank,
+        critical,
+        significant: statistic > critical,
+    }
 }
 
 /// σ of the 3-D length of `d` (mm) given its covariance (mm²).

@@ -44,7 +44,11 @@ pub struct EpochCoordinates {
 
 impl EpochCoordinates {
     /// Builds the analysis input from an adjustment result (coordinates in m, covariances in m²).
-    pub fn from_adjustment(epoch: i64, observed_at: DateTime<Utc>, adjustment: &Adjustment) -> Self {
+    pub fn from_adjustment(
+        epoch: i64,
+        observed_at: DateTime<Utc>,
+        adjustment: &Adjustment,
+    ) -> Self {
         EpochCoordinates {
             epoch,
             observed_at,
@@ -204,27 +208,40 @@ impl AnalysisConfig {
     /// Checks ranges; every analysis calls it.
     pub fn validate(&self) -> Result<(), AnalysisError> {
         let p = |x: f64| x > 0.0 && x < 1.0;
-        if !p(self.confidence) || !p(self.congruence_confidence) || !p(self.failure.acceleration_confidence) {
-            return Err(AnalysisError::InvalidConfig("confidences must lie in (0, 1)".into()));
+        if !p(self.confidence)
+            || !p(self.congruence_confidence)
+            || !p(self.failure.acceleration_confidence)
+        {
+            return Err(AnalysisError::InvalidConfig(
+                "confidences must lie in (0, 1)".into(),
+            ));
         }
         if let Some(f) = self.variance_dof {
             if !(f > 0.0) {
-                return Err(AnalysisError::InvalidConfig("variance_dof must be > 0".into()));
+                return Err(AnalysisError::InvalidConfig(
+                    "variance_dof must be > 0".into(),
+                ));
             }
         }
         for w in [self.velocity_window, self.failure.window] {
             match w {
                 Window::Epochs(n) if n < 2 => {
-                    return Err(AnalysisError::InvalidConfig("a window needs ≥ 2 epochs".into()))
+                    return Err(AnalysisError::InvalidConfig(
+                        "a window needs ≥ 2 epochs".into(),
+                    ))
                 }
                 Window::Days(d) if !(d > 0.0) => {
-                    return Err(AnalysisError::InvalidConfig("a window needs > 0 days".into()))
+                    return Err(AnalysisError::InvalidConfig(
+                        "a window needs > 0 days".into(),
+                    ))
                 }
                 _ => {}
             }
         }
         if self.failure.smoothing_epochs < 2 {
-            return Err(AnalysisError::InvalidConfig("smoothing_epochs must be ≥ 2".into()));
+            return Err(AnalysisError::InvalidConfig(
+                "smoothing_epochs must be ≥ 2".into(),
+            ));
         }
         Ok(())
     }

@@ -55,7 +55,12 @@ pub fn forecast(samples: &[Sample], config: &FailureConfig) -> Option<FailureFor
     let tm = t.iter().zip(&w).map(|(x, w)| w * x).sum::<f64>() / sw;
     let ym = inv.iter().zip(&w).map(|(y, w)| w * y).sum::<f64>() / sw;
     let stt: f64 = t.iter().zip(&w).map(|(x, w)| w * (x - tm).powi(2)).sum();
-    let sty: f64 = t.iter().zip(&inv).zip(&w).map(|((x, y), w)| w * (x - tm) * (y - ym)).sum();
+    let sty: f64 = t
+        .iter()
+        .zip(&inv)
+        .zip(&w)
+        .map(|((x, y), w)| w * (x - tm) * (y - ym))
+        .sum();
     let syy: f64 = inv.iter().zip(&w).map(|(y, w)| w * (y - ym).powi(2)).sum();
     if !(stt > 0.0) || !(syy > 0.0) {
         return None;

@@ -26,16 +26,16 @@ pub mod stats;
 pub mod velocity;
 
 pub use alerts::{
-    acknowledge, check_overdue, evaluate_alerts, resolve, Alert, AlertConfig, AlertEvent, AlertEventType,
-    AlertKind, AlertLevel, AlertRule, AlertState, AlertStatus, Metric,
+    acknowledge, check_overdue, evaluate_alerts, resolve, Alert, AlertConfig, AlertEvent,
+    AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState, AlertStatus, Metric,
 };
 pub use analyse::{analyse_epoch, DatumReport, EpochAnalysis, History};
 pub use congruence::CongruenceTest;
 pub use datum::DatumMethod;
 pub use displacement::{DisplacementRecord, PointAnalysis};
 pub use epoch::{
-    AnalysisConfig, DatumTransformation, EpochCoordinates, FailureConfig, JointCovarianceM2, PointConfig,
-    PointCoordinates, PointRole, Window,
+    AnalysisConfig, DatumTransformation, EpochCoordinates, FailureConfig, JointCovarianceM2,
+    PointConfig, PointCoordinates, PointRole, Window,
 };
 pub use error::AnalysisError;
 pub use failure::FailureForecast;

@@ -71,7 +71,11 @@ pub fn fit_polynomial(samples: &[Sample], degree: usize) -> Option<PolyFit> {
     if !coef.iter().chain(cov.iter()).all(|v| v.is_finite()) {
         return None;
     }
-    Some(PolyFit { coef, cov, variance_factor })
+    Some(PolyFit {
+        coef,
+        cov,
+        variance_factor,
+    })
 }
 
 /// Velocity and acceleration of one point at the current epoch.
@@ -116,9 +120,16 @@ pub fn kinematics(
     let s = window_slice(samples, window);
     let line = fit_polynomial(s, 1)?;
     let sa = window_slice(samples, acceleration_window);
-    let parabola = if sa.len() >= 4 { fit_polynomial(sa, 2) } else { None };
+    let parabola = if sa.len() >= 4 {
+        fit_polynomial(sa, 2)
+    } else {
+        None
+    };
     let (acc, sacc) = match &parabola {
-        Some(p) => (Some(2.0 * p.coef[2]), Some(2.0 * p.cov[(2, 2)].max(0.0).sqrt())),
+        Some(p) => (
+            Some(2.0 * p.coef[2]),
+            Some(2.0 * p.cov[(2, 2)].max(0.0).sqrt()),
+        ),
         None => (None, None),
     };
     let z_acc = normal_quantile(acceleration_confidence);

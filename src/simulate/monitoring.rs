@@ -9,7 +9,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::analysis::{EpochCoordinates, JointCovarianceM2, PointConfig, PointCoordinates, PointRole};
+use crate::analysis::{
+    EpochCoordinates, JointCovarianceM2, PointConfig, PointCoordinates, PointRole,
+};
 
 /// Parameters of a simulated series.
 #[derive(Debug, Clone)]
@@ -116,7 +118,9 @@ impl MonitoringScenario {
     /// Generates the series.
     pub fn generate(&self) -> MonitoringSeries {
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
-        let start: DateTime<Utc> = DateTime::parse_from_rfc3339("2026-01-01T00:00:00Z").map(|t| t.to_utc()).unwrap_or_default();
+        let start: DateTime<Utc> = DateTime::parse_from_rfc3339("2026-01-01T00:00:00Z")
+            .map(|t| t.to_utc())
+            .unwrap_or_default();
         let mut names = vec![];
         let mut xyz = vec![];
         let mut points = vec![];
@@ -125,40 +129,80 @@ impl MonitoringScenario {
         for k in 0..n_s {
             let a = k as f64 / n_s.max(1) as f64 * std::f64::consts::TAU;
             names.push(format!("R{}", k + 1));
-            xyz.push(Vector3::new(self.radius_m * a.cos(), 100.0 + 0.3 * self.radius_m * a.sin(), 20.0 + self.radius_m * a.sin()));
-            points.push(PointConfig { name: names[k].clone(), role: PointRole::Stable, group: Some("reference".into()), direction: None });
+            xyz.push(Vector3::new(
+                self.radius_m * a.cos(),
+                100.0 + 0.3 * self.radius_m * a.sin(),
+                20.0 + self.radius_m * a.sin(),
+            ));
+            points.push(PointConfig {
+                name: names[k].clone(),
+                role: PointRole::Stable,
+                group: Some("reference".into()),
+                direction: None,
+            });
         }
         for k in 0..self.block_points {
             names.push(format!("B{}", k + 1));
-            xyz.push(Vector3::new(rng.gen_range(-5.0..5.0), 100.0 + rng.gen_range(-1.0..1.0), 20.0 + rng.gen_range(-5.0..5.0)));
-            points.push(PointConfig { name: names.last().cloned().unwrap_or_default(), role: PointRole::Monitored, group: Some("block".into()), direction: Some(self.direction) });
+            xyz.push(Vector3::new(
+                rng.gen_range(-5.0..5.0),
+                100.0 + rng.gen_range(-1.0..1.0),
+                20.0 + rng.gen_range(-5.0..5.0),
+            ));
+            points.push(PointConfig {
+                name: names.last().cloned().unwrap_or_default(),
+                role: PointRole::Monitored,
+                group: Some("block".into()),
+                direction: Some(self.direction),
+            });
         }
         for k in 0..self.other_points {
             names.push(format!("M{}", k + 1));
             let r = self.radius_m * rng.gen_range(0.2..0.8);
             let a: f64 = rng.gen_range(0.0..std::f64::consts::TAU);
-            xyz.push(Vector3::new(r * a.cos(), 100.0 + rng.gen_range(-2.0..2.0), 20.0 + r * a.sin()));
-            points.push(PointConfig { name: names.last().cloned().unwrap_or_default(), role: PointRole::Monitored, group: None, direction: None });
+            xyz.push(Vector3::new(
+                r * a.cos(),
+                100.0 + rng.gen_range(-2.0..2.0),
+                20.0 + r * a.sin(),
+            ));
+            points.push(PointConfig {
+                name: names.last().cloned().unwrap_or_default(),
+                role: PointRole::Monitored,
+                group: None,
+                direction: None,
+            });
         }
         // Per-point covariance (mm²): anisotropic, depth (Y, towards the cameras) weaker, slightly rotated.
         let covs: Vec<Matrix3<f64>> = (0..names.len())
             .map(|_| {
                 let s = self.sigma_mm * rng.gen_range(0.7..1.3);
-                let d = Matrix3::from_diagonal(&Vector3::new(s * s, 4.0 * s * s, s * s * rng.gen_range(0.8..1.5)));
-                let r = Rotation3::from_euler_angles(rng.gen_range(-0.3..0.3), rng.gen_range(-0.3..0.3), rng.gen_range(-0.3..0.3));
+                let d = Matrix3::from_diagonal(&Vector3::new(
+                    s * s,
+                    4.0 * s * s,
+                    s * s * rng.gen_range(0.8..1.5),
+                ));
+                let r = Rotation3::from_euler_angles(
+                    rng.gen_range(-0.3..0.3),
+                    rng.gen_range(-0.3..0.3),
+                    rng.gen_range(-0.3..0.3),
+                );
                 r.matrix() * d * r.matrix().transpose()
             })
             .collect();
-        let chols: Vec<Matrix3<f64>> = covs.iter().map(|c| c.cholesky().map(|l| l.l()).unwrap_or_else(Matrix3::zeros)).collect();
+        let chols: Vec<Matrix3<f64>> = covs
+            .iter()
+            .map(|c| c.cholesky().map(|l| l.l()).unwrap_or_else(Matrix3::zeros))
+            .collect();
         let n = names.len();
         let mut epochs = vec![];
         for e in 0..self.epochs {
             let t_days = e as f64 * self.interval_hours / 24.0;
-            let observed_at = start + Duration::milliseconds((t_days * 86_400_000.0).round() as i64);
+            let observed_at =
+                start + Duration::milliseconds((t_days * 86_400_000.0).round() as i64);
             let dm = self.block_displacement_mm(t_days);
             let mut gauss = || -> f64 { StandardNormal.sample(&mut rng) };
             let shift = Vector3::new(gauss(), gauss(), gauss()) * self.datum_change_mm;
-            let rot = Vector3::new(gauss(), gauss(), gauss()) * self.datum_change_mm / self.radius_m;
+            let rot =
+                Vector3::new(gauss(), gauss(), gauss()) * self.datum_change_mm / self.radius_m;
             let scale = gauss() * self.datum_change_mm / self.radius_m;
             let mut pts = vec![];
             let mut truth = vec![];
@@ -177,7 +221,11 @@ impl MonitoringScenario {
                 let datum = shift + rot.cross(&p) + p * scale;
                 let x = xyz[i] + (true_d + noise + datum) * 1e-3;
                 let cov_m2 = covs[i] * 1e-6;
-                pts.push(PointCoordinates { name: names[i].clone(), xyz_m: x.into(), covariance_m2: cov_m2.into() });
+                pts.push(PointCoordinates {
+                    name: names[i].clone(),
+                    xyz_m: x.into(),
+                    covariance_m2: cov_m2.into(),
+                });
                 truth.push(true_d.into());
             }
             // Joint covariance of the stable points: block diagonal (the noise is independent per point).
@@ -194,15 +242,27 @@ impl MonitoringScenario {
                     epoch: e as i64 + 1,
                     observed_at,
                     points: pts,
-                    joint: (n_s > 0).then(|| JointCovarianceM2 { points: names[..n_s].to_vec(), matrix_m2: m }),
+                    joint: (n_s > 0).then(|| JointCovarianceM2 {
+                        points: names[..n_s].to_vec(),
+                        matrix_m2: m,
+                    }),
                 },
                 true_displacement_mm: truth,
-                block_velocity_mm_per_day: if self.block_points > 0 { self.block_velocity(t_days) } else { 0.0 },
+                block_velocity_mm_per_day: if self.block_points > 0 {
+                    self.block_velocity(t_days)
+                } else {
+                    0.0
+                },
             });
         }
-        let failure_at = self
-            .acceleration_start_days
-            .map(|_| start + Duration::milliseconds((self.failure_days * 86_400_000.0).round() as i64));
-        MonitoringSeries { points, epochs, failure_at, start }
+        let failure_at = self.acceleration_start_days.map(|_| {
+            start + Duration::milliseconds((self.failure_days * 86_400_000.0).round() as i64)
+        });
+        MonitoringSeries {
+            points,
+            epochs,
+            failure_at,
+            start,
+        }
     }
 }

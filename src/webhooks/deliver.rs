@@ -45,7 +45,10 @@ pub fn classify(status: u16, retry_after: Option<&str>, now: DateTime<Utc>) -> D
             retry_after: retry_after.and_then(|v| parse_retry_after(v, now)),
             reason: format!("HTTP {status}"),
         },
-        _ => DeliveryOutcome::Failed { status: Some(status), reason: format!("HTTP {status}") },
+        _ => DeliveryOutcome::Failed {
+            status: Some(status),
+            reason: format!("HTTP {status}"),
+        },
     }
 }
 
@@ -63,7 +66,12 @@ pub async fn deliver(
     let ts = now.timestamp();
     let signature = match sign(secret, msg_id, ts, body) {
         Ok(s) => s,
-        Err(e) => return DeliveryOutcome::Failed { status: None, reason: e.to_string() },
+        Err(e) => {
+            return DeliveryOutcome::Failed {
+                status: None,
+                reason: e.to_string(),
+            }
+        }
     };
     let resp = client
         .post(url)
@@ -77,10 +85,21 @@ pub async fn deliver(
     match resp {
         Ok(r) => {
             let status = r.status().as_u16();
-            let ra = r.headers().get("retry-after").and_then(|v| v.to_str().ok()).map(str::to_string);
+            let ra = r
+                .headers()
+                .get("retry-after")
+                .and_then(|v| v.to_str().ok())
+                .map(str::to_string);
             classify(status, ra.as_deref(), now)
         }
-        Err(e) if e.is_builder() => DeliveryOutcome::Failed { status: None, reason: e.to_string() },
-        Err(e) => DeliveryOutcome::Retry { status: None, retry_after: None, reason: e.to_string() },
+        Err(e) if e.is_builder() => DeliveryOutcome::Failed {
+            status: None,
+            reason: e.to_string(),
+        },
+        Err(e) => DeliveryOutcome::Retry {
+            status: None,
+            retry_after: None,
+            reason: e.to_string(),
+        },
     }
 }

@@ -45,7 +45,10 @@ fn enabled() -> bool {
 /// Whether the endpoint takes this event: enabled and the alert's peak level ≥ `min_level` (the peak, so
 /// that an endpoint told of an alert also hears of its de-escalation and resolution).
 pub fn accepts(endpoint: &WebhookEndpoint, event: &AlertEvent) -> bool {
-    endpoint.enabled && endpoint.min_level.is_none_or(|m| event.alert.peak_level.max(event.alert.level) >= m)
+    endpoint.enabled
+        && endpoint
+            .min_level
+            .is_none_or(|m| event.alert.peak_level.max(event.alert.level) >= m)
 }
 
 /// `data` of the contract body.
@@ -105,7 +108,11 @@ impl WebhookPayload {
                 alert_id: a.id.clone(),
                 site: a.site.clone(),
                 point: a.point.clone(),
-                points: if a.point.is_none() { a.points.clone() } else { vec![] },
+                points: if a.point.is_none() {
+                    a.points.clone()
+                } else {
+                    vec![]
+                },
                 level: a.level,
                 rule: a.rule.as_str().to_string(),
                 value: a.value,
@@ -131,7 +138,13 @@ pub fn message_id(event: &AlertEvent) -> String {
     h.update(b"|");
     h.update(event.alert.level.as_str().as_bytes());
     let d = h.finalize();
-    format!("msg_{}", d[..16].iter().map(|b| format!("{b:02x}")).collect::<String>())
+    format!(
+        "msg_{}",
+        d[..16]
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect::<String>()
+    )
 }
 
 /// One alert of the Alertmanager body.
@@ -185,9 +198,16 @@ pub struct AlertmanagerBody {
 /// Alertmanager-compatible body of an event (`resolved` for `alert.resolved`, else `firing`).
 pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody {
     let a = &event.alert;
-    let status = if event.event_type == AlertEventType::Resolved { "resolved" } else { "firing" };
+    let status = if event.event_type == AlertEventType::Resolved {
+        "resolved"
+    } else {
+        "firing"
+    };
     let mut labels = BTreeMap::new();
-    labels.insert("alertname".to_string(), format!("cliffwatch_{}", a.rule.as_str()));
+    labels.insert(
+        "alertname".to_string(),
+        format!("cliffwatch_{}", a.rule.as_str()),
+    );
     labels.insert("site".to_string(), a.site.clone());
     labels.insert("severity".to_string(), a.level.as_str().to_string());
     labels.insert("rule".to_string(), a.rule.as_str().to_string());
@@ -212,7 +232,10 @@ pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody
     group.insert("alertname".to_string(), labels["alertname"].clone());
     AlertmanagerBody {
         version: "4".into(),
-        group_key: format!("{{}}:{{site=\"{}\", alertname=\"{}\"}}", a.site, labels["alertname"]),
+        group_key: format!(
+            "{{}}:{{site=\"{}\", alertname=\"{}\"}}",
+            a.site, labels["alertname"]
+        ),
         truncated_alerts: 0,
         status: status.into(),
         receiver: receiver.into(),
@@ -225,7 +248,11 @@ pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody
             labels,
             annotations: ann,
             starts_at: t(a.raised_at),
-            ends_at: if status == "resolved" { t(event.timestamp) } else { "0001-01-01T00:00:00Z".into() },
+            ends_at: if status == "resolved" {
+                t(event.timestamp)
+            } else {
+                "0001-01-01T00:00:00Z".into()
+            },
             generator_url: String::new(),
             fingerprint: a.id.clone(),
         }],

@@ -23,21 +23,32 @@ pub struct RetryPolicy {
 
 impl Default for RetryPolicy {
     fn default() -> Self {
-        RetryPolicy { base_seconds: 5.0, max_delay_seconds: 3600.0, max_attempts: 15, max_retry_after_seconds: 86_400.0 }
+        RetryPolicy {
+            base_seconds: 5.0,
+            max_delay_seconds: 3600.0,
+            max_attempts: 15,
+            max_retry_after_seconds: 86_400.0,
+        }
     }
 }
 
 impl RetryPolicy {
     /// Backoff ceiling d = min(cap, base·2^attempt) in seconds for retry number `attempt` (0 = first retry).
     pub fn ceiling_seconds(&self, attempt: u32) -> f64 {
-        (self.base_seconds * 2f64.powi(attempt.min(60) as i32)).min(self.max_delay_seconds).max(0.0)
+        (self.base_seconds * 2f64.powi(attempt.min(60) as i32))
+            .min(self.max_delay_seconds)
+            .max(0.0)
     }
 }
 
 /// Backoff delay of retry number `attempt` (0 = the first retry): uniform in [d/2, d].
 pub fn backoff_delay<R: Rng + ?Sized>(policy: &RetryPolicy, attempt: u32, rng: &mut R) -> Duration {
     let d = policy.ceiling_seconds(attempt);
-    let s = if d > 0.0 { rng.gen_range(0.5 * d..=d) } else { 0.0 };
+    let s = if d > 0.0 {
+        rng.gen_range(0.5 * d..=d)
+    } else {
+        0.0
+    };
     Duration::from_secs_f64(s)
 }
 

@@ -24,7 +24,9 @@ pub enum WebhookError {
 /// as raw bytes (as the contract's test receiver does).
 pub fn signing_key(secret: &str) -> Result<Vec<u8>, WebhookError> {
     let key = match secret.strip_prefix("whsec_") {
-        Some(b64) => STANDARD.decode(b64).map_err(|e| WebhookError::InvalidSecret(e.to_string()))?,
+        Some(b64) => STANDARD
+            .decode(b64)
+            .map_err(|e| WebhookError::InvalidSecret(e.to_string()))?,
         None => secret.as_bytes().to_vec(),
     };
     if key.is_empty() {
@@ -35,7 +37,8 @@ pub fn signing_key(secret: &str) -> Result<Vec<u8>, WebhookError> {
 
 fn mac(key: &[u8], msg_id: &str, timestamp: i64, body: &[u8]) -> Hmac<Sha256> {
     // HMAC accepts keys of any length; new_from_slice cannot fail for HMAC.
-    let mut m = <Hmac<Sha256> as Mac>::new_from_slice(key).unwrap_or_else(|_| unreachable!("HMAC takes any key length"));
+    let mut m = <Hmac<Sha256> as Mac>::new_from_slice(key)
+        .unwrap_or_else(|_| unreachable!("HMAC takes any key length"));
     m.update(msg_id.as_bytes());
     m.update(b".");
     m.update(timestamp.to_string().as_bytes());
@@ -46,7 +49,12 @@ fn mac(key: &[u8], msg_id: &str, timestamp: i64, body: &[u8]) -> Hmac<Sha256> {
 
 /// The `webhook-signature` header value `v1,<base64>` for message `msg_id` sent at `timestamp` (Unix
 /// seconds) with `body`.
-pub fn sign(secret: &str, msg_id: &str, timestamp: i64, body: &[u8]) -> Result<String, WebhookError> {
+pub fn sign(
+    secret: &str,
+    msg_id: &str,
+    timestamp: i64,
+    body: &[u8],
+) -> Result<String, WebhookError> {
     let key = signing_key(secret)?;
     let tag = mac(&key, msg_id, timestamp, body).finalize().into_bytes();
     Ok(format!("v1,{}", STANDARD.encode(tag)))
@@ -55,10 +63,18 @@ pub fn sign(secret: &str, msg_id: &str, timestamp: i64, body: &[u8]) -> Result<S
 /// Verifies a `webhook-signature` header (space-separated `v1,<base64>` entries; any may match) in
 /// constant time. Does not check the timestamp's age (the receiver's tolerance).
 pub fn verify(secret: &str, msg_id: &str, timestamp: i64, body: &[u8], header: &str) -> bool {
-    let Ok(key) = signing_key(secret) else { return false };
+    let Ok(key) = signing_key(secret) else {
+        return false;
+    };
     header.split_whitespace().any(|s| {
-        let Some(b64) = s.strip_prefix("v1,") else { return false };
-        let Ok(tag) = STANDARD.decode(b64) else { return false };
-        mac(&key, msg_id, timestamp, body).verify_slice(&tag).is_ok()
+        let Some(b64) = s.strip_prefix("v1,") else {
+            return false;
+        };
+        let Ok(tag) = STANDARD.decode(b64) else {
+            return false;
+        };
+        mac(&key, msg_id, timestamp, body)
+            .verify_slice(&tag)
+            .is_ok()
     })
 }

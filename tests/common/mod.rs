@@ -2,8 +2,8 @@
 #![allow(dead_code)]
 
 use cliffwatch::analysis::{
-    analyse_epoch, evaluate_alerts, AlertConfig, AlertEvent, AlertState, AnalysisConfig, EpochAnalysis, History,
-    PointConfig,
+    analyse_epoch, evaluate_alerts, AlertConfig, AlertEvent, AlertState, AnalysisConfig,
+    EpochAnalysis, History, PointConfig,
 };
 use cliffwatch::simulate::monitoring::MonitoringSeries;
 
@@ -14,13 +14,19 @@ pub struct Step {
 }
 
 /// Analyses every epoch after the first against the first, feeding the history and alert state forward.
-pub fn run(series: &MonitoringSeries, points: &[PointConfig], config: &AnalysisConfig, alerts: &AlertConfig) -> Vec<Step> {
+pub fn run(
+    series: &MonitoringSeries,
+    points: &[PointConfig],
+    config: &AnalysisConfig,
+    alerts: &AlertConfig,
+) -> Vec<Step> {
     let reference = &series.epochs[0].coordinates;
     let mut history = History::new();
     let mut state = AlertState::default();
     let mut out = vec![];
     for e in &series.epochs[1..] {
-        let analysis = analyse_epoch(reference, &e.coordinates, points, &history, config).expect("analysis");
+        let analysis =
+            analyse_epoch(reference, &e.coordinates, points, &history, config).expect("analysis");
         for r in analysis.records() {
             history.entry(r.point.clone()).or_default().push(r);
         }
