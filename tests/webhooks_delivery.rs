@@ -217,10 +217,13 @@ fn backoff_stays_within_its_bounds() {
     assert_eq!(parse_retry_after("soon", now), None);
 }
 
+/// Statuses (and Retry-After) to answer, in order.
+type Script = Vec<(u16, Option<&'static str>)>;
+
 #[derive(Clone, Default)]
 struct Receiver {
     /// Statuses to answer in order (then 200).
-    script: Arc<Mutex<Vec<(u16, Option<&'static str>)>>>,
+    script: Arc<Mutex<Script>>,
     /// (webhook-id, verified, body) of every request.
     got: Arc<Mutex<Vec<(String, bool, serde_json::Value)>>>,
 }
@@ -265,7 +268,7 @@ async fn hook(
     resp
 }
 
-async fn start(script: Vec<(u16, Option<&'static str>)>) -> (String, Receiver) {
+async fn start(script: Script) -> (String, Receiver) {
     let r = Receiver {
         script: Arc::new(Mutex::new(script)),
         ..Default::default()

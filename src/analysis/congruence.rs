@@ -71,10 +71,7 @@ pub(crate) fn test_and_localise(
     let mut fit = fit_weighted(diffs, &datum, kind)?;
     let mut tests = vec![];
     let mut excluded = vec![];
-    loop {
-        let Some(t) = test_of(diffs, &fit, confidence, variance_dof) else {
-            break;
-        };
+    while let Some(t) = test_of(diffs, &fit, confidence, variance_dof) {
         let passed = t.passed;
         tests.push(t);
         if passed || datum.len() <= kind.min_points() {

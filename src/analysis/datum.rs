@@ -50,9 +50,12 @@ fn check_finite(what: &str, xs: impl IntoIterator<Item = f64>) -> Result<(), Ana
     }
 }
 
+/// A joint covariance in mm²: (dimension, row-major elements).
+type JointMatrix = Option<(usize, Vec<f64>)>;
+
 fn joint_index(
     epoch: &EpochCoordinates,
-) -> Result<(HashMap<&str, usize>, Option<(usize, Vec<f64>)>), AnalysisError> {
+) -> Result<(HashMap<&str, usize>, JointMatrix), AnalysisError> {
     match &epoch.joint {
         None => Ok((HashMap::new(), None)),
         Some(j) => {
@@ -387,9 +390,8 @@ pub(crate) fn transform_all(
     // P = A Σ_SS Aᵀ, exploiting block sparsity.
     let mut p = DMatrix::<f64>::zeros(u, u);
     let joint: Vec<usize> = (0..m).filter(|&k| diffs.in_joint(fit.datum[k])).collect();
-    for k in 0..m {
-        let s = to_d(&diffs.cov_mm2[fit.datum[k]]);
-        p += &a_blocks[k] * s * a_blocks[k].transpose();
+    for (ab, &i) in a_blocks.iter().zip(&fit.datum) {
+        p += ab * to_d(&diffs.cov_mm2[i]) * ab.transpose();
     }
     for &k in &joint {
         for &l in &joint {

@@ -14,6 +14,9 @@
 //! hours. Methods: Caspary 1987 and Niemeier 2008 (S-transformation, congruence test), Chen 1983 (IWST),
 //! Fukuzono 1985 (inverse velocity).
 
+// `!(x > 0.0)` is deliberate throughout: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod alerts;
 pub mod analyse;
 pub mod congruence;
