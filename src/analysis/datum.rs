@@ -352,8 +352,16 @@ pub(crate) fn fit_iwst(
     let mut p = DVector::zeros(u);
     let mut a = DMatrix::zeros(u, n);
     for _ in 0..max_iterations.max(1) {
-        let wm = DMatrix::from_diagonal(&w);
-        let (p_new, a_new) = solve(&g, &wm, &d)?;
+        // GᵀW with W diagonal: scale the columns of Gᵀ (no dense 3m × 3m matrix).
+        let mut gtw = g.transpose();
+        for (j, mut col) in gtw.column_iter_mut().enumerate() {
+            col *= w[j];
+        }
+        let ch = (&gtw * &g).cholesky().ok_or_else(|| AnalysisError::Singular {
+            what: "the datum points do not determine the transformation (collinear or too few)".into(),
+        })?;
+        let a_new = ch.solve(&gtw);
+        let p_new = &a_new * &d;
         let change = (&p_new - &p).amax();
         p = p_new;
         a = a_new;
@@ -361,7 +369,7 @@ pub(crate) fn fit_iwst(
         for j in 0..n {
             w[j] = 1.0 / (sigma[j] * v[j].abs().max(1e-3 * sigma[j]));
         }
-        if change < 1e-9 {
+        if change < 1e-6 {
             break;
         }
     }
