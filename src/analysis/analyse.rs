@@ -12,7 +12,8 @@ use super::displacement::{point_test, sigma_length, DisplacementRecord, PointAna
 use super::epoch::{AnalysisConfig, EpochCoordinates, PointConfig, PointRole};
 use super::error::AnalysisError;
 use super::failure::forecast;
-use super::velocity::{days_between, kinematics, Sample};
+use super::stats::{f_quantile, normal_quantile};
+use super::velocity::{days_between, kinematics_z, Sample};
 
 /// Past displacement records per point name, each list oldest first (records at or after the current
 /// epoch's `observed_at` are ignored, so re-analysing an epoch is idempotent). Only the windows are read:
@@ -198,6 +199,15 @@ pub fn analyse_epoch(
         scale_ppm: get(6) * 1e3,
     };
     let in_datum: std::collections::HashSet<usize> = fit.datum.iter().copied().collect();
+    // Quantiles once per epoch (each is a bisection).
+    let critical3 = 3.0
+        * f_quantile(
+            config.confidence,
+            3.0,
+            config.variance_dof.unwrap_or(f64::INFINITY),
+        );
+    let z_vel = normal_quantile(0.5 + 0.5 * config.confidence);
+    let z_acc = normal_quantile(config.failure.acceleration_confidence);
     let mut out = Vec::with_capacity(diffs.len());
     for (i, (mut d, mut cov)) in transformed.into_iter().enumerate() {
         if same_epoch {
@@ -206,7 +216,7 @@ pub fn analyse_epoch(
         }
         let name = &diffs.names[i];
         let pc = cfg.get(name.as_str());
-        let test = point_test(&d, &cov, config.confidence, config.variance_dof);
+        let test = point_test(&d, &cov, config.confidence, config.variance_dof, critical3);
         let significant = !same_epoch && test.significant;
         let d_mm = d.norm();
         let sigma_mm = sigma_length(&d, &cov);
@@ -230,12 +240,12 @@ pub fn analyse_epoch(
             d_mm,
             sigma_mm: sigma_mm.max(1e-6),
         });
-        let kin = kinematics(
+        let kin = kinematics_z(
             &samples,
             config.velocity_window,
             config.failure.window,
-            config.confidence,
-            config.failure.acceleration_confidence,
+            z_vel,
+            z_acc,
         );
         let failure = match kin {
             Some(k) if k.accelerating && significant => forecast(&samples, &config.failure),

@@ -357,9 +357,12 @@ pub(crate) fn fit_iwst(
         for (j, mut col) in gtw.column_iter_mut().enumerate() {
             col *= w[j];
         }
-        let ch = (&gtw * &g).cholesky().ok_or_else(|| AnalysisError::Singular {
-            what: "the datum points do not determine the transformation (collinear or too few)".into(),
-        })?;
+        let ch = (&gtw * &g)
+            .cholesky()
+            .ok_or_else(|| AnalysisError::Singular {
+                what: "the datum points do not determine the transformation (collinear or too few)"
+                    .into(),
+            })?;
         let a_new = ch.solve(&gtw);
         let p_new = &a_new * &d;
         let change = (&p_new - &p).amax();
@@ -369,7 +372,7 @@ pub(crate) fn fit_iwst(
         for j in 0..n {
             w[j] = 1.0 / (sigma[j] * v[j].abs().max(1e-3 * sigma[j]));
         }
-        if change < 1e-6 {
+        if change < 1e-4 {
             break;
         }
     }

@@ -82,12 +82,24 @@ pub(crate) struct PointTest {
     pub significant: bool,
 }
 
+/// `critical3` is the critical value for a regular covariance, 3·F(3, f; confidence), computed once per epoch.
 pub(crate) fn point_test(
     d: &Vector3<f64>,
     cov: &Matrix3<f64>,
     confidence: f64,
     variance_dof: Option<f64>,
+    critical3: f64,
 ) -> PointTest {
+    // Fast path: a regular 3 × 3 covariance.
+    if let Some(ch) = cov.cholesky() {
+        let statistic = (d.transpose() * ch.inverse() * d)[(0, 0)];
+        return PointTest {
+            statistic,
+            dof: 3,
+            critical: critical3,
+            significant: statistic > critical3,
+        };
+    }
     let m = DMatrix::from_fn(3, 3, |r, c| cov[(r, c)]);
     let Some((inv, rank)) = sym_inverse(&m) else {
         return PointTest {

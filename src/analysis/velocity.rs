@@ -117,6 +117,20 @@ pub fn kinematics(
     confidence: f64,
     acceleration_confidence: f64,
 ) -> Option<Kinematics> {
+    let z = normal_quantile(0.5 + 0.5 * confidence);
+    let z_acc = normal_quantile(acceleration_confidence);
+    kinematics_z(samples, window, acceleration_window, z, z_acc)
+}
+
+/// [`kinematics`] with the normal quantiles given: `z` two-sided for the velocity, `z_acc` one-sided for the
+/// acceleration (compute them once per epoch).
+pub fn kinematics_z(
+    samples: &[Sample],
+    window: Window,
+    acceleration_window: Window,
+    z: f64,
+    z_acc: f64,
+) -> Option<Kinematics> {
     let s = window_slice(samples, window);
     let line = fit_polynomial(s, 1)?;
     let sa = window_slice(samples, acceleration_window);
@@ -132,13 +146,11 @@ pub fn kinematics(
         ),
         None => (None, None),
     };
-    let z_acc = normal_quantile(acceleration_confidence);
     let acc_sig = matches!((acc, sacc), (Some(a), Some(sa)) if a > z_acc * sa && sa.is_finite());
     let (v, sv) = match (&parabola, acc_sig) {
         (Some(p), true) => (p.coef[1], p.cov[(1, 1)].max(0.0).sqrt()),
         _ => (line.coef[1], line.cov[(1, 1)].max(0.0).sqrt()),
     };
-    let z = normal_quantile(0.5 + 0.5 * confidence);
     Some(Kinematics {
         velocity_mm_per_day: v,
         sigma_velocity_mm_per_day: sv,
