@@ -27,6 +27,146 @@ use super::start::{start_values, StartImage};
 /// iteration (a fraction of the mean point block diagonal).
 const GAUGE: f64 = 1e-9;
 
+/// σ of the prior on a self-calibrated c, relative to its given value.
+const C_PRIOR_RELATIVE: f64 = 0.1;
+
+/// Robust residual scale (in a-priori σ) above which stage 1 is taken to sit in a wrong basin.
+const RESCUE_SCALE: f64 = 3.0;
+
+/// Largest epoch (images) for which the leave-one-image-out rescue is tried.
+const RESCUE_MAX_IMAGES: usize = 12;
+
+/// Leave-one-image-out rescue of a stage 1 that failed (a gross error in one image's start, e.g.
+/// swapped labels, can put the whole network in a wrong basin): adjusts without each image in turn,
+/// keeps the best fit, re-resects the left-out image robustly on the adjusted points (its gross errors
+/// are set aside as suspects) and puts it back.
+fn rescue(bundle: &mut Bundle, initial: &Bundle) {
+    let nimg = bundle.images.len();
+    if !(4..=RESCUE_MAX_IMAGES).contains(&nimg) {
+        return;
+    }
+    let mut best: Option<(f64, usize, Bundle)> = None;
+    for j in 0..nimg {
+        let mut trial = initial.clone();
+        for o in trial.obs.iter_mut() {
+            if o.image == j {
+                o.active = false;
+            }
+        }
+        if (0..trial.points.len()).any(|p| {
+            trial.point_obs[p]
+                .iter()
+                .filter(|&&k| trial.obs[k].active)
+                .count()
+                < 2
+        }) {
+            continue;
+        }
+        levenberg_marquardt(&mut trial, 4 * ROBUST_ITERATIONS);
+        let s = residual_scale(&trial, &residual_norms(&trial));
+        if best.as_ref().is_none_or(|b| s < b.0) {
+            best = Some((s, j, trial));
+        }
+    }
+    let Some((s, j, mut trial)) = best else {
+        return;
+    };
+    if s > RESCUE_SCALE {
+        return;
+    }
+    // Put the image back with its start orientation; the reweighted rounds now have four good images
+    // holding the points and pull it in while its gross errors get low weights.
+    for o in trial.obs.iter_mut() {
+        if o.image == j {
+            o.active = true;
+        }
+    }
+    robust_rounds(&mut trial, ROBUST_ITERATIONS);
+    *bundle = trial;
+}
+
+/// Iterations per round of the reweighted first stage.
+const ROBUST_ITERATIONS: usize = 10;
+
+/// Multiple of the robust residual scale beyond which an observation is set aside after the first stage.
+const SCREEN_FACTOR: f64 = 6.0;
+
+/// Screens the residuals of the first stage: observations whose residual exceeds `SCREEN_FACTOR` robust
+/// σ (and 3 a-priori σ) are set aside, largest first, keeping every point in ≥ 2 images and every image
+/// with ≥ 4 observations. Returns how many were set aside.
+fn residual_norms(bundle: &Bundle) -> Vec<f64> {
+    bundle
+        .obs
+        .iter()
+        .map(|o| {
+            if !o.active {
+                return 0.0;
+            }
+            let cam = bundle.image_camera[o.image];
+            let e = residual_value(
+                bundle.model,
+                &bundle.images[o.image],
+                &bundle.interior[cam],
+                &bundle.points[o.point],
+                o.meas,
+                bundle.zbar,
+            );
+            (e[0] * e[0] + e[1] * e[1]).sqrt() / bundle.sigma[cam]
+        })
+        .collect()
+}
+
+/// Robust scale of the active residual norms, in a-priori σ of one coordinate.
+fn residual_scale(bundle: &Bundle, norms: &[f64]) -> f64 {
+    let active: Vec<f64> = norms
+        .iter()
+        .zip(&bundle.obs)
+        .filter(|(_, o)| o.active)
+        .map(|(n, _)| *n)
+        .collect();
+    super::start::robust_scale(&active) / std::f64::consts::SQRT_2
+}
+
+/// Iteratively reweighted least squares with Cauchy weights `1/(1 + (r/(3s))²)`, a few rounds, so
+/// that gross errors (a mislabeled target) cannot drag the solution into a wrong basin before the
+/// screening. Leaves the weights at 1.
+fn robust_rounds(bundle: &mut Bundle, iterations: usize) {
+    for round in 0..12 {
+        let norms = residual_norms(bundle);
+        let s = residual_scale(bundle, &norms).max(1.0);
+        if s < 1.5 && round > 0 {
+            break;
+        }
+        for (o, r) in bundle.obs.iter_mut().zip(&norms) {
+            o.weight = 1.0 / (1.0 + (r / (3.0 * s)).powi(2));
+        }
+        levenberg_marquardt(bundle, iterations);
+    }
+    for o in bundle.obs.iter_mut() {
+        o.weight = 1.0;
+    }
+}
+
+fn screen(bundle: &mut Bundle) -> usize {
+    let norms = residual_norms(bundle);
+    let scale = residual_scale(bundle, &norms);
+    let limit = (SCREEN_FACTOR * scale).max(3.0);
+    let mut order: Vec<usize> = (0..norms.len()).filter(|&k| norms[k] > limit).collect();
+    order.sort_by(|&a, &b| norms[b].total_cmp(&norms[a]));
+    let cap = bundle.obs.len() / 5;
+    let mut n = 0;
+    for k in order {
+        if n >= cap {
+            break;
+        }
+        if droppable(bundle, k) {
+            bundle.obs[k].active = false;
+            n += 1;
+        }
+    }
+    n
+}
+
 /// Validates and adjusts an epoch of the upload form.
 pub fn adjust(input: &EpochInput, options: &AdjustOptions) -> Result<Adjustment, AdjustError> {
     let problem = input.validate()?;
@@ -180,6 +320,7 @@ pub fn adjust_problem(
                 point: o.point,
                 meas: o.xy,
                 active: !start.suspects.contains(&(j, k)),
+                weight: 1.0,
             });
         }
     }
@@ -205,6 +346,17 @@ pub fn adjust_problem(
             })
             .collect(),
         gauge: 0.0,
+        // A weak prior on c (10 % of the given value) keeps a self-calibrated c finite where the
+        // geometry cannot determine it (a flat face at long range); elsewhere its weight is negligible.
+        interior_prior: problem
+            .cameras
+            .iter()
+            .map(|c| {
+                let mut p = [None; 8];
+                p[0] = Some((c.c(), C_PRIOR_RELATIVE * c.c()));
+                p
+            })
+            .collect(),
     };
     if datum == Datum::Free {
         let n = bundle.normals();
@@ -219,7 +371,19 @@ pub fn adjust_problem(
         0
     };
 
-    let mut outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
+    // Stage 1: interior held; with snooping on, iteratively reweighted from the start so that a gross
+    // error cannot pull the solution into a wrong basin; then gross residuals are set aside.
+    let initial = bundle.clone();
+    let mut outcome = if options.snooping {
+        robust_rounds(&mut bundle, ROBUST_ITERATIONS);
+        if residual_scale(&bundle, &residual_norms(&bundle)) > RESCUE_SCALE {
+            rescue(&mut bundle, &initial);
+        }
+        screen(&mut bundle);
+        levenberg_marquardt(&mut bundle, options.max_iterations)
+    } else {
+        levenberg_marquardt(&mut bundle, options.max_iterations)
+    };
     let stage2: Vec<[bool; 8]> = free
         .iter()
         .map(|f| [f[0], false, false, false, false, false, false, false])
@@ -331,7 +495,9 @@ pub fn adjust_problem(
     }
     let active = bundle.obs.iter().filter(|o| o.active).count();
     let unknowns_now = bundle.camera_unknowns() + 3 * np;
-    let dof = 2 * active as i64 + control_eq as i64 - unknowns_now as i64 + defect;
+    let dof = 2 * active as i64 + control_eq as i64 + bundle.prior_count() as i64
+        - unknowns_now as i64
+        + defect;
     let _ = unknowns;
     if dof <= 0 {
         return Err(AdjustError::TooFewObservations {

@@ -37,6 +37,8 @@ pub struct Obs {
     pub meas: [f64; 2],
     /// Whether it takes part (false once dropped as a blunder).
     pub active: bool,
+    /// Robust weight factor (1 in the final adjustment; below 1 while gross errors are screened).
+    pub weight: f64,
 }
 
 /// Residual (corrected measurement − model, mm) of the generic model, eq (5)+(9) or eq (2).

@@ -37,6 +37,8 @@ pub struct Bundle {
     /// Weight of the tiny prior on point increments that fixes the free network's datum defect during
     /// the iteration (0 when control points fix the datum).
     pub gauge: f64,
+    /// A-priori value and σ of interior parameters (weighted pseudo-observations), per camera.
+    pub interior_prior: Vec<[Option<(f64, f64)>; 8]>,
 }
 
 /// Coupling W_i of one point with the image/interior unknowns: sparse rows (global column, 1 × 3).
@@ -123,7 +125,7 @@ impl Bundle {
                 o.meas,
                 self.zbar,
             );
-            let p = 1.0 / (self.sigma[cam] * self.sigma[cam]);
+            let p = o.weight / (self.sigma[cam] * self.sigma[cam]);
             cost += p * (e[0] * e[0] + e[1] * e[1]);
         }
         for (x, c) in self.points.iter().zip(&self.control) {
@@ -131,7 +133,23 @@ impl Bundle {
                 cost += (x - xc).norm_squared() / (s * s);
             }
         }
+        for (cam, priors) in self.interior_prior.iter().enumerate() {
+            for k in 0..8 {
+                if let (true, Some((v, s))) = (self.free[cam][k], priors[k]) {
+                    cost += ((self.interior[cam][k] - v) / s).powi(2);
+                }
+            }
+        }
         cost
+    }
+
+    /// Number of interior pseudo-observations in force (priors on free parameters).
+    pub fn prior_count(&self) -> usize {
+        self.interior_prior
+            .iter()
+            .zip(&self.free)
+            .map(|(p, f)| (0..8).filter(|&k| f[k] && p[k].is_some()).count())
+            .sum()
     }
 
     /// Global columns (and local Jacobian columns) of the camera-side unknowns of an observation.
@@ -168,7 +186,7 @@ impl Bundle {
                     continue;
                 }
                 let cam = self.image_camera[o.image];
-                let p = 1.0 / (self.sigma[cam] * self.sigma[cam]);
+                let p = o.weight / (self.sigma[cam] * self.sigma[cam]);
                 let f = residual_jacobian(
                     self.model,
                     &self.images[o.image],
@@ -204,6 +222,17 @@ impl Bundle {
                 cost += p * e.norm_squared();
                 v[i] += p * Matrix3::identity();
                 bp[i] -= p * e;
+            }
+        }
+        for (cam, cols) in icols.iter().enumerate() {
+            for k in 0..8 {
+                if let (Some(g), Some((v, s))) = (cols[k], self.interior_prior[cam][k]) {
+                    let p = 1.0 / (s * s);
+                    let e = self.interior[cam][k] - v;
+                    cost += p * e * e;
+                    u[(g, g)] += p;
+                    bc[g] -= p * e;
+                }
             }
         }
         Normals {

@@ -164,17 +164,59 @@ fn intersect_rays(rays: &[(Vector3<f64>, Vector3<f64>)]) -> Option<Vector3<f64>>
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// Resection of one image from its known points, robust to a few gross misfits: the worst point is
-/// left out while it misfits by more than `gross` mm and more than four points remain.
-fn resect_image(
+/// A resection: rotation, projection centre (m) and the observations (indices) left out as gross.
+pub type Resection = (Matrix3<f64>, Vector3<f64>, Vec<usize>);
+
+/// Orientation (rotation, centre, squared misfit sum) of one image from points of known coordinates:
+/// affine candidates refined with the perspective model, the best kept.
+fn fit_orientation(
+    pts: &[Vector3<f64>],
+    xy: &[[f64; 2]],
+    c: f64,
+) -> Option<(Matrix3<f64>, Vector3<f64>, f64)> {
+    let candidates: Vec<ConstrainedAffine> = if is_planar(pts, PLANAR_RATIO) {
+        resect_planar(pts, xy).map(Vec::from).unwrap_or_default()
+    } else {
+        resect(pts, xy)
+            .and_then(|a| a.constrained())
+            .into_iter()
+            .collect()
+    };
+    candidates
+        .iter()
+        .filter_map(|cand| refine_image(cand, pts, xy, c))
+        .min_by(|a, b| a.2.total_cmp(&b.2))
+}
+
+/// Misfit (mm) of an observed image point against collinearity, eq (2).
+fn misfit(
+    rot: &Matrix3<f64>,
+    center: &Vector3<f64>,
+    c: f64,
+    p: &Vector3<f64>,
+    o: &[f64; 2],
+) -> f64 {
+    let d = (p - center).transpose();
+    let w = rot.row(2).dot(&d);
+    let x = -c * rot.row(0).dot(&d) / w;
+    let y = -c * rot.row(1).dot(&d) / w;
+    ((o[0] - x).powi(2) + (o[1] - y).powi(2)).sqrt()
+}
+
+/// Resection of one image from its known points (rotation, centre, and the indices of the observations
+/// left out), robust to a few gross misfits: the worst point is left out while it misfits by more than
+/// eight robust σ and more than five points remain.
+pub fn resect_image(
     im: &StartImage,
     known: &[Option<Vector3<f64>>],
-) -> Result<(Matrix3<f64>, Vector3<f64>), AdjustError> {
-    let mut used: Vec<(Vector3<f64>, [f64; 2])> = im
+) -> Result<Resection, AdjustError> {
+    let mut used: Vec<(Vector3<f64>, [f64; 2], usize)> = im
         .observations
         .iter()
-        .filter_map(|(p, xy)| known[*p].map(|k| (k, *xy)))
+        .enumerate()
+        .filter_map(|(k, (p, xy))| known[*p].map(|x| (x, *xy, k)))
         .collect();
+    let mut removed = Vec::new();
     if used.len() < 4 {
         return Err(AdjustError::TooFewKnownPoints {
             image: im.id.clone(),
@@ -184,19 +226,7 @@ fn resect_image(
     loop {
         let pts: Vec<Vector3<f64>> = used.iter().map(|u| u.0).collect();
         let xy: Vec<[f64; 2]> = used.iter().map(|u| u.1).collect();
-        let candidates: Vec<ConstrainedAffine> = if is_planar(&pts, PLANAR_RATIO) {
-            resect_planar(&pts, &xy).map(Vec::from).unwrap_or_default()
-        } else {
-            resect(&pts, &xy)
-                .and_then(|a| a.constrained())
-                .into_iter()
-                .collect()
-        };
-        let best = candidates
-            .iter()
-            .filter_map(|cand| refine_image(cand, &pts, &xy, im.c))
-            .min_by(|a, b| a.2.total_cmp(&b.2));
-        let Some((rot, center, _)) = best else {
+        let Some((rot, center, _)) = fit_orientation(&pts, &xy, im.c) else {
             return Err(AdjustError::NoStart {
                 image: im.id.clone(),
                 reason: "the known points are degenerate (collinear or coincident) for a resection"
@@ -204,18 +234,10 @@ fn resect_image(
             });
         };
         if used.len() <= 5 {
-            return Ok((rot, center));
+            return Ok((rot, center, removed));
         }
-        // Misfits of the refined orientation; leave out the worst if it is gross.
-        let res: Vec<f64> = used
-            .iter()
-            .map(|(p, o)| {
-                let d = p - center;
-                let w = rot.row(2).dot(&d.transpose());
-                let x = -im.c * rot.row(0).dot(&d.transpose()) / w;
-                let y = -im.c * rot.row(1).dot(&d.transpose()) / w;
-                ((o[0] - x).powi(2) + (o[1] - y).powi(2)).sqrt()
-            })
+        let res: Vec<f64> = (0..used.len())
+            .map(|k| misfit(&rot, &center, im.c, &pts[k], &xy[k]))
             .collect();
         let scale = robust_scale(&res);
         let (worst, &max) = res
@@ -224,9 +246,9 @@ fn resect_image(
             .max_by(|a, b| a.1.total_cmp(b.1))
             .expect("non-empty");
         if max > 8.0 * scale && max > 1e-9 {
-            used.remove(worst);
+            removed.push(used.remove(worst).2);
         } else {
-            return Ok((rot, center));
+            return Ok((rot, center, removed));
         }
     }
 }
@@ -242,23 +264,23 @@ pub fn robust_scale(values: &[f64]) -> f64 {
 }
 
 /// Start values for all images and points. `known` holds the coordinates (m, centred site frame) of
-/// points with control, approximate or prior coordinates; every image needs four of them.
+/// points with control, approximate or prior coordinates; every image needs four of them. Points
+/// without known coordinates are intersected. (Alternating resection and intersection over all points
+/// was tried and dropped: at long range it shrinks the convergence angles toward a degenerate network.)
 pub fn start_values(
     images: &[StartImage],
     known: &[Option<Vector3<f64>>],
 ) -> Result<StartValues, AdjustError> {
-    let mut rotations = Vec::with_capacity(images.len());
-    let mut centers = Vec::with_capacity(images.len());
-    for im in images {
-        let (r, c) = resect_image(im, known)?;
+    let mut rotations = Vec::new();
+    let mut centers = Vec::new();
+    let mut suspects: Vec<(usize, usize)> = Vec::new();
+    for (i, im) in images.iter().enumerate() {
+        let (r, c, removed) = resect_image(im, known)?;
         rotations.push(r);
         centers.push(c);
+        suspects.extend(removed.into_iter().map(|k| (i, k)));
     }
-    let ray = |i: usize, xy: &[f64; 2]| -> (Vector3<f64>, Vector3<f64>) {
-        let d = rotations[i].transpose() * Vector3::new(xy[0], xy[1], -images[i].c);
-        (centers[i], d.normalize())
-    };
-    let mut points: Vec<Vector3<f64>> = Vec::with_capacity(known.len());
+    let mut points = Vec::with_capacity(known.len());
     for (p, k) in known.iter().enumerate() {
         if let Some(k) = k {
             points.push(*k);
@@ -270,30 +292,18 @@ pub fn start_values(
             .flat_map(|(i, im)| {
                 im.observations
                     .iter()
-                    .filter(move |(q, _)| *q == p)
-                    .map(move |(_, xy)| (i, *xy))
+                    .enumerate()
+                    .filter(move |(_, (q, _))| *q == p)
+                    .map(move |(k, (_, xy))| (i, k, *xy))
             })
-            .map(|(i, xy)| ray(i, &xy))
+            .filter(|(i, k, _)| !suspects.contains(&(*i, *k)))
+            .map(|(i, _, xy)| {
+                let d = rotations[i].transpose() * Vector3::new(xy[0], xy[1], -images[i].c);
+                (centers[i], d.normalize())
+            })
             .collect();
         points.push(intersect_rays(&rays).unwrap_or_else(Vector3::zeros));
     }
-    // Screening: misfits of the start far beyond the typical misfit are set aside.
-    let mut misfits = Vec::new();
-    for (i, im) in images.iter().enumerate() {
-        for (k, (p, xy)) in im.observations.iter().enumerate() {
-            let d = points[*p] - centers[i];
-            let w = rotations[i].row(2).dot(&d.transpose());
-            let x = -im.c * rotations[i].row(0).dot(&d.transpose()) / w;
-            let y = -im.c * rotations[i].row(1).dot(&d.transpose()) / w;
-            misfits.push(((i, k), ((xy[0] - x).powi(2) + (xy[1] - y).powi(2)).sqrt()));
-        }
-    }
-    let scale = robust_scale(&misfits.iter().map(|m| m.1).collect::<Vec<_>>());
-    let suspects = misfits
-        .iter()
-        .filter(|m| m.1 > 20.0 * scale && m.1 > 1e-6)
-        .map(|m| m.0)
-        .collect();
     Ok(StartValues {
         rotations,
         centers,
