@@ -97,7 +97,7 @@ fn case3_self_calibrated_c_recovers_300() {
 
 #[test]
 fn case3_c_fixed_at_290_is_clearly_worse_than_c_free() {
-    let mut failures = Vec::new();
+    let mut failures: Vec<String> = Vec::new();
     for (name, epoch, truth) in epochs(3) {
         let free =
             adjust(&epoch, &options(Model::Orthogonal)).unwrap_or_else(|e| panic!("{name}: {e}"));
