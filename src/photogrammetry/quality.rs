@@ -181,7 +181,7 @@ pub fn fit_similarity(
     }
     sigma /= n;
     var_a /= n;
-    if !(var_a > 0.0) {
+    if var_a <= 0.0 || var_a.is_nan() {
         return Err(QualityError::Degenerate("similarity"));
     }
     let svd = sigma.svd(true, true);
@@ -192,7 +192,7 @@ pub fn fit_similarity(
     let mut sv: Vec<f64> = d.iter().copied().collect();
     sv.sort_by(|x, y| y.total_cmp(x));
     // Collinear (or coincident) points: the second singular value vanishes.
-    if !(sv[1] > 1e-12 * sv[0]) {
+    if sv[1].is_nan() || sv[1] <= 1e-12 * sv[0] {
         return Err(QualityError::Degenerate("similarity"));
     }
     let mut s = Matrix3::identity();

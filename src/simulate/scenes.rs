@@ -220,7 +220,7 @@ pub fn project(
     x: [f64; 3],
 ) -> Option<[f64; 2]> {
     let d = mat_vec(r, sub(x, xo));
-    if !(d[2] < 0.0) {
+    if d[2].is_nan() || d[2] >= 0.0 {
         return None;
     }
     let c = interior[0];
@@ -620,7 +620,7 @@ pub fn long_range(params: &LongRangeParams) -> Result<(EpochInput, Truth), Scene
     positive("face_height_m", p.face_height_m)?;
     non_negative("relief_m", p.relief_m)?;
     positive("distance_min_m", p.distance_min_m)?;
-    if !(p.distance_max_m >= p.distance_min_m) {
+    if p.distance_max_m.is_nan() || p.distance_max_m < p.distance_min_m {
         return Err(bad("distance_max_m", "must be ≥ distance_min_m"));
     }
     non_negative("base_m", p.base_m)?;
