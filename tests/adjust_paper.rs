@@ -188,3 +188,33 @@ fn case3_c_scatter_matches_its_sigma() {
     assert!(r > 0.7 && r < 1.4, "RMS {r}");
     assert!(within >= 30, "{within}/40 within ± 2 mm");
 }
+
+#[test]
+fn case1_precision_is_honest_over_40_seeds() {
+    // Two images: the depth is weak, but the reported σ must say so. Errors after a similarity
+    // fit divided by the reported σ have an RMS near 1.
+    let mut z = Vec::new();
+    let mut i3 = Vec::new();
+    let mut sig = Vec::new();
+    for seed in 2000..2040 {
+        let (epoch, truth) = paper_table1(&PaperParams::case(PaperCase::Case1, seed)).unwrap();
+        let adj = adjust(&epoch, &options(Model::Orthogonal))
+            .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        z.extend(normalized_errors(&adj, &truth));
+        i3.push(index3(&adj, &truth));
+        let s2: f64 = adj
+            .points
+            .iter()
+            .map(|p| (0..3).map(|k| p.covariance_m2[k][k]).sum::<f64>())
+            .sum::<f64>()
+            / (3.0 * adj.points.len() as f64);
+        sig.push(1000.0 * s2.sqrt());
+    }
+    let r = rms(&z);
+    eprintln!(
+        "case 1 over 40 seeds: RMS z {r:.3}; index 3 RMS {:.3} mm; reported σ RMS {:.3} mm",
+        rms(&i3),
+        rms(&sig)
+    );
+    assert!(r > 0.7 && r < 1.4, "RMS {r}");
+}
