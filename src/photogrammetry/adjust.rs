@@ -85,6 +85,79 @@ fn rescue(bundle: &mut Bundle, initial: &Bundle) {
     *bundle = trial;
 }
 
+/// The first stage from the start values: with `robust`, reweighted rounds (and the leave-one-image-out
+/// rescue when they end in a poor fit) followed by the screening of gross residuals; then plain
+/// Levenberg–Marquardt.
+fn first_stage(bundle: &mut Bundle, robust: bool, max_iterations: usize) -> LmOutcome {
+    if robust {
+        let initial = bundle.clone();
+        robust_rounds(bundle, ROBUST_ITERATIONS);
+        if residual_scale(bundle, &residual_norms(bundle)) > RESCUE_SCALE {
+            rescue(bundle, &initial);
+        }
+        screen(bundle);
+    }
+    levenberg_marquardt(bundle, max_iterations)
+}
+
+/// Up to this many images with a mirror candidate, every combination is tried; beyond, greedy passes.
+const EXHAUSTIVE_MIRRORS: usize = 6;
+
+/// Planar point sets give two mirror orientations per image that the perspective of a single image may
+/// not tell apart at long range; keep, image by image, the one with which the whole network fits
+/// better ("the one consistent with the other images").
+fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) {
+    if mirrors.iter().all(Option::is_none) {
+        return;
+    }
+    let fit = |b: &Bundle| {
+        let mut t = b.clone();
+        levenberg_marquardt(&mut t, 2 * ROBUST_ITERATIONS).cost
+    };
+    let with_mirror: Vec<usize> = (0..mirrors.len()).filter(|&j| mirrors[j].is_some()).collect();
+    if with_mirror.len() <= EXHAUSTIVE_MIRRORS {
+        // Every combination (2^k small networks).
+        let base = bundle.clone();
+        let mut best = (f64::INFINITY, base.clone());
+        for mask in 0u32..(1 << with_mirror.len()) {
+            let mut trial = base.clone();
+            for (bit, &j) in with_mirror.iter().enumerate() {
+                if mask & (1 << bit) != 0 {
+                    trial.images[j] = mirrors[j].expect("has a mirror");
+                }
+            }
+            let cost = fit(&trial);
+            if cost < best.0 {
+                best = (cost, trial);
+            }
+        }
+        *bundle = best.1;
+        return;
+    }
+    let mut best = fit(bundle);
+    let mut current: Vec<ImageState> = bundle.images.clone();
+    let mut alternative: Vec<Option<ImageState>> = mirrors.to_vec();
+    for _pass in 0..3 {
+        let mut changed = false;
+        for j in 0..alternative.len() {
+            let Some(m) = alternative[j] else { continue };
+            let mut trial = bundle.clone();
+            trial.images[j] = m;
+            let cost = fit(&trial);
+            if cost < best {
+                best = cost;
+                alternative[j] = Some(current[j]);
+                current[j] = m;
+                *bundle = trial;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+}
+
 /// Iterations per round of the reweighted first stage.
 const ROBUST_ITERATIONS: usize = 10;
 
@@ -298,17 +371,20 @@ pub fn adjust_problem(
         ));
     }
     let zbar = 0.0;
+    let state = |j: usize, r: &Matrix3<f64>, xo: &Vector3<f64>| -> ImageState {
+        let c = problem.cameras[problem.images[j].camera].c();
+        let r_w = frame.rotation_to_working(r);
+        let o = OrthoImage::from_center(r_w, to_w(xo), c, zbar);
+        ImageState {
+            rotation: r_w,
+            p: [o.m, o.a4, o.a8],
+        }
+    };
     let images: Vec<ImageState> = (0..nimg)
-        .map(|j| {
-            let c = problem.cameras[problem.images[j].camera].c();
-            let r_w = frame.rotation_to_working(&start.rotations[j]);
-            let xo_w = to_w(&start.centers[j]);
-            let o = OrthoImage::from_center(r_w, xo_w, c, zbar);
-            ImageState {
-                rotation: r_w,
-                p: [o.m, o.a4, o.a8],
-            }
-        })
+        .map(|j| state(j, &start.rotations[j], &start.centers[j]))
+        .collect();
+    let mirrors: Vec<Option<ImageState>> = (0..nimg)
+        .map(|j| start.mirrors[j].map(|(r, xo)| state(j, &r, &xo)))
         .collect();
     let mut obs = Vec::new();
     let mut point_obs = vec![Vec::new(); np];
@@ -373,27 +449,24 @@ pub fn adjust_problem(
 
     // Stage 1: interior held; with snooping on, iteratively reweighted from the start so that a gross
     // error cannot pull the solution into a wrong basin; then gross residuals are set aside.
-    let initial = bundle.clone();
-    let mut outcome = if options.snooping {
-        robust_rounds(&mut bundle, ROBUST_ITERATIONS);
-        if residual_scale(&bundle, &residual_norms(&bundle)) > RESCUE_SCALE {
-            rescue(&mut bundle, &initial);
+    choose_mirrors(&mut bundle, &mirrors);
+    let robust = options.snooping;
+    let mut outcome = if options.model == Model::Orthogonal {
+        let outcome = first_stage(&mut bundle, robust, options.max_iterations);
+        let stage2: Vec<[bool; 8]> = free
+            .iter()
+            .map(|f| [f[0], false, false, false, false, false, false, false])
+            .collect();
+        if stage2.iter().flatten().any(|&f| f) {
+            bundle.free = stage2;
+            levenberg_marquardt(&mut bundle, options.max_iterations)
+        } else {
+            outcome
         }
-        screen(&mut bundle);
-        levenberg_marquardt(&mut bundle, options.max_iterations)
     } else {
-        levenberg_marquardt(&mut bundle, options.max_iterations)
-    };
-    let stage2: Vec<[bool; 8]> = free
-        .iter()
-        .map(|f| [f[0], false, false, false, false, false, false, false])
-        .collect();
-    if stage2.iter().flatten().any(|&f| f) {
-        bundle.free = stage2;
-        outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
-    }
-    if options.model == Model::Central {
-        // Start the collinearity adjustment from the orthogonal solution.
+        // The orthogonal solution (interior held) starts the collinearity adjustment; gross errors are
+        // screened only once the interior orientation (e.g. strong distortion) is modelled.
+        levenberg_marquardt(&mut bundle, options.max_iterations);
         bundle.images = bundle
             .images
             .iter()
@@ -415,8 +488,9 @@ pub fn adjust_problem(
             .collect();
         bundle.model = Model::Central;
         bundle.free = free.clone();
-        outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
-    }
+        levenberg_marquardt(&mut bundle, options.max_iterations);
+        first_stage(&mut bundle, robust, options.max_iterations)
+    };
 
     // Data snooping, one observation at a time.
     let mut dropped: Vec<DroppedObservation> = Vec::new();

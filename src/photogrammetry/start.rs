@@ -37,16 +37,19 @@ pub struct StartValues {
     pub points: Vec<Vector3<f64>>,
     /// Observations (image, index into its observations) whose start misfit is gross.
     pub suspects: Vec<(usize, usize)>,
+    /// Per image, the mirror solution (rotation, centre) of a planar point set, if any.
+    pub mirrors: Vec<Option<(Matrix3<f64>, Vector3<f64>)>>,
 }
 
 /// Refines one image's orientation on points of known coordinates with the closed-form model
-/// (c fixed), Levenberg–Marquardt on (three rotation increments, m, A4, A8). Returns the refined
+/// (c fixed), at most `iterations` Levenberg–Marquardt steps on (three rotation increments, m, A4, A8). Returns the refined
 /// rotation, projection centre (m) and the sum of squared residuals (mm²).
 fn refine_image(
     cand: &ConstrainedAffine,
     pts: &[Vector3<f64>],
     xy: &[[f64; 2]],
     c: f64,
+    iterations: usize,
 ) -> Option<(Matrix3<f64>, Vector3<f64>, f64)> {
     // Local frame: the candidate's own camera axes, so that a33 = 1 at the start.
     let frame = cand.rotation;
@@ -70,7 +73,7 @@ fn refine_image(
         return None;
     }
     let mut lambda = 1e-3;
-    for _ in 0..100 {
+    for _ in 0..iterations {
         let mut n = Matrix6::zeros();
         let mut g = Vector6::zeros();
         let rows = perturbed(
@@ -164,8 +167,18 @@ fn intersect_rays(rays: &[(Vector3<f64>, Vector3<f64>)]) -> Option<Vector3<f64>>
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// A resection: rotation, projection centre (m) and the observations (indices) left out as gross.
-pub type Resection = (Matrix3<f64>, Vector3<f64>, Vec<usize>);
+/// A resection of one image.
+#[derive(Debug, Clone)]
+pub struct Resection {
+    /// Rotation (camera = R (X − Xo)).
+    pub rotation: Matrix3<f64>,
+    /// Projection centre (m).
+    pub center: Vector3<f64>,
+    /// The mirror solution of a planar point set (rotation, centre), when there is one.
+    pub mirror: Option<(Matrix3<f64>, Vector3<f64>)>,
+    /// Observations (indices into the image's list) left out as gross misfits.
+    pub removed: Vec<usize>,
+}
 
 /// Orientation (rotation, centre, squared misfit sum) of one image from points of known coordinates:
 /// affine candidates refined with the perspective model, the best kept.
@@ -173,7 +186,7 @@ fn fit_orientation(
     pts: &[Vector3<f64>],
     xy: &[[f64; 2]],
     c: f64,
-) -> Option<(Matrix3<f64>, Vector3<f64>, f64)> {
+) -> Vec<(Matrix3<f64>, Vector3<f64>, f64)> {
     let candidates: Vec<ConstrainedAffine> = if is_planar(pts, PLANAR_RATIO) {
         resect_planar(pts, xy).map(Vec::from).unwrap_or_default()
     } else {
@@ -182,10 +195,70 @@ fn fit_orientation(
             .into_iter()
             .collect()
     };
-    candidates
+    let mut fits: Vec<_> = candidates
         .iter()
-        .filter_map(|cand| refine_image(cand, pts, xy, c))
-        .min_by(|a, b| a.2.total_cmp(&b.2))
+        .filter_map(|cand| refine_image(cand, pts, xy, c, 100))
+        .collect();
+    fits.sort_by(|a, b| a.2.total_cmp(&b.2));
+    fits
+}
+
+/// Points whose smallest principal spread is below this fraction of the largest get a mirror candidate.
+pub const MIRROR_RATIO: f64 = 0.3;
+
+/// The mirror of an orientation through the best-fit plane of the points (the other root of
+/// constraints (10)–(11) for a planar set), refined with the perspective model. None where the points
+/// are far from planar, or where the refinement falls back onto the original.
+fn mirror_fit(
+    rot: &Matrix3<f64>,
+    pts: &[Vector3<f64>],
+    xy: &[[f64; 2]],
+    c: f64,
+) -> Option<(Matrix3<f64>, Vector3<f64>)> {
+    if !is_planar(pts, MIRROR_RATIO) {
+        return None;
+    }
+    let n = plane_normal(pts)?;
+    let reflect = |r: Vector3<f64>| r - 2.0 * r.dot(&n) * n;
+    let r1 = reflect(rot.row(0).transpose());
+    let r2 = reflect(rot.row(1).transpose());
+    // m, A4, A8 for the reflected rows by linear least squares.
+    let mut nm = Matrix3::zeros();
+    let mut b = Vector3::zeros();
+    for (p, o) in pts.iter().zip(xy) {
+        for (row, obs, k) in [(r1.dot(p), o[0], 1), (r2.dot(p), o[1], 2)] {
+            let mut a = Vector3::new(row, 0.0, 0.0);
+            a[k] = 1.0;
+            nm += a * a.transpose();
+            b += a * obs;
+        }
+    }
+    let sol = nm.try_inverse()? * b;
+    let cand = ConstrainedAffine {
+        rotation: super::rotation::from_rows(r1, r2),
+        m: sol[0],
+        a4: sol[1],
+        a8: sol[2],
+    };
+    // Not refined: with noisy approximations the refinement slides back to the original root; the
+    // network decides (see `choose_mirrors` in the adjustment).
+    let (r, center, _) = refine_image(&cand, pts, xy, c, 0)?;
+    let angle = (r.row(2).dot(&rot.row(2))).clamp(-1.0, 1.0).acos();
+    (angle > 1e-3).then_some((r, center))
+}
+
+/// Unit normal of the best-fit plane of the points.
+fn plane_normal(pts: &[Vector3<f64>]) -> Option<Vector3<f64>> {
+    let n = pts.len() as f64;
+    let centroid = pts.iter().fold(Vector3::zeros(), |a, p| a + p) / n;
+    let mut cov = Matrix3::zeros();
+    for p in pts {
+        let d = p - centroid;
+        cov += d * d.transpose();
+    }
+    let eig = cov.symmetric_eigen();
+    let k = eig.eigenvalues.imin();
+    eig.eigenvectors.column(k).into_owned().try_normalize(1e-12)
 }
 
 /// Misfit (mm) of an observed image point against collinearity, eq (2).
@@ -226,7 +299,12 @@ pub fn resect_image(
     loop {
         let pts: Vec<Vector3<f64>> = used.iter().map(|u| u.0).collect();
         let xy: Vec<[f64; 2]> = used.iter().map(|u| u.1).collect();
-        let Some((rot, center, _)) = fit_orientation(&pts, &xy, im.c) else {
+        let fits = fit_orientation(&pts, &xy, im.c);
+        let mirror = fits
+            .first()
+            .and_then(|best| mirror_fit(&best.0, &pts, &xy, im.c))
+            .or_else(|| fits.get(1).map(|f| (f.0, f.1)));
+        let Some(&(rot, center, _)) = fits.first() else {
             return Err(AdjustError::NoStart {
                 image: im.id.clone(),
                 reason: "the known points are degenerate (collinear or coincident) for a resection"
@@ -234,7 +312,12 @@ pub fn resect_image(
             });
         };
         if used.len() <= 5 {
-            return Ok((rot, center, removed));
+            return Ok(Resection {
+                rotation: rot,
+                center,
+                mirror,
+                removed,
+            });
         }
         let res: Vec<f64> = (0..used.len())
             .map(|k| misfit(&rot, &center, im.c, &pts[k], &xy[k]))
@@ -248,7 +331,12 @@ pub fn resect_image(
         if max > 8.0 * scale && max > 1e-9 {
             removed.push(used.remove(worst).2);
         } else {
-            return Ok((rot, center, removed));
+            return Ok(Resection {
+                rotation: rot,
+                center,
+                mirror,
+                removed,
+            });
         }
     }
 }
@@ -274,11 +362,13 @@ pub fn start_values(
     let mut rotations = Vec::new();
     let mut centers = Vec::new();
     let mut suspects: Vec<(usize, usize)> = Vec::new();
+    let mut mirrors = Vec::new();
     for (i, im) in images.iter().enumerate() {
-        let (r, c, removed) = resect_image(im, known)?;
-        rotations.push(r);
-        centers.push(c);
-        suspects.extend(removed.into_iter().map(|k| (i, k)));
+        let res = resect_image(im, known)?;
+        rotations.push(res.rotation);
+        centers.push(res.center);
+        mirrors.push(res.mirror);
+        suspects.extend(res.removed.into_iter().map(|k| (i, k)));
     }
     let mut points = Vec::with_capacity(known.len());
     for (p, k) in known.iter().enumerate() {
@@ -309,5 +399,6 @@ pub fn start_values(
         centers,
         points,
         suspects,
+        mirrors,
     })
 }
