@@ -14,8 +14,12 @@ use common::*;
 fn from_start_and_optimum(params: &LongRangeParams) -> (f64, f64, f64, usize, (f64, f64)) {
     let (epoch, truth) = long_range(params).unwrap();
     let opts = options(Model::Orthogonal);
-    let Ok(adj) = adjust(&epoch, &opts) else {
-        return (f64::INFINITY, 0.0, f64::INFINITY, 0, (f64::NAN, 0.0));
+    let adj = match adjust(&epoch, &opts) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("seed {}: {e}", params.seed);
+            return (f64::INFINITY, 0.0, f64::INFINITY, 0, (f64::NAN, 0.0));
+        }
     };
     assert!(adj.report.converged, "seed {}", params.seed);
     let best = adjust(&with_true_approx(&epoch, &truth), &opts)
