@@ -1,6 +1,7 @@
 //! Datum and robustness: IWST without stable points, bad input as typed errors (never a panic).
 
-mod common;
+mod analysis_common;
+use analysis_common as common;
 
 use chrono::{TimeZone, Utc};
 use cliffwatch::analysis::{
