@@ -27,6 +27,15 @@ use super::start::{start_values, StartImage};
 /// iteration (a fraction of the mean point block diagonal).
 const GAUGE: f64 = 1e-9;
 
+/// Standard normal quantile of the global test on the variance factor (99.9 %).
+const GLOBAL_TEST_Z: f64 = 3.09;
+
+/// Upper quantile of χ²(ν) for the standard normal quantile z (Wilson–Hilferty).
+fn chi2_upper(nu: f64, z: f64) -> f64 {
+    let a = 2.0 / (9.0 * nu);
+    nu * (1.0 - a + z * a.sqrt()).powi(3)
+}
+
 /// σ of the prior on a self-calibrated c, relative to its given value.
 const C_PRIOR_RELATIVE: f64 = 0.1;
 
@@ -110,11 +119,15 @@ fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) {
     if mirrors.iter().all(Option::is_none) {
         return;
     }
+    // Compared by the robust residual scale, so that a gross error in one image cannot decide.
     let fit = |b: &Bundle| {
         let mut t = b.clone();
-        levenberg_marquardt(&mut t, 2 * ROBUST_ITERATIONS).cost
+        levenberg_marquardt(&mut t, 2 * ROBUST_ITERATIONS);
+        residual_scale(&t, &residual_norms(&t))
     };
-    let with_mirror: Vec<usize> = (0..mirrors.len()).filter(|&j| mirrors[j].is_some()).collect();
+    let with_mirror: Vec<usize> = (0..mirrors.len())
+        .filter(|&j| mirrors[j].is_some())
+        .collect();
     if with_mirror.len() <= EXHAUSTIVE_MIRRORS {
         // Every combination (2^k small networks).
         let base = bundle.clone();
@@ -619,6 +632,13 @@ fn finish(
         });
     }
     let variance_factor = outcome.cost / dof as f64;
+    let mut warnings = warnings;
+    let limit = chi2_upper(dof as f64, GLOBAL_TEST_Z) / dof as f64;
+    if variance_factor > limit {
+        warnings.push(format!(
+            "global test failed: variance factor {variance_factor:.2} exceeds {limit:.2} (99.9 %): the a-priori σ is too optimistic, or a gross or model error remains"
+        ));
+    }
     let sigma_ref = problem.cameras[0].sigma_mm;
     let sigma0_mm = sigma_ref * variance_factor.sqrt();
     // Free network: the similarity onto the start coordinates gives the inner-constraint datum.

@@ -79,7 +79,10 @@ pub fn is_planar(points: &[Vector3<f64>], ratio: f64) -> bool {
 }
 
 fn lstsq(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
-    let svd = a.clone().svd(true, true);
+    if !(a.iter().chain(b.iter()).all(|v| v.is_finite())) {
+        return None;
+    }
+    let svd = a.clone().try_svd(true, true, f64::EPSILON, 200)?;
     let smax = svd.singular_values.max();
     if svd.singular_values.min() <= smax * 1e-12 {
         return None;

@@ -121,7 +121,10 @@ pub fn similarity_fit(from: &[Vector3<f64>], to: &[Vector3<f64>]) -> Option<Simi
     if var_from <= 0.0 {
         return None;
     }
-    let svd = cov.svd(true, true);
+    if !cov.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let svd = cov.try_svd(true, true, f64::EPSILON, 200)?;
     let (u, v_t) = (svd.u?, svd.v_t?);
     let mut d = Matrix3::identity();
     if (u * v_t).determinant() < 0.0 {

@@ -66,10 +66,11 @@ pub fn levenberg_marquardt(b: &mut Bundle, max_iterations: usize) -> LmOutcome {
             lambda *= 10.0;
         }
         let Some((trial, c, step)) = accepted else {
-            // No damping gives a decrease: we sit at the minimum within rounding.
+            // No damping, however strong, gives a decrease: the gradient vanishes within rounding, so
+            // the state is stationary (typically the start of a later stage that is already converged).
             return LmOutcome {
                 iterations,
-                converged: iterations > 0,
+                converged: true,
                 cost,
             };
         };

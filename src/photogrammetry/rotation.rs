@@ -21,9 +21,10 @@ pub fn rodrigues(omega: Vector3<f64>) -> Matrix3<f64> {
 pub fn update(r: &Matrix3<f64>, delta: Vector3<f64>) -> Matrix3<f64> {
     let mut out = rodrigues(delta) * r;
     // Re-orthonormalize against drift over many iterations.
-    let svd = out.svd(true, true);
-    if let (Some(u), Some(v_t)) = (svd.u, svd.v_t) {
-        out = u * v_t;
+    if let Some(svd) = out.try_svd(true, true, f64::EPSILON, 200) {
+        if let (Some(u), Some(v_t)) = (svd.u, svd.v_t) {
+            out = u * v_t;
+        }
     }
     out
 }
@@ -57,8 +58,11 @@ pub fn orthonormal_rows(
     a: Vector3<f64>,
     b: Vector3<f64>,
 ) -> Option<(Vector3<f64>, Vector3<f64>, f64)> {
+    if !(a.iter().chain(b.iter()).all(|v| v.is_finite())) {
+        return None;
+    }
     let m = Matrix2x3::from_rows(&[a.transpose(), b.transpose()]);
-    let svd = m.svd(true, true);
+    let svd = m.try_svd(true, true, f64::EPSILON, 200)?;
     let u = svd.u?;
     let v_t = svd.v_t?;
     let q = u * v_t;

@@ -1227,7 +1227,11 @@ mod tests {
     use super::*;
 
     fn shared(name: &str) -> Option<String> {
-        std::fs::read_to_string(format!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/{}"), name)).ok()
+        std::fs::read_to_string(format!(
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/{}"),
+            name
+        ))
+        .ok()
     }
 
     #[test]
