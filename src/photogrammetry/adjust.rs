@@ -90,7 +90,7 @@ fn rescue(bundle: &mut Bundle, initial: &Bundle) {
             o.active = true;
         }
     }
-    robust_rounds(&mut trial, ROBUST_ITERATIONS);
+    robust_rounds(&mut trial, ROBUST_ITERATIONS, ROBUST_ROUNDS);
     *bundle = trial;
 }
 
@@ -100,7 +100,7 @@ fn rescue(bundle: &mut Bundle, initial: &Bundle) {
 fn first_stage(bundle: &mut Bundle, robust: bool, max_iterations: usize) -> LmOutcome {
     if robust {
         let initial = bundle.clone();
-        robust_rounds(bundle, ROBUST_ITERATIONS);
+        robust_rounds(bundle, ROBUST_ITERATIONS, ROBUST_ROUNDS);
         if residual_scale(bundle, &residual_norms(bundle)) > RESCUE_SCALE {
             rescue(bundle, &initial);
         }
@@ -108,6 +108,9 @@ fn first_stage(bundle: &mut Bundle, robust: bool, max_iterations: usize) -> LmOu
     }
     levenberg_marquardt(bundle, max_iterations)
 }
+
+/// Reweighted rounds of the first perspective stage at most.
+const ROBUST_ROUNDS: usize = 12;
 
 /// Up to this many images with a mirror candidate, every combination is tried; beyond, greedy passes.
 const EXHAUSTIVE_MIRRORS: usize = 6;
@@ -216,8 +219,8 @@ fn residual_scale(bundle: &Bundle, norms: &[f64]) -> f64 {
 /// Iteratively reweighted least squares with Cauchy weights `1/(1 + (r/(3s))²)`, a few rounds, so
 /// that gross errors (a mislabeled target) cannot drag the solution into a wrong basin before the
 /// screening. Leaves the weights at 1.
-fn robust_rounds(bundle: &mut Bundle, iterations: usize) {
-    for round in 0..12 {
+fn robust_rounds(bundle: &mut Bundle, iterations: usize, rounds: usize) {
+    for round in 0..rounds {
         let norms = residual_norms(bundle);
         let s = residual_scale(bundle, &norms).max(1.0);
         if s < 1.5 && round > 0 {
@@ -508,13 +511,19 @@ pub fn adjust_problem(
     };
 
     // Data snooping, one observation at a time.
-    let mut dropped: Vec<DroppedObservation> = Vec::new();
-    let mut dropped_idx: Vec<usize> = Vec::new();
     let max_drops = (bundle.obs.len() / 10).max(1);
-    let mut cof = Cofactors::new(&bundle, datum == Datum::Free).ok_or_else(|| {
-        AdjustError::Singular("the normal equations are not positive definite".into())
-    })?;
+    let invert = |b: &Bundle| {
+        Cofactors::new(b, datum == Datum::Free).ok_or_else(|| {
+            AdjustError::Singular("the normal equations are not positive definite".into())
+        })
+    };
+    let max_w = |b: &Bundle, q: &Cofactors, k: usize| {
+        let w = normalized_residual(b, q, k);
+        w[0].abs().max(w[1].abs())
+    };
+    let mut cof = invert(&bundle)?;
     if options.snooping {
+        let mut drops = bundle.obs.iter().filter(|o| !o.active).count();
         loop {
             let mut worst: Option<(usize, f64)> = None;
             let counts = ActiveCounts::of(&bundle);
@@ -522,14 +531,13 @@ pub fn adjust_problem(
                 if !bundle.obs[k].active || !counts.droppable(&bundle, k) {
                     continue;
                 }
-                let w = normalized_residual(&bundle, &cof, k);
-                let m = w[0].abs().max(w[1].abs());
+                let m = max_w(&bundle, &cof, k);
                 if m > options.critical_w && worst.is_none_or(|(_, x)| m > x) {
                     worst = Some((k, m));
                 }
             }
-            let Some((k, w)) = worst else { break };
-            if dropped_idx.len() >= max_drops {
+            let Some((k, _)) = worst else { break };
+            if drops >= max_drops {
                 warnings.push(format!(
                     "data snooping stopped after {max_drops} dropped observations; more residuals exceed |w| = {}",
                     options.critical_w
@@ -537,52 +545,40 @@ pub fn adjust_problem(
                 break;
             }
             bundle.obs[k].active = false;
-            dropped_idx.push(k);
-            dropped.push(DroppedObservation {
-                image: problem.images[bundle.obs[k].image].id.clone(),
-                point: problem.points[bundle.obs[k].point].clone(),
-                w,
-            });
+            drops += 1;
             outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
-            cof = Cofactors::new(&bundle, datum == Datum::Free).ok_or_else(|| {
-                AdjustError::Singular("the normal equations are not positive definite".into())
-            })?;
+            cof = invert(&bundle)?;
         }
-        // Observations set aside at the start: keep out those that still misfit, take back the rest.
-        let suspects: Vec<usize> = (0..bundle.obs.len())
-            .filter(|k| !bundle.obs[*k].active && !dropped_idx.contains(k))
-            .collect();
-        let mut readmitted = false;
-        for k in suspects {
-            let w = normalized_residual(&bundle, &cof, k);
-            let m = w[0].abs().max(w[1].abs());
-            if m > options.critical_w {
-                dropped_idx.push(k);
-                dropped.push(DroppedObservation {
-                    image: problem.images[bundle.obs[k].image].id.clone(),
-                    point: problem.points[bundle.obs[k].point].clone(),
-                    w: m,
-                });
-            } else {
-                bundle.obs[k].active = true;
-                readmitted = true;
+        // Backward step: observations set aside at the start or dropped while a worse blunder still
+        // distorted the solution are tested against the final one and taken back where they fit.
+        for _ in 0..3 {
+            let back: Vec<usize> = (0..bundle.obs.len())
+                .filter(|&k| !bundle.obs[k].active && max_w(&bundle, &cof, k) <= options.critical_w)
+                .collect();
+            if back.is_empty() {
+                break;
             }
-        }
-        if readmitted {
+            for k in back {
+                bundle.obs[k].active = true;
+            }
             outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
-            cof = Cofactors::new(&bundle, datum == Datum::Free).ok_or_else(|| {
-                AdjustError::Singular("the normal equations are not positive definite".into())
-            })?;
+            cof = invert(&bundle)?;
         }
     } else {
         for k in 0..bundle.obs.len() {
             bundle.obs[k].active = true;
         }
         outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
-        cof = Cofactors::new(&bundle, datum == Datum::Free).ok_or_else(|| {
-            AdjustError::Singular("the normal equations are not positive definite".into())
-        })?;
+        cof = invert(&bundle)?;
     }
+    let dropped: Vec<DroppedObservation> = (0..bundle.obs.len())
+        .filter(|&k| !bundle.obs[k].active)
+        .map(|k| DroppedObservation {
+            image: problem.images[bundle.obs[k].image].id.clone(),
+            point: problem.points[bundle.obs[k].point].clone(),
+            w: max_w(&bundle, &cof, k),
+        })
+        .collect();
     let active = bundle.obs.iter().filter(|o| o.active).count();
     let unknowns_now = bundle.camera_unknowns() + 3 * np;
     let dof = 2 * active as i64 + control_eq as i64 + bundle.prior_count() as i64

@@ -118,6 +118,45 @@ pub fn resect(points: &[Vector3<f64>], xy: &[[f64; 2]]) -> Option<AffineImage> {
     })
 }
 
+/// How well the data determine the out-of-plane tilt of an affine camera: the larger over the two rows
+/// of |γ| / σ(γ), where γ is the coefficient along the normal of the points' best-fit plane in an
+/// unconstrained fit. Near zero, the sign of the tilt (the mirror root) is not determined by the image.
+pub fn tilt_significance(points: &[Vector3<f64>], xy: &[[f64; 2]]) -> f64 {
+    let n = points.len();
+    if n < 5 {
+        return 0.0;
+    }
+    let (centroid, axes, _) = principal_axes(points);
+    let mut a = DMatrix::zeros(n, 4);
+    let mut bx = DVector::zeros(n);
+    let mut by = DVector::zeros(n);
+    for (i, (p, o)) in points.iter().zip(xy).enumerate() {
+        let d = p - centroid;
+        a.set_row(
+            i,
+            &nalgebra::RowVector4::new(d.dot(&axes[0]), d.dot(&axes[1]), d.dot(&axes[2]), 1.0),
+        );
+        bx[i] = o[0];
+        by[i] = o[1];
+    }
+    let Some(inv) = (a.transpose() * &a).try_inverse() else {
+        return 0.0;
+    };
+    let mut best: f64 = 0.0;
+    for b in [&bx, &by] {
+        let Some(sol) = lstsq(&a, b) else { return 0.0 };
+        let rss = (&a * &sol - b).norm_squared();
+        let s2 = rss / (n - 4) as f64;
+        let sigma = (s2 * inv[(2, 2)]).sqrt();
+        if sigma > 0.0 {
+            best = best.max(sol[2].abs() / sigma);
+        } else {
+            return f64::INFINITY;
+        }
+    }
+    best
+}
+
 /// Resection of a (nearly) planar point set: in-plane affine fit, then the out-of-plane components
 /// γ1, γ2 of the two rows from (10) `γ1γ2 = −p` and (11) `γ1² − γ2² = q`. Returns the two mirror
 /// solutions (already constrained).

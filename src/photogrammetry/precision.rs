@@ -18,6 +18,8 @@ pub struct Cofactors {
     /// S⁻¹: cofactors of the image and interior unknowns.
     pub qcc: Mat<f64>,
     vinv: Vec<Matrix3<f64>>,
+    /// Raw diagonal point blocks Q_ii (before the datum projection), computed once.
+    qpp: Vec<Matrix3<f64>>,
     /// Datum projection for the free network: (G_i per point, C = (GᵀG)⁻¹, H_i = Q G, M = GᵀQG).
     datum: Option<(Vec<G>, M7, Vec<G>, M7)>,
 }
@@ -38,8 +40,12 @@ impl Cofactors {
             normals,
             qcc,
             vinv: reduced.vinv,
+            qpp: Vec::new(),
             datum: None,
         };
+        cof.qpp = (0..b.points.len())
+            .map(|i| cof.raw_point_block(i, i))
+            .collect();
         if free_network {
             cof.datum = Some(cof.datum_projection(&b.points)?);
         }
@@ -166,7 +172,7 @@ impl Cofactors {
         );
         let i = o.point;
         let w = &self.normals.w[i];
-        let qpp = self.raw_point_block(i, i);
+        let qpp = self.qpp[i];
         // Q_cp restricted to this observation's columns: −S⁻¹[L, cols_i] W_i V_i⁻¹.
         let qcp: Vec<Vector3<f64>> = cols
             .iter()

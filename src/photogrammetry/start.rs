@@ -5,7 +5,7 @@
 
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
-use super::affine::{is_planar, resect, resect_planar, ConstrainedAffine};
+use super::affine::{is_planar, resect, resect_planar, tilt_significance, ConstrainedAffine};
 use super::dual::Dual;
 use super::error::AdjustError;
 use super::orthogonal::project;
@@ -203,8 +203,12 @@ fn fit_orientation(
     fits
 }
 
-/// Points whose smallest principal spread is below this fraction of the largest get a mirror candidate.
+/// Points whose smallest principal spread is below this fraction of the largest get a mirror candidate
+/// (when the image does not determine the tilt, see [`MIRROR_SIGNIFICANCE`]).
 pub const MIRROR_RATIO: f64 = 0.3;
+
+/// Tilt significance |γ|/σ(γ) above which the image itself decides the mirror root.
+pub const MIRROR_SIGNIFICANCE: f64 = 5.0;
 
 /// The mirror of an orientation through the best-fit plane of the points (the other root of
 /// constraints (10)–(11) for a planar set), refined with the perspective model. None where the points
@@ -215,7 +219,7 @@ fn mirror_fit(
     xy: &[[f64; 2]],
     c: f64,
 ) -> Option<(Matrix3<f64>, Vector3<f64>)> {
-    if !is_planar(pts, MIRROR_RATIO) {
+    if !is_planar(pts, MIRROR_RATIO) || tilt_significance(pts, xy) > MIRROR_SIGNIFICANCE {
         return None;
     }
     let n = plane_normal(pts)?;
@@ -370,24 +374,24 @@ pub fn start_values(
         mirrors.push(res.mirror);
         suspects.extend(res.removed.into_iter().map(|k| (i, k)));
     }
+    // Observations per point (image, index in the image), for the intersections.
+    let mut seen_by: Vec<Vec<(usize, usize)>> = vec![Vec::new(); known.len()];
+    for (i, im) in images.iter().enumerate() {
+        for (k, (p, _)) in im.observations.iter().enumerate() {
+            seen_by[*p].push((i, k));
+        }
+    }
     let mut points = Vec::with_capacity(known.len());
     for (p, k) in known.iter().enumerate() {
         if let Some(k) = k {
             points.push(*k);
             continue;
         }
-        let rays: Vec<_> = images
+        let rays: Vec<_> = seen_by[p]
             .iter()
-            .enumerate()
-            .flat_map(|(i, im)| {
-                im.observations
-                    .iter()
-                    .enumerate()
-                    .filter(move |(_, (q, _))| *q == p)
-                    .map(move |(k, (_, xy))| (i, k, *xy))
-            })
-            .filter(|(i, k, _)| !suspects.contains(&(*i, *k)))
-            .map(|(i, _, xy)| {
+            .filter(|ik| !suspects.contains(ik))
+            .map(|&(i, k)| {
+                let xy = images[i].observations[k].1;
                 let d = rotations[i].transpose() * Vector3::new(xy[0], xy[1], -images[i].c);
                 (centers[i], d.normalize())
             })
