@@ -105,8 +105,87 @@ fn first_stage(bundle: &mut Bundle, robust: bool, max_iterations: usize) -> LmOu
             rescue(bundle, &initial);
         }
         screen(bundle);
+        repair_images(bundle);
     }
     levenberg_marquardt(bundle, max_iterations)
+}
+
+/// Share of an image's observations set aside beyond which its orientation is taken to be wrong (a
+/// wrong mirror root of a flat face) rather than its observations.
+const REPAIR_SHARE: f64 = 0.3;
+
+/// Re-resects images that lost more than [`REPAIR_SHARE`] of their observations to the screening on
+/// the adjusted points, which are now accurate enough for the perspective to pick the right mirror
+/// root, and takes their observations back (the snooping judges them again).
+fn repair_images(bundle: &mut Bundle) {
+    let counts = ActiveCounts::of(bundle);
+    let mut totals = vec![0usize; bundle.images.len()];
+    for o in &bundle.obs {
+        totals[o.image] += 1;
+    }
+    let mut repaired = false;
+    for j in 0..bundle.images.len() {
+        let lost = totals[j] - counts.per_image[j];
+        if (lost as f64) <= REPAIR_SHARE * totals[j] as f64 {
+            continue;
+        }
+        let cam = bundle.image_camera[j];
+        let image = StartImage {
+            id: String::new(),
+            c: bundle.interior[cam][0],
+            observations: bundle
+                .obs
+                .iter()
+                .filter(|o| o.image == j)
+                .map(|o| (o.point, brown_correct(o.meas, &bundle.interior[cam])))
+                .collect(),
+        };
+        let known: Vec<Option<Vector3<f64>>> = bundle.points.iter().map(|p| Some(*p)).collect();
+        let Ok(res) = super::start::resect_image(&image, &known) else {
+            continue;
+        };
+        let o = OrthoImage::from_center(res.rotation, res.center, image.c, bundle.zbar);
+        bundle.images[j] = ImageState {
+            rotation: res.rotation,
+            p: [o.m, o.a4, o.a8],
+        };
+        let mut k = 0;
+        for o in bundle.obs.iter_mut().filter(|o| o.image == j) {
+            o.active = !res.removed.contains(&k);
+            k += 1;
+        }
+        repaired = true;
+    }
+    if repaired {
+        levenberg_marquardt(bundle, 4 * ROBUST_ITERATIONS);
+        screen(bundle);
+    }
+}
+
+/// Factor on c that turns the closed-form model into the scaled orthographic (affine) projection of
+/// eq (5): with H → ∞, K → 1 and u → 1, so x = x_a.
+const AFFINE_C_FACTOR: f64 = 1e4;
+
+/// Reweighted rounds of the affine stage.
+const AFFINE_ROUNDS: usize = 4;
+
+/// Stage 0, the fallback start: the bundle of the pure affine model (eq 5 with constraints 10–11).
+/// Its basin differs from the perspective one, and in the orthogonal parametrization its solution
+/// (m, A4, A8, R, points) is directly a start of the perspective adjustment. Reweighted so that gross
+/// errors cannot steer it.
+fn affine_stage(bundle: &mut Bundle, robust: bool) {
+    let c: Vec<f64> = bundle.interior.iter().map(|i| i[0]).collect();
+    for i in bundle.interior.iter_mut() {
+        i[0] *= AFFINE_C_FACTOR;
+    }
+    if robust {
+        robust_rounds(bundle, ROBUST_ITERATIONS, AFFINE_ROUNDS);
+    } else {
+        levenberg_marquardt(bundle, AFFINE_ROUNDS * ROBUST_ITERATIONS);
+    }
+    for (i, c) in bundle.interior.iter_mut().zip(c) {
+        i[0] = c;
+    }
 }
 
 /// Reweighted rounds of the first perspective stage at most.
@@ -465,10 +544,111 @@ pub fn adjust_problem(
         0
     };
 
+    let dof_of = |b: &Bundle| {
+        let active = b.obs.iter().filter(|o| o.active).count();
+        2 * active as i64 + control_eq as i64 + b.prior_count() as i64
+            - (b.camera_unknowns() + 3 * np) as i64
+            + defect
+    };
+    let failed = |x: &Solved| {
+        let dof = dof_of(&x.bundle).max(1) as f64;
+        let vf = x.outcome.cost / dof;
+        !x.outcome.converged || (x.snooping_capped && vf > chi2_upper(dof, GLOBAL_TEST_Z) / dof)
+    };
+    let mut solved = solve(
+        problem,
+        options,
+        bundle.clone(),
+        &mirrors,
+        &free,
+        zbar,
+        datum,
+        false,
+    )?;
+    if failed(&solved) && options.model == Model::Orthogonal {
+        // A wrong basin (many blunders and a failed global test): try again from the affine bundle.
+        if let Ok(second) = solve(problem, options, bundle, &mirrors, &free, zbar, datum, true) {
+            let vf = |x: &Solved| x.outcome.cost / dof_of(&x.bundle).max(1) as f64;
+            if !failed(&second) || (second.outcome.converged && vf(&second) < vf(&solved)) {
+                solved = second;
+            }
+        }
+    }
+    if failed(&solved) && solved.outcome.converged {
+        let dof = dof_of(&solved.bundle).max(1) as f64;
+        return Err(AdjustError::Inconsistent {
+            sigma0_mm: problem.cameras[0].sigma_mm * (solved.outcome.cost / dof).sqrt(),
+            dropped: solved.dropped.len(),
+        });
+    }
+    let Solved {
+        bundle,
+        outcome,
+        cof,
+        warnings: more,
+        dropped,
+        ..
+    } = solved;
+    warnings.extend(more);
+    let active = bundle.obs.iter().filter(|o| o.active).count();
+    let unknowns_now = bundle.camera_unknowns() + 3 * np;
+    let dof = 2 * active as i64 + control_eq as i64 + bundle.prior_count() as i64
+        - unknowns_now as i64
+        + defect;
+    let _ = unknowns;
+    if dof <= 0 {
+        return Err(AdjustError::TooFewObservations {
+            observations: 2 * active + control_eq,
+            unknowns: unknowns_now - defect as usize,
+        });
+    }
+    finish(
+        problem,
+        options,
+        bundle,
+        frame,
+        cof,
+        outcome,
+        dof,
+        datum,
+        warnings,
+        dropped,
+        &start_points,
+    )
+}
+
+/// What one run of the pipeline produced.
+struct Solved {
+    bundle: Bundle,
+    outcome: LmOutcome,
+    cof: Cofactors,
+    warnings: Vec<String>,
+    dropped: Vec<DroppedObservation>,
+    snooping_capped: bool,
+}
+
+/// The pipeline from the start values: mirror choice, first stage (robust), self-calibration, the
+/// central model if asked, data snooping with its backward step. `affine_first` runs the affine
+/// bundle (stage 0) before the perspective stages.
+#[allow(clippy::too_many_arguments)]
+fn solve(
+    problem: &EpochProblem,
+    options: &AdjustOptions,
+    mut bundle: Bundle,
+    mirrors: &[Option<ImageState>],
+    free: &[[bool; 8]],
+    zbar: f64,
+    datum: Datum,
+    affine_first: bool,
+) -> Result<Solved, AdjustError> {
+    let mut warnings = Vec::new();
     // Stage 1: interior held; with snooping on, iteratively reweighted from the start so that a gross
     // error cannot pull the solution into a wrong basin; then gross residuals are set aside.
-    choose_mirrors(&mut bundle, &mirrors);
+    choose_mirrors(&mut bundle, mirrors);
     let robust = options.snooping;
+    if affine_first && bundle.model == Model::Orthogonal {
+        affine_stage(&mut bundle, robust);
+    }
     let mut outcome = if options.model == Model::Orthogonal {
         let outcome = first_stage(&mut bundle, robust, options.max_iterations);
         let stage2: Vec<[bool; 8]> = free
@@ -505,7 +685,7 @@ pub fn adjust_problem(
             })
             .collect();
         bundle.model = Model::Central;
-        bundle.free = free.clone();
+        bundle.free = free.to_vec();
         levenberg_marquardt(&mut bundle, options.max_iterations);
         first_stage(&mut bundle, robust, options.max_iterations)
     };
@@ -579,31 +759,17 @@ pub fn adjust_problem(
             w: max_w(&bundle, &cof, k),
         })
         .collect();
-    let active = bundle.obs.iter().filter(|o| o.active).count();
-    let unknowns_now = bundle.camera_unknowns() + 3 * np;
-    let dof = 2 * active as i64 + control_eq as i64 + bundle.prior_count() as i64
-        - unknowns_now as i64
-        + defect;
-    let _ = unknowns;
-    if dof <= 0 {
-        return Err(AdjustError::TooFewObservations {
-            observations: 2 * active + control_eq,
-            unknowns: unknowns_now - defect as usize,
-        });
-    }
-    finish(
-        problem,
-        options,
+    let snooping_capped = warnings
+        .iter()
+        .any(|w| w.starts_with("data snooping stopped"));
+    Ok(Solved {
         bundle,
-        frame,
-        cof,
         outcome,
-        dof,
-        datum,
+        cof,
         warnings,
         dropped,
-        &start_points,
-    )
+        snooping_capped,
+    })
 }
 
 /// Precision, datum transformation and the report.
