@@ -23,8 +23,8 @@ pub struct AdjustArgs {
 pub fn run(args: AdjustArgs) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(&args.epoch)
         .with_context(|| format!("reading {}", args.epoch.display()))?;
-    let input: EpochInput = serde_json::from_str(&text)
-        .with_context(|| format!("parsing {}", args.epoch.display()))?;
+    let input: EpochInput =
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", args.epoch.display()))?;
     let options = AdjustOptions {
         model: args.model,
         ..AdjustOptions::default()

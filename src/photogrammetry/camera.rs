@@ -59,7 +59,9 @@ impl Camera {
                     .ok_or_else(|| EpochError::OutOfRange {
                         item: item.clone(),
                         field: "calibrate".into(),
-                        reason: format!("unknown parameter '{name}' (c, x0, y0, k1, k2, k3, p1, p2)"),
+                        reason: format!(
+                            "unknown parameter '{name}' (c, x0, y0, k1, k2, k3, p1, p2)"
+                        ),
                     })?;
                 calibrate[k] = true;
             }

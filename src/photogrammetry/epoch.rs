@@ -215,8 +215,7 @@ impl EpochProblem {
 pub fn is_valid_identifier(s: &str) -> bool {
     !s.is_empty()
         && s.len() <= 64
-        && s
-            .chars()
+        && s.chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '.' || c == '_' || c == '-')
 }
 
@@ -307,12 +306,12 @@ impl EpochInput {
                     (None, None, Some(col), Some(row)) => {
                         let col = finite(col, &item, "col")?;
                         let row = finite(row, &item, "row")?;
-                        camera
-                            .pixel_to_mm(col, row)
-                            .ok_or_else(|| EpochError::PixelWithoutGeometry {
+                        camera.pixel_to_mm(col, row).ok_or_else(|| {
+                            EpochError::PixelWithoutGeometry {
                                 image: im.id.clone(),
                                 camera: camera.id.clone(),
-                            })?
+                            }
+                        })?
                     }
                     _ => return Err(EpochError::MissingCoordinate { item }),
                 };
@@ -335,7 +334,11 @@ impl EpochInput {
                 finite(c.Y, &item, "Y")?,
                 finite(c.Z, &item, "Z")?,
             ];
-            let sigma_m = finite(c.sigma_m.unwrap_or(DEFAULT_CONTROL_SIGMA_M), &item, "sigma_m")?;
+            let sigma_m = finite(
+                c.sigma_m.unwrap_or(DEFAULT_CONTROL_SIGMA_M),
+                &item,
+                "sigma_m",
+            )?;
             if sigma_m <= 0.0 {
                 return Err(EpochError::OutOfRange {
                     item,
