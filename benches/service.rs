@@ -16,11 +16,16 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use service_support::{synthetic_epoch, TestServer};
 
 fn runtime() -> tokio::runtime::Runtime {
-    tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build().unwrap()
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap()
 }
 
 fn observed_at(k: usize) -> String {
-    let t = chrono::DateTime::parse_from_rfc3339("2020-01-01T00:00:00Z").unwrap() + chrono::Duration::hours(k as i64);
+    let t = chrono::DateTime::parse_from_rfc3339("2020-01-01T00:00:00Z").unwrap()
+        + chrono::Duration::hours(k as i64);
     t.to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
 }
 
@@ -34,11 +39,26 @@ fn upload(c: &mut Criterion) {
         b.iter_batched(
             || {
                 k.set(k.get() + 1);
-                serde_json::to_vec(&synthetic_epoch(5, 28, &observed_at(k.get()), k.get() as u64, 0.0, 28)).unwrap()
+                serde_json::to_vec(&synthetic_epoch(
+                    5,
+                    28,
+                    &observed_at(k.get()),
+                    k.get() as u64,
+                    0.0,
+                    28,
+                ))
+                .unwrap()
             },
             |body| {
                 rt.block_on(async {
-                    let r = server.client.post(&url).header("content-type", "application/json").body(body).send().await.unwrap();
+                    let r = server
+                        .client
+                        .post(&url)
+                        .header("content-type", "application/json")
+                        .body(body)
+                        .send()
+                        .await
+                        .unwrap();
                     assert_eq!(r.status(), 201);
                     r.bytes().await.unwrap()
                 })
@@ -56,7 +76,11 @@ async fn fill_history(server: &TestServer, site: &str, epochs: usize, points: us
     let mut tx = server.store.begin_write().await.unwrap();
     for p in 0..points {
         sqlx::query("INSERT INTO points (site_id, name, role) VALUES (?, ?, 'monitored')")
-            .bind(site).bind(format!("T{:03}", p + 1)).execute(&mut *tx).await.unwrap();
+            .bind(site)
+            .bind(format!("T{:03}", p + 1))
+            .execute(&mut *tx)
+            .await
+            .unwrap();
     }
     sqlx::query(
         "INSERT INTO epochs (site_id, id, observed_at, status, model, sigma0_mm, iterations, body_sha256, cameras, report, created_at) \
@@ -81,26 +105,50 @@ fn series(c: &mut Criterion) {
     let server = rt.block_on(TestServer::start(|_| {}));
     rt.block_on(fill_history(&server, "long", 87_600, 30));
     let csv = server.url("/api/v1/sites/long/points/T017/displacements?format=csv");
-    let json = server.url("/api/v1/sites/long/points/T017/displacements?limit=1000&from=2020-01-01");
+    let json =
+        server.url("/api/v1/sites/long/points/T017/displacements?limit=1000&from=2020-01-01");
     let mut g = c.benchmark_group("service/series_87600");
     g.sample_size(20).measurement_time(Duration::from_secs(10));
     g.bench_function("csv_all", |b| {
         b.iter(|| {
             rt.block_on(async {
-                let text = server.client.get(&csv).send().await.unwrap().text().await.unwrap();
+                let text = server
+                    .client
+                    .get(&csv)
+                    .send()
+                    .await
+                    .unwrap()
+                    .text()
+                    .await
+                    .unwrap();
                 assert_eq!(text.lines().count(), 87_601);
             })
         })
     });
     g.bench_function("json_page_1000", |b| {
-        b.iter(|| rt.block_on(async { server.client.get(&json).send().await.unwrap().bytes().await.unwrap() }))
+        b.iter(|| {
+            rt.block_on(async {
+                server
+                    .client
+                    .get(&json)
+                    .send()
+                    .await
+                    .unwrap()
+                    .bytes()
+                    .await
+                    .unwrap()
+            })
+        })
     });
     g.finish();
     let _ = rt.block_on(server.stop());
 }
 
 fn database_size(_c: &mut Criterion) {
-    let n: usize = std::env::var("CLIFFWATCH_BENCH_SIZE_EPOCHS").ok().and_then(|v| v.parse().ok()).unwrap_or(500);
+    let n: usize = std::env::var("CLIFFWATCH_BENCH_SIZE_EPOCHS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(500);
     if n == 0 {
         return;
     }
@@ -111,7 +159,12 @@ fn database_size(_c: &mut Criterion) {
         server.create_site("size").await;
         let base = std::fs::metadata(&path).unwrap().len();
         for k in 0..n {
-            let (status, _) = server.upload("size", &synthetic_epoch(5, 30, &observed_at(k), k as u64, 0.0, 30)).await;
+            let (status, _) = server
+                .upload(
+                    "size",
+                    &synthetic_epoch(5, 30, &observed_at(k), k as u64, 0.0, 30),
+                )
+                .await;
             assert_eq!(status, 201);
         }
         base

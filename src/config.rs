@@ -121,7 +121,9 @@ pub enum ConfigError {
     #[error("listen address '{0}' is not ADDR:PORT")]
     BadListen(String),
     /// Non-loopback address without tokens.
-    #[error("refusing to listen on non-loopback address {0} without [[tokens]] in the configuration")]
+    #[error(
+        "refusing to listen on non-loopback address {0} without [[tokens]] in the configuration"
+    )]
     OpenWithoutTokens(SocketAddr),
     /// A token appears twice or is empty.
     #[error("tokens must be non-empty and distinct")]
@@ -155,7 +157,8 @@ impl Config {
             data_dir: Some(data_dir.into()),
             ..Overrides::default()
         };
-        let figment = Figment::from(Toml::string(DEFAULT_TOML)).merge(Serialized::defaults(overrides));
+        let figment =
+            Figment::from(Toml::string(DEFAULT_TOML)).merge(Serialized::defaults(overrides));
         figment.extract().expect("embedded defaults parse")
     }
 

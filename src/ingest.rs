@@ -75,7 +75,11 @@ pub fn body_hash(input: &EpochInput) -> String {
 }
 
 /// Ingests one epoch of the upload form into a site.
-pub async fn ingest(store: &Store, site_id: &str, input: EpochInput) -> Result<Ingested, IngestError> {
+pub async fn ingest(
+    store: &Store,
+    site_id: &str,
+    input: EpochInput,
+) -> Result<Ingested, IngestError> {
     let problem = input.validate()?;
     let site = sites::get(store.reader(), site_id)
         .await?
@@ -178,12 +182,11 @@ async fn derive(
     observed_at: &str,
     adjustment: &Adjustment,
 ) -> Result<Derived, IngestError> {
-    let earliest: i64 = sqlx::query_scalar(
-        "SELECT id FROM epochs WHERE site_id = ? ORDER BY observed_at LIMIT 1",
-    )
-    .bind(&site.id)
-    .fetch_one(&mut *tx)
-    .await?;
+    let earliest: i64 =
+        sqlx::query_scalar("SELECT id FROM epochs WHERE site_id = ? ORDER BY observed_at LIMIT 1")
+            .bind(&site.id)
+            .fetch_one(&mut *tx)
+            .await?;
     if site.reference_epoch.is_none() && earliest == epoch && epoch != 1 {
         // An epoch earlier than the reference arrived: it is the new default reference.
         recompute_displacements(tx, site).await?;
@@ -247,10 +250,14 @@ pub async fn recompute_displacements(
     displacements::delete_site(tx, &site.id).await?;
     let reference = match site.reference_epoch {
         Some(r) => Some(r),
-        None => sqlx::query_scalar("SELECT id FROM epochs WHERE site_id = ? ORDER BY observed_at LIMIT 1")
+        None => {
+            sqlx::query_scalar(
+                "SELECT id FROM epochs WHERE site_id = ? ORDER BY observed_at LIMIT 1",
+            )
             .bind(&site.id)
             .fetch_optional(&mut *tx)
-            .await?,
+            .await?
+        }
     };
     let Some(reference) = reference else {
         return Ok(());
@@ -270,7 +277,13 @@ pub async fn recompute_displacements(
             continue;
         };
         let prev = previous.get(&c.point).map(|(t, d)| (t.as_str(), *d));
-        let d = displacement(r, c, prev, directions.get(&c.point).copied(), site.confidence);
+        let d = displacement(
+            r,
+            c,
+            prev,
+            directions.get(&c.point).copied(),
+            site.confidence,
+        );
         previous.insert(c.point.clone(), (c.observed_at.clone(), d.d_mm));
         rows.push(d);
     }
@@ -311,9 +324,7 @@ pub fn displacement(
     let cov = if same {
         Matrix3::zeros()
     } else {
-        Matrix3::from_fn(|i, j| {
-            (current.covariance_m2[i][j] + reference.covariance_m2[i][j]) * 1e6
-        })
+        Matrix3::from_fn(|i, j| (current.covariance_m2[i][j] + reference.covariance_m2[i][j]) * 1e6)
     };
     let length = d.norm();
     let sigma = if length > 0.0 {
@@ -456,7 +467,13 @@ mod tests {
     fn displacement_is_current_minus_reference_in_mm() {
         let r = coord(1, "2026-01-01T00:00:00.000000Z", [1.0, 2.0, 3.0]);
         let c = coord(2, "2026-01-03T00:00:00.000000Z", [1.003, 2.0, 2.996]);
-        let d = displacement(&r, &c, Some(("2026-01-01T00:00:00.000000Z", 0.0)), Some([0.0, 0.0, -2.0]), 0.99);
+        let d = displacement(
+            &r,
+            &c,
+            Some(("2026-01-01T00:00:00.000000Z", 0.0)),
+            Some([0.0, 0.0, -2.0]),
+            0.99,
+        );
         assert!((d.dx_mm - 3.0).abs() < 1e-9 && (d.dz_mm + 4.0).abs() < 1e-9);
         assert!((d.d_mm - 5.0).abs() < 1e-9);
         assert!((d.d_along_mm.unwrap() - 4.0).abs() < 1e-9);
@@ -464,13 +481,21 @@ mod tests {
         assert!(d.significant);
         assert!((d.velocity_mm_per_day.unwrap() - 2.5).abs() < 1e-9);
         let zero = displacement(&r, &r, None, None, 0.99);
-        assert_eq!((zero.d_mm, zero.sigma_mm, zero.significant), (0.0, 0.0, false));
+        assert_eq!(
+            (zero.d_mm, zero.sigma_mm, zero.significant),
+            (0.0, 0.0, false)
+        );
     }
 
     #[test]
     fn csv_groups_observations_by_image() {
         let cam: CameraInput = serde_json::from_str(r#"{"id": "cam", "c_mm": 300.0}"#).unwrap();
-        let e = epoch_from_csv("image,point,x_mm,y_mm\nA,1,0.5,0.25\nA,2,1,2\nB,1,3,4\n", "2026-01-01T00:00:00Z", vec![cam]).unwrap();
+        let e = epoch_from_csv(
+            "image,point,x_mm,y_mm\nA,1,0.5,0.25\nA,2,1,2\nB,1,3,4\n",
+            "2026-01-01T00:00:00Z",
+            vec![cam],
+        )
+        .unwrap();
         assert_eq!(e.images.len(), 2);
         assert_eq!(e.images[0].observations.len(), 2);
         assert!(epoch_from_csv("A,1,x,2", "2026-01-01T00:00:00Z", vec![]).is_err());

@@ -10,7 +10,11 @@ use serde_json::{json, Value};
 use service_support::{paper, PAPER};
 
 fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
 }
 
 struct Binary {
@@ -21,7 +25,12 @@ struct Binary {
 async fn start(dir: &std::path::Path) -> Binary {
     let port = free_port();
     let child = Command::new(env!("CARGO_BIN_EXE_cliffwatch"))
-        .args(["serve", "--listen", &format!("127.0.0.1:{port}"), "--data-dir"])
+        .args([
+            "serve",
+            "--listen",
+            &format!("127.0.0.1:{port}"),
+            "--data-dir",
+        ])
         .arg(dir)
         .env("RUST_LOG", "warn")
         .stdout(Stdio::null())
@@ -54,7 +63,12 @@ async fn sigkill_during_uploads_leaves_whole_epochs() {
     let dir = tempfile::tempdir().unwrap();
     let mut server = start(dir.path()).await;
     let client = reqwest::Client::new();
-    let r = client.post(format!("{}/api/v1/sites", server.base)).json(&json!({"id": "crash"})).send().await.unwrap();
+    let r = client
+        .post(format!("{}/api/v1/sites", server.base))
+        .json(&json!({"id": "crash"}))
+        .send()
+        .await
+        .unwrap();
     assert_eq!(r.status(), 201);
 
     let url = format!("{}/api/v1/sites/crash/epochs", server.base);
@@ -75,7 +89,9 @@ async fn sigkill_during_uploads_leaves_whole_epochs() {
         }));
     }
     let t0 = Instant::now();
-    while done.load(std::sync::atomic::Ordering::SeqCst) < N / 3 && t0.elapsed() < Duration::from_secs(120) {
+    while done.load(std::sync::atomic::Ordering::SeqCst) < N / 3
+        && t0.elapsed() < Duration::from_secs(120)
+    {
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
     server.child.kill().expect("SIGKILL");
@@ -84,24 +100,61 @@ async fn sigkill_during_uploads_leaves_whole_epochs() {
         t.await.unwrap();
     }
     let acknowledged = done.load(std::sync::atomic::Ordering::SeqCst);
-    assert!(acknowledged < N, "the kill came after every upload: nothing tested");
+    assert!(
+        acknowledged < N,
+        "the kill came after every upload: nothing tested"
+    );
 
     let mut server = start(dir.path()).await;
     let (status, list): (u16, Value) = {
-        let r = client.get(format!("{}/api/v1/sites/crash/epochs?limit=1000", server.base)).send().await.unwrap();
+        let r = client
+            .get(format!(
+                "{}/api/v1/sites/crash/epochs?limit=1000",
+                server.base
+            ))
+            .send()
+            .await
+            .unwrap();
         (r.status().as_u16(), r.json().await.unwrap())
     };
     assert_eq!(status, 200);
     let stored = list["items"].as_array().unwrap().clone();
-    assert!(stored.len() >= acknowledged, "every acknowledged upload survives");
+    assert!(
+        stored.len() >= acknowledged,
+        "every acknowledged upload survives"
+    );
     for e in &stored {
         let id = e["id"].as_i64().unwrap();
-        let full: Value = client.get(format!("{}/api/v1/sites/crash/epochs/{id}", server.base)).send().await.unwrap().json().await.unwrap();
-        assert_eq!(full["points"].as_array().unwrap().len(), 12, "epoch {id} complete");
-        let observations: usize = full["images"].as_array().unwrap().iter().map(|i| i["observations"].as_u64().unwrap() as usize).sum::<usize>()
+        let full: Value = client
+            .get(format!("{}/api/v1/sites/crash/epochs/{id}", server.base))
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        assert_eq!(
+            full["points"].as_array().unwrap().len(),
+            12,
+            "epoch {id} complete"
+        );
+        let observations: usize = full["images"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|i| i["observations"].as_u64().unwrap() as usize)
+            .sum::<usize>()
             + full["dropped"].as_array().unwrap().len();
-        assert_eq!(full["residuals"].as_array().unwrap().len(), observations, "epoch {id} observations");
-        assert_eq!(full["displacements"].as_array().unwrap().len(), 12, "epoch {id} displacements");
+        assert_eq!(
+            full["residuals"].as_array().unwrap().len(),
+            observations,
+            "epoch {id} observations"
+        );
+        assert_eq!(
+            full["displacements"].as_array().unwrap().len(),
+            12,
+            "epoch {id} displacements"
+        );
     }
     let url = format!("{}/api/v1/sites/crash/epochs", server.base);
     let mut created = 0;
@@ -112,9 +165,22 @@ async fn sigkill_during_uploads_leaves_whole_epochs() {
         created += usize::from(status == 201);
     }
     assert_eq!(created, N - stored.len());
-    let list: Value = client.get(format!("{}/api/v1/sites/crash/epochs?limit=1000", server.base)).send().await.unwrap().json().await.unwrap();
+    let list: Value = client
+        .get(format!(
+            "{}/api/v1/sites/crash/epochs?limit=1000",
+            server.base
+        ))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
     assert_eq!(list["items"].as_array().unwrap().len(), N);
-    let _ = Command::new("kill").arg("-TERM").arg(server.child.id().to_string()).status();
+    let _ = Command::new("kill")
+        .arg("-TERM")
+        .arg(server.child.id().to_string())
+        .status();
     let status = server.child.wait().unwrap();
     assert!(status.success(), "SIGTERM exits with 0: {status:?}");
 }

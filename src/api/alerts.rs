@@ -27,16 +27,31 @@ pub struct AlertParams {
 /// `GET /api/v1/alerts`: newest first.
 #[utoipa::path(get, path = "/api/v1/alerts", params(("site" = Option<String>, Query), ("state" = Option<String>, Query), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "{items: [Alert], next_cursor}")))]
-pub async fn list(State(state): State<AppState>, ApiQuery(q): ApiQuery<AlertParams>) -> Result<impl IntoResponse, ApiError> {
+pub async fn list(
+    State(state): State<AppState>,
+    ApiQuery(q): ApiQuery<AlertParams>,
+) -> Result<impl IntoResponse, ApiError> {
     if let Some(s) = &q.state {
         if !["open", "acknowledged", "resolved"].contains(&s.as_str()) {
-            return Err(ApiError::bad_request(format!("state '{s}': open, acknowledged or resolved")));
+            return Err(ApiError::bad_request(format!(
+                "state '{s}': open, acknowledged or resolved"
+            )));
         }
     }
-    let page = PageParams { limit: q.limit, cursor: q.cursor };
+    let page = PageParams {
+        limit: q.limit,
+        cursor: q.cursor,
+    };
     let cursor = page.cursor()?;
     let after = cursor.as_deref().and_then(|c| c.split_once('|'));
-    let rows = alerts::list(state.store.reader(), q.site.as_deref(), q.state.as_deref(), after, page.limit() + 1).await?;
+    let rows = alerts::list(
+        state.store.reader(),
+        q.site.as_deref(),
+        q.state.as_deref(),
+        after,
+        page.limit() + 1,
+    )
+    .await?;
     let page = Page::from_fetched(rows, page.limit(), |(raw, a)| format!("{raw}|{}", a.id));
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, a)| a).collect(),
@@ -66,7 +81,9 @@ pub async fn acknowledge(
     if !alerts::acknowledge(&mut tx, &id, &body.by, body.comment.as_deref()).await? {
         return Err(ApiError::not_found(format!("unknown alert '{id}'")));
     }
-    let alert = alerts::get(&mut *tx, &id).await?.ok_or_else(|| ApiError::internal("alert vanished"))?;
+    let alert = alerts::get(&mut *tx, &id)
+        .await?
+        .ok_or_else(|| ApiError::internal("alert vanished"))?;
     let event = webhooks::NewEvent {
         id: format!("msg_{}", uuid::Uuid::new_v4().simple()),
         event_type: "alert.acknowledged".into(),

@@ -19,13 +19,20 @@ pub fn required_role(method: &Method, path: &str) -> Option<Role> {
     if method == Method::GET || method == Method::HEAD || method == Method::OPTIONS {
         return Some(Role::Read);
     }
-    let upload = (method == Method::POST && path.starts_with("/api/v1/sites/") && path.ends_with("/epochs"))
-        || (method == Method::POST && path.starts_with("/api/v1/alerts/") && path.ends_with("/ack"));
+    let upload =
+        (method == Method::POST && path.starts_with("/api/v1/sites/") && path.ends_with("/epochs"))
+            || (method == Method::POST
+                && path.starts_with("/api/v1/alerts/")
+                && path.ends_with("/ack"));
     Some(if upload { Role::Upload } else { Role::Admin })
 }
 
 /// Middleware: 401 for a missing or unknown token, 403 for a token without the role.
-pub async fn authorize(State(state): State<AppState>, req: Request, next: Next) -> Result<Response, ApiError> {
+pub async fn authorize(
+    State(state): State<AppState>,
+    req: Request,
+    next: Next,
+) -> Result<Response, ApiError> {
     let tokens = &state.config.tokens;
     if tokens.is_empty() {
         return Ok(next.run(req).await);
@@ -37,17 +44,28 @@ pub async fn authorize(State(state): State<AppState>, req: Request, next: Next) 
         .headers()
         .get(header::AUTHORIZATION)
         .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer ").or_else(|| v.strip_prefix("bearer ")))
+        .and_then(|v| {
+            v.strip_prefix("Bearer ")
+                .or_else(|| v.strip_prefix("bearer "))
+        })
         .map(str::trim);
     let Some(presented) = presented else {
-        return Err(ApiError::new(StatusCode::UNAUTHORIZED, "unauthorized", "missing bearer token"));
+        return Err(ApiError::new(
+            StatusCode::UNAUTHORIZED,
+            "unauthorized",
+            "missing bearer token",
+        ));
     };
     let role = tokens
         .iter()
         .find(|t| constant_time_eq(t.token.as_bytes(), presented.as_bytes()))
         .map(|t| t.role);
     match role {
-        None => Err(ApiError::new(StatusCode::UNAUTHORIZED, "unauthorized", "unknown bearer token")),
+        None => Err(ApiError::new(
+            StatusCode::UNAUTHORIZED,
+            "unauthorized",
+            "unknown bearer token",
+        )),
         Some(role) if role < needed => Err(ApiError::new(
             StatusCode::FORBIDDEN,
             "forbidden",

@@ -24,7 +24,11 @@ const DRAIN_FACTOR: usize = 16;
 
 /// Reads a body of at most `limit` bytes; over it, drains (up to [`DRAIN_FACTOR`] × limit) and
 /// answers 413.
-pub async fn read_limited(headers: &HeaderMap, body: Body, limit: usize) -> Result<Bytes, ApiError> {
+pub async fn read_limited(
+    headers: &HeaderMap,
+    body: Body,
+    limit: usize,
+) -> Result<Bytes, ApiError> {
     let declared = headers
         .get(header::CONTENT_LENGTH)
         .and_then(|v| v.to_str().ok())
@@ -106,10 +110,11 @@ async fn upload_inner(
         .is_some_and(|v| v.starts_with("text/csv"));
     let input: EpochInput = if is_csv {
         find(state, site).await?;
-        let text = std::str::from_utf8(&bytes).map_err(|_| ApiError::bad_request("the CSV is not UTF-8"))?;
-        let observed_at = params
-            .observed_at
-            .ok_or_else(|| ApiError::unprocessable("invalid_epoch", "a CSV upload needs ?observed_at="))?;
+        let text = std::str::from_utf8(&bytes)
+            .map_err(|_| ApiError::bad_request("the CSV is not UTF-8"))?;
+        let observed_at = params.observed_at.ok_or_else(|| {
+            ApiError::unprocessable("invalid_epoch", "a CSV upload needs ?observed_at=")
+        })?;
         let cameras: Vec<CameraInput> = epochs::site_cameras(state.store.reader(), site)
             .await?
             .into_iter()
@@ -119,7 +124,9 @@ async fn upload_inner(
         epoch_from_csv(text, &observed_at, cameras)?
     } else {
         serde_json::from_slice(&bytes).map_err(|e| match e.classify() {
-            serde_json::error::Category::Data => ApiError::unprocessable("invalid_epoch", e.to_string()),
+            serde_json::error::Category::Data => {
+                ApiError::unprocessable("invalid_epoch", e.to_string())
+            }
             _ => ApiError::bad_request(format!("the body is not JSON: {e}")),
         })?
     };
@@ -127,13 +134,22 @@ async fn upload_inner(
     let summary = summary(&state.store, &done.site, done.epoch, false)
         .await?
         .ok_or_else(|| ApiError::internal("stored epoch not found"))?;
-    let status = if done.created { StatusCode::CREATED } else { StatusCode::OK };
+    let status = if done.created {
+        StatusCode::CREATED
+    } else {
+        StatusCode::OK
+    };
     Ok((status, summary))
 }
 
 /// The summary of a stored epoch: list fields, the adjustment report (with the residuals when
 /// `residuals`), its displacements and the alerts it raised.
-pub async fn summary(store: &Store, site: &str, id: i64, residuals: bool) -> Result<Option<Value>, ApiError> {
+pub async fn summary(
+    store: &Store,
+    site: &str,
+    id: i64,
+    residuals: bool,
+) -> Result<Option<Value>, ApiError> {
     let db = store.reader();
     let Some((item, report)) = epochs::get(db, site, id).await? else {
         return Ok(None);
@@ -144,12 +160,21 @@ pub async fn summary(store: &Store, site: &str, id: i64, residuals: bool) -> Res
     }
     out.insert("site".into(), Value::String(site.to_string()));
     if residuals {
-        out.insert("residuals".into(), Value::Array(epochs::residuals(db, site, id).await?));
+        out.insert(
+            "residuals".into(),
+            Value::Array(epochs::residuals(db, site, id).await?),
+        );
     }
     let d = displacements::of_epoch(db, site, id).await?;
-    out.insert("displacements".into(), serde_json::to_value(d).map_err(StoreError::from)?);
+    out.insert(
+        "displacements".into(),
+        serde_json::to_value(d).map_err(StoreError::from)?,
+    );
     let a = alerts::of_epoch(db, site, id).await?;
-    out.insert("alerts".into(), serde_json::to_value(a).map_err(StoreError::from)?);
+    out.insert(
+        "alerts".into(),
+        serde_json::to_value(a).map_err(StoreError::from)?,
+    );
     Ok(Some(Value::Object(out)))
 }
 
@@ -163,7 +188,13 @@ pub async fn list(
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
     let cursor = page.cursor()?;
-    let rows = epochs::list(state.store.reader(), &site, cursor.as_deref(), page.limit() + 1).await?;
+    let rows = epochs::list(
+        state.store.reader(),
+        &site,
+        cursor.as_deref(),
+        page.limit() + 1,
+    )
+    .await?;
     let page = Page::from_fetched(rows, page.limit(), |(raw, _)| raw.clone());
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, e)| e).collect(),

@@ -77,7 +77,8 @@ impl ApiError {
 
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
-        let body = json!({"error": {"code": self.code, "message": self.message, "details": self.details}});
+        let body =
+            json!({"error": {"code": self.code, "message": self.message, "details": self.details}});
         (self.status, axum::Json(body)).into_response()
     }
 }
@@ -94,7 +95,11 @@ impl From<IngestError> for ApiError {
             IngestError::UnknownSite(s) => ApiError::not_found(format!("unknown site '{s}'")),
             IngestError::Invalid(err) => ApiError::unprocessable("invalid_epoch", err.to_string()),
             IngestError::Adjust(err) => ApiError::unprocessable("cannot_adjust", err.to_string()),
-            IngestError::Conflict { site, observed_at, epoch } => ApiError::new(
+            IngestError::Conflict {
+                site,
+                observed_at,
+                epoch,
+            } => ApiError::new(
                 StatusCode::CONFLICT,
                 "conflict",
                 format!("site '{site}' has epoch {epoch} at {observed_at} with another body"),
@@ -118,7 +123,9 @@ impl From<CsvError> for ApiError {
 impl From<JsonRejection> for ApiError {
     fn from(r: JsonRejection) -> Self {
         match r {
-            JsonRejection::JsonDataError(e) => ApiError::unprocessable("invalid_body", e.body_text()),
+            JsonRejection::JsonDataError(e) => {
+                ApiError::unprocessable("invalid_body", e.body_text())
+            }
             JsonRejection::JsonSyntaxError(e) => ApiError::bad_request(e.body_text()),
             JsonRejection::MissingJsonContentType(e) => ApiError::new(
                 StatusCode::UNSUPPORTED_MEDIA_TYPE,
@@ -126,7 +133,11 @@ impl From<JsonRejection> for ApiError {
                 e.body_text(),
             ),
             JsonRejection::BytesRejection(e) if e.status() == StatusCode::PAYLOAD_TOO_LARGE => {
-                ApiError::new(StatusCode::PAYLOAD_TOO_LARGE, "payload_too_large", e.body_text())
+                ApiError::new(
+                    StatusCode::PAYLOAD_TOO_LARGE,
+                    "payload_too_large",
+                    e.body_text(),
+                )
             }
             other => ApiError::bad_request(other.body_text()),
         }

@@ -27,11 +27,23 @@ pub fn metrics_handle() -> PrometheusHandle {
 
 fn describe() {
     metrics::describe_counter!("cliffwatch_uploads_total", "epoch uploads by HTTP status");
-    metrics::describe_counter!("cliffwatch_adjustments_total", "bundle adjustments by outcome");
-    metrics::describe_histogram!("cliffwatch_adjustment_seconds", "duration of one bundle adjustment (s)");
+    metrics::describe_counter!(
+        "cliffwatch_adjustments_total",
+        "bundle adjustments by outcome"
+    );
+    metrics::describe_histogram!(
+        "cliffwatch_adjustment_seconds",
+        "duration of one bundle adjustment (s)"
+    );
     metrics::describe_counter!("cliffwatch_alerts_raised_total", "alerts raised");
-    metrics::describe_counter!("cliffwatch_webhook_deliveries_total", "webhook delivery attempts by outcome");
-    metrics::describe_gauge!("cliffwatch_webhook_queue_depth", "pending webhook deliveries");
+    metrics::describe_counter!(
+        "cliffwatch_webhook_deliveries_total",
+        "webhook delivery attempts by outcome"
+    );
+    metrics::describe_gauge!(
+        "cliffwatch_webhook_queue_depth",
+        "pending webhook deliveries"
+    );
 }
 
 /// `GET /healthz`: the process answers.
@@ -45,8 +57,16 @@ pub async fn healthz() -> impl IntoResponse {
 pub async fn readyz(State(state): State<AppState>) -> Result<impl IntoResponse, ApiError> {
     match state.store.ready().await {
         Ok(true) => Ok(axum::Json(serde_json::json!({"status": "ready"}))),
-        Ok(false) => Err(ApiError::new(StatusCode::SERVICE_UNAVAILABLE, "not_ready", "migrations pending")),
-        Err(e) => Err(ApiError::new(StatusCode::SERVICE_UNAVAILABLE, "not_ready", e.to_string())),
+        Ok(false) => Err(ApiError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "not_ready",
+            "migrations pending",
+        )),
+        Err(e) => Err(ApiError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "not_ready",
+            e.to_string(),
+        )),
     }
 }
 

@@ -57,7 +57,10 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/openapi.json", get(openapi::openapi_json))
         .route("/api/v1/sites", post(sites::create).get(sites::list))
         .route("/api/v1/sites/{site}", get(sites::get_one))
-        .route("/api/v1/sites/{site}/epochs", post(epochs::upload).get(epochs::list))
+        .route(
+            "/api/v1/sites/{site}/epochs",
+            post(epochs::upload).get(epochs::list),
+        )
         .route("/api/v1/sites/{site}/epochs/{epoch}", get(epochs::get_one))
         .route("/api/v1/sites/{site}/reference", put(sites::set_reference))
         .route("/api/v1/sites/{site}/points", get(points::list))
@@ -68,10 +71,19 @@ pub fn router(state: AppState) -> Router {
         )
         .route("/api/v1/alerts", get(alerts::list))
         .route("/api/v1/alerts/{id}/ack", post(alerts::acknowledge))
-        .route("/api/v1/webhooks", post(webhooks::create).get(webhooks::list))
-        .route("/api/v1/webhooks/{id}", axum::routing::delete(webhooks::delete))
+        .route(
+            "/api/v1/webhooks",
+            post(webhooks::create).get(webhooks::list),
+        )
+        .route(
+            "/api/v1/webhooks/{id}",
+            axum::routing::delete(webhooks::delete),
+        )
         .fallback(|| async { error::ApiError::not_found("no such endpoint") })
-        .layer(axum::middleware::from_fn_with_state(state.clone(), auth::authorize))
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            auth::authorize,
+        ))
         .layer(DefaultBodyLimit::max(limit))
         .with_state(state);
     api.layer(TimeoutLayer::with_status_code(StatusCode::REQUEST_TIMEOUT, timeout))

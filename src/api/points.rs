@@ -117,16 +117,25 @@ pub async fn update(
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
     if !is_valid_identifier(&point) {
-        return Err(ApiError::unprocessable("invalid_point", format!("point '{point}': identifiers must match [A-Za-z0-9._-]{{1,64}}")));
+        return Err(ApiError::unprocessable(
+            "invalid_point",
+            format!("point '{point}': identifiers must match [A-Za-z0-9._-]{{1,64}}"),
+        ));
     }
     if let Some(role) = &settings.role {
         if role != "stable" && role != "monitored" {
-            return Err(ApiError::unprocessable("invalid_point", format!("role '{role}': stable or monitored")));
+            return Err(ApiError::unprocessable(
+                "invalid_point",
+                format!("role '{role}': stable or monitored"),
+            ));
         }
     }
     if let Some(d) = settings.direction {
         if d.iter().any(|v| !v.is_finite()) || d.iter().all(|v| *v == 0.0) {
-            return Err(ApiError::unprocessable("invalid_point", "direction: three finite numbers, not all zero"));
+            return Err(ApiError::unprocessable(
+                "invalid_point",
+                "direction: three finite numbers, not all zero",
+            ));
         }
     }
     let mut tx = state.store.begin_write().await?;
@@ -169,15 +178,32 @@ pub async fn displacements(
     let p = points::get(db, &site, &point)
         .await?
         .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no point '{point}'")))?;
-    let from = q.from.as_deref().map(|s| time_bound(s, false)).transpose()?;
+    let from = q
+        .from
+        .as_deref()
+        .map(|s| time_bound(s, false))
+        .transpose()?;
     let to = q.to.as_deref().map(|s| time_bound(s, true)).transpose()?;
     let csv = match q.format.as_deref() {
         None | Some("json") => false,
         Some("csv") => true,
-        Some(other) => return Err(ApiError::bad_request(format!("format '{other}': json or csv"))),
+        Some(other) => {
+            return Err(ApiError::bad_request(format!(
+                "format '{other}': json or csv"
+            )))
+        }
     };
     if csv {
-        let rows = displacements::series(db, &site, &point, from.as_deref(), to.as_deref(), None, None).await?;
+        let rows = displacements::series(
+            db,
+            &site,
+            &point,
+            from.as_deref(),
+            to.as_deref(),
+            None,
+            None,
+        )
+        .await?;
         let mut out = String::with_capacity(64 + rows.len() * 160);
         out.push_str(CSV_HEADER);
         out.push('\n');
@@ -186,21 +212,46 @@ pub async fn displacements(
             let _ = writeln!(
                 out,
                 "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                d.epoch, d.observed_at, d.dx_mm, d.dy_mm, d.dz_mm, d.d_mm, d.sigma_dx_mm, d.sigma_dy_mm,
-                d.sigma_dz_mm, d.sigma_mm, opt(along(d, p.direction)), d.significant,
-                opt(d.velocity_mm_per_day), opt(d.time_to_failure_hours)
+                d.epoch,
+                d.observed_at,
+                d.dx_mm,
+                d.dy_mm,
+                d.dz_mm,
+                d.d_mm,
+                d.sigma_dx_mm,
+                d.sigma_dy_mm,
+                d.sigma_dz_mm,
+                d.sigma_mm,
+                opt(along(d, p.direction)),
+                d.significant,
+                opt(d.velocity_mm_per_day),
+                opt(d.time_to_failure_hours)
             );
         }
         return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], out).into_response());
     }
-    let page = PageParams { limit: q.limit, cursor: q.cursor };
+    let page = PageParams {
+        limit: q.limit,
+        cursor: q.cursor,
+    };
     let after = page.cursor()?;
-    let mut rows = displacements::series(db, &site, &point, from.as_deref(), to.as_deref(), after.as_deref(), Some(page.limit() + 1)).await?;
+    let mut rows = displacements::series(
+        db,
+        &site,
+        &point,
+        from.as_deref(),
+        to.as_deref(),
+        after.as_deref(),
+        Some(page.limit() + 1),
+    )
+    .await?;
     for d in &mut rows {
         d.d_along_mm = along(d, p.direction);
     }
     let page = Page::from_fetched(rows, page.limit(), |d| {
-        parse_timestamp(&d.observed_at).map(timestamp).unwrap_or_default()
+        parse_timestamp(&d.observed_at)
+            .map(timestamp)
+            .unwrap_or_default()
     });
     Ok(axum::Json(page).into_response())
 }

@@ -55,10 +55,12 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
     };
     let store = Store::open(&config.database_path(), &options).await?;
     apply_configured(&store, &config).await?;
-    let listener = TcpListener::bind(addr).await.map_err(|source| ServeError::Io {
-        addr: addr.to_string(),
-        source,
-    })?;
+    let listener = TcpListener::bind(addr)
+        .await
+        .map_err(|source| ServeError::Io {
+            addr: addr.to_string(),
+            source,
+        })?;
     let addr = listener.local_addr().map_err(|source| ServeError::Io {
         addr: addr.to_string(),
         source,
@@ -91,7 +93,8 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
         })
         .collect();
     for h in &hooks {
-        super::webhooks::check_webhook(h).map_err(|e| ServeError::Site(h.url.clone(), e.message))?;
+        super::webhooks::check_webhook(h)
+            .map_err(|e| ServeError::Site(h.url.clone(), e.message))?;
     }
     store::webhooks::replace_configured(&mut tx, &hooks).await?;
     tx.commit().await.map_err(StoreError::from)?;
@@ -111,8 +114,15 @@ impl Bound {
 
     /// Serves until `shutdown` completes, then lets in-flight requests finish (at most
     /// `shutdown_grace_secs`) and closes the database.
-    pub async fn run(self, shutdown: impl Future<Output = ()> + Send + 'static) -> Result<(), ServeError> {
-        let Bound { listener, addr, state } = self;
+    pub async fn run(
+        self,
+        shutdown: impl Future<Output = ()> + Send + 'static,
+    ) -> Result<(), ServeError> {
+        let Bound {
+            listener,
+            addr,
+            state,
+        } = self;
         let grace = Duration::from_secs(state.config.shutdown_grace_secs);
         let store = state.store.clone();
         if let Some(dir) = &state.config.watch_dir {
@@ -147,7 +157,10 @@ impl Bound {
 }
 
 /// Binds and serves until `shutdown` completes.
-pub async fn serve(config: Config, shutdown: impl Future<Output = ()> + Send + 'static) -> Result<(), ServeError> {
+pub async fn serve(
+    config: Config,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), ServeError> {
     bind(config).await?.run(shutdown).await
 }
 

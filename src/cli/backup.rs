@@ -26,10 +26,15 @@ pub fn run(args: BackupArgs) -> anyhow::Result<()> {
         data_dir: args.data_dir,
         ..Overrides::default()
     };
-    let config = Config::load(args.config.as_deref(), &overrides).context("loading the configuration")?;
+    let config =
+        Config::load(args.config.as_deref(), &overrides).context("loading the configuration")?;
     let source = config.database_path();
     anyhow::ensure!(source.exists(), "no database at {}", source.display());
-    anyhow::ensure!(!args.file.exists(), "{} exists already", args.file.display());
+    anyhow::ensure!(
+        !args.file.exists(),
+        "{} exists already",
+        args.file.display()
+    );
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -41,6 +46,10 @@ pub fn run(args: BackupArgs) -> anyhow::Result<()> {
             Duration::from_millis(config.busy_timeout_ms),
         ))
         .with_context(|| format!("backing up {} to {}", source.display(), args.file.display()))?;
-    eprintln!("backup of {} written to {}", source.display(), args.file.display());
+    eprintln!(
+        "backup of {} written to {}",
+        source.display(),
+        args.file.display()
+    );
     Ok(())
 }

@@ -78,7 +78,8 @@ pub struct NewAlert {
     pub message: String,
 }
 
-const COLUMNS: &str = "id, site_id, point, points AS points, level, rule, value, threshold, unit, epoch_id, \
+const COLUMNS: &str =
+    "id, site_id, point, points AS points, level, rule, value, threshold, unit, epoch_id, \
     observed_at, message, state, raised_at, updated_at, acknowledged_by, ack_comment";
 
 fn finish(mut rows: Vec<Alert>) -> Vec<Alert> {

@@ -109,10 +109,12 @@ pub async fn list(
 
 /// Number of epochs of a site.
 pub async fn count(db: impl SqliteExecutor<'_>, site: &str) -> Result<i64, StoreError> {
-    Ok(sqlx::query_scalar("SELECT COUNT(*) FROM epochs WHERE site_id = ?")
-        .bind(site)
-        .fetch_one(db)
-        .await?)
+    Ok(
+        sqlx::query_scalar("SELECT COUNT(*) FROM epochs WHERE site_id = ?")
+            .bind(site)
+            .fetch_one(db)
+            .await?,
+    )
 }
 
 /// The stored header of one epoch: list fields plus the report (JSON object, without residuals).
@@ -213,10 +215,11 @@ pub async fn site_cameras(
 /// new integer id. Call inside a write transaction; the caller stores the derived rows
 /// (displacements, alerts, outbox) in the same transaction.
 pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<i64, StoreError> {
-    let id: i64 = sqlx::query_scalar("SELECT COALESCE(MAX(id), 0) + 1 FROM epochs WHERE site_id = ?")
-        .bind(rec.site)
-        .fetch_one(&mut *db)
-        .await?;
+    let id: i64 =
+        sqlx::query_scalar("SELECT COALESCE(MAX(id), 0) + 1 FROM epochs WHERE site_id = ?")
+            .bind(rec.site)
+            .fetch_one(&mut *db)
+            .await?;
     let adj = rec.adjustment;
     let mut report = serde_json::to_value(&adj.report)?;
     if let Some(obj) = report.as_object_mut() {

@@ -111,9 +111,10 @@ impl Store {
 
     /// Readiness: the database answers and every embedded migration is applied.
     pub async fn ready(&self) -> Result<bool, StoreError> {
-        let applied: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM _sqlx_migrations WHERE success = TRUE")
-            .fetch_one(&self.read)
-            .await?;
+        let applied: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM _sqlx_migrations WHERE success = TRUE")
+                .fetch_one(&self.read)
+                .await?;
         Ok(applied as usize >= MIGRATOR.iter().count())
     }
 
@@ -160,7 +161,11 @@ pub fn display_timestamp(s: &str) -> String {
 
 /// Copies the database file at `source` to `target` with `VACUUM INTO` through a read-only
 /// connection: a consistent snapshot while a server keeps writing; no migrations are run.
-pub async fn backup_file(source: &Path, target: &Path, busy_timeout: Duration) -> Result<(), StoreError> {
+pub async fn backup_file(
+    source: &Path,
+    target: &Path,
+    busy_timeout: Duration,
+) -> Result<(), StoreError> {
     use sqlx::{ConnectOptions, Connection};
     let mut conn = SqliteConnectOptions::from_str("sqlite:")?
         .filename(source)

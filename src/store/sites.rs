@@ -128,10 +128,12 @@ pub async fn created_at_raw(
     db: impl SqliteExecutor<'_>,
     id: &str,
 ) -> Result<Option<String>, StoreError> {
-    Ok(sqlx::query_scalar("SELECT created_at FROM sites WHERE id = ?")
-        .bind(id)
-        .fetch_optional(db)
-        .await?)
+    Ok(
+        sqlx::query_scalar("SELECT created_at FROM sites WHERE id = ?")
+            .bind(id)
+            .fetch_optional(db)
+            .await?,
+    )
 }
 
 /// Creates a site; `Ok(false)` when the id exists already.

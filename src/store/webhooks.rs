@@ -85,14 +85,15 @@ pub async fn replace_configured(
     db: &mut SqliteConnection,
     hooks: &[NewWebhook],
 ) -> Result<(), StoreError> {
-    let existing: Vec<(String, String, String, String)> = sqlx::query_as(
-        "SELECT id, url, secret, min_level FROM webhooks WHERE source = 'config'",
-    )
-    .fetch_all(&mut *db)
-    .await?;
+    let existing: Vec<(String, String, String, String)> =
+        sqlx::query_as("SELECT id, url, secret, min_level FROM webhooks WHERE source = 'config'")
+            .fetch_all(&mut *db)
+            .await?;
     for (id, url, secret, min) in &existing {
         let keep = hooks.iter().any(|h| {
-            &h.url == url && &h.secret == secret && h.min_level.as_deref().unwrap_or("warning") == min
+            &h.url == url
+                && &h.secret == secret
+                && h.min_level.as_deref().unwrap_or("warning") == min
         });
         if !keep {
             delete(&mut *db, id).await?;
@@ -100,7 +101,9 @@ pub async fn replace_configured(
     }
     for h in hooks {
         let present = existing.iter().any(|(_, url, secret, min)| {
-            &h.url == url && &h.secret == secret && h.min_level.as_deref().unwrap_or("warning") == min
+            &h.url == url
+                && &h.secret == secret
+                && h.min_level.as_deref().unwrap_or("warning") == min
         });
         if !present {
             insert(&mut *db, h, "config").await?;

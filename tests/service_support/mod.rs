@@ -16,9 +16,15 @@ pub fn data_dir() -> PathBuf {
 
 /// Names of the paper epochs, in observation order.
 pub const PAPER: [&str; 9] = [
-    "paper-case1-seed101", "paper-case1-seed102", "paper-case1-seed103",
-    "paper-case2-seed101", "paper-case2-seed102", "paper-case2-seed103",
-    "paper-case3-seed101", "paper-case3-seed102", "paper-case3-seed103",
+    "paper-case1-seed101",
+    "paper-case1-seed102",
+    "paper-case1-seed103",
+    "paper-case2-seed101",
+    "paper-case2-seed102",
+    "paper-case2-seed103",
+    "paper-case3-seed101",
+    "paper-case3-seed102",
+    "paper-case3-seed103",
 ];
 
 /// One paper epoch (upload form) as JSON.
@@ -30,10 +36,21 @@ pub fn paper(name: &str) -> Value {
 /// A synthetic epoch: `images` stations 100 m in front of a 20 m × 20 m cliff with `points`
 /// targets, c = 300 mm (calibrated), image noise ≈ 1 µm, approximations ± 10 mm. Points with an
 /// index ≥ `moving_from` are shifted by `shift_mm` along −Y (towards the cameras).
-pub fn synthetic_epoch(images: usize, points: usize, observed_at: &str, seed: u64, shift_mm: f64, moving_from: usize) -> Value {
-    let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+pub fn synthetic_epoch(
+    images: usize,
+    points: usize,
+    observed_at: &str,
+    seed: u64,
+    shift_mm: f64,
+    moving_from: usize,
+) -> Value {
+    let mut state = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
     let mut noise = move |scale: f64| {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2.0 * scale
     };
     let side = (points as f64).sqrt().ceil() as usize;
@@ -42,7 +59,12 @@ pub fn synthetic_epoch(images: usize, points: usize, observed_at: &str, seed: u6
             let (r, c) = (i / side, i % side);
             let x = -10.0 + 20.0 * c as f64 / (side - 1).max(1) as f64;
             let z = 20.0 * r as f64 / (side - 1).max(1) as f64;
-            let y = 100.0 + 2.0 * ((i * 7919) % 13) as f64 / 13.0 - if i >= moving_from { shift_mm / 1000.0 } else { 0.0 };
+            let y = 100.0 + 2.0 * ((i * 7919) % 13) as f64 / 13.0
+                - if i >= moving_from {
+                    shift_mm / 1000.0
+                } else {
+                    0.0
+                };
             [x, y, z]
         })
         .collect();
@@ -50,7 +72,11 @@ pub fn synthetic_epoch(images: usize, points: usize, observed_at: &str, seed: u6
     let target = [0.0, 100.0, 10.0];
     let mut imgs = Vec::new();
     for k in 0..images {
-        let t = if images > 1 { k as f64 / (images - 1) as f64 } else { 0.5 };
+        let t = if images > 1 {
+            k as f64 / (images - 1) as f64
+        } else {
+            0.5
+        };
         let xo = [-25.0 + 50.0 * t, 0.0, 5.0 + 4.0 * (k % 2) as f64];
         let f = normalize([target[0] - xo[0], target[1] - xo[1], target[2] - xo[2]]);
         let r1 = normalize(cross(f, [0.0, 0.0, 1.0]));
@@ -83,7 +109,11 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 fn normalize(a: [f64; 3]) -> [f64; 3] {
     let n = dot(a, a).sqrt();
@@ -116,9 +146,21 @@ impl TestServer {
         let store = bound.state().store.clone();
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
         let task = tokio::spawn(async move {
-            bound.run(async { let _ = rx.await; }).await.expect("serve");
+            bound
+                .run(async {
+                    let _ = rx.await;
+                })
+                .await
+                .expect("serve");
         });
-        TestServer { base, store, client: reqwest::Client::new(), stop: Some(tx), task: Some(task), dir }
+        TestServer {
+            base,
+            store,
+            client: reqwest::Client::new(),
+            stop: Some(tx),
+            task: Some(task),
+            dir,
+        }
     }
 
     /// Stops the server, waits for it, and hands back its data directory.
@@ -139,13 +181,25 @@ impl TestServer {
 
     /// Creates a site (201 expected).
     pub async fn create_site(&self, id: &str) {
-        let r = self.client.post(self.url("/api/v1/sites")).json(&json!({"id": id, "name": id, "model": "orthogonal"})).send().await.unwrap();
+        let r = self
+            .client
+            .post(self.url("/api/v1/sites"))
+            .json(&json!({"id": id, "name": id, "model": "orthogonal"}))
+            .send()
+            .await
+            .unwrap();
         assert_eq!(r.status(), 201, "create site {id}");
     }
 
     /// POSTs an epoch; returns status and JSON answer.
     pub async fn upload(&self, site: &str, body: &Value) -> (u16, Value) {
-        let r = self.client.post(self.url(&format!("/api/v1/sites/{site}/epochs"))).json(body).send().await.unwrap();
+        let r = self
+            .client
+            .post(self.url(&format!("/api/v1/sites/{site}/epochs")))
+            .json(body)
+            .send()
+            .await
+            .unwrap();
         let status = r.status().as_u16();
         (status, r.json().await.unwrap_or(Value::Null))
     }
@@ -166,9 +220,26 @@ impl TestServer {
 /// Row counts of every table of a store.
 pub async fn snapshot(store: &Store) -> Vec<(String, i64)> {
     let mut out = Vec::new();
-    for t in ["sites", "cameras", "stations", "points", "epochs", "images", "observations", "coordinates",
-              "joint_covariances", "displacements", "alerts", "webhooks", "webhook_outbox", "webhook_deliveries"] {
-        let n: i64 = sqlx::query_scalar(&format!("SELECT COUNT(*) FROM {t}")).fetch_one(store.reader()).await.unwrap();
+    for t in [
+        "sites",
+        "cameras",
+        "stations",
+        "points",
+        "epochs",
+        "images",
+        "observations",
+        "coordinates",
+        "joint_covariances",
+        "displacements",
+        "alerts",
+        "webhooks",
+        "webhook_outbox",
+        "webhook_deliveries",
+    ] {
+        let n: i64 = sqlx::query_scalar(&format!("SELECT COUNT(*) FROM {t}"))
+            .fetch_one(store.reader())
+            .await
+            .unwrap();
         out.push((t.to_string(), n));
     }
     out
