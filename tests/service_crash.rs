@@ -24,7 +24,7 @@ struct Binary {
 
 async fn start(dir: &std::path::Path) -> Binary {
     let port = free_port();
-    let child = Command::new(env!("CARGO_BIN_EXE_cliffwatch"))
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cliffwatch"))
         .args([
             "serve",
             "--listen",
@@ -40,15 +40,19 @@ async fn start(dir: &std::path::Path) -> Binary {
     let base = format!("http://127.0.0.1:{port}");
     let client = reqwest::Client::new();
     let t0 = Instant::now();
-    while t0.elapsed() < Duration::from_secs(30) {
-        if let Ok(r) = client.get(format!("{base}/healthz")).send().await {
-            if r.status() == 200 {
-                return Binary { child, base };
-            }
+    let mut healthy = false;
+    while !healthy && t0.elapsed() < Duration::from_secs(30) {
+        healthy = matches!(client.get(format!("{base}/healthz")).send().await, Ok(r) if r.status() == 200);
+        if !healthy {
+            tokio::time::sleep(Duration::from_millis(50)).await;
         }
-        tokio::time::sleep(Duration::from_millis(50)).await;
     }
-    panic!("server did not become healthy");
+    if !healthy {
+        let _ = child.kill();
+        let _ = child.wait();
+        panic!("server did not become healthy");
+    }
+    Binary { child, base }
 }
 
 fn epoch(k: usize) -> Value {
