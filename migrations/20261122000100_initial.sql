@@ -144,10 +144,13 @@ CREATE TABLE displacements (
     significant            BOOLEAN NOT NULL,
     velocity_mm_per_day    DOUBLE PRECISION,
     time_to_failure_hours  DOUBLE PRECISION,
-    PRIMARY KEY (site_id, epoch_id, point),
+    -- clustered by point and time: a time series is one contiguous range, not one page per row
+    -- (observed_at is unique within a site). WITHOUT ROWID is SQLite's clustering clause; a
+    -- PostgreSQL migration would use a plain primary key (and CLUSTER) instead.
+    PRIMARY KEY (site_id, point, observed_at),
     FOREIGN KEY (site_id, epoch_id) REFERENCES epochs (site_id, id)
-);
-CREATE INDEX displacements_by_point ON displacements (site_id, point, observed_at);
+) WITHOUT ROWID;
+CREATE UNIQUE INDEX displacements_by_epoch ON displacements (site_id, epoch_id, point);
 
 CREATE TABLE alerts (
     id               TEXT PRIMARY KEY,
