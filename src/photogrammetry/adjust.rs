@@ -669,8 +669,11 @@ fn solve(
         }
     } else {
         // The orthogonal solution (interior held) starts the collinearity adjustment; gross errors are
-        // screened only once the interior orientation (e.g. strong distortion) is modelled.
-        levenberg_marquardt(&mut bundle, options.max_iterations);
+        // screened only once the interior orientation (e.g. strong distortion) is modelled. Without
+        // `central_from_orthogonal` the start values go to collinearity directly (for comparisons).
+        if options.central_from_orthogonal {
+            levenberg_marquardt(&mut bundle, options.max_iterations);
+        }
         bundle.images = bundle
             .images
             .iter()

@@ -53,9 +53,22 @@ pub fn residual<T: Scalar>(
     zbar: f64,
 ) -> [T; 2] {
     let corrected = brown_correct([T::from(meas[0]), T::from(meas[1])], interior);
+    residual_corrected(model, rows, p, interior[0], x, corrected, zbar)
+}
+
+/// Residual from an already corrected measurement (mm).
+pub fn residual_corrected<T: Scalar>(
+    model: Model,
+    rows: &[[T; 3]; 3],
+    p: &[T; 3],
+    c: T,
+    x: &[T; 3],
+    corrected: [T; 2],
+    zbar: f64,
+) -> [T; 2] {
     let f = match model {
-        Model::Orthogonal => orthogonal::project(rows, p[0], p[1], p[2], interior[0], zbar, x),
-        Model::Central => central::project(rows, p, interior[0], x),
+        Model::Orthogonal => orthogonal::project(rows, p[0], p[1], p[2], c, zbar, x),
+        Model::Central => central::project(rows, p, c, x),
     };
     [corrected[0] - f[0], corrected[1] - f[1]]
 }
@@ -104,5 +117,19 @@ pub fn residual_jacobian(
         };
     }
     let xd = [v(x.x, POINT0), v(x.y, POINT0 + 1), v(x.z, POINT0 + 2)];
-    residual(model, &rows, &p, &inner, &xd, meas, zbar)
+    if free[1..].iter().any(|&f| f) {
+        residual(model, &rows, &p, &inner, &xd, meas, zbar)
+    } else {
+        // Distortion and principal point held: correct the measurement once, in plain numbers.
+        let c = brown_correct(meas, interior);
+        residual_corrected(
+            model,
+            &rows,
+            &p,
+            inner[0],
+            &xd,
+            [c[0].into(), c[1].into()],
+            zbar,
+        )
+    }
 }

@@ -22,6 +22,9 @@ pub struct AdjustOptions {
     pub critical_w: f64,
     /// Iteration limit of one Levenberg–Marquardt run.
     pub max_iterations: usize,
+    /// With the central model: adjust the orthogonal model first and start collinearity from its
+    /// solution (default). Off, collinearity starts from the start values directly (model comparisons).
+    pub central_from_orthogonal: bool,
 }
 
 impl Default for AdjustOptions {
@@ -33,6 +36,7 @@ impl Default for AdjustOptions {
             snooping: true,
             critical_w: 3.29,
             max_iterations: 100,
+            central_from_orthogonal: true,
         }
     }
 }
