@@ -1,1 +1,25 @@
-//! (to be written)
+//! Alert webhooks per the contract: Standard Webhooks signatures, the payload (and an optional
+//! Alertmanager-compatible body), the retry policy as pure functions, and one delivery attempt.
+//!
+//! - [`sign`]: `webhook-signature: v1,<base64 HMAC-SHA256 of "{id}.{timestamp}.{body}">` with the key
+//!   = base64-decoded part of the secret after `whsec_` (Standard Webhooks specification,
+//!   <https://www.standardwebhooks.com>).
+//! - [`payload`]: the contract body `{"type", "timestamp", "data": {...}}` built from an
+//!   [`crate::analysis::AlertEvent`], per-endpoint level filtering, the Alertmanager webhook body (v4).
+//! - [`retry`]: exponential backoff with jitter, `Retry-After`, attempt limit.
+//! - [`deliver`]: one signed HTTP POST and the classification of its outcome (delivered, retry after,
+//!   gone on 410 → disable the endpoint, failed). The outbox worker (the service) stores the message id and
+//!   reuses it on every retry.
+
+pub mod deliver;
+pub mod payload;
+pub mod retry;
+pub mod sign;
+
+pub use deliver::{deliver, DeliveryOutcome};
+pub use payload::{
+    accepts, alertmanager_body, message_id, AlertmanagerAlert, AlertmanagerBody, PayloadFormat,
+    WebhookData, WebhookEndpoint, WebhookPayload,
+};
+pub use retry::{backoff_delay, next_retry, parse_retry_after, RetryPolicy};
+pub use sign::{sign, signing_key, verify, WebhookError};

@@ -1,1 +1,45 @@
-//! Pure displacement analysis and alert rules (to be written).
+//! Displacement analysis and alert rules: pure functions over typed values (no I/O, no async, no database).
+//!
+//! The path of an epoch through this module:
+//! 1. [`analyse_epoch`]: the current epoch's coordinates are brought into the reference datum by an
+//!    S-transformation onto the stable points ([`datum`]), whose congruence is tested and whose moving
+//!    members are excluded ([`congruence`]); every point gets its displacement with covariance and
+//!    significance test ([`displacement`]), velocity and acceleration ([`velocity`]) and, while it
+//!    accelerates, an inverse-velocity time-to-failure forecast ([`failure`]).
+//! 2. [`evaluate_alerts`]: the site's rules turn the analysis into alert transitions and events
+//!    ([`alerts`]); [`check_overdue`] watches the campaign schedule; [`acknowledge`] and [`resolve`] are the
+//!    user's actions.
+//!
+//! Units are in the names: m for coordinates, mm and mm² for displacements and their covariances, mm/day,
+//! hours. Methods: Caspary 1987 and Niemeier 2008 (S-transformation, congruence test), Chen 1983 (IWST),
+//! Fukuzono 1985 (inverse velocity).
+
+// `!(x > 0.0)` is deliberate throughout: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod alerts;
+pub mod analyse;
+pub mod congruence;
+pub mod datum;
+pub mod displacement;
+pub mod epoch;
+pub mod error;
+pub mod failure;
+pub mod stats;
+pub mod velocity;
+
+pub use alerts::{
+    acknowledge, check_overdue, evaluate_alerts, resolve, Alert, AlertConfig, AlertEvent,
+    AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState, AlertStatus, Metric,
+};
+pub use analyse::{analyse_epoch, DatumReport, EpochAnalysis, History};
+pub use congruence::CongruenceTest;
+pub use datum::DatumMethod;
+pub use displacement::{DisplacementRecord, PointAnalysis};
+pub use epoch::{
+    AnalysisConfig, DatumTransformation, EpochCoordinates, FailureConfig, JointCovarianceM2,
+    PointConfig, PointCoordinates, PointRole, Window,
+};
+pub use error::AnalysisError;
+pub use failure::FailureForecast;
+pub use velocity::Kinematics;

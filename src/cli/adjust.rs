@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use cliffwatch::photogrammetry::{adjust, AdjustOptions, EpochInput, Model};
+use cliffwatch::simulate::scenes::Truth;
 
 /// Arguments of `cliffwatch adjust`.
 #[derive(clap::Args)]
@@ -23,16 +24,22 @@ pub struct AdjustArgs {
 pub fn run(args: AdjustArgs) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(&args.epoch)
         .with_context(|| format!("reading {}", args.epoch.display()))?;
-    let input: EpochInput = serde_json::from_str(&text)
-        .with_context(|| format!("parsing {}", args.epoch.display()))?;
+    let input: EpochInput =
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", args.epoch.display()))?;
     let options = AdjustOptions {
         model: args.model,
         ..AdjustOptions::default()
     };
     let adjustment = adjust(&input, &options).context("adjusting the epoch")?;
-    let report = adjustment.report;
-    // --truth is wired in once the quality indexes exist.
-    let _ = args.truth;
+    let mut report = adjustment.report;
+    if let Some(path) = &args.truth {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let truth: Truth =
+            serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+        report.index3_rmse_mm = Some(truth.index3_rmse_mm(&adjustment.points)?);
+        report.index4_rmse_mm = Some(truth.index4_rmse_mm(&adjustment.points)?);
+    }
     println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())
 }

@@ -42,11 +42,18 @@ impl Camera {
                 });
             }
         }
-        if c.c_mm <= 0.0 {
+        if !(c.c_mm > 0.0 && c.c_mm <= 1e5) {
             return Err(EpochError::OutOfRange {
                 item,
                 field: "c_mm".into(),
-                reason: "must be positive".into(),
+                reason: "must be positive and at most 100 m".into(),
+            });
+        }
+        if params[1..].iter().any(|v| v.abs() > 1e3) {
+            return Err(EpochError::OutOfRange {
+                item,
+                field: "x0_mm..p2".into(),
+                reason: "principal point and distortion terms must be within ±1000".into(),
             });
         }
         let mut calibrate = [false; 8];
@@ -59,17 +66,19 @@ impl Camera {
                     .ok_or_else(|| EpochError::OutOfRange {
                         item: item.clone(),
                         field: "calibrate".into(),
-                        reason: format!("unknown parameter '{name}' (c, x0, y0, k1, k2, k3, p1, p2)"),
+                        reason: format!(
+                            "unknown parameter '{name}' (c, x0, y0, k1, k2, k3, p1, p2)"
+                        ),
                     })?;
                 calibrate[k] = true;
             }
         }
         let pixel_size_mm = match c.pixel_size_mm {
-            Some(p) if !(p.is_finite() && p > 0.0) => {
+            Some(p) if !(p.is_finite() && p > 0.0 && p <= 1.0) => {
                 return Err(EpochError::OutOfRange {
                     item,
                     field: "pixel_size_mm".into(),
-                    reason: "must be a positive number".into(),
+                    reason: "must be a positive number of at most 1 mm".into(),
                 })
             }
             p => p,
@@ -86,7 +95,7 @@ impl Camera {
             }
         };
         let sigma_mm = match c.sigma_mm {
-            Some(s) if !(s.is_finite() && s > 0.0) => {
+            Some(s) if !(s.is_finite() && s > 0.0 && s <= 1e3) => {
                 return Err(EpochError::OutOfRange {
                     item,
                     field: "sigma_mm".into(),

@@ -215,10 +215,14 @@ impl EpochProblem {
 pub fn is_valid_identifier(s: &str) -> bool {
     !s.is_empty()
         && s.len() <= 64
-        && s
-            .chars()
+        && s.chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '.' || c == '_' || c == '-')
 }
+
+/// Largest accepted magnitude of an image coordinate: 10 m in mm or 10⁷ pixels, beyond any sensor.
+pub const MAX_IMAGE_COORDINATE: f64 = 1e7;
+/// Largest accepted magnitude of an object coordinate in m (UTM northings are below 10⁷).
+pub const MAX_OBJECT_COORDINATE_M: f64 = 1e8;
 
 fn finite(value: f64, item: &str, field: &str) -> Result<f64, EpochError> {
     if value.is_finite() {
@@ -227,6 +231,20 @@ fn finite(value: f64, item: &str, field: &str) -> Result<f64, EpochError> {
         Err(EpochError::NotFinite {
             item: item.to_string(),
             field: field.to_string(),
+        })
+    }
+}
+
+/// A finite number no larger than `max` in magnitude.
+fn bounded(value: f64, max: f64, item: &str, field: &str) -> Result<f64, EpochError> {
+    let v = finite(value, item, field)?;
+    if v.abs() <= max {
+        Ok(v)
+    } else {
+        Err(EpochError::OutOfRange {
+            item: item.to_string(),
+            field: field.to_string(),
+            reason: format!("is beyond ±{max:e}"),
         })
     }
 }
@@ -301,18 +319,19 @@ impl EpochInput {
                     });
                 }
                 let xy = match (o.x_mm, o.y_mm, o.col, o.row) {
-                    (Some(x), Some(y), None, None) => {
-                        [finite(x, &item, "x_mm")?, finite(y, &item, "y_mm")?]
-                    }
+                    (Some(x), Some(y), None, None) => [
+                        bounded(x, MAX_IMAGE_COORDINATE, &item, "x_mm")?,
+                        bounded(y, MAX_IMAGE_COORDINATE, &item, "y_mm")?,
+                    ],
                     (None, None, Some(col), Some(row)) => {
-                        let col = finite(col, &item, "col")?;
-                        let row = finite(row, &item, "row")?;
-                        camera
-                            .pixel_to_mm(col, row)
-                            .ok_or_else(|| EpochError::PixelWithoutGeometry {
+                        let col = bounded(col, MAX_IMAGE_COORDINATE, &item, "col")?;
+                        let row = bounded(row, MAX_IMAGE_COORDINATE, &item, "row")?;
+                        camera.pixel_to_mm(col, row).ok_or_else(|| {
+                            EpochError::PixelWithoutGeometry {
                                 image: im.id.clone(),
                                 camera: camera.id.clone(),
-                            })?
+                            }
+                        })?
                     }
                     _ => return Err(EpochError::MissingCoordinate { item }),
                 };
@@ -331,11 +350,15 @@ impl EpochInput {
         for c in &self.control {
             let item = format!("control point '{}'", c.point);
             let xyz = [
-                finite(c.X, &item, "X")?,
-                finite(c.Y, &item, "Y")?,
-                finite(c.Z, &item, "Z")?,
+                bounded(c.X, MAX_OBJECT_COORDINATE_M, &item, "X")?,
+                bounded(c.Y, MAX_OBJECT_COORDINATE_M, &item, "Y")?,
+                bounded(c.Z, MAX_OBJECT_COORDINATE_M, &item, "Z")?,
             ];
-            let sigma_m = finite(c.sigma_m.unwrap_or(DEFAULT_CONTROL_SIGMA_M), &item, "sigma_m")?;
+            let sigma_m = finite(
+                c.sigma_m.unwrap_or(DEFAULT_CONTROL_SIGMA_M),
+                &item,
+                "sigma_m",
+            )?;
             if sigma_m <= 0.0 {
                 return Err(EpochError::OutOfRange {
                     item,
@@ -356,9 +379,9 @@ impl EpochInput {
         for a in &self.approx {
             let item = format!("approx point '{}'", a.point);
             let xyz = [
-                finite(a.X, &item, "X")?,
-                finite(a.Y, &item, "Y")?,
-                finite(a.Z, &item, "Z")?,
+                bounded(a.X, MAX_OBJECT_COORDINATE_M, &item, "X")?,
+                bounded(a.Y, MAX_OBJECT_COORDINATE_M, &item, "Y")?,
+                bounded(a.Z, MAX_OBJECT_COORDINATE_M, &item, "Z")?,
             ];
             if !seen_approx.insert(a.point.clone()) {
                 return Err(EpochError::DuplicatePoint(a.point.clone()));

@@ -1,0 +1,109 @@
+//! Displacement analysis and alert evaluation of a 500-point epoch against a 10-year daily history
+//! (3650 records per point). Target: ≤ 50 ms per epoch. Figures in `docs/performance.md`.
+
+use chrono::Duration;
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+
+use cliffwatch::analysis::{
+    analyse_epoch, evaluate_alerts, AlertConfig, AlertRule, AlertState, AnalysisConfig,
+    DisplacementRecord, History,
+};
+use cliffwatch::simulate::monitoring::MonitoringScenario;
+
+fn setup() -> (
+    MonitoringScenario,
+    cliffwatch::simulate::monitoring::MonitoringSeries,
+    History,
+    AlertConfig,
+) {
+    let sc = MonitoringScenario {
+        seed: 9,
+        stable_points: 20,
+        block_points: 30,
+        other_points: 450,
+        epochs: 2,
+        interval_hours: 24.0 * 3650.0,
+        creep_mm_per_day: 0.002,
+        acceleration_start_days: None,
+        ..Default::default()
+    };
+    let series = sc.generate();
+    let now = series.epochs[1].coordinates.observed_at;
+    let mut history = History::new();
+    for p in &series.epochs[1].coordinates.points {
+        let recs: Vec<DisplacementRecord> = (1..=3650)
+            .rev()
+            .map(|k| {
+                let d = 0.002 * (3650 - k) as f64 + 0.3;
+                DisplacementRecord {
+                    point: p.name.clone(),
+                    epoch: 3651 - k,
+                    observed_at: now - Duration::days(k),
+                    dx_mm: d,
+                    dy_mm: 0.0,
+                    dz_mm: 0.0,
+                    d_mm: d,
+                    sigma_dx_mm: 0.7,
+                    sigma_dy_mm: 1.4,
+                    sigma_dz_mm: 0.7,
+                    sigma_mm: 0.7,
+                    d_along_mm: None,
+                    significant: false,
+                    velocity_mm_per_day: Some(0.002),
+                    time_to_failure_hours: None,
+                }
+            })
+            .collect();
+        history.insert(p.name.clone(), recs);
+    }
+    let rules: Vec<AlertRule> = serde_json::from_str(
+        r#"[{"level": "watch",   "metric": "displacement_mm",       "above": 5.0, "clear_below": 4.0},
+            {"level": "warning", "metric": "displacement_mm",       "above": 10.0},
+            {"level": "alarm",   "metric": "velocity_mm_per_day",   "above": 5.0},
+            {"level": "alarm",   "metric": "time_to_failure_hours", "below": 48.0}]"#,
+    )
+    .expect("rules");
+    (sc, series, history, AlertConfig::new("bench", rules))
+}
+
+fn bench(c: &mut Criterion) {
+    let (_sc, series, history, alerts) = setup();
+    let config = AnalysisConfig::default();
+    let (reference, current) = (&series.epochs[0].coordinates, &series.epochs[1].coordinates);
+    let state = AlertState::default();
+    c.bench_function(
+        "analyse_epoch+evaluate_alerts 500 points, 10 y daily history",
+        |b| {
+            b.iter(|| {
+                let a = analyse_epoch(
+                    reference,
+                    current,
+                    &series.points,
+                    black_box(&history),
+                    &config,
+                )
+                .expect("analysis");
+                let (s, ev) = evaluate_alerts(&alerts, &state, &a, a.observed_at);
+                black_box((s, ev))
+            })
+        },
+    );
+    let no_stable: Vec<_> = series
+        .points
+        .iter()
+        .map(|p| cliffwatch::analysis::PointConfig {
+            role: cliffwatch::analysis::PointRole::Monitored,
+            ..p.clone()
+        })
+        .collect();
+    c.bench_function("analyse_epoch 500 points, IWST (no stable points)", |b| {
+        b.iter(|| {
+            black_box(
+                analyse_epoch(reference, current, &no_stable, &history, &config).expect("analysis"),
+            )
+        })
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,295 @@
+//! One epoch's analysis: datum, congruence, displacements, velocity, time to failure.
+
+use std::collections::HashMap;
+
+use chrono::{DateTime, Utc};
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::congruence::{test_and_localise, CongruenceTest};
+use super::datum::{fit_iwst, transform_all, DatumFit, DatumMethod, Differences};
+use super::displacement::{point_test, sigma_length, DisplacementRecord, PointAnalysis};
+use super::epoch::{AnalysisConfig, EpochCoordinates, PointConfig, PointRole};
+use super::error::AnalysisError;
+use super::failure::forecast;
+use super::stats::{f_quantile, normal_quantile};
+use super::velocity::{days_between, kinematics_z, Sample};
+
+/// Past displacement records per point name, each list oldest first (records at or after the current
+/// epoch's `observed_at` are ignored, so re-analysing an epoch is idempotent). Only the windows are read:
+/// the store may pass just the last [`AnalysisConfig::history_epochs`] records or
+/// [`AnalysisConfig::history_days`] days per point.
+pub type History = HashMap<String, Vec<DisplacementRecord>>;
+
+/// How the epoch was brought into the reference datum.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DatumReport {
+    /// Stable points (S-transformation) or IWST.
+    pub method: DatumMethod,
+    /// Points that defined the datum in the end.
+    pub points: Vec<String>,
+    /// Stable points found moving by the congruence test and excluded (in the order found).
+    pub excluded: Vec<String>,
+    /// The global congruence tests in order (first: all stable points; then after each exclusion).
+    pub congruence: Vec<CongruenceTest>,
+    /// Translation of the current epoch relative to the reference datum, mm (at the datum centroid).
+    pub translation_mm: [f64; 3],
+    /// Small rotations about X, Y, Z in mrad (0 for a translation datum).
+    pub rotation_mrad: [f64; 3],
+    /// Scale difference in ppm (0 unless a similarity datum).
+    pub scale_ppm: f64,
+}
+
+/// The analysis of one epoch against the reference epoch.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpochAnalysis {
+    /// Epoch id of the analysed (current) epoch.
+    pub epoch: i64,
+    /// Observation time of the epoch.
+    pub observed_at: DateTime<Utc>,
+    /// Reference epoch id.
+    pub reference_epoch: i64,
+    /// Datum of this epoch.
+    pub datum: DatumReport,
+    /// One entry per point common to both epochs, in the order of the current epoch.
+    pub points: Vec<PointAnalysis>,
+    /// Points of the current epoch absent from the reference (no displacement).
+    pub new_points: Vec<String>,
+    /// Human-readable remarks (fallbacks taken).
+    pub warnings: Vec<String>,
+}
+
+impl EpochAnalysis {
+    /// The time-series rows to store.
+    pub fn records(&self) -> Vec<DisplacementRecord> {
+        self.points.iter().map(|p| p.record.clone()).collect()
+    }
+
+    /// The analysis of one point.
+    pub fn point(&self, name: &str) -> Option<&PointAnalysis> {
+        self.points.iter().find(|p| p.record.point == name)
+    }
+}
+
+fn samples_of(
+    history: Option<&Vec<DisplacementRecord>>,
+    now: DateTime<Utc>,
+    config: &AnalysisConfig,
+) -> Vec<Sample> {
+    let Some(h) = history else { return vec![] };
+    let end = h.partition_point(|r| r.observed_at < now);
+    let past = &h[..end];
+    let keep_days = config.history_days();
+    let start_days = match keep_days {
+        Some(d) => {
+            let cutoff = now - chrono::Duration::milliseconds((d * 86_400_000.0).ceil() as i64 + 1);
+            past.partition_point(|r| r.observed_at < cutoff)
+        }
+        None => past.len(),
+    };
+    let start_epochs = past.len().saturating_sub(config.history_epochs());
+    let start = start_days.min(start_epochs);
+    past[start..]
+        .iter()
+        .filter(|r| r.d_mm.is_finite() && r.sigma_mm.is_finite())
+        .map(|r| Sample {
+            t_days: days_between(now, r.observed_at),
+            d_mm: r.d_mm,
+            sigma_mm: r.sigma_mm,
+        })
+        .collect()
+}
+
+/// Analyses `current` against `reference`.
+///
+/// The datum: the S-transformation onto the points whose role is `stable`, after the congruence test has
+/// excluded the moving ones; IWST over all common points when fewer stable points exist than the
+/// transformation needs (with a warning). Displacements (mm), their covariances (mm²), the significance
+/// test at `config.confidence`, velocity and acceleration over `config.velocity_window` and the
+/// inverse-velocity forecast follow for every common point. `history` holds the earlier records of the
+/// points (same reference epoch).
+///
+/// Errors: non-finite input, a malformed joint covariance, fewer common points than the transformation
+/// needs, or a datum that does not determine it.
+pub fn analyse_epoch(
+    reference: &EpochCoordinates,
+    current: &EpochCoordinates,
+    points: &[PointConfig],
+    history: &History,
+    config: &AnalysisConfig,
+) -> Result<EpochAnalysis, AnalysisError> {
+    config.validate()?;
+    let diffs = Differences::new(reference, current)?;
+    let kind = config.transformation;
+    let cfg: HashMap<&str, &PointConfig> = points.iter().map(|p| (p.name.as_str(), p)).collect();
+    let role = |name: &str| cfg.get(name).map(|c| c.role).unwrap_or_default();
+    let mut warnings = vec![];
+    let new_points: Vec<String> = {
+        let common: std::collections::HashSet<&str> =
+            diffs.names.iter().map(String::as_str).collect();
+        current
+            .points
+            .iter()
+            .filter(|p| !common.contains(p.name.as_str()))
+            .map(|p| p.name.clone())
+            .collect()
+    };
+    if diffs.len() < kind.min_points() {
+        return Err(AnalysisError::TooFewDatumPoints {
+            found: diffs.len(),
+            needed: kind.min_points(),
+        });
+    }
+    let same_epoch = reference.epoch == current.epoch;
+    let stable: Vec<usize> = (0..diffs.len())
+        .filter(|&i| role(&diffs.names[i]) == PointRole::Stable)
+        .collect();
+    let all: Vec<usize> = (0..diffs.len()).collect();
+    let mut congruence = vec![];
+    let mut excluded = vec![];
+    let iwst = || -> Result<(DatumFit, DatumMethod), AnalysisError> {
+        Ok((
+            fit_iwst(&diffs, &all, kind, config.iwst_max_iterations)?,
+            DatumMethod::Iwst,
+        ))
+    };
+    let (fit, method) = if stable.len() >= kind.min_points() {
+        match test_and_localise(
+            &diffs,
+            &stable,
+            kind,
+            config.congruence_confidence,
+            config.variance_dof,
+        ) {
+            Ok(c) => {
+                congruence = c.tests;
+                excluded = c.excluded;
+                if congruence.last().is_some_and(|t| !t.passed) {
+                    warnings.push("the remaining stable points are still not congruent".into());
+                }
+                (c.fit, DatumMethod::StablePoints)
+            }
+            Err(e) => {
+                warnings.push(format!(
+                    "stable-point datum failed ({e}); robust IWST over all points instead"
+                ));
+                iwst()?
+            }
+        }
+    } else {
+        if !stable.is_empty() {
+            warnings.push(format!(
+                "{} stable point(s), {} needed: robust IWST over all points instead",
+                stable.len(),
+                kind.min_points()
+            ));
+        }
+        iwst()?
+    };
+    let transformed = transform_all(&diffs, &fit);
+    let p = &fit.params;
+    let get = |k: usize| if k < p.len() { p[k] } else { 0.0 };
+    let datum = DatumReport {
+        method,
+        points: fit.datum.iter().map(|&i| diffs.names[i].clone()).collect(),
+        excluded: excluded.iter().map(|&i| diffs.names[i].clone()).collect(),
+        congruence,
+        translation_mm: [get(0), get(1), get(2)],
+        rotation_mrad: [get(3), get(4), get(5)],
+        scale_ppm: get(6) * 1e3,
+    };
+    let in_datum: std::collections::HashSet<usize> = fit.datum.iter().copied().collect();
+    // Quantiles once per epoch (each is a bisection).
+    let critical3 = 3.0
+        * f_quantile(
+            config.confidence,
+            3.0,
+            config.variance_dof.unwrap_or(f64::INFINITY),
+        );
+    let z_vel = normal_quantile(0.5 + 0.5 * config.confidence);
+    let z_acc = normal_quantile(config.failure.acceleration_confidence);
+    let mut out = Vec::with_capacity(diffs.len());
+    for (i, (mut d, mut cov)) in transformed.into_iter().enumerate() {
+        if same_epoch {
+            d = Vector3::zeros();
+            cov = Matrix3::zeros();
+        }
+        let name = &diffs.names[i];
+        let pc = cfg.get(name.as_str());
+        let test = point_test(&d, &cov, config.confidence, config.variance_dof, critical3);
+        let significant = !same_epoch && test.significant;
+        let d_mm = d.norm();
+        let sigma_mm = sigma_length(&d, &cov);
+        let dir = pc
+            .and_then(|c| c.direction)
+            .map(Vector3::from)
+            .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
+        let (d_along, s_along) = match dir {
+            Some(v) => {
+                let n = v / v.norm();
+                (
+                    Some(n.dot(&d)),
+                    Some((n.transpose() * cov * n)[(0, 0)].max(0.0).sqrt()),
+                )
+            }
+            None => (None, None),
+        };
+        let mut samples = samples_of(history.get(name), current.observed_at, config);
+        samples.push(Sample {
+            t_days: 0.0,
+            d_mm,
+            sigma_mm: sigma_mm.max(1e-6),
+        });
+        let kin = kinematics_z(
+            &samples,
+            config.velocity_window,
+            config.failure.window,
+            z_vel,
+            z_acc,
+        );
+        let failure = match kin {
+            Some(k) if k.accelerating && significant => forecast(&samples, &config.failure),
+            _ => None,
+        };
+        let sd = |k: usize| cov[(k, k)].max(0.0).sqrt();
+        let record = DisplacementRecord {
+            point: name.clone(),
+            epoch: current.epoch,
+            observed_at: current.observed_at,
+            dx_mm: d.x,
+            dy_mm: d.y,
+            dz_mm: d.z,
+            d_mm,
+            sigma_dx_mm: sd(0),
+            sigma_dy_mm: sd(1),
+            sigma_dz_mm: sd(2),
+            sigma_mm,
+            d_along_mm: d_along,
+            significant,
+            velocity_mm_per_day: kin.map(|k| k.velocity_mm_per_day),
+            time_to_failure_hours: failure.map(|f| f.time_to_failure_hours),
+        };
+        out.push(PointAnalysis {
+            record,
+            role: role(name),
+            group: pc.and_then(|c| c.group.clone()),
+            in_datum: in_datum.contains(&i),
+            covariance_mm2: cov.into(),
+            sigma_along_mm: s_along,
+            test_statistic: test.statistic,
+            test_dof: test.dof,
+            critical_value: test.critical,
+            kinematics: kin,
+            failure,
+        });
+    }
+    Ok(EpochAnalysis {
+        epoch: current.epoch,
+        observed_at: current.observed_at,
+        reference_epoch: reference.epoch,
+        datum,
+        points: out,
+        new_points,
+        warnings,
+    })
+}

@@ -1,0 +1,448 @@
+//! Datum of an epoch: the S-transformation of the coordinate differences onto datum points.
+//!
+//! Every epoch is a free-network adjustment, so its coordinates carry an arbitrary small similarity
+//! (shift, rotation, scale of ~mm) relative to the reference epoch. The differences `d = x_cur − x_ref` are
+//! transformed by `d' = d − G (GᵀWG)⁻¹ GᵀW d_S` (the S-transformation of Baarda 1973; see Caspary 1987,
+//! *Concepts of Network and Deformation Analysis*, ch. 5, and Niemeier 2008, *Ausgleichungsrechnung*, ch. 12):
+//! `G` holds the linearised Helmert rows at the reference coordinates, `W` weights only the datum points.
+//! - Stable points known: `W = Σ_dS⁻¹`, the inverse covariance of their differences (both epochs).
+//! - No stable point: iterative weighted similarity transformation, IWST (Chen 1983; Chen, Chrzanowski &
+//!   Secord 1990), which minimises Σ|d'_j|/σ_j: weights `1/(σ_j · max(|d'_j|, ε σ_j))` iterated, so that moving
+//!   points do not drag the datum.
+//!
+//! The covariance of the transformed differences is propagated in full:
+//! `Σ'_i = Σ_ii − G_i A Σ_Si − (G_i A Σ_Si)ᵀ + G_i A Σ_SS Aᵀ G_iᵀ` with `A = (GᵀWG)⁻¹GᵀW`. Cross
+//! covariances come from the joint covariances of both epochs where given, else they are taken as zero.
+//! Units inside: coordinates (for G) in m, differences in mm, covariances in mm².
+
+use std::collections::HashMap;
+
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+
+use super::epoch::{DatumTransformation, EpochCoordinates};
+use super::error::AnalysisError;
+
+/// Coordinate differences of the points common to two epochs, with everything needed for the covariances.
+#[derive(Debug, Clone)]
+pub(crate) struct Differences {
+    /// Names of the common points.
+    pub names: Vec<String>,
+    /// Reference coordinates in m.
+    pub xyz_m: Vec<Vector3<f64>>,
+    /// Differences current − reference in mm.
+    pub d_mm: Vec<Vector3<f64>>,
+    /// Covariance of each difference in mm² (sum of both epochs).
+    pub cov_mm2: Vec<Matrix3<f64>>,
+    /// For each common point, its index in the reference / current joint covariance.
+    joint_ref: Vec<Option<usize>>,
+    joint_cur: Vec<Option<usize>>,
+    ref_matrix: Option<(usize, Vec<f64>)>,
+    cur_matrix: Option<(usize, Vec<f64>)>,
+}
+
+fn check_finite(what: &str, xs: impl IntoIterator<Item = f64>) -> Result<(), AnalysisError> {
+    if xs.into_iter().all(f64::is_finite) {
+        Ok(())
+    } else {
+        Err(AnalysisError::NonFinite {
+            what: what.to_string(),
+        })
+    }
+}
+
+/// A joint covariance in mm²: (dimension, row-major elements).
+type JointMatrix = Option<(usize, Vec<f64>)>;
+
+fn joint_index(
+    epoch: &EpochCoordinates,
+) -> Result<(HashMap<&str, usize>, JointMatrix), AnalysisError> {
+    match &epoch.joint {
+        None => Ok((HashMap::new(), None)),
+        Some(j) => {
+            let n = 3 * j.points.len();
+            if j.matrix_m2.len() != n * n {
+                return Err(AnalysisError::BadJointCovariance {
+                    len: j.matrix_m2.len(),
+                    expected: n * n,
+                });
+            }
+            check_finite(
+                &format!("joint covariance of epoch {}", epoch.epoch),
+                j.matrix_m2.iter().copied(),
+            )?;
+            let idx = j
+                .points
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (p.as_str(), i))
+                .collect();
+            Ok((
+                idx,
+                Some((n, j.matrix_m2.iter().map(|v| v * 1e6).collect())),
+            ))
+        }
+    }
+}
+
+impl Differences {
+    /// Matches the points of both epochs by name (in the order of the current epoch).
+    pub fn new(
+        reference: &EpochCoordinates,
+        current: &EpochCoordinates,
+    ) -> Result<Self, AnalysisError> {
+        let by_name: HashMap<&str, usize> = reference
+            .points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.name.as_str(), i))
+            .collect();
+        let (jr, ref_matrix) = joint_index(reference)?;
+        let (jc, cur_matrix) = joint_index(current)?;
+        let mut out = Differences {
+            names: vec![],
+            xyz_m: vec![],
+            d_mm: vec![],
+            cov_mm2: vec![],
+            joint_ref: vec![],
+            joint_cur: vec![],
+            ref_matrix,
+            cur_matrix,
+        };
+        for c in &current.points {
+            let Some(&ri) = by_name.get(c.name.as_str()) else {
+                continue;
+            };
+            let r = &reference.points[ri];
+            for (p, e) in [(c, current.epoch), (r, reference.epoch)] {
+                check_finite(
+                    &format!("point {} of epoch {e}", p.name),
+                    p.xyz_m
+                        .iter()
+                        .chain(p.covariance_m2.iter().flatten())
+                        .copied(),
+                )?;
+            }
+            let xr = Vector3::from(r.xyz_m);
+            let xc = Vector3::from(c.xyz_m);
+            let cm = |m: &[[f64; 3]; 3]| Matrix3::from_fn(|i, j| 0.5 * (m[i][j] + m[j][i]) * 1e6);
+            out.names.push(c.name.clone());
+            out.xyz_m.push(xr);
+            out.d_mm.push((xc - xr) * 1e3);
+            out.cov_mm2
+                .push(cm(&c.covariance_m2) + cm(&r.covariance_m2));
+            out.joint_ref.push(jr.get(c.name.as_str()).copied());
+            out.joint_cur.push(jc.get(c.name.as_str()).copied());
+        }
+        Ok(out)
+    }
+
+    /// Number of common points.
+    pub fn len(&self) -> usize {
+        self.names.len()
+    }
+
+    /// Whether point i has cross covariances with other points.
+    pub fn in_joint(&self, i: usize) -> bool {
+        self.joint_ref[i].is_some() || self.joint_cur[i].is_some()
+    }
+
+    /// Covariance block (mm²) between the differences of points i and j.
+    pub fn cross(&self, i: usize, j: usize) -> Matrix3<f64> {
+        if i == j {
+            return self.cov_mm2[i];
+        }
+        let mut m = Matrix3::zeros();
+        for (idx, mat) in [
+            (&self.joint_ref, &self.ref_matrix),
+            (&self.joint_cur, &self.cur_matrix),
+        ] {
+            if let (Some(a), Some(b), Some((n, v))) = (idx[i], idx[j], mat) {
+                for r in 0..3 {
+                    for c in 0..3 {
+                        m[(r, c)] += v[(3 * a + r) * n + 3 * b + c];
+                    }
+                }
+            }
+        }
+        m
+    }
+}
+
+/// Helmert rows (3 × u) of a point at `p` (m, relative to the centroid): translation, rotation about X,
+/// Y, Z (in mm per m = mrad), scale (mm per m).
+pub(crate) fn helmert_rows(p: &Vector3<f64>, u: usize) -> DMatrix<f64> {
+    let (x, y, z) = (p.x, p.y, p.z);
+    #[rustfmt::skip]
+    let full = [
+        [1.0, 0.0, 0.0, 0.0, z, -y, x],
+        [0.0, 1.0, 0.0, -z, 0.0, x, y],
+        [0.0, 0.0, 1.0, y, -x, 0.0, z],
+    ];
+    DMatrix::from_fn(3, u, |r, c| full[r][c])
+}
+
+/// How the datum was defined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DatumMethod {
+    /// S-transformation onto the (congruent) stable points, weighted by their covariance.
+    StablePoints,
+    /// Iterative weighted similarity transformation over all common points.
+    Iwst,
+}
+
+/// A fitted datum: the transformation parameters and the matrix `A = (GᵀWG)⁻¹GᵀW` over the datum points.
+#[derive(Debug, Clone)]
+pub(crate) struct DatumFit {
+    /// Indices (into [`Differences`]) of the datum points.
+    pub datum: Vec<usize>,
+    /// Centroid of the datum points (m) the Helmert rows refer to.
+    pub centroid: Vector3<f64>,
+    /// Parameters (mm, mrad, mm/m).
+    pub params: DVector<f64>,
+    /// u × 3m.
+    pub a: DMatrix<f64>,
+    /// Weighted sum of squared residuals vᵀWv (the congruence statistic Ω when W = Σ⁻¹).
+    pub omega: f64,
+    /// Rank of W minus u: degrees of freedom of Ω.
+    pub redundancy: usize,
+    /// u.
+    pub u: usize,
+}
+
+fn centroid(diffs: &Differences, datum: &[usize]) -> Vector3<f64> {
+    let mut c = Vector3::zeros();
+    for &i in datum {
+        c += diffs.xyz_m[i];
+    }
+    c / datum.len().max(1) as f64
+}
+
+fn design(
+    diffs: &Differences,
+    datum: &[usize],
+    c: &Vector3<f64>,
+    u: usize,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let m = datum.len();
+    let mut g = DMatrix::zeros(3 * m, u);
+    let mut d = DVector::zeros(3 * m);
+    for (k, &i) in datum.iter().enumerate() {
+        g.view_mut((3 * k, 0), (3, u))
+            .copy_from(&helmert_rows(&(diffs.xyz_m[i] - c), u));
+        for r in 0..3 {
+            d[3 * k + r] = diffs.d_mm[i][r];
+        }
+    }
+    (g, d)
+}
+
+/// Joint covariance (mm²) of the differences of the datum points.
+pub(crate) fn datum_covariance(diffs: &Differences, datum: &[usize]) -> DMatrix<f64> {
+    let m = datum.len();
+    let mut s = DMatrix::zeros(3 * m, 3 * m);
+    for (k, &i) in datum.iter().enumerate() {
+        for (l, &j) in datum.iter().enumerate() {
+            if k == l || (diffs.in_joint(i) && diffs.in_joint(j)) {
+                s.view_mut((3 * k, 3 * l), (3, 3))
+                    .copy_from(&diffs.cross(i, j));
+            }
+        }
+    }
+    s
+}
+
+/// Inverse of a symmetric matrix and its rank: Cholesky when positive definite, else the eigen
+/// pseudo-inverse (eigenvalues below 1e-12 × the largest count as zero).
+pub(crate) fn sym_inverse(s: &DMatrix<f64>) -> Option<(DMatrix<f64>, usize)> {
+    if s.nrows() == 0 {
+        return Some((s.clone(), 0));
+    }
+    if let Some(ch) = s.clone().cholesky() {
+        return Some((ch.inverse(), s.nrows()));
+    }
+    let eig = s.clone().symmetric_eigen();
+    let max = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
+    if !(max > 0.0) {
+        return None;
+    }
+    let mut rank = 0;
+    let inv_vals = eig.eigenvalues.map(|l| {
+        if l > 1e-12 * max {
+            rank += 1;
+            1.0 / l
+        } else {
+            0.0
+        }
+    });
+    let v = &eig.eigenvectors;
+    Some((v * DMatrix::from_diagonal(&inv_vals) * v.transpose(), rank))
+}
+
+fn solve(
+    g: &DMatrix<f64>,
+    w: &DMatrix<f64>,
+    d: &DVector<f64>,
+) -> Result<(DVector<f64>, DMatrix<f64>), AnalysisError> {
+    let gtw = g.transpose() * w;
+    let n = &gtw * g;
+    let ch = n.cholesky().ok_or_else(|| AnalysisError::Singular {
+        what: "the datum points do not determine the transformation (collinear or too few)".into(),
+    })?;
+    let a = ch.solve(&gtw);
+    let p = &a * d;
+    Ok((p, a))
+}
+
+/// S-transformation onto `datum` weighted by the inverse covariance of their differences.
+pub(crate) fn fit_weighted(
+    diffs: &Differences,
+    datum: &[usize],
+    kind: DatumTransformation,
+) -> Result<DatumFit, AnalysisError> {
+    let u = kind.parameters();
+    if datum.len() < kind.min_points() {
+        return Err(AnalysisError::TooFewDatumPoints {
+            found: datum.len(),
+            needed: kind.min_points(),
+        });
+    }
+    let c = centroid(diffs, datum);
+    let (g, d) = design(diffs, datum, &c, u);
+    let (w, rank) =
+        sym_inverse(&datum_covariance(diffs, datum)).ok_or_else(|| AnalysisError::Singular {
+            what: "covariance of the datum points' differences".into(),
+        })?;
+    let (p, a) = solve(&g, &w, &d)?;
+    let v = &d - &g * &p;
+    let omega = (v.transpose() * &w * &v)[(0, 0)];
+    Ok(DatumFit {
+        datum: datum.to_vec(),
+        centroid: c,
+        params: p,
+        a,
+        omega,
+        redundancy: rank.saturating_sub(u),
+        u,
+    })
+}
+
+/// IWST over `datum`: L1 (Σ|d'|/σ) fit by iteratively reweighted least squares.
+pub(crate) fn fit_iwst(
+    diffs: &Differences,
+    datum: &[usize],
+    kind: DatumTransformation,
+    max_iterations: usize,
+) -> Result<DatumFit, AnalysisError> {
+    let u = kind.parameters();
+    if datum.len() < kind.min_points() {
+        return Err(AnalysisError::TooFewDatumPoints {
+            found: datum.len(),
+            needed: kind.min_points(),
+        });
+    }
+    let c = centroid(diffs, datum);
+    let (g, d) = design(diffs, datum, &c, u);
+    let sigma: Vec<f64> = datum
+        .iter()
+        .flat_map(|&i| (0..3).map(move |r| diffs.cov_mm2[i][(r, r)].max(1e-18).sqrt()))
+        .collect();
+    let n = d.len();
+    let mut w = DVector::from_fn(n, |j, _| 1.0 / (sigma[j] * sigma[j]));
+    let mut p = DVector::zeros(u);
+    let mut a = DMatrix::zeros(u, n);
+    for _ in 0..max_iterations.max(1) {
+        // GᵀW with W diagonal: scale the columns of Gᵀ (no dense 3m × 3m matrix).
+        let mut gtw = g.transpose();
+        for (j, mut col) in gtw.column_iter_mut().enumerate() {
+            col *= w[j];
+        }
+        let ch = (&gtw * &g)
+            .cholesky()
+            .ok_or_else(|| AnalysisError::Singular {
+                what: "the datum points do not determine the transformation (collinear or too few)"
+                    .into(),
+            })?;
+        let a_new = ch.solve(&gtw);
+        let p_new = &a_new * &d;
+        let change = (&p_new - &p).amax();
+        p = p_new;
+        a = a_new;
+        let v = &d - &g * &p;
+        for j in 0..n {
+            w[j] = 1.0 / (sigma[j] * v[j].abs().max(1e-3 * sigma[j]));
+        }
+        if change < 1e-4 {
+            break;
+        }
+    }
+    Ok(DatumFit {
+        datum: datum.to_vec(),
+        centroid: c,
+        params: p,
+        a,
+        omega: f64::NAN,
+        redundancy: 0,
+        u,
+    })
+}
+
+/// Transformed difference (mm) and its covariance (mm²) of every common point.
+pub(crate) fn transform_all(
+    diffs: &Differences,
+    fit: &DatumFit,
+) -> Vec<(Vector3<f64>, Matrix3<f64>)> {
+    let u = fit.u;
+    let m = fit.datum.len();
+    // A split in u × 3 blocks per datum point.
+    let a_blocks: Vec<DMatrix<f64>> = (0..m)
+        .map(|k| fit.a.columns(3 * k, 3).into_owned())
+        .collect();
+    // P = A Σ_SS Aᵀ, exploiting block sparsity.
+    let mut p = DMatrix::<f64>::zeros(u, u);
+    let joint: Vec<usize> = (0..m).filter(|&k| diffs.in_joint(fit.datum[k])).collect();
+    for (ab, &i) in a_blocks.iter().zip(&fit.datum) {
+        p += ab * to_d(&diffs.cov_mm2[i]) * ab.transpose();
+    }
+    for &k in &joint {
+        for &l in &joint {
+            if k != l {
+                let s = to_d(&diffs.cross(fit.datum[k], fit.datum[l]));
+                p += &a_blocks[k] * s * a_blocks[l].transpose();
+            }
+        }
+    }
+    let pos_in_datum: HashMap<usize, usize> =
+        fit.datum.iter().enumerate().map(|(k, &i)| (i, k)).collect();
+    (0..diffs.len())
+        .map(|i| {
+            let g = helmert_rows(&(diffs.xyz_m[i] - fit.centroid), u);
+            let t = &g * &fit.params;
+            let d = diffs.d_mm[i] - Vector3::new(t[0], t[1], t[2]);
+            // A Σ_Si (u × 3).
+            let mut asi = DMatrix::<f64>::zeros(u, 3);
+            if diffs.in_joint(i) {
+                for &k in &joint {
+                    asi += &a_blocks[k] * to_d(&diffs.cross(fit.datum[k], i));
+                }
+                if let Some(&k) = pos_in_datum.get(&i) {
+                    if !diffs.in_joint(fit.datum[k]) {
+                        asi += &a_blocks[k] * to_d(&diffs.cov_mm2[i]);
+                    }
+                }
+            } else if let Some(&k) = pos_in_datum.get(&i) {
+                asi += &a_blocks[k] * to_d(&diffs.cov_mm2[i]);
+            }
+            let gasi = &g * asi;
+            let gpg = &g * &p * g.transpose();
+            let cov = Matrix3::from_fn(|r, c| {
+                diffs.cov_mm2[i][(r, c)] - gasi[(r, c)] - gasi[(c, r)] + gpg[(r, c)]
+            });
+            (d, 0.5 * (cov + cov.transpose()))
+        })
+        .collect()
+}
+
+fn to_d(m: &Matrix3<f64>) -> DMatrix<f64> {
+    DMatrix::from_fn(3, 3, |r, c| m[(r, c)])
+}

@@ -1,0 +1,267 @@
+//! Input types of the analysis: adjusted coordinates of one epoch with covariances, the points'
+//! configuration (role, group, direction of interest) and the analysis configuration.
+
+use chrono::{DateTime, Utc};
+use serde::{Deserialize, Serialize};
+
+use super::error::AnalysisError;
+use crate::photogrammetry::Adjustment;
+
+/// Adjusted coordinates of one point in one epoch.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointCoordinates {
+    /// Point name.
+    pub name: String,
+    /// X, Y, Z in m, site frame.
+    pub xyz_m: [f64; 3],
+    /// 3 × 3 covariance of X, Y, Z in m² (σ0²·Qxx of the adjustment).
+    pub covariance_m2: [[f64; 3]; 3],
+}
+
+/// Joint covariance of a set of points of one epoch (usually the stable points): row-major 3n × 3n in m²,
+/// ordered X, Y, Z per point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JointCovarianceM2 {
+    /// Point names in matrix order.
+    pub points: Vec<String>,
+    /// Row-major 3n × 3n matrix in m².
+    pub matrix_m2: Vec<f64>,
+}
+
+/// The adjusted coordinates of one epoch, as the analysis needs them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpochCoordinates {
+    /// Epoch id (integer, unique within the site).
+    pub epoch: i64,
+    /// When the epoch was observed (UTC).
+    pub observed_at: DateTime<Utc>,
+    /// Every adjusted point.
+    pub points: Vec<PointCoordinates>,
+    /// Joint covariance of chosen points (the stable ones), when the adjustment provided it. Without it the
+    /// points are taken as uncorrelated.
+    pub joint: Option<JointCovarianceM2>,
+}
+
+impl EpochCoordinates {
+    /// Builds the analysis input from an adjustment result (coordinates in m, covariances in m²).
+    pub fn from_adjustment(
+        epoch: i64,
+        observed_at: DateTime<Utc>,
+        adjustment: &Adjustment,
+    ) -> Self {
+        EpochCoordinates {
+            epoch,
+            observed_at,
+            points: adjustment
+                .points
+                .iter()
+                .map(|p| PointCoordinates {
+                    name: p.name.clone(),
+                    xyz_m: p.xyz,
+                    covariance_m2: p.covariance_m2,
+                })
+                .collect(),
+            joint: adjustment
+                .joint_covariance
+                .as_ref()
+                .map(|j| JointCovarianceM2 {
+                    points: j.points.clone(),
+                    matrix_m2: j.matrix_m2.clone(),
+                }),
+        }
+    }
+}
+
+/// Role of a point (contract: `stable` or `monitored`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PointRole {
+    /// Assumed not to move: defines the datum, checked by the congruence test.
+    Stable,
+    /// Watched for movement.
+    #[default]
+    Monitored,
+}
+
+/// Per-point configuration set through `PUT .../points/{point}`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointConfig {
+    /// Point name.
+    pub name: String,
+    /// Role.
+    #[serde(default)]
+    pub role: PointRole,
+    /// Point group (alert rules can be restricted to a group).
+    #[serde(default)]
+    pub group: Option<String>,
+    /// Direction of interest in the site frame (e.g. the cliff normal); need not be normalised.
+    #[serde(default)]
+    pub direction: Option<[f64; 3]>,
+}
+
+/// The similarity-transformation model of the datum (parameters estimated per epoch).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DatumTransformation {
+    /// 3 translations.
+    Translation,
+    /// 3 translations and 3 small rotations.
+    Rigid,
+    /// 3 translations, 3 small rotations and a scale (7-parameter Helmert): the datum defect of a free
+    /// photogrammetric network.
+    #[default]
+    Similarity,
+}
+
+impl DatumTransformation {
+    /// Number of parameters (3, 6 or 7).
+    pub fn parameters(self) -> usize {
+        match self {
+            DatumTransformation::Translation => 3,
+            DatumTransformation::Rigid => 6,
+            DatumTransformation::Similarity => 7,
+        }
+    }
+
+    /// Fewest points that determine the transformation (1 or 3, not collinear).
+    pub fn min_points(self) -> usize {
+        match self {
+            DatumTransformation::Translation => 1,
+            _ => 3,
+        }
+    }
+}
+
+/// A time window over the history: the last `n` epochs, or the epochs of the last `days` days (both
+/// counting the current epoch).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Window {
+    /// The last n epochs including the current one.
+    Epochs(usize),
+    /// The epochs observed within this many days before the current one (inclusive).
+    Days(f64),
+}
+
+/// Time-to-failure (inverse velocity) settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct FailureConfig {
+    /// Epochs whose velocities enter the 1/v fit; also the window of the acceleration (parabola) fit.
+    pub window: Window,
+    /// Smoothing: each velocity is the least-squares slope over this many consecutive epochs, placed at
+    /// their mean time (≥ 2).
+    pub smoothing_epochs: usize,
+    /// One-sided confidence that the acceleration is positive before a forecast is made.
+    pub acceleration_confidence: f64,
+    /// Minimum coefficient of determination R² of the 1/v fit for a forecast.
+    pub min_r2: f64,
+}
+
+impl Default for FailureConfig {
+    fn default() -> Self {
+        FailureConfig {
+            window: Window::Epochs(16),
+            smoothing_epochs: 6,
+            acceleration_confidence: 0.99,
+            min_r2: 0.5,
+        }
+    }
+}
+
+/// Settings of the displacement analysis (per site).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct AnalysisConfig {
+    /// Confidence of the per-point significance test (default 0.99).
+    pub confidence: f64,
+    /// Confidence of the global congruence test of the stable points (default 0.99).
+    pub congruence_confidence: f64,
+    /// Degrees of freedom of the variance factor the covariances were scaled with; `None` (default) treats
+    /// it as known, so tests use χ² (F with infinite denominator degrees of freedom).
+    pub variance_dof: Option<f64>,
+    /// The datum transformation.
+    pub transformation: DatumTransformation,
+    /// Iterations of the robust (IWST) datum when no point is stable.
+    pub iwst_max_iterations: usize,
+    /// Window of the velocity and acceleration fit.
+    pub velocity_window: Window,
+    /// Time-to-failure settings.
+    pub failure: FailureConfig,
+}
+
+impl Default for AnalysisConfig {
+    fn default() -> Self {
+        AnalysisConfig {
+            confidence: 0.99,
+            congruence_confidence: 0.99,
+            variance_dof: None,
+            transformation: DatumTransformation::Similarity,
+            iwst_max_iterations: 100,
+            velocity_window: Window::Epochs(5),
+            failure: FailureConfig::default(),
+        }
+    }
+}
+
+impl AnalysisConfig {
+    /// Checks ranges; every analysis calls it.
+    pub fn validate(&self) -> Result<(), AnalysisError> {
+        let p = |x: f64| x > 0.0 && x < 1.0;
+        if !p(self.confidence)
+            || !p(self.congruence_confidence)
+            || !p(self.failure.acceleration_confidence)
+        {
+            return Err(AnalysisError::InvalidConfig(
+                "confidences must lie in (0, 1)".into(),
+            ));
+        }
+        if let Some(f) = self.variance_dof {
+            if !(f > 0.0) {
+                return Err(AnalysisError::InvalidConfig(
+                    "variance_dof must be > 0".into(),
+                ));
+            }
+        }
+        for w in [self.velocity_window, self.failure.window] {
+            match w {
+                Window::Epochs(n) if n < 2 => {
+                    return Err(AnalysisError::InvalidConfig(
+                        "a window needs ≥ 2 epochs".into(),
+                    ))
+                }
+                Window::Days(d) if !(d > 0.0) => {
+                    return Err(AnalysisError::InvalidConfig(
+                        "a window needs > 0 days".into(),
+                    ))
+                }
+                _ => {}
+            }
+        }
+        if self.failure.smoothing_epochs < 2 {
+            return Err(AnalysisError::InvalidConfig(
+                "smoothing_epochs must be ≥ 2".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// How many days of history the store must load at least when windows are in days (`None` when both
+    /// windows count epochs: then load the last [`AnalysisConfig::history_epochs`] records per point).
+    pub fn history_days(&self) -> Option<f64> {
+        match (self.velocity_window, self.failure.window) {
+            (Window::Days(a), Window::Days(b)) => Some(a.max(b)),
+            (Window::Days(a), _) | (_, Window::Days(a)) => Some(a),
+            _ => None,
+        }
+    }
+
+    /// How many past records per point the windows counted in epochs need.
+    pub fn history_epochs(&self) -> usize {
+        let n = |w: Window| match w {
+            Window::Epochs(n) => n,
+            Window::Days(_) => 0,
+        };
+        n(self.velocity_window).max(n(self.failure.window) + self.failure.smoothing_epochs)
+    }
+}

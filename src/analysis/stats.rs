@@ -1,0 +1,212 @@
+//! Quantiles of the χ², F and normal distributions for the statistical tests (no external crate):
+//! regularized incomplete gamma and beta functions (series and continued fractions, as in Press et al.,
+//! *Numerical Recipes*, §6.2 and §6.4) inverted by bisection.
+
+/// ln Γ(x) for x > 0 (Lanczos approximation, g = 7, n = 9; relative error < 1e-14).
+pub fn ln_gamma(x: f64) -> f64 {
+    const C: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    if x < 0.5 {
+        let pi = std::f64::consts::PI;
+        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
+    }
+    let x = x - 1.0;
+    let mut a = C[0];
+    let t = x + 7.5;
+    for (i, c) in C.iter().enumerate().skip(1) {
+        a += c / (x + i as f64);
+    }
+    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+}
+
+/// Regularized lower incomplete gamma P(a, x).
+pub fn gamma_p(a: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    let gln = ln_gamma(a);
+    if x < a + 1.0 {
+        let mut ap = a;
+        let mut sum = 1.0 / a;
+        let mut del = sum;
+        for _ in 0..1000 {
+            ap += 1.0;
+            del *= x / ap;
+            sum += del;
+            if del.abs() < sum.abs() * 1e-15 {
+                break;
+            }
+        }
+        (sum.ln() - x + a * x.ln() - gln).exp().min(1.0)
+    } else {
+        // Continued fraction for Q(a, x) (modified Lentz).
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..1000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let del = d * c;
+            h *= del;
+            if (del - 1.0).abs() < 1e-15 {
+                break;
+            }
+        }
+        let q = (-x + a * x.ln() - gln).exp() * h;
+        (1.0 - q).clamp(0.0, 1.0)
+    }
+}
+
+fn beta_cf(a: f64, b: f64, x: f64) -> f64 {
+    let tiny = 1e-300;
+    let qab = a + b;
+    let qap = a + 1.0;
+    let qam = a - 1.0;
+    let mut c = 1.0;
+    let mut d = 1.0 - qab * x / qap;
+    if d.abs() < tiny {
+        d = tiny;
+    }
+    d = 1.0 / d;
+    let mut h = d;
+    for m in 1..1000 {
+        let m = m as f64;
+        let m2 = 2.0 * m;
+        let aa = m * (b - m) * x / ((qam + m2) * (a + m2));
+        d = 1.0 + aa * d;
+        if d.abs() < tiny {
+            d = tiny;
+        }
+        c = 1.0 + aa / c;
+        if c.abs() < tiny {
+            c = tiny;
+        }
+        d = 1.0 / d;
+        h *= d * c;
+        let aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
+        d = 1.0 + aa * d;
+        if d.abs() < tiny {
+            d = tiny;
+        }
+        c = 1.0 + aa / c;
+        if c.abs() < tiny {
+            c = tiny;
+        }
+        d = 1.0 / d;
+        let del = d * c;
+        h *= del;
+        if (del - 1.0).abs() < 1e-15 {
+            break;
+        }
+    }
+    h
+}
+
+/// Regularized incomplete beta function I_x(a, b).
+pub fn beta_inc(a: f64, b: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    if x >= 1.0 {
+        return 1.0;
+    }
+    let bt = (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
+    if x < (a + 1.0) / (a + b + 2.0) {
+        bt * beta_cf(a, b, x) / a
+    } else {
+        1.0 - bt * beta_cf(b, a, 1.0 - x) / b
+    }
+}
+
+/// CDF of χ²(k) at x.
+pub fn chi2_cdf(x: f64, k: f64) -> f64 {
+    gamma_p(0.5 * k, 0.5 * x)
+}
+
+/// CDF of F(d1, d2) at x; `d2 = ∞` gives χ²(d1)/d1.
+pub fn f_cdf(x: f64, d1: f64, d2: f64) -> f64 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    if !d2.is_finite() {
+        return chi2_cdf(x * d1, d1);
+    }
+    beta_inc(0.5 * d1, 0.5 * d2, d1 * x / (d1 * x + d2))
+}
+
+fn invert(cdf: impl Fn(f64) -> f64, p: f64) -> f64 {
+    let mut hi = 1.0;
+    while cdf(hi) < p && hi < 1e12 {
+        hi *= 2.0;
+    }
+    let mut lo = 0.0;
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if cdf(mid) < p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo < 1e-12 * hi.max(1e-300) {
+            break;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Quantile of χ²(k) at probability p (e.g. `chi2_quantile(0.99, 3.0)` = 11.345).
+pub fn chi2_quantile(p: f64, k: f64) -> f64 {
+    invert(|x| chi2_cdf(x, k), p)
+}
+
+/// Quantile of F(d1, d2) at probability p; `d2 = f64::INFINITY` for a known variance factor.
+pub fn f_quantile(p: f64, d1: f64, d2: f64) -> f64 {
+    invert(|x| f_cdf(x, d1, d2), p)
+}
+
+/// Quantile of the standard normal distribution at probability p (one-sided).
+pub fn normal_quantile(p: f64) -> f64 {
+    if p == 0.5 {
+        return 0.0;
+    }
+    let z = chi2_quantile((2.0 * p - 1.0).abs(), 1.0).sqrt();
+    if p > 0.5 {
+        z
+    } else {
+        -z
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_match_tables() {
+        assert!((chi2_quantile(0.99, 3.0) - 11.3449).abs() < 1e-3);
+        assert!((chi2_quantile(0.95, 1.0) - 3.8415).abs() < 1e-3);
+        assert!((f_quantile(0.95, 3.0, 10.0) - 3.7083).abs() < 1e-3);
+        assert!((normal_quantile(0.99) - 2.3263).abs() < 1e-3);
+        assert!((normal_quantile(0.01) + 2.3263).abs() < 1e-3);
+    }
+}

@@ -1,0 +1,108 @@
+//! The bundle state in the working frame and the observation equations of both models: residuals and
+//! exact Jacobians (by [`Dual`] numbers) of one image observation.
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::camera::brown_correct;
+use super::dual::{Dual, Scalar};
+use super::report::Model;
+use super::rotation::perturbed;
+use super::{central, orthogonal};
+
+/// Local Jacobian columns of one observation: 0..6 image, 6..14 interior parameter k, 14..17 point.
+pub const LOCAL: usize = 17;
+/// First local column of the interior parameters.
+pub const INTERIOR0: usize = 6;
+/// First local column of the point coordinates.
+pub const POINT0: usize = 14;
+
+/// Exterior unknowns of one image (working frame): the rotation (updated multiplicatively) and three
+/// more numbers: (m, A4, A8) in the orthogonal model, Xo (m) in the central model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImageState {
+    /// Rotation R (camera = R (X − Xo)).
+    pub rotation: Matrix3<f64>,
+    /// (m, A4, A8) or Xo.
+    pub p: [f64; 3],
+}
+
+/// One observation in the adjustment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Obs {
+    /// Image index.
+    pub image: usize,
+    /// Point index.
+    pub point: usize,
+    /// Measured image coordinates (mm).
+    pub meas: [f64; 2],
+    /// Whether it takes part (false once dropped as a blunder).
+    pub active: bool,
+    /// Robust weight factor (1 in the final adjustment; below 1 while gross errors are screened).
+    pub weight: f64,
+}
+
+/// Residual (corrected measurement − model, mm) of the generic model, eq (5)+(9) or eq (2).
+#[allow(clippy::too_many_arguments)]
+pub fn residual<T: Scalar>(
+    model: Model,
+    rows: &[[T; 3]; 3],
+    p: &[T; 3],
+    interior: &[T; 8],
+    x: &[T; 3],
+    meas: [f64; 2],
+    zbar: f64,
+) -> [T; 2] {
+    let corrected = brown_correct([T::from(meas[0]), T::from(meas[1])], interior);
+    let f = match model {
+        Model::Orthogonal => orthogonal::project(rows, p[0], p[1], p[2], interior[0], zbar, x),
+        Model::Central => central::project(rows, p, interior[0], x),
+    };
+    [corrected[0] - f[0], corrected[1] - f[1]]
+}
+
+/// Residual of one observation (mm).
+pub fn residual_value(
+    model: Model,
+    image: &ImageState,
+    interior: &[f64; 8],
+    x: &Vector3<f64>,
+    meas: [f64; 2],
+    zbar: f64,
+) -> [f64; 2] {
+    let rows = perturbed::<f64>(&image.rotation, [0.0; 3]);
+    residual(
+        model,
+        &rows,
+        &image.p,
+        interior,
+        &[x.x, x.y, x.z],
+        meas,
+        zbar,
+    )
+}
+
+/// Residual and its Jacobian (local columns, see [`LOCAL`]) with respect to the image unknowns, the
+/// interior parameters marked `free`, and the point.
+pub fn residual_jacobian(
+    model: Model,
+    image: &ImageState,
+    interior: &[f64; 8],
+    free: &[bool; 8],
+    x: &Vector3<f64>,
+    meas: [f64; 2],
+    zbar: f64,
+) -> [Dual<LOCAL>; 2] {
+    let v = Dual::<LOCAL>::variable;
+    let rows = perturbed(&image.rotation, [v(0.0, 0), v(0.0, 1), v(0.0, 2)]);
+    let p = [v(image.p[0], 3), v(image.p[1], 4), v(image.p[2], 5)];
+    let mut inner = [Dual::from(0.0); 8];
+    for k in 0..8 {
+        inner[k] = if free[k] {
+            v(interior[k], INTERIOR0 + k)
+        } else {
+            Dual::from(interior[k])
+        };
+    }
+    let xd = [v(x.x, POINT0), v(x.y, POINT0 + 1), v(x.z, POINT0 + 2)];
+    residual(model, &rows, &p, &inner, &xd, meas, zbar)
+}

@@ -1,0 +1,328 @@
+//! Normal equations of the bundle and their reduction by the Schur complement over the 3 × 3 point
+//! blocks: `S = U − Σ_i W_i V_i⁻¹ W_iᵀ`, a dense system in the image and interior unknowns (faer
+//! Cholesky), then back-substitution for the points.
+
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+use nalgebra::{Matrix3, Vector3};
+
+use super::bundle::{residual_jacobian, residual_value, ImageState, Obs, INTERIOR0, POINT0};
+use super::report::Model;
+
+/// The adjustment's unknowns and observations in the working frame.
+#[derive(Debug, Clone)]
+pub struct Bundle {
+    /// Projection model.
+    pub model: Model,
+    /// Zbar of the orthogonal model (m, working frame; 0 at the centroid of the start points).
+    pub zbar: f64,
+    /// Exterior unknowns per image.
+    pub images: Vec<ImageState>,
+    /// Camera index per image.
+    pub image_camera: Vec<usize>,
+    /// Interior parameters per camera `[c, x0, y0, k1, k2, k3, p1, p2]`.
+    pub interior: Vec<[f64; 8]>,
+    /// Which interior parameters are unknowns, per camera.
+    pub free: Vec<[bool; 8]>,
+    /// A-priori σ of an image coordinate per camera (mm).
+    pub sigma: Vec<f64>,
+    /// Point coordinates (m, working frame).
+    pub points: Vec<Vector3<f64>>,
+    /// Observations.
+    pub obs: Vec<Obs>,
+    /// Observation indices per point.
+    pub point_obs: Vec<Vec<usize>>,
+    /// Control coordinates (m, working frame) and σ (m) per point, as weighted observations.
+    pub control: Vec<Option<(Vector3<f64>, f64)>>,
+    /// Weight of the tiny prior on point increments that fixes the free network's datum defect during
+    /// the iteration (0 when control points fix the datum).
+    pub gauge: f64,
+    /// A-priori value and σ of interior parameters (weighted pseudo-observations), per camera.
+    pub interior_prior: Vec<[Option<(f64, f64)>; 8]>,
+}
+
+/// Coupling W_i of one point with the image/interior unknowns: sparse rows (global column, 1 × 3).
+#[derive(Debug, Clone, Default)]
+pub struct Coupling {
+    /// Global columns.
+    pub cols: Vec<usize>,
+    /// The rows of W_i (∂e/∂camera)ᵀ P (∂e/∂point) for those columns.
+    pub rows: Vec<Vector3<f64>>,
+}
+
+impl Coupling {
+    fn add(&mut self, col: usize, row: Vector3<f64>) {
+        if let Some(k) = self.cols.iter().rposition(|&c| c == col) {
+            self.rows[k] += row;
+        } else {
+            self.cols.push(col);
+            self.rows.push(row);
+        }
+    }
+}
+
+/// Normal equations `[U W; Wᵀ V] [Δc; Δp] = [bc; bp]` (weights 1/σ²) and the weighted square sum.
+#[derive(Debug, Clone)]
+pub struct Normals {
+    /// Image and interior block (dense).
+    pub u: Mat<f64>,
+    /// Right-hand side of the image and interior unknowns.
+    pub bc: Vec<f64>,
+    /// 3 × 3 point blocks.
+    pub v: Vec<Matrix3<f64>>,
+    /// Right-hand sides of the points.
+    pub bp: Vec<Vector3<f64>>,
+    /// Couplings per point.
+    pub w: Vec<Coupling>,
+    /// vᵀPv (dimensionless: residuals over their a-priori σ).
+    pub cost: f64,
+}
+
+/// The reduced system and what back-substitution needs.
+pub struct Reduced {
+    /// S = U − Σ W V⁻¹ Wᵀ (damped).
+    pub s: Mat<f64>,
+    /// Reduced right-hand side.
+    pub rhs: Vec<f64>,
+    /// (V_i + damping + gauge)⁻¹.
+    pub vinv: Vec<Matrix3<f64>>,
+}
+
+impl Bundle {
+    /// Number of image and interior unknowns (the reduced system's size).
+    pub fn camera_unknowns(&self) -> usize {
+        6 * self.images.len() + self.interior_columns().iter().flatten().flatten().count()
+    }
+
+    /// Global column of each free interior parameter, per camera.
+    pub fn interior_columns(&self) -> Vec<[Option<usize>; 8]> {
+        let mut next = 6 * self.images.len();
+        self.free
+            .iter()
+            .map(|f| {
+                let mut cols = [None; 8];
+                for k in 0..8 {
+                    if f[k] {
+                        cols[k] = Some(next);
+                        next += 1;
+                    }
+                }
+                cols
+            })
+            .collect()
+    }
+
+    /// Weighted square sum vᵀPv of the current state (observations and control).
+    pub fn cost(&self) -> f64 {
+        let mut cost = 0.0;
+        for o in self.obs.iter().filter(|o| o.active) {
+            let cam = self.image_camera[o.image];
+            let e = residual_value(
+                self.model,
+                &self.images[o.image],
+                &self.interior[cam],
+                &self.points[o.point],
+                o.meas,
+                self.zbar,
+            );
+            let p = o.weight / (self.sigma[cam] * self.sigma[cam]);
+            cost += p * (e[0] * e[0] + e[1] * e[1]);
+        }
+        for (x, c) in self.points.iter().zip(&self.control) {
+            if let Some((xc, s)) = c {
+                cost += (x - xc).norm_squared() / (s * s);
+            }
+        }
+        for (cam, priors) in self.interior_prior.iter().enumerate() {
+            for k in 0..8 {
+                if let (true, Some((v, s))) = (self.free[cam][k], priors[k]) {
+                    cost += ((self.interior[cam][k] - v) / s).powi(2);
+                }
+            }
+        }
+        cost
+    }
+
+    /// Number of interior pseudo-observations in force (priors on free parameters).
+    pub fn prior_count(&self) -> usize {
+        self.interior_prior
+            .iter()
+            .zip(&self.free)
+            .map(|(p, f)| (0..8).filter(|&k| f[k] && p[k].is_some()).count())
+            .sum()
+    }
+
+    /// Global columns (and local Jacobian columns) of the camera-side unknowns of an observation.
+    pub fn camera_columns(
+        &self,
+        o: &Obs,
+        interior_cols: &[[Option<usize>; 8]],
+    ) -> Vec<(usize, usize)> {
+        let cam = self.image_camera[o.image];
+        let mut cols: Vec<(usize, usize)> = (0..6).map(|k| (6 * o.image + k, k)).collect();
+        for k in 0..8 {
+            if let Some(g) = interior_cols[cam][k] {
+                cols.push((g, INTERIOR0 + k));
+            }
+        }
+        cols
+    }
+
+    /// Builds the normal equations at the current state.
+    pub fn normals(&self) -> Normals {
+        let nc = self.camera_unknowns();
+        let icols = self.interior_columns();
+        let mut u = Mat::<f64>::zeros(nc, nc);
+        let mut bc = vec![0.0; nc];
+        let np = self.points.len();
+        let mut v = vec![Matrix3::zeros(); np];
+        let mut bp = vec![Vector3::zeros(); np];
+        let mut w = vec![Coupling::default(); np];
+        let mut cost = 0.0;
+        for i in 0..np {
+            for &oi in &self.point_obs[i] {
+                let o = &self.obs[oi];
+                if !o.active {
+                    continue;
+                }
+                let cam = self.image_camera[o.image];
+                let p = o.weight / (self.sigma[cam] * self.sigma[cam]);
+                let f = residual_jacobian(
+                    self.model,
+                    &self.images[o.image],
+                    &self.interior[cam],
+                    &self.free[cam],
+                    &self.points[i],
+                    o.meas,
+                    self.zbar,
+                );
+                let cols = self.camera_columns(o, &icols);
+                for fk in &f {
+                    let e = fk.v;
+                    cost += p * e * e;
+                    let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
+                    v[i] += p * jp * jp.transpose();
+                    bp[i] -= p * e * jp;
+                    for &(ga, la) in &cols {
+                        let ja = fk.d[la];
+                        if ja == 0.0 {
+                            continue;
+                        }
+                        bc[ga] -= p * e * ja;
+                        for &(gb, lb) in &cols {
+                            u[(ga, gb)] += p * ja * fk.d[lb];
+                        }
+                        w[i].add(ga, p * ja * jp);
+                    }
+                }
+            }
+            if let Some((xc, s)) = self.control[i] {
+                let p = 1.0 / (s * s);
+                let e = self.points[i] - xc;
+                cost += p * e.norm_squared();
+                v[i] += p * Matrix3::identity();
+                bp[i] -= p * e;
+            }
+        }
+        for (cam, cols) in icols.iter().enumerate() {
+            for k in 0..8 {
+                if let (Some(g), Some((v, s))) = (cols[k], self.interior_prior[cam][k]) {
+                    let p = 1.0 / (s * s);
+                    let e = self.interior[cam][k] - v;
+                    cost += p * e * e;
+                    u[(g, g)] += p;
+                    bc[g] -= p * e;
+                }
+            }
+        }
+        Normals {
+            u,
+            bc,
+            v,
+            bp,
+            w,
+            cost,
+        }
+    }
+
+    /// Reduces the normal equations with Marquardt damping λ (diagonal scaled by 1 + λ).
+    pub fn reduce(&self, n: &Normals, lambda: f64) -> Option<Reduced> {
+        let nc = n.bc.len();
+        let mut s = n.u.clone();
+        let umax = (0..nc).map(|k| n.u[(k, k)]).fold(0.0, f64::max);
+        for k in 0..nc {
+            let d = n.u[(k, k)].max(umax * 1e-14).max(1e-300);
+            s[(k, k)] += lambda * d;
+        }
+        let mut rhs = n.bc.clone();
+        let mut vinv = Vec::with_capacity(n.v.len());
+        for (i, vi) in n.v.iter().enumerate() {
+            let mut vd = *vi;
+            for k in 0..3 {
+                vd[(k, k)] += lambda * vi[(k, k)].max(1e-300) + self.gauge;
+            }
+            let inv = vd.try_inverse()?;
+            let wi = &n.w[i];
+            let wv: Vec<Vector3<f64>> = wi.rows.iter().map(|r| inv * r).collect();
+            for (a, &ca) in wi.cols.iter().enumerate() {
+                rhs[ca] -= wv[a].dot(&n.bp[i]);
+                for (b, &cb) in wi.cols.iter().enumerate() {
+                    s[(ca, cb)] -= wv[a].dot(&wi.rows[b]);
+                }
+            }
+            vinv.push(inv);
+        }
+        Some(Reduced { s, rhs, vinv })
+    }
+
+    /// Solves the damped normal equations: (Δ camera unknowns, Δ points). None if not positive definite.
+    pub fn solve(&self, n: &Normals, lambda: f64) -> Option<(Vec<f64>, Vec<Vector3<f64>>)> {
+        let r = self.reduce(n, lambda)?;
+        let nc = r.rhs.len();
+        let mut dc = Mat::<f64>::zeros(nc, 1);
+        for k in 0..nc {
+            dc[(k, 0)] = r.rhs[k];
+        }
+        if nc > 0 {
+            let llt = r.s.llt(Side::Lower).ok()?;
+            llt.solve_in_place(dc.as_mut());
+        }
+        let dcv: Vec<f64> = (0..nc).map(|k| dc[(k, 0)]).collect();
+        if dcv.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let dp = (0..n.v.len())
+            .map(|i| {
+                let wi = &n.w[i];
+                let mut b = n.bp[i];
+                for (a, &ca) in wi.cols.iter().enumerate() {
+                    b -= wi.rows[a] * dcv[ca];
+                }
+                r.vinv[i] * b
+            })
+            .collect();
+        Some((dcv, dp))
+    }
+
+    /// Applies an update (rotations multiplicatively).
+    pub fn apply(&mut self, dc: &[f64], dp: &[Vector3<f64>]) {
+        for (j, im) in self.images.iter_mut().enumerate() {
+            let d = &dc[6 * j..6 * j + 6];
+            im.rotation = super::rotation::update(&im.rotation, Vector3::new(d[0], d[1], d[2]));
+            for k in 0..3 {
+                im.p[k] += d[3 + k];
+            }
+        }
+        let icols = self.interior_columns();
+        for (cam, cols) in icols.iter().enumerate() {
+            for k in 0..8 {
+                if let Some(g) = cols[k] {
+                    self.interior[cam][k] += dc[g];
+                }
+            }
+        }
+        for (x, d) in self.points.iter_mut().zip(dp) {
+            *x += d;
+        }
+    }
+}

@@ -1,0 +1,205 @@
+//! Precision of the adjusted unknowns from the inverse of the normal equations (cofactors Q), the
+//! redundancy numbers of the observations, and the S-transformation of the free network's point
+//! covariances to the inner constraints (minimum trace): `Q_S = S Q Sᵀ`, `S = I − G (GᵀG)⁻¹ Gᵀ`.
+
+use faer::linalg::solvers::DenseSolveCore;
+use faer::{Mat, Side};
+use nalgebra::{Matrix3, SMatrix, Vector3};
+
+use super::bundle::{residual_jacobian, Obs, POINT0};
+use super::normals::{Bundle, Normals};
+
+type G = SMatrix<f64, 3, 7>;
+type M7 = SMatrix<f64, 7, 7>;
+
+/// Cofactor blocks of the final solution (a-priori scale; multiply by the variance factor).
+pub struct Cofactors {
+    normals: Normals,
+    /// S⁻¹: cofactors of the image and interior unknowns.
+    pub qcc: Mat<f64>,
+    vinv: Vec<Matrix3<f64>>,
+    /// Raw diagonal point blocks Q_ii (before the datum projection), computed once.
+    qpp: Vec<Matrix3<f64>>,
+    /// Datum projection for the free network: (G_i per point, C = (GᵀG)⁻¹, H_i = Q G, M = GᵀQG).
+    datum: Option<(Vec<G>, M7, Vec<G>, M7)>,
+}
+
+impl Cofactors {
+    /// Inverts the normal equations at the bundle's state. `free_network` applies the S-transform to
+    /// the inner constraints (about the centroid of the points) to every point cofactor block.
+    pub fn new(b: &Bundle, free_network: bool) -> Option<Self> {
+        let normals = b.normals();
+        let reduced = b.reduce(&normals, 0.0)?;
+        let nc = reduced.rhs.len();
+        let qcc = if nc > 0 {
+            reduced.s.llt(Side::Lower).ok()?.inverse()
+        } else {
+            Mat::zeros(0, 0)
+        };
+        let mut cof = Cofactors {
+            normals,
+            qcc,
+            vinv: reduced.vinv,
+            qpp: Vec::new(),
+            datum: None,
+        };
+        cof.qpp = (0..b.points.len())
+            .map(|i| cof.raw_point_block(i, i))
+            .collect();
+        if free_network {
+            cof.datum = Some(cof.datum_projection(&b.points)?);
+        }
+        Some(cof)
+    }
+
+    fn datum_projection(&self, points: &[Vector3<f64>]) -> Option<(Vec<G>, M7, Vec<G>, M7)> {
+        let n = points.len() as f64;
+        let centroid = points.iter().fold(Vector3::zeros(), |a, p| a + p) / n;
+        let extent = (points
+            .iter()
+            .map(|p| (p - centroid).norm_squared())
+            .sum::<f64>()
+            / n)
+            .sqrt()
+            .max(1e-9);
+        let gs: Vec<G> = points
+            .iter()
+            .map(|p| {
+                let x = (p - centroid) / extent;
+                G::from_row_slice(&[
+                    1.0, 0.0, 0.0, 0.0, x.z, -x.y, x.x, //
+                    0.0, 1.0, 0.0, -x.z, 0.0, x.x, x.y, //
+                    0.0, 0.0, 1.0, x.y, -x.x, 0.0, x.z,
+                ])
+            })
+            .collect();
+        let gtg: M7 = gs.iter().map(|g| g.transpose() * g).sum();
+        let c = gtg.try_inverse()?;
+        // B = Σ_j W_j V_j⁻¹ G_j (nc × 7), T = S⁻¹ B.
+        let nc = self.qcc.nrows();
+        let mut bm = vec![[0.0f64; 7]; nc];
+        for (j, g) in gs.iter().enumerate() {
+            let vg = self.vinv[j] * g;
+            let w = &self.normals.w[j];
+            for (a, &ca) in w.cols.iter().enumerate() {
+                let row = w.rows[a].transpose() * vg;
+                for k in 0..7 {
+                    bm[ca][k] += row[k];
+                }
+            }
+        }
+        let mut t = vec![[0.0f64; 7]; nc];
+        for (r, tr) in t.iter_mut().enumerate() {
+            for (s, bs) in bm.iter().enumerate() {
+                let q = self.qcc[(r, s)];
+                if q != 0.0 {
+                    for k in 0..7 {
+                        tr[k] += q * bs[k];
+                    }
+                }
+            }
+        }
+        let hs: Vec<G> = gs
+            .iter()
+            .enumerate()
+            .map(|(i, g)| {
+                let mut inner = *g;
+                let w = &self.normals.w[i];
+                for (a, &ca) in w.cols.iter().enumerate() {
+                    for k in 0..7 {
+                        for r in 0..3 {
+                            inner[(r, k)] += w.rows[a][r] * t[ca][k];
+                        }
+                    }
+                }
+                self.vinv[i] * inner
+            })
+            .collect();
+        let m: M7 = gs.iter().zip(&hs).map(|(g, h)| g.transpose() * h).sum();
+        Some((gs, c, hs, m))
+    }
+
+    /// Raw cofactor block Q_ab of points a and b (before the datum projection).
+    fn raw_point_block(&self, a: usize, b: usize) -> Matrix3<f64> {
+        let (wa, wb) = (&self.normals.w[a], &self.normals.w[b]);
+        let mut inner = Matrix3::zeros();
+        for (x, &cx) in wa.cols.iter().enumerate() {
+            for (y, &cy) in wb.cols.iter().enumerate() {
+                let q = self.qcc[(cx, cy)];
+                if q != 0.0 {
+                    inner += q * wa.rows[x] * wb.rows[y].transpose();
+                }
+            }
+        }
+        let mut q = self.vinv[a] * inner * self.vinv[b];
+        if a == b {
+            q += self.vinv[a];
+        }
+        q
+    }
+
+    /// Cofactor block of points a and b (m², a-priori scale) in the datum of the solution.
+    pub fn point_block(&self, a: usize, b: usize) -> Matrix3<f64> {
+        let q = self.raw_point_block(a, b);
+        match &self.datum {
+            None => q,
+            Some((gs, c, hs, m)) => {
+                q - gs[a] * c * hs[b].transpose() - hs[a] * c * gs[b].transpose()
+                    + gs[a] * c * m * c * gs[b].transpose()
+            }
+        }
+    }
+
+    /// Cofactor of interior parameter at global column `col`.
+    pub fn camera_cofactor(&self, col: usize) -> f64 {
+        self.qcc[(col, col)]
+    }
+
+    /// a Q aᵀ for the x and y equation of an observation: the cofactor of its adjusted (predicted)
+    /// value. Datum-invariant, so the raw cofactors serve.
+    pub fn predicted_cofactor(&self, b: &Bundle, o: &Obs) -> [f64; 2] {
+        let cam = b.image_camera[o.image];
+        let icols = b.interior_columns();
+        let cols = b.camera_columns(o, &icols);
+        let f = residual_jacobian(
+            b.model,
+            &b.images[o.image],
+            &b.interior[cam],
+            &b.free[cam],
+            &b.points[o.point],
+            o.meas,
+            b.zbar,
+        );
+        let i = o.point;
+        let w = &self.normals.w[i];
+        let qpp = self.qpp[i];
+        // Q_cp restricted to this observation's columns: −S⁻¹[L, cols_i] W_i V_i⁻¹.
+        let qcp: Vec<Vector3<f64>> = cols
+            .iter()
+            .map(|&(g, _)| {
+                let mut acc = Vector3::zeros();
+                for (a, &ca) in w.cols.iter().enumerate() {
+                    acc += self.qcc[(g, ca)] * w.rows[a];
+                }
+                -(self.vinv[i] * acc)
+            })
+            .collect();
+        let mut out = [0.0; 2];
+        for (k, fk) in f.iter().enumerate() {
+            let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
+            let mut s = (jp.transpose() * qpp * jp)[0];
+            for (x, &(gx, lx)) in cols.iter().enumerate() {
+                let jx = fk.d[lx];
+                if jx == 0.0 {
+                    continue;
+                }
+                s += 2.0 * jx * qcp[x].dot(&jp);
+                for &(gy, ly) in &cols {
+                    s += jx * self.qcc[(gx, gy)] * fk.d[ly];
+                }
+            }
+            out[k] = s;
+        }
+        out
+    }
+}

@@ -1,0 +1,105 @@
+//! One delivery attempt: a signed POST and the classification of its outcome.
+
+use std::time::Duration;
+
+use chrono::{DateTime, Utc};
+
+use super::retry::parse_retry_after;
+use super::sign::sign;
+
+/// What one attempt came to.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DeliveryOutcome {
+    /// 2xx: done.
+    Delivered {
+        /// HTTP status.
+        status: u16,
+    },
+    /// Transient (network error, timeout, 408, 429, 5xx): retry, after the server's `Retry-After` when given.
+    Retry {
+        /// HTTP status (None for a network error or timeout).
+        status: Option<u16>,
+        /// The server's `Retry-After`, when given.
+        retry_after: Option<Duration>,
+        /// What happened.
+        reason: String,
+    },
+    /// 410 Gone: disable the endpoint, drop its pending messages.
+    Gone,
+    /// Permanent failure (other 4xx, bad secret, unusable URL): do not retry this message.
+    Failed {
+        /// HTTP status, if any.
+        status: Option<u16>,
+        /// What happened.
+        reason: String,
+    },
+}
+
+/// Classifies an HTTP status (and `Retry-After` header value) into an outcome.
+pub fn classify(status: u16, retry_after: Option<&str>, now: DateTime<Utc>) -> DeliveryOutcome {
+    match status {
+        200..=299 => DeliveryOutcome::Delivered { status },
+        410 => DeliveryOutcome::Gone,
+        408 | 425 | 429 | 500..=599 => DeliveryOutcome::Retry {
+            status: Some(status),
+            retry_after: retry_after.and_then(|v| parse_retry_after(v, now)),
+            reason: format!("HTTP {status}"),
+        },
+        _ => DeliveryOutcome::Failed {
+            status: Some(status),
+            reason: format!("HTTP {status}"),
+        },
+    }
+}
+
+/// POSTs `body` to `url` signed with `secret` as message `msg_id` (reuse it on every retry of one event),
+/// timestamped `now` (fresh per attempt, as Standard Webhooks expects), and classifies the outcome.
+/// The client's timeout applies (build it with one, e.g. 10 s).
+pub async fn deliver(
+    client: &reqwest::Client,
+    url: &str,
+    secret: &str,
+    msg_id: &str,
+    body: &[u8],
+    now: DateTime<Utc>,
+) -> DeliveryOutcome {
+    let ts = now.timestamp();
+    let signature = match sign(secret, msg_id, ts, body) {
+        Ok(s) => s,
+        Err(e) => {
+            return DeliveryOutcome::Failed {
+                status: None,
+                reason: e.to_string(),
+            }
+        }
+    };
+    let resp = client
+        .post(url)
+        .header("content-type", "application/json")
+        .header("webhook-id", msg_id)
+        .header("webhook-timestamp", ts.to_string())
+        .header("webhook-signature", signature)
+        .body(body.to_vec())
+        .send()
+        .await;
+    match resp {
+        Ok(r) => {
+            let status = r.status().as_u16();
+            let ra = r
+                .headers()
+                .get("retry-after")
+                .and_then(|v| v.to_str().ok())
+                .map(str::to_string);
+            classify(status, ra.as_deref(), now)
+        }
+        Err(e) if e.is_builder() => DeliveryOutcome::Failed {
+            status: None,
+            reason: e.to_string(),
+        },
+        Err(e) => DeliveryOutcome::Retry {
+            status: None,
+            retry_after: None,
+            reason: e.to_string(),
+        },
+    }
+}

@@ -1,0 +1,260 @@
+//! Webhook payloads: the contract body, endpoint filtering by level, and the Alertmanager webhook body.
+
+use chrono::{DateTime, SecondsFormat, Utc};
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+use std::collections::BTreeMap;
+
+use crate::analysis::{AlertEvent, AlertEventType, AlertLevel};
+
+/// Body format of an endpoint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PayloadFormat {
+    /// The contract's body (default).
+    #[default]
+    Standard,
+    /// Prometheus Alertmanager webhook body (version 4), for receivers built for Alertmanager.
+    Alertmanager,
+}
+
+/// A webhook endpoint (`POST /api/v1/webhooks` or `[[webhooks]]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WebhookEndpoint {
+    /// Endpoint id.
+    pub id: String,
+    /// Target URL.
+    pub url: String,
+    /// `whsec_…` secret.
+    pub secret: String,
+    /// Lowest level delivered (default: all).
+    #[serde(default)]
+    pub min_level: Option<AlertLevel>,
+    /// Body format.
+    #[serde(default)]
+    pub format: PayloadFormat,
+    /// False after a 410 Gone.
+    #[serde(default = "enabled")]
+    pub enabled: bool,
+}
+
+fn enabled() -> bool {
+    true
+}
+
+/// Whether the endpoint takes this event: enabled and the alert's peak level ≥ `min_level` (the peak, so
+/// that an endpoint told of an alert also hears of its de-escalation and resolution).
+pub fn accepts(endpoint: &WebhookEndpoint, event: &AlertEvent) -> bool {
+    endpoint.enabled
+        && endpoint
+            .min_level
+            .is_none_or(|m| event.alert.peak_level.max(event.alert.level) >= m)
+}
+
+/// `data` of the contract body.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WebhookData {
+    /// Alert id.
+    pub alert_id: String,
+    /// Site id.
+    pub site: String,
+    /// Point (null for site-level alerts).
+    pub point: Option<String>,
+    /// Points concerned by a site-level alert.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub points: Vec<String>,
+    /// Level.
+    pub level: AlertLevel,
+    /// Metric or site-level kind.
+    pub rule: String,
+    /// Value (unit in `unit`).
+    pub value: Option<f64>,
+    /// Threshold (unit in `unit`).
+    pub threshold: Option<f64>,
+    /// Unit of value and threshold.
+    pub unit: String,
+    /// Epoch id.
+    pub epoch: Option<i64>,
+    /// Observation time of the epoch, RFC 3339 UTC.
+    pub observed_at: Option<String>,
+    /// Summary.
+    pub message: String,
+}
+
+/// The contract body `{"type", "timestamp", "data"}`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WebhookPayload {
+    /// `alert.raised`, `alert.escalated`, …
+    #[serde(rename = "type")]
+    pub event_type: String,
+    /// Event time, RFC 3339 UTC, seconds.
+    pub timestamp: String,
+    /// The alert.
+    pub data: WebhookData,
+}
+
+fn t(x: DateTime<Utc>) -> String {
+    x.to_rfc3339_opts(SecondsFormat::Secs, true)
+}
+
+impl WebhookPayload {
+    /// Builds the body of an event.
+    pub fn from_event(event: &AlertEvent) -> Self {
+        let a = &event.alert;
+        WebhookPayload {
+            event_type: event.event_type.as_str().to_string(),
+            timestamp: t(event.timestamp),
+            data: WebhookData {
+                alert_id: a.id.clone(),
+                site: a.site.clone(),
+                point: a.point.clone(),
+                points: if a.point.is_none() {
+                    a.points.clone()
+                } else {
+                    vec![]
+                },
+                level: a.level,
+                rule: a.rule.as_str().to_string(),
+                value: a.value,
+                threshold: a.threshold,
+                unit: a.unit.clone(),
+                epoch: a.epoch,
+                observed_at: a.observed_at.map(t),
+                message: a.message.clone(),
+            },
+        }
+    }
+}
+
+/// Deterministic message id (`msg_` + 32 hex) of an event: the same event always gets the same
+/// `webhook-id`, so a rebuilt outbox row keeps it too.
+pub fn message_id(event: &AlertEvent) -> String {
+    let mut h = Sha256::new();
+    h.update(event.alert.id.as_bytes());
+    h.update(b"|");
+    h.update(event.event_type.as_str().as_bytes());
+    h.update(b"|");
+    h.update(t(event.timestamp).as_bytes());
+    h.update(b"|");
+    h.update(event.alert.level.as_str().as_bytes());
+    let d = h.finalize();
+    format!(
+        "msg_{}",
+        d[..16]
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect::<String>()
+    )
+}
+
+/// One alert of the Alertmanager body.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct AlertmanagerAlert {
+    /// `firing` or `resolved`.
+    pub status: String,
+    /// Labels: alertname, site, point, severity, rule.
+    pub labels: BTreeMap<String, String>,
+    /// Annotations: summary, value, threshold, unit, event.
+    pub annotations: BTreeMap<String, String>,
+    /// RFC 3339.
+    pub starts_at: String,
+    /// RFC 3339; `0001-01-01T00:00:00Z` while firing.
+    pub ends_at: String,
+    /// Link back (empty).
+    #[serde(rename = "generatorURL")]
+    pub generator_url: String,
+    /// Alert id.
+    pub fingerprint: String,
+}
+
+/// The Alertmanager webhook body (version 4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct AlertmanagerBody {
+    /// "4".
+    pub version: String,
+    /// Group key (site and rule).
+    pub group_key: String,
+    /// Always 0.
+    pub truncated_alerts: u32,
+    /// `firing` or `resolved`.
+    pub status: String,
+    /// Receiver name (the endpoint id).
+    pub receiver: String,
+    /// Group labels.
+    pub group_labels: BTreeMap<String, String>,
+    /// Common labels.
+    pub common_labels: BTreeMap<String, String>,
+    /// Common annotations.
+    pub common_annotations: BTreeMap<String, String>,
+    /// External URL (empty).
+    #[serde(rename = "externalURL")]
+    pub external_url: String,
+    /// The one alert.
+    pub alerts: Vec<AlertmanagerAlert>,
+}
+
+/// Alertmanager-compatible body of an event (`resolved` for `alert.resolved`, else `firing`).
+pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody {
+    let a = &event.alert;
+    let status = if event.event_type == AlertEventType::Resolved {
+        "resolved"
+    } else {
+        "firing"
+    };
+    let mut labels = BTreeMap::new();
+    labels.insert(
+        "alertname".to_string(),
+        format!("cliffwatch_{}", a.rule.as_str()),
+    );
+    labels.insert("site".to_string(), a.site.clone());
+    labels.insert("severity".to_string(), a.level.as_str().to_string());
+    labels.insert("rule".to_string(), a.rule.as_str().to_string());
+    if let Some(p) = &a.point {
+        labels.insert("point".to_string(), p.clone());
+    }
+    let mut ann = BTreeMap::new();
+    ann.insert("summary".to_string(), a.message.clone());
+    ann.insert("event".to_string(), event.event_type.as_str().to_string());
+    if let Some(v) = a.value {
+        ann.insert("value".to_string(), format!("{v}"));
+    }
+    if let Some(v) = a.threshold {
+        ann.insert("threshold".to_string(), format!("{v}"));
+    }
+    ann.insert("unit".to_string(), a.unit.clone());
+    if !a.points.is_empty() {
+        ann.insert("points".to_string(), a.points.join(","));
+    }
+    let mut group = BTreeMap::new();
+    group.insert("site".to_string(), a.site.clone());
+    group.insert("alertname".to_string(), labels["alertname"].clone());
+    AlertmanagerBody {
+        version: "4".into(),
+        group_key: format!(
+            "{{}}:{{site=\"{}\", alertname=\"{}\"}}",
+            a.site, labels["alertname"]
+        ),
+        truncated_alerts: 0,
+        status: status.into(),
+        receiver: receiver.into(),
+        group_labels: group,
+        common_labels: labels.clone(),
+        common_annotations: ann.clone(),
+        external_url: String::new(),
+        alerts: vec![AlertmanagerAlert {
+            status: status.into(),
+            labels,
+            annotations: ann,
+            starts_at: t(a.raised_at),
+            ends_at: if status == "resolved" {
+                t(event.timestamp)
+            } else {
+                "0001-01-01T00:00:00Z".into()
+            },
+            generator_url: String::new(),
+            fingerprint: a.id.clone(),
+        }],
+    }
+}

@@ -1,0 +1,255 @@
+//! Bad input gives a typed error naming the image or point; malformed epochs never panic.
+
+use cliffwatch::photogrammetry::{adjust, AdjustError, AdjustOptions, EpochError, EpochInput};
+use cliffwatch::simulate::scenes::{paper_table1, PaperParams};
+use proptest::prelude::*;
+
+fn base() -> EpochInput {
+    paper_table1(&PaperParams::default()).unwrap().0
+}
+
+fn run(e: &EpochInput) -> Result<(), AdjustError> {
+    adjust(e, &AdjustOptions::default()).map(|_| ())
+}
+
+#[test]
+fn fewer_than_four_known_points_names_the_image() {
+    let mut e = base();
+    // Image C alone sees the new points N1…N9; its only known points are 1, 2, 3.
+    e.images[2]
+        .observations
+        .retain(|o| ["1", "2", "3"].contains(&o.point.as_str()));
+    for (k, name) in ["N1", "N2", "N3", "N4", "N5"].iter().enumerate() {
+        for im in 0..3 {
+            e.images[im]
+                .observations
+                .push(cliffwatch::photogrammetry::epoch::ObservationInput {
+                    point: name.to_string(),
+                    x_mm: Some(k as f64 * 0.7 - 1.0 + im as f64 * 0.1),
+                    y_mm: Some(1.3 - k as f64 * 0.4),
+                    col: None,
+                    row: None,
+                });
+        }
+    }
+    match run(&e) {
+        Err(AdjustError::TooFewKnownPoints { image, known }) => {
+            assert_eq!(image, "C");
+            assert_eq!(known, 3);
+        }
+        other => panic!("expected TooFewKnownPoints for C, got {other:?}"),
+    }
+}
+
+#[test]
+fn point_in_one_image_only_names_the_point() {
+    let mut e = base();
+    e.images[0]
+        .observations
+        .push(cliffwatch::photogrammetry::epoch::ObservationInput {
+            point: "LONER".into(),
+            x_mm: Some(1.0),
+            y_mm: Some(2.0),
+            col: None,
+            row: None,
+        });
+    match run(&e) {
+        Err(AdjustError::PointInTooFewImages { point, images }) => {
+            assert_eq!(point, "LONER");
+            assert_eq!(images, 1);
+        }
+        other => panic!("expected PointInTooFewImages, got {other:?}"),
+    }
+}
+
+#[test]
+fn nan_coordinates_name_the_image_and_point() {
+    let mut e = base();
+    e.images[1].observations[4].y_mm = Some(f64::NAN);
+    match run(&e) {
+        Err(AdjustError::Invalid(EpochError::NotFinite { item, field })) => {
+            assert!(item.contains("'B'") && item.contains("'5'"), "{item}");
+            assert_eq!(field, "y_mm");
+        }
+        other => panic!("expected NotFinite, got {other:?}"),
+    }
+    let mut e = base();
+    e.approx[3].Z = f64::INFINITY;
+    assert!(matches!(
+        run(&e),
+        Err(AdjustError::Invalid(EpochError::NotFinite { .. }))
+    ));
+}
+
+#[test]
+fn unknown_camera_names_the_image() {
+    let mut e = base();
+    e.images[2].camera = "nikon".into();
+    assert_eq!(
+        run(&e),
+        Err(AdjustError::Invalid(EpochError::UnknownCamera {
+            image: "C".into(),
+            camera: "nikon".into()
+        }))
+    );
+}
+
+#[test]
+fn duplicate_observation_names_image_and_point() {
+    let mut e = base();
+    let dup = e.images[0].observations[6].clone();
+    e.images[0].observations.push(dup);
+    assert_eq!(
+        run(&e),
+        Err(AdjustError::Invalid(EpochError::DuplicateObservation {
+            image: "A".into(),
+            point: "7".into()
+        }))
+    );
+}
+
+#[test]
+fn empty_epoch_is_an_error() {
+    let mut e = base();
+    e.images.clear();
+    assert_eq!(run(&e), Err(AdjustError::Invalid(EpochError::Empty)));
+    let e: EpochInput = serde_json::from_str(r#"{"observed_at": "2026-11-21T09:00:00Z"}"#).unwrap();
+    assert_eq!(run(&e), Err(AdjustError::Invalid(EpochError::Empty)));
+    // Images without observations.
+    let mut e = base();
+    for im in &mut e.images {
+        im.observations.clear();
+    }
+    assert!(run(&e).is_err());
+}
+
+/// One way of breaking an epoch.
+#[derive(Debug, Clone)]
+enum Damage {
+    DropObservation(usize, usize),
+    DropApprox(usize),
+    SetX(usize, usize, f64),
+    SetApproxZ(usize, f64),
+    Rename(usize, usize, String),
+    DropImage(usize),
+    DuplicateImage(usize),
+    CameraC(f64),
+    Pixel(usize, usize, f64, f64),
+    Calibrate(Vec<String>),
+    CollapseImage(usize),
+}
+
+fn number() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        Just(f64::NAN),
+        Just(f64::INFINITY),
+        Just(0.0),
+        Just(-0.0),
+        Just(1e300),
+        Just(-1e-300),
+        -1e6..1e6f64,
+        -50.0..50.0f64,
+    ]
+}
+
+fn damage() -> impl Strategy<Value = Damage> {
+    prop_oneof![
+        (0..4usize, 0..14usize).prop_map(|(i, o)| Damage::DropObservation(i, o)),
+        (0..14usize).prop_map(Damage::DropApprox),
+        (0..4usize, 0..14usize, number()).prop_map(|(i, o, v)| Damage::SetX(i, o, v)),
+        (0..14usize, number()).prop_map(|(a, v)| Damage::SetApproxZ(a, v)),
+        (0..4usize, 0..14usize, "[A-Za-z0-9 ]{0,3}").prop_map(|(i, o, s)| Damage::Rename(i, o, s)),
+        (0..4usize).prop_map(Damage::DropImage),
+        (0..4usize).prop_map(Damage::DuplicateImage),
+        number().prop_map(Damage::CameraC),
+        (0..4usize, 0..14usize, number(), number())
+            .prop_map(|(i, o, c, r)| Damage::Pixel(i, o, c, r)),
+        prop::collection::vec(
+            prop_oneof![Just("c"), Just("k1"), Just("x0"), Just("p2"), Just("zz")],
+            0..4
+        )
+        .prop_map(|v| Damage::Calibrate(v.into_iter().map(String::from).collect())),
+        (0..4usize).prop_map(Damage::CollapseImage),
+    ]
+}
+
+fn apply(e: &mut EpochInput, d: &Damage) {
+    let ni = e.images.len();
+    match d {
+        Damage::DropObservation(i, o) if *i < ni => {
+            let obs = &mut e.images[*i].observations;
+            if *o < obs.len() {
+                obs.remove(*o);
+            }
+        }
+        Damage::DropApprox(a) if *a < e.approx.len() => {
+            e.approx.remove(*a);
+        }
+        Damage::SetX(i, o, v) if *i < ni => {
+            if let Some(ob) = e.images[*i].observations.get_mut(*o) {
+                ob.x_mm = Some(*v);
+            }
+        }
+        Damage::SetApproxZ(a, v) => {
+            if let Some(ap) = e.approx.get_mut(*a) {
+                ap.Z = *v;
+            }
+        }
+        Damage::Rename(i, o, s) if *i < ni => {
+            if let Some(ob) = e.images[*i].observations.get_mut(*o) {
+                ob.point = s.clone();
+            }
+        }
+        Damage::DropImage(i) if *i < ni => {
+            e.images.remove(*i);
+        }
+        Damage::DuplicateImage(i) if *i < ni => {
+            let mut im = e.images[*i].clone();
+            im.id.push('x');
+            e.images.push(im);
+        }
+        Damage::CameraC(v) => e.cameras[0].c_mm = *v,
+        Damage::Pixel(i, o, c, r) if *i < ni => {
+            if let Some(ob) = e.images[*i].observations.get_mut(*o) {
+                (ob.x_mm, ob.y_mm, ob.col, ob.row) = (None, None, Some(*c), Some(*r));
+            }
+            e.cameras[0].pixel_size_mm = Some(0.01);
+            e.cameras[0].width_px = Some(2000);
+            e.cameras[0].height_px = Some(1500);
+        }
+        Damage::Calibrate(v) => e.cameras[0].calibrate = Some(v.clone()),
+        Damage::CollapseImage(i) if *i < ni => {
+            // Every observation of the image at the same place: a degenerate resection.
+            for ob in &mut e.images[*i].observations {
+                ob.x_mm = Some(0.5);
+                ob.y_mm = Some(0.5);
+            }
+        }
+        _ => {}
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, failure_persistence: None, ..ProptestConfig::default() })]
+
+    #[test]
+    fn malformed_epochs_never_panic(damages in prop::collection::vec(damage(), 1..5)) {
+        let mut e = base();
+        for d in &damages {
+            apply(&mut e, d);
+        }
+        let opts = AdjustOptions { max_iterations: 30, ..AdjustOptions::default() };
+        // Any Ok or Err is fine; a panic fails the property.
+        let result = adjust(&e, &opts);
+        if let Ok(a) = result {
+            prop_assert!(a.report.sigma0_mm.is_finite());
+        }
+    }
+
+    #[test]
+    fn arbitrary_json_never_panics(text in "\\\\PC{0,200}") {
+        if let Ok(e) = serde_json::from_str::<EpochInput>(&text) {
+            let _ = adjust(&e, &AdjustOptions::default());
+        }
+    }
+}

@@ -1,0 +1,250 @@
+//! The alert state machine: contract rule JSON, raise/escalate/de-escalate/resolve, hysteresis, quiet
+//! epochs, significance, groups, acknowledgement, manual resolution, site-level alerts.
+
+use chrono::{DateTime, Duration, TimeZone, Utc};
+
+use cliffwatch::analysis::{
+    acknowledge, check_overdue, evaluate_alerts, resolve, AlertConfig, AlertEventType, AlertKind,
+    AlertLevel, AlertRule, AlertState, AlertStatus, DatumMethod, DatumReport, DisplacementRecord,
+    EpochAnalysis, PointAnalysis, PointRole,
+};
+
+fn t0() -> DateTime<Utc> {
+    Utc.with_ymd_and_hms(2026, 11, 1, 9, 0, 0)
+        .single()
+        .expect("time")
+}
+
+fn analysis(
+    epoch: i64,
+    d_mm: f64,
+    significant: bool,
+    group: Option<&str>,
+    excluded: &[&str],
+) -> EpochAnalysis {
+    let at = t0() + Duration::days(epoch);
+    let record = DisplacementRecord {
+        point: "T1".into(),
+        epoch,
+        observed_at: at,
+        dx_mm: d_mm,
+        dy_mm: 0.0,
+        dz_mm: 0.0,
+        d_mm,
+        sigma_dx_mm: 0.5,
+        sigma_dy_mm: 0.5,
+        sigma_dz_mm: 0.5,
+        sigma_mm: 0.5,
+        d_along_mm: None,
+        significant,
+        velocity_mm_per_day: None,
+        time_to_failure_hours: None,
+    };
+    EpochAnalysis {
+        epoch,
+        observed_at: at,
+        reference_epoch: 1,
+        datum: DatumReport {
+            method: DatumMethod::StablePoints,
+            points: vec![],
+            excluded: excluded.iter().map(|s| s.to_string()).collect(),
+            congruence: vec![],
+            translation_mm: [0.0; 3],
+            rotation_mrad: [0.0; 3],
+            scale_ppm: 0.0,
+        },
+        points: vec![PointAnalysis {
+            record,
+            role: PointRole::Monitored,
+            group: group.map(str::to_string),
+            in_datum: false,
+            covariance_mm2: [[0.25, 0.0, 0.0], [0.0, 0.25, 0.0], [0.0, 0.0, 0.25]],
+            sigma_along_mm: None,
+            test_statistic: 0.0,
+            test_dof: 3,
+            critical_value: 11.34,
+            kinematics: None,
+            failure: None,
+        }],
+        new_points: vec![],
+        warnings: vec![],
+    }
+}
+
+fn contract_config() -> AlertConfig {
+    let rules: Vec<AlertRule> = serde_json::from_str(
+        r#"[{"level": "watch",   "metric": "displacement_mm",       "above": 5.0, "clear_below": 4.0},
+            {"level": "warning", "metric": "displacement_mm",       "above": 10.0},
+            {"level": "alarm",   "metric": "velocity_mm_per_day",   "above": 5.0},
+            {"level": "alarm",   "metric": "time_to_failure_hours", "below": 48.0}]"#,
+    )
+    .expect("contract rule JSON parses");
+    assert!(rules
+        .iter()
+        .all(|r| r.require_significant && r.validate().is_ok()));
+    AlertConfig::new("kamo", rules)
+}
+
+/// Feeds a series of (d_mm, significant) and returns the event types per epoch and the final state.
+fn feed(
+    cfg: &AlertConfig,
+    series: &[(f64, bool)],
+) -> (Vec<Vec<(AlertEventType, AlertLevel)>>, AlertState) {
+    let mut st = AlertState::default();
+    let mut out = vec![];
+    for (k, &(d, s)) in series.iter().enumerate() {
+        let a = analysis(k as i64 + 2, d, s, None, &[]);
+        let (n, ev) = evaluate_alerts(cfg, &st, &a, a.observed_at);
+        st = n;
+        out.push(ev.iter().map(|e| (e.event_type, e.alert.level)).collect());
+    }
+    (out, st)
+}
+
+#[test]
+fn raise_escalate_deescalate_resolve_with_hysteresis() {
+    use AlertEventType::*;
+    use AlertLevel::*;
+    let cfg = contract_config();
+    let (ev, st) = feed(
+        &cfg,
+        &[
+            (3.0, true),
+            (5.5, true),
+            (11.0, true),
+            (9.0, true),
+            (4.5, true),
+            (3.9, true),
+            (6.0, true),
+        ],
+    );
+    assert_eq!(ev[0], vec![]);
+    assert_eq!(ev[1], vec![(Raised, Watch)]);
+    assert_eq!(ev[2], vec![(Escalated, Warning)]);
+    // warning has no clear threshold: quiet_epochs = 1 clears it at once.
+    assert_eq!(ev[3], vec![(Deescalated, Watch)]);
+    // 4.5 is inside the watch hysteresis band (clear_below 4): still open.
+    assert_eq!(ev[4], vec![]);
+    assert_eq!(ev[5], vec![(Resolved, Watch)]);
+    assert_eq!(ev[6], vec![(Raised, Watch)]);
+    assert_eq!(st.alerts.len(), 1);
+    assert_eq!(st.level_of("T1"), Some(Watch));
+}
+
+#[test]
+fn not_significant_is_not_alertable() {
+    let (ev, st) = feed(&contract_config(), &[(50.0, false), (50.0, false)]);
+    assert!(ev.iter().all(Vec::is_empty));
+    assert!(st.alerts.is_empty());
+    // Unless the rule says so.
+    let mut cfg = contract_config();
+    cfg.rules[0].require_significant = false;
+    let (ev, _) = feed(&cfg, &[(6.0, false)]);
+    assert_eq!(ev[0], vec![(AlertEventType::Raised, AlertLevel::Watch)]);
+}
+
+#[test]
+fn quiet_epochs_delay_clearing() {
+    let mut cfg = contract_config();
+    cfg.rules[1].quiet_epochs = Some(3);
+    let (ev, _) = feed(&cfg, &[(11.0, true), (8.0, true), (8.0, true), (8.0, true)]);
+    assert_eq!(ev[0], vec![(AlertEventType::Raised, AlertLevel::Warning)]);
+    assert_eq!(ev[1], vec![]);
+    assert_eq!(ev[2], vec![]);
+    assert_eq!(
+        ev[3],
+        vec![(AlertEventType::Deescalated, AlertLevel::Watch)]
+    );
+}
+
+#[test]
+fn groups_restrict_rules() {
+    let mut cfg = contract_config();
+    for r in &mut cfg.rules {
+        r.group = Some("block".into());
+    }
+    let a = analysis(2, 20.0, true, Some("other"), &[]);
+    let (_, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
+    assert!(ev.is_empty());
+    let a = analysis(2, 20.0, true, Some("block"), &[]);
+    let (_, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].alert.level, AlertLevel::Warning);
+}
+
+#[test]
+fn acknowledge_and_resolve_by_hand() {
+    let cfg = contract_config();
+    let (_, st) = feed(&cfg, &[(6.0, true)]);
+    let id = st.alerts[0].id.clone();
+    assert_eq!(id, "kamo/T1/displacement_mm/2");
+    let (st, ev) = acknowledge(&st, &id, "ops", Some("seen"), t0()).expect("ack");
+    assert_eq!(ev.event_type, AlertEventType::Acknowledged);
+    assert_eq!(st.alerts[0].status, AlertStatus::Acknowledged);
+    assert_eq!(st.alerts[0].acknowledged_by.as_deref(), Some("ops"));
+    // Escalation re-opens for acknowledgement.
+    let a = analysis(3, 12.0, true, None, &[]);
+    let (st, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
+    assert_eq!(ev[0].event_type, AlertEventType::Escalated);
+    assert_eq!(st.alerts[0].status, AlertStatus::Open);
+    assert!(acknowledge(&st, "nope", "ops", None, t0()).is_err());
+    let (st, ev) = resolve(&st, &id, "ops", t0()).expect("resolve");
+    assert_eq!(ev.event_type, AlertEventType::Resolved);
+    assert!(st.alerts.is_empty() && st.rules.is_empty());
+    // State round-trips through JSON (it is stored).
+    let json = serde_json::to_string(&st).expect("ser");
+    assert_eq!(serde_json::from_str::<AlertState>(&json).expect("de"), st);
+}
+
+#[test]
+fn site_level_alerts() {
+    let mut cfg = contract_config();
+    cfg.schedule_hours = Some(24.0);
+    let st = AlertState::default();
+    let last = t0();
+    let (st, ev) = check_overdue(&cfg, &st, Some(last), last + Duration::hours(29));
+    assert!(ev.is_empty(), "within the 25 % grace");
+    let (st, ev) = check_overdue(&cfg, &st, Some(last), last + Duration::hours(31));
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].alert.rule, AlertKind::CampaignOverdue);
+    assert!(ev[0].alert.point.is_none());
+    let (st, ev) = check_overdue(&cfg, &st, Some(last), last + Duration::hours(40));
+    assert!(ev.is_empty(), "raised once");
+    // An epoch with an unstable reference: overdue resolves, reference_unstable raised.
+    let a = analysis(2, 1.0, false, None, &["R3"]);
+    let (st, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
+    let kinds: Vec<_> = ev.iter().map(|e| (e.alert.rule, e.event_type)).collect();
+    assert!(kinds.contains(&(AlertKind::ReferenceUnstable, AlertEventType::Raised)));
+    assert!(kinds.contains(&(AlertKind::CampaignOverdue, AlertEventType::Resolved)));
+    let ru = st.find(None, AlertKind::ReferenceUnstable).expect("open");
+    assert_eq!(ru.points, vec!["R3".to_string()]);
+    assert_eq!(ru.level, AlertLevel::Warning);
+    // Congruent again: stays open (no flapping) until resolved by hand.
+    let a = analysis(3, 1.0, false, None, &[]);
+    let (st, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
+    assert!(ev.is_empty());
+    let id = st
+        .find(None, AlertKind::ReferenceUnstable)
+        .expect("open")
+        .id
+        .clone();
+    let (st, ev) = resolve(&st, &id, "ops", t0()).expect("resolve");
+    assert_eq!(ev.event_type, AlertEventType::Resolved);
+    assert!(st.alerts.is_empty());
+}
+
+#[test]
+fn invalid_rules_are_reported() {
+    let bad: AlertRule =
+        serde_json::from_str(r#"{"level": "watch", "metric": "displacement_mm"}"#).expect("parses");
+    assert!(bad.validate().is_err());
+    let bad: AlertRule = serde_json::from_str(
+        r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "clear_below": 6}"#,
+    )
+    .expect("parses");
+    assert!(bad.validate().is_err());
+    assert!(serde_json::from_str::<AlertRule>(
+        r#"{"level": "severe", "metric": "displacement_mm", "above": 5}"#
+    )
+    .is_err());
+}

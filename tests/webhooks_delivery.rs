@@ -1,0 +1,359 @@
+//! Webhooks: Standard Webhooks signatures (published test vector and an independent HMAC), payload shape,
+//! backoff bounds, and delivery against a local receiver: same id on retries, Retry-After, 410 disables.
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use axum::extract::State;
+use axum::http::{HeaderMap, StatusCode};
+use axum::response::IntoResponse;
+use axum::routing::post;
+use axum::Router;
+use base64::engine::general_purpose::STANDARD;
+use base64::Engine;
+use chrono::{TimeZone, Utc};
+use hmac::{Hmac, Mac};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use sha2::Sha256;
+
+use cliffwatch::analysis::{Alert, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertStatus};
+use cliffwatch::webhooks::{
+    accepts, alertmanager_body, backoff_delay, deliver, message_id, next_retry, parse_retry_after,
+    sign, verify, DeliveryOutcome, PayloadFormat, RetryPolicy, WebhookEndpoint, WebhookPayload,
+};
+
+const SECRET: &str = "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw";
+
+#[test]
+fn signature_matches_the_published_standard_webhooks_vector() {
+    // Test vector of the Standard Webhooks reference libraries.
+    let sig = sign(
+        SECRET,
+        "msg_p5jXN8AQM9LWM0D4loKWxJek",
+        1614265330,
+        br#"{"test": 2432232314}"#,
+    )
+    .expect("sign");
+    assert_eq!(sig, "v1,g0hM9SsE+OTPJTGt/tmIKtSyZlE3uFJELVlNIOLJ1OE=");
+    assert!(verify(
+        SECRET,
+        "msg_p5jXN8AQM9LWM0D4loKWxJek",
+        1614265330,
+        br#"{"test": 2432232314}"#,
+        &format!("v1,bm9wZQ== {sig}")
+    ));
+    assert!(!verify(
+        SECRET,
+        "msg_p5jXN8AQM9LWM0D4loKWxJek",
+        1614265331,
+        br#"{"test": 2432232314}"#,
+        &sig
+    ));
+    assert!(sign("whsec_not base64!", "id", 1, b"").is_err());
+}
+
+fn hmac_by_hand(secret: &str, id: &str, ts: &str, body: &[u8]) -> String {
+    let key = STANDARD
+        .decode(secret.trim_start_matches("whsec_"))
+        .expect("b64");
+    let mut m = <Hmac<Sha256> as Mac>::new_from_slice(&key).expect("key");
+    m.update(format!("{id}.{ts}.").as_bytes());
+    m.update(body);
+    format!("v1,{}", STANDARD.encode(m.finalize().into_bytes()))
+}
+
+fn event(ty: AlertEventType, level: AlertLevel) -> AlertEvent {
+    let t = Utc
+        .with_ymd_and_hms(2026, 11, 21, 9, 0, 5)
+        .single()
+        .expect("time");
+    let obs = Utc
+        .with_ymd_and_hms(2026, 11, 21, 9, 0, 0)
+        .single()
+        .expect("time");
+    AlertEvent {
+        event_type: ty,
+        timestamp: t,
+        alert: Alert {
+            id: "kamo/T103/displacement_mm/17".into(),
+            site: "kamo".into(),
+            point: Some("T103".into()),
+            points: vec![],
+            rule: AlertKind::DisplacementMm,
+            level,
+            peak_level: level,
+            value: Some(12.4),
+            threshold: Some(10.0),
+            unit: "mm".into(),
+            epoch: Some(17),
+            observed_at: Some(obs),
+            raised_at: t,
+            updated_at: t,
+            status: AlertStatus::Open,
+            acknowledged_by: None,
+            comment: None,
+            message: "kamo/T103: displacement_mm 12.40 mm above 10 mm (warning)".into(),
+        },
+    }
+}
+
+#[test]
+fn payload_has_the_contract_shape() {
+    let p = WebhookPayload::from_event(&event(AlertEventType::Raised, AlertLevel::Warning));
+    let v: serde_json::Value = serde_json::to_value(&p).expect("json");
+    assert_eq!(v["type"], "alert.raised");
+    assert_eq!(v["timestamp"], "2026-11-21T09:00:05Z");
+    let d = &v["data"];
+    for (k, want) in [
+        (
+            "alert_id",
+            serde_json::json!("kamo/T103/displacement_mm/17"),
+        ),
+        ("site", serde_json::json!("kamo")),
+        ("point", serde_json::json!("T103")),
+        ("level", serde_json::json!("warning")),
+        ("rule", serde_json::json!("displacement_mm")),
+        ("value", serde_json::json!(12.4)),
+        ("threshold", serde_json::json!(10.0)),
+        ("unit", serde_json::json!("mm")),
+        ("epoch", serde_json::json!(17)),
+        ("observed_at", serde_json::json!("2026-11-21T09:00:00Z")),
+    ] {
+        assert_eq!(d[k], want, "field {k}");
+    }
+    assert!(d["message"].is_string());
+    // Site-level: point null, points listed.
+    let mut e = event(AlertEventType::Raised, AlertLevel::Warning);
+    e.alert.point = None;
+    e.alert.points = vec!["R3".into()];
+    e.alert.rule = AlertKind::ReferenceUnstable;
+    let v = serde_json::to_value(WebhookPayload::from_event(&e)).expect("json");
+    assert!(v["data"]["point"].is_null());
+    assert_eq!(v["data"]["points"], serde_json::json!(["R3"]));
+    assert_eq!(v["data"]["rule"], "reference_unstable");
+    // Alertmanager body.
+    let am = serde_json::to_value(alertmanager_body(
+        &event(AlertEventType::Resolved, AlertLevel::Watch),
+        "ops",
+    ))
+    .expect("json");
+    assert_eq!(am["version"], "4");
+    assert_eq!(am["status"], "resolved");
+    assert_eq!(am["alerts"][0]["labels"]["severity"], "watch");
+    assert_eq!(am["alerts"][0]["labels"]["point"], "T103");
+}
+
+#[test]
+fn endpoints_filter_by_minimum_level() {
+    let ep = |min| WebhookEndpoint {
+        id: "e".into(),
+        url: "http://x".into(),
+        secret: SECRET.into(),
+        min_level: min,
+        format: PayloadFormat::Standard,
+        enabled: true,
+    };
+    let watch = event(AlertEventType::Raised, AlertLevel::Watch);
+    assert!(accepts(&ep(None), &watch));
+    assert!(!accepts(&ep(Some(AlertLevel::Warning)), &watch));
+    assert!(accepts(
+        &ep(Some(AlertLevel::Warning)),
+        &event(AlertEventType::Raised, AlertLevel::Alarm)
+    ));
+    // De-escalated to watch after peaking at warning: still delivered to a warning endpoint.
+    let mut de = event(AlertEventType::Deescalated, AlertLevel::Watch);
+    de.alert.peak_level = AlertLevel::Warning;
+    assert!(accepts(&ep(Some(AlertLevel::Warning)), &de));
+    let mut off = ep(None);
+    off.enabled = false;
+    assert!(!accepts(&off, &watch));
+    // The id is deterministic per event and differs between events.
+    assert_eq!(message_id(&watch), message_id(&watch.clone()));
+    assert_ne!(message_id(&watch), message_id(&de));
+}
+
+#[test]
+fn backoff_stays_within_its_bounds() {
+    let policy = RetryPolicy {
+        base_seconds: 2.0,
+        max_delay_seconds: 600.0,
+        max_attempts: 10,
+        max_retry_after_seconds: 3600.0,
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for attempt in 0..40u32 {
+        let d = (2.0 * 2f64.powi(attempt as i32)).min(600.0);
+        for _ in 0..200 {
+            let s = backoff_delay(&policy, attempt, &mut rng).as_secs_f64();
+            assert!(
+                s >= 0.5 * d - 1e-9 && s <= d + 1e-9,
+                "attempt {attempt}: {s} outside [{}, {d}]",
+                d / 2.0
+            );
+        }
+    }
+    assert_eq!(next_retry(&policy, 10, None, &mut rng), None);
+    assert_eq!(
+        next_retry(&policy, 3, Some(Duration::from_secs(120)), &mut rng),
+        Some(Duration::from_secs(120))
+    );
+    assert_eq!(
+        next_retry(&policy, 3, Some(Duration::from_secs(99_999)), &mut rng),
+        Some(Duration::from_secs(3600))
+    );
+    let now = Utc
+        .with_ymd_and_hms(2015, 10, 21, 7, 28, 0)
+        .single()
+        .expect("time");
+    assert_eq!(
+        parse_retry_after("120", now),
+        Some(Duration::from_secs(120))
+    );
+    assert_eq!(
+        parse_retry_after("Wed, 21 Oct 2015 07:30:00 GMT", now),
+        Some(Duration::from_secs(120))
+    );
+    assert_eq!(parse_retry_after("soon", now), None);
+}
+
+/// Statuses (and Retry-After) to answer, in order.
+type Script = Vec<(u16, Option<&'static str>)>;
+
+#[derive(Clone, Default)]
+struct Receiver {
+    /// Statuses to answer in order (then 200).
+    script: Arc<Mutex<Script>>,
+    /// (webhook-id, verified, body) of every request.
+    got: Arc<Mutex<Vec<(String, bool, serde_json::Value)>>>,
+}
+
+async fn hook(
+    State(r): State<Receiver>,
+    headers: HeaderMap,
+    body: axum::body::Bytes,
+) -> impl IntoResponse {
+    let h = |k: &str| {
+        headers
+            .get(k)
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or("")
+            .to_string()
+    };
+    let (id, ts, sig) = (
+        h("webhook-id"),
+        h("webhook-timestamp"),
+        h("webhook-signature"),
+    );
+    let ok = sig
+        .split(' ')
+        .any(|s| s == hmac_by_hand(SECRET, &id, &ts, &body));
+    let json = serde_json::from_slice(&body).unwrap_or(serde_json::Value::Null);
+    r.got.lock().expect("lock").push((id, ok, json));
+    let next = {
+        let mut s = r.script.lock().expect("lock");
+        if s.is_empty() {
+            (200, None)
+        } else {
+            s.remove(0)
+        }
+    };
+    let mut resp = StatusCode::from_u16(next.0)
+        .expect("status")
+        .into_response();
+    if let Some(ra) = next.1 {
+        resp.headers_mut()
+            .insert("retry-after", ra.parse().expect("header"));
+    }
+    resp
+}
+
+async fn start(script: Script) -> (String, Receiver) {
+    let r = Receiver {
+        script: Arc::new(Mutex::new(script)),
+        ..Default::default()
+    };
+    let app = Router::new()
+        .route("/hook", post(hook))
+        .with_state(r.clone());
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+        .await
+        .expect("bind");
+    let addr = listener.local_addr().expect("addr");
+    tokio::spawn(async move {
+        let _ = axum::serve(listener, app).await;
+    });
+    (format!("http://{addr}/hook"), r)
+}
+
+#[tokio::test]
+async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
+    let (url, rx) = start(vec![(503, None), (429, Some("1")), (500, None)]).await;
+    let client = reqwest::Client::builder()
+        .timeout(Duration::from_secs(5))
+        .build()
+        .expect("client");
+    let ev = event(AlertEventType::Raised, AlertLevel::Warning);
+    let body = serde_json::to_vec(&WebhookPayload::from_event(&ev)).expect("body");
+    let id = message_id(&ev);
+    let policy = RetryPolicy {
+        base_seconds: 0.01,
+        max_delay_seconds: 0.05,
+        max_attempts: 6,
+        max_retry_after_seconds: 2.0,
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let mut outcomes = vec![];
+    let mut attempts = 0;
+    loop {
+        let out = deliver(&client, &url, SECRET, &id, &body, Utc::now()).await;
+        attempts += 1;
+        outcomes.push(out.clone());
+        match out {
+            DeliveryOutcome::Retry { retry_after, .. } => {
+                let wait = next_retry(&policy, attempts, retry_after, &mut rng)
+                    .expect("within the attempt limit");
+                if retry_after.is_some() {
+                    assert_eq!(wait, Duration::from_secs(1), "Retry-After honoured");
+                }
+                tokio::time::sleep(wait).await;
+            }
+            _ => break,
+        }
+    }
+    assert_eq!(
+        outcomes.last(),
+        Some(&DeliveryOutcome::Delivered { status: 200 })
+    );
+    assert!(
+        matches!(outcomes[1], DeliveryOutcome::Retry { status: Some(429), retry_after: Some(d), .. } if d == Duration::from_secs(1))
+    );
+    let got = rx.got.lock().expect("lock").clone();
+    assert_eq!(got.len(), 4);
+    assert!(
+        got.iter().all(|(gid, ok, _)| gid == &id && *ok),
+        "same id, valid signature on every attempt"
+    );
+    assert_eq!(got[3].2["data"]["alert_id"], "kamo/T103/displacement_mm/17");
+
+    // 410 Gone: the endpoint is to be disabled; 404: permanent failure, no retry.
+    let (url, _rx) = start(vec![(410, None)]).await;
+    assert_eq!(
+        deliver(&client, &url, SECRET, &id, &body, Utc::now()).await,
+        DeliveryOutcome::Gone
+    );
+    let (url, _rx) = start(vec![(404, None)]).await;
+    assert!(matches!(
+        deliver(&client, &url, SECRET, &id, &body, Utc::now()).await,
+        DeliveryOutcome::Failed {
+            status: Some(404),
+            ..
+        }
+    ));
+    // Nobody listening: transient.
+    let dead = "http://127.0.0.1:9/hook";
+    assert!(matches!(
+        deliver(&client, dead, SECRET, &id, &body, Utc::now()).await,
+        DeliveryOutcome::Retry { status: None, .. }
+    ));
+}
