@@ -149,10 +149,8 @@ fn repair_images(bundle: &mut Bundle) {
             rotation: res.rotation,
             p: [o.m, o.a4, o.a8],
         };
-        let mut k = 0;
-        for o in bundle.obs.iter_mut().filter(|o| o.image == j) {
+        for (k, o) in bundle.obs.iter_mut().filter(|o| o.image == j).enumerate() {
             o.active = !res.removed.contains(&k);
-            k += 1;
         }
         repaired = true;
     }
