@@ -1,7 +1,7 @@
 //! The independently rendered reference images: every target found, radial RMS against truth,
 //! no target on the clutter image.
 
-use cliffwatch::detect::{detect_bytes, DetectOptions};
+use cliffwatch::detect::{detect_bytes, CentreMethod, DetectOptions};
 
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/images");
 
@@ -33,8 +33,13 @@ fn check(name: &str) -> (f64, usize) {
     }
     let rms = (sum / t.len() as f64).sqrt();
     let false_det = d.targets.len() - t.len();
+    let fits = d
+        .targets
+        .iter()
+        .filter(|x| x.method == CentreMethod::EllipseFit)
+        .count();
     eprintln!(
-        "{name}: {} targets, radial RMS {rms:.4} px, {false_det} false",
+        "{name}: {} targets, radial RMS {rms:.4} px, {false_det} false, {fits} by ellipse fit",
         t.len()
     );
     (rms, false_det)

@@ -3,11 +3,14 @@
 //! Pipeline: [`decode`] (JPEG/PNG/TIFF, 8/16-bit, grey/colour → grey) → [`threshold`] (robust
 //! background grid, noise σ, runs above background + k·σ) → [`components`] (8-connected regions,
 //! shape tests: area, aspect, fill) → [`centroid`] (plane background from an annulus, Gaussian-windowed
-//! centroid iterated on the re-centred window) → [`Target`] (centre, size, contrast, quality).
+//! centroid iterated on the re-centred window) → for targets of ≥ 6 px, [`ellipse`] (least-squares fit of
+//! a blurred-ellipse model started from the centroid) → [`Target`] (centre, size, contrast, quality,
+//! [`CentreMethod`] used).
 
 pub mod centroid;
 pub mod components;
 pub mod decode;
+pub mod ellipse;
 pub mod error;
 pub mod target;
 pub mod threshold;
@@ -67,6 +70,7 @@ fn validate(o: &DetectOptions) -> Result<(), DetectError> {
         && o.threshold_sigma.is_finite()
         && o.threshold_sigma > 0.0
         && o.min_snr.is_finite()
+        && !o.edge_fit_min_diameter_px.is_nan()
         && o.max_aspect >= 1.0
         && o.fill_range.0 < o.fill_range.1
         && o.background_cell_px >= 8;
@@ -112,19 +116,34 @@ pub fn detect(img: &GreyImage, opts: &DetectOptions) -> Result<Detections, Detec
             } else {
                 ct.m2
             };
-            let diameter = 4.0 * m_true.max(0.0).sqrt();
+            let mut diameter = 4.0 * m_true.max(0.0).sqrt();
+            let (mut centre, mut method, mut sigma_px) = (
+                ct.centre,
+                CentreMethod::WindowedCentroid,
+                ct.sigma_unit * bg.noise,
+            );
+            if 2.0 * r >= opts.edge_fit_min_diameter_px {
+                if let Some(e) =
+                    ellipse::fit_ellipse(img, opts.polarity, ct.centre, r, r + 4.0 + 0.2 * r)
+                {
+                    centre = e.centre;
+                    method = CentreMethod::EllipseFit;
+                    sigma_px = e.sigma_px;
+                    diameter = 2.0 * (e.semi_axes[0] * e.semi_axes[1]).sqrt();
+                }
+            }
             (snr >= opts.min_snr
                 && diameter >= opts.min_diameter_px * 0.5
                 && diameter <= opts.max_diameter_px * 1.5)
                 .then_some(Target {
-                    col: ct.centre[0],
-                    row: ct.centre[1],
+                    col: centre[0],
+                    row: centre[1],
                     diameter_px: diameter,
                     contrast: ct.peak,
                     snr,
-                    sigma_px: ct.sigma_unit * bg.noise,
+                    sigma_px,
                     aspect: c.aspect(),
-                    method: CentreMethod::WindowedCentroid,
+                    method,
                 })
         })
         .collect();

@@ -18,6 +18,10 @@ pub enum CentreMethod {
     /// Background-subtracted (local plane), Gaussian-windowed intensity centroid, iterated on the
     /// re-centred window.
     WindowedCentroid,
+    /// Least-squares fit of a blurred-ellipse model (centre, conic, edge blur, amplitude, background
+    /// plane) to the grey values; used for targets of at least
+    /// [`DetectOptions::edge_fit_min_diameter_px`], whose centre information lies in the edge.
+    EllipseFit,
 }
 
 /// Options of [`super::detect`].
@@ -39,6 +43,10 @@ pub struct DetectOptions {
     pub fill_range: (f64, f64),
     /// Cell size of the background grid in px (≥ 2 × the largest target is safe).
     pub background_cell_px: usize,
+    /// Targets whose thresholded region is at least this wide (equivalent diameter, px) are centred
+    /// by [`CentreMethod::EllipseFit`], smaller ones by [`CentreMethod::WindowedCentroid`]
+    /// (`f64::INFINITY`: never).
+    pub edge_fit_min_diameter_px: f64,
 }
 
 impl Default for DetectOptions {
@@ -52,6 +60,7 @@ impl Default for DetectOptions {
             max_aspect: 2.0,
             fill_range: (0.7, 1.35),
             background_cell_px: 128,
+            edge_fit_min_diameter_px: 6.0,
         }
     }
 }
