@@ -12,6 +12,7 @@ pub mod components;
 pub mod decode;
 pub mod ellipse;
 pub mod error;
+pub mod identify;
 pub mod target;
 pub mod threshold;
 
