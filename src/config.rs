@@ -1,1 +1,227 @@
-//! (to be written)
+//! Layered configuration: the embedded `config/default.toml`, an optional file (`--config FILE`),
+//! environment variables `CLIFFWATCH_<OPTION>`, then command-line flags.
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+
+use figment::providers::{Env, Format, Serialized, Toml};
+use figment::Figment;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::store::sites::NewSite;
+
+/// The embedded defaults (`config/default.toml`).
+pub const DEFAULT_TOML: &str = include_str!("../config/default.toml");
+
+/// Name of the database file inside the data directory.
+pub const DATABASE_FILE: &str = "cliffwatch.db";
+
+/// Everything the service can be configured with (see `config/default.toml`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Config {
+    /// Address and port of the HTTP API, e.g. `127.0.0.1:8080`.
+    pub listen: String,
+    /// Directory of the database.
+    pub data_dir: PathBuf,
+    /// Watched directory; `None`: no watching.
+    #[serde(default)]
+    pub watch_dir: Option<PathBuf>,
+    /// Largest request body in bytes (larger: 413).
+    pub body_limit_bytes: usize,
+    /// Time limit of one request in seconds.
+    pub request_timeout_secs: u64,
+    /// Time in-flight requests get to finish after SIGTERM / ctrl-c, in seconds.
+    pub shutdown_grace_secs: u64,
+    /// Log format.
+    pub log_format: LogFormat,
+    /// Connections of the read pool.
+    pub read_connections: u32,
+    /// SQLite busy timeout in milliseconds.
+    pub busy_timeout_ms: u64,
+    /// Bearer tokens; empty: no authentication, loopback only.
+    #[serde(default)]
+    pub tokens: Vec<TokenConfig>,
+    /// Sites created or updated at start.
+    #[serde(default)]
+    pub sites: Vec<NewSite>,
+    /// Webhook endpoints registered at start.
+    #[serde(default)]
+    pub webhooks: Vec<WebhookConfig>,
+}
+
+/// Log output format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LogFormat {
+    /// Human-readable lines.
+    Human,
+    /// One JSON object per line.
+    Json,
+}
+
+/// Roles of a bearer token, ordered: each includes the ones before.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// Read everything.
+    Read,
+    /// Read, upload epochs, acknowledge alerts.
+    Upload,
+    /// Everything: sites, points, reference, webhooks.
+    Admin,
+}
+
+/// One bearer token and its role.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TokenConfig {
+    /// The secret token as sent in `Authorization: Bearer <token>`.
+    pub token: String,
+    /// What it may do.
+    pub role: Role,
+}
+
+/// A webhook endpoint from the configuration file.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct WebhookConfig {
+    /// Target URL.
+    pub url: String,
+    /// Signing secret, `whsec_<base64>`.
+    pub secret: String,
+    /// Lowest alert level delivered (`watch`, `warning`, `alarm`).
+    #[serde(default = "default_min_level")]
+    pub min_level: String,
+}
+
+fn default_min_level() -> String {
+    "warning".into()
+}
+
+/// Values given on the command line; `None` leaves the lower layers in force.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Overrides {
+    /// `--listen`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub listen: Option<String>,
+    /// `--data-dir`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub data_dir: Option<PathBuf>,
+    /// `--watch-dir`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub watch_dir: Option<PathBuf>,
+}
+
+/// The configuration cannot be loaded or is inconsistent.
+#[derive(Debug, Error)]
+pub enum ConfigError {
+    /// A layer could not be read or parsed.
+    #[error("configuration: {0}")]
+    Load(#[from] Box<figment::Error>),
+    /// `listen` is not `ADDR:PORT`.
+    #[error("listen address '{0}' is not ADDR:PORT")]
+    BadListen(String),
+    /// Non-loopback address without tokens.
+    #[error(
+        "refusing to listen on non-loopback address {0} without [[tokens]] in the configuration"
+    )]
+    OpenWithoutTokens(SocketAddr),
+    /// A token appears twice or is empty.
+    #[error("tokens must be non-empty and distinct")]
+    BadTokens,
+}
+
+impl Config {
+    /// Loads the layers: defaults, `file` (when given), `CLIFFWATCH_*` environment, `overrides`.
+    pub fn load(file: Option<&Path>, overrides: &Overrides) -> Result<Config, ConfigError> {
+        let mut figment = Figment::from(Toml::string(DEFAULT_TOML));
+        if let Some(file) = file {
+            if !file.exists() {
+                return Err(ConfigError::Load(Box::new(figment::Error::from(format!(
+                    "configuration file {} does not exist",
+                    file.display()
+                )))));
+            }
+            figment = figment.merge(Toml::file(file));
+        }
+        figment = figment
+            .merge(Env::prefixed("CLIFFWATCH_").ignore(&["config"]))
+            .merge(Serialized::defaults(overrides));
+        let config: Config = figment.extract().map_err(Box::new)?;
+        config.check()?;
+        Ok(config)
+    }
+
+    /// The embedded defaults with a data directory of its own (tests, tools).
+    pub fn with_data_dir(data_dir: impl Into<PathBuf>) -> Config {
+        let overrides = Overrides {
+            data_dir: Some(data_dir.into()),
+            ..Overrides::default()
+        };
+        let figment =
+            Figment::from(Toml::string(DEFAULT_TOML)).merge(Serialized::defaults(overrides));
+        figment.extract().expect("embedded defaults parse")
+    }
+
+    /// The parsed listen address.
+    pub fn listen_addr(&self) -> Result<SocketAddr, ConfigError> {
+        self.listen
+            .parse()
+            .map_err(|_| ConfigError::BadListen(self.listen.clone()))
+    }
+
+    /// Path of the SQLite database file.
+    pub fn database_path(&self) -> PathBuf {
+        self.data_dir.join(DATABASE_FILE)
+    }
+
+    /// Checks what does not depend on the network: the listen address parses, tokens are sane,
+    /// and a non-loopback address has tokens.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        let addr = self.listen_addr()?;
+        let mut seen = std::collections::HashSet::new();
+        if self
+            .tokens
+            .iter()
+            .any(|t| t.token.is_empty() || !seen.insert(t.token.as_str()))
+        {
+            return Err(ConfigError::BadTokens);
+        }
+        if self.tokens.is_empty() && !addr.ip().is_loopback() {
+            return Err(ConfigError::OpenWithoutTokens(addr));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_zero_configuration() {
+        let c = Config::load(None, &Overrides::default()).unwrap();
+        assert_eq!(c.listen_addr().unwrap().port(), 8080);
+        assert_eq!(c.body_limit_bytes, 16 * 1024 * 1024);
+        assert!(c.tokens.is_empty());
+    }
+
+    #[test]
+    fn flags_override_and_open_address_needs_tokens() {
+        let o = Overrides {
+            listen: Some("0.0.0.0:9000".into()),
+            ..Overrides::default()
+        };
+        assert!(matches!(
+            Config::load(None, &o),
+            Err(ConfigError::OpenWithoutTokens(_))
+        ));
+    }
+
+    #[test]
+    fn example_file_parses() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/example.toml");
+        let c = Config::load(Some(&path), &Overrides::default()).unwrap();
+        assert_eq!(c.tokens.len(), 3);
+        assert_eq!(c.log_format, LogFormat::Json);
+    }
+}

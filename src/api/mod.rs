@@ -1,1 +1,102 @@
-//! (to be written)
+//! The HTTP API of the contract (`docs/api-contract.md`): axum routes, auth, errors as JSON,
+//! request ids, body limit, timeouts, metrics and the OpenAPI description.
+//!
+//! [`router`] builds the service from an [`AppState`]; [`server`] binds and runs it with graceful
+//! shutdown.
+
+pub mod alerts;
+pub mod auth;
+pub mod epochs;
+pub mod error;
+pub mod health;
+pub mod list;
+pub mod openapi;
+pub mod points;
+pub mod server;
+pub mod sites;
+pub mod webhooks;
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::extract::DefaultBodyLimit;
+use axum::http::{HeaderName, Request, StatusCode};
+use axum::routing::{get, post, put};
+use axum::Router;
+use metrics_exporter_prometheus::PrometheusHandle;
+use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
+use tower_http::timeout::TimeoutLayer;
+use tower_http::trace::TraceLayer;
+
+use crate::config::Config;
+use crate::store::Store;
+
+pub use server::{serve, Bound, ServeError};
+
+/// What every handler shares. Cheap to clone.
+#[derive(Clone)]
+pub struct AppState {
+    /// The database.
+    pub store: Store,
+    /// The configuration in force.
+    pub config: Arc<Config>,
+    /// Renders `/metrics`.
+    pub metrics: PrometheusHandle,
+}
+
+const REQUEST_ID: HeaderName = HeaderName::from_static("x-request-id");
+
+/// The full router: API routes, auth, request ids, tracing, body limit, timeout.
+pub fn router(state: AppState) -> Router {
+    let timeout = Duration::from_secs(state.config.request_timeout_secs.max(1));
+    let limit = state.config.body_limit_bytes;
+    let api = Router::new()
+        .route("/healthz", get(health::healthz))
+        .route("/readyz", get(health::readyz))
+        .route("/metrics", get(health::metrics))
+        .route("/api/v1/openapi.json", get(openapi::openapi_json))
+        .route("/api/v1/sites", post(sites::create).get(sites::list))
+        .route("/api/v1/sites/{site}", get(sites::get_one))
+        .route(
+            "/api/v1/sites/{site}/epochs",
+            post(epochs::upload).get(epochs::list),
+        )
+        .route("/api/v1/sites/{site}/epochs/{epoch}", get(epochs::get_one))
+        .route("/api/v1/sites/{site}/reference", put(sites::set_reference))
+        .route("/api/v1/sites/{site}/points", get(points::list))
+        .route("/api/v1/sites/{site}/points/{point}", put(points::update))
+        .route(
+            "/api/v1/sites/{site}/points/{point}/displacements",
+            get(points::displacements),
+        )
+        .route("/api/v1/alerts", get(alerts::list))
+        .route("/api/v1/alerts/{id}/ack", post(alerts::acknowledge))
+        .route(
+            "/api/v1/webhooks",
+            post(webhooks::create).get(webhooks::list),
+        )
+        .route(
+            "/api/v1/webhooks/{id}",
+            axum::routing::delete(webhooks::delete),
+        )
+        .fallback(|| async { error::ApiError::not_found("no such endpoint") })
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            auth::authorize,
+        ))
+        .layer(DefaultBodyLimit::max(limit))
+        .with_state(state);
+    api.layer(TimeoutLayer::with_status_code(StatusCode::REQUEST_TIMEOUT, timeout))
+        .layer(PropagateRequestIdLayer::new(REQUEST_ID))
+        .layer(
+            TraceLayer::new_for_http().make_span_with(|req: &Request<_>| {
+                let id = req
+                    .headers()
+                    .get(REQUEST_ID)
+                    .and_then(|v| v.to_str().ok())
+                    .unwrap_or("-");
+                tracing::info_span!("request", method = %req.method(), path = %req.uri().path(), request_id = %id)
+            }),
+        )
+        .layer(SetRequestIdLayer::new(REQUEST_ID, MakeRequestUuid))
+}

@@ -1,10 +1,56 @@
-//! `cliffwatch serve` (to be written).
+//! `cliffwatch serve [--config FILE] [--listen ADDR:PORT] [--data-dir DIR] [--watch-dir DIR]`.
 
-/// Arguments of `cliffwatch serve`.
+use std::path::PathBuf;
+
+use anyhow::Context;
+use cliffwatch::api::server::{serve, shutdown_signal};
+use cliffwatch::config::{Config, LogFormat, Overrides};
+
+/// Arguments of `cliffwatch serve` (environment: `CLIFFWATCH_LISTEN`, `CLIFFWATCH_DATA_DIR`,
+/// `CLIFFWATCH_WATCH_DIR`, and `CLIFFWATCH_<OPTION>` for every option of `config/default.toml`).
 #[derive(clap::Args)]
-pub struct ServeArgs {}
+pub struct ServeArgs {
+    /// Configuration file (TOML), layered over the embedded defaults.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Address and port to listen on (default 127.0.0.1:8080).
+    #[arg(long)]
+    pub listen: Option<String>,
+    /// Data directory (default ./data).
+    #[arg(long)]
+    pub data_dir: Option<PathBuf>,
+    /// Watched directory of image epochs (default: none).
+    #[arg(long)]
+    pub watch_dir: Option<PathBuf>,
+}
 
-/// Runs `cliffwatch serve`.
-pub fn run(_args: ServeArgs) -> anyhow::Result<()> {
-    anyhow::bail!("not yet implemented")
+/// Runs `cliffwatch serve` until SIGTERM or ctrl-c.
+pub fn run(args: ServeArgs) -> anyhow::Result<()> {
+    let overrides = Overrides {
+        listen: args.listen,
+        data_dir: args.data_dir,
+        watch_dir: args.watch_dir,
+    };
+    let config =
+        Config::load(args.config.as_deref(), &overrides).context("loading the configuration")?;
+    init_tracing(config.log_format);
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the runtime")?;
+    runtime.block_on(serve(config, shutdown_signal()))?;
+    Ok(())
+}
+
+/// Logs to stderr, human-readable or JSON, levels from `RUST_LOG` (default `info`).
+pub fn init_tracing(format: LogFormat) {
+    use tracing_subscriber::EnvFilter;
+    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info"));
+    let builder = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr);
+    match format {
+        LogFormat::Json => builder.json().init(),
+        LogFormat::Human => builder.init(),
+    }
 }

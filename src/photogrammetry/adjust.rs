@@ -118,6 +118,8 @@ const REPAIR_SHARE: f64 = 0.3;
 /// the adjusted points, which are now accurate enough for the perspective to pick the right mirror
 /// root, and takes their observations back (the snooping judges them again).
 fn repair_images(bundle: &mut Bundle) {
+    let before = bundle.clone();
+    let active = |b: &Bundle| b.obs.iter().filter(|o| o.active).count();
     let counts = ActiveCounts::of(bundle);
     let mut totals = vec![0usize; bundle.images.len()];
     for o in &bundle.obs {
@@ -157,6 +159,12 @@ fn repair_images(bundle: &mut Bundle) {
     if repaired {
         levenberg_marquardt(bundle, 4 * ROBUST_ITERATIONS);
         screen(bundle);
+        // Kept only if it gave observations back and fits at the noise level (a resection spoilt by
+        // gross errors would not).
+        let scale = residual_scale(bundle, &residual_norms(bundle));
+        if active(bundle) <= active(&before) || scale > 1.5 {
+            *bundle = before;
+        }
     }
 }
 

@@ -1,0 +1,189 @@
+//! Service benchmarks (figures in `docs/performance.md`, section "Service"):
+//! - `upload_5x28`: upload of a 5-image × 28-point epoch, end to end over HTTP (parse, validate,
+//!   adjust, store in one transaction, answer the summary);
+//! - `series_87600/*`: the displacement time series of one point of a site with 87 600 epochs
+//!   (10 years hourly) × 30 points, as CSV (whole series) and as one JSON page of 1000;
+//! - the database size per 10 000 epochs of 30 points (printed, from `CLIFFWATCH_BENCH_SIZE_EPOCHS`
+//!   real uploads, default 500, scaled linearly).
+
+#[path = "../tests/service_support/mod.rs"]
+mod service_support;
+
+use std::cell::Cell;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use service_support::{synthetic_epoch, TestServer};
+
+fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap()
+}
+
+fn observed_at(k: usize) -> String {
+    let t = chrono::DateTime::parse_from_rfc3339("2020-01-01T00:00:00Z").unwrap()
+        + chrono::Duration::hours(k as i64);
+    t.to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
+}
+
+fn upload(c: &mut Criterion) {
+    let rt = runtime();
+    let server = rt.block_on(TestServer::start(|_| {}));
+    rt.block_on(server.create_site("bench"));
+    let url = server.url("/api/v1/sites/bench/epochs");
+    let k = Cell::new(0usize);
+    c.bench_function("service/upload_5x28", |b| {
+        b.iter_batched(
+            || {
+                k.set(k.get() + 1);
+                serde_json::to_vec(&synthetic_epoch(
+                    5,
+                    28,
+                    &observed_at(k.get()),
+                    k.get() as u64,
+                    0.0,
+                    28,
+                ))
+                .unwrap()
+            },
+            |body| {
+                rt.block_on(async {
+                    let r = server
+                        .client
+                        .post(&url)
+                        .header("content-type", "application/json")
+                        .body(body)
+                        .send()
+                        .await
+                        .unwrap();
+                    assert_eq!(r.status(), 201);
+                    r.bytes().await.unwrap()
+                })
+            },
+            criterion::BatchSize::SmallInput,
+        )
+    });
+    let _ = rt.block_on(server.stop());
+}
+
+/// Fills a site with `epochs` hourly epochs × `points` points of displacements, directly in SQL
+/// (bench set-up only: no adjustment).
+async fn fill_history(server: &TestServer, site: &str, epochs: usize, points: usize) {
+    server.create_site(site).await;
+    let mut tx = server.store.begin_write().await.unwrap();
+    for p in 0..points {
+        sqlx::query("INSERT INTO points (site_id, name, role) VALUES (?, ?, 'monitored')")
+            .bind(site)
+            .bind(format!("T{:03}", p + 1))
+            .execute(&mut *tx)
+            .await
+            .unwrap();
+    }
+    sqlx::query(
+        "INSERT INTO epochs (site_id, id, observed_at, status, model, sigma0_mm, iterations, body_sha256, cameras, report, created_at) \
+         WITH RECURSIVE seq(n) AS (SELECT 1 UNION ALL SELECT n + 1 FROM seq WHERE n < ?) \
+         SELECT ?, n, strftime('%Y-%m-%dT%H:%M:%S.000000Z', '2015-01-01', '+' || n || ' hours'), 'adjusted', 'orthogonal', 0.001, 5, \
+         printf('%064d', n), '[]', '{}', '2026-01-01T00:00:00.000000Z' FROM seq",
+    )
+    .bind(epochs as i64).bind(site).execute(&mut *tx).await.unwrap();
+    sqlx::query(
+        "INSERT INTO displacements (site_id, epoch_id, point, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+         sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, velocity_mm_per_day, time_to_failure_hours) \
+         SELECT e.site_id, e.id, p.name, e.observed_at, 1, e.id * 0.0001, -e.id * 0.0002, e.id * 0.00005, e.id * 0.000229, \
+         0.11, 0.12, 0.31, 0.2, NULL, e.id > 100, 0.0055, NULL FROM epochs e CROSS JOIN points p \
+         WHERE e.site_id = ? AND p.site_id = ?",
+    )
+    .bind(site).bind(site).execute(&mut *tx).await.unwrap();
+    tx.commit().await.unwrap();
+}
+
+fn series(c: &mut Criterion) {
+    let rt = runtime();
+    let server = rt.block_on(TestServer::start(|_| {}));
+    rt.block_on(fill_history(&server, "long", 87_600, 30));
+    let csv = server.url("/api/v1/sites/long/points/T017/displacements?format=csv");
+    let json =
+        server.url("/api/v1/sites/long/points/T017/displacements?limit=1000&from=2020-01-01");
+    let mut g = c.benchmark_group("service/series_87600");
+    g.sample_size(20).measurement_time(Duration::from_secs(10));
+    g.bench_function("csv_all", |b| {
+        b.iter(|| {
+            rt.block_on(async {
+                let text = server
+                    .client
+                    .get(&csv)
+                    .send()
+                    .await
+                    .unwrap()
+                    .text()
+                    .await
+                    .unwrap();
+                assert_eq!(text.lines().count(), 87_601);
+            })
+        })
+    });
+    g.bench_function("json_page_1000", |b| {
+        b.iter(|| {
+            rt.block_on(async {
+                server
+                    .client
+                    .get(&json)
+                    .send()
+                    .await
+                    .unwrap()
+                    .bytes()
+                    .await
+                    .unwrap()
+            })
+        })
+    });
+    g.finish();
+    let _ = rt.block_on(server.stop());
+}
+
+fn database_size(_c: &mut Criterion) {
+    let n: usize = std::env::var("CLIFFWATCH_BENCH_SIZE_EPOCHS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(500);
+    if n == 0 {
+        return;
+    }
+    let rt = runtime();
+    let server = rt.block_on(TestServer::start(|_| {}));
+    let path = server.dir.path().join("cliffwatch.db");
+    let base = rt.block_on(async {
+        server.create_site("size").await;
+        let base = std::fs::metadata(&path).unwrap().len();
+        for k in 0..n {
+            let (status, _) = server
+                .upload(
+                    "size",
+                    &synthetic_epoch(5, 30, &observed_at(k), k as u64, 0.0, 30),
+                )
+                .await;
+            assert_eq!(status, 201);
+        }
+        base
+    });
+    // Closing the last connection checkpoints the WAL into the file: measure after the stop.
+    let dir = rt.block_on(server.stop());
+    let keep = dir.path().to_path_buf();
+    let mut size = std::fs::metadata(keep.join("cliffwatch.db")).unwrap().len();
+    if let Ok(m) = std::fs::metadata(keep.join("cliffwatch.db-wal")) {
+        size += m.len();
+    }
+    let per_10k = (size - base) as f64 / n as f64 * 10_000.0;
+    println!(
+        "service/database_size: {n} epochs of 5 images x 30 points: {:.1} MiB; per 10 000 epochs: {:.0} MiB ({:.1} kB per epoch)",
+        size as f64 / 1048576.0,
+        per_10k / 1048576.0,
+        per_10k / 10_000.0 / 1000.0
+    );
+}
+
+criterion_group!(benches, upload, series, database_size);
+criterion_main!(benches);

@@ -1,0 +1,100 @@
+//! `GET /api/v1/alerts`, `POST /api/v1/alerts/{id}/ack`.
+
+use axum::extract::State;
+use axum::response::IntoResponse;
+use serde::Deserialize;
+use serde_json::json;
+use utoipa::ToSchema;
+
+use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
+use super::list::{Page, PageParams};
+use super::AppState;
+use crate::store::{alerts, webhooks, StoreError};
+
+/// Query of the alert list.
+#[derive(Debug, Default, Deserialize)]
+pub struct AlertParams {
+    /// Only this site.
+    pub site: Option<String>,
+    /// `open`, `acknowledged` or `resolved`.
+    pub state: Option<String>,
+    /// Page size.
+    pub limit: Option<i64>,
+    /// Cursor.
+    pub cursor: Option<String>,
+}
+
+/// `GET /api/v1/alerts`: newest first.
+#[utoipa::path(get, path = "/api/v1/alerts", params(("site" = Option<String>, Query), ("state" = Option<String>, Query), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+    responses((status = 200, description = "{items: [Alert], next_cursor}")))]
+pub async fn list(
+    State(state): State<AppState>,
+    ApiQuery(q): ApiQuery<AlertParams>,
+) -> Result<impl IntoResponse, ApiError> {
+    if let Some(s) = &q.state {
+        if !["open", "acknowledged", "resolved"].contains(&s.as_str()) {
+            return Err(ApiError::bad_request(format!(
+                "state '{s}': open, acknowledged or resolved"
+            )));
+        }
+    }
+    let page = PageParams {
+        limit: q.limit,
+        cursor: q.cursor,
+    };
+    let cursor = page.cursor()?;
+    let after = cursor.as_deref().and_then(|c| c.split_once('|'));
+    let rows = alerts::list(
+        state.store.reader(),
+        q.site.as_deref(),
+        q.state.as_deref(),
+        after,
+        page.limit() + 1,
+    )
+    .await?;
+    let page = Page::from_fetched(rows, page.limit(), |(raw, a)| format!("{raw}|{}", a.id));
+    Ok(axum::Json(Page {
+        items: page.items.into_iter().map(|(_, a)| a).collect(),
+        next_cursor: page.next_cursor,
+    }))
+}
+
+/// Body of an acknowledgement.
+#[derive(Debug, Deserialize, ToSchema)]
+pub struct AckBody {
+    /// Who acknowledges.
+    pub by: String,
+    /// Comment.
+    #[serde(default)]
+    pub comment: Option<String>,
+}
+
+/// `POST /api/v1/alerts/{id}/ack`: acknowledges; queues an `alert.acknowledged` webhook event.
+#[utoipa::path(post, path = "/api/v1/alerts/{id}/ack", request_body = AckBody, params(("id" = String, Path)),
+    responses((status = 200, body = crate::store::alerts::Alert), (status = 404, description = "unknown alert")))]
+pub async fn acknowledge(
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<String>,
+    ApiJson(body): ApiJson<AckBody>,
+) -> Result<impl IntoResponse, ApiError> {
+    let mut tx = state.store.begin_write().await?;
+    if !alerts::acknowledge(&mut tx, &id, &body.by, body.comment.as_deref()).await? {
+        return Err(ApiError::not_found(format!("unknown alert '{id}'")));
+    }
+    let alert = alerts::get(&mut *tx, &id)
+        .await?
+        .ok_or_else(|| ApiError::internal("alert vanished"))?;
+    let event = webhooks::NewEvent {
+        id: format!("msg_{}", uuid::Uuid::new_v4().simple()),
+        event_type: "alert.acknowledged".into(),
+        alert_id: Some(id.clone()),
+        level: Some(alert.level.clone()),
+        payload: json!({"type": "alert.acknowledged", "timestamp": chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
+            "data": {"alert_id": alert.id, "site": alert.site, "point": alert.point, "level": alert.level, "rule": alert.rule,
+                     "value": alert.value, "threshold": alert.threshold, "unit": alert.unit, "epoch": alert.epoch,
+                     "observed_at": alert.observed_at, "message": alert.message, "by": body.by, "comment": body.comment}}),
+    };
+    webhooks::enqueue(&mut tx, &[event]).await?;
+    tx.commit().await.map_err(StoreError::from)?;
+    Ok(axum::Json(alert))
+}

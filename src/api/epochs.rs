@@ -1,0 +1,236 @@
+//! `POST /api/v1/sites/{site}/epochs` (upload, JSON or CSV), `GET .../epochs`, `GET .../epochs/{epoch}`.
+
+use std::pin::Pin;
+
+use axum::body::{Body, Bytes, HttpBody};
+use axum::extract::State;
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::IntoResponse;
+use serde::Deserialize;
+use serde_json::{Map, Value};
+
+use super::error::{ApiError, ApiPath, ApiQuery};
+use super::list::{Page, PageParams};
+use super::sites::find;
+use super::AppState;
+use crate::ingest::{self, epoch_from_csv};
+use crate::photogrammetry::epoch::CameraInput;
+use crate::photogrammetry::EpochInput;
+use crate::store::{alerts, displacements, epochs, parse_timestamp, timestamp, Store, StoreError};
+
+/// Bodies up to this many times the limit are read to the end before answering 413, so the client
+/// sees the answer instead of a reset connection; larger ones are cut off.
+const DRAIN_FACTOR: usize = 16;
+
+/// Reads a body of at most `limit` bytes; over it, drains (up to [`DRAIN_FACTOR`] × limit) and
+/// answers 413.
+pub async fn read_limited(
+    headers: &HeaderMap,
+    body: Body,
+    limit: usize,
+) -> Result<Bytes, ApiError> {
+    let declared = headers
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<usize>().ok());
+    let drain_cap = limit.saturating_mul(DRAIN_FACTOR).max(256 << 20);
+    if declared.is_some_and(|n| n > drain_cap) {
+        return Err(ApiError::too_large(limit));
+    }
+    let mut body = body;
+    let mut buf = Vec::with_capacity(declared.unwrap_or(0).min(limit));
+    let mut total = 0usize;
+    loop {
+        let frame = std::future::poll_fn(|cx| Pin::new(&mut body).poll_frame(cx)).await;
+        match frame {
+            None => break,
+            Some(Err(e)) => return Err(ApiError::bad_request(format!("reading the body: {e}"))),
+            Some(Ok(frame)) => {
+                if let Ok(data) = frame.into_data() {
+                    total += data.len();
+                    if total > drain_cap {
+                        return Err(ApiError::too_large(limit));
+                    }
+                    if total <= limit {
+                        buf.extend_from_slice(&data);
+                    }
+                }
+            }
+        }
+    }
+    if total > limit {
+        return Err(ApiError::too_large(limit));
+    }
+    Ok(Bytes::from(buf))
+}
+
+/// Query of an upload: `observed_at` for the CSV form.
+#[derive(Debug, Default, Deserialize)]
+pub struct UploadParams {
+    /// Observation time of a CSV upload (RFC 3339).
+    pub observed_at: Option<String>,
+}
+
+/// `POST /api/v1/sites/{site}/epochs`: validates, adjusts and stores an epoch; 201 with its
+/// summary, 200 when the same body was stored before, 409 for another body at the same time.
+#[utoipa::path(post, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("observed_at" = Option<String>, Query, description = "CSV uploads only")),
+    request_body(content = serde_json::Value, description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)"),
+    responses((status = 201, description = "stored; the epoch summary"), (status = 200, description = "the same body was stored before"),
+        (status = 400, description = "not JSON/CSV"), (status = 404, description = "unknown site"), (status = 409, description = "another body for this observed_at"),
+        (status = 413, description = "body too large"), (status = 422, description = "invalid or cannot be adjusted")))]
+pub async fn upload(
+    State(state): State<AppState>,
+    ApiPath(site): ApiPath<String>,
+    ApiQuery(params): ApiQuery<UploadParams>,
+    headers: HeaderMap,
+    body: Body,
+) -> Result<impl IntoResponse, ApiError> {
+    let result = upload_inner(&state, &site, params, &headers, body).await;
+    let status = match &result {
+        Ok((s, _)) => s.as_u16(),
+        Err(e) => e.status.as_u16(),
+    };
+    metrics::counter!("cliffwatch_uploads_total", "status" => status.to_string()).increment(1);
+    let (status, summary) = result?;
+    let location = format!("/api/v1/sites/{site}/epochs/{}", summary["id"]);
+    Ok((status, [(header::LOCATION, location)], axum::Json(summary)))
+}
+
+async fn upload_inner(
+    state: &AppState,
+    site: &str,
+    params: UploadParams,
+    headers: &HeaderMap,
+    body: Body,
+) -> Result<(StatusCode, Value), ApiError> {
+    let bytes = read_limited(headers, body, state.config.body_limit_bytes).await?;
+    let is_csv = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("text/csv"));
+    let input: EpochInput = if is_csv {
+        find(state, site).await?;
+        let text = std::str::from_utf8(&bytes)
+            .map_err(|_| ApiError::bad_request("the CSV is not UTF-8"))?;
+        let observed_at = params.observed_at.ok_or_else(|| {
+            ApiError::unprocessable("invalid_epoch", "a CSV upload needs ?observed_at=")
+        })?;
+        let cameras: Vec<CameraInput> = epochs::site_cameras(state.store.reader(), site)
+            .await?
+            .into_iter()
+            .map(serde_json::from_value)
+            .collect::<Result<_, _>>()
+            .map_err(StoreError::from)?;
+        epoch_from_csv(text, &observed_at, cameras)?
+    } else {
+        serde_json::from_slice(&bytes).map_err(|e| match e.classify() {
+            serde_json::error::Category::Data => {
+                ApiError::unprocessable("invalid_epoch", e.to_string())
+            }
+            _ => ApiError::bad_request(format!("the body is not JSON: {e}")),
+        })?
+    };
+    let done = ingest::ingest(&state.store, site, input).await?;
+    let summary = summary(&state.store, &done.site, done.epoch, false)
+        .await?
+        .ok_or_else(|| ApiError::internal("stored epoch not found"))?;
+    let status = if done.created {
+        StatusCode::CREATED
+    } else {
+        StatusCode::OK
+    };
+    Ok((status, summary))
+}
+
+/// The summary of a stored epoch: list fields, the adjustment report (with the residuals when
+/// `residuals`), its displacements and the alerts it raised.
+pub async fn summary(
+    store: &Store,
+    site: &str,
+    id: i64,
+    residuals: bool,
+) -> Result<Option<Value>, ApiError> {
+    let db = store.reader();
+    let Some((item, report)) = epochs::get(db, site, id).await? else {
+        return Ok(None);
+    };
+    let mut out: Map<String, Value> = report;
+    if let Value::Object(fields) = serde_json::to_value(&item).map_err(StoreError::from)? {
+        out.extend(fields);
+    }
+    out.insert("site".into(), Value::String(site.to_string()));
+    if residuals {
+        out.insert(
+            "residuals".into(),
+            Value::Array(epochs::residuals(db, site, id).await?),
+        );
+    }
+    let d = displacements::of_epoch(db, site, id).await?;
+    out.insert(
+        "displacements".into(),
+        serde_json::to_value(d).map_err(StoreError::from)?,
+    );
+    let a = alerts::of_epoch(db, site, id).await?;
+    out.insert(
+        "alerts".into(),
+        serde_json::to_value(a).map_err(StoreError::from)?,
+    );
+    Ok(Some(Value::Object(out)))
+}
+
+/// `GET /api/v1/sites/{site}/epochs`: newest first.
+#[utoipa::path(get, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+    responses((status = 200, description = "{items: [epoch], next_cursor}"), (status = 404, description = "unknown site")))]
+pub async fn list(
+    State(state): State<AppState>,
+    ApiPath(site): ApiPath<String>,
+    ApiQuery(page): ApiQuery<PageParams>,
+) -> Result<impl IntoResponse, ApiError> {
+    find(&state, &site).await?;
+    let cursor = page.cursor()?;
+    let rows = epochs::list(
+        state.store.reader(),
+        &site,
+        cursor.as_deref(),
+        page.limit() + 1,
+    )
+    .await?;
+    let page = Page::from_fetched(rows, page.limit(), |(raw, _)| raw.clone());
+    Ok(axum::Json(Page {
+        items: page.items.into_iter().map(|(_, e)| e).collect(),
+        next_cursor: page.next_cursor,
+    }))
+}
+
+/// `GET /api/v1/sites/{site}/epochs/{epoch}`: the full report with residuals per observation.
+#[utoipa::path(get, path = "/api/v1/sites/{site}/epochs/{epoch}", params(("site" = String, Path), ("epoch" = i64, Path)),
+    responses((status = 200, description = "the epoch summary with the full report"), (status = 404, description = "unknown site or epoch")))]
+pub async fn get_one(
+    State(state): State<AppState>,
+    ApiPath((site, epoch)): ApiPath<(String, String)>,
+) -> Result<impl IntoResponse, ApiError> {
+    find(&state, &site).await?;
+    let id: i64 = epoch
+        .parse()
+        .map_err(|_| ApiError::not_found(format!("site '{site}' has no epoch '{epoch}'")))?;
+    summary(&state.store, &site, id, true)
+        .await?
+        .map(axum::Json)
+        .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no epoch {id}")))
+}
+
+/// Parses a time bound of a query (RFC 3339 or a date) into the store's format.
+pub fn time_bound(s: &str, end_of_day: bool) -> Result<String, ApiError> {
+    if let Some(t) = parse_timestamp(s) {
+        return Ok(timestamp(t));
+    }
+    let date = chrono::NaiveDate::parse_from_str(s, "%Y-%m-%d")
+        .map_err(|_| ApiError::bad_request(format!("'{s}' is not an RFC 3339 time or a date")))?;
+    let t = if end_of_day {
+        date.and_hms_micro_opt(23, 59, 59, 999_999)
+    } else {
+        date.and_hms_opt(0, 0, 0)
+    }
+    .expect("valid time of day");
+    Ok(timestamp(t.and_utc()))
+}

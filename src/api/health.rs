@@ -1,0 +1,83 @@
+//! Liveness, readiness and the Prometheus metrics.
+
+use std::sync::OnceLock;
+
+use axum::extract::State;
+use axum::http::{header, StatusCode};
+use axum::response::IntoResponse;
+use metrics_exporter_prometheus::{PrometheusBuilder, PrometheusHandle};
+
+use super::error::ApiError;
+use super::AppState;
+
+/// The process-wide Prometheus recorder (installed once, shared by every server of the process).
+pub fn metrics_handle() -> PrometheusHandle {
+    static HANDLE: OnceLock<PrometheusHandle> = OnceLock::new();
+    HANDLE
+        .get_or_init(|| {
+            let recorder = PrometheusBuilder::new().build_recorder();
+            let handle = recorder.handle();
+            // Another recorder may be installed already (tests): then ours only renders nothing.
+            let _ = metrics::set_global_recorder(recorder);
+            describe();
+            handle
+        })
+        .clone()
+}
+
+fn describe() {
+    metrics::describe_counter!("cliffwatch_uploads_total", "epoch uploads by HTTP status");
+    metrics::describe_counter!(
+        "cliffwatch_adjustments_total",
+        "bundle adjustments by outcome"
+    );
+    metrics::describe_histogram!(
+        "cliffwatch_adjustment_seconds",
+        "duration of one bundle adjustment (s)"
+    );
+    metrics::describe_counter!("cliffwatch_alerts_raised_total", "alerts raised");
+    metrics::describe_counter!(
+        "cliffwatch_webhook_deliveries_total",
+        "webhook delivery attempts by outcome"
+    );
+    metrics::describe_gauge!(
+        "cliffwatch_webhook_queue_depth",
+        "pending webhook deliveries"
+    );
+}
+
+/// `GET /healthz`: the process answers.
+#[utoipa::path(get, path = "/healthz", responses((status = 200, description = "alive")))]
+pub async fn healthz() -> impl IntoResponse {
+    axum::Json(serde_json::json!({"status": "ok"}))
+}
+
+/// `GET /readyz`: the database answers and the migrations are applied.
+#[utoipa::path(get, path = "/readyz", responses((status = 200, description = "ready"), (status = 503, description = "not ready")))]
+pub async fn readyz(State(state): State<AppState>) -> Result<impl IntoResponse, ApiError> {
+    match state.store.ready().await {
+        Ok(true) => Ok(axum::Json(serde_json::json!({"status": "ready"}))),
+        Ok(false) => Err(ApiError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "not_ready",
+            "migrations pending",
+        )),
+        Err(e) => Err(ApiError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "not_ready",
+            e.to_string(),
+        )),
+    }
+}
+
+/// `GET /metrics`: Prometheus text format.
+#[utoipa::path(get, path = "/metrics", responses((status = 200, description = "Prometheus text format")))]
+pub async fn metrics(State(state): State<AppState>) -> impl IntoResponse {
+    if let Ok(n) = crate::store::webhooks::pending(state.store.reader()).await {
+        metrics::gauge!("cliffwatch_webhook_queue_depth").set(n as f64);
+    }
+    (
+        [(header::CONTENT_TYPE, "text/plain; version=0.0.4")],
+        state.metrics.render(),
+    )
+}

@@ -1,0 +1,76 @@
+//! The list shape of the contract: `{"items": [...], "next_cursor": null}`, `?limit=` (default
+//! 100, at most 1000) and opaque `?cursor=`.
+
+use base64::engine::general_purpose::URL_SAFE_NO_PAD;
+use base64::Engine;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::error::ApiError;
+
+/// Default page size.
+pub const DEFAULT_LIMIT: i64 = 100;
+/// Largest page size.
+pub const MAX_LIMIT: i64 = 1000;
+
+/// `?limit=&cursor=`.
+#[derive(Debug, Default, Deserialize)]
+pub struct PageParams {
+    /// Page size (1 to 1000, default 100).
+    pub limit: Option<i64>,
+    /// Cursor from the previous page's `next_cursor`.
+    pub cursor: Option<String>,
+}
+
+impl PageParams {
+    /// The page size, clamped to 1..=1000.
+    pub fn limit(&self) -> i64 {
+        self.limit.unwrap_or(DEFAULT_LIMIT).clamp(1, MAX_LIMIT)
+    }
+
+    /// The decoded cursor.
+    pub fn cursor(&self) -> Result<Option<String>, ApiError> {
+        self.cursor
+            .as_deref()
+            .filter(|c| !c.is_empty())
+            .map(decode)
+            .transpose()
+    }
+}
+
+/// One page of a list.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct Page<T> {
+    /// The items.
+    pub items: Vec<T>,
+    /// Cursor of the next page; null on the last.
+    pub next_cursor: Option<String>,
+}
+
+impl<T> Page<T> {
+    /// Builds a page from up to `limit + 1` fetched items: the extra one only says there is more.
+    pub fn from_fetched(mut items: Vec<T>, limit: i64, cursor_of: impl Fn(&T) -> String) -> Self {
+        let more = items.len() as i64 > limit;
+        items.truncate(limit as usize);
+        let next_cursor = if more {
+            items.last().map(|last| encode(&cursor_of(last)))
+        } else {
+            None
+        };
+        Page { items, next_cursor }
+    }
+}
+
+/// Encodes a cursor (opaque to clients).
+pub fn encode(raw: &str) -> String {
+    URL_SAFE_NO_PAD.encode(raw.as_bytes())
+}
+
+/// Decodes a cursor.
+pub fn decode(cursor: &str) -> Result<String, ApiError> {
+    URL_SAFE_NO_PAD
+        .decode(cursor)
+        .ok()
+        .and_then(|b| String::from_utf8(b).ok())
+        .ok_or_else(|| ApiError::bad_request("invalid cursor"))
+}

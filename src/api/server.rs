@@ -1,0 +1,187 @@
+//! Binding and running the server with graceful shutdown: on the shutdown signal the listener
+//! stops accepting, in-flight requests (uploads included) finish within the grace period, the
+//! database is closed.
+
+use std::future::Future;
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use thiserror::Error;
+use tokio::net::TcpListener;
+
+use super::{health, router, AppState};
+use crate::config::{Config, ConfigError};
+use crate::store::webhooks::NewWebhook;
+use crate::store::{self, Store, StoreError, StoreOptions};
+
+/// The server cannot start or failed.
+#[derive(Debug, Error)]
+pub enum ServeError {
+    /// Bad configuration.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The database cannot be opened or migrated.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// A site of the configuration is invalid.
+    #[error("configured site '{0}': {1}")]
+    Site(String, String),
+    /// The listener failed.
+    #[error("listening on {addr}: {source}")]
+    Io {
+        /// The address.
+        addr: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
+
+/// A server bound to its address with its database open, not yet serving.
+pub struct Bound {
+    listener: TcpListener,
+    addr: SocketAddr,
+    state: AppState,
+}
+
+/// Checks the configuration, opens the database (applying migrations), registers configured sites
+/// and webhooks, and binds the listener.
+pub async fn bind(config: Config) -> Result<Bound, ServeError> {
+    config.check()?;
+    let addr = config.listen_addr()?;
+    let options = StoreOptions {
+        read_connections: config.read_connections,
+        busy_timeout: Duration::from_millis(config.busy_timeout_ms),
+    };
+    let store = Store::open(&config.database_path(), &options).await?;
+    apply_configured(&store, &config).await?;
+    let listener = TcpListener::bind(addr)
+        .await
+        .map_err(|source| ServeError::Io {
+            addr: addr.to_string(),
+            source,
+        })?;
+    let addr = listener.local_addr().map_err(|source| ServeError::Io {
+        addr: addr.to_string(),
+        source,
+    })?;
+    let state = AppState {
+        store,
+        config: Arc::new(config),
+        metrics: health::metrics_handle(),
+    };
+    Ok(Bound {
+        listener,
+        addr,
+        state,
+    })
+}
+
+async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeError> {
+    let mut tx = store.begin_write().await?;
+    for site in &config.sites {
+        super::sites::check_site(site).map_err(|e| ServeError::Site(site.id.clone(), e.message))?;
+        store::sites::upsert(&mut tx, site).await?;
+    }
+    let hooks: Vec<NewWebhook> = config
+        .webhooks
+        .iter()
+        .map(|w| NewWebhook {
+            url: w.url.clone(),
+            secret: w.secret.clone(),
+            min_level: Some(w.min_level.clone()),
+        })
+        .collect();
+    for h in &hooks {
+        super::webhooks::check_webhook(h)
+            .map_err(|e| ServeError::Site(h.url.clone(), e.message))?;
+    }
+    store::webhooks::replace_configured(&mut tx, &hooks).await?;
+    tx.commit().await.map_err(StoreError::from)?;
+    Ok(())
+}
+
+impl Bound {
+    /// The bound address (the real port when the configuration said port 0).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// The shared state (database, configuration).
+    pub fn state(&self) -> &AppState {
+        &self.state
+    }
+
+    /// Serves until `shutdown` completes, then lets in-flight requests finish (at most
+    /// `shutdown_grace_secs`) and closes the database.
+    pub async fn run(
+        self,
+        shutdown: impl Future<Output = ()> + Send + 'static,
+    ) -> Result<(), ServeError> {
+        let Bound {
+            listener,
+            addr,
+            state,
+        } = self;
+        let grace = Duration::from_secs(state.config.shutdown_grace_secs);
+        let store = state.store.clone();
+        if let Some(dir) = &state.config.watch_dir {
+            // The watched directory (crate::watch) is started here once it exists.
+            tracing::info!(watch_dir = %dir.display(), "watched directory configured");
+        }
+        let (tx, rx) = tokio::sync::watch::channel(false);
+        tokio::spawn(async move {
+            shutdown.await;
+            let _ = tx.send(true);
+        });
+        let mut stop = rx.clone();
+        let mut deadline = rx;
+        let graceful = async move {
+            let _ = stop.wait_for(|v| *v).await;
+            tracing::info!("shutting down: finishing in-flight requests");
+        };
+        tracing::info!(%addr, "listening");
+        let server = axum::serve(listener, router(state)).with_graceful_shutdown(graceful);
+        let overdue = async move {
+            let _ = deadline.wait_for(|v| *v).await;
+            tokio::time::sleep(grace).await;
+        };
+        tokio::select! {
+            r = server => r.map_err(|source| ServeError::Io { addr: addr.to_string(), source })?,
+            _ = overdue => tracing::warn!("grace period over: dropping the remaining connections"),
+        }
+        store.close().await;
+        tracing::info!("stopped");
+        Ok(())
+    }
+}
+
+/// Binds and serves until `shutdown` completes.
+pub async fn serve(
+    config: Config,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), ServeError> {
+    bind(config).await?.run(shutdown).await
+}
+
+/// Completes on ctrl-c or SIGTERM.
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {},
+        _ = term => {},
+    }
+}

@@ -1,0 +1,161 @@
+//! `POST/GET /api/v1/sites`, `GET /api/v1/sites/{site}`, `PUT /api/v1/sites/{site}/reference`.
+
+use axum::extract::State;
+use axum::http::StatusCode;
+use axum::response::IntoResponse;
+use serde::Deserialize;
+use utoipa::ToSchema;
+
+use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
+use super::list::{Page, PageParams};
+use super::AppState;
+use crate::photogrammetry::epoch::is_valid_identifier;
+use crate::store::sites::{self, NewSite, Site};
+use crate::store::{epochs, StoreError};
+
+/// Checks a site definition (identifier, model, confidence, rule levels and metrics).
+pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
+    if !is_valid_identifier(&s.id) {
+        return Err(ApiError::unprocessable(
+            "invalid_site",
+            format!(
+                "id '{}': identifiers must match [A-Za-z0-9._-]{{1,64}}",
+                s.id
+            ),
+        ));
+    }
+    if let Some(m) = &s.model {
+        if m != "orthogonal" && m != "central" {
+            return Err(ApiError::unprocessable(
+                "invalid_site",
+                format!("model '{m}': orthogonal or central"),
+            ));
+        }
+    }
+    if let Some(c) = s.confidence {
+        if !(c > 0.5 && c < 1.0) {
+            return Err(ApiError::unprocessable(
+                "invalid_site",
+                format!("confidence {c}: between 0.5 and 1"),
+            ));
+        }
+    }
+    for (i, rule) in s.alert_rules.iter().flatten().enumerate() {
+        let level = rule.get("level").and_then(|v| v.as_str()).unwrap_or("");
+        let metric = rule.get("metric").and_then(|v| v.as_str()).unwrap_or("");
+        let has_bound = rule.get("above").is_some_and(|v| v.is_number())
+            || rule.get("below").is_some_and(|v| v.is_number());
+        if !["watch", "warning", "alarm"].contains(&level)
+            || ![
+                "displacement_mm",
+                "displacement_along_mm",
+                "velocity_mm_per_day",
+                "time_to_failure_hours",
+            ]
+            .contains(&metric)
+            || !has_bound
+        {
+            return Err(ApiError::unprocessable(
+                "invalid_site",
+                format!("alert_rules[{i}]: needs level (watch|warning|alarm), metric and a numeric above or below"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `POST /api/v1/sites`: creates a site (201), or 409 when the id exists.
+#[utoipa::path(post, path = "/api/v1/sites", request_body = NewSite,
+    responses((status = 201, body = Site), (status = 409, description = "exists"), (status = 422, description = "invalid")))]
+pub async fn create(
+    State(state): State<AppState>,
+    ApiJson(site): ApiJson<NewSite>,
+) -> Result<impl IntoResponse, ApiError> {
+    check_site(&site)?;
+    let mut tx = state.store.begin_write().await?;
+    if !sites::insert(&mut tx, &site).await? {
+        return Err(ApiError::new(
+            StatusCode::CONFLICT,
+            "conflict",
+            format!("site '{}' exists", site.id),
+        ));
+    }
+    tx.commit().await.map_err(StoreError::from)?;
+    let stored = sites::get(state.store.reader(), &site.id)
+        .await?
+        .ok_or_else(|| ApiError::internal("site vanished"))?;
+    Ok((StatusCode::CREATED, axum::Json(stored)))
+}
+
+/// `GET /api/v1/sites`: every site, newest first.
+#[utoipa::path(get, path = "/api/v1/sites", params(("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+    responses((status = 200, description = "{items: [Site], next_cursor}")))]
+pub async fn list(
+    State(state): State<AppState>,
+    ApiQuery(page): ApiQuery<PageParams>,
+) -> Result<impl IntoResponse, ApiError> {
+    let cursor = page.cursor()?;
+    let after = cursor.as_deref().and_then(|c| c.split_once('|'));
+    let items = sites::list(state.store.reader(), after, page.limit() + 1).await?;
+    let mut raw = Vec::with_capacity(items.len());
+    for s in &items {
+        raw.push(
+            sites::created_at_raw(state.store.reader(), &s.id)
+                .await?
+                .unwrap_or_default(),
+        );
+    }
+    let pairs: Vec<(String, Site)> = raw.into_iter().zip(items).collect();
+    let page = Page::from_fetched(pairs, page.limit(), |(t, s)| format!("{t}|{}", s.id));
+    Ok(axum::Json(Page {
+        items: page.items.into_iter().map(|(_, s)| s).collect(),
+        next_cursor: page.next_cursor,
+    }))
+}
+
+/// `GET /api/v1/sites/{site}`.
+#[utoipa::path(get, path = "/api/v1/sites/{site}", params(("site" = String, Path)),
+    responses((status = 200, body = Site), (status = 404, description = "unknown site")))]
+pub async fn get_one(
+    State(state): State<AppState>,
+    ApiPath(site): ApiPath<String>,
+) -> Result<impl IntoResponse, ApiError> {
+    Ok(axum::Json(find(&state, &site).await?))
+}
+
+/// Reads a site or answers 404.
+pub async fn find(state: &AppState, site: &str) -> Result<Site, ApiError> {
+    sites::get(state.store.reader(), site)
+        .await?
+        .ok_or_else(|| ApiError::not_found(format!("unknown site '{site}'")))
+}
+
+/// Body of `PUT .../reference`.
+#[derive(Debug, Deserialize, ToSchema)]
+pub struct ReferenceBody {
+    /// The reference epoch's integer id; null: back to the earliest.
+    pub epoch: Option<i64>,
+}
+
+/// `PUT /api/v1/sites/{site}/reference`: sets the reference epoch and recomputes displacements.
+#[utoipa::path(put, path = "/api/v1/sites/{site}/reference", request_body = ReferenceBody, params(("site" = String, Path)),
+    responses((status = 200, body = Site), (status = 404, description = "unknown site or epoch")))]
+pub async fn set_reference(
+    State(state): State<AppState>,
+    ApiPath(site): ApiPath<String>,
+    ApiJson(body): ApiJson<ReferenceBody>,
+) -> Result<impl IntoResponse, ApiError> {
+    let s = find(&state, &site).await?;
+    let mut tx = state.store.begin_write().await?;
+    if let Some(e) = body.epoch {
+        if epochs::observed_at_raw(&mut *tx, &site, e).await?.is_none() {
+            return Err(ApiError::not_found(format!(
+                "site '{site}' has no epoch {e}"
+            )));
+        }
+    }
+    sites::set_reference(&mut *tx, &site, body.epoch).await?;
+    crate::ingest::recompute_displacements(&mut tx, &s).await?;
+    tx.commit().await.map_err(StoreError::from)?;
+    Ok(axum::Json(find(&state, &site).await?))
+}

@@ -1,0 +1,76 @@
+//! `POST/GET /api/v1/webhooks`, `DELETE /api/v1/webhooks/{id}` (admin).
+
+use axum::extract::State;
+use axum::http::StatusCode;
+use axum::response::IntoResponse;
+
+use super::error::{ApiError, ApiJson, ApiPath};
+use super::list::Page;
+use super::AppState;
+use crate::store::webhooks::{self, level_rank, NewWebhook};
+use crate::store::StoreError;
+
+/// Checks a webhook endpoint: http(s) URL, `whsec_` secret, known level.
+pub fn check_webhook(h: &NewWebhook) -> Result<(), ApiError> {
+    if !(h.url.starts_with("http://") || h.url.starts_with("https://")) {
+        return Err(ApiError::unprocessable(
+            "invalid_webhook",
+            format!("url '{}': http or https", h.url),
+        ));
+    }
+    if !h.secret.starts_with("whsec_") || h.secret.len() < 10 {
+        return Err(ApiError::unprocessable(
+            "invalid_webhook",
+            "secret: whsec_<base64>",
+        ));
+    }
+    if h.min_level.as_deref().is_some_and(|l| level_rank(l) == 0) {
+        return Err(ApiError::unprocessable(
+            "invalid_webhook",
+            "min_level: watch, warning or alarm",
+        ));
+    }
+    Ok(())
+}
+
+/// `POST /api/v1/webhooks`.
+#[utoipa::path(post, path = "/api/v1/webhooks", request_body = NewWebhook,
+    responses((status = 201, body = crate::store::webhooks::Webhook), (status = 422, description = "invalid")))]
+pub async fn create(
+    State(state): State<AppState>,
+    ApiJson(hook): ApiJson<NewWebhook>,
+) -> Result<impl IntoResponse, ApiError> {
+    check_webhook(&hook)?;
+    let mut tx = state.store.begin_write().await?;
+    let id = webhooks::insert(&mut *tx, &hook, "api").await?;
+    tx.commit().await.map_err(StoreError::from)?;
+    let stored = webhooks::list(state.store.reader())
+        .await?
+        .into_iter()
+        .find(|w| w.id == id);
+    Ok((StatusCode::CREATED, axum::Json(stored)))
+}
+
+/// `GET /api/v1/webhooks` (secrets are not returned).
+#[utoipa::path(get, path = "/api/v1/webhooks", responses((status = 200, description = "{items: [Webhook], next_cursor}")))]
+pub async fn list(State(state): State<AppState>) -> Result<impl IntoResponse, ApiError> {
+    Ok(axum::Json(Page {
+        items: webhooks::list(state.store.reader()).await?,
+        next_cursor: None,
+    }))
+}
+
+/// `DELETE /api/v1/webhooks/{id}`.
+#[utoipa::path(delete, path = "/api/v1/webhooks/{id}", params(("id" = String, Path)),
+    responses((status = 204, description = "deleted"), (status = 404, description = "unknown webhook")))]
+pub async fn delete(
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<String>,
+) -> Result<impl IntoResponse, ApiError> {
+    let mut tx = state.store.begin_write().await?;
+    if !webhooks::delete(&mut tx, &id).await? {
+        return Err(ApiError::not_found(format!("unknown webhook '{id}'")));
+    }
+    tx.commit().await.map_err(StoreError::from)?;
+    Ok(StatusCode::NO_CONTENT)
+}

@@ -1,0 +1,211 @@
+//! Alerts: raised by the alert rules on ingestion, acknowledged through the API.
+
+use serde::Serialize;
+use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
+use utoipa::ToSchema;
+
+use super::{display_timestamp, now, StoreError};
+
+/// A stored alert.
+#[derive(Debug, Clone, Serialize, FromRow, ToSchema)]
+pub struct Alert {
+    /// Identifier (UUID).
+    pub id: String,
+    /// Site id.
+    #[sqlx(rename = "site_id")]
+    pub site: String,
+    /// Point (null for site-level alerts).
+    pub point: Option<String>,
+    /// Points concerned (JSON array text in the database; a list here).
+    #[sqlx(skip)]
+    pub points: Vec<String>,
+    #[serde(skip)]
+    #[sqlx(rename = "points")]
+    points_json: String,
+    /// `watch`, `warning` or `alarm`.
+    pub level: String,
+    /// Metric of the rule or a site-level kind.
+    pub rule: String,
+    /// Value that triggered it.
+    pub value: Option<f64>,
+    /// Threshold of the rule.
+    pub threshold: Option<f64>,
+    /// Unit of value and threshold.
+    pub unit: Option<String>,
+    /// Epoch id.
+    #[sqlx(rename = "epoch_id")]
+    pub epoch: Option<i64>,
+    /// Observation time of the epoch.
+    pub observed_at: Option<String>,
+    /// Human-readable message.
+    pub message: String,
+    /// `open`, `acknowledged` or `resolved`.
+    pub state: String,
+    /// When it was raised.
+    pub raised_at: String,
+    /// Last change.
+    pub updated_at: String,
+    /// Who acknowledged it.
+    pub acknowledged_by: Option<String>,
+    /// Comment of the acknowledgement.
+    pub ack_comment: Option<String>,
+}
+
+/// An alert to store (computed by the alert rules during ingestion).
+#[derive(Debug, Clone)]
+pub struct NewAlert {
+    /// Identifier (UUID).
+    pub id: String,
+    /// Point (None: site-level).
+    pub point: Option<String>,
+    /// Points concerned.
+    pub points: Vec<String>,
+    /// `watch`, `warning` or `alarm`.
+    pub level: String,
+    /// Metric or kind.
+    pub rule: String,
+    /// Value.
+    pub value: Option<f64>,
+    /// Threshold.
+    pub threshold: Option<f64>,
+    /// Unit.
+    pub unit: Option<String>,
+    /// Epoch id.
+    pub epoch: Option<i64>,
+    /// Observation time (store format).
+    pub observed_at: Option<String>,
+    /// Message.
+    pub message: String,
+}
+
+const COLUMNS: &str =
+    "id, site_id, point, points AS points, level, rule, value, threshold, unit, epoch_id, \
+    observed_at, message, state, raised_at, updated_at, acknowledged_by, ack_comment";
+
+fn finish(mut rows: Vec<Alert>) -> Vec<Alert> {
+    for a in &mut rows {
+        a.points = serde_json::from_str(&a.points_json).unwrap_or_default();
+        a.raised_at = display_timestamp(&a.raised_at);
+        a.updated_at = display_timestamp(&a.updated_at);
+        a.observed_at = a.observed_at.as_deref().map(display_timestamp);
+    }
+    rows
+}
+
+/// Alerts newest first, optionally of one site and state; `after` is `(raised_at, id)` of the last
+/// item of the previous page (raised_at in store format).
+pub async fn list(
+    db: impl SqliteExecutor<'_>,
+    site: Option<&str>,
+    state: Option<&str>,
+    after: Option<(&str, &str)>,
+    limit: i64,
+) -> Result<Vec<(String, Alert)>, StoreError> {
+    let (t, id) = after.unwrap_or(("\u{10FFFF}", ""));
+    let rows: Vec<Alert> = sqlx::query_as(&format!(
+        "SELECT {COLUMNS} FROM alerts WHERE (? IS NULL OR site_id = ?) AND (? IS NULL OR state = ?) \
+         AND (raised_at < ? OR (raised_at = ? AND id < ?)) ORDER BY raised_at DESC, id DESC LIMIT ?"
+    ))
+    .bind(site)
+    .bind(site)
+    .bind(state)
+    .bind(state)
+    .bind(t)
+    .bind(t)
+    .bind(if after.is_some() { id } else { "\u{10FFFF}" })
+    .bind(limit)
+    .fetch_all(db)
+    .await?;
+    let raw: Vec<String> = rows.iter().map(|a| a.raised_at.clone()).collect();
+    Ok(raw.into_iter().zip(finish(rows)).collect())
+}
+
+/// One alert.
+pub async fn get(db: impl SqliteExecutor<'_>, id: &str) -> Result<Option<Alert>, StoreError> {
+    let row: Option<Alert> = sqlx::query_as(&format!("SELECT {COLUMNS} FROM alerts WHERE id = ?"))
+        .bind(id)
+        .fetch_optional(db)
+        .await?;
+    Ok(row.map(|a| finish(vec![a]).remove(0)))
+}
+
+/// The alerts raised by one epoch.
+pub async fn of_epoch(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    epoch: i64,
+) -> Result<Vec<Alert>, StoreError> {
+    let rows: Vec<Alert> = sqlx::query_as(&format!(
+        "SELECT {COLUMNS} FROM alerts WHERE site_id = ? AND epoch_id = ? ORDER BY raised_at, id"
+    ))
+    .bind(site)
+    .bind(epoch)
+    .fetch_all(db)
+    .await?;
+    Ok(finish(rows))
+}
+
+/// Open or acknowledged alerts of a site that concern one point: `(point, level)`.
+pub async fn active_levels(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+) -> Result<Vec<(String, String)>, StoreError> {
+    Ok(sqlx::query_as(
+        "SELECT point, level FROM alerts WHERE site_id = ? AND point IS NOT NULL AND state <> 'resolved'",
+    )
+    .bind(site)
+    .fetch_all(db)
+    .await?)
+}
+
+/// Stores new alerts (inside the epoch's write transaction).
+pub async fn insert(
+    db: &mut SqliteConnection,
+    site: &str,
+    alerts: &[NewAlert],
+) -> Result<(), StoreError> {
+    let t = now();
+    for a in alerts {
+        sqlx::query(
+            "INSERT INTO alerts (id, site_id, point, points, level, rule, value, threshold, unit, epoch_id, \
+             observed_at, message, state, raised_at, updated_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'open', ?, ?)",
+        )
+        .bind(&a.id)
+        .bind(site)
+        .bind(&a.point)
+        .bind(serde_json::to_string(&a.points)?)
+        .bind(&a.level)
+        .bind(&a.rule)
+        .bind(a.value)
+        .bind(a.threshold)
+        .bind(&a.unit)
+        .bind(a.epoch)
+        .bind(&a.observed_at)
+        .bind(&a.message)
+        .bind(&t)
+        .bind(&t)
+        .execute(&mut *db)
+        .await?;
+    }
+    Ok(())
+}
+
+/// Acknowledges an alert; `Ok(false)` when it does not exist.
+pub async fn acknowledge(
+    db: &mut SqliteConnection,
+    id: &str,
+    by: &str,
+    comment: Option<&str>,
+) -> Result<bool, StoreError> {
+    let done = sqlx::query(
+        "UPDATE alerts SET state = CASE WHEN state = 'resolved' THEN state ELSE 'acknowledged' END, \
+         acknowledged_by = ?, ack_comment = ?, updated_at = ? WHERE id = ?",
+    )
+    .bind(by)
+    .bind(comment)
+    .bind(now())
+    .bind(id)
+    .execute(db)
+    .await?;
+    Ok(done.rows_affected() == 1)
+}

@@ -1,0 +1,180 @@
+//! Displacements of points per epoch against the site's reference epoch (mm).
+
+use serde::Serialize;
+use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
+use utoipa::ToSchema;
+
+use super::{display_timestamp, StoreError};
+
+/// The displacement of one point in one epoch against the reference epoch. Lengths in mm.
+#[derive(Debug, Clone, PartialEq, Serialize, FromRow, ToSchema)]
+pub struct Displacement {
+    /// Point name.
+    pub point: String,
+    /// Epoch id.
+    #[sqlx(rename = "epoch_id")]
+    pub epoch: i64,
+    /// Observation time of the epoch (RFC 3339).
+    pub observed_at: String,
+    /// The reference epoch's id.
+    pub reference_epoch: i64,
+    /// ΔX in mm.
+    pub dx_mm: f64,
+    /// ΔY in mm.
+    pub dy_mm: f64,
+    /// ΔZ in mm.
+    pub dz_mm: f64,
+    /// 3-D length in mm.
+    pub d_mm: f64,
+    /// σ of ΔX in mm.
+    pub sigma_dx_mm: f64,
+    /// σ of ΔY in mm.
+    pub sigma_dy_mm: f64,
+    /// σ of ΔZ in mm.
+    pub sigma_dz_mm: f64,
+    /// σ of `d_mm` in mm.
+    pub sigma_mm: f64,
+    /// Component along the point's direction of interest in mm (when set).
+    pub d_along_mm: Option<f64>,
+    /// Significant at the site's confidence.
+    pub significant: bool,
+    /// Rate of `d_mm` in mm/day against the previous epoch.
+    pub velocity_mm_per_day: Option<f64>,
+    /// Time to failure in hours (null unless accelerating).
+    pub time_to_failure_hours: Option<f64>,
+}
+
+const COLUMNS: &str = "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+    sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, velocity_mm_per_day, \
+    time_to_failure_hours";
+
+fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
+    for r in &mut rows {
+        r.observed_at = display_timestamp(&r.observed_at);
+    }
+    rows
+}
+
+/// Stores displacements (observed_at in store format). Call inside the epoch's write transaction.
+pub async fn insert(
+    db: &mut SqliteConnection,
+    site: &str,
+    rows: &[Displacement],
+) -> Result<(), StoreError> {
+    for d in rows {
+        sqlx::query(&format!(
+            "INSERT INTO displacements (site_id, {COLUMNS}) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
+        ))
+        .bind(site)
+        .bind(&d.point)
+        .bind(d.epoch)
+        .bind(&d.observed_at)
+        .bind(d.reference_epoch)
+        .bind(d.dx_mm)
+        .bind(d.dy_mm)
+        .bind(d.dz_mm)
+        .bind(d.d_mm)
+        .bind(d.sigma_dx_mm)
+        .bind(d.sigma_dy_mm)
+        .bind(d.sigma_dz_mm)
+        .bind(d.sigma_mm)
+        .bind(d.d_along_mm)
+        .bind(d.significant)
+        .bind(d.velocity_mm_per_day)
+        .bind(d.time_to_failure_hours)
+        .execute(&mut *db)
+        .await?;
+    }
+    Ok(())
+}
+
+/// Deletes every displacement of a site (before recomputing against a new reference).
+pub async fn delete_site(db: &mut SqliteConnection, site: &str) -> Result<(), StoreError> {
+    sqlx::query("DELETE FROM displacements WHERE site_id = ?")
+        .bind(site)
+        .execute(db)
+        .await?;
+    Ok(())
+}
+
+/// The time series of one point, oldest first, with `from ≤ observed_at ≤ to` and after the
+/// cursor `after` (all in store format); at most `limit` rows (`None`: all).
+pub async fn series(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    point: &str,
+    from: Option<&str>,
+    to: Option<&str>,
+    after: Option<&str>,
+    limit: Option<i64>,
+) -> Result<Vec<Displacement>, StoreError> {
+    let rows: Vec<Displacement> = sqlx::query_as(&format!(
+        "SELECT {COLUMNS} FROM displacements WHERE site_id = ? AND point = ? \
+         AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY observed_at LIMIT ?"
+    ))
+    .bind(site)
+    .bind(point)
+    .bind(from.unwrap_or(""))
+    .bind(to.unwrap_or("\u{10FFFF}"))
+    .bind(after.unwrap_or(""))
+    .bind(limit.unwrap_or(i64::MAX))
+    .fetch_all(db)
+    .await?;
+    Ok(display(rows))
+}
+
+/// The displacements of one epoch.
+pub async fn of_epoch(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    epoch: i64,
+) -> Result<Vec<Displacement>, StoreError> {
+    let rows: Vec<Displacement> = sqlx::query_as(&format!(
+        "SELECT {COLUMNS} FROM displacements WHERE site_id = ? AND epoch_id = ? ORDER BY point"
+    ))
+    .bind(site)
+    .bind(epoch)
+    .fetch_all(db)
+    .await?;
+    Ok(display(rows))
+}
+
+/// The latest displacement of every point of the site (one index seek per point).
+pub async fn latest(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+) -> Result<Vec<Displacement>, StoreError> {
+    let cols = COLUMNS
+        .split(", ")
+        .map(|c| format!("d.{}", c.trim()))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let rows: Vec<Displacement> = sqlx::query_as(&format!(
+        "SELECT {cols} FROM points p CROSS JOIN displacements d \
+         WHERE p.site_id = ? AND d.site_id = p.site_id AND d.point = p.name AND d.observed_at = \
+         (SELECT MAX(d2.observed_at) FROM displacements d2 WHERE d2.site_id = p.site_id AND d2.point = p.name)"
+    ))
+    .bind(site)
+    .fetch_all(db)
+    .await?;
+    Ok(display(rows))
+}
+
+/// The displacement of `point` in the latest epoch observed before `before` (store format):
+/// `(observed_at, d_mm)`, for the velocity.
+pub async fn previous(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    point: &str,
+    before: &str,
+) -> Result<Option<(String, f64)>, StoreError> {
+    Ok(sqlx::query_as(
+        "SELECT observed_at, d_mm FROM displacements WHERE site_id = ? AND point = ? AND observed_at < ? \
+         ORDER BY observed_at DESC LIMIT 1",
+    )
+    .bind(site)
+    .bind(point)
+    .bind(before)
+    .fetch_optional(db)
+    .await?)
+}

@@ -1,0 +1,362 @@
+//! Epochs with their images, observations (as given, with residuals), adjusted coordinates with
+//! covariance and the joint covariance of the stable points.
+
+use std::collections::HashMap;
+
+use serde::Serialize;
+use serde_json::{Map, Value};
+use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
+use utoipa::ToSchema;
+
+use super::{display_timestamp, now, StoreError};
+use crate::photogrammetry::{Adjustment, EpochInput};
+
+/// What ingestion hands to [`insert`]: the parsed upload and its adjustment.
+#[derive(Debug)]
+pub struct EpochRecord<'a> {
+    /// Site id.
+    pub site: &'a str,
+    /// Observation time in the store's format ([`super::timestamp`]).
+    pub observed_at: &'a str,
+    /// sha256 (hex) of the canonical JSON of the upload.
+    pub body_sha256: &'a str,
+    /// The upload.
+    pub input: &'a EpochInput,
+    /// Its adjustment.
+    pub adjustment: &'a Adjustment,
+    /// Points seen for the first time get the role `stable` when they are in this set (control).
+    pub control_points: &'a [String],
+}
+
+/// One line of the epoch list.
+#[derive(Debug, Clone, Serialize, FromRow, ToSchema)]
+pub struct EpochListItem {
+    /// Integer id, unique within the site.
+    pub id: i64,
+    /// Observation time (RFC 3339).
+    pub observed_at: String,
+    /// Label of the upload.
+    pub label: Option<String>,
+    /// `adjusted`.
+    pub status: String,
+    /// Projection model.
+    pub model: String,
+    /// A-posteriori σ0 in image mm.
+    pub sigma0_mm: f64,
+    /// Principal distance of the first camera in mm.
+    pub c_mm: Option<f64>,
+    /// Its σ in mm (None when fixed).
+    pub c_sigma_mm: Option<f64>,
+    /// Iterations of the adjustment.
+    pub iterations: i64,
+    /// Time of ingestion (RFC 3339).
+    pub created_at: String,
+}
+
+/// Identity of a stored epoch: id and body hash.
+#[derive(Debug, Clone, FromRow)]
+pub struct EpochKey {
+    /// Integer id.
+    pub id: i64,
+    /// sha256 (hex) of the canonical body.
+    pub body_sha256: String,
+}
+
+/// Finds the epoch of a site with that observation time (store format).
+pub async fn find_by_time(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    observed_at: &str,
+) -> Result<Option<EpochKey>, StoreError> {
+    Ok(
+        sqlx::query_as("SELECT id, body_sha256 FROM epochs WHERE site_id = ? AND observed_at = ?")
+            .bind(site)
+            .bind(observed_at)
+            .fetch_optional(db)
+            .await?,
+    )
+}
+
+/// Lists epochs newest first (by observation time); `before` is the observation time (store
+/// format) of the last item of the previous page.
+pub async fn list(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    before: Option<&str>,
+    limit: i64,
+) -> Result<Vec<(String, EpochListItem)>, StoreError> {
+    let rows: Vec<EpochListItem> = sqlx::query_as(
+        "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, created_at \
+         FROM epochs WHERE site_id = ? AND (? IS NULL OR observed_at < ?) \
+         ORDER BY observed_at DESC LIMIT ?",
+    )
+    .bind(site)
+    .bind(before)
+    .bind(before)
+    .bind(limit)
+    .fetch_all(db)
+    .await?;
+    Ok(rows
+        .into_iter()
+        .map(|mut r| {
+            let raw = r.observed_at.clone();
+            r.observed_at = display_timestamp(&raw);
+            r.created_at = display_timestamp(&r.created_at);
+            (raw, r)
+        })
+        .collect())
+}
+
+/// Number of epochs of a site.
+pub async fn count(db: impl SqliteExecutor<'_>, site: &str) -> Result<i64, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT COUNT(*) FROM epochs WHERE site_id = ?")
+            .bind(site)
+            .fetch_one(db)
+            .await?,
+    )
+}
+
+/// The stored header of one epoch: list fields plus the report (JSON object, without residuals).
+pub async fn get(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    id: i64,
+) -> Result<Option<(EpochListItem, Map<String, Value>)>, StoreError> {
+    #[derive(FromRow)]
+    struct Row {
+        #[sqlx(flatten)]
+        item: EpochListItem,
+        report: String,
+    }
+    let row: Option<Row> = sqlx::query_as(
+        "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, created_at, report \
+         FROM epochs WHERE site_id = ? AND id = ?",
+    )
+    .bind(site)
+    .bind(id)
+    .fetch_optional(db)
+    .await?;
+    match row {
+        None => Ok(None),
+        Some(mut r) => {
+            r.item.observed_at = display_timestamp(&r.item.observed_at);
+            r.item.created_at = display_timestamp(&r.item.created_at);
+            let report: Map<String, Value> = serde_json::from_str(&r.report)?;
+            Ok(Some((r.item, report)))
+        }
+    }
+}
+
+/// Raw observation time (store format) of an epoch.
+pub async fn observed_at_raw(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    id: i64,
+) -> Result<Option<String>, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT observed_at FROM epochs WHERE site_id = ? AND id = ?")
+            .bind(site)
+            .bind(id)
+            .fetch_optional(db)
+            .await?,
+    )
+}
+
+/// The residuals of every observation of an epoch, in upload order (the report's `residuals`).
+pub async fn residuals(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    id: i64,
+) -> Result<Vec<Value>, StoreError> {
+    #[derive(FromRow)]
+    struct Row {
+        image_id: String,
+        point: String,
+        vx_mm: Option<f64>,
+        vy_mm: Option<f64>,
+        w: Option<f64>,
+        dropped: bool,
+    }
+    let rows: Vec<Row> = sqlx::query_as(
+        "SELECT o.image_id, o.point, o.vx_mm, o.vy_mm, o.w, o.dropped FROM observations o \
+         JOIN images i ON i.site_id = o.site_id AND i.epoch_id = o.epoch_id AND i.id = o.image_id \
+         WHERE o.site_id = ? AND o.epoch_id = ? ORDER BY i.seq, o.seq",
+    )
+    .bind(site)
+    .bind(id)
+    .fetch_all(db)
+    .await?;
+    Ok(rows
+        .into_iter()
+        .map(|r| {
+            serde_json::json!({"image": r.image_id, "point": r.point, "vx_mm": r.vx_mm,
+                               "vy_mm": r.vy_mm, "w": r.w, "dropped": r.dropped})
+        })
+        .collect())
+}
+
+/// The cameras (upload form, JSON) of the site as last uploaded: cameras of CSV uploads.
+pub async fn site_cameras(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+) -> Result<Vec<Value>, StoreError> {
+    let defs: Vec<String> =
+        sqlx::query_scalar("SELECT definition FROM cameras WHERE site_id = ? ORDER BY id")
+            .bind(site)
+            .fetch_all(db)
+            .await?;
+    defs.iter()
+        .map(|d| serde_json::from_str(d).map_err(StoreError::from))
+        .collect()
+}
+
+/// Stores an epoch with its images, observations, coordinates and joint covariance; returns its
+/// new integer id. Call inside a write transaction; the caller stores the derived rows
+/// (displacements, alerts, outbox) in the same transaction.
+pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<i64, StoreError> {
+    let id: i64 =
+        sqlx::query_scalar("SELECT COALESCE(MAX(id), 0) + 1 FROM epochs WHERE site_id = ?")
+            .bind(rec.site)
+            .fetch_one(&mut *db)
+            .await?;
+    let adj = rec.adjustment;
+    let mut report = serde_json::to_value(&adj.report)?;
+    if let Some(obj) = report.as_object_mut() {
+        obj.remove("residuals");
+    }
+    let first_camera = adj.report.cameras.first();
+    let created = now();
+    sqlx::query(
+        "INSERT INTO epochs (site_id, id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, \
+         iterations, body_sha256, cameras, report, created_at) VALUES (?, ?, ?, ?, 'adjusted', ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+    )
+    .bind(rec.site)
+    .bind(id)
+    .bind(rec.observed_at)
+    .bind(&rec.input.label)
+    .bind(adj.report.model.as_str())
+    .bind(adj.report.sigma0_mm)
+    .bind(first_camera.map(|c| c.c_mm))
+    .bind(first_camera.and_then(|c| c.c_sigma_mm))
+    .bind(adj.report.iterations as i64)
+    .bind(rec.body_sha256)
+    .bind(serde_json::to_string(&rec.input.cameras)?)
+    .bind(report.to_string())
+    .bind(&created)
+    .execute(&mut *db)
+    .await?;
+
+    for cam in &rec.input.cameras {
+        sqlx::query(
+            "INSERT INTO cameras (site_id, id, definition, updated_at) VALUES (?, ?, ?, ?) \
+             ON CONFLICT (site_id, id) DO UPDATE SET definition = excluded.definition, updated_at = excluded.updated_at",
+        )
+        .bind(rec.site)
+        .bind(&cam.id)
+        .bind(serde_json::to_string(cam)?)
+        .bind(&created)
+        .execute(&mut *db)
+        .await?;
+    }
+
+    let residuals: HashMap<(&str, &str), _> = adj
+        .report
+        .residuals
+        .iter()
+        .map(|r| ((r.image.as_str(), r.point.as_str()), r))
+        .collect();
+    for (seq, image) in rec.input.images.iter().enumerate() {
+        let station = image.station.clone().unwrap_or_else(|| image.id.clone());
+        sqlx::query(
+            "INSERT INTO stations (site_id, name, first_epoch) VALUES (?, ?, ?) ON CONFLICT (site_id, name) DO NOTHING",
+        )
+        .bind(rec.site)
+        .bind(&station)
+        .bind(id)
+        .execute(&mut *db)
+        .await?;
+        sqlx::query(
+            "INSERT INTO images (site_id, epoch_id, id, camera, station, seq) VALUES (?, ?, ?, ?, ?, ?)",
+        )
+        .bind(rec.site)
+        .bind(id)
+        .bind(&image.id)
+        .bind(&image.camera)
+        .bind(&station)
+        .bind(seq as i64)
+        .execute(&mut *db)
+        .await?;
+        for (oseq, o) in image.observations.iter().enumerate() {
+            let r = residuals.get(&(image.id.as_str(), o.point.as_str()));
+            sqlx::query(
+                "INSERT INTO observations (site_id, epoch_id, image_id, point, seq, x_mm, y_mm, col_px, row_px, \
+                 vx_mm, vy_mm, w, dropped) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            )
+            .bind(rec.site)
+            .bind(id)
+            .bind(&image.id)
+            .bind(&o.point)
+            .bind(oseq as i64)
+            .bind(o.x_mm)
+            .bind(o.y_mm)
+            .bind(o.col)
+            .bind(o.row)
+            .bind(r.map(|r| r.vx_mm))
+            .bind(r.map(|r| r.vy_mm))
+            .bind(r.map(|r| r.w))
+            .bind(r.is_some_and(|r| r.dropped))
+            .execute(&mut *db)
+            .await?;
+        }
+    }
+
+    for p in &adj.points {
+        let role = if rec.control_points.contains(&p.name) {
+            "stable"
+        } else {
+            "monitored"
+        };
+        sqlx::query(
+            "INSERT INTO points (site_id, name, role) VALUES (?, ?, ?) ON CONFLICT (site_id, name) DO NOTHING",
+        )
+        .bind(rec.site)
+        .bind(&p.name)
+        .bind(role)
+        .execute(&mut *db)
+        .await?;
+        let c = &p.covariance_m2;
+        sqlx::query(
+            "INSERT INTO coordinates (site_id, epoch_id, point, observed_at, x_m, y_m, z_m, \
+             cxx_m2, cxy_m2, cxz_m2, cyy_m2, cyz_m2, czz_m2) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        )
+        .bind(rec.site)
+        .bind(id)
+        .bind(&p.name)
+        .bind(rec.observed_at)
+        .bind(p.xyz[0])
+        .bind(p.xyz[1])
+        .bind(p.xyz[2])
+        .bind(c[0][0])
+        .bind(c[0][1])
+        .bind(c[0][2])
+        .bind(c[1][1])
+        .bind(c[1][2])
+        .bind(c[2][2])
+        .execute(&mut *db)
+        .await?;
+    }
+
+    if let Some(joint) = &adj.joint_covariance {
+        sqlx::query(
+            "INSERT INTO joint_covariances (site_id, epoch_id, points, matrix_m2) VALUES (?, ?, ?, ?)",
+        )
+        .bind(rec.site)
+        .bind(id)
+        .bind(serde_json::to_string(&joint.points)?)
+        .bind(serde_json::to_string(&joint.matrix_m2)?)
+        .execute(&mut *db)
+        .await?;
+    }
+    Ok(id)
+}

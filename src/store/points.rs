@@ -1,0 +1,234 @@
+//! Points (role, group, direction of interest) and their adjusted coordinates per epoch.
+
+use serde::{Deserialize, Serialize};
+use sqlx::{FromRow, SqliteExecutor};
+use utoipa::ToSchema;
+
+use super::StoreError;
+
+/// Settings of a point (`PUT /api/v1/sites/{site}/points/{point}`).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PointSettings {
+    /// `stable` or `monitored`.
+    #[serde(default)]
+    pub role: Option<String>,
+    /// Free group name (e.g. a block of the cliff).
+    #[serde(default)]
+    pub group: Option<String>,
+    /// Direction of interest in the site frame (e.g. the cliff normal); any length but zero.
+    #[serde(default)]
+    pub direction: Option<[f64; 3]>,
+}
+
+/// A stored point.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Point {
+    /// Point name.
+    pub name: String,
+    /// `stable` or `monitored`.
+    pub role: String,
+    /// Group name.
+    pub group: Option<String>,
+    /// Direction of interest, site frame.
+    pub direction: Option<[f64; 3]>,
+}
+
+#[derive(FromRow)]
+struct PointRow {
+    name: String,
+    role: String,
+    grp: Option<String>,
+    dir_x: Option<f64>,
+    dir_y: Option<f64>,
+    dir_z: Option<f64>,
+}
+
+impl From<PointRow> for Point {
+    fn from(r: PointRow) -> Point {
+        let direction = match (r.dir_x, r.dir_y, r.dir_z) {
+            (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+            _ => None,
+        };
+        Point {
+            name: r.name,
+            role: r.role,
+            group: r.grp,
+            direction,
+        }
+    }
+}
+
+/// Every point of a site, by name, after `after` (cursor), at most `limit`.
+pub async fn list(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    after: Option<&str>,
+    limit: i64,
+) -> Result<Vec<Point>, StoreError> {
+    let rows: Vec<PointRow> = sqlx::query_as(
+        "SELECT name, role, grp, dir_x, dir_y, dir_z FROM points WHERE site_id = ? \
+         AND (? IS NULL OR name > ?) ORDER BY name LIMIT ?",
+    )
+    .bind(site)
+    .bind(after)
+    .bind(after)
+    .bind(limit)
+    .fetch_all(db)
+    .await?;
+    Ok(rows.into_iter().map(Point::from).collect())
+}
+
+/// One point.
+pub async fn get(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    name: &str,
+) -> Result<Option<Point>, StoreError> {
+    let row: Option<PointRow> = sqlx::query_as(
+        "SELECT name, role, grp, dir_x, dir_y, dir_z FROM points WHERE site_id = ? AND name = ?",
+    )
+    .bind(site)
+    .bind(name)
+    .fetch_optional(db)
+    .await?;
+    Ok(row.map(Point::from))
+}
+
+/// Names of the site's stable points.
+pub async fn stable(db: impl SqliteExecutor<'_>, site: &str) -> Result<Vec<String>, StoreError> {
+    Ok(sqlx::query_scalar(
+        "SELECT name FROM points WHERE site_id = ? AND role = 'stable' ORDER BY name",
+    )
+    .bind(site)
+    .fetch_all(db)
+    .await?)
+}
+
+/// Creates the point or changes the given settings (others stay).
+pub async fn upsert(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    name: &str,
+    s: &PointSettings,
+) -> Result<(), StoreError> {
+    let d = s.direction;
+    sqlx::query(
+        "INSERT INTO points (site_id, name, role, grp, dir_x, dir_y, dir_z) VALUES (?, ?, COALESCE(?, 'monitored'), ?, ?, ?, ?) \
+         ON CONFLICT (site_id, name) DO UPDATE SET role = COALESCE(?, points.role), grp = COALESCE(?, points.grp), \
+         dir_x = COALESCE(?, points.dir_x), dir_y = COALESCE(?, points.dir_y), dir_z = COALESCE(?, points.dir_z)",
+    )
+    .bind(site)
+    .bind(name)
+    .bind(&s.role)
+    .bind(&s.group)
+    .bind(d.map(|d| d[0]))
+    .bind(d.map(|d| d[1]))
+    .bind(d.map(|d| d[2]))
+    .bind(&s.role)
+    .bind(&s.group)
+    .bind(d.map(|d| d[0]))
+    .bind(d.map(|d| d[1]))
+    .bind(d.map(|d| d[2]))
+    .execute(db)
+    .await?;
+    Ok(())
+}
+
+/// Adjusted coordinates of one point in one epoch: m and covariance m².
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredCoordinate {
+    /// Point name.
+    pub point: String,
+    /// Epoch id.
+    pub epoch: i64,
+    /// Observation time (store format).
+    pub observed_at: String,
+    /// X, Y, Z in m.
+    pub xyz: [f64; 3],
+    /// 3 × 3 covariance in m².
+    pub covariance_m2: [[f64; 3]; 3],
+}
+
+#[derive(FromRow)]
+struct CoordRow {
+    point: String,
+    epoch_id: i64,
+    observed_at: String,
+    x_m: f64,
+    y_m: f64,
+    z_m: f64,
+    cxx_m2: f64,
+    cxy_m2: f64,
+    cxz_m2: f64,
+    cyy_m2: f64,
+    cyz_m2: f64,
+    czz_m2: f64,
+}
+
+impl From<CoordRow> for StoredCoordinate {
+    fn from(r: CoordRow) -> Self {
+        StoredCoordinate {
+            point: r.point,
+            epoch: r.epoch_id,
+            observed_at: r.observed_at,
+            xyz: [r.x_m, r.y_m, r.z_m],
+            covariance_m2: [
+                [r.cxx_m2, r.cxy_m2, r.cxz_m2],
+                [r.cxy_m2, r.cyy_m2, r.cyz_m2],
+                [r.cxz_m2, r.cyz_m2, r.czz_m2],
+            ],
+        }
+    }
+}
+
+const COORD_COLUMNS: &str = "c.point, c.epoch_id, c.observed_at, c.x_m, c.y_m, c.z_m, \
+    c.cxx_m2, c.cxy_m2, c.cxz_m2, c.cyy_m2, c.cyz_m2, c.czz_m2";
+
+/// The latest coordinates (by observation time) of every point of the site. `CROSS JOIN` keeps
+/// the points as the outer loop, so each point costs one index seek however long the history.
+pub async fn latest_coordinates(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+) -> Result<Vec<StoredCoordinate>, StoreError> {
+    let rows: Vec<CoordRow> = sqlx::query_as(&format!(
+        "SELECT {COORD_COLUMNS} FROM points p CROSS JOIN coordinates c \
+         WHERE p.site_id = ? AND c.site_id = p.site_id AND c.point = p.name AND c.observed_at = \
+         (SELECT MAX(c2.observed_at) FROM coordinates c2 WHERE c2.site_id = p.site_id AND c2.point = p.name) \
+         ORDER BY p.name"
+    ))
+    .bind(site)
+    .fetch_all(db)
+    .await?;
+    Ok(rows.into_iter().map(StoredCoordinate::from).collect())
+}
+
+/// The coordinates of every point of one epoch.
+pub async fn epoch_coordinates(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    epoch: i64,
+) -> Result<Vec<StoredCoordinate>, StoreError> {
+    let rows: Vec<CoordRow> = sqlx::query_as(&format!(
+        "SELECT {COORD_COLUMNS} FROM coordinates c WHERE c.site_id = ? AND c.epoch_id = ? ORDER BY c.point"
+    ))
+    .bind(site)
+    .bind(epoch)
+    .fetch_all(db)
+    .await?;
+    Ok(rows.into_iter().map(StoredCoordinate::from).collect())
+}
+
+/// Every coordinate of the site, oldest epoch first (recomputing displacements).
+pub async fn all_coordinates(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+) -> Result<Vec<StoredCoordinate>, StoreError> {
+    let rows: Vec<CoordRow> = sqlx::query_as(&format!(
+        "SELECT {COORD_COLUMNS} FROM coordinates c WHERE c.site_id = ? ORDER BY c.observed_at, c.point"
+    ))
+    .bind(site)
+    .fetch_all(db)
+    .await?;
+    Ok(rows.into_iter().map(StoredCoordinate::from).collect())
+}

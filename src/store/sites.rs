@@ -1,0 +1,202 @@
+//! Sites: a monitored cliff with its model, schedule, confidence and alert rules.
+
+use serde::{Deserialize, Serialize};
+use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
+use utoipa::ToSchema;
+
+use super::{display_timestamp, now, StoreError};
+
+/// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NewSite {
+    /// Identifier, `[A-Za-z0-9._-]{1,64}`.
+    pub id: String,
+    /// Display name (default: the id).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// `orthogonal` (default) or `central`.
+    #[serde(default)]
+    pub model: Option<String>,
+    /// Expected interval between campaigns in hours.
+    #[serde(default)]
+    pub schedule_hours: Option<f64>,
+    /// Confidence level of the significance tests (default 0.99).
+    #[serde(default)]
+    pub confidence: Option<f64>,
+    /// Alert rules (`{"level", "metric", "above"|"below", "clear_below"|"clear_above"}`).
+    #[serde(default)]
+    #[schema(value_type = Vec<Object>)]
+    pub alert_rules: Option<Vec<serde_json::Value>>,
+}
+
+/// A stored site.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Site {
+    /// Identifier.
+    pub id: String,
+    /// Display name.
+    pub name: String,
+    /// Projection model.
+    pub model: String,
+    /// Expected interval between campaigns in hours.
+    pub schedule_hours: Option<f64>,
+    /// Confidence level of the significance tests.
+    pub confidence: f64,
+    /// Alert rules (JSON objects).
+    #[schema(value_type = Vec<Object>)]
+    pub alert_rules: Vec<serde_json::Value>,
+    /// Explicit reference epoch; `null`: the earliest.
+    pub reference_epoch: Option<i64>,
+    /// Creation time (RFC 3339).
+    pub created_at: String,
+}
+
+#[derive(FromRow)]
+struct SiteRow {
+    id: String,
+    name: String,
+    model: String,
+    schedule_hours: Option<f64>,
+    confidence: f64,
+    alert_rules: String,
+    reference_epoch: Option<i64>,
+    created_at: String,
+}
+
+impl TryFrom<SiteRow> for Site {
+    type Error = StoreError;
+    fn try_from(r: SiteRow) -> Result<Site, StoreError> {
+        Ok(Site {
+            id: r.id,
+            name: r.name,
+            model: r.model,
+            schedule_hours: r.schedule_hours,
+            confidence: r.confidence,
+            alert_rules: serde_json::from_str(&r.alert_rules)?,
+            reference_epoch: r.reference_epoch,
+            created_at: display_timestamp(&r.created_at),
+        })
+    }
+}
+
+const COLUMNS: &str =
+    "id, name, model, schedule_hours, confidence, alert_rules, reference_epoch, created_at";
+
+/// Reads one site.
+pub async fn get(db: impl SqliteExecutor<'_>, id: &str) -> Result<Option<Site>, StoreError> {
+    let row: Option<SiteRow> = sqlx::query_as(&format!("SELECT {COLUMNS} FROM sites WHERE id = ?"))
+        .bind(id)
+        .fetch_optional(db)
+        .await?;
+    row.map(Site::try_from).transpose()
+}
+
+/// Lists sites newest first; `after` is the `(created_at, id)` cursor of the previous page.
+pub async fn list(
+    db: impl SqliteExecutor<'_>,
+    after: Option<(&str, &str)>,
+    limit: i64,
+) -> Result<Vec<Site>, StoreError> {
+    let rows: Vec<SiteRow> = match after {
+        None => {
+            sqlx::query_as(&format!(
+                "SELECT {COLUMNS} FROM sites ORDER BY created_at DESC, id DESC LIMIT ?"
+            ))
+            .bind(limit)
+            .fetch_all(db)
+            .await?
+        }
+        Some((t, id)) => {
+            sqlx::query_as(&format!(
+                "SELECT {COLUMNS} FROM sites WHERE created_at < ? OR (created_at = ? AND id < ?) \
+                 ORDER BY created_at DESC, id DESC LIMIT ?"
+            ))
+            .bind(t)
+            .bind(t)
+            .bind(id)
+            .bind(limit)
+            .fetch_all(db)
+            .await?
+        }
+    };
+    rows.into_iter().map(Site::try_from).collect()
+}
+
+/// Raw `created_at` of a site (for cursors).
+pub async fn created_at_raw(
+    db: impl SqliteExecutor<'_>,
+    id: &str,
+) -> Result<Option<String>, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT created_at FROM sites WHERE id = ?")
+            .bind(id)
+            .fetch_optional(db)
+            .await?,
+    )
+}
+
+/// Creates a site; `Ok(false)` when the id exists already.
+pub async fn insert(db: &mut SqliteConnection, site: &NewSite) -> Result<bool, StoreError> {
+    if get(&mut *db, &site.id).await?.is_some() {
+        return Ok(false);
+    }
+    write(db, site, true).await?;
+    Ok(true)
+}
+
+/// Creates a site or replaces its settings (configuration file).
+pub async fn upsert(db: &mut SqliteConnection, site: &NewSite) -> Result<(), StoreError> {
+    let exists = get(&mut *db, &site.id).await?.is_some();
+    write(db, site, !exists).await
+}
+
+async fn write(db: &mut SqliteConnection, site: &NewSite, create: bool) -> Result<(), StoreError> {
+    let rules = serde_json::to_string(&site.alert_rules.clone().unwrap_or_default())?;
+    let name = site.name.clone().unwrap_or_else(|| site.id.clone());
+    let model = site.model.clone().unwrap_or_else(|| "orthogonal".into());
+    let confidence = site.confidence.unwrap_or(0.99);
+    if create {
+        sqlx::query(
+            "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, created_at) \
+             VALUES (?, ?, ?, ?, ?, ?, ?)",
+        )
+        .bind(&site.id)
+        .bind(name)
+        .bind(model)
+        .bind(site.schedule_hours)
+        .bind(confidence)
+        .bind(rules)
+        .bind(now())
+        .execute(db)
+        .await?;
+    } else {
+        sqlx::query(
+            "UPDATE sites SET name = ?, model = ?, schedule_hours = ?, confidence = ?, alert_rules = ? \
+             WHERE id = ?",
+        )
+        .bind(name)
+        .bind(model)
+        .bind(site.schedule_hours)
+        .bind(confidence)
+        .bind(rules)
+        .bind(&site.id)
+        .execute(db)
+        .await?;
+    }
+    Ok(())
+}
+
+/// Sets (or clears) the explicit reference epoch.
+pub async fn set_reference(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    epoch: Option<i64>,
+) -> Result<(), StoreError> {
+    sqlx::query("UPDATE sites SET reference_epoch = ? WHERE id = ?")
+        .bind(epoch)
+        .bind(site)
+        .execute(db)
+        .await?;
+    Ok(())
+}

@@ -1,0 +1,246 @@
+//! Shared helpers of the service tests and the benchmark: paper data, a synthetic epoch, an
+//! in-process server on an ephemeral port with a temporary data directory, table snapshots.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use cliffwatch::api::server::bind;
+use cliffwatch::config::Config;
+use cliffwatch::store::Store;
+use serde_json::{json, Value};
+
+/// `../shared/data` of the repository.
+pub fn data_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data")
+}
+
+/// Names of the paper epochs, in observation order.
+pub const PAPER: [&str; 9] = [
+    "paper-case1-seed101",
+    "paper-case1-seed102",
+    "paper-case1-seed103",
+    "paper-case2-seed101",
+    "paper-case2-seed102",
+    "paper-case2-seed103",
+    "paper-case3-seed101",
+    "paper-case3-seed102",
+    "paper-case3-seed103",
+];
+
+/// One paper epoch (upload form) as JSON.
+pub fn paper(name: &str) -> Value {
+    let path = data_dir().join(format!("{name}.epoch.json"));
+    serde_json::from_str(&std::fs::read_to_string(&path).expect("paper epoch")).expect("JSON")
+}
+
+/// A synthetic epoch: `images` stations 100 m in front of a 20 m × 20 m cliff with `points`
+/// targets, c = 300 mm (calibrated), image noise ≈ 1 µm, approximations ± 10 mm. Points with an
+/// index ≥ `moving_from` are shifted by `shift_mm` along −Y (towards the cameras).
+pub fn synthetic_epoch(
+    images: usize,
+    points: usize,
+    observed_at: &str,
+    seed: u64,
+    shift_mm: f64,
+    moving_from: usize,
+) -> Value {
+    let mut state = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    let mut noise = move |scale: f64| {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2.0 * scale
+    };
+    let side = (points as f64).sqrt().ceil() as usize;
+    let xyz: Vec<[f64; 3]> = (0..points)
+        .map(|i| {
+            let (r, c) = (i / side, i % side);
+            let x = -10.0 + 20.0 * c as f64 / (side - 1).max(1) as f64;
+            let z = 20.0 * r as f64 / (side - 1).max(1) as f64;
+            let y = 100.0 + 2.0 * ((i * 7919) % 13) as f64 / 13.0
+                - if i >= moving_from {
+                    shift_mm / 1000.0
+                } else {
+                    0.0
+                };
+            [x, y, z]
+        })
+        .collect();
+    let c_mm = 300.0;
+    let target = [0.0, 100.0, 10.0];
+    let mut imgs = Vec::new();
+    for k in 0..images {
+        let t = if images > 1 {
+            k as f64 / (images - 1) as f64
+        } else {
+            0.5
+        };
+        let xo = [-25.0 + 50.0 * t, 0.0, 5.0 + 4.0 * (k % 2) as f64];
+        let f = normalize([target[0] - xo[0], target[1] - xo[1], target[2] - xo[2]]);
+        let r1 = normalize(cross(f, [0.0, 0.0, 1.0]));
+        let r2 = cross(r1, f);
+        let r3 = [-f[0], -f[1], -f[2]];
+        let obs: Vec<Value> = xyz
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let d = [p[0] - xo[0], p[1] - xo[1], p[2] - xo[2]];
+                let u = [dot(r1, d), dot(r2, d), dot(r3, d)];
+                let x = -c_mm * u[0] / u[2] + noise(0.001);
+                let y = -c_mm * u[1] / u[2] + noise(0.001);
+                json!({"point": format!("T{:03}", i + 1), "x_mm": x, "y_mm": y})
+            })
+            .collect();
+        imgs.push(json!({"id": format!("S{}", k + 1), "camera": "cam", "station": format!("S{}", k + 1), "observations": obs}));
+    }
+    let approx: Vec<Value> = xyz
+        .iter()
+        .enumerate()
+        .map(|(i, p)| json!({"point": format!("T{:03}", i + 1), "X": p[0] + noise(0.01), "Y": p[1] + noise(0.01), "Z": p[2] + noise(0.01)}))
+        .collect();
+    json!({"observed_at": observed_at,
+           "cameras": [{"id": "cam", "c_mm": c_mm, "calibrate_c": true}],
+           "images": imgs, "approx": approx})
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let n = dot(a, a).sqrt();
+    [a[0] / n, a[1] / n, a[2] / n]
+}
+
+/// A server running in this process on an ephemeral loopback port with a temporary data dir.
+pub struct TestServer {
+    /// `http://127.0.0.1:PORT`.
+    pub base: String,
+    /// Its database (for snapshots).
+    pub store: Store,
+    /// HTTP client.
+    pub client: reqwest::Client,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: Option<tokio::task::JoinHandle<()>>,
+    /// Keeps the data directory alive.
+    pub dir: tempfile::TempDir,
+}
+
+impl TestServer {
+    /// Starts a server with the default configuration, changed by `adjust_config`.
+    pub async fn start(adjust_config: impl FnOnce(&mut Config)) -> TestServer {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut config = Config::with_data_dir(dir.path());
+        config.listen = "127.0.0.1:0".into();
+        adjust_config(&mut config);
+        let bound = bind(config).await.expect("bind");
+        let base = format!("http://{}", bound.local_addr());
+        let store = bound.state().store.clone();
+        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let task = tokio::spawn(async move {
+            bound
+                .run(async {
+                    let _ = rx.await;
+                })
+                .await
+                .expect("serve");
+        });
+        TestServer {
+            base,
+            store,
+            client: reqwest::Client::new(),
+            stop: Some(tx),
+            task: Some(task),
+            dir,
+        }
+    }
+
+    /// Stops the server, waits for it, and hands back its data directory.
+    pub async fn stop(mut self) -> tempfile::TempDir {
+        if let Some(tx) = self.stop.take() {
+            let _ = tx.send(());
+        }
+        if let Some(task) = self.task.take() {
+            let _ = task.await;
+        }
+        self.dir
+    }
+
+    /// `url` for a path.
+    pub fn url(&self, path: &str) -> String {
+        format!("{}{}", self.base, path)
+    }
+
+    /// Creates a site (201 expected).
+    pub async fn create_site(&self, id: &str) {
+        let r = self
+            .client
+            .post(self.url("/api/v1/sites"))
+            .json(&json!({"id": id, "name": id, "model": "orthogonal"}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 201, "create site {id}");
+    }
+
+    /// POSTs an epoch; returns status and JSON answer.
+    pub async fn upload(&self, site: &str, body: &Value) -> (u16, Value) {
+        let r = self
+            .client
+            .post(self.url(&format!("/api/v1/sites/{site}/epochs")))
+            .json(body)
+            .send()
+            .await
+            .unwrap();
+        let status = r.status().as_u16();
+        (status, r.json().await.unwrap_or(Value::Null))
+    }
+
+    /// GETs JSON.
+    pub async fn get(&self, path: &str) -> (u16, Value) {
+        let r = self.client.get(self.url(path)).send().await.unwrap();
+        let status = r.status().as_u16();
+        (status, r.json().await.unwrap_or(Value::Null))
+    }
+
+    /// Row counts of every table: what "the database holds".
+    pub async fn snapshot(&self) -> Vec<(String, i64)> {
+        snapshot(&self.store).await
+    }
+}
+
+/// Row counts of every table of a store.
+pub async fn snapshot(store: &Store) -> Vec<(String, i64)> {
+    let mut out = Vec::new();
+    for t in [
+        "sites",
+        "cameras",
+        "stations",
+        "points",
+        "epochs",
+        "images",
+        "observations",
+        "coordinates",
+        "joint_covariances",
+        "displacements",
+        "alerts",
+        "webhooks",
+        "webhook_outbox",
+        "webhook_deliveries",
+    ] {
+        let n: i64 = sqlx::query_scalar(&format!("SELECT COUNT(*) FROM {t}"))
+            .fetch_one(store.reader())
+            .await
+            .unwrap();
+        out.push((t.to_string(), n));
+    }
+    out
+}
