@@ -51,6 +51,20 @@ fn phi(x: f64) -> f64 {
     0.5 * erfc
 }
 
+/// Signed distance to the edge over the blur, `d / s`, at (x, y).
+fn edge_arg(p: &Par, x: f64, y: f64) -> f64 {
+    let (vx, vy) = (x - p[0], y - p[1]);
+    let (qx, qy) = (p[2] * vx + p[3] * vy, p[3] * vx + p[4] * vy);
+    let rho = (vx * qx + vy * qy).max(0.0).sqrt();
+    let g = qx.hypot(qy);
+    let d = if g > 1e-12 {
+        (1.0 - rho) * rho / g
+    } else {
+        1.0 / p[2].max(p[4]).max(1e-9).sqrt()
+    };
+    d / p[5].max(0.05)
+}
+
 /// p = [cx, cy, q11, q12, q22, s, A, B, bx, by] (offsets relative to the window origin `o`).
 fn model(p: &Par, x: f64, y: f64) -> f64 {
     let (vx, vy) = (x - p[0], y - p[1]);
@@ -160,7 +174,7 @@ pub fn fit_ellipse(
     let mut c_cur = cost(&p);
     let mut n_final = SMatrix::<f64, NP, NP>::zeros();
     let mut converged = false;
-    for _ in 0..40 {
+    for _ in 0..30 {
         if converged {
             break;
         }
@@ -170,12 +184,22 @@ pub fn fit_ellipse(
         for &(x, y, z) in &pix {
             let f0 = model(&p, x, y);
             let mut j = Par::zeros();
+            let t = edge_arg(&p, x, y);
+            if t.abs() > 4.5 {
+                // far from the edge: only amplitude and background act (Φ is 0 or 1 there)
+                let (vx, vy) = (x - p[0], y - p[1]);
+                j[6] = if t > 0.0 { 1.0 } else { 0.0 };
+                j[7] = 1.0;
+                j[8] = vx;
+                j[9] = vy;
+                n += j * j.transpose();
+                g += j * (z - f0);
+                continue;
+            }
             for k in 0..NP {
                 let mut pp = p;
                 pp[k] += st[k];
-                let mut pm = p;
-                pm[k] -= st[k];
-                j[k] = (model(&pp, x, y) - model(&pm, x, y)) / (2.0 * st[k]);
+                j[k] = (model(&pp, x, y) - f0) / st[k];
             }
             n += j * j.transpose();
             g += j * (z - f0);
@@ -195,7 +219,7 @@ pub fn fit_ellipse(
             let pn = p + dp;
             let cn = cost(&pn);
             if cn.is_finite() && cn <= c_cur && pn[5] > 0.05 {
-                let small = dp[0].abs() + dp[1].abs() < 1e-7;
+                let small = dp[0].abs() + dp[1].abs() < 1e-5;
                 p = pn;
                 c_cur = cn;
                 lambda = (lambda * 0.3).max(1e-9);

@@ -455,9 +455,12 @@ pub fn scatter_targets(
     if uw <= 0.0 || uh <= 0.0 {
         return Vec::new();
     }
-    let cell = (uw * uh / n as f64).sqrt().max(3.0 * diameter_px + 2.0);
-    let (nx, ny) = ((uw / cell).floor() as usize, (uh / cell).floor() as usize);
-    let (nx, ny) = (nx.max(1), ny.max(1));
+    // enough cells for n, but none narrower than 3 diameters + 2 px
+    let min_cell = 3.0 * diameter_px + 2.0;
+    let max_nx = ((uw / min_cell).floor() as usize).max(1);
+    let max_ny = ((uh / min_cell).floor() as usize).max(1);
+    let nx = ((n as f64 * uw / uh).sqrt().ceil() as usize).clamp(1, max_nx);
+    let ny = n.div_ceil(nx).clamp(1, max_ny);
     let (cw, ch) = (uw / nx as f64, uh / ny as f64);
     let jit = (0.5 * (cw.min(ch) - 3.0 * diameter_px)).max(0.0);
     let max_aspect = if max_aspect.is_finite() {
