@@ -1,1 +1,417 @@
-//! (to be written)
+//! The watched directory of the contract: `<watch_dir>/<site>/<epoch>/` holds one image per station
+//! (`<station>.jpg|.png|.tif`) and an `epoch.json` in the upload form; the folder is taken when `READY`
+//! appears. Each image is decoded and searched for targets (in `spawn_blocking`), the targets are
+//! identified ([`crate::detect::identify`]) from the station's seed observations in `epoch.json` (≥ 4)
+//! or from the orientation the watcher kept from the station's previous epoch, and the epoch is ingested
+//! through [`crate::ingest::ingest`] exactly as an upload. The folder then moves to
+//! `<site>/.done/` or, with `error.txt`, to `<site>/.failed/`. A folder whose content hash (sha256 of
+//! its files' names and bytes) is listed in `<site>/.state/ingested` is never ingested again.
+//!
+//! Watching: `notify` events and a periodic rescan (events can be lost, e.g. on network shares).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use sha2::{Digest, Sha256};
+
+use crate::detect::identify::{identify, IdentifyError, IdentifyOptions, Prior, Seed};
+use crate::detect::{detect_bytes, DetectError, DetectOptions};
+use crate::ingest::{ingest, IngestError, Ingested};
+use crate::photogrammetry::epoch::ObservationInput;
+use crate::photogrammetry::{Camera, EpochError, EpochInput, ImageOrientation};
+use crate::store::{points, Store};
+
+/// Why a watched folder failed (written to its `error.txt`).
+#[derive(Debug, thiserror::Error)]
+pub enum WatchError {
+    /// Reading or moving files failed.
+    #[error("file system: {0}")]
+    Io(#[from] std::io::Error),
+    /// `epoch.json` is not the upload form.
+    #[error("epoch.json: {0}")]
+    Json(#[from] serde_json::Error),
+    /// An image of `epoch.json` has no file.
+    #[error("no image file <{0}>.jpg|.png|.tif for station {0}")]
+    MissingImage(String),
+    /// A camera is invalid or lacks pixel size and image size.
+    #[error("camera of station {station}: {reason}")]
+    Camera {
+        /// Station.
+        station: String,
+        /// Why.
+        reason: String,
+    },
+    /// Detection failed.
+    #[error("detection on station {station}: {source}")]
+    Detect {
+        /// Station.
+        station: String,
+        /// Cause.
+        source: DetectError,
+    },
+    /// Identification failed.
+    #[error("identification on station {station}: {source}")]
+    Identify {
+        /// Station.
+        station: String,
+        /// Cause.
+        source: IdentifyError,
+    },
+    /// A station seen for the first time without ≥ 4 seed observations.
+    #[error("station {0} has no previous orientation and fewer than 4 seed observations")]
+    NoPrior(String),
+    /// Ingestion refused the epoch.
+    #[error("ingestion: {0}")]
+    Ingest(#[from] IngestError),
+    /// The blocking task panicked.
+    #[error("detection task failed: {0}")]
+    Task(String),
+}
+
+/// Options of the watcher.
+#[derive(Debug, Clone)]
+pub struct WatchOptions {
+    /// The watched directory.
+    pub dir: PathBuf,
+    /// Period of the rescan.
+    pub rescan: Duration,
+    /// Detection options.
+    pub detect: DetectOptions,
+    /// Identification options.
+    pub identify: IdentifyOptions,
+}
+
+impl WatchOptions {
+    /// Defaults for `dir`: rescan every 30 s.
+    pub fn new(dir: PathBuf) -> Self {
+        Self {
+            dir,
+            rescan: Duration::from_secs(30),
+            detect: DetectOptions::default(),
+            identify: IdentifyOptions::default(),
+        }
+    }
+}
+
+const IMAGE_EXTENSIONS: [&str; 6] = ["jpg", "jpeg", "png", "tif", "tiff", "JPG"];
+
+/// Folders `<dir>/<site>/<epoch>/` holding `READY` (names starting with `.` skipped), sorted.
+pub fn ready_folders(dir: &Path) -> Vec<(String, PathBuf)> {
+    let mut out = Vec::new();
+    let Ok(sites) = std::fs::read_dir(dir) else {
+        return out;
+    };
+    for site in sites.flatten() {
+        let name = site.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') || !site.path().is_dir() {
+            continue;
+        }
+        let Ok(epochs) = std::fs::read_dir(site.path()) else {
+            continue;
+        };
+        for e in epochs.flatten() {
+            let en = e.file_name().to_string_lossy().into_owned();
+            if !en.starts_with('.') && e.path().join("READY").is_file() {
+                out.push((name.clone(), e.path()));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// sha256 (hex) over the sorted names and bytes of the folder's files (`READY` excluded).
+pub fn content_hash(folder: &Path) -> std::io::Result<String> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(folder)?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.is_file() && p.file_name().is_some_and(|n| n != "READY"))
+        .collect();
+    files.sort();
+    let mut h = Sha256::new();
+    for f in files {
+        h.update(f.file_name().unwrap_or_default().as_encoded_bytes());
+        h.update([0]);
+        h.update(std::fs::read(&f)?);
+    }
+    Ok(hex::encode(h.finalize()))
+}
+
+fn state_dir(site_dir: &Path) -> PathBuf {
+    site_dir.join(".state")
+}
+
+fn load_orientations(site_dir: &Path) -> BTreeMap<String, ImageOrientation> {
+    std::fs::read_to_string(state_dir(site_dir).join("orientations.json"))
+        .ok()
+        .and_then(|s| serde_json::from_str::<BTreeMap<String, StoredOrientation>>(&s).ok())
+        .map(|m| {
+            m.into_iter()
+                .map(|(k, v)| (k, v.into_orientation()))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+#[derive(serde::Serialize, serde::Deserialize)]
+struct StoredOrientation {
+    camera: String,
+    rotation: [[f64; 3]; 3],
+    center: [f64; 3],
+}
+
+impl StoredOrientation {
+    fn into_orientation(self) -> ImageOrientation {
+        ImageOrientation {
+            image: String::new(),
+            station: String::new(),
+            camera: self.camera,
+            rotation: self.rotation,
+            center: self.center,
+        }
+    }
+}
+
+/// Moves `folder` into `<site>/<sub>/`, with a numeric suffix when the name is taken.
+fn move_to(folder: &Path, sub: &str) -> std::io::Result<PathBuf> {
+    let site_dir = folder.parent().unwrap_or(Path::new("."));
+    let dest_dir = site_dir.join(sub);
+    std::fs::create_dir_all(&dest_dir)?;
+    let name = folder
+        .file_name()
+        .unwrap_or_default()
+        .to_string_lossy()
+        .into_owned();
+    let mut dest = dest_dir.join(&name);
+    let mut k = 1;
+    while dest.exists() {
+        dest = dest_dir.join(format!("{name}.{k}"));
+        k += 1;
+    }
+    std::fs::rename(folder, &dest)?;
+    Ok(dest)
+}
+
+fn find_image(folder: &Path, station: &str) -> Option<PathBuf> {
+    IMAGE_EXTENSIONS
+        .iter()
+        .map(|e| folder.join(format!("{station}.{e}")))
+        .find(|p| p.is_file())
+}
+
+/// Detects, identifies and ingests one folder (does not move it). Returns the ingestion and the
+/// orientations found per station.
+async fn process(
+    store: &Store,
+    site: &str,
+    folder: &Path,
+    opts: &WatchOptions,
+) -> Result<(Ingested, BTreeMap<String, ImageOrientation>), WatchError> {
+    let site_dir = folder.parent().unwrap_or(Path::new("."));
+    let mut input: EpochInput =
+        serde_json::from_str(&tokio::fs::read_to_string(folder.join("epoch.json")).await?)?;
+    // known points: the site's latest coordinates, then the upload's control and approximations
+    let mut known: BTreeMap<String, [f64; 3]> = BTreeMap::new();
+    for a in &input.approx {
+        known.insert(a.point.clone(), [a.X, a.Y, a.Z]);
+    }
+    for c in &input.control {
+        known.insert(c.point.clone(), [c.X, c.Y, c.Z]);
+    }
+    if let Ok(stored) = points::latest_coordinates(store.reader(), site).await {
+        for c in stored {
+            known.insert(c.point, c.xyz);
+        }
+    }
+    let previous = load_orientations(site_dir);
+    let mut found = BTreeMap::new();
+    for image in &mut input.images {
+        let station = image.station.clone().unwrap_or_else(|| image.id.clone());
+        let cam_err = |reason: String| WatchError::Camera {
+            station: station.clone(),
+            reason,
+        };
+        let cam_in = input
+            .cameras
+            .iter()
+            .find(|c| c.id == image.camera)
+            .ok_or_else(|| cam_err(format!("unknown camera {}", image.camera)))?;
+        let camera = Camera::from_input(cam_in).map_err(|e: EpochError| cam_err(e.to_string()))?;
+        let path = find_image(folder, &station)
+            .ok_or_else(|| WatchError::MissingImage(station.clone()))?;
+        let bytes = tokio::fs::read(&path).await?;
+        let dopts = opts.detect.clone();
+        let det = tokio::task::spawn_blocking(move || detect_bytes(&bytes, &dopts))
+            .await
+            .map_err(|e| WatchError::Task(e.to_string()))?
+            .map_err(|source| WatchError::Detect {
+                station: station.clone(),
+                source,
+            })?;
+        let mut blobs = Vec::with_capacity(det.targets.len());
+        for t in &det.targets {
+            blobs.push(
+                t.image_mm(&camera)
+                    .ok_or_else(|| cam_err("pixel size and image size are needed".into()))?,
+            );
+        }
+        let seeds: Vec<Seed> = image
+            .observations
+            .iter()
+            .filter_map(|o| {
+                let xy = match (o.x_mm, o.y_mm, o.col, o.row) {
+                    (Some(x), Some(y), _, _) => Some([x, y]),
+                    (_, _, Some(c), Some(r)) => camera.pixel_to_mm(c, r),
+                    _ => None,
+                }?;
+                Some(Seed {
+                    point: o.point.clone(),
+                    xy_mm: xy,
+                })
+            })
+            .collect();
+        let prior = if seeds.len() >= 4 {
+            Prior::Seeds(&seeds)
+        } else if let Some(o) = previous.get(&station) {
+            Prior::Orientation(o)
+        } else {
+            return Err(WatchError::NoPrior(station));
+        };
+        let id = identify(&blobs, &known, &camera, prior, &opts.identify).map_err(|source| {
+            WatchError::Identify {
+                station: station.clone(),
+                source,
+            }
+        })?;
+        tracing::info!(
+            site,
+            station,
+            detected = det.targets.len(),
+            identified = id.matched.len(),
+            ambiguous = id.ambiguous_points.len(),
+            missing = id.missing_points.len(),
+            "watched image identified"
+        );
+        image.observations = id
+            .matched
+            .iter()
+            .map(|m| {
+                let t = &det.targets[m.blob];
+                ObservationInput {
+                    point: m.point.clone(),
+                    x_mm: None,
+                    y_mm: None,
+                    col: Some(t.col),
+                    row: Some(t.row),
+                }
+            })
+            .collect();
+        found.insert(station, id.orientation);
+    }
+    let ingested = ingest(store, site, input).await?;
+    Ok((ingested, found))
+}
+
+/// Takes one ready folder: skips it when its hash was ingested before, otherwise processes it; moves it
+/// to `.done/` or `.failed/` (with `error.txt`). Returns the destination.
+pub async fn take_folder(
+    store: &Store,
+    site: &str,
+    folder: &Path,
+    opts: &WatchOptions,
+) -> std::io::Result<PathBuf> {
+    let site_dir = folder.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let state = state_dir(&site_dir);
+    std::fs::create_dir_all(&state)?;
+    let hash = content_hash(folder)?;
+    let ledger = state.join("ingested");
+    let seen = std::fs::read_to_string(&ledger).unwrap_or_default();
+    if seen
+        .lines()
+        .any(|l| l.split_whitespace().next() == Some(hash.as_str()))
+    {
+        tracing::warn!(site, folder = %folder.display(), "already ingested; not again");
+        return move_to(folder, ".done");
+    }
+    match process(store, site, folder, opts).await {
+        Ok((ing, found)) => {
+            let mut all: BTreeMap<String, StoredOrientation> = load_orientations(&site_dir)
+                .into_iter()
+                .map(|(k, o)| (k, to_stored(&o)))
+                .collect();
+            for (k, o) in &found {
+                all.insert(k.clone(), to_stored(o));
+            }
+            std::fs::write(
+                state.join("orientations.json"),
+                serde_json::to_string_pretty(&all).unwrap_or_default(),
+            )?;
+            use std::io::Write;
+            let mut f = std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(&ledger)?;
+            writeln!(f, "{hash} epoch {}", ing.epoch)?;
+            move_to(folder, ".done")
+        }
+        Err(e) => {
+            tracing::warn!(site, folder = %folder.display(), error = %e, "watched folder failed");
+            std::fs::write(folder.join("error.txt"), format!("{e}\n"))?;
+            move_to(folder, ".failed")
+        }
+    }
+}
+
+fn to_stored(o: &ImageOrientation) -> StoredOrientation {
+    StoredOrientation {
+        camera: o.camera.clone(),
+        rotation: o.rotation,
+        center: o.center,
+    }
+}
+
+/// Takes every ready folder once (sequentially).
+pub async fn scan_once(store: &Store, opts: &WatchOptions) -> Vec<std::io::Result<PathBuf>> {
+    let mut out = Vec::new();
+    for (site, folder) in ready_folders(&opts.dir) {
+        out.push(take_folder(store, &site, &folder, opts).await);
+    }
+    out
+}
+
+/// Watches `opts.dir` until `shutdown` completes: a scan at start, on every file-system event and
+/// every `opts.rescan`.
+pub async fn run(
+    store: Store,
+    opts: WatchOptions,
+    shutdown: impl std::future::Future<Output = ()>,
+) -> Result<(), WatchError> {
+    use notify::Watcher;
+    let (tx, mut rx) = tokio::sync::mpsc::channel::<()>(16);
+    let mut watcher = notify::recommended_watcher(move |_res: notify::Result<notify::Event>| {
+        let _ = tx.try_send(());
+    })
+    .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
+    if let Err(e) = watcher.watch(&opts.dir, notify::RecursiveMode::Recursive) {
+        tracing::warn!(error = %e, "file-system events unavailable; rescanning only");
+    }
+    let mut tick = tokio::time::interval(opts.rescan);
+    tokio::pin!(shutdown);
+    loop {
+        tokio::select! {
+            _ = &mut shutdown => return Ok(()),
+            _ = tick.tick() => {}
+            Some(()) = rx.recv() => {
+                // let the writer finish its burst of events
+                tokio::time::sleep(Duration::from_millis(200)).await;
+                while rx.try_recv().is_ok() {}
+            }
+        }
+        for r in scan_once(&store, &opts).await {
+            if let Err(e) = r {
+                tracing::warn!(error = %e, "watched folder could not be moved");
+            }
+        }
+    }
+}

@@ -125,15 +125,25 @@ impl Bound {
         } = self;
         let grace = Duration::from_secs(state.config.shutdown_grace_secs);
         let store = state.store.clone();
-        if let Some(dir) = &state.config.watch_dir {
-            // The watched directory (crate::watch) is started here once it exists.
-            tracing::info!(watch_dir = %dir.display(), "watched directory configured");
-        }
         let (tx, rx) = tokio::sync::watch::channel(false);
         tokio::spawn(async move {
             shutdown.await;
             let _ = tx.send(true);
         });
+        if let Some(dir) = &state.config.watch_dir {
+            tracing::info!(watch_dir = %dir.display(), "watching directory");
+            let mut stop = rx.clone();
+            let opts = crate::watch::WatchOptions::new(dir.clone());
+            let watch_store = store.clone();
+            tokio::spawn(async move {
+                let stopped = async move {
+                    let _ = stop.wait_for(|v| *v).await;
+                };
+                if let Err(e) = crate::watch::run(watch_store, opts, stopped).await {
+                    tracing::error!(error = %e, "watched directory stopped");
+                }
+            });
+        }
         let mut stop = rx.clone();
         let mut deadline = rx;
         let graceful = async move {

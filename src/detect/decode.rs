@@ -1,0 +1,141 @@
+//! Decoding JPEG, PNG and TIFF bytes (8/16-bit, grey or colour) into a grey plane.
+
+use super::error::DetectError;
+use image::{DynamicImage, ImageReader};
+use std::io::Cursor;
+
+/// Default limit on the pixel count of a decoded image (250 megapixels).
+pub const DEFAULT_MAX_PIXELS: u64 = 250_000_000;
+
+/// A grey image: row-major grey levels (0..=255 for 8-bit, 0..=65535 for 16-bit).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GreyImage {
+    width: u32,
+    height: u32,
+    bit_depth: u8,
+    data: Vec<u16>,
+}
+
+impl GreyImage {
+    /// Wraps a row-major buffer of grey levels; `bit_depth` is 8 or 16 (the range of the levels).
+    pub fn new(
+        width: u32,
+        height: u32,
+        bit_depth: u8,
+        data: Vec<u16>,
+    ) -> Result<Self, DetectError> {
+        if width == 0 || height == 0 {
+            return Err(DetectError::Empty { width, height });
+        }
+        if data.len() as u64 != width as u64 * height as u64 {
+            return Err(DetectError::BadBuffer {
+                len: data.len(),
+                width,
+                height,
+            });
+        }
+        if bit_depth != 8 && bit_depth != 16 {
+            return Err(DetectError::InvalidOptions(format!(
+                "bit depth {bit_depth} (8 or 16)"
+            )));
+        }
+        Ok(Self {
+            width,
+            height,
+            bit_depth,
+            data,
+        })
+    }
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+    /// Bit depth of the source (8 or 16).
+    pub fn bit_depth(&self) -> u8 {
+        self.bit_depth
+    }
+    /// Row-major grey levels.
+    pub fn data(&self) -> &[u16] {
+        &self.data
+    }
+    /// Grey level at (col, row); no bounds check beyond the slice's.
+    #[inline]
+    pub fn get(&self, col: usize, row: usize) -> u16 {
+        self.data[row * self.width as usize + col]
+    }
+}
+
+/// Decodes JPEG, PNG or TIFF bytes to a grey image, at most [`DEFAULT_MAX_PIXELS`] pixels.
+pub fn decode(bytes: &[u8]) -> Result<GreyImage, DetectError> {
+    decode_with_limit(bytes, DEFAULT_MAX_PIXELS)
+}
+
+/// Decodes JPEG, PNG or TIFF bytes to a grey image of at most `max_pixels` pixels. Colour becomes
+/// luma (Rec. 601 weights); 8-bit stays 0..=255, 16-bit 0..=65535, float images scale to 16-bit.
+pub fn decode_with_limit(bytes: &[u8], max_pixels: u64) -> Result<GreyImage, DetectError> {
+    let reader = ImageReader::new(Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| DetectError::Decode(e.to_string()))?;
+    let (width, height) = reader
+        .into_dimensions()
+        .map_err(|e| DetectError::Decode(e.to_string()))?;
+    if width == 0 || height == 0 {
+        return Err(DetectError::Empty { width, height });
+    }
+    if width as u64 * height as u64 > max_pixels {
+        return Err(DetectError::TooLarge {
+            width,
+            height,
+            max_pixels,
+        });
+    }
+    let mut reader = ImageReader::new(Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| DetectError::Decode(e.to_string()))?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(width);
+    limits.max_image_height = Some(height);
+    limits.max_alloc = Some(max_pixels.saturating_mul(16));
+    reader.limits(limits);
+    let img = reader
+        .decode()
+        .map_err(|e| DetectError::Decode(e.to_string()))?;
+    from_dynamic(img)
+}
+
+fn from_dynamic(img: DynamicImage) -> Result<GreyImage, DetectError> {
+    let (w, h) = (img.width(), img.height());
+    let (depth, data): (u8, Vec<u16>) = match img {
+        DynamicImage::ImageLuma8(b) => (8, b.into_raw().into_iter().map(u16::from).collect()),
+        DynamicImage::ImageLumaA8(b) => (8, b.pixels().map(|p| p.0[0] as u16).collect()),
+        DynamicImage::ImageLuma16(b) => (16, b.into_raw()),
+        DynamicImage::ImageLumaA16(b) => (16, b.pixels().map(|p| p.0[0]).collect()),
+        DynamicImage::ImageRgb8(b) => (
+            8,
+            b.pixels().map(|p| luma(p.0[0], p.0[1], p.0[2])).collect(),
+        ),
+        DynamicImage::ImageRgba8(b) => (
+            8,
+            b.pixels().map(|p| luma(p.0[0], p.0[1], p.0[2])).collect(),
+        ),
+        DynamicImage::ImageRgb16(b) => (
+            16,
+            b.pixels().map(|p| luma(p.0[0], p.0[1], p.0[2])).collect(),
+        ),
+        DynamicImage::ImageRgba16(b) => (
+            16,
+            b.pixels().map(|p| luma(p.0[0], p.0[1], p.0[2])).collect(),
+        ),
+        other => (16, other.to_luma16().into_raw()),
+    };
+    GreyImage::new(w, h, depth, data)
+}
+
+#[inline]
+fn luma<T: Into<u32>>(r: T, g: T, b: T) -> u16 {
+    ((299 * r.into() + 587 * g.into() + 114 * b.into() + 500) / 1000) as u16
+}

@@ -1,0 +1,40 @@
+//! Typed errors of detection.
+
+/// Why an image could not be decoded or searched for targets.
+#[derive(Debug, thiserror::Error)]
+pub enum DetectError {
+    /// The bytes are not a readable JPEG, PNG or TIFF image.
+    #[error("cannot decode image: {0}")]
+    Decode(String),
+    /// The image has no pixels.
+    #[error("image is empty ({width}×{height} px)")]
+    Empty {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+    },
+    /// The image exceeds the pixel limit.
+    #[error("image too large: {width}×{height} px exceeds {max_pixels} px")]
+    TooLarge {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+        /// The limit in pixels.
+        max_pixels: u64,
+    },
+    /// The pixel buffer does not match the stated size.
+    #[error("buffer of {len} values does not match {width}×{height} px")]
+    BadBuffer {
+        /// Buffer length.
+        len: usize,
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+    },
+    /// An option is out of range.
+    #[error("invalid detection option: {0}")]
+    InvalidOptions(String),
+}

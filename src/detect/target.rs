@@ -1,0 +1,97 @@
+//! Detected targets and the options of detection.
+
+use crate::photogrammetry::Camera;
+
+/// Which targets to look for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Polarity {
+    /// Bright targets on a darker background (retro-reflective with flash).
+    #[default]
+    BrightOnDark,
+    /// Dark targets on a brighter background.
+    DarkOnBright,
+}
+
+/// How a centre was measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CentreMethod {
+    /// Background-subtracted (local plane), Gaussian-windowed intensity centroid, iterated on the
+    /// re-centred window.
+    WindowedCentroid,
+    /// Least-squares fit of a blurred-ellipse model (centre, conic, edge blur, amplitude, background
+    /// plane) to the grey values; used for targets of at least
+    /// [`DetectOptions::edge_fit_min_diameter_px`], whose centre information lies in the edge.
+    EllipseFit,
+}
+
+/// Options of [`super::detect`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct DetectOptions {
+    /// Target polarity.
+    pub polarity: Polarity,
+    /// Smallest target diameter in px.
+    pub min_diameter_px: f64,
+    /// Largest target diameter in px.
+    pub max_diameter_px: f64,
+    /// Threshold above the local background, in noise σ.
+    pub threshold_sigma: f64,
+    /// Least peak contrast of a target, in noise σ.
+    pub min_snr: f64,
+    /// Largest axis ratio of a target's region.
+    pub max_aspect: f64,
+    /// Accepted range of area over moment-ellipse area (for regions of ≥ 12 px).
+    pub fill_range: (f64, f64),
+    /// Cell size of the background grid in px (≥ 2 × the largest target is safe).
+    pub background_cell_px: usize,
+    /// Targets whose thresholded region is at least this wide (equivalent diameter, px) are centred
+    /// by [`CentreMethod::EllipseFit`], smaller ones by [`CentreMethod::WindowedCentroid`]
+    /// (`f64::INFINITY`: never).
+    pub edge_fit_min_diameter_px: f64,
+}
+
+impl Default for DetectOptions {
+    fn default() -> Self {
+        Self {
+            polarity: Polarity::BrightOnDark,
+            min_diameter_px: 2.5,
+            max_diameter_px: 64.0,
+            threshold_sigma: 5.0,
+            min_snr: 10.0,
+            max_aspect: 2.0,
+            fill_range: (0.7, 1.35),
+            background_cell_px: 128,
+            edge_fit_min_diameter_px: 6.0,
+        }
+    }
+}
+
+/// One detected target.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Target {
+    /// Centre column in px (the centre of the top-left pixel is (0, 0)).
+    pub col: f64,
+    /// Centre row in px (grows downward).
+    pub row: f64,
+    /// Equivalent diameter in px (from the background-subtracted intensity: 4·√(mean second moment),
+    /// blur included).
+    pub diameter_px: f64,
+    /// Peak signal above the local background in grey levels.
+    pub contrast: f64,
+    /// Peak contrast over the image noise σ.
+    pub snr: f64,
+    /// Quality: the expected standard deviation of each centre coordinate in px, propagated from
+    /// the image noise (smaller is better).
+    pub sigma_px: f64,
+    /// Axis ratio of the thresholded region (≥ 1).
+    pub aspect: f64,
+    /// Method of the centre.
+    pub method: CentreMethod,
+}
+
+impl Target {
+    /// Centre in image mm (x right, y up, from the image centre) per the contract and
+    /// [`Camera::pixel_to_mm`]; None without the camera's pixel size and image size.
+    pub fn image_mm(&self, camera: &Camera) -> Option<[f64; 2]> {
+        camera.pixel_to_mm(self.col, self.row)
+    }
+}
