@@ -334,3 +334,46 @@ async fn noise_only_raises_no_displacement_alert_at_5_sigma() {
         .iter()
         .all(|r| r["d_mm"].as_f64().unwrap() < threshold));
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn overdue_campaign_raises_a_site_level_alert() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), "overdue_check_secs = 1");
+    let data = dir.path().join("data");
+    let scene = Scene { n: 16, stable: 8 };
+    let daemon = Daemon::start(&data, &config).await;
+    let (s, b) = daemon
+        .send(
+            Method::POST,
+            "/api/v1/sites",
+            Some(&json!({"id": "late", "schedule_hours": 24})),
+        )
+        .await;
+    assert_eq!(s, 201, "{b}");
+    // The only campaign was observed weeks ago: more than 24 h × 1.25 have passed.
+    let (s, b) = daemon
+        .send(
+            Method::POST,
+            "/api/v1/sites/late/epochs",
+            Some(&scene.epoch(&day(0), 42, 0.0)),
+        )
+        .await;
+    assert_eq!(s, 201, "{b}");
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let alert = loop {
+        let (_, alerts) = daemon.get("/api/v1/alerts?site=late").await;
+        if let Some(a) = alerts["items"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|a| a["rule"] == "campaign_overdue")
+        {
+            break a.clone();
+        }
+        assert!(Instant::now() < deadline, "no campaign_overdue alert");
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    };
+    assert!(alert["point"].is_null());
+    assert_eq!(alert["level"], "watch");
+    assert_eq!(alert["state"], "open");
+}
