@@ -105,9 +105,14 @@ pub async fn deliver_due(
     .fetch_all(store.reader())
     .await?;
     let mut n = 0;
+    let mut gone: Vec<String> = Vec::new();
     for d in due {
         if *stop.borrow() {
             break;
+        }
+        // An endpoint disabled by a 410 earlier in this pass gets nothing more.
+        if gone.contains(&d.webhook_id) {
+            continue;
         }
         let t = Utc::now();
         let outcome = deliver(
@@ -120,6 +125,9 @@ pub async fn deliver_due(
         )
         .await;
         record(store, &d, &outcome, policy, t).await?;
+        if outcome == DeliveryOutcome::Gone {
+            gone.push(d.webhook_id.clone());
+        }
         n += 1;
     }
     Ok(n)

@@ -377,3 +377,49 @@ async fn overdue_campaign_raises_a_site_level_alert() {
     assert_eq!(alert["level"], "watch");
     assert_eq!(alert["state"], "open");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn gone_disables_the_endpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let receiver = Receiver::start(0).await;
+    receiver
+        .gone
+        .store(true, std::sync::atomic::Ordering::SeqCst);
+    let config = write_config(
+        dir.path(),
+        &format!(
+            "[[webhooks]]\nurl = \"{}\"\nsecret = \"{}\"\nmin_level = \"watch\"\n",
+            receiver.url,
+            alerts_support::SECRET
+        ),
+    );
+    let data = dir.path().join("data");
+    let scene = Scene { n: 16, stable: 8 };
+    let daemon = Daemon::start(&data, &config).await;
+    create_site(
+        &daemon,
+        SITE,
+        json!([{"level": "watch", "metric": "displacement_mm", "above": 5.0}]),
+    )
+    .await;
+    mark_stable(&daemon, SITE, &scene).await;
+    for k in 0..2 {
+        let body = scene.epoch(&day(k), 300 + k as u64, 10.0 * k as f64);
+        let (s, b) = daemon
+            .send(
+                Method::POST,
+                &format!("/api/v1/sites/{SITE}/epochs"),
+                Some(&body),
+            )
+            .await;
+        assert_eq!(s, 201, "{b}");
+    }
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while alerts_support::endpoints_enabled(&data).await != vec![false] {
+        assert!(Instant::now() < deadline, "endpoint not disabled");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    // One attempt, then nothing more for that endpoint.
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(receiver.log.lock().unwrap().len(), 1);
+}

@@ -259,6 +259,8 @@ pub struct Receiver {
     pub bad_signatures: Arc<AtomicUsize>,
     /// Requests still to refuse with 503.
     pub fail_remaining: Arc<AtomicUsize>,
+    /// When set, every request is answered 410 Gone.
+    pub gone: Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl Receiver {
@@ -272,6 +274,7 @@ impl Receiver {
             log: Arc::default(),
             bad_signatures: Arc::default(),
             fail_remaining: Arc::new(AtomicUsize::new(fail_first)),
+            gone: Arc::default(),
         };
         let state = rx.clone();
         let app = axum::Router::new().route(
@@ -298,6 +301,14 @@ impl Receiver {
                     if !ok {
                         st.bad_signatures.fetch_add(1, Ordering::SeqCst);
                         return StatusCode::UNAUTHORIZED;
+                    }
+                    if st.gone.load(Ordering::SeqCst) {
+                        st.log.lock().unwrap().push(Received {
+                            id,
+                            body: Value::Null,
+                            accepted: false,
+                        });
+                        return StatusCode::GONE;
                     }
                     let refuse = st
                         .fail_remaining
@@ -332,6 +343,21 @@ impl Receiver {
             .map(|r| (r.id.clone(), r.body.clone()))
             .collect()
     }
+}
+
+/// `enabled` of every webhook endpoint in a data directory's database (read-only).
+pub async fn endpoints_enabled(data_dir: &Path) -> Vec<bool> {
+    use sqlx::ConnectOptions;
+    let mut conn = sqlx::sqlite::SqliteConnectOptions::new()
+        .filename(data_dir.join("cliffwatch.db"))
+        .read_only(true)
+        .connect()
+        .await
+        .unwrap();
+    sqlx::query_scalar("SELECT enabled FROM webhooks ORDER BY id")
+        .fetch_all(&mut conn)
+        .await
+        .unwrap()
 }
 
 /// Every outbox id and its event type in a data directory's database (read-only).
