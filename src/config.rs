@@ -48,6 +48,29 @@ pub struct Config {
     /// Webhook endpoints registered at start.
     #[serde(default)]
     pub webhooks: Vec<WebhookConfig>,
+    /// How often the webhook delivery worker looks for due deliveries, in milliseconds.
+    #[serde(default = "default_webhook_poll_ms")]
+    pub webhook_poll_ms: u64,
+    /// Time limit of one webhook POST in seconds.
+    #[serde(default = "default_webhook_timeout_secs")]
+    pub webhook_timeout_secs: u64,
+    /// Backoff of webhook retries (`base_seconds`, `max_delay_seconds`, `max_attempts`,
+    /// `max_retry_after_seconds`).
+    #[serde(default)]
+    pub webhook_retry: crate::webhooks::RetryPolicy,
+    /// How often sites with `schedule_hours` are checked for an overdue campaign, in seconds.
+    #[serde(default = "default_overdue_check_secs")]
+    pub overdue_check_secs: u64,
+}
+
+fn default_webhook_poll_ms() -> u64 {
+    1000
+}
+fn default_webhook_timeout_secs() -> u64 {
+    10
+}
+fn default_overdue_check_secs() -> u64 {
+    300
 }
 
 /// Log output format.

@@ -6,21 +6,23 @@
 //! Idempotency: the sha256 of [`EpochInput::canonical_json`] is stored with the epoch; the same body
 //! again returns the stored epoch, another body for the same `observed_at` is a conflict.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 use sha2::{Digest, Sha256};
 use sqlx::SqliteConnection;
 use thiserror::Error;
 
+use crate::alerting;
+use crate::analysis::EpochCoordinates;
 use crate::photogrammetry::epoch::CameraInput;
 use crate::photogrammetry::{
     adjust_problem, AdjustError, AdjustOptions, Adjustment, EpochError, EpochInput, Model,
 };
 use crate::store::displacements::{self, Displacement};
-use crate::store::points::StoredCoordinate;
 use crate::store::sites::Site;
-use crate::store::{self, alerts, epochs, points, sites, webhooks, Store, StoreError};
+use crate::store::{self, epochs, points, sites, Store, StoreError};
+use chrono::Utc;
 
 /// Why an epoch was not ingested.
 #[derive(Debug, Error)]
@@ -127,10 +129,8 @@ pub async fn ingest(
     let epoch = epochs::insert(&mut tx, &record).await?;
     let derived = derive(&mut tx, &site, epoch, &observed_at, &adjustment).await?;
     displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
-    alerts::insert(&mut tx, &site.id, &derived.alerts).await?;
-    webhooks::enqueue(&mut tx, &derived.events).await?;
     tx.commit().await?;
-    metrics::counter!("cliffwatch_alerts_raised_total").increment(derived.alerts.len() as u64);
+    metrics::counter!("cliffwatch_alerts_raised_total").increment(derived.raised as u64);
     Ok(Ingested {
         site: site.id,
         epoch,
@@ -159,22 +159,41 @@ async fn check_existing<'c>(
     }
 }
 
-/// What an epoch makes besides its own rows: displacements, alerts and webhook events.
+/// What an epoch makes besides its own rows: its displacements and how many alerts it raised
+/// (alert rows and outbox rows are already written).
 #[derive(Debug, Default)]
 pub struct Derived {
-    /// Displacements of this epoch (or of the whole site when the reference moved).
+    /// Displacements of this epoch (empty when the whole site was recomputed instead).
     pub displacements: Vec<Displacement>,
-    /// Alerts raised.
-    pub alerts: Vec<alerts::NewAlert>,
-    /// Webhook events for them.
-    pub events: Vec<webhooks::NewEvent>,
+    /// Alerts raised by this epoch.
+    pub raised: usize,
+}
+
+async fn reference_epoch(
+    tx: &mut SqliteConnection,
+    site: &Site,
+) -> Result<Option<i64>, IngestError> {
+    Ok(match site.reference_epoch {
+        Some(r) => Some(r),
+        None => {
+            sqlx::query_scalar(
+                "SELECT id FROM epochs WHERE site_id = ? ORDER BY observed_at LIMIT 1",
+            )
+            .bind(&site.id)
+            .fetch_optional(&mut *tx)
+            .await?
+        }
+    })
 }
 
 /// THE seam of the displacement analysis and the alert rules: runs inside the epoch's write
 /// transaction (history read from `tx` is consistent with what is written).
 ///
-/// For now displacement = coordinates − the reference epoch's, with σ from the two 3 × 3
-/// covariances (correlation ignored) and no alerts; `crate::analysis` replaces the body.
+/// Loads the reference epoch's coordinates (with the stable points' joint covariance), the point
+/// configurations and the history the windows need, runs [`crate::analysis::analyse_epoch`] on a
+/// blocking thread, then evaluates the site's alert rules and writes the alert state, the alerts and
+/// the webhook outbox. An epoch whose analysis fails (e.g. too few points in common with the
+/// reference) is stored without displacements, with a warning in the log.
 async fn derive(
     tx: &mut SqliteConnection,
     site: &Site,
@@ -193,53 +212,50 @@ async fn derive(
         return Ok(Derived::default());
     }
     let reference = site.reference_epoch.unwrap_or(earliest);
-    let reference: HashMap<String, StoredCoordinate> =
-        points::epoch_coordinates(&mut *tx, &site.id, reference)
-            .await?
-            .into_iter()
-            .map(|c| (c.point.clone(), c))
-            .collect();
-    let directions = point_directions(tx, &site.id).await?;
-    let mut out = Vec::new();
-    for p in &adjustment.points {
-        let Some(r) = reference.get(&p.name) else {
-            continue;
-        };
-        let previous = displacements::previous(&mut *tx, &site.id, &p.name, observed_at).await?;
-        let current = StoredCoordinate {
-            point: p.name.clone(),
-            epoch,
-            observed_at: observed_at.to_string(),
-            xyz: p.xyz,
-            covariance_m2: p.covariance_m2,
-        };
-        out.push(displacement(
-            r,
-            &current,
-            previous.as_ref().map(|(t, d)| (t.as_str(), *d)),
-            directions.get(&p.name).copied(),
-            site.confidence,
-        ));
+    let Some(t) = store::parse_timestamp(observed_at) else {
+        return Ok(Derived::default());
+    };
+    let current = EpochCoordinates::from_adjustment(epoch, t, adjustment);
+    let reference = if reference == epoch {
+        current.clone()
+    } else {
+        match alerting::epoch_coordinates(tx, &site.id, reference).await? {
+            Some(r) => r,
+            None => return Ok(Derived::default()),
+        }
+    };
+    let config = alerting::analysis_config(site);
+    let points = alerting::point_configs(tx, &site.id).await?;
+    let history = alerting::history(tx, &site.id, observed_at, config.history_epochs()).await?;
+    let analysis = alerting::analyse_blocking(reference, current, points, history, config)
+        .await
+        .map_err(|e| IngestError::Task(e.to_string()))?;
+    let analysis = match analysis {
+        Ok(a) => a,
+        Err(e) => {
+            tracing::warn!(site = %site.id, epoch, error = %e, "epoch stored without displacements");
+            return Ok(Derived::default());
+        }
+    };
+    for w in &analysis.warnings {
+        tracing::info!(site = %site.id, epoch, "analysis: {w}");
     }
+    let displacements = analysis
+        .records()
+        .iter()
+        .map(|r| alerting::to_row(r, analysis.reference_epoch))
+        .collect();
+    let raised = alerting::evaluate_and_record(tx, site, &analysis, Utc::now()).await?;
     Ok(Derived {
-        displacements: out,
-        ..Derived::default()
+        displacements,
+        raised,
     })
 }
 
-async fn point_directions(
-    tx: &mut SqliteConnection,
-    site: &str,
-) -> Result<HashMap<String, [f64; 3]>, IngestError> {
-    Ok(points::list(&mut *tx, site, None, i64::MAX)
-        .await?
-        .into_iter()
-        .filter_map(|p| p.direction.map(|d| (p.name, d)))
-        .collect())
-}
-
 /// Recomputes every displacement of a site against its current reference (after
-/// `PUT .../reference` or when an earlier epoch arrives). Call inside a write transaction.
+/// `PUT .../reference` or when an earlier epoch arrives), epoch by epoch in time order, each with
+/// the history recomputed before it. Alerts are not re-evaluated (they describe what was known when
+/// each epoch arrived). Call inside a write transaction.
 pub async fn recompute_displacements(
     tx: &mut SqliteConnection,
     site: &Site,
@@ -248,125 +264,35 @@ pub async fn recompute_displacements(
         .await?
         .ok_or_else(|| IngestError::UnknownSite(site.id.clone()))?;
     displacements::delete_site(tx, &site.id).await?;
-    let reference = match site.reference_epoch {
-        Some(r) => Some(r),
-        None => {
-            sqlx::query_scalar(
-                "SELECT id FROM epochs WHERE site_id = ? ORDER BY observed_at LIMIT 1",
-            )
-            .bind(&site.id)
-            .fetch_optional(&mut *tx)
-            .await?
-        }
-    };
-    let Some(reference) = reference else {
+    let Some(reference) = reference_epoch(tx, &site).await? else {
         return Ok(());
     };
-    let reference: HashMap<String, StoredCoordinate> =
-        points::epoch_coordinates(&mut *tx, &site.id, reference)
-            .await?
-            .into_iter()
-            .map(|c| (c.point.clone(), c))
-            .collect();
-    let directions = point_directions(tx, &site.id).await?;
-    let all = points::all_coordinates(&mut *tx, &site.id).await?;
-    let mut previous: HashMap<String, (String, f64)> = HashMap::new();
-    let mut rows = Vec::with_capacity(all.len());
-    for c in &all {
-        let Some(r) = reference.get(&c.point) else {
-            continue;
-        };
-        let prev = previous.get(&c.point).map(|(t, d)| (t.as_str(), *d));
-        let d = displacement(
-            r,
-            c,
-            prev,
-            directions.get(&c.point).copied(),
-            site.confidence,
-        );
-        previous.insert(c.point.clone(), (c.observed_at.clone(), d.d_mm));
-        rows.push(d);
+    let Some(reference) = alerting::epoch_coordinates(tx, &site.id, reference).await? else {
+        return Ok(());
+    };
+    let ids: Vec<i64> =
+        sqlx::query_scalar("SELECT id FROM epochs WHERE site_id = ? ORDER BY observed_at")
+            .bind(&site.id)
+            .fetch_all(&mut *tx)
+            .await?;
+    let mut series = Vec::with_capacity(ids.len());
+    for id in ids {
+        if let Some(e) = alerting::epoch_coordinates(tx, &site.id, id).await? {
+            series.push(e);
+        }
     }
+    let config = alerting::analysis_config(&site);
+    let points = alerting::point_configs(tx, &site.id).await?;
+    let reference_id = reference.epoch;
+    let records = alerting::analyse_series_blocking(reference, series, points, config)
+        .await
+        .map_err(|e| IngestError::Task(e.to_string()))?;
+    let rows: Vec<Displacement> = records
+        .iter()
+        .map(|r| alerting::to_row(r, reference_id))
+        .collect();
     displacements::insert(tx, &site.id, &rows).await?;
     Ok(())
-}
-
-/// χ² quantile with 3 degrees of freedom at the given confidence (table, nearest level at or above).
-fn chi2_3(confidence: f64) -> f64 {
-    const TABLE: [(f64, f64); 6] = [
-        (0.90, 6.251),
-        (0.95, 7.815),
-        (0.975, 9.348),
-        (0.99, 11.345),
-        (0.995, 12.838),
-        (0.999, 16.266),
-    ];
-    TABLE
-        .iter()
-        .find(|(p, _)| confidence <= *p + 1e-12)
-        .map(|(_, q)| *q)
-        .unwrap_or(16.266)
-}
-
-/// The placeholder displacement of one point: `current − reference` in mm, σ from the sum of the
-/// two covariances, significance by the χ²(3) test of the 3-D vector, velocity of `d_mm` against
-/// `previous = (observed_at, d_mm)`, `d_along` on the unit `direction`.
-pub fn displacement(
-    reference: &StoredCoordinate,
-    current: &StoredCoordinate,
-    previous: Option<(&str, f64)>,
-    direction: Option<[f64; 3]>,
-    confidence: f64,
-) -> Displacement {
-    use nalgebra::{Matrix3, Vector3};
-    let same = reference.epoch == current.epoch;
-    let d = Vector3::from_fn(|i, _| (current.xyz[i] - reference.xyz[i]) * 1000.0);
-    let cov = if same {
-        Matrix3::zeros()
-    } else {
-        Matrix3::from_fn(|i, j| (current.covariance_m2[i][j] + reference.covariance_m2[i][j]) * 1e6)
-    };
-    let length = d.norm();
-    let sigma = if length > 0.0 {
-        let g = d / length;
-        (g.transpose() * cov * g)[(0, 0)].max(0.0).sqrt()
-    } else {
-        (cov.trace() / 3.0).max(0.0).sqrt()
-    };
-    let significant = !same
-        && cov
-            .try_inverse()
-            .map(|inv| (d.transpose() * inv * d)[(0, 0)] > chi2_3(confidence))
-            .unwrap_or(false);
-    let d_along = direction.and_then(|n| {
-        let n = Vector3::from(n);
-        let norm = n.norm();
-        (norm > 0.0).then(|| d.dot(&n) / norm)
-    });
-    let velocity = previous.and_then(|(t, d_prev)| {
-        let t0 = store::parse_timestamp(t)?;
-        let t1 = store::parse_timestamp(&current.observed_at)?;
-        let days = (t1 - t0).num_milliseconds() as f64 / 86_400_000.0;
-        (days > 0.0).then(|| (length - d_prev) / days)
-    });
-    Displacement {
-        point: current.point.clone(),
-        epoch: current.epoch,
-        observed_at: current.observed_at.clone(),
-        reference_epoch: reference.epoch,
-        dx_mm: d[0],
-        dy_mm: d[1],
-        dz_mm: d[2],
-        d_mm: length,
-        sigma_dx_mm: cov[(0, 0)].max(0.0).sqrt(),
-        sigma_dy_mm: cov[(1, 1)].max(0.0).sqrt(),
-        sigma_dz_mm: cov[(2, 2)].max(0.0).sqrt(),
-        sigma_mm: sigma,
-        d_along_mm: d_along,
-        significant,
-        velocity_mm_per_day: velocity,
-        time_to_failure_hours: None,
-    }
 }
 
 /// Why a CSV upload cannot be read.
@@ -451,41 +377,6 @@ pub fn epoch_from_csv(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn coord(epoch: i64, t: &str, xyz: [f64; 3]) -> StoredCoordinate {
-        let s = 1e-8; // (0.1 mm)²
-        StoredCoordinate {
-            point: "P".into(),
-            epoch,
-            observed_at: t.into(),
-            xyz,
-            covariance_m2: [[s, 0.0, 0.0], [0.0, s, 0.0], [0.0, 0.0, s]],
-        }
-    }
-
-    #[test]
-    fn displacement_is_current_minus_reference_in_mm() {
-        let r = coord(1, "2026-01-01T00:00:00.000000Z", [1.0, 2.0, 3.0]);
-        let c = coord(2, "2026-01-03T00:00:00.000000Z", [1.003, 2.0, 2.996]);
-        let d = displacement(
-            &r,
-            &c,
-            Some(("2026-01-01T00:00:00.000000Z", 0.0)),
-            Some([0.0, 0.0, -2.0]),
-            0.99,
-        );
-        assert!((d.dx_mm - 3.0).abs() < 1e-9 && (d.dz_mm + 4.0).abs() < 1e-9);
-        assert!((d.d_mm - 5.0).abs() < 1e-9);
-        assert!((d.d_along_mm.unwrap() - 4.0).abs() < 1e-9);
-        assert!((d.sigma_dx_mm - 0.1 * 2f64.sqrt()).abs() < 1e-9);
-        assert!(d.significant);
-        assert!((d.velocity_mm_per_day.unwrap() - 2.5).abs() < 1e-9);
-        let zero = displacement(&r, &r, None, None, 0.99);
-        assert_eq!(
-            (zero.d_mm, zero.sigma_mm, zero.significant),
-            (0.0, 0.0, false)
-        );
-    }
 
     #[test]
     fn csv_groups_observations_by_image() {

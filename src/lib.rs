@@ -24,9 +24,11 @@
 // Numerical code indexes several parallel arrays with one loop variable; the lint fights that style.
 #![allow(clippy::needless_range_loop)]
 
+pub mod alerting;
 pub mod analysis;
 pub mod api;
 pub mod config;
+pub mod delivery;
 pub mod detect;
 pub mod ingest;
 pub mod photogrammetry;

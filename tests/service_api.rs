@@ -122,7 +122,7 @@ async fn paper_epochs_upload_and_read_back() {
             .all(|w| w[0]["observed_at"].as_str() < w[1]["observed_at"].as_str()),
         "oldest first"
     );
-    // displacement = coordinates − the reference epoch's, in mm
+    // displacement against the reference epoch, in mm, in the reference datum
     let (_, e9) = s.get("/api/v1/sites/paper/epochs/9").await;
     let p9 = e9["points"]
         .as_array()
@@ -137,7 +137,19 @@ async fn paper_epochs_upload_and_read_back() {
         .find(|q| q["point"] == "5")
         .unwrap();
     let dx = (p9["X"].as_f64().unwrap() - p1["X"].as_f64().unwrap()) * 1000.0;
-    assert!((rows[8]["dx_mm"].as_f64().unwrap() - dx).abs() < 1e-9);
+    // The paper epochs observe one unmoved object: after the analysis' datum transformation (IWST:
+    // no point is stable) the displacement is noise, not the raw coordinate difference between the
+    // cases' datums.
+    let got = rows[8]["dx_mm"].as_f64().unwrap();
+    let sigma = rows[8]["sigma_dx_mm"].as_f64().unwrap();
+    assert!(
+        sigma > 0.0 && got.abs() <= 3.0 * sigma,
+        "dx {got} ± {sigma} mm"
+    );
+    assert!(
+        (got - dx).abs() > 0.0,
+        "the datum transformation applied (raw {dx} mm)"
+    );
 
     let r = s
         .client

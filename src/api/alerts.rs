@@ -3,13 +3,12 @@
 use axum::extract::State;
 use axum::response::IntoResponse;
 use serde::Deserialize;
-use serde_json::json;
 use utoipa::ToSchema;
 
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{Page, PageParams};
 use super::AppState;
-use crate::store::{alerts, webhooks, StoreError};
+use crate::store::{alerts, StoreError};
 
 /// Query of the alert list.
 #[derive(Debug, Default, Deserialize)]
@@ -78,23 +77,29 @@ pub async fn acknowledge(
     ApiJson(body): ApiJson<AckBody>,
 ) -> Result<impl IntoResponse, ApiError> {
     let mut tx = state.store.begin_write().await?;
-    if !alerts::acknowledge(&mut tx, &id, &body.by, body.comment.as_deref()).await? {
+    let Some(stored) = alerts::get(&mut *tx, &id).await? else {
         return Err(ApiError::not_found(format!("unknown alert '{id}'")));
+    };
+    let engine = crate::alerting::load_state(&mut tx, &stored.site).await?;
+    match crate::analysis::acknowledge(
+        &engine,
+        &id,
+        &body.by,
+        body.comment.as_deref(),
+        chrono::Utc::now(),
+    ) {
+        Ok((engine, event)) => {
+            crate::alerting::save_state(&mut tx, &stored.site, &engine).await?;
+            crate::alerting::record_events(&mut tx, &[event]).await?;
+        }
+        // Not open any more (resolved): note who acknowledged it, no event.
+        Err(_) => {
+            alerts::acknowledge(&mut tx, &id, &body.by, body.comment.as_deref()).await?;
+        }
     }
     let alert = alerts::get(&mut *tx, &id)
         .await?
         .ok_or_else(|| ApiError::internal("alert vanished"))?;
-    let event = webhooks::NewEvent {
-        id: format!("msg_{}", uuid::Uuid::new_v4().simple()),
-        event_type: "alert.acknowledged".into(),
-        alert_id: Some(id.clone()),
-        level: Some(alert.level.clone()),
-        payload: json!({"type": "alert.acknowledged", "timestamp": chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
-            "data": {"alert_id": alert.id, "site": alert.site, "point": alert.point, "level": alert.level, "rule": alert.rule,
-                     "value": alert.value, "threshold": alert.threshold, "unit": alert.unit, "epoch": alert.epoch,
-                     "observed_at": alert.observed_at, "message": alert.message, "by": body.by, "comment": body.comment}}),
-    };
-    webhooks::enqueue(&mut tx, &[event]).await?;
     tx.commit().await.map_err(StoreError::from)?;
     Ok(axum::Json(alert))
 }

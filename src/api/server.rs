@@ -144,6 +144,11 @@ impl Bound {
                 }
             });
         }
+        let worker = tokio::spawn(crate::delivery::run(
+            store.clone(),
+            crate::delivery::WorkerConfig::from_config(&state.config),
+            rx.clone(),
+        ));
         let mut stop = rx.clone();
         let mut deadline = rx;
         let graceful = async move {
@@ -160,6 +165,8 @@ impl Bound {
             r = server => r.map_err(|source| ServeError::Io { addr: addr.to_string(), source })?,
             _ = overdue => tracing::warn!("grace period over: dropping the remaining connections"),
         }
+        // The worker sees the same shutdown flag; an attempt in flight is at most repeated later.
+        let _ = tokio::time::timeout(Duration::from_secs(15), worker).await;
         store.close().await;
         tracing::info!("stopped");
         Ok(())

@@ -1,0 +1,452 @@
+//! The service side of the displacement analysis and the alert rules: loads what
+//! [`crate::analysis`] needs from the store (reference coordinates with the stable points' joint
+//! covariance, point configurations, per-point history, the site's [`AlertState`]), and writes what
+//! it produces (displacement rows, alert rows, webhook outbox rows). Every function takes the
+//! caller's write transaction, so an epoch and everything derived from it commit together.
+//!
+//! The pure computations run in `spawn_blocking`, never on the async runtime.
+
+use std::collections::HashMap;
+
+use chrono::{DateTime, Utc};
+use sqlx::SqliteConnection;
+
+use crate::analysis::{
+    self, AlertConfig, AlertEvent, AlertEventType, AlertRule, AlertState, AlertStatus,
+    AnalysisConfig, AnalysisError, DisplacementRecord, EpochAnalysis, EpochCoordinates, History,
+    JointCovarianceM2, PointConfig, PointCoordinates, PointRole,
+};
+use crate::store::displacements::Displacement;
+use crate::store::sites::Site;
+use crate::store::{self, points, StoreError};
+use crate::webhooks::{accepts, message_id, PayloadFormat, WebhookEndpoint, WebhookPayload};
+
+/// The analysis settings of a site (its `confidence` for the significance tests; library defaults
+/// otherwise).
+pub fn analysis_config(site: &Site) -> AnalysisConfig {
+    AnalysisConfig {
+        confidence: site.confidence,
+        ..AnalysisConfig::default()
+    }
+}
+
+/// The alert configuration of a site: its `alert_rules` (from the API or the configuration file;
+/// rules that do not parse are skipped with a warning) and `schedule_hours`.
+pub fn alert_config(site: &Site) -> AlertConfig {
+    let rules: Vec<AlertRule> = site
+        .alert_rules
+        .iter()
+        .filter_map(|v| match serde_json::from_value::<AlertRule>(v.clone()) {
+            Ok(r) => Some(r),
+            Err(e) => {
+                tracing::warn!(site = %site.id, rule = %v, error = %e, "alert rule ignored");
+                None
+            }
+        })
+        .collect();
+    let mut c = AlertConfig::new(site.id.clone(), rules);
+    c.schedule_hours = site.schedule_hours;
+    c
+}
+
+/// The stored coordinates of one epoch (with the joint covariance of its stable points when the
+/// adjustment stored one) as analysis input; `None` when the epoch has no coordinates.
+pub async fn epoch_coordinates(
+    tx: &mut SqliteConnection,
+    site: &str,
+    epoch: i64,
+) -> Result<Option<EpochCoordinates>, StoreError> {
+    let coords = points::epoch_coordinates(&mut *tx, site, epoch).await?;
+    let Some(first) = coords.first() else {
+        return Ok(None);
+    };
+    let Some(observed_at) = store::parse_timestamp(&first.observed_at) else {
+        return Ok(None);
+    };
+    let joint: Option<(String, String)> = sqlx::query_as(
+        "SELECT points, matrix_m2 FROM joint_covariances WHERE site_id = ? AND epoch_id = ?",
+    )
+    .bind(site)
+    .bind(epoch)
+    .fetch_optional(&mut *tx)
+    .await?;
+    let joint = match joint {
+        Some((p, m)) => Some(JointCovarianceM2 {
+            points: serde_json::from_str(&p)?,
+            matrix_m2: serde_json::from_str(&m)?,
+        }),
+        None => None,
+    };
+    Ok(Some(EpochCoordinates {
+        epoch,
+        observed_at,
+        points: coords
+            .into_iter()
+            .map(|c| PointCoordinates {
+                name: c.point,
+                xyz_m: c.xyz,
+                covariance_m2: c.covariance_m2,
+            })
+            .collect(),
+        joint,
+    }))
+}
+
+/// Role, group and direction of interest of every configured point of a site.
+pub async fn point_configs(
+    tx: &mut SqliteConnection,
+    site: &str,
+) -> Result<Vec<PointConfig>, StoreError> {
+    Ok(points::list(&mut *tx, site, None, i64::MAX)
+        .await?
+        .into_iter()
+        .map(|p| PointConfig {
+            name: p.name,
+            role: if p.role == "stable" {
+                PointRole::Stable
+            } else {
+                PointRole::Monitored
+            },
+            group: p.group,
+            direction: p.direction,
+        })
+        .collect())
+}
+
+/// The last `per_point` displacement records of every point observed before `before` (stored
+/// timestamp form), oldest first per point. `ROW_NUMBER() OVER` is standard SQL (SQLite ≥ 3.25,
+/// PostgreSQL).
+pub async fn history(
+    tx: &mut SqliteConnection,
+    site: &str,
+    before: &str,
+    per_point: usize,
+) -> Result<History, StoreError> {
+    let rows: Vec<Displacement> = sqlx::query_as(
+        "SELECT point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+         sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, \
+         velocity_mm_per_day, time_to_failure_hours FROM \
+         (SELECT d.*, ROW_NUMBER() OVER (PARTITION BY d.point ORDER BY d.observed_at DESC) AS rn \
+          FROM displacements d WHERE d.site_id = ? AND d.observed_at < ?) h \
+         WHERE h.rn <= ? ORDER BY h.point, h.observed_at",
+    )
+    .bind(site)
+    .bind(before)
+    .bind(per_point as i64)
+    .fetch_all(&mut *tx)
+    .await?;
+    let mut out: History = HashMap::new();
+    for r in rows {
+        if let Some(rec) = to_record(&r) {
+            out.entry(r.point.clone()).or_default().push(rec);
+        }
+    }
+    Ok(out)
+}
+
+fn to_record(d: &Displacement) -> Option<DisplacementRecord> {
+    Some(DisplacementRecord {
+        point: d.point.clone(),
+        epoch: d.epoch,
+        observed_at: store::parse_timestamp(&d.observed_at)?,
+        dx_mm: d.dx_mm,
+        dy_mm: d.dy_mm,
+        dz_mm: d.dz_mm,
+        d_mm: d.d_mm,
+        sigma_dx_mm: d.sigma_dx_mm,
+        sigma_dy_mm: d.sigma_dy_mm,
+        sigma_dz_mm: d.sigma_dz_mm,
+        sigma_mm: d.sigma_mm,
+        d_along_mm: d.d_along_mm,
+        significant: d.significant,
+        velocity_mm_per_day: d.velocity_mm_per_day,
+        time_to_failure_hours: d.time_to_failure_hours,
+    })
+}
+
+/// A time-series row of the store from an analysis record (timestamps in the stored form).
+pub fn to_row(r: &DisplacementRecord, reference_epoch: i64) -> Displacement {
+    Displacement {
+        point: r.point.clone(),
+        epoch: r.epoch,
+        observed_at: store::timestamp(r.observed_at),
+        reference_epoch,
+        dx_mm: r.dx_mm,
+        dy_mm: r.dy_mm,
+        dz_mm: r.dz_mm,
+        d_mm: r.d_mm,
+        sigma_dx_mm: r.sigma_dx_mm,
+        sigma_dy_mm: r.sigma_dy_mm,
+        sigma_dz_mm: r.sigma_dz_mm,
+        sigma_mm: r.sigma_mm,
+        d_along_mm: r.d_along_mm,
+        significant: r.significant,
+        velocity_mm_per_day: r.velocity_mm_per_day,
+        time_to_failure_hours: r.time_to_failure_hours,
+    }
+}
+
+/// Runs [`analysis::analyse_epoch`] on a blocking thread.
+pub async fn analyse_blocking(
+    reference: EpochCoordinates,
+    current: EpochCoordinates,
+    points: Vec<PointConfig>,
+    history: History,
+    config: AnalysisConfig,
+) -> Result<Result<EpochAnalysis, AnalysisError>, tokio::task::JoinError> {
+    tokio::task::spawn_blocking(move || {
+        analysis::analyse_epoch(&reference, &current, &points, &history, &config)
+    })
+    .await
+}
+
+/// Analyses a whole series against one reference on a blocking thread: `epochs` oldest first; each
+/// epoch's history is the records computed before it. Epochs whose analysis fails are skipped (and
+/// logged).
+pub async fn analyse_series_blocking(
+    reference: EpochCoordinates,
+    epochs: Vec<EpochCoordinates>,
+    points: Vec<PointConfig>,
+    config: AnalysisConfig,
+) -> Result<Vec<DisplacementRecord>, tokio::task::JoinError> {
+    tokio::task::spawn_blocking(move || {
+        let keep = config.history_epochs().max(1);
+        let mut history: History = HashMap::new();
+        let mut out = Vec::new();
+        for e in &epochs {
+            match analysis::analyse_epoch(&reference, e, &points, &history, &config) {
+                Ok(a) => {
+                    for r in a.records() {
+                        let h = history.entry(r.point.clone()).or_default();
+                        h.push(r.clone());
+                        if h.len() > keep {
+                            h.remove(0);
+                        }
+                        out.push(r);
+                    }
+                }
+                Err(err) => tracing::warn!(epoch = e.epoch, error = %err, "epoch not analysed"),
+            }
+        }
+        out
+    })
+    .await
+}
+
+/// The alert engine's state of a site (empty when none stored yet).
+pub async fn load_state(tx: &mut SqliteConnection, site: &str) -> Result<AlertState, StoreError> {
+    let s: Option<String> = sqlx::query_scalar("SELECT state FROM alert_states WHERE site_id = ?")
+        .bind(site)
+        .fetch_optional(&mut *tx)
+        .await?;
+    Ok(match s {
+        Some(s) => serde_json::from_str(&s)?,
+        None => AlertState::default(),
+    })
+}
+
+/// Stores the alert engine's state of a site.
+pub async fn save_state(
+    tx: &mut SqliteConnection,
+    site: &str,
+    state: &AlertState,
+) -> Result<(), StoreError> {
+    let json = serde_json::to_string(state)?;
+    let t = store::now();
+    let updated =
+        sqlx::query("UPDATE alert_states SET state = ?, updated_at = ? WHERE site_id = ?")
+            .bind(&json)
+            .bind(&t)
+            .bind(site)
+            .execute(&mut *tx)
+            .await?;
+    if updated.rows_affected() == 0 {
+        sqlx::query("INSERT INTO alert_states (site_id, state, updated_at) VALUES (?, ?, ?)")
+            .bind(site)
+            .bind(&json)
+            .bind(&t)
+            .execute(&mut *tx)
+            .await?;
+    }
+    Ok(())
+}
+
+fn state_name(event: &AlertEvent) -> &'static str {
+    if event.event_type == AlertEventType::Resolved {
+        return "resolved";
+    }
+    match event.alert.status {
+        AlertStatus::Open => "open",
+        AlertStatus::Acknowledged => "acknowledged",
+        AlertStatus::Resolved => "resolved",
+    }
+}
+
+/// The enabled webhook endpoints.
+pub async fn endpoints(tx: &mut SqliteConnection) -> Result<Vec<WebhookEndpoint>, StoreError> {
+    let rows: Vec<(String, String, String, String)> =
+        sqlx::query_as("SELECT id, url, secret, min_level FROM webhooks WHERE enabled = TRUE")
+            .fetch_all(&mut *tx)
+            .await?;
+    Ok(rows
+        .into_iter()
+        .map(|(id, url, secret, min)| WebhookEndpoint {
+            id,
+            url,
+            secret,
+            min_level: serde_json::from_value(serde_json::Value::String(min)).ok(),
+            format: PayloadFormat::Standard,
+            enabled: true,
+        })
+        .collect())
+}
+
+/// Writes the outcome of alert events: the alert row of each (inserted or updated to the event's
+/// snapshot), one outbox row per event (id = [`message_id`], the `webhook-id` of every retry) and
+/// one pending delivery per endpoint that [`accepts`] it. Returns how many alerts were raised.
+pub async fn record_events(
+    tx: &mut SqliteConnection,
+    events: &[AlertEvent],
+) -> Result<usize, StoreError> {
+    if events.is_empty() {
+        return Ok(0);
+    }
+    let hooks = endpoints(&mut *tx).await?;
+    let now = store::now();
+    let mut raised = 0;
+    for e in events {
+        let a = &e.alert;
+        if e.event_type == AlertEventType::Raised {
+            raised += 1;
+        }
+        let updated = sqlx::query(
+            "UPDATE alerts SET level = ?, value = ?, threshold = ?, unit = ?, epoch_id = ?, \
+             observed_at = ?, message = ?, state = ?, points = ?, updated_at = ?, \
+             acknowledged_by = ?, ack_comment = ? WHERE id = ?",
+        )
+        .bind(a.level.as_str())
+        .bind(a.value)
+        .bind(a.threshold)
+        .bind(&a.unit)
+        .bind(a.epoch)
+        .bind(a.observed_at.map(store::timestamp))
+        .bind(&a.message)
+        .bind(state_name(e))
+        .bind(serde_json::to_string(&a.points)?)
+        .bind(store::timestamp(e.timestamp))
+        .bind(&a.acknowledged_by)
+        .bind(&a.comment)
+        .bind(&a.id)
+        .execute(&mut *tx)
+        .await?;
+        if updated.rows_affected() == 0 {
+            sqlx::query(
+                "INSERT INTO alerts (id, site_id, point, points, level, rule, value, threshold, unit, \
+                 epoch_id, observed_at, message, state, raised_at, updated_at, acknowledged_by, \
+                 ack_comment) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            )
+            .bind(&a.id)
+            .bind(&a.site)
+            .bind(&a.point)
+            .bind(serde_json::to_string(&a.points)?)
+            .bind(a.level.as_str())
+            .bind(a.rule.as_str())
+            .bind(a.value)
+            .bind(a.threshold)
+            .bind(&a.unit)
+            .bind(a.epoch)
+            .bind(a.observed_at.map(store::timestamp))
+            .bind(&a.message)
+            .bind(state_name(e))
+            .bind(store::timestamp(a.raised_at))
+            .bind(store::timestamp(e.timestamp))
+            .bind(&a.acknowledged_by)
+            .bind(&a.comment)
+            .execute(&mut *tx)
+            .await?;
+        }
+        let id = message_id(e);
+        let exists: Option<String> =
+            sqlx::query_scalar("SELECT id FROM webhook_outbox WHERE id = ?")
+                .bind(&id)
+                .fetch_optional(&mut *tx)
+                .await?;
+        if exists.is_some() {
+            continue;
+        }
+        let body = serde_json::to_string(&WebhookPayload::from_event(e))?;
+        sqlx::query(
+            "INSERT INTO webhook_outbox (id, event_type, alert_id, level, payload, created_at) \
+             VALUES (?, ?, ?, ?, ?, ?)",
+        )
+        .bind(&id)
+        .bind(e.event_type.as_str())
+        .bind(&a.id)
+        .bind(a.level.as_str())
+        .bind(&body)
+        .bind(&now)
+        .execute(&mut *tx)
+        .await?;
+        for h in hooks.iter().filter(|h| accepts(h, e)) {
+            sqlx::query(
+                "INSERT INTO webhook_deliveries (outbox_id, webhook_id, state, next_attempt_at) \
+                 VALUES (?, ?, 'pending', ?)",
+            )
+            .bind(&id)
+            .bind(&h.id)
+            .bind(&now)
+            .execute(&mut *tx)
+            .await?;
+        }
+    }
+    Ok(raised)
+}
+
+/// Evaluates a site's rules against one epoch's analysis and records the outcome (state, alerts,
+/// outbox) in the transaction. Returns how many alerts were raised.
+pub async fn evaluate_and_record(
+    tx: &mut SqliteConnection,
+    site: &Site,
+    analysis: &EpochAnalysis,
+    now: DateTime<Utc>,
+) -> Result<usize, StoreError> {
+    let config = alert_config(site);
+    let state = load_state(&mut *tx, &site.id).await?;
+    let (state, events) = analysis::evaluate_alerts(&config, &state, analysis, now);
+    save_state(&mut *tx, &site.id, &state).await?;
+    record_events(&mut *tx, &events).await
+}
+
+/// `campaign_overdue` of every site with a schedule, in one write transaction per site that changes.
+/// Returns how many alerts were raised.
+pub async fn check_overdue_all(
+    store: &store::Store,
+    now: DateTime<Utc>,
+) -> Result<usize, StoreError> {
+    let ids: Vec<String> =
+        sqlx::query_scalar("SELECT id FROM sites WHERE schedule_hours IS NOT NULL")
+            .fetch_all(store.reader())
+            .await?;
+    let mut raised = 0;
+    for id in ids {
+        let mut tx = store.begin_write().await?;
+        let Some(site) = store::sites::get(&mut *tx, &id).await? else {
+            continue;
+        };
+        let last: Option<String> =
+            sqlx::query_scalar("SELECT MAX(observed_at) FROM epochs WHERE site_id = ?")
+                .bind(&id)
+                .fetch_one(&mut *tx)
+                .await?;
+        let last = last.as_deref().and_then(store::parse_timestamp);
+        let state = load_state(&mut tx, &id).await?;
+        let (state, events) = analysis::check_overdue(&alert_config(&site), &state, last, now);
+        if events.is_empty() {
+            continue;
+        }
+        save_state(&mut tx, &id, &state).await?;
+        raised += record_events(&mut tx, &events).await?;
+        tx.commit().await?;
+    }
+    Ok(raised)
+}
