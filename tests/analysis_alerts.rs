@@ -177,7 +177,7 @@ fn acknowledge_and_resolve_by_hand() {
     let cfg = contract_config();
     let (_, st) = feed(&cfg, &[(6.0, true)]);
     let id = st.alerts[0].id.clone();
-    assert_eq!(id, "kamo/T1/displacement_mm/2");
+    assert_eq!(id, "kamo:T1:displacement_mm:2");
     let (st, ev) = acknowledge(&st, &id, "ops", Some("seen"), t0()).expect("ack");
     assert_eq!(ev.event_type, AlertEventType::Acknowledged);
     assert_eq!(st.alerts[0].status, AlertStatus::Acknowledged);

@@ -298,7 +298,8 @@ pub enum AlertStatus {
 /// One alert (stored; its snapshot travels in every event).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Alert {
-    /// Deterministic id: `{site}/{point or -}/{rule}/{epoch or timestamp}` of the raising.
+    /// Deterministic id: `{site}:{point or -}:{rule}:{epoch or timestamp}` of the raising (no `/`, so it
+    /// fits one URL path segment).
     pub id: String,
     /// Site id.
     pub site: String,
@@ -470,7 +471,7 @@ fn apply(
         (None, Some(level)) => {
             let alert = Alert {
                 id: format!(
-                    "{site}/{}/{}/{}",
+                    "{site}:{}:{}:{}",
                     up.point.unwrap_or("-"),
                     up.kind.as_str(),
                     up.id_suffix
