@@ -11,8 +11,8 @@ use super::central::CentralImage;
 use super::epoch::{EpochInput, EpochProblem};
 use super::error::AdjustError;
 use super::frame::{similarity_fit, WorkingFrame};
-use super::lm::{levenberg_marquardt, LmOutcome};
-use super::normals::Bundle;
+use super::lm::{levenberg_marquardt, levenberg_marquardt_normals, LmOutcome};
+use super::normals::{Bundle, Normals};
 use super::orthogonal::OrthoImage;
 use super::precision::Cofactors;
 use super::report::{
@@ -20,7 +20,7 @@ use super::report::{
     PointReport, ResidualReport,
 };
 use super::result::{AdjustOptions, AdjustedPoint, Adjustment, ImageOrientation, JointCovariance};
-use super::snooping::{normalized_residual, ActiveCounts};
+use super::snooping::{normalized_residual, ActiveCounts, LinearSnooping};
 use super::start::{start_values, StartImage};
 
 /// Relative weight of the prior on point increments that holds the free network's datum during the
@@ -97,17 +97,36 @@ fn rescue(bundle: &mut Bundle, initial: &Bundle) {
 /// The first stage from the start values: with `robust`, reweighted rounds (and the leave-one-image-out
 /// rescue when they end in a poor fit) followed by the screening of gross residuals; then plain
 /// Levenberg–Marquardt.
-fn first_stage(bundle: &mut Bundle, robust: bool, max_iterations: usize) -> LmOutcome {
+/// `converged` is the outcome of an adjustment that already converged at the bundle's state (the
+/// mirror choice's); when the robust stage leaves that state as it is, it is not repeated. Without
+/// `max_iterations` the final Levenberg–Marquardt is left to the next stage (the outcome returned is
+/// then that of the state reached, marked not converged).
+fn first_stage(
+    bundle: &mut Bundle,
+    robust: bool,
+    max_iterations: Option<usize>,
+    converged: Option<LmOutcome>,
+) -> LmOutcome {
+    let mut unchanged = converged.is_some();
     if robust {
         let initial = bundle.clone();
-        robust_rounds(bundle, ROBUST_ITERATIONS, ROBUST_ROUNDS);
+        unchanged &= !robust_rounds(bundle, ROBUST_ITERATIONS, ROBUST_ROUNDS);
         if residual_scale(bundle, &residual_norms(bundle)) > RESCUE_SCALE {
             rescue(bundle, &initial);
+            unchanged = false;
         }
-        screen(bundle);
-        repair_images(bundle);
+        unchanged &= screen(bundle) == 0;
+        unchanged &= !repair_images(bundle);
     }
-    levenberg_marquardt(bundle, max_iterations)
+    match (converged, max_iterations) {
+        (Some(outcome), _) if unchanged => outcome,
+        (_, Some(max)) => levenberg_marquardt(bundle, max),
+        (_, None) => LmOutcome {
+            iterations: 0,
+            converged: false,
+            cost: bundle.cost(),
+        },
+    }
 }
 
 /// Share of an image's observations set aside beyond which its orientation is taken to be wrong (a
@@ -117,7 +136,8 @@ const REPAIR_SHARE: f64 = 0.3;
 /// Re-resects images that lost more than [`REPAIR_SHARE`] of their observations to the screening on
 /// the adjusted points, which are now accurate enough for the perspective to pick the right mirror
 /// root, and takes their observations back (the snooping judges them again).
-fn repair_images(bundle: &mut Bundle) {
+/// Returns whether the bundle changed.
+fn repair_images(bundle: &mut Bundle) -> bool {
     let before = bundle.clone();
     let active = |b: &Bundle| b.obs.iter().filter(|o| o.active).count();
     let counts = ActiveCounts::of(bundle);
@@ -164,8 +184,10 @@ fn repair_images(bundle: &mut Bundle) {
         let scale = residual_scale(bundle, &residual_norms(bundle));
         if active(bundle) <= active(&before) || scale > 1.5 {
             *bundle = before;
+            return false;
         }
     }
+    repaired
 }
 
 /// Factor on c that turns the closed-form model into the scaled orthographic (affine) projection of
@@ -197,15 +219,19 @@ fn affine_stage(bundle: &mut Bundle, robust: bool) {
 /// Reweighted rounds of the first perspective stage at most.
 const ROBUST_ROUNDS: usize = 12;
 
+/// Robust residual scale (a-priori σ) below which the start roots are kept without trying mirrors.
+const MIRROR_ACCEPT_SCALE: f64 = 1.5;
+
 /// Up to this many images with a mirror candidate, every combination is tried; beyond, greedy passes.
 const EXHAUSTIVE_MIRRORS: usize = 6;
 
 /// Planar point sets give two mirror orientations per image that the perspective of a single image may
 /// not tell apart at long range; keep, image by image, the one with which the whole network fits
 /// better ("the one consistent with the other images").
-fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) {
+/// Returns the outcome of the adjustment that kept the start roots, when it did.
+fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) -> Option<LmOutcome> {
     if mirrors.iter().all(Option::is_none) {
-        return;
+        return None;
     }
     // Compared by the robust residual scale, so that a gross error in one image cannot decide.
     let fit = |b: &Bundle| {
@@ -216,6 +242,18 @@ fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) {
     let with_mirror: Vec<usize> = (0..mirrors.len())
         .filter(|&j| mirrors[j].is_some())
         .collect();
+    // The start roots already fit at the noise level (robustly and by the plain RMS): every
+    // alternative would fit worse.
+    let mut base = bundle.clone();
+    let outcome = levenberg_marquardt(&mut base, 2 * ROBUST_ITERATIONS);
+    let norms = residual_norms(&base);
+    if outcome.converged
+        && residual_scale(&base, &norms) < MIRROR_ACCEPT_SCALE
+        && rms_scale(&base, &norms) < MIRROR_ACCEPT_SCALE
+    {
+        *bundle = base;
+        return Some(outcome);
+    }
     if with_mirror.len() <= EXHAUSTIVE_MIRRORS {
         // Every combination (2^k small networks).
         let base = bundle.clone();
@@ -233,7 +271,7 @@ fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) {
             }
         }
         *bundle = best.1;
-        return;
+        return None;
     }
     let mut best = fit(bundle);
     let mut current: Vec<ImageState> = bundle.images.clone();
@@ -257,6 +295,7 @@ fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) {
             break;
         }
     }
+    None
 }
 
 /// Iterations per round of the reweighted first stage.
@@ -301,16 +340,30 @@ fn residual_scale(bundle: &Bundle, norms: &[f64]) -> f64 {
     super::start::robust_scale(&active) / std::f64::consts::SQRT_2
 }
 
+/// Root mean square of the active residual norms, in a-priori σ of one coordinate.
+fn rms_scale(bundle: &Bundle, norms: &[f64]) -> f64 {
+    let (n, sum) = norms
+        .iter()
+        .zip(&bundle.obs)
+        .filter(|(_, o)| o.active)
+        .fold((0usize, 0.0), |(n, s), (r, _)| (n + 1, s + r * r));
+    (sum / (2 * n.max(1)) as f64).sqrt()
+}
+
 /// Iteratively reweighted least squares with Cauchy weights `1/(1 + (r/(3s))²)`, a few rounds, so
 /// that gross errors (a mislabeled target) cannot drag the solution into a wrong basin before the
-/// screening. Leaves the weights at 1.
-fn robust_rounds(bundle: &mut Bundle, iterations: usize, rounds: usize) {
-    for round in 0..rounds {
+/// screening. Leaves the weights at 1. Returns whether it adjusted (not when the residuals are at
+/// the noise level already).
+fn robust_rounds(bundle: &mut Bundle, iterations: usize, rounds: usize) -> bool {
+    let mut adjusted = false;
+    for _ in 0..rounds {
         let norms = residual_norms(bundle);
         let s = residual_scale(bundle, &norms).max(1.0);
-        if s < 1.5 && round > 0 {
+        // At the noise level already, also by the plain RMS (no gross error hides in the fit).
+        if s < 1.5 && (adjusted || rms_scale(bundle, &norms) < 1.5) {
             break;
         }
+        adjusted = true;
         for (o, r) in bundle.obs.iter_mut().zip(&norms) {
             o.weight = 1.0 / (1.0 + (r / (3.0 * s)).powi(2));
         }
@@ -319,6 +372,7 @@ fn robust_rounds(bundle: &mut Bundle, iterations: usize, rounds: usize) {
     for o in bundle.obs.iter_mut() {
         o.weight = 1.0;
     }
+    adjusted
 }
 
 fn screen(bundle: &mut Bundle) -> usize {
@@ -556,11 +610,11 @@ pub fn adjust_problem(
             - (b.camera_unknowns() + 3 * np) as i64
             + defect
     };
-    let failed = |x: &Solved| {
+    let global_test_fails = |x: &Solved| {
         let dof = dof_of(&x.bundle).max(1) as f64;
-        let vf = x.outcome.cost / dof;
-        !x.outcome.converged || (x.snooping_capped && vf > chi2_upper(dof, GLOBAL_TEST_Z) / dof)
+        x.outcome.cost / dof > chi2_upper(dof, GLOBAL_TEST_Z) / dof
     };
+    let failed = |x: &Solved| !x.outcome.converged || (x.snooping_capped && global_test_fails(x));
     let mut solved = solve(
         problem,
         options,
@@ -580,7 +634,10 @@ pub fn adjust_problem(
             }
         }
     }
-    if failed(&solved) && solved.outcome.converged {
+    // A wrong basin, whether the iteration still crawled along it or not, is refused as such.
+    if failed(&solved)
+        && (solved.outcome.converged || (solved.snooping_capped && global_test_fails(&solved)))
+    {
         let dof = dof_of(&solved.bundle).max(1) as f64;
         return Err(AdjustError::Inconsistent {
             sigma0_mm: problem.cameras[0].sigma_mm * (solved.outcome.cost / dof).sqrt(),
@@ -593,6 +650,7 @@ pub fn adjust_problem(
         cof,
         warnings: more,
         dropped,
+        w,
         ..
     } = solved;
     warnings.extend(more);
@@ -619,6 +677,7 @@ pub fn adjust_problem(
         datum,
         warnings,
         dropped,
+        w,
         &start_points,
     )
 }
@@ -631,6 +690,8 @@ struct Solved {
     warnings: Vec<String>,
     dropped: Vec<DroppedObservation>,
     snooping_capped: bool,
+    /// Normalized residuals (w_x, w_y) of every observation at the solution.
+    w: Vec<[f64; 2]>,
 }
 
 /// The pipeline from the start values: mirror choice, first stage (robust), self-calibration, the
@@ -650,20 +711,30 @@ fn solve(
     let mut warnings = Vec::new();
     // Stage 1: interior held; with snooping on, iteratively reweighted from the start so that a gross
     // error cannot pull the solution into a wrong basin; then gross residuals are set aside.
-    choose_mirrors(&mut bundle, mirrors);
+    let converged = choose_mirrors(&mut bundle, mirrors);
     let robust = options.snooping;
     if affine_first && bundle.model == Model::Orthogonal {
         affine_stage(&mut bundle, robust);
     }
+    let mut normals = None;
     let mut outcome = if options.model == Model::Orthogonal {
-        let outcome = first_stage(&mut bundle, robust, options.max_iterations);
         let stage2: Vec<[bool; 8]> = free
             .iter()
             .map(|f| [f[0], false, false, false, false, false, false, false])
             .collect();
-        if stage2.iter().flatten().any(|&f| f) {
+        let calibrate = stage2.iter().flatten().any(|&f| f);
+        // With c to be freed, stage 1 ends with the robust rounds: stage 2 converges from there.
+        let outcome = first_stage(
+            &mut bundle,
+            robust,
+            (!calibrate).then_some(options.max_iterations),
+            converged,
+        );
+        if calibrate {
             bundle.free = stage2;
-            levenberg_marquardt(&mut bundle, options.max_iterations)
+            let (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
+            normals = n;
+            outcome
         } else {
             outcome
         }
@@ -696,23 +767,28 @@ fn solve(
         bundle.model = Model::Central;
         bundle.free = free.to_vec();
         levenberg_marquardt(&mut bundle, options.max_iterations);
-        first_stage(&mut bundle, robust, options.max_iterations)
+        first_stage(&mut bundle, robust, Some(options.max_iterations), None)
     };
 
     // Data snooping, one observation at a time.
     let max_drops = (bundle.obs.len() / 10).max(1);
-    let invert = |b: &Bundle| {
-        Cofactors::new(b, datum == Datum::Free).ok_or_else(|| {
+    // The cofactors of the solution, from the normal equations of its last (negligible) step when
+    // the adjustment returned them.
+    let invert = |b: &Bundle, n: Option<Normals>| {
+        let n = n.unwrap_or_else(|| b.normals());
+        Cofactors::from_normals(b, n, datum == Datum::Free).ok_or_else(|| {
             AdjustError::Singular("the normal equations are not positive definite".into())
         })
     };
-    let max_w = |b: &Bundle, q: &Cofactors, k: usize| {
-        let w = normalized_residual(b, q, k);
-        w[0].abs().max(w[1].abs())
-    };
-    let mut cof = invert(&bundle)?;
+    let mut cof = invert(&bundle, normals)?;
+    let mut final_w = None;
     if options.snooping {
         let mut drops = bundle.obs.iter().filter(|o| !o.active).count();
+        // Between exact re-adjustments the drops are followed in the linearized problem (see
+        // `LinearSnooping`); once no |w| exceeds the critical value there, the exact adjustment
+        // from x* + Δ decides again.
+        let mut lin = LinearSnooping::new(&bundle, &cof);
+        let max_of = |w: [f64; 2]| w[0].abs().max(w[1].abs());
         loop {
             let mut worst: Option<(usize, f64)> = None;
             let counts = ActiveCounts::of(&bundle);
@@ -720,29 +796,54 @@ fn solve(
                 if !bundle.obs[k].active || !counts.droppable(&bundle, k) {
                     continue;
                 }
-                let m = max_w(&bundle, &cof, k);
+                let m = max_of(lin.w(&bundle, k));
                 if m > options.critical_w && worst.is_none_or(|(_, x)| m > x) {
                     worst = Some((k, m));
                 }
             }
-            let Some((k, _)) = worst else { break };
-            if drops >= max_drops {
+            let capped = worst.is_some() && drops >= max_drops;
+            if capped {
                 warnings.push(format!(
                     "data snooping stopped after {max_drops} dropped observations; more residuals exceed |w| = {}",
                     options.critical_w
                 ));
+            }
+            let Some((k, _)) = worst.filter(|_| !capped) else {
+                if lin.modified() {
+                    let (dc, dp) = lin.step();
+                    bundle.apply(dc, dp);
+                    let n;
+                    (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
+                    cof = invert(&bundle, n)?;
+                    lin = LinearSnooping::new(&bundle, &cof);
+                    if !capped {
+                        continue;
+                    }
+                }
                 break;
+            };
+            if !lin.drop(&bundle, &cof, k) {
+                // No redundancy left for it in the linearized problem: decide exactly.
+                let (dc, dp) = lin.step().clone();
+                bundle.obs[k].active = false;
+                bundle.apply(&dc, &dp);
+                let n;
+                (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
+                cof = invert(&bundle, n)?;
+                lin = LinearSnooping::new(&bundle, &cof);
+                drops += 1;
+                continue;
             }
             bundle.obs[k].active = false;
             drops += 1;
-            outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
-            cof = invert(&bundle)?;
         }
         // Backward step: observations set aside at the start or dropped while a worse blunder still
         // distorted the solution are tested against the final one and taken back where they fit.
         for _ in 0..3 {
             let back: Vec<usize> = (0..bundle.obs.len())
-                .filter(|&k| !bundle.obs[k].active && max_w(&bundle, &cof, k) <= options.critical_w)
+                .filter(|&k| {
+                    !bundle.obs[k].active && max_of(lin.w(&bundle, k)) <= options.critical_w
+                })
                 .collect();
             if back.is_empty() {
                 break;
@@ -750,22 +851,32 @@ fn solve(
             for k in back {
                 bundle.obs[k].active = true;
             }
-            outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
-            cof = invert(&bundle)?;
+            let n;
+            (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
+            cof = invert(&bundle, n)?;
+            lin = LinearSnooping::new(&bundle, &cof);
         }
+        final_w = Some(lin.all_w(&bundle));
     } else {
         for k in 0..bundle.obs.len() {
             bundle.obs[k].active = true;
         }
-        outcome = levenberg_marquardt(&mut bundle, options.max_iterations);
-        cof = invert(&bundle)?;
+        let n;
+        (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
+        cof = invert(&bundle, n)?;
     }
+    let w: Vec<[f64; 2]> = match final_w {
+        Some(w) => w,
+        None => (0..bundle.obs.len())
+            .map(|k| normalized_residual(&bundle, &cof, k))
+            .collect(),
+    };
     let dropped: Vec<DroppedObservation> = (0..bundle.obs.len())
         .filter(|&k| !bundle.obs[k].active)
         .map(|k| DroppedObservation {
             image: problem.images[bundle.obs[k].image].id.clone(),
             point: problem.points[bundle.obs[k].point].clone(),
-            w: max_w(&bundle, &cof, k),
+            w: w[k][0].abs().max(w[k][1].abs()),
         })
         .collect();
     let snooping_capped = warnings
@@ -778,6 +889,7 @@ fn solve(
         warnings,
         dropped,
         snooping_capped,
+        w,
     })
 }
 
@@ -794,6 +906,7 @@ fn finish(
     datum: Datum,
     warnings: Vec<String>,
     dropped: Vec<DroppedObservation>,
+    w: Vec<[f64; 2]>,
     start_points: &[Vector3<f64>],
 ) -> Result<Adjustment, AdjustError> {
     if !outcome.converged {
@@ -967,7 +1080,7 @@ fn finish(
             o.meas,
             bundle.zbar,
         );
-        let w = normalized_residual(&bundle, &cof, k);
+        let w = w[k];
         if o.active {
             sums[o.image].0 += 1;
             sums[o.image].1 += e[0] * e[0] + e[1] * e[1];

@@ -1,6 +1,6 @@
 //! Gauss–Newton with Levenberg–Marquardt damping over the bundle's normal equations.
 
-use super::normals::Bundle;
+use super::normals::{Bundle, Normals};
 
 /// How an iteration ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -13,6 +13,9 @@ pub struct LmOutcome {
     /// Final vᵀPv.
     pub cost: f64,
 }
+
+/// Largest update (in a-priori σ of its unknown) that counts as converged.
+const CONVERGED_STEP: f64 = 1e-6;
 
 /// The largest update measured in units of its a-priori σ, 1/√N_kk.
 fn step_in_sigmas(
@@ -36,59 +39,83 @@ fn step_in_sigmas(
 /// Runs Levenberg–Marquardt from the bundle's current state for at most `max_iterations` accepted
 /// steps; the bundle holds the best state found.
 pub fn levenberg_marquardt(b: &mut Bundle, max_iterations: usize) -> LmOutcome {
+    levenberg_marquardt_normals(b, max_iterations).0
+}
+
+/// As [`levenberg_marquardt`], also returning, when it converged by a negligible last step (below
+/// 1e-6 σ of every unknown), the normal equations of the state before that step: good for the
+/// cofactors of the solution without building them again.
+pub fn levenberg_marquardt_normals(
+    b: &mut Bundle,
+    max_iterations: usize,
+) -> (LmOutcome, Option<Normals>) {
     let mut lambda = 1e-4;
     let mut iterations = 0;
     let mut cost = b.cost();
     if !cost.is_finite() {
-        return LmOutcome {
+        let outcome = LmOutcome {
             iterations,
             converged: false,
             cost,
         };
+        return (outcome, None);
     }
     while iterations < max_iterations {
         let n = b.normals();
+        let saved = (b.images.clone(), b.interior.clone(), b.points.clone());
         let mut accepted = None;
         for _ in 0..20 {
             let Some((dc, dp)) = b.solve(&n, lambda) else {
                 lambda *= 10.0;
                 continue;
             };
-            let mut trial = b.clone();
-            trial.apply(&dc, &dp);
-            let c = trial.cost();
+            let step = step_in_sigmas(b, &n, &dc, &dp);
+            b.apply(&dc, &dp);
+            let c = b.cost();
+            if step < CONVERGED_STEP {
+                // The update is far below the precision of every unknown: converged. Its cost is
+                // not compared, since rounding alone can make a negligible step look like an ascent.
+                let outcome = LmOutcome {
+                    iterations: iterations + 1,
+                    converged: true,
+                    cost: c,
+                };
+                return (outcome, Some(n));
+            }
             if c.is_finite() && c <= cost * (1.0 + 1e-15) {
-                let step = step_in_sigmas(b, &n, &dc, &dp);
-                accepted = Some((trial, c, step));
+                accepted = Some((c, step));
                 lambda = (lambda * 0.2).max(1e-12);
                 break;
             }
+            (b.images, b.interior, b.points) = saved.clone();
             lambda *= 10.0;
         }
-        let Some((trial, c, step)) = accepted else {
+        let Some((c, step)) = accepted else {
             // No damping, however strong, gives a decrease: the gradient vanishes within rounding, so
             // the state is stationary (typically the start of a later stage that is already converged).
-            return LmOutcome {
+            let outcome = LmOutcome {
                 iterations,
                 converged: true,
                 cost,
             };
+            return (outcome, Some(n));
         };
         iterations += 1;
         let decrease = (cost - c) / cost.max(1e-300);
-        *b = trial;
         cost = c;
-        if step < 1e-6 || (decrease.abs() < 1e-13 && step < 1e-2) {
-            return LmOutcome {
+        if step < CONVERGED_STEP || (decrease.abs() < 1e-13 && step < 1e-2) {
+            let outcome = LmOutcome {
                 iterations,
                 converged: true,
                 cost,
             };
+            return (outcome, None);
         }
     }
-    LmOutcome {
+    let outcome = LmOutcome {
         iterations,
         converged: false,
         cost,
-    }
+    };
+    (outcome, None)
 }

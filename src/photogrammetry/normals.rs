@@ -48,6 +48,8 @@ pub struct Coupling {
     pub cols: Vec<usize>,
     /// The rows of W_i (∂e/∂camera)ᵀ P (∂e/∂point) for those columns.
     pub rows: Vec<Vector3<f64>>,
+    /// Whether `cols` ascend (then the Schur complement visits only its lower triangle's pairs).
+    pub sorted: bool,
 }
 
 impl Coupling {
@@ -152,26 +154,24 @@ impl Bundle {
             .sum()
     }
 
-    /// Global columns (and local Jacobian columns) of the camera-side unknowns of an observation.
-    pub fn camera_columns(
-        &self,
-        o: &Obs,
-        interior_cols: &[[Option<usize>; 8]],
-    ) -> Vec<(usize, usize)> {
-        let cam = self.image_camera[o.image];
-        let mut cols: Vec<(usize, usize)> = (0..6).map(|k| (6 * o.image + k, k)).collect();
-        for k in 0..8 {
-            if let Some(g) = interior_cols[cam][k] {
-                cols.push((g, INTERIOR0 + k));
-            }
-        }
-        cols
+    /// Global column and local Jacobian lane of each free interior parameter, per camera.
+    pub fn interior_lanes(&self) -> Vec<Vec<(usize, usize)>> {
+        self.interior_columns()
+            .iter()
+            .map(|c| {
+                (0..8)
+                    .filter_map(|k| c[k].map(|g| (g, INTERIOR0 + k)))
+                    .collect()
+            })
+            .collect()
     }
 
-    /// Builds the normal equations at the current state.
+    /// Builds the normal equations at the current state. Only the lower triangle of U is accumulated
+    /// (the local columns of an observation are in increasing global order: its image's six, then its
+    /// camera's interior parameters) and mirrored at the end.
     pub fn normals(&self) -> Normals {
         let nc = self.camera_unknowns();
-        let icols = self.interior_columns();
+        let lanes = self.interior_lanes();
         let mut u = Mat::<f64>::zeros(nc, nc);
         let mut bc = vec![0.0; nc];
         let np = self.points.len();
@@ -179,7 +179,14 @@ impl Bundle {
         let mut bp = vec![Vector3::zeros(); np];
         let mut w = vec![Coupling::default(); np];
         let mut cost = 0.0;
+        let mut cols = [(0usize, 0usize); 14];
         for i in 0..np {
+            let wi = &mut w[i];
+            let nobs = self.point_obs[i].len();
+            wi.cols.reserve(7 * nobs);
+            wi.rows.reserve(7 * nobs);
+            // Interior couplings, appended after the image blocks so that the columns ascend.
+            let mut interior = Coupling::default();
             for &oi in &self.point_obs[i] {
                 let o = &self.obs[oi];
                 if !o.active {
@@ -196,26 +203,42 @@ impl Bundle {
                     o.meas,
                     self.zbar,
                 );
-                let cols = self.camera_columns(o, &icols);
+                for (k, col) in cols.iter_mut().enumerate().take(6) {
+                    *col = (6 * o.image + k, k);
+                }
+                let n = 6 + lanes[cam].len();
+                cols[6..n].copy_from_slice(&lanes[cam]);
+                let mut wrows = [Vector3::zeros(); 14];
                 for fk in &f {
                     let e = fk.v;
                     cost += p * e * e;
                     let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
                     v[i] += p * jp * jp.transpose();
                     bp[i] -= p * e * jp;
-                    for &(ga, la) in &cols {
-                        let ja = fk.d[la];
-                        if ja == 0.0 {
+                    for a in 0..n {
+                        let (ga, la) = cols[a];
+                        let pja = p * fk.d[la];
+                        if pja == 0.0 {
                             continue;
                         }
-                        bc[ga] -= p * e * ja;
-                        for &(gb, lb) in &cols {
-                            u[(ga, gb)] += p * ja * fk.d[lb];
+                        bc[ga] -= pja * e;
+                        for &(gb, lb) in &cols[..=a] {
+                            u[(ga, gb)] += pja * fk.d[lb];
                         }
-                        w[i].add(ga, p * ja * jp);
+                        wrows[a] += pja * jp;
                     }
                 }
+                for a in 0..6 {
+                    wi.cols.push(cols[a].0);
+                    wi.rows.push(wrows[a]);
+                }
+                for a in 6..n {
+                    interior.add(cols[a].0, wrows[a]);
+                }
             }
+            wi.cols.extend_from_slice(&interior.cols);
+            wi.rows.extend_from_slice(&interior.rows);
+            wi.sorted = wi.cols.windows(2).all(|c| c[0] < c[1]);
             if let Some((xc, s)) = self.control[i] {
                 let p = 1.0 / (s * s);
                 let e = self.points[i] - xc;
@@ -224,7 +247,7 @@ impl Bundle {
                 bp[i] -= p * e;
             }
         }
-        for (cam, cols) in icols.iter().enumerate() {
+        for (cam, cols) in self.interior_columns().iter().enumerate() {
             for k in 0..8 {
                 if let (Some(g), Some((v, s))) = (cols[k], self.interior_prior[cam][k]) {
                     let p = 1.0 / (s * s);
@@ -233,6 +256,11 @@ impl Bundle {
                     u[(g, g)] += p;
                     bc[g] -= p * e;
                 }
+            }
+        }
+        for a in 0..nc {
+            for b in 0..a {
+                u[(b, a)] = u[(a, b)];
             }
         }
         Normals {
@@ -245,7 +273,8 @@ impl Bundle {
         }
     }
 
-    /// Reduces the normal equations with Marquardt damping λ (diagonal scaled by 1 + λ).
+    /// Reduces the normal equations with Marquardt damping λ (diagonal scaled by 1 + λ). Only the
+    /// lower triangle of S is formed (all the Cholesky factorization reads); the upper keeps U's.
     pub fn reduce(&self, n: &Normals, lambda: f64) -> Option<Reduced> {
         let nc = n.bc.len();
         let mut s = n.u.clone();
@@ -256,6 +285,9 @@ impl Bundle {
         }
         let mut rhs = n.bc.clone();
         let mut vinv = Vec::with_capacity(n.v.len());
+        // (W V⁻¹) by components, so that the update of a run of consecutive columns vectorizes.
+        let mut wv: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
+        let mut run_end: Vec<usize> = Vec::new();
         for (i, vi) in n.v.iter().enumerate() {
             let mut vd = *vi;
             for k in 0..3 {
@@ -263,11 +295,48 @@ impl Bundle {
             }
             let inv = vd.try_inverse()?;
             let wi = &n.w[i];
-            let wv: Vec<Vector3<f64>> = wi.rows.iter().map(|r| inv * r).collect();
+            let nw = wi.cols.len();
+            for (k, c) in wv.iter_mut().enumerate() {
+                c.clear();
+                c.extend(wi.rows.iter().map(|r| (inv * r)[k]));
+            }
             for (a, &ca) in wi.cols.iter().enumerate() {
-                rhs[ca] -= wv[a].dot(&n.bp[i]);
-                for (b, &cb) in wi.cols.iter().enumerate() {
-                    s[(ca, cb)] -= wv[a].dot(&wi.rows[b]);
+                rhs[ca] -= wv[0][a] * n.bp[i].x + wv[1][a] * n.bp[i].y + wv[2][a] * n.bp[i].z;
+            }
+            if wi.sorted {
+                // End (exclusive) of the run of consecutive global columns that holds each entry.
+                run_end.clear();
+                run_end.resize(nw, nw);
+                for a in (0..nw.saturating_sub(1)).rev() {
+                    run_end[a] = if wi.cols[a + 1] == wi.cols[a] + 1 {
+                        run_end[a + 1]
+                    } else {
+                        a + 1
+                    };
+                }
+            }
+            // S[ca, cb] −= (W V⁻¹)_a · W_b for ca ≥ cb, column by column.
+            for (b, &cb) in wi.cols.iter().enumerate() {
+                let rb = wi.rows[b];
+                let col = s.col_as_slice_mut(cb);
+                if wi.sorted {
+                    let mut a = b;
+                    while a < nw {
+                        let end = run_end[a];
+                        let g = wi.cols[a];
+                        let dst = &mut col[g..g + (end - a)];
+                        let (x, y, z) = (&wv[0][a..end], &wv[1][a..end], &wv[2][a..end]);
+                        for (((d, x), y), z) in dst.iter_mut().zip(x).zip(y).zip(z) {
+                            *d -= x * rb.x + y * rb.y + z * rb.z;
+                        }
+                        a = end;
+                    }
+                } else {
+                    for (a, &ca) in wi.cols.iter().enumerate() {
+                        if ca >= cb {
+                            col[ca] -= wv[0][a] * rb.x + wv[1][a] * rb.y + wv[2][a] * rb.z;
+                        }
+                    }
                 }
             }
             vinv.push(inv);

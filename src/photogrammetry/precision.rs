@@ -6,7 +6,8 @@ use faer::linalg::solvers::DenseSolveCore;
 use faer::{Mat, Side};
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
-use super::bundle::{residual_jacobian, Obs, POINT0};
+use super::bundle::{residual_jacobian, Obs, LOCAL, POINT0};
+use super::dual::Dual;
 use super::normals::{Bundle, Normals};
 
 type G = SMatrix<f64, 3, 7>;
@@ -28,7 +29,12 @@ impl Cofactors {
     /// Inverts the normal equations at the bundle's state. `free_network` applies the S-transform to
     /// the inner constraints (about the centroid of the points) to every point cofactor block.
     pub fn new(b: &Bundle, free_network: bool) -> Option<Self> {
-        let normals = b.normals();
+        Self::from_normals(b, b.normals(), free_network)
+    }
+
+    /// As [`Cofactors::new`] from normal equations already built (those of the last, negligible step
+    /// of the adjustment).
+    pub fn from_normals(b: &Bundle, normals: Normals, free_network: bool) -> Option<Self> {
         let reduced = b.reduce(&normals, 0.0)?;
         let nc = reduced.rhs.len();
         let qcc = if nc > 0 {
@@ -122,14 +128,15 @@ impl Cofactors {
     /// Raw cofactor block Q_ab of points a and b (before the datum projection).
     fn raw_point_block(&self, a: usize, b: usize) -> Matrix3<f64> {
         let (wa, wb) = (&self.normals.w[a], &self.normals.w[b]);
+        // Σ_x Σ_y Q(cx, cy) wa_x wb_yᵀ, one column of Q at a time.
         let mut inner = Matrix3::zeros();
-        for (x, &cx) in wa.cols.iter().enumerate() {
-            for (y, &cy) in wb.cols.iter().enumerate() {
-                let q = self.qcc[(cx, cy)];
-                if q != 0.0 {
-                    inner += q * wa.rows[x] * wb.rows[y].transpose();
-                }
+        for (y, &cy) in wb.cols.iter().enumerate() {
+            let q = self.qcc.col_as_slice(cy);
+            let mut t = Vector3::zeros();
+            for (x, &cx) in wa.cols.iter().enumerate() {
+                t += q[cx] * wa.rows[x];
             }
+            inner += t * wb.rows[y].transpose();
         }
         let mut q = self.vinv[a] * inner * self.vinv[b];
         if a == b {
@@ -150,6 +157,43 @@ impl Cofactors {
         }
     }
 
+    /// `N⁻¹ [bc; bp]` through the Schur complement (raw cofactors, before any datum projection):
+    /// (camera unknowns, points).
+    pub fn solve(&self, bc: &[f64], bp: &[Vector3<f64>]) -> (Vec<f64>, Vec<Vector3<f64>>) {
+        let n = &self.normals;
+        let nc = self.qcc.nrows();
+        // Reduced right-hand side b_c − Σ W V⁻¹ b_p.
+        let mut rhs = bc.to_vec();
+        for (i, w) in n.w.iter().enumerate() {
+            if bp[i] == Vector3::zeros() {
+                continue;
+            }
+            let vb = self.vinv[i] * bp[i];
+            for (a, &ca) in w.cols.iter().enumerate() {
+                rhs[ca] -= w.rows[a].dot(&vb);
+            }
+        }
+        let mut dc = vec![0.0; nc];
+        for (s, &r) in rhs.iter().enumerate() {
+            if r != 0.0 {
+                for (d, q) in dc.iter_mut().zip(self.qcc.col_as_slice(s)) {
+                    *d += q * r;
+                }
+            }
+        }
+        let dp = (0..n.v.len())
+            .map(|i| {
+                let w = &n.w[i];
+                let mut b = bp[i];
+                for (a, &ca) in w.cols.iter().enumerate() {
+                    b -= w.rows[a] * dc[ca];
+                }
+                self.vinv[i] * b
+            })
+            .collect();
+        (dc, dp)
+    }
+
     /// Cofactor of interior parameter at global column `col`.
     pub fn camera_cofactor(&self, col: usize) -> f64 {
         self.qcc[(col, col)]
@@ -159,8 +203,6 @@ impl Cofactors {
     /// value. Datum-invariant, so the raw cofactors serve.
     pub fn predicted_cofactor(&self, b: &Bundle, o: &Obs) -> [f64; 2] {
         let cam = b.image_camera[o.image];
-        let icols = b.interior_columns();
-        let cols = b.camera_columns(o, &icols);
         let f = residual_jacobian(
             b.model,
             &b.images[o.image],
@@ -170,20 +212,40 @@ impl Cofactors {
             o.meas,
             b.zbar,
         );
+        self.predicted_cofactor_of(b, o, &f, &b.interior_lanes()[cam])
+    }
+
+    /// [`Cofactors::predicted_cofactor`] from the observation's Jacobian `f` and its camera's
+    /// interior lanes (see [`Bundle::interior_lanes`]).
+    pub fn predicted_cofactor_of(
+        &self,
+        b: &Bundle,
+        o: &Obs,
+        f: &[Dual<LOCAL>; 2],
+        interior_lanes: &[(usize, usize)],
+    ) -> [f64; 2] {
+        let _ = b;
+        let mut cols = [(0usize, 0usize); 14];
+        for (l, c) in cols.iter_mut().enumerate().take(6) {
+            *c = (6 * o.image + l, l);
+        }
+        let n = 6 + interior_lanes.len();
+        cols[6..n].copy_from_slice(interior_lanes);
+        let cols = &cols[..n];
         let i = o.point;
         let w = &self.normals.w[i];
         let qpp = self.qpp[i];
         // Q_cp restricted to this observation's columns: −S⁻¹[L, cols_i] W_i V_i⁻¹.
-        let qcp: Vec<Vector3<f64>> = cols
-            .iter()
-            .map(|&(g, _)| {
-                let mut acc = Vector3::zeros();
-                for (a, &ca) in w.cols.iter().enumerate() {
-                    acc += self.qcc[(g, ca)] * w.rows[a];
-                }
-                -(self.vinv[i] * acc)
-            })
-            .collect();
+        let mut qcp = [Vector3::zeros(); 14];
+        for (x, &(g, _)) in cols.iter().enumerate() {
+            // Q is symmetric: row g is column g.
+            let q = self.qcc.col_as_slice(g);
+            let mut acc = Vector3::zeros();
+            for (a, &ca) in w.cols.iter().enumerate() {
+                acc += q[ca] * w.rows[a];
+            }
+            qcp[x] = -(self.vinv[i] * acc);
+        }
         let mut out = [0.0; 2];
         for (k, fk) in f.iter().enumerate() {
             let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
@@ -194,9 +256,12 @@ impl Cofactors {
                     continue;
                 }
                 s += 2.0 * jx * qcp[x].dot(&jp);
-                for &(gy, ly) in &cols {
-                    s += jx * self.qcc[(gx, gy)] * fk.d[ly];
+                let q = self.qcc.col_as_slice(gx);
+                let mut t = 0.0;
+                for &(gy, ly) in cols {
+                    t += q[gy] * fk.d[ly];
                 }
+                s += jx * t;
             }
             out[k] = s;
         }

@@ -2,7 +2,10 @@
 //! a-priori σ; the observation with the largest |w| beyond the critical value is dropped and the
 //! adjustment repeated, one at a time.
 
-use super::bundle::residual_value;
+use nalgebra::{Matrix2, Vector2, Vector3};
+
+use super::bundle::{residual_jacobian, residual_value, LOCAL, POINT0};
+use super::dual::Dual;
 use super::normals::Bundle;
 use super::precision::Cofactors;
 
@@ -19,8 +22,20 @@ pub fn normalized_residual(b: &Bundle, q: &Cofactors, o_index: usize) -> [f64; 2
         o.meas,
         b.zbar,
     );
+    normalized(b, q, o_index, e)
+}
+
+/// Normalized residuals (see [`normalized_residual`]) of observation `o_index` for the residual `e` (mm).
+pub fn normalized(b: &Bundle, q: &Cofactors, o_index: usize, e: [f64; 2]) -> [f64; 2] {
+    w_of(b, o_index, e, q.predicted_cofactor(b, &b.obs[o_index]))
+}
+
+/// Normalized residuals of observation `o_index` from its residual `e` (mm) and the cofactor `aqa` of
+/// its predicted value (mm²).
+fn w_of(b: &Bundle, o_index: usize, e: [f64; 2], aqa: [f64; 2]) -> [f64; 2] {
+    let o = &b.obs[o_index];
+    let cam = b.image_camera[o.image];
     let s2 = b.sigma[cam] * b.sigma[cam];
-    let aqa = q.predicted_cofactor(b, o);
     let mut w = [0.0; 2];
     for k in 0..2 {
         let var = if o.active {
@@ -68,5 +83,209 @@ impl ActiveCounts {
         let o = &b.obs[o_index];
         self.per_point[o.point] -= 1;
         self.per_image[o.image] -= 1;
+    }
+}
+
+/// One observation removed in the linearized phase: `U = Q aₖᵀ` (two columns, camera unknowns and
+/// points) with Q the cofactors before its removal, and `M⁻¹ = (P⁻¹ − aₖ Q aₖᵀ)⁻¹`.
+struct Removal {
+    cams: [Vec<f64>; 2],
+    points: [Vec<Vector3<f64>>; 2],
+    m_inv: Matrix2<f64>,
+}
+
+/// Data snooping between exact re-adjustments. From the exact solution x* (cofactors Q₀), each
+/// dropped observation k changes the linearized problem by a rank-2 downdate of the normal
+/// equations, whose effect on the others follows from the Sherman–Morrison–Woodbury identity:
+/// `Q' = Q + U M⁻¹ Uᵀ` with `U = Q aₖᵀ`, `M = P⁻¹ − aₖ Q aₖᵀ` (the cofactor of its residual), so
+/// `aⱼ Q' aⱼᵀ = aⱼ Q aⱼᵀ + (aⱼU) M⁻¹ (aⱼU)ᵀ` and the residuals `eⱼ' = eⱼ + (aⱼU) M⁻¹ eₖ`. Each drop
+/// costs one solve with the factored normal equations and a pass over the observations instead of
+/// a re-adjustment and a new inverse.
+pub struct LinearSnooping {
+    /// Jacobian rows (and residuals at x*) per observation.
+    jac: Vec<[Dual<LOCAL>; 2]>,
+    /// Current linearized residuals per observation (mm).
+    e: Vec<[f64; 2]>,
+    /// Current a Q aᵀ (x and y) per observation (mm², a-priori scale).
+    aqa: Vec<[f64; 2]>,
+    lanes: Vec<Vec<(usize, usize)>>,
+    removals: Vec<Removal>,
+    /// Accumulated update of the unknowns since x*: (camera unknowns, points).
+    step: (Vec<f64>, Vec<Vector3<f64>>),
+}
+
+impl LinearSnooping {
+    /// Starts from the exact solution held by the bundle and its cofactors.
+    pub fn new(b: &Bundle, q: &Cofactors) -> Self {
+        let jac: Vec<[Dual<LOCAL>; 2]> = b
+            .obs
+            .iter()
+            .map(|o| {
+                let cam = b.image_camera[o.image];
+                residual_jacobian(
+                    b.model,
+                    &b.images[o.image],
+                    &b.interior[cam],
+                    &b.free[cam],
+                    &b.points[o.point],
+                    o.meas,
+                    b.zbar,
+                )
+            })
+            .collect();
+        let e = jac.iter().map(|f| [f[0].v, f[1].v]).collect();
+        let lanes = b.interior_lanes();
+        let aqa = b
+            .obs
+            .iter()
+            .zip(&jac)
+            .map(|(o, f)| q.predicted_cofactor_of(b, o, f, &lanes[b.image_camera[o.image]]))
+            .collect();
+        let nc = b.camera_unknowns();
+        LinearSnooping {
+            jac,
+            e,
+            aqa,
+            lanes,
+            removals: Vec::new(),
+            step: (vec![0.0; nc], vec![Vector3::zeros(); b.points.len()]),
+        }
+    }
+
+    /// Normalized residuals of observation `k` in the current linearized state (see
+    /// [`normalized_residual`]).
+    pub fn w(&self, b: &Bundle, k: usize) -> [f64; 2] {
+        w_of(b, k, self.e[k], self.aqa[k])
+    }
+
+    /// Whether observations were removed since x*.
+    pub fn modified(&self) -> bool {
+        !self.removals.is_empty()
+    }
+
+    /// Normalized residuals of every observation (see [`LinearSnooping::w`]).
+    pub fn all_w(&self, b: &Bundle) -> Vec<[f64; 2]> {
+        (0..b.obs.len()).map(|k| self.w(b, k)).collect()
+    }
+
+    /// The accumulated update of the unknowns since x* (camera unknowns, points).
+    pub fn step(&self) -> &(Vec<f64>, Vec<Vector3<f64>>) {
+        &self.step
+    }
+
+    /// Row r of observation j's Jacobian times the vectors (cams, points).
+    fn row_times(
+        &self,
+        b: &Bundle,
+        j: usize,
+        r: usize,
+        cams: &[f64],
+        points: &[Vector3<f64>],
+    ) -> f64 {
+        let o = &b.obs[j];
+        let d = &self.jac[j][r].d;
+        let mut s = 0.0;
+        for l in 0..6 {
+            s += d[l] * cams[6 * o.image + l];
+        }
+        for &(g, lane) in &self.lanes[b.image_camera[o.image]] {
+            s += d[lane] * cams[g];
+        }
+        let p = points[o.point];
+        s + d[POINT0] * p.x + d[POINT0 + 1] * p.y + d[POINT0 + 2] * p.z
+    }
+
+    /// Removes observation `k` (still marked active in `b`) from the linearized problem. `q` are the
+    /// cofactors of x*. Returns false when its residual has no redundancy left (M singular).
+    pub fn drop(&mut self, b: &Bundle, q: &Cofactors, k: usize) -> bool {
+        let o = &b.obs[k];
+        let cam = b.image_camera[o.image];
+        let nc = self.step.0.len();
+        let np = self.step.1.len();
+        // U = Q₀ aₖᵀ + Σ previous U M⁻¹ (aₖ U)ᵀ.
+        let mut cams: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+        let mut points: [Vec<Vector3<f64>>; 2] = [Vec::new(), Vec::new()];
+        for r in 0..2 {
+            let d = &self.jac[k][r].d;
+            let mut bc = vec![0.0; nc];
+            for l in 0..6 {
+                bc[6 * o.image + l] = d[l];
+            }
+            for &(g, lane) in &self.lanes[cam] {
+                bc[g] = d[lane];
+            }
+            let mut bp = vec![Vector3::zeros(); np];
+            bp[o.point] = Vector3::new(d[POINT0], d[POINT0 + 1], d[POINT0 + 2]);
+            let (c, p) = q.solve(&bc, &bp);
+            cams[r] = c;
+            points[r] = p;
+        }
+        for rem in &self.removals {
+            // A = aₖ U_e (2 × 2), then U += U_e M_e⁻¹ Aᵀ.
+            let mut a = Matrix2::zeros();
+            for r in 0..2 {
+                for c in 0..2 {
+                    a[(r, c)] = self.row_times(b, k, r, &rem.cams[c], &rem.points[c]);
+                }
+            }
+            let coef = rem.m_inv * a.transpose();
+            for r in 0..2 {
+                for c in 0..2 {
+                    let f = coef[(c, r)];
+                    if f != 0.0 {
+                        for (x, y) in cams[r].iter_mut().zip(&rem.cams[c]) {
+                            *x += f * y;
+                        }
+                        for (x, y) in points[r].iter_mut().zip(&rem.points[c]) {
+                            *x += f * y;
+                        }
+                    }
+                }
+            }
+        }
+        let s2 = b.sigma[cam] * b.sigma[cam] / o.weight;
+        let mut aqa_k = Matrix2::zeros();
+        for r in 0..2 {
+            for c in 0..2 {
+                aqa_k[(r, c)] = self.row_times(b, k, r, &cams[c], &points[c]);
+            }
+        }
+        let m = Matrix2::identity() * s2 - aqa_k;
+        let Some(m_inv) = m
+            .try_inverse()
+            .filter(|_| m.determinant() > 1e-12 * s2 * s2)
+        else {
+            return false;
+        };
+        let ek = Vector2::from(self.e[k]);
+        let gain = m_inv * ek;
+        for j in 0..b.obs.len() {
+            let mut a = Matrix2::zeros();
+            for r in 0..2 {
+                for c in 0..2 {
+                    a[(r, c)] = self.row_times(b, j, r, &cams[c], &points[c]);
+                }
+            }
+            let de = a * gain;
+            let dq = a * m_inv * a.transpose();
+            for r in 0..2 {
+                self.e[j][r] += de[r];
+                self.aqa[j][r] += dq[(r, r)];
+            }
+        }
+        for c in 0..2 {
+            for (x, y) in self.step.0.iter_mut().zip(&cams[c]) {
+                *x += gain[c] * y;
+            }
+            for (x, y) in self.step.1.iter_mut().zip(&points[c]) {
+                *x += gain[c] * y;
+            }
+        }
+        self.removals.push(Removal {
+            cams,
+            points,
+            m_inv,
+        });
+        true
     }
 }
