@@ -12,7 +12,9 @@ pub mod alerts;
 pub mod displacements;
 pub mod epochs;
 pub mod points;
+pub mod series;
 pub mod sites;
+pub mod sqlite_raw;
 pub mod webhooks;
 
 use std::path::Path;
@@ -39,6 +41,14 @@ pub enum StoreError {
     /// A stored JSON column does not parse.
     #[error("stored JSON: {0}")]
     Json(#[from] serde_json::Error),
+    /// A direct SQLite call failed (the series reader, [`sqlite_raw`]).
+    #[error("sqlite ({code}): {message}")]
+    Sqlite {
+        /// SQLite result code (0: the reader thread itself failed).
+        code: i32,
+        /// What failed and SQLite's message.
+        message: String,
+    },
     /// The data directory cannot be created.
     #[error("data directory: {0}")]
     Io(#[from] std::io::Error),
@@ -154,6 +164,12 @@ pub fn parse_timestamp(s: &str) -> Option<DateTime<Utc>> {
 
 /// Formats a stored time for the API: RFC 3339 with `Z`, seconds unless sub-second.
 pub fn display_timestamp(s: &str) -> String {
+    if let Some(short) = series::shortened(s.as_bytes()) {
+        let mut out = String::with_capacity(short.len() + 1);
+        out.push_str(std::str::from_utf8(short).unwrap_or_default());
+        out.push('Z');
+        return out;
+    }
     parse_timestamp(s)
         .map(|t| t.to_rfc3339_opts(SecondsFormat::AutoSi, true))
         .unwrap_or_else(|| s.to_string())
