@@ -216,6 +216,19 @@ fn database_size(_c: &mut Criterion) {
                 .await;
             assert_eq!(status, 201);
         }
+        // where the bytes are (SQLite's dbstat table: pages per table and index)
+        let tables: Vec<(String, i64)> = sqlx::query_as(
+            "SELECT name, SUM(pgsize) FROM dbstat GROUP BY name ORDER BY 2 DESC LIMIT 16",
+        )
+        .fetch_all(server.store.reader())
+        .await
+        .unwrap();
+        for (name, bytes) in tables {
+            println!(
+                "service/database_size: {name}: {:.1} kB per epoch",
+                bytes as f64 / n as f64 / 1000.0
+            );
+        }
         base
     });
     // Closing the last connection checkpoints the WAL into the file: measure after the stop.

@@ -25,7 +25,7 @@ use crate::store::webhooks::level_rank;
 use crate::store::{alerts, display_timestamp};
 
 /// One line of the point list.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, utoipa::ToSchema)]
 pub struct PointItem {
     /// Point name.
     pub point: String,
@@ -36,6 +36,7 @@ pub struct PointItem {
     /// Direction of interest, site frame.
     pub direction: Option<[f64; 3]>,
     /// Latest coordinates: epoch, observed_at, X/Y/Z in m and σ in mm.
+    #[schema(value_type = Option<Object>)]
     pub latest: Option<serde_json::Value>,
     /// Latest displacement.
     pub displacement: Option<Displacement>,
@@ -45,7 +46,7 @@ pub struct PointItem {
 
 /// `GET /api/v1/sites/{site}/points`: every point (by name) with its latest state.
 #[utoipa::path(get, path = "/api/v1/sites/{site}/points", params(("site" = String, Path), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
-    responses((status = 200, description = "{items: [point], next_cursor}"), (status = 404, description = "unknown site")))]
+    responses((status = 200, description = "points by name", body = crate::api::list::Page<PointItem>), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
@@ -111,7 +112,7 @@ fn along(d: &Displacement, direction: Option<[f64; 3]>) -> Option<f64> {
 /// `PUT /api/v1/sites/{site}/points/{point}`: sets role, group, direction of interest (creates the
 /// point when new, so roles can be set before the first epoch).
 #[utoipa::path(put, path = "/api/v1/sites/{site}/points/{point}", request_body = PointSettings, params(("site" = String, Path), ("point" = String, Path)),
-    responses((status = 200, body = crate::store::points::Point), (status = 404, description = "unknown site"), (status = 422, description = "invalid settings")))]
+    responses((status = 200, body = crate::store::points::Point), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid settings", body = crate::api::schemas::ErrorBody)))]
 pub async fn update(
     State(state): State<AppState>,
     ApiPath((site, point)): ApiPath<(String, String)>,
@@ -169,7 +170,7 @@ pub use crate::store::series::CSV_HEADER;
 #[utoipa::path(get, path = "/api/v1/sites/{site}/points/{point}/displacements",
     params(("site" = String, Path), ("point" = String, Path), ("from" = Option<String>, Query), ("to" = Option<String>, Query),
            ("format" = Option<String>, Query, description = "json or csv"), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
-    responses((status = 200, description = "{items: [displacement], next_cursor} or text/csv"), (status = 404, description = "unknown site or point")))]
+    responses((status = 200, description = "the time series, oldest first: a page (JSON) or the whole range (CSV, columns as CSV_HEADER)", content((crate::api::list::Page<crate::store::displacements::Displacement> = "application/json"), (String = "text/csv"))), (status = 404, description = "unknown site or point", body = crate::api::schemas::ErrorBody)))]
 pub async fn displacements(
     State(state): State<AppState>,
     ApiPath((site, point)): ApiPath<(String, String)>,
