@@ -262,3 +262,32 @@ fn stored_times_display_as_chrono_prints_them() {
     );
     assert_eq!(display_timestamp("not a time"), "not a time");
 }
+
+#[test]
+fn analysis_records_map_to_rows_and_back() {
+    use cliffwatch::analysis::DisplacementRecord;
+    let t = DateTime::parse_from_rfc3339("2026-03-01T12:34:56.789012Z")
+        .unwrap()
+        .with_timezone(&Utc);
+    let record = DisplacementRecord {
+        point: "T7".into(),
+        epoch: 42,
+        observed_at: t,
+        dx_mm: 1.25,
+        dy_mm: -0.5,
+        dz_mm: 3e-7,
+        d_mm: 1.3462912017836262,
+        sigma_dx_mm: 0.1,
+        sigma_dy_mm: 0.2,
+        sigma_dz_mm: 0.3,
+        sigma_mm: 0.15,
+        d_along_mm: Some(-0.5),
+        significant: true,
+        velocity_mm_per_day: None,
+        time_to_failure_hours: Some(36.0),
+    };
+    let row = Displacement::from_record(&record, 3);
+    assert_eq!(row.reference_epoch, 3);
+    assert_eq!(row.observed_at, "2026-03-01T12:34:56.789012Z");
+    assert_eq!(row.to_record(), Some(record));
+}

@@ -233,7 +233,7 @@ pub async fn displacements(
         .last_observed_at
         .filter(|_| written.more)
         .map(|last| encode(&last));
-    serde_json::to_writer(&mut out, &next).map_err(|e| ApiError::internal(e))?;
+    serde_json::to_writer(&mut out, &next).map_err(ApiError::internal)?;
     out.push(b'}');
     Ok(([(header::CONTENT_TYPE, "application/json")], out).into_response())
 }

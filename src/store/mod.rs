@@ -6,7 +6,28 @@
 //! SQLite-only forms where a standard one exists, so a PostgreSQL backend can follow.
 //!
 //! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`displacements`], [`alerts`],
-//! [`webhooks`].
+//! [`webhooks`]; [`series`] serves a point's displacement time series fast.
+//!
+//! # SQLite-specific constructs (all of them; what a PostgreSQL backend would replace)
+//! - Connection set-up in [`Store::open`] and [`backup_file`]: `SqliteConnectOptions` with WAL,
+//!   `synchronous = NORMAL`, `foreign_keys`, busy timeout, read-only read pool (PostgreSQL: a
+//!   `PgPool`; foreign keys and MVCC readers are built in).
+//! - `BEGIN IMMEDIATE` in [`Store::begin_write`] (PostgreSQL: `BEGIN`; writers do not upgrade locks).
+//! - `VACUUM INTO ?` in [`Store::backup`] and [`backup_file`] (PostgreSQL: `pg_dump`/base backups).
+//! - [`sqlite_raw`]: the SQLite C API under sqlx's connection, used by [`series`] only; the portable
+//!   read of the same rows is [`displacements::series`] (a PostgreSQL backend feeds the series
+//!   writers from its own row loop, e.g. `COPY … TO STDOUT` or a cursor).
+//! - `WITHOUT ROWID` on `displacements` in the first migration (SQLite's clustering clause;
+//!   PostgreSQL: the same primary key, plus `CLUSTER` if wanted). Migrations are SQLite's dialect
+//!   otherwise only in types that PostgreSQL reads the same way (`TEXT`, `BIGINT`,
+//!   `DOUBLE PRECISION`, `BOOLEAN`); a PostgreSQL backend keeps its own migration directory.
+//! - `?` placeholders in every query (PostgreSQL: `$1`, `$2`, …).
+//! - [`TEXT_MAX`], the open upper bound of text ranges, relies on binary (memcmp) text order,
+//!   SQLite's default collation (PostgreSQL: `COLLATE "C"` on the key columns or no bound).
+//! - Portable and used as is: `ON CONFLICT … DO UPDATE/NOTHING` with `excluded.`, `ALTER TABLE …
+//!   ADD COLUMN`, timestamps as fixed-width RFC 3339 text, JSON documents as text.
+//! - Benchmarks and tests only: `strftime`, `printf`, `WITH RECURSIVE` fills and the `dbstat`
+//!   table (`benches/service.rs`, `tests/service_series.rs`).
 
 pub mod alerts;
 pub mod displacements;
@@ -144,6 +165,9 @@ impl Store {
         self.write.close().await;
     }
 }
+
+/// Above every stored text key under binary text order: the open upper bound of range queries.
+pub const TEXT_MAX: &str = "\u{10FFFF}";
 
 /// Formats a time the way the store keeps it: RFC 3339, UTC, microseconds (sorts as text).
 pub fn timestamp(t: DateTime<Utc>) -> String {
