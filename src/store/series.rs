@@ -223,7 +223,7 @@ fn params(q: &SeriesQuery) -> [Param<'_>; 6] {
         Param::Text(q.to.as_deref().unwrap_or(super::TEXT_MAX)),
         Param::Text(q.after.as_deref().unwrap_or("")),
         // one more than asked: it tells whether there are more
-        Param::Int(q.limit.map_or(-1, |l| l.max(0).saturating_add(1))),
+        Param::Int(q.limit.map_or(i64::MAX, |l| l.max(0).saturating_add(1))),
     ]
 }
 
