@@ -2,7 +2,8 @@
 //! - `upload_5x28`: upload of a 5-image × 28-point epoch, end to end over HTTP (parse, validate,
 //!   adjust, store in one transaction, answer the summary);
 //! - `series_87600/*`: the displacement time series of one point of a site with 87 600 epochs
-//!   (10 years hourly) × 30 points, as CSV (whole series) and as one JSON page of 1000;
+//!   (10 years hourly) × 30 points: as CSV (whole series, streamed), the CSV's store part alone
+//!   (read and format, no HTTP), one JSON page of 1000, and every JSON page following the cursor;
 //! - the database size per 10 000 epochs of 30 points (printed, from `CLIFFWATCH_BENCH_SIZE_EPOCHS`
 //!   real uploads, default 500, scaled linearly).
 
@@ -112,16 +113,16 @@ fn series(c: &mut Criterion) {
     g.bench_function("csv_all", |b| {
         b.iter(|| {
             rt.block_on(async {
-                let text = server
+                let body = server
                     .client
                     .get(&csv)
                     .send()
                     .await
                     .unwrap()
-                    .text()
+                    .bytes()
                     .await
                     .unwrap();
-                assert_eq!(text.lines().count(), 87_601);
+                assert_eq!(body.iter().filter(|&&c| c == b'\n').count(), 87_601);
             })
         })
     });
@@ -137,6 +138,54 @@ fn series(c: &mut Criterion) {
                     .bytes()
                     .await
                     .unwrap()
+            })
+        })
+    });
+    // the store's part of the CSV alone (no HTTP): read, format in batches, collect the chunks
+    g.bench_function("csv_all_store_only", |b| {
+        b.iter(|| {
+            rt.block_on(async {
+                let q = cliffwatch::store::series::SeriesQuery {
+                    site: "long".into(),
+                    point: "T017".into(),
+                    ..Default::default()
+                };
+                let mut rx = cliffwatch::store::series::stream_csv(server.store.reader(), q)
+                    .await
+                    .unwrap();
+                let mut lines = 0;
+                while let Some(chunk) = rx.recv().await {
+                    lines += chunk.unwrap().iter().filter(|&&c| c == b'\n').count();
+                }
+                assert_eq!(lines, 87_601);
+            })
+        })
+    });
+    // the whole series as JSON: every page of 1000 (the contract's largest), following the cursor
+    let first = server.url("/api/v1/sites/long/points/T017/displacements?limit=1000");
+    g.sample_size(10);
+    g.bench_function("json_all_pages", |b| {
+        b.iter(|| {
+            rt.block_on(async {
+                let mut url = first.clone();
+                let mut rows = 0;
+                loop {
+                    let page: serde_json::Value = server
+                        .client
+                        .get(&url)
+                        .send()
+                        .await
+                        .unwrap()
+                        .json()
+                        .await
+                        .unwrap();
+                    rows += page["items"].as_array().unwrap().len();
+                    match page["next_cursor"].as_str() {
+                        Some(c) => url = format!("{first}&cursor={c}"),
+                        None => break,
+                    }
+                }
+                assert_eq!(rows, 87_600);
             })
         })
     });
@@ -166,6 +215,19 @@ fn database_size(_c: &mut Criterion) {
                 )
                 .await;
             assert_eq!(status, 201);
+        }
+        // where the bytes are (SQLite's dbstat table: pages per table and index)
+        let tables: Vec<(String, i64)> = sqlx::query_as(
+            "SELECT name, SUM(pgsize) FROM dbstat GROUP BY name ORDER BY 2 DESC LIMIT 16",
+        )
+        .fetch_all(server.store.reader())
+        .await
+        .unwrap();
+        for (name, bytes) in tables {
+            println!(
+                "service/database_size: {name}: {:.1} kB per epoch",
+                bytes as f64 / n as f64 / 1000.0
+            );
         }
         base
     });

@@ -453,3 +453,134 @@ async fn csv_upload_uses_the_site_cameras() {
     assert_eq!(r.status(), 400);
     s.stop().await;
 }
+
+/// Follows `$ref`s of the OpenAPI document to the schema itself.
+fn resolve<'a>(doc: &'a Value, schema: &'a Value) -> &'a Value {
+    match schema["$ref"].as_str() {
+        Some(r) => {
+            let name = r.trim_start_matches("#/components/schemas/");
+            resolve(doc, &doc["components"]["schemas"][name])
+        }
+        None => schema,
+    }
+}
+
+/// The property names of an object schema (through `$ref` and `allOf`).
+fn properties(doc: &Value, schema: &Value) -> Vec<String> {
+    let s = resolve(doc, schema);
+    let mut names: Vec<String> = s["properties"]
+        .as_object()
+        .map(|p| p.keys().cloned().collect())
+        .unwrap_or_default();
+    for part in s["allOf"].as_array().into_iter().flatten() {
+        names.extend(properties(doc, part));
+    }
+    names
+}
+
+#[tokio::test]
+async fn openapi_describes_every_contract_endpoint_with_schemas() {
+    let s = TestServer::start(|_| {}).await;
+    let (status, doc) = s.get("/api/v1/openapi.json").await;
+    assert_eq!(status, 200);
+    // (method, path, success status, list endpoint, request body)
+    let endpoints = [
+        ("get", "/healthz", "200", false, false),
+        ("get", "/readyz", "200", false, false),
+        ("get", "/metrics", "200", false, false),
+        ("post", "/api/v1/sites", "201", false, true),
+        ("get", "/api/v1/sites", "200", true, false),
+        ("get", "/api/v1/sites/{site}", "200", false, false),
+        ("post", "/api/v1/sites/{site}/epochs", "201", false, true),
+        ("get", "/api/v1/sites/{site}/epochs", "200", true, false),
+        (
+            "get",
+            "/api/v1/sites/{site}/epochs/{epoch}",
+            "200",
+            false,
+            false,
+        ),
+        ("put", "/api/v1/sites/{site}/reference", "200", false, true),
+        ("get", "/api/v1/sites/{site}/points", "200", true, false),
+        (
+            "put",
+            "/api/v1/sites/{site}/points/{point}",
+            "200",
+            false,
+            true,
+        ),
+        (
+            "get",
+            "/api/v1/sites/{site}/points/{point}/displacements",
+            "200",
+            true,
+            false,
+        ),
+        ("get", "/api/v1/alerts", "200", true, false),
+        ("post", "/api/v1/alerts/{id}/ack", "200", false, true),
+        ("post", "/api/v1/webhooks", "201", false, true),
+        ("get", "/api/v1/webhooks", "200", true, false),
+    ];
+    for (method, path, ok, list, request) in endpoints {
+        let op = &doc["paths"][path][method];
+        assert!(op.is_object(), "{method} {path} missing");
+        let content = &op["responses"][ok]["content"];
+        let (media, body) = content
+            .as_object()
+            .and_then(|c| c.iter().next())
+            .unwrap_or_else(|| panic!("{method} {path}: no {ok} response schema"));
+        let schema = &body["schema"];
+        assert!(
+            schema.is_object(),
+            "{method} {path}: {media} without schema"
+        );
+        if media == "application/json" {
+            let props = properties(&doc, schema);
+            assert!(!props.is_empty(), "{method} {path}: no properties");
+            if list {
+                assert!(
+                    props.contains(&"items".to_string())
+                        && props.contains(&"next_cursor".to_string()),
+                    "{method} {path}: not the list shape: {props:?}"
+                );
+                let item = &resolve(&doc, schema)["properties"]["items"]["items"];
+                assert!(
+                    !properties(&doc, item).is_empty(),
+                    "{method} {path}: list items without a schema"
+                );
+            }
+        }
+        if request {
+            assert!(
+                op["requestBody"]["content"]["application/json"]["schema"].is_object(),
+                "{method} {path}: no request schema"
+            );
+        }
+        // every error answer names the error body
+        for (code, r) in op["responses"].as_object().unwrap() {
+            if code.starts_with('4') || code.starts_with('5') {
+                assert!(
+                    r["content"]["application/json"]["schema"].is_object(),
+                    "{method} {path} {code}: no error schema"
+                );
+            }
+        }
+    }
+    // the documented upload form names every field the paper epochs use
+    let form = &doc["paths"]["/api/v1/sites/{site}/epochs"]["post"]["requestBody"]["content"]
+        ["application/json"]["schema"];
+    let epoch = paper(PAPER[0]);
+    let top = properties(&doc, form);
+    let form = resolve(&doc, form);
+    for (key, value) in epoch.as_object().unwrap() {
+        assert!(top.contains(key), "upload form lacks '{key}'");
+        if let Some(first) = value.as_array().and_then(|a| a.first()) {
+            let item = &form["properties"][key]["items"];
+            let names = properties(&doc, item);
+            for k in first.as_object().unwrap().keys() {
+                assert!(names.contains(k), "upload form: {key} lacks '{k}'");
+            }
+        }
+    }
+    s.stop().await;
+}

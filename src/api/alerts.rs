@@ -25,7 +25,7 @@ pub struct AlertParams {
 
 /// `GET /api/v1/alerts`: newest first.
 #[utoipa::path(get, path = "/api/v1/alerts", params(("site" = Option<String>, Query), ("state" = Option<String>, Query), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
-    responses((status = 200, description = "{items: [Alert], next_cursor}")))]
+    responses((status = 200, description = "alerts, newest first", body = crate::api::list::Page<crate::store::alerts::Alert>)))]
 pub async fn list(
     State(state): State<AppState>,
     ApiQuery(q): ApiQuery<AlertParams>,
@@ -70,7 +70,7 @@ pub struct AckBody {
 
 /// `POST /api/v1/alerts/{id}/ack`: acknowledges; queues an `alert.acknowledged` webhook event.
 #[utoipa::path(post, path = "/api/v1/alerts/{id}/ack", request_body = AckBody, params(("id" = String, Path)),
-    responses((status = 200, body = crate::store::alerts::Alert), (status = 404, description = "unknown alert")))]
+    responses((status = 200, body = crate::store::alerts::Alert), (status = 404, description = "unknown alert", body = crate::api::schemas::ErrorBody)))]
 pub async fn acknowledge(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<String>,

@@ -74,10 +74,10 @@ pub struct UploadParams {
 /// `POST /api/v1/sites/{site}/epochs`: validates, adjusts and stores an epoch; 201 with its
 /// summary, 200 when the same body was stored before, 409 for another body at the same time.
 #[utoipa::path(post, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("observed_at" = Option<String>, Query, description = "CSV uploads only")),
-    request_body(content = serde_json::Value, description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)"),
-    responses((status = 201, description = "stored; the epoch summary"), (status = 200, description = "the same body was stored before"),
-        (status = 400, description = "not JSON/CSV"), (status = 404, description = "unknown site"), (status = 409, description = "another body for this observed_at"),
-        (status = 413, description = "body too large"), (status = 422, description = "invalid or cannot be adjusted")))]
+    request_body(description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)", content((crate::api::schemas::UploadForm = "application/json"), (String = "text/csv"))),
+    responses((status = 201, description = "stored; the epoch summary", body = crate::api::schemas::EpochSummary), (status = 200, description = "the same body was stored before", body = crate::api::schemas::EpochSummary),
+        (status = 400, description = "not JSON/CSV", body = crate::api::schemas::ErrorBody), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 409, description = "another body for this observed_at", body = crate::api::schemas::ErrorBody),
+        (status = 413, description = "body too large", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid or cannot be adjusted", body = crate::api::schemas::ErrorBody)))]
 pub async fn upload(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
@@ -180,7 +180,7 @@ pub async fn summary(
 
 /// `GET /api/v1/sites/{site}/epochs`: newest first.
 #[utoipa::path(get, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
-    responses((status = 200, description = "{items: [epoch], next_cursor}"), (status = 404, description = "unknown site")))]
+    responses((status = 200, description = "epochs, newest first", body = crate::api::list::Page<crate::store::epochs::EpochListItem>), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
@@ -204,7 +204,7 @@ pub async fn list(
 
 /// `GET /api/v1/sites/{site}/epochs/{epoch}`: the full report with residuals per observation.
 #[utoipa::path(get, path = "/api/v1/sites/{site}/epochs/{epoch}", params(("site" = String, Path), ("epoch" = i64, Path)),
-    responses((status = 200, description = "the epoch summary with the full report"), (status = 404, description = "unknown site or epoch")))]
+    responses((status = 200, description = "the epoch summary with the full report", body = crate::api::schemas::EpochSummary), (status = 404, description = "unknown site or epoch", body = crate::api::schemas::ErrorBody)))]
 pub async fn get_one(
     State(state): State<AppState>,
     ApiPath((site, epoch)): ApiPath<(String, String)>,

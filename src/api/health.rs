@@ -47,13 +47,13 @@ fn describe() {
 }
 
 /// `GET /healthz`: the process answers.
-#[utoipa::path(get, path = "/healthz", responses((status = 200, description = "alive")))]
+#[utoipa::path(get, path = "/healthz", responses((status = 200, description = "alive", body = crate::api::schemas::Status)))]
 pub async fn healthz() -> impl IntoResponse {
     axum::Json(serde_json::json!({"status": "ok"}))
 }
 
 /// `GET /readyz`: the database answers and the migrations are applied.
-#[utoipa::path(get, path = "/readyz", responses((status = 200, description = "ready"), (status = 503, description = "not ready")))]
+#[utoipa::path(get, path = "/readyz", responses((status = 200, description = "ready", body = crate::api::schemas::Status), (status = 503, description = "not ready", body = crate::api::schemas::ErrorBody)))]
 pub async fn readyz(State(state): State<AppState>) -> Result<impl IntoResponse, ApiError> {
     match state.store.ready().await {
         Ok(true) => Ok(axum::Json(serde_json::json!({"status": "ready"}))),
@@ -71,7 +71,7 @@ pub async fn readyz(State(state): State<AppState>) -> Result<impl IntoResponse, 
 }
 
 /// `GET /metrics`: Prometheus text format.
-#[utoipa::path(get, path = "/metrics", responses((status = 200, description = "Prometheus text format")))]
+#[utoipa::path(get, path = "/metrics", responses((status = 200, description = "Prometheus text format", body = String, content_type = "text/plain")))]
 pub async fn metrics(State(state): State<AppState>) -> impl IntoResponse {
     if let Ok(n) = crate::store::webhooks::pending(state.store.reader()).await {
         metrics::gauge!("cliffwatch_webhook_queue_depth").set(n as f64);

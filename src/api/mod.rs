@@ -12,6 +12,7 @@ pub mod health;
 pub mod list;
 pub mod openapi;
 pub mod points;
+pub mod schemas;
 pub mod server;
 pub mod sites;
 pub mod webhooks;

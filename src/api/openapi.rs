@@ -19,7 +19,11 @@ use utoipa::OpenApi;
         crate::store::sites::NewSite, crate::store::sites::Site, crate::store::points::PointSettings,
         crate::store::points::Point, crate::store::displacements::Displacement, crate::store::alerts::Alert,
         crate::store::webhooks::NewWebhook, crate::store::webhooks::Webhook, crate::store::epochs::EpochListItem,
-        super::sites::ReferenceBody, super::alerts::AckBody,
+        super::sites::ReferenceBody, super::alerts::AckBody, super::points::PointItem,
+        super::schemas::ErrorBody, super::schemas::ErrorDetail, super::schemas::Status,
+        super::schemas::UploadForm, super::schemas::CameraForm, super::schemas::ImageForm,
+        super::schemas::ObservationForm, super::schemas::ControlForm, super::schemas::ApproxForm,
+        super::schemas::EpochSummary,
     )),
     modifiers(&BearerAuth)
 )]

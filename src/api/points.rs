@@ -1,8 +1,11 @@
 //! `GET /api/v1/sites/{site}/points`, `PUT .../points/{point}`, `GET .../points/{point}/displacements`.
 
 use std::collections::HashMap;
-use std::fmt::Write;
 
+use std::pin::Pin;
+use std::task::{Context, Poll};
+
+use axum::body::{Body, Bytes};
 use axum::extract::State;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
@@ -11,17 +14,18 @@ use serde_json::json;
 
 use super::epochs::time_bound;
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
-use super::list::{Page, PageParams};
+use super::list::{encode, Page, PageParams};
 use super::sites::find;
 use super::AppState;
 use crate::photogrammetry::epoch::is_valid_identifier;
 use crate::store::displacements::{self, Displacement};
 use crate::store::points::{self, PointSettings};
+use crate::store::series::{self, SeriesFormat, SeriesQuery};
 use crate::store::webhooks::level_rank;
-use crate::store::{alerts, display_timestamp, parse_timestamp, timestamp};
+use crate::store::{alerts, display_timestamp};
 
 /// One line of the point list.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, utoipa::ToSchema)]
 pub struct PointItem {
     /// Point name.
     pub point: String,
@@ -32,6 +36,7 @@ pub struct PointItem {
     /// Direction of interest, site frame.
     pub direction: Option<[f64; 3]>,
     /// Latest coordinates: epoch, observed_at, X/Y/Z in m and σ in mm.
+    #[schema(value_type = Option<Object>)]
     pub latest: Option<serde_json::Value>,
     /// Latest displacement.
     pub displacement: Option<Displacement>,
@@ -41,7 +46,7 @@ pub struct PointItem {
 
 /// `GET /api/v1/sites/{site}/points`: every point (by name) with its latest state.
 #[utoipa::path(get, path = "/api/v1/sites/{site}/points", params(("site" = String, Path), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
-    responses((status = 200, description = "{items: [point], next_cursor}"), (status = 404, description = "unknown site")))]
+    responses((status = 200, description = "points by name", body = crate::api::list::Page<PointItem>), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
@@ -101,15 +106,13 @@ pub async fn list(
 }
 
 fn along(d: &Displacement, direction: Option<[f64; 3]>) -> Option<f64> {
-    let n = direction?;
-    let norm = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-    (norm > 0.0).then(|| (d.dx_mm * n[0] + d.dy_mm * n[1] + d.dz_mm * n[2]) / norm)
+    series::along([d.dx_mm, d.dy_mm, d.dz_mm], direction)
 }
 
 /// `PUT /api/v1/sites/{site}/points/{point}`: sets role, group, direction of interest (creates the
 /// point when new, so roles can be set before the first epoch).
 #[utoipa::path(put, path = "/api/v1/sites/{site}/points/{point}", request_body = PointSettings, params(("site" = String, Path), ("point" = String, Path)),
-    responses((status = 200, body = crate::store::points::Point), (status = 404, description = "unknown site"), (status = 422, description = "invalid settings")))]
+    responses((status = 200, body = crate::store::points::Point), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid settings", body = crate::api::schemas::ErrorBody)))]
 pub async fn update(
     State(state): State<AppState>,
     ApiPath((site, point)): ApiPath<(String, String)>,
@@ -161,13 +164,13 @@ pub struct SeriesParams {
 }
 
 /// Columns of the CSV time series.
-pub const CSV_HEADER: &str = "epoch,observed_at,dx_mm,dy_mm,dz_mm,d_mm,sigma_dx_mm,sigma_dy_mm,sigma_dz_mm,sigma_mm,d_along_mm,significant,velocity_mm_per_day,time_to_failure_hours";
+pub use crate::store::series::CSV_HEADER;
 
 /// `GET /api/v1/sites/{site}/points/{point}/displacements`: the time series, oldest first.
 #[utoipa::path(get, path = "/api/v1/sites/{site}/points/{point}/displacements",
     params(("site" = String, Path), ("point" = String, Path), ("from" = Option<String>, Query), ("to" = Option<String>, Query),
            ("format" = Option<String>, Query, description = "json or csv"), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
-    responses((status = 200, description = "{items: [displacement], next_cursor} or text/csv"), (status = 404, description = "unknown site or point")))]
+    responses((status = 200, description = "the time series, oldest first: a page (JSON) or the whole range (CSV, columns as CSV_HEADER)", content((crate::api::list::Page<crate::store::displacements::Displacement> = "application/json"), (String = "text/csv"))), (status = 404, description = "unknown site or point", body = crate::api::schemas::ErrorBody)))]
 pub async fn displacements(
     State(state): State<AppState>,
     ApiPath((site, point)): ApiPath<(String, String)>,
@@ -193,65 +196,61 @@ pub async fn displacements(
             )))
         }
     };
+    let mut query = SeriesQuery {
+        site,
+        point,
+        from,
+        to,
+        after: None,
+        limit: None,
+        direction: p.direction,
+    };
     if csv {
-        let rows = displacements::series(
-            db,
-            &site,
-            &point,
-            from.as_deref(),
-            to.as_deref(),
-            None,
-            None,
-        )
-        .await?;
-        let mut out = String::with_capacity(64 + rows.len() * 160);
-        out.push_str(CSV_HEADER);
-        out.push('\n');
-        let opt = |v: Option<f64>| v.map(|v| v.to_string()).unwrap_or_default();
-        for d in &rows {
-            let _ = writeln!(
-                out,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                d.epoch,
-                d.observed_at,
-                d.dx_mm,
-                d.dy_mm,
-                d.dz_mm,
-                d.d_mm,
-                d.sigma_dx_mm,
-                d.sigma_dy_mm,
-                d.sigma_dz_mm,
-                d.sigma_mm,
-                opt(along(d, p.direction)),
-                d.significant,
-                opt(d.velocity_mm_per_day),
-                opt(d.time_to_failure_hours)
-            );
-        }
-        return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], out).into_response());
+        // streamed: the first chunk (or the error that stopped the read) decides the status
+        let mut rx = series::stream_csv(db, query).await?;
+        let first = rx
+            .recv()
+            .await
+            .ok_or_else(|| ApiError::internal("series reader ended without an answer"))??;
+        let body = Body::from_stream(Chunks {
+            first: Some(first),
+            rx,
+        });
+        return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], body).into_response());
     }
     let page = PageParams {
         limit: q.limit,
         cursor: q.cursor,
     };
-    let after = page.cursor()?;
-    let mut rows = displacements::series(
-        db,
-        &site,
-        &point,
-        from.as_deref(),
-        to.as_deref(),
-        after.as_deref(),
-        Some(page.limit() + 1),
-    )
-    .await?;
-    for d in &mut rows {
-        d.d_along_mm = along(d, p.direction);
+    query.after = page.cursor()?;
+    query.limit = Some(page.limit());
+    let mut out = Vec::with_capacity(512 * page.limit() as usize + 64);
+    out.extend_from_slice(b"{\"items\":");
+    let written = series::write(db, query, SeriesFormat::JsonItems, out).await?;
+    let mut out = written.out;
+    out.extend_from_slice(b",\"next_cursor\":");
+    let next = written
+        .last_observed_at
+        .filter(|_| written.more)
+        .map(|last| encode(&last));
+    serde_json::to_writer(&mut out, &next).map_err(ApiError::internal)?;
+    out.push(b'}');
+    Ok(([(header::CONTENT_TYPE, "application/json")], out).into_response())
+}
+
+/// The chunks of a streamed series as a body stream: the first (already received), then the rest.
+struct Chunks {
+    first: Option<Bytes>,
+    rx: tokio::sync::mpsc::Receiver<Result<Bytes, crate::store::StoreError>>,
+}
+
+impl futures_core::Stream for Chunks {
+    type Item = Result<Bytes, crate::store::StoreError>;
+
+    fn poll_next(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Option<Self::Item>> {
+        if let Some(first) = self.first.take() {
+            return Poll::Ready(Some(Ok(first)));
+        }
+        self.rx.poll_recv(cx)
     }
-    let page = Page::from_fetched(rows, page.limit(), |d| {
-        parse_timestamp(&d.observed_at)
-            .map(timestamp)
-            .unwrap_or_default()
-    });
-    Ok(axum::Json(page).into_response())
 }

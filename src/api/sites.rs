@@ -66,7 +66,7 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
 
 /// `POST /api/v1/sites`: creates a site (201), or 409 when the id exists.
 #[utoipa::path(post, path = "/api/v1/sites", request_body = NewSite,
-    responses((status = 201, body = Site), (status = 409, description = "exists"), (status = 422, description = "invalid")))]
+    responses((status = 201, body = Site), (status = 409, description = "exists", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid", body = crate::api::schemas::ErrorBody)))]
 pub async fn create(
     State(state): State<AppState>,
     ApiJson(site): ApiJson<NewSite>,
@@ -89,7 +89,7 @@ pub async fn create(
 
 /// `GET /api/v1/sites`: every site, newest first.
 #[utoipa::path(get, path = "/api/v1/sites", params(("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
-    responses((status = 200, description = "{items: [Site], next_cursor}")))]
+    responses((status = 200, description = "sites", body = crate::api::list::Page<crate::store::sites::Site>)))]
 pub async fn list(
     State(state): State<AppState>,
     ApiQuery(page): ApiQuery<PageParams>,
@@ -115,7 +115,7 @@ pub async fn list(
 
 /// `GET /api/v1/sites/{site}`.
 #[utoipa::path(get, path = "/api/v1/sites/{site}", params(("site" = String, Path)),
-    responses((status = 200, body = Site), (status = 404, description = "unknown site")))]
+    responses((status = 200, body = Site), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn get_one(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
@@ -139,7 +139,7 @@ pub struct ReferenceBody {
 
 /// `PUT /api/v1/sites/{site}/reference`: sets the reference epoch and recomputes displacements.
 #[utoipa::path(put, path = "/api/v1/sites/{site}/reference", request_body = ReferenceBody, params(("site" = String, Path)),
-    responses((status = 200, body = Site), (status = 404, description = "unknown site or epoch")))]
+    responses((status = 200, body = Site), (status = 404, description = "unknown site or epoch", body = crate::api::schemas::ErrorBody)))]
 pub async fn set_reference(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,

@@ -35,7 +35,7 @@ pub fn check_webhook(h: &NewWebhook) -> Result<(), ApiError> {
 
 /// `POST /api/v1/webhooks`.
 #[utoipa::path(post, path = "/api/v1/webhooks", request_body = NewWebhook,
-    responses((status = 201, body = crate::store::webhooks::Webhook), (status = 422, description = "invalid")))]
+    responses((status = 201, body = crate::store::webhooks::Webhook), (status = 422, description = "invalid", body = crate::api::schemas::ErrorBody)))]
 pub async fn create(
     State(state): State<AppState>,
     ApiJson(hook): ApiJson<NewWebhook>,
@@ -52,7 +52,7 @@ pub async fn create(
 }
 
 /// `GET /api/v1/webhooks` (secrets are not returned).
-#[utoipa::path(get, path = "/api/v1/webhooks", responses((status = 200, description = "{items: [Webhook], next_cursor}")))]
+#[utoipa::path(get, path = "/api/v1/webhooks", responses((status = 200, description = "webhook endpoints (no secrets)", body = crate::api::list::Page<crate::store::webhooks::Webhook>)))]
 pub async fn list(State(state): State<AppState>) -> Result<impl IntoResponse, ApiError> {
     Ok(axum::Json(Page {
         items: webhooks::list(state.store.reader()).await?,
@@ -62,7 +62,7 @@ pub async fn list(State(state): State<AppState>) -> Result<impl IntoResponse, Ap
 
 /// `DELETE /api/v1/webhooks/{id}`.
 #[utoipa::path(delete, path = "/api/v1/webhooks/{id}", params(("id" = String, Path)),
-    responses((status = 204, description = "deleted"), (status = 404, description = "unknown webhook")))]
+    responses((status = 204, description = "deleted"), (status = 404, description = "unknown webhook", body = crate::api::schemas::ErrorBody)))]
 pub async fn delete(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<String>,

@@ -101,7 +101,7 @@ pub async fn list(
     after: Option<(&str, &str)>,
     limit: i64,
 ) -> Result<Vec<(String, Alert)>, StoreError> {
-    let (t, id) = after.unwrap_or(("\u{10FFFF}", ""));
+    let (t, id) = after.unwrap_or((super::TEXT_MAX, ""));
     let rows: Vec<Alert> = sqlx::query_as(&format!(
         "SELECT {COLUMNS} FROM alerts WHERE (? IS NULL OR site_id = ?) AND (? IS NULL OR state = ?) \
          AND (raised_at < ? OR (raised_at = ? AND id < ?)) ORDER BY raised_at DESC, id DESC LIMIT ?"
@@ -112,7 +112,7 @@ pub async fn list(
     .bind(state)
     .bind(t)
     .bind(t)
-    .bind(if after.is_some() { id } else { "\u{10FFFF}" })
+    .bind(if after.is_some() { id } else { super::TEXT_MAX })
     .bind(limit)
     .fetch_all(db)
     .await?;

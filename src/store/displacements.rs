@@ -4,7 +4,8 @@ use serde::Serialize;
 use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
 use utoipa::ToSchema;
 
-use super::{display_timestamp, StoreError};
+use super::{display_timestamp, parse_timestamp, timestamp, StoreError};
+use crate::analysis::DisplacementRecord;
 
 /// The displacement of one point in one epoch against the reference epoch. Lengths in mm.
 #[derive(Debug, Clone, PartialEq, Serialize, FromRow, ToSchema)]
@@ -42,6 +43,52 @@ pub struct Displacement {
     pub velocity_mm_per_day: Option<f64>,
     /// Time to failure in hours (null unless accelerating).
     pub time_to_failure_hours: Option<f64>,
+}
+
+impl Displacement {
+    /// The stored row of an analysis record against `reference_epoch` (observed_at in the store's
+    /// form): the two types carry the same contract fields; the store adds the reference epoch.
+    pub fn from_record(r: &DisplacementRecord, reference_epoch: i64) -> Displacement {
+        Displacement {
+            point: r.point.clone(),
+            epoch: r.epoch,
+            observed_at: timestamp(r.observed_at),
+            reference_epoch,
+            dx_mm: r.dx_mm,
+            dy_mm: r.dy_mm,
+            dz_mm: r.dz_mm,
+            d_mm: r.d_mm,
+            sigma_dx_mm: r.sigma_dx_mm,
+            sigma_dy_mm: r.sigma_dy_mm,
+            sigma_dz_mm: r.sigma_dz_mm,
+            sigma_mm: r.sigma_mm,
+            d_along_mm: r.d_along_mm,
+            significant: r.significant,
+            velocity_mm_per_day: r.velocity_mm_per_day,
+            time_to_failure_hours: r.time_to_failure_hours,
+        }
+    }
+
+    /// The analysis record of a row read back (`None` when observed_at does not parse).
+    pub fn to_record(&self) -> Option<DisplacementRecord> {
+        Some(DisplacementRecord {
+            point: self.point.clone(),
+            epoch: self.epoch,
+            observed_at: parse_timestamp(&self.observed_at)?,
+            dx_mm: self.dx_mm,
+            dy_mm: self.dy_mm,
+            dz_mm: self.dz_mm,
+            d_mm: self.d_mm,
+            sigma_dx_mm: self.sigma_dx_mm,
+            sigma_dy_mm: self.sigma_dy_mm,
+            sigma_dz_mm: self.sigma_dz_mm,
+            sigma_mm: self.sigma_mm,
+            d_along_mm: self.d_along_mm,
+            significant: self.significant,
+            velocity_mm_per_day: self.velocity_mm_per_day,
+            time_to_failure_hours: self.time_to_failure_hours,
+        })
+    }
 }
 
 const COLUMNS: &str = "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
@@ -115,7 +162,7 @@ pub async fn series(
     .bind(site)
     .bind(point)
     .bind(from.unwrap_or(""))
-    .bind(to.unwrap_or("\u{10FFFF}"))
+    .bind(to.unwrap_or(super::TEXT_MAX))
     .bind(after.unwrap_or(""))
     .bind(limit.unwrap_or(i64::MAX))
     .fetch_all(db)

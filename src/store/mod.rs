@@ -6,13 +6,36 @@
 //! SQLite-only forms where a standard one exists, so a PostgreSQL backend can follow.
 //!
 //! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`displacements`], [`alerts`],
-//! [`webhooks`].
+//! [`webhooks`]; [`series`] serves a point's displacement time series fast.
+//!
+//! # SQLite-specific constructs (all of them; what a PostgreSQL backend would replace)
+//! - Connection set-up in [`Store::open`] and [`backup_file`]: `SqliteConnectOptions` with WAL,
+//!   `synchronous = NORMAL`, `foreign_keys`, busy timeout, read-only read pool (PostgreSQL: a
+//!   `PgPool`; foreign keys and MVCC readers are built in).
+//! - `BEGIN IMMEDIATE` in [`Store::begin_write`] (PostgreSQL: `BEGIN`; writers do not upgrade locks).
+//! - `VACUUM INTO ?` in [`Store::backup`] and [`backup_file`] (PostgreSQL: `pg_dump`/base backups).
+//! - [`sqlite_raw`]: the SQLite C API under sqlx's connection, used by [`series`] only; the portable
+//!   read of the same rows is [`displacements::series`] (a PostgreSQL backend feeds the series
+//!   writers from its own row loop, e.g. `COPY … TO STDOUT` or a cursor).
+//! - `WITHOUT ROWID` on `displacements` in the first migration (SQLite's clustering clause;
+//!   PostgreSQL: the same primary key, plus `CLUSTER` if wanted). Migrations are SQLite's dialect
+//!   otherwise only in types that PostgreSQL reads the same way (`TEXT`, `BIGINT`,
+//!   `DOUBLE PRECISION`, `BOOLEAN`); a PostgreSQL backend keeps its own migration directory.
+//! - `?` placeholders in every query (PostgreSQL: `$1`, `$2`, …).
+//! - [`TEXT_MAX`], the open upper bound of text ranges, relies on binary (memcmp) text order,
+//!   SQLite's default collation (PostgreSQL: `COLLATE "C"` on the key columns or no bound).
+//! - Portable and used as is: `ON CONFLICT … DO UPDATE/NOTHING` with `excluded.`, `ALTER TABLE …
+//!   ADD COLUMN`, timestamps as fixed-width RFC 3339 text, JSON documents as text.
+//! - Benchmarks and tests only: `strftime`, `printf`, `WITH RECURSIVE` fills and the `dbstat`
+//!   table (`benches/service.rs`, `tests/service_series.rs`).
 
 pub mod alerts;
 pub mod displacements;
 pub mod epochs;
 pub mod points;
+pub mod series;
 pub mod sites;
+pub mod sqlite_raw;
 pub mod webhooks;
 
 use std::path::Path;
@@ -39,6 +62,14 @@ pub enum StoreError {
     /// A stored JSON column does not parse.
     #[error("stored JSON: {0}")]
     Json(#[from] serde_json::Error),
+    /// A direct SQLite call failed (the series reader, [`sqlite_raw`]).
+    #[error("sqlite ({code}): {message}")]
+    Sqlite {
+        /// SQLite result code (0: the reader thread itself failed).
+        code: i32,
+        /// What failed and SQLite's message.
+        message: String,
+    },
     /// The data directory cannot be created.
     #[error("data directory: {0}")]
     Io(#[from] std::io::Error),
@@ -135,6 +166,9 @@ impl Store {
     }
 }
 
+/// Above every stored text key under binary text order: the open upper bound of range queries.
+pub const TEXT_MAX: &str = "\u{10FFFF}";
+
 /// Formats a time the way the store keeps it: RFC 3339, UTC, microseconds (sorts as text).
 pub fn timestamp(t: DateTime<Utc>) -> String {
     t.to_rfc3339_opts(SecondsFormat::Micros, true)
@@ -154,6 +188,12 @@ pub fn parse_timestamp(s: &str) -> Option<DateTime<Utc>> {
 
 /// Formats a stored time for the API: RFC 3339 with `Z`, seconds unless sub-second.
 pub fn display_timestamp(s: &str) -> String {
+    if let Some(short) = series::shortened(s.as_bytes()) {
+        let mut out = String::with_capacity(short.len() + 1);
+        out.push_str(std::str::from_utf8(short).unwrap_or_default());
+        out.push('Z');
+        return out;
+    }
     parse_timestamp(s)
         .map(|t| t.to_rfc3339_opts(SecondsFormat::AutoSi, true))
         .unwrap_or_else(|| s.to_string())

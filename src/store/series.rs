@@ -1,0 +1,497 @@
+//! A point's displacement time series written straight from the database rows into the bytes
+//! the API serves (CSV, or the items of a JSON page), on a blocking thread: no row structs, no
+//! per-value allocation, numbers through `ryu`/`itoa`, stored timestamps shortened in place.
+//!
+//! Ten years of hourly epochs is 87 600 rows a point (`docs/performance.md`, section "Service").
+//! The rows come through [`super::sqlite_raw`] (SQLite C API); a PostgreSQL backend would feed the
+//! same writers from its own row loop. [`super::displacements::series`] is the portable sqlx read
+//! of the same rows, and the reference the tests compare this output with.
+
+use std::io::Write;
+
+use bytes::Bytes;
+use sqlx::SqlitePool;
+use tokio::sync::mpsc;
+
+use super::sqlite_raw::{self, Param, Row};
+use super::{display_timestamp, StoreError};
+
+/// Columns of the CSV time series (the contract's order).
+pub const CSV_HEADER: &str = "epoch,observed_at,dx_mm,dy_mm,dz_mm,d_mm,sigma_dx_mm,sigma_dy_mm,sigma_dz_mm,sigma_mm,d_along_mm,significant,velocity_mm_per_day,time_to_failure_hours";
+
+/// What to read: one point, `from ≤ observed_at ≤ to`, after the cursor `after` (store format),
+/// at most `limit` rows.
+#[derive(Debug, Clone, Default)]
+pub struct SeriesQuery {
+    /// Site id.
+    pub site: String,
+    /// Point name.
+    pub point: String,
+    /// Earliest observed_at, inclusive (store format).
+    pub from: Option<String>,
+    /// Latest observed_at, inclusive (store format).
+    pub to: Option<String>,
+    /// Only rows after this observed_at (store format): the page cursor.
+    pub after: Option<String>,
+    /// At most this many rows (`None`: all); one more is read to tell whether there are more.
+    pub limit: Option<i64>,
+    /// The point's direction of interest (site frame, any length): gives `d_along_mm`.
+    pub direction: Option<[f64; 3]>,
+}
+
+/// The served form.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SeriesFormat {
+    /// `text/csv`: the header line, then one line per epoch.
+    Csv,
+    /// The JSON array of a page's `items`: each object as `Displacement` serializes.
+    JsonItems,
+}
+
+/// What [`write`] wrote.
+#[derive(Debug)]
+pub struct Written {
+    /// The buffer given, with the series appended.
+    pub out: Vec<u8>,
+    /// Rows written.
+    pub rows: usize,
+    /// observed_at of the last row written (store format): the next page's cursor.
+    pub last_observed_at: Option<String>,
+    /// More rows follow the `limit` written.
+    pub more: bool,
+}
+
+const SQL: &str = "SELECT epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+    sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, significant, velocity_mm_per_day, \
+    time_to_failure_hours FROM displacements WHERE site_id = ? AND point = ? \
+    AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY observed_at LIMIT ?";
+
+/// Reads the series of `q` and appends it to `out` in `format` (oldest first), on a blocking
+/// thread with one connection of `pool`.
+pub async fn write(
+    pool: &SqlitePool,
+    q: SeriesQuery,
+    format: SeriesFormat,
+    out: Vec<u8>,
+) -> Result<Written, StoreError> {
+    let mut conn = pool.acquire().await?;
+    tokio::task::spawn_blocking(move || run(&mut conn, &q, format, out))
+        .await
+        .map_err(reader_failed)?
+}
+
+/// Rows per formatting batch of a streamed CSV series.
+pub const BATCH_ROWS: usize = 8192;
+
+/// Reads the CSV series of `q` on a blocking thread and sends it in chunks of [`BATCH_ROWS`] rows
+/// as they are ready, so the answer goes out while later rows are still read. The reader only
+/// copies the values out; each batch is formatted on the rayon pool (in order), so reading and
+/// formatting use both cores. The first message is the first chunk (the header with the first
+/// rows) or the error that stopped the read before any row; a later error ends the stream with
+/// it. Dropping the receiver stops the read.
+pub async fn stream_csv(
+    pool: &SqlitePool,
+    q: SeriesQuery,
+) -> Result<mpsc::Receiver<Result<Bytes, StoreError>>, StoreError> {
+    let mut conn = pool.acquire().await?;
+    let (tx, rx) = mpsc::channel(4);
+    tokio::task::spawn_blocking(move || {
+        if let Err(e) = run_csv_batched(&mut conn, &q, &tx) {
+            let _ = tx.blocking_send(Err(e));
+        }
+    });
+    Ok(rx)
+}
+
+type Pending = std::collections::VecDeque<std::sync::mpsc::Receiver<Vec<u8>>>;
+
+/// Formats `batch` on the rayon pool; its bytes arrive on the receiver queued in `pending`.
+fn format_batch(batch: Vec<Raw>, header: bool, direction: Option<[f64; 3]>, pending: &mut Pending) {
+    let (done, result) = std::sync::mpsc::sync_channel(1);
+    rayon::spawn(move || {
+        let mut w = Writer::new(
+            SeriesFormat::Csv,
+            direction,
+            "",
+            Vec::with_capacity(batch.len() * 170 + 256),
+        );
+        if header {
+            w.start();
+        }
+        for r in &batch {
+            w.row(r);
+        }
+        let _ = done.send(w.out);
+    });
+    pending.push_back(result);
+}
+
+/// Sends the formatted batches in order until at most `keep` are left; `false` when the
+/// receiver is gone.
+fn send_ready(
+    pending: &mut Pending,
+    keep: usize,
+    tx: &mpsc::Sender<Result<Bytes, StoreError>>,
+) -> bool {
+    while pending.len() > keep {
+        let Some(next) = pending.pop_front() else {
+            break;
+        };
+        let bytes = next.recv().unwrap_or_default();
+        if tx.blocking_send(Ok(Bytes::from(bytes))).is_err() {
+            return false;
+        }
+    }
+    true
+}
+
+fn run_csv_batched(
+    conn: &mut sqlx::pool::PoolConnection<sqlx::Sqlite>,
+    q: &SeriesQuery,
+    tx: &mpsc::Sender<Result<Bytes, StoreError>>,
+) -> Result<(), StoreError> {
+    let params = params(q);
+    let limit = q.limit.map_or(usize::MAX, |l| l.max(0) as usize);
+    let mut pending = Pending::new();
+    let mut batch = Vec::with_capacity(BATCH_ROWS);
+    let mut rows = 0usize;
+    let mut open = true;
+    sqlite_raw::query(conn, SQL, &params, |row| {
+        if rows == limit {
+            return false;
+        }
+        batch.push(Raw::read(row));
+        rows += 1;
+        if batch.len() == BATCH_ROWS {
+            let full = std::mem::replace(&mut batch, Vec::with_capacity(BATCH_ROWS));
+            format_batch(full, rows == BATCH_ROWS, q.direction, &mut pending);
+            open = send_ready(&mut pending, 2, tx);
+        }
+        open
+    })?;
+    if !batch.is_empty() || rows == 0 {
+        format_batch(batch, rows <= BATCH_ROWS, q.direction, &mut pending);
+    }
+    send_ready(&mut pending, 0, tx);
+    Ok(())
+}
+
+fn reader_failed(e: tokio::task::JoinError) -> StoreError {
+    StoreError::Sqlite {
+        code: 0,
+        message: format!("series reader: {e}"),
+    }
+}
+
+/// The read: rows of `q` through one writer into `out`, on the calling thread.
+fn run(
+    conn: &mut sqlx::pool::PoolConnection<sqlx::Sqlite>,
+    q: &SeriesQuery,
+    format: SeriesFormat,
+    out: Vec<u8>,
+) -> Result<Written, StoreError> {
+    let mut w = Writer::new(format, q.direction, &q.point, out);
+    w.start();
+    let params = params(q);
+    let mut last = Raw::default();
+    let limit = q.limit.map_or(usize::MAX, |l| l.max(0) as usize);
+    let mut more = false;
+    sqlite_raw::query(conn, SQL, &params, |row| {
+        if w.rows == limit {
+            more = true;
+            return false;
+        }
+        last = Raw::read(row);
+        w.row(&last);
+        true
+    })?;
+    w.finish();
+    Ok(Written {
+        rows: w.rows,
+        last_observed_at: (w.rows > 0)
+            .then(|| String::from_utf8_lossy(last.observed_at.bytes()).into_owned()),
+        out: w.out,
+        more,
+    })
+}
+
+fn params(q: &SeriesQuery) -> [Param<'_>; 6] {
+    [
+        Param::Text(&q.site),
+        Param::Text(&q.point),
+        Param::Text(q.from.as_deref().unwrap_or("")),
+        Param::Text(q.to.as_deref().unwrap_or(super::TEXT_MAX)),
+        Param::Text(q.after.as_deref().unwrap_or("")),
+        // one more than asked: it tells whether there are more
+        Param::Int(q.limit.map_or(i64::MAX, |l| l.max(0).saturating_add(1))),
+    ]
+}
+
+/// A stored time, inline when short (the store's form is 27 bytes).
+#[derive(Debug, Clone)]
+enum Stamp {
+    Inline([u8; 32], u8),
+    Heap(Box<[u8]>),
+}
+
+impl Default for Stamp {
+    fn default() -> Self {
+        Stamp::Inline([0; 32], 0)
+    }
+}
+
+impl Stamp {
+    fn new(text: &[u8]) -> Stamp {
+        if text.len() <= 32 {
+            let mut b = [0; 32];
+            b[..text.len()].copy_from_slice(text);
+            Stamp::Inline(b, text.len() as u8)
+        } else {
+            Stamp::Heap(text.into())
+        }
+    }
+
+    fn bytes(&self) -> &[u8] {
+        match self {
+            Stamp::Inline(b, n) => &b[..*n as usize],
+            Stamp::Heap(b) => b,
+        }
+    }
+}
+
+/// The values of one row of [`SQL`], copied out of SQLite.
+#[derive(Debug, Clone, Default)]
+struct Raw {
+    epoch: i64,
+    observed_at: Stamp,
+    reference: i64,
+    /// dx, dy, dz, d, σdx, σdy, σdz, σd (mm).
+    v: [f64; 8],
+    significant: bool,
+    velocity: Option<f64>,
+    ttf: Option<f64>,
+}
+
+impl Raw {
+    fn read(r: &Row) -> Raw {
+        Raw {
+            epoch: r.int(0),
+            observed_at: Stamp::new(r.text(1)),
+            reference: r.int(2),
+            v: std::array::from_fn(|k| r.double(3 + k)),
+            significant: r.int(11) != 0,
+            velocity: r.opt_double(12),
+            ttf: r.opt_double(13),
+        }
+    }
+}
+
+/// `d_along_mm` as the API computes it: (d · n) / |n|.
+pub fn along(d: [f64; 3], direction: Option<[f64; 3]>) -> Option<f64> {
+    let n = direction?;
+    let norm = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    (norm > 0.0).then(|| (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) / norm)
+}
+
+fn json_string(s: &str) -> Vec<u8> {
+    serde_json::to_vec(s).unwrap_or_else(|_| b"\"\"".to_vec())
+}
+
+struct Writer {
+    out: Vec<u8>,
+    format: SeriesFormat,
+    direction: Option<[f64; 3]>,
+    /// The point name as a JSON string (quoted, escaped).
+    point: Vec<u8>,
+    rows: usize,
+    float: ryu::Buffer,
+    int: itoa::Buffer,
+}
+
+impl Writer {
+    fn new(format: SeriesFormat, direction: Option<[f64; 3]>, point: &str, out: Vec<u8>) -> Writer {
+        Writer {
+            out,
+            format,
+            direction,
+            point: json_string(point),
+            rows: 0,
+            float: ryu::Buffer::new(),
+            int: itoa::Buffer::new(),
+        }
+    }
+
+    fn start(&mut self) {
+        match self.format {
+            SeriesFormat::Csv => {
+                self.out.extend_from_slice(CSV_HEADER.as_bytes());
+                self.out.push(b'\n');
+            }
+            SeriesFormat::JsonItems => self.out.push(b'['),
+        }
+    }
+
+    fn finish(&mut self) {
+        if self.format == SeriesFormat::JsonItems {
+            self.out.push(b']');
+        }
+    }
+
+    fn int(&mut self, v: i64) {
+        self.out.extend_from_slice(self.int.format(v).as_bytes());
+    }
+
+    /// A float as serde_json writes it (ryu, shortest round trip); non-finite: `null` in JSON,
+    /// empty in CSV (SQLite stores NaN as NULL, so these do not come from the table).
+    fn float(&mut self, v: f64) {
+        if v.is_finite() {
+            self.out
+                .extend_from_slice(self.float.format_finite(v).as_bytes());
+        } else if self.format == SeriesFormat::JsonItems {
+            self.out.extend_from_slice(b"null");
+        }
+    }
+
+    fn opt_float(&mut self, v: Option<f64>) {
+        match v {
+            Some(v) => self.float(v),
+            None if self.format == SeriesFormat::JsonItems => self.out.extend_from_slice(b"null"),
+            None => {}
+        }
+    }
+
+    fn bool(&mut self, v: bool) {
+        self.out
+            .extend_from_slice(if v { b"true" as &[u8] } else { b"false" });
+    }
+
+    /// The stored time in the API form ([`display_timestamp`]), quoted in JSON.
+    fn timestamp(&mut self, stored: &[u8]) {
+        let json = self.format == SeriesFormat::JsonItems;
+        match shortened(stored) {
+            Some(short) => {
+                if json {
+                    self.out.push(b'"');
+                }
+                self.out.extend_from_slice(short);
+                self.out.push(b'Z');
+                if json {
+                    self.out.push(b'"');
+                }
+            }
+            None => {
+                let shown = display_timestamp(&String::from_utf8_lossy(stored));
+                if json {
+                    self.out.extend_from_slice(&json_string(&shown));
+                } else {
+                    self.out.extend_from_slice(shown.as_bytes());
+                }
+            }
+        }
+    }
+
+    fn row(&mut self, r: &Raw) {
+        let epoch = r.epoch;
+        let observed_at = r.observed_at.bytes();
+        let reference = r.reference;
+        let d = [r.v[0], r.v[1], r.v[2]];
+        let length = r.v[3];
+        let sigma = [r.v[4], r.v[5], r.v[6], r.v[7]];
+        let significant = r.significant;
+        let velocity = r.velocity;
+        let ttf = r.ttf;
+        let d_along = along(d, self.direction);
+        match self.format {
+            SeriesFormat::Csv => {
+                self.int(epoch);
+                self.out.push(b',');
+                self.timestamp(observed_at);
+                for v in [
+                    d[0], d[1], d[2], length, sigma[0], sigma[1], sigma[2], sigma[3],
+                ] {
+                    self.out.push(b',');
+                    self.float(v);
+                }
+                self.out.push(b',');
+                self.opt_float(d_along);
+                self.out.push(b',');
+                self.bool(significant);
+                self.out.push(b',');
+                self.opt_float(velocity);
+                self.out.push(b',');
+                self.opt_float(ttf);
+                self.out.push(b'\n');
+            }
+            SeriesFormat::JsonItems => {
+                if self.rows > 0 {
+                    self.out.push(b',');
+                }
+                self.out.extend_from_slice(b"{\"point\":");
+                self.out.extend_from_slice(&self.point);
+                self.out.extend_from_slice(b",\"epoch\":");
+                self.int(epoch);
+                self.out.extend_from_slice(b",\"observed_at\":");
+                self.timestamp(observed_at);
+                self.out.extend_from_slice(b",\"reference_epoch\":");
+                self.int(reference);
+                let named = [
+                    ("dx_mm", d[0]),
+                    ("dy_mm", d[1]),
+                    ("dz_mm", d[2]),
+                    ("d_mm", length),
+                    ("sigma_dx_mm", sigma[0]),
+                    ("sigma_dy_mm", sigma[1]),
+                    ("sigma_dz_mm", sigma[2]),
+                    ("sigma_mm", sigma[3]),
+                ];
+                for (name, v) in named {
+                    let _ = write!(self.out, ",\"{name}\":");
+                    self.float(v);
+                }
+                self.out.extend_from_slice(b",\"d_along_mm\":");
+                self.opt_float(d_along);
+                self.out.extend_from_slice(b",\"significant\":");
+                self.bool(significant);
+                self.out.extend_from_slice(b",\"velocity_mm_per_day\":");
+                self.opt_float(velocity);
+                self.out.extend_from_slice(b",\"time_to_failure_hours\":");
+                self.opt_float(ttf);
+                self.out.push(b'}');
+            }
+        }
+        self.rows += 1;
+    }
+}
+
+/// The API form of a time kept in the store's own form (`YYYY-MM-DDTHH:MM:SS.ffffffZ`, as
+/// [`super::timestamp`] writes it), without its final `Z`: the fraction dropped when zero, cut to
+/// milliseconds when whole, as chrono's `AutoSi` prints it. `None` for any other text.
+pub fn shortened(stored: &[u8]) -> Option<&[u8]> {
+    let digits = |r: std::ops::Range<usize>| stored[r].iter().all(u8::is_ascii_digit);
+    let store_form = stored.len() == 27
+        && digits(0..4)
+        && stored[4] == b'-'
+        && digits(5..7)
+        && stored[7] == b'-'
+        && digits(8..10)
+        && stored[10] == b'T'
+        && digits(11..13)
+        && stored[13] == b':'
+        && digits(14..16)
+        && stored[16] == b':'
+        && digits(17..19)
+        && stored[19] == b'.'
+        && digits(20..26)
+        && stored[26] == b'Z';
+    if !store_form {
+        return None;
+    }
+    let end = if &stored[20..26] == b"000000" {
+        19
+    } else if &stored[23..26] == b"000" {
+        23
+    } else {
+        26
+    };
+    Some(&stored[..end])
+}
