@@ -125,7 +125,7 @@ pub async fn history(
     let rows: Vec<Displacement> = sqlx::query_as(
         "SELECT point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
          sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, \
-         velocity_mm_per_day, time_to_failure_hours FROM \
+         velocity_mm_per_day, time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2 FROM \
          (SELECT d.*, ROW_NUMBER() OVER (PARTITION BY d.point ORDER BY d.observed_at DESC) AS rn \
           FROM displacements d WHERE d.site_id = ? AND d.observed_at < ?) h \
          WHERE h.rn <= ? ORDER BY h.point, h.observed_at",
@@ -157,6 +157,9 @@ fn to_record(d: &Displacement) -> Option<DisplacementRecord> {
         sigma_dy_mm: d.sigma_dy_mm,
         sigma_dz_mm: d.sigma_dz_mm,
         sigma_mm: d.sigma_mm,
+        cov_dxdy_mm2: d.cov_dxdy_mm2,
+        cov_dxdz_mm2: d.cov_dxdz_mm2,
+        cov_dydz_mm2: d.cov_dydz_mm2,
         d_along_mm: d.d_along_mm,
         significant: d.significant,
         velocity_mm_per_day: d.velocity_mm_per_day,
@@ -179,6 +182,9 @@ pub fn to_row(r: &DisplacementRecord, reference_epoch: i64) -> Displacement {
         sigma_dy_mm: r.sigma_dy_mm,
         sigma_dz_mm: r.sigma_dz_mm,
         sigma_mm: r.sigma_mm,
+        cov_dxdy_mm2: r.cov_dxdy_mm2,
+        cov_dxdz_mm2: r.cov_dxdz_mm2,
+        cov_dydz_mm2: r.cov_dydz_mm2,
         d_along_mm: r.d_along_mm,
         significant: r.significant,
         velocity_mm_per_day: r.velocity_mm_per_day,
