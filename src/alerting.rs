@@ -423,6 +423,45 @@ pub async fn evaluate_and_record(
     record_events(&mut *tx, &events).await
 }
 
+/// Makes a failed analysis visible: the epoch's `status` becomes `analysis_failed` and its report
+/// gets `analysis_error` (why), and the site-level `analysis_failed` alert is raised (or kept up
+/// to date) with its outbox rows, all in the epoch's transaction. Returns how many alerts were
+/// raised.
+pub async fn record_analysis_failure(
+    tx: &mut SqliteConnection,
+    site: &Site,
+    epoch: i64,
+    observed_at: DateTime<Utc>,
+    reason: &str,
+    now: DateTime<Utc>,
+) -> Result<usize, StoreError> {
+    let report: Option<String> =
+        sqlx::query_scalar("SELECT report FROM epochs WHERE site_id = ? AND id = ?")
+            .bind(&site.id)
+            .bind(epoch)
+            .fetch_optional(&mut *tx)
+            .await?;
+    let mut report: serde_json::Map<String, serde_json::Value> = match report {
+        Some(r) => serde_json::from_str(&r)?,
+        None => serde_json::Map::new(),
+    };
+    report.insert("analysis_error".into(), reason.into());
+    sqlx::query(
+        "UPDATE epochs SET status = 'analysis_failed', report = ? WHERE site_id = ? AND id = ?",
+    )
+    .bind(serde_json::Value::Object(report).to_string())
+    .bind(&site.id)
+    .bind(epoch)
+    .execute(&mut *tx)
+    .await?;
+    let config = alert_config(site);
+    let state = load_state(&mut *tx, &site.id).await?;
+    let (state, events) =
+        analysis::analysis_failed(&config, &state, epoch, observed_at, reason, now);
+    save_state(&mut *tx, &site.id, &state).await?;
+    record_events(&mut *tx, &events).await
+}
+
 /// `campaign_overdue` of every site with a schedule, in one write transaction per site that changes.
 /// Returns how many alerts were raised.
 pub async fn check_overdue_all(

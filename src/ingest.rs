@@ -193,7 +193,8 @@ async fn reference_epoch(
 /// configurations and the history the windows need, runs [`crate::analysis::analyse_epoch`] on a
 /// blocking thread, then evaluates the site's alert rules and writes the alert state, the alerts and
 /// the webhook outbox. An epoch whose analysis fails (e.g. too few points in common with the
-/// reference) is stored without displacements, with a warning in the log.
+/// reference) is stored without displacements, with status `analysis_failed`, the reason in its
+/// report (`analysis_error`) and a site-level `analysis_failed` alert for the staff.
 async fn derive(
     tx: &mut SqliteConnection,
     site: &Site,
@@ -221,9 +222,13 @@ async fn derive(
     } else {
         match alerting::epoch_coordinates(tx, &site.id, reference).await? {
             Some(r) => r,
-            None => return Ok(Derived::default()),
+            None => {
+                let reason = format!("the reference epoch {reference} has no coordinates");
+                return failed(tx, site, epoch, t, &reason).await;
+            }
         }
     };
+    let reference_id = reference.epoch;
     let config = alerting::analysis_config(site);
     let points = alerting::point_configs(tx, &site.id).await?;
     let history = alerting::history(tx, &site.id, observed_at, config.history_epochs()).await?;
@@ -233,8 +238,8 @@ async fn derive(
     let analysis = match analysis {
         Ok(a) => a,
         Err(e) => {
-            tracing::warn!(site = %site.id, epoch, error = %e, "epoch stored without displacements");
-            return Ok(Derived::default());
+            let reason = format!("analysis against reference epoch {reference_id}: {e}");
+            return failed(tx, site, epoch, t, &reason).await;
         }
     };
     for w in &analysis.warnings {
@@ -248,6 +253,22 @@ async fn derive(
     let raised = alerting::evaluate_and_record(tx, site, &analysis, Utc::now()).await?;
     Ok(Derived {
         displacements,
+        raised,
+    })
+}
+
+/// Stores an epoch's failed analysis (see [`alerting::record_analysis_failure`]) and logs it.
+async fn failed(
+    tx: &mut SqliteConnection,
+    site: &Site,
+    epoch: i64,
+    t: chrono::DateTime<Utc>,
+    reason: &str,
+) -> Result<Derived, IngestError> {
+    tracing::warn!(site = %site.id, epoch, reason, "epoch stored without displacements");
+    let raised = alerting::record_analysis_failure(tx, site, epoch, t, reason, Utc::now()).await?;
+    Ok(Derived {
+        displacements: vec![],
         raised,
     })
 }

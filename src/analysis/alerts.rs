@@ -100,6 +100,9 @@ pub enum AlertKind {
     CampaignOverdue,
     /// The congruence test found moving stable points.
     ReferenceUnstable,
+    /// An epoch was stored without displacements because its analysis failed (e.g. too few
+    /// points in common with the reference).
+    AnalysisFailed,
 }
 
 impl AlertKind {
@@ -112,6 +115,7 @@ impl AlertKind {
             AlertKind::TimeToFailureHours => "time_to_failure_hours",
             AlertKind::CampaignOverdue => "campaign_overdue",
             AlertKind::ReferenceUnstable => "reference_unstable",
+            AlertKind::AnalysisFailed => "analysis_failed",
         }
     }
 }
@@ -234,6 +238,9 @@ fn default_unstable() -> AlertLevel {
 fn default_overdue() -> AlertLevel {
     AlertLevel::Watch
 }
+fn default_failed() -> AlertLevel {
+    AlertLevel::Warning
+}
 fn default_grace() -> f64 {
     0.25
 }
@@ -255,6 +262,9 @@ pub struct AlertConfig {
     /// Level of `campaign_overdue` (default watch).
     #[serde(default = "default_overdue")]
     pub campaign_overdue_level: AlertLevel,
+    /// Level of `analysis_failed` (default warning).
+    #[serde(default = "default_failed")]
+    pub analysis_failed_level: AlertLevel,
     /// Campaign schedule in hours (`schedule_hours` of the site); no overdue alerts without it.
     #[serde(default)]
     pub schedule_hours: Option<f64>,
@@ -272,6 +282,7 @@ impl AlertConfig {
             quiet_epochs: 1,
             reference_unstable_level: AlertLevel::Warning,
             campaign_overdue_level: AlertLevel::Watch,
+            analysis_failed_level: AlertLevel::Warning,
             schedule_hours: None,
             overdue_grace: 0.25,
         }
@@ -693,6 +704,26 @@ pub fn evaluate_alerts(
             }
         }
     }
+    // This epoch was analysed: an earlier failure no longer stands.
+    apply(
+        site,
+        &mut st,
+        Update {
+            point: None,
+            points: vec![],
+            kind: AlertKind::AnalysisFailed,
+            level: None,
+            value: None,
+            threshold: None,
+            unit: "",
+            rule: None,
+            epoch: Some(analysis.epoch),
+            observed_at: Some(analysis.observed_at),
+            id_suffix: suffix.clone(),
+        },
+        now,
+        &mut events,
+    );
     // An epoch arrived: the campaign is no longer overdue.
     apply(
         site,
@@ -709,6 +740,76 @@ pub fn evaluate_alerts(
             epoch: Some(analysis.epoch),
             observed_at: Some(analysis.observed_at),
             id_suffix: suffix,
+        },
+        now,
+        &mut events,
+    );
+    (st, events)
+}
+
+/// An epoch whose analysis failed (`reason`, e.g. too few points in common with the reference):
+/// raises the site-level `analysis_failed` alert, or keeps the open one up to date (its message
+/// names the latest failed epoch; no new event). The next epoch that is analysed resolves it
+/// ([`evaluate_alerts`]). A campaign arrived, so an open `campaign_overdue` resolves as well.
+pub fn analysis_failed(
+    config: &AlertConfig,
+    state: &AlertState,
+    epoch: i64,
+    observed_at: DateTime<Utc>,
+    reason: &str,
+    now: DateTime<Utc>,
+) -> (AlertState, Vec<AlertEvent>) {
+    let mut st = state.clone();
+    let mut events = vec![];
+    let site = config.site.as_str();
+    apply(
+        site,
+        &mut st,
+        Update {
+            point: None,
+            points: vec![],
+            kind: AlertKind::AnalysisFailed,
+            level: Some(config.analysis_failed_level),
+            value: None,
+            threshold: None,
+            unit: "",
+            rule: None,
+            epoch: Some(epoch),
+            observed_at: Some(observed_at),
+            id_suffix: epoch.to_string(),
+        },
+        now,
+        &mut events,
+    );
+    let text = format!(
+        "site {site}: epoch {epoch} ({}) stored without displacements: {reason}",
+        fmt_time(observed_at)
+    );
+    if let Some(a) = st
+        .alerts
+        .iter_mut()
+        .find(|a| a.rule == AlertKind::AnalysisFailed)
+    {
+        a.message = text.clone();
+    }
+    for e in &mut events {
+        e.alert.message = text.clone();
+    }
+    apply(
+        site,
+        &mut st,
+        Update {
+            point: None,
+            points: vec![],
+            kind: AlertKind::CampaignOverdue,
+            level: None,
+            value: None,
+            threshold: None,
+            unit: "hours",
+            rule: None,
+            epoch: Some(epoch),
+            observed_at: Some(observed_at),
+            id_suffix: epoch.to_string(),
         },
         now,
         &mut events,
