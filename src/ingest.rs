@@ -207,10 +207,20 @@ async fn derive(
             .bind(&site.id)
             .fetch_one(&mut *tx)
             .await?;
-    if site.reference_epoch.is_none() && earliest == epoch && epoch != 1 {
-        // An epoch earlier than the reference arrived: it is the new default reference.
-        recompute_displacements(tx, site).await?;
-        return Ok(Derived::default());
+    let later: i64 =
+        sqlx::query_scalar("SELECT COUNT(*) FROM epochs WHERE site_id = ? AND observed_at > ?")
+            .bind(&site.id)
+            .bind(observed_at)
+            .fetch_one(&mut *tx)
+            .await?;
+    if later > 0 {
+        // Out of order: later epochs' histories (velocities, forecasts) and, when this epoch is the
+        // earliest without a set reference, the reference itself change. Recompute the series.
+        let raised = recompute_site(tx, site).await?;
+        return Ok(Derived {
+            displacements: vec![],
+            raised,
+        });
     }
     let reference = site.reference_epoch.unwrap_or(earliest);
     let Some(t) = store::parse_timestamp(observed_at) else {
@@ -274,22 +284,36 @@ async fn failed(
 }
 
 /// Recomputes every displacement of a site against its current reference (after
-/// `PUT .../reference` or when an earlier epoch arrives), epoch by epoch in time order, each with
-/// the history recomputed before it. Alerts are not re-evaluated (they describe what was known when
-/// each epoch arrived). Call inside a write transaction.
+/// `PUT .../reference`); see [`recompute_site`]. Call inside a write transaction.
 pub async fn recompute_displacements(
     tx: &mut SqliteConnection,
     site: &Site,
 ) -> Result<(), IngestError> {
+    recompute_site(tx, site).await.map(|_| ())
+}
+
+/// Recomputes the derived series of a site after a change of its history (a new reference, an
+/// epoch that arrived out of order), inside the caller's write transaction so the change and
+/// everything derived from it commit together:
+/// 1. every displacement against the current reference, epoch by epoch in time order, each with
+///    the history recomputed before it (velocities, forecasts);
+/// 2. each epoch's analysis status (`adjusted` / `analysis_failed` with the reason);
+/// 3. the alert state: the rules are replayed over the recomputed series and the stored state is
+///    brought to the result by [`alerting::reconcile_and_record`], which announces only the net
+///    change now (raised, escalated, de-escalated, resolved) and never re-sends transitions staff
+///    already received; open alerts keep their id and acknowledgement.
+///
+/// Returns how many alerts were raised.
+pub async fn recompute_site(tx: &mut SqliteConnection, site: &Site) -> Result<usize, IngestError> {
     let site = sites::get(&mut *tx, &site.id)
         .await?
         .ok_or_else(|| IngestError::UnknownSite(site.id.clone()))?;
     displacements::delete_site(tx, &site.id).await?;
     let Some(reference) = reference_epoch(tx, &site).await? else {
-        return Ok(());
+        return Ok(0);
     };
     let Some(reference) = alerting::epoch_coordinates(tx, &site.id, reference).await? else {
-        return Ok(());
+        return Ok(0);
     };
     let ids: Vec<i64> =
         sqlx::query_scalar("SELECT id FROM epochs WHERE site_id = ? ORDER BY observed_at")
@@ -305,15 +329,28 @@ pub async fn recompute_displacements(
     let config = alerting::analysis_config(&site);
     let points = alerting::point_configs(tx, &site.id).await?;
     let reference_id = reference.epoch;
-    let records = alerting::analyse_series_blocking(reference, series, points, config)
-        .await
-        .map_err(|e| IngestError::Task(e.to_string()))?;
-    let rows: Vec<Displacement> = records
+    let out = alerting::analyse_series_blocking(
+        reference,
+        series,
+        points,
+        config,
+        alerting::alert_config(&site),
+    )
+    .await
+    .map_err(|e| IngestError::Task(e.to_string()))?;
+    let rows: Vec<Displacement> = out
+        .records
         .iter()
         .map(|r| alerting::to_row(r, reference_id))
         .collect();
     displacements::insert(tx, &site.id, &rows).await?;
-    Ok(())
+    for id in &out.analysed {
+        alerting::set_analysis_status(tx, &site.id, *id, None).await?;
+    }
+    for (id, reason) in &out.failures {
+        alerting::set_analysis_status(tx, &site.id, *id, Some(reason)).await?;
+    }
+    Ok(alerting::reconcile_and_record(tx, &site.id, &out.replayed, Utc::now()).await?)
 }
 
 /// Why a CSV upload cannot be read.
