@@ -158,11 +158,11 @@ pub fn image_series(sc: &ImageSeriesScenario) -> Result<ImageSeries, SceneError>
     if sc.epochs == 0 {
         return Err(bad("epochs", "at least 1"));
     }
-    if !(sc.interval_hours > 0.0) {
+    if sc.interval_hours.is_nan() || sc.interval_hours <= 0.0 {
         return Err(bad("interval_hours", "must be positive"));
     }
     let dir = Vector3::from(sc.direction);
-    if !(dir.norm() > 0.0) {
+    if dir.norm().is_nan() || dir.norm() == 0.0 {
         return Err(bad("direction", "must be a non-zero vector"));
     }
     let dir = dir.normalize();
