@@ -151,11 +151,12 @@ async fn run_seed(d: &Daemon, seed: u64, dir: &Path) -> SeedOutcome {
             .await;
         let items = alerts["items"].as_array().unwrap();
         for a in items {
-            let p = a["point"].as_str().unwrap_or("-");
-            assert!(
-                block.contains(&p),
-                "seed {seed}: alert outside the block: {a}"
-            );
+            // Point alerts only on the block; at site level only the congruence test's
+            // `reference_unstable` (1 % false alarms per epoch by design) may appear.
+            match a["point"].as_str() {
+                Some(p) => assert!(block.contains(&p), "seed {seed}: alert off the block: {a}"),
+                None => assert_eq!(a["rule"], "reference_unstable", "seed {seed}: {a}"),
+            }
         }
         levels.push(
             items
