@@ -125,7 +125,7 @@ pub async fn history(
     let rows: Vec<Displacement> = sqlx::query_as(
         "SELECT point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
          sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, \
-         velocity_mm_per_day, time_to_failure_hours FROM \
+         velocity_mm_per_day, time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2 FROM \
          (SELECT d.*, ROW_NUMBER() OVER (PARTITION BY d.point ORDER BY d.observed_at DESC) AS rn \
           FROM displacements d WHERE d.site_id = ? AND d.observed_at < ?) h \
          WHERE h.rn <= ? ORDER BY h.point, h.observed_at",
@@ -157,6 +157,9 @@ fn to_record(d: &Displacement) -> Option<DisplacementRecord> {
         sigma_dy_mm: d.sigma_dy_mm,
         sigma_dz_mm: d.sigma_dz_mm,
         sigma_mm: d.sigma_mm,
+        cov_dxdy_mm2: d.cov_dxdy_mm2,
+        cov_dxdz_mm2: d.cov_dxdz_mm2,
+        cov_dydz_mm2: d.cov_dydz_mm2,
         d_along_mm: d.d_along_mm,
         significant: d.significant,
         velocity_mm_per_day: d.velocity_mm_per_day,
@@ -179,6 +182,9 @@ pub fn to_row(r: &DisplacementRecord, reference_epoch: i64) -> Displacement {
         sigma_dy_mm: r.sigma_dy_mm,
         sigma_dz_mm: r.sigma_dz_mm,
         sigma_mm: r.sigma_mm,
+        cov_dxdy_mm2: r.cov_dxdy_mm2,
+        cov_dxdz_mm2: r.cov_dxdz_mm2,
+        cov_dydz_mm2: r.cov_dydz_mm2,
         d_along_mm: r.d_along_mm,
         significant: r.significant,
         velocity_mm_per_day: r.velocity_mm_per_day,
@@ -200,19 +206,34 @@ pub async fn analyse_blocking(
     .await
 }
 
+/// A series analysed again against one reference, with the alert rules replayed over it.
+#[derive(Debug, Default)]
+pub struct SeriesAnalysis {
+    /// Every displacement record, epoch by epoch in time order.
+    pub records: Vec<DisplacementRecord>,
+    /// The alert state the rules reach over the series, replayed from an empty state.
+    pub replayed: AlertState,
+    /// Epochs whose analysis failed, with the reason.
+    pub failures: Vec<(i64, String)>,
+    /// Epochs analysed.
+    pub analysed: Vec<i64>,
+}
+
 /// Analyses a whole series against one reference on a blocking thread: `epochs` oldest first; each
-/// epoch's history is the records computed before it. Epochs whose analysis fails are skipped (and
-/// logged).
+/// epoch's history is the records computed before it, and the site's rules are replayed epoch by
+/// epoch from an empty state (each epoch stamped with its observation time). Epochs whose analysis
+/// fails are listed with the reason and replayed as [`analysis::analysis_failed`].
 pub async fn analyse_series_blocking(
     reference: EpochCoordinates,
     epochs: Vec<EpochCoordinates>,
     points: Vec<PointConfig>,
     config: AnalysisConfig,
-) -> Result<Vec<DisplacementRecord>, tokio::task::JoinError> {
+    alerts: AlertConfig,
+) -> Result<SeriesAnalysis, tokio::task::JoinError> {
     tokio::task::spawn_blocking(move || {
         let keep = config.history_epochs().max(1);
         let mut history: History = HashMap::new();
-        let mut out = Vec::new();
+        let mut out = SeriesAnalysis::default();
         for e in &epochs {
             match analysis::analyse_epoch(&reference, e, &points, &history, &config) {
                 Ok(a) => {
@@ -222,15 +243,88 @@ pub async fn analyse_series_blocking(
                         if h.len() > keep {
                             h.remove(0);
                         }
-                        out.push(r);
+                        out.records.push(r);
                     }
+                    out.replayed =
+                        analysis::evaluate_alerts(&alerts, &out.replayed, &a, e.observed_at).0;
+                    out.analysed.push(e.epoch);
                 }
-                Err(err) => tracing::warn!(epoch = e.epoch, error = %err, "epoch not analysed"),
+                Err(err) => {
+                    let reason = format!(
+                        "analysis against reference epoch {}: {err}",
+                        reference.epoch
+                    );
+                    out.replayed = analysis::analysis_failed(
+                        &alerts,
+                        &out.replayed,
+                        e.epoch,
+                        e.observed_at,
+                        &reason,
+                        e.observed_at,
+                    )
+                    .0;
+                    out.failures.push((e.epoch, reason));
+                }
             }
         }
         out
     })
     .await
+}
+
+/// Sets the analysis outcome of a stored epoch: status `adjusted` without `analysis_error` in its
+/// report, or `analysis_failed` with the reason in `analysis_error`.
+pub async fn set_analysis_status(
+    tx: &mut SqliteConnection,
+    site: &str,
+    epoch: i64,
+    error: Option<&str>,
+) -> Result<(), StoreError> {
+    let report: Option<String> =
+        sqlx::query_scalar("SELECT report FROM epochs WHERE site_id = ? AND id = ?")
+            .bind(site)
+            .bind(epoch)
+            .fetch_optional(&mut *tx)
+            .await?;
+    let mut report: serde_json::Map<String, serde_json::Value> = match report {
+        Some(r) => serde_json::from_str(&r)?,
+        None => return Ok(()),
+    };
+    let status = match error {
+        Some(e) => {
+            report.insert("analysis_error".into(), e.into());
+            "analysis_failed"
+        }
+        None => {
+            if report.remove("analysis_error").is_none() {
+                return Ok(());
+            }
+            "adjusted"
+        }
+    };
+    sqlx::query("UPDATE epochs SET status = ?, report = ? WHERE site_id = ? AND id = ?")
+        .bind(status)
+        .bind(serde_json::Value::Object(report).to_string())
+        .bind(site)
+        .bind(epoch)
+        .execute(&mut *tx)
+        .await?;
+    Ok(())
+}
+
+/// Brings the stored alert state of a site to the state replayed over a recomputed series
+/// ([`analysis::reconcile`]: only net changes are announced) and records the events. Returns
+/// how many alerts were raised.
+pub async fn reconcile_and_record(
+    tx: &mut SqliteConnection,
+    site: &str,
+    replayed: &AlertState,
+    now: DateTime<Utc>,
+) -> Result<usize, StoreError> {
+    let current = load_state(&mut *tx, site).await?;
+    let (state, events) = analysis::reconcile(&current, replayed, now);
+    save_state(&mut *tx, site, &state).await?;
+    record_events(&mut *tx, &events).await
 }
 
 /// The alert engine's state of a site (empty when none stored yet).
@@ -413,6 +507,27 @@ pub async fn evaluate_and_record(
     let config = alert_config(site);
     let state = load_state(&mut *tx, &site.id).await?;
     let (state, events) = analysis::evaluate_alerts(&config, &state, analysis, now);
+    save_state(&mut *tx, &site.id, &state).await?;
+    record_events(&mut *tx, &events).await
+}
+
+/// Makes a failed analysis visible: the epoch's `status` becomes `analysis_failed` and its report
+/// gets `analysis_error` (why), and the site-level `analysis_failed` alert is raised (or kept up
+/// to date) with its outbox rows, all in the epoch's transaction. Returns how many alerts were
+/// raised.
+pub async fn record_analysis_failure(
+    tx: &mut SqliteConnection,
+    site: &Site,
+    epoch: i64,
+    observed_at: DateTime<Utc>,
+    reason: &str,
+    now: DateTime<Utc>,
+) -> Result<usize, StoreError> {
+    set_analysis_status(&mut *tx, &site.id, epoch, Some(reason)).await?;
+    let config = alert_config(site);
+    let state = load_state(&mut *tx, &site.id).await?;
+    let (state, events) =
+        analysis::analysis_failed(&config, &state, epoch, observed_at, reason, now);
     save_state(&mut *tx, &site.id, &state).await?;
     record_events(&mut *tx, &events).await
 }

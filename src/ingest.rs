@@ -193,7 +193,8 @@ async fn reference_epoch(
 /// configurations and the history the windows need, runs [`crate::analysis::analyse_epoch`] on a
 /// blocking thread, then evaluates the site's alert rules and writes the alert state, the alerts and
 /// the webhook outbox. An epoch whose analysis fails (e.g. too few points in common with the
-/// reference) is stored without displacements, with a warning in the log.
+/// reference) is stored without displacements, with status `analysis_failed`, the reason in its
+/// report (`analysis_error`) and a site-level `analysis_failed` alert for the staff.
 async fn derive(
     tx: &mut SqliteConnection,
     site: &Site,
@@ -206,10 +207,20 @@ async fn derive(
             .bind(&site.id)
             .fetch_one(&mut *tx)
             .await?;
-    if site.reference_epoch.is_none() && earliest == epoch && epoch != 1 {
-        // An epoch earlier than the reference arrived: it is the new default reference.
-        recompute_displacements(tx, site).await?;
-        return Ok(Derived::default());
+    let later: i64 =
+        sqlx::query_scalar("SELECT COUNT(*) FROM epochs WHERE site_id = ? AND observed_at > ?")
+            .bind(&site.id)
+            .bind(observed_at)
+            .fetch_one(&mut *tx)
+            .await?;
+    if later > 0 {
+        // Out of order: later epochs' histories (velocities, forecasts) and, when this epoch is the
+        // earliest without a set reference, the reference itself change. Recompute the series.
+        let raised = recompute_site(tx, site).await?;
+        return Ok(Derived {
+            displacements: vec![],
+            raised,
+        });
     }
     let reference = site.reference_epoch.unwrap_or(earliest);
     let Some(t) = store::parse_timestamp(observed_at) else {
@@ -221,9 +232,13 @@ async fn derive(
     } else {
         match alerting::epoch_coordinates(tx, &site.id, reference).await? {
             Some(r) => r,
-            None => return Ok(Derived::default()),
+            None => {
+                let reason = format!("the reference epoch {reference} has no coordinates");
+                return failed(tx, site, epoch, t, &reason).await;
+            }
         }
     };
+    let reference_id = reference.epoch;
     let config = alerting::analysis_config(site);
     let points = alerting::point_configs(tx, &site.id).await?;
     let history = alerting::history(tx, &site.id, observed_at, config.history_epochs()).await?;
@@ -233,8 +248,8 @@ async fn derive(
     let analysis = match analysis {
         Ok(a) => a,
         Err(e) => {
-            tracing::warn!(site = %site.id, epoch, error = %e, "epoch stored without displacements");
-            return Ok(Derived::default());
+            let reason = format!("analysis against reference epoch {reference_id}: {e}");
+            return failed(tx, site, epoch, t, &reason).await;
         }
     };
     for w in &analysis.warnings {
@@ -252,23 +267,53 @@ async fn derive(
     })
 }
 
+/// Stores an epoch's failed analysis (see [`alerting::record_analysis_failure`]) and logs it.
+async fn failed(
+    tx: &mut SqliteConnection,
+    site: &Site,
+    epoch: i64,
+    t: chrono::DateTime<Utc>,
+    reason: &str,
+) -> Result<Derived, IngestError> {
+    tracing::warn!(site = %site.id, epoch, reason, "epoch stored without displacements");
+    let raised = alerting::record_analysis_failure(tx, site, epoch, t, reason, Utc::now()).await?;
+    Ok(Derived {
+        displacements: vec![],
+        raised,
+    })
+}
+
 /// Recomputes every displacement of a site against its current reference (after
-/// `PUT .../reference` or when an earlier epoch arrives), epoch by epoch in time order, each with
-/// the history recomputed before it. Alerts are not re-evaluated (they describe what was known when
-/// each epoch arrived). Call inside a write transaction.
+/// `PUT .../reference`); see [`recompute_site`]. Call inside a write transaction.
 pub async fn recompute_displacements(
     tx: &mut SqliteConnection,
     site: &Site,
 ) -> Result<(), IngestError> {
+    recompute_site(tx, site).await.map(|_| ())
+}
+
+/// Recomputes the derived series of a site after a change of its history (a new reference, an
+/// epoch that arrived out of order), inside the caller's write transaction so the change and
+/// everything derived from it commit together:
+/// 1. every displacement against the current reference, epoch by epoch in time order, each with
+///    the history recomputed before it (velocities, forecasts);
+/// 2. each epoch's analysis status (`adjusted` / `analysis_failed` with the reason);
+/// 3. the alert state: the rules are replayed over the recomputed series and the stored state is
+///    brought to the result by [`alerting::reconcile_and_record`], which announces only the net
+///    change now (raised, escalated, de-escalated, resolved) and never re-sends transitions staff
+///    already received; open alerts keep their id and acknowledgement.
+///
+/// Returns how many alerts were raised.
+pub async fn recompute_site(tx: &mut SqliteConnection, site: &Site) -> Result<usize, IngestError> {
     let site = sites::get(&mut *tx, &site.id)
         .await?
         .ok_or_else(|| IngestError::UnknownSite(site.id.clone()))?;
     displacements::delete_site(tx, &site.id).await?;
     let Some(reference) = reference_epoch(tx, &site).await? else {
-        return Ok(());
+        return Ok(0);
     };
     let Some(reference) = alerting::epoch_coordinates(tx, &site.id, reference).await? else {
-        return Ok(());
+        return Ok(0);
     };
     let ids: Vec<i64> =
         sqlx::query_scalar("SELECT id FROM epochs WHERE site_id = ? ORDER BY observed_at")
@@ -284,15 +329,28 @@ pub async fn recompute_displacements(
     let config = alerting::analysis_config(&site);
     let points = alerting::point_configs(tx, &site.id).await?;
     let reference_id = reference.epoch;
-    let records = alerting::analyse_series_blocking(reference, series, points, config)
-        .await
-        .map_err(|e| IngestError::Task(e.to_string()))?;
-    let rows: Vec<Displacement> = records
+    let out = alerting::analyse_series_blocking(
+        reference,
+        series,
+        points,
+        config,
+        alerting::alert_config(&site),
+    )
+    .await
+    .map_err(|e| IngestError::Task(e.to_string()))?;
+    let rows: Vec<Displacement> = out
+        .records
         .iter()
         .map(|r| alerting::to_row(r, reference_id))
         .collect();
     displacements::insert(tx, &site.id, &rows).await?;
-    Ok(())
+    for id in &out.analysed {
+        alerting::set_analysis_status(tx, &site.id, *id, None).await?;
+    }
+    for (id, reason) in &out.failures {
+        alerting::set_analysis_status(tx, &site.id, *id, Some(reason)).await?;
+    }
+    Ok(alerting::reconcile_and_record(tx, &site.id, &out.replayed, Utc::now()).await?)
 }
 
 /// Why a CSV upload cannot be read.

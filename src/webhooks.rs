@@ -5,7 +5,8 @@
 //!   = base64-decoded part of the secret after `whsec_` (Standard Webhooks specification,
 //!   <https://www.standardwebhooks.com>).
 //! - [`payload`]: the contract body `{"type", "timestamp", "data": {...}}` built from an
-//!   [`crate::analysis::AlertEvent`], per-endpoint level filtering, the Alertmanager webhook body (v4).
+//!   [`crate::analysis::AlertEvent`], per-endpoint level filtering, the Alertmanager webhook body (v4) and the
+//!   Alertmanager API v2 body (`POST /api/v2/alerts`).
 //! - [`retry`]: exponential backoff with jitter, `Retry-After`, attempt limit.
 //! - [`deliver`]: one signed HTTP POST and the classification of its outcome (delivered, retry after,
 //!   gone on 410 → disable the endpoint, failed). The outbox worker (the service) stores the message id and
@@ -18,8 +19,9 @@ pub mod sign;
 
 pub use deliver::{deliver, DeliveryOutcome};
 pub use payload::{
-    accepts, alertmanager_body, message_id, AlertmanagerAlert, AlertmanagerBody, PayloadFormat,
-    WebhookData, WebhookEndpoint, WebhookPayload,
+    accepts, alertmanager_alerts, alertmanager_body, message_id, AlertmanagerAlert,
+    AlertmanagerBody, PayloadFormat, PostableAlert, WebhookData, WebhookEndpoint, WebhookPayload,
+    ALERTMANAGER_FIRING_DAYS,
 };
 pub use retry::{backoff_delay, next_retry, parse_retry_after, RetryPolicy};
 pub use sign::{sign, signing_key, verify, WebhookError};

@@ -4,9 +4,9 @@
 use chrono::{DateTime, Duration, TimeZone, Utc};
 
 use cliffwatch::analysis::{
-    acknowledge, check_overdue, evaluate_alerts, resolve, AlertConfig, AlertEventType, AlertKind,
-    AlertLevel, AlertRule, AlertState, AlertStatus, DatumMethod, DatumReport, DisplacementRecord,
-    EpochAnalysis, PointAnalysis, PointRole,
+    acknowledge, analysis_failed, check_overdue, evaluate_alerts, reconcile, resolve, AlertConfig,
+    AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState, AlertStatus, DatumMethod,
+    DatumReport, DisplacementRecord, EpochAnalysis, PointAnalysis, PointRole,
 };
 
 fn t0() -> DateTime<Utc> {
@@ -35,6 +35,9 @@ fn analysis(
         sigma_dy_mm: 0.5,
         sigma_dz_mm: 0.5,
         sigma_mm: 0.5,
+        cov_dxdy_mm2: None,
+        cov_dxdz_mm2: None,
+        cov_dydz_mm2: None,
         d_along_mm: None,
         significant,
         velocity_mm_per_day: None,
@@ -247,4 +250,105 @@ fn invalid_rules_are_reported() {
         r#"{"level": "severe", "metric": "displacement_mm", "above": 5}"#
     )
     .is_err());
+}
+
+/// After a recomputation only the net change is announced: an alert open before and after keeps
+/// its id, raising time and acknowledgement (escalation re-opens it), one that no longer holds is
+/// resolved, a new one is raised; campaign_overdue is not replayed and stays.
+#[test]
+fn reconcile_announces_only_the_net_change() {
+    use AlertEventType::*;
+    let cfg = contract_config();
+    let now = t0() + Duration::days(30);
+    // Stored: T1 at watch (acknowledged), plus an overdue campaign.
+    let (_, st) = feed(&cfg, &[(6.0, true)]);
+    let id = st.alerts[0].id.clone();
+    let (st, _) = acknowledge(&st, &id, "geologist", Some("seen"), t0()).expect("ack");
+    let (st, _) = check_overdue(
+        &AlertConfig {
+            schedule_hours: Some(24.0),
+            ..cfg.clone()
+        },
+        &st,
+        Some(t0()),
+        t0() + Duration::days(3),
+    );
+    assert_eq!(st.alerts.len(), 2);
+
+    // Replayed at the same level: nothing to send, the acknowledgement stays.
+    let (_, same) = feed(&cfg, &[(3.0, true), (6.5, true)]);
+    let (r, ev) = reconcile(&st, &same, now);
+    assert!(ev.is_empty(), "{ev:?}");
+    let a = r.find(Some("T1"), AlertKind::DisplacementMm).expect("kept");
+    assert_eq!(a.id, id);
+    assert_eq!(a.status, AlertStatus::Acknowledged);
+    assert_eq!(a.value, Some(6.5));
+    assert!(r.find(None, AlertKind::CampaignOverdue).is_some());
+
+    // Replayed at warning: one escalation, same id, open again.
+    let (_, higher) = feed(&cfg, &[(11.0, true)]);
+    let (r, ev) = reconcile(&st, &higher, now);
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].event_type, Escalated);
+    assert_eq!(ev[0].alert.id, id);
+    assert_eq!(ev[0].timestamp, now);
+    assert_eq!(
+        r.find(Some("T1"), AlertKind::DisplacementMm)
+            .map(|a| a.status),
+        Some(AlertStatus::Open)
+    );
+
+    // Replayed with nothing: resolved once; the overdue campaign is still open.
+    let (_, none) = feed(&cfg, &[(1.0, true)]);
+    let (r, ev) = reconcile(&st, &none, now);
+    assert_eq!(ev.len(), 1);
+    assert_eq!(
+        (ev[0].event_type, ev[0].alert.id.as_str()),
+        (Resolved, id.as_str())
+    );
+    assert_eq!(r.alerts.len(), 1);
+    assert_eq!(r.alerts[0].rule, AlertKind::CampaignOverdue);
+
+    // Nothing stored, the replay holds an alert: raised now.
+    let (r, ev) = reconcile(&AlertState::default(), &higher, now);
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].event_type, Raised);
+    assert_eq!(ev[0].alert.raised_at, now);
+    assert_eq!(r.alerts.len(), 1);
+}
+
+/// A failed analysis raises one site-level warning naming the epoch and the reason; a second
+/// failure updates it silently; the next analysed epoch resolves it.
+#[test]
+fn analysis_failed_raises_once_and_resolves_on_the_next_analysis() {
+    use AlertEventType::*;
+    let cfg = contract_config();
+    let (st, ev) = analysis_failed(
+        &cfg,
+        &AlertState::default(),
+        7,
+        t0(),
+        "too few points",
+        t0(),
+    );
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].event_type, Raised);
+    assert_eq!(ev[0].alert.rule, AlertKind::AnalysisFailed);
+    assert_eq!(ev[0].alert.level, AlertLevel::Warning);
+    assert!(ev[0].alert.point.is_none());
+    assert!(
+        ev[0].alert.message.contains("epoch 7"),
+        "{}",
+        ev[0].alert.message
+    );
+    assert!(ev[0].alert.message.contains("too few points"));
+    let (st, ev) = analysis_failed(&cfg, &st, 8, t0(), "still too few", t0());
+    assert!(ev.is_empty());
+    assert!(st.alerts[0].message.contains("epoch 8"));
+    let a = analysis(9, 1.0, false, None, &[]);
+    let (st, ev) = evaluate_alerts(&cfg, &st, &a, t0());
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].event_type, Resolved);
+    assert_eq!(ev[0].alert.rule, AlertKind::AnalysisFailed);
+    assert!(st.alerts.is_empty());
 }

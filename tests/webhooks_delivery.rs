@@ -19,8 +19,9 @@ use sha2::Sha256;
 
 use cliffwatch::analysis::{Alert, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertStatus};
 use cliffwatch::webhooks::{
-    accepts, alertmanager_body, backoff_delay, deliver, message_id, next_retry, parse_retry_after,
-    sign, verify, DeliveryOutcome, PayloadFormat, RetryPolicy, WebhookEndpoint, WebhookPayload,
+    accepts, alertmanager_alerts, alertmanager_body, backoff_delay, deliver, message_id,
+    next_retry, parse_retry_after, sign, verify, DeliveryOutcome, PayloadFormat, RetryPolicy,
+    WebhookEndpoint, WebhookPayload,
 };
 
 const SECRET: &str = "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw";
@@ -356,4 +357,79 @@ async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
         deliver(&client, dead, SECRET, &id, &body, Utc::now()).await,
         DeliveryOutcome::Retry { status: None, .. }
     ));
+}
+
+/// The Alertmanager API v2 body (`POST /api/v2/alerts`, `postableAlerts` of Alertmanager's OpenAPI
+/// spec): a JSON array of `{labels, annotations, startsAt, endsAt, generatorURL}`, label and
+/// annotation values strings, times RFC 3339, `generatorURL` an absolute URI. Each level is its
+/// own Alertmanager alert (severity is a label): the current one fires, the others resolve.
+#[test]
+fn alertmanager_v2_body_has_the_postable_alerts_shape() {
+    use serde_json::Value;
+    use std::collections::BTreeSet;
+    let raised = event(AlertEventType::Raised, AlertLevel::Warning);
+    let body =
+        serde_json::to_value(alertmanager_alerts(&raised, "https://cw.example.org/")).unwrap();
+    let alerts = body.as_array().expect("the body is a JSON array");
+    assert_eq!(alerts.len(), 3);
+    let time = |v: &Value| {
+        chrono::DateTime::parse_from_rfc3339(v.as_str().expect("a string"))
+            .expect("RFC 3339")
+            .to_utc()
+    };
+    let mut firing = vec![];
+    for a in alerts {
+        let o = a.as_object().expect("an object");
+        let keys: BTreeSet<&str> = o.keys().map(String::as_str).collect();
+        assert_eq!(
+            keys,
+            BTreeSet::from([
+                "annotations",
+                "endsAt",
+                "generatorURL",
+                "labels",
+                "startsAt"
+            ])
+        );
+        for m in ["labels", "annotations"] {
+            let map = o[m].as_object().expect("a label set");
+            assert!(map.values().all(Value::is_string), "{m}: {map:?}");
+        }
+        let url = reqwest::Url::parse(o["generatorURL"].as_str().unwrap()).expect("a URI");
+        assert_eq!(url.scheme(), "https");
+        assert!(url.path().starts_with("/api/v1/alerts/"), "{url}");
+        let l = &o["labels"];
+        assert_eq!(l["alertname"], "cliffwatch_displacement_mm");
+        assert_eq!(l["site"], "kamo");
+        assert_eq!(l["point"], "T103");
+        assert_eq!(l["rule"], "displacement_mm");
+        let n = &o["annotations"];
+        assert_eq!(n["alert_id"], raised.alert.id.as_str());
+        assert_eq!(n["value"], "12.4");
+        assert_eq!(n["threshold"], "10");
+        assert_eq!(n["unit"], "mm");
+        assert_eq!(n["summary"], raised.alert.message.as_str());
+        assert_eq!(time(&o["startsAt"]), raised.alert.raised_at);
+        let ends = time(&o["endsAt"]);
+        if ends > raised.timestamp {
+            assert!(ends - raised.timestamp >= chrono::Duration::days(300));
+            firing.push(l["severity"].clone());
+        } else {
+            assert_eq!(ends, raised.timestamp);
+        }
+    }
+    assert_eq!(firing, vec![Value::from("warning")]);
+    let severities: BTreeSet<&str> = alerts
+        .iter()
+        .map(|a| a["labels"]["severity"].as_str().unwrap())
+        .collect();
+    assert_eq!(severities, BTreeSet::from(["alarm", "warning", "watch"]));
+
+    // Resolution ends every level at the event time; without a base URL there is no generatorURL.
+    let resolved = event(AlertEventType::Resolved, AlertLevel::Warning);
+    let body = serde_json::to_value(alertmanager_alerts(&resolved, "")).unwrap();
+    for a in body.as_array().unwrap() {
+        assert_eq!(time(&a["endsAt"]), resolved.timestamp);
+        assert!(a.get("generatorURL").is_none());
+    }
 }

@@ -100,6 +100,9 @@ pub enum AlertKind {
     CampaignOverdue,
     /// The congruence test found moving stable points.
     ReferenceUnstable,
+    /// An epoch was stored without displacements because its analysis failed (e.g. too few
+    /// points in common with the reference).
+    AnalysisFailed,
 }
 
 impl AlertKind {
@@ -112,6 +115,7 @@ impl AlertKind {
             AlertKind::TimeToFailureHours => "time_to_failure_hours",
             AlertKind::CampaignOverdue => "campaign_overdue",
             AlertKind::ReferenceUnstable => "reference_unstable",
+            AlertKind::AnalysisFailed => "analysis_failed",
         }
     }
 }
@@ -234,6 +238,9 @@ fn default_unstable() -> AlertLevel {
 fn default_overdue() -> AlertLevel {
     AlertLevel::Watch
 }
+fn default_failed() -> AlertLevel {
+    AlertLevel::Warning
+}
 fn default_grace() -> f64 {
     0.25
 }
@@ -255,6 +262,9 @@ pub struct AlertConfig {
     /// Level of `campaign_overdue` (default watch).
     #[serde(default = "default_overdue")]
     pub campaign_overdue_level: AlertLevel,
+    /// Level of `analysis_failed` (default warning).
+    #[serde(default = "default_failed")]
+    pub analysis_failed_level: AlertLevel,
     /// Campaign schedule in hours (`schedule_hours` of the site); no overdue alerts without it.
     #[serde(default)]
     pub schedule_hours: Option<f64>,
@@ -272,6 +282,7 @@ impl AlertConfig {
             quiet_epochs: 1,
             reference_unstable_level: AlertLevel::Warning,
             campaign_overdue_level: AlertLevel::Watch,
+            analysis_failed_level: AlertLevel::Warning,
             schedule_hours: None,
             overdue_grace: 0.25,
         }
@@ -693,6 +704,26 @@ pub fn evaluate_alerts(
             }
         }
     }
+    // This epoch was analysed: an earlier failure no longer stands.
+    apply(
+        site,
+        &mut st,
+        Update {
+            point: None,
+            points: vec![],
+            kind: AlertKind::AnalysisFailed,
+            level: None,
+            value: None,
+            threshold: None,
+            unit: "",
+            rule: None,
+            epoch: Some(analysis.epoch),
+            observed_at: Some(analysis.observed_at),
+            id_suffix: suffix.clone(),
+        },
+        now,
+        &mut events,
+    );
     // An epoch arrived: the campaign is no longer overdue.
     apply(
         site,
@@ -714,6 +745,160 @@ pub fn evaluate_alerts(
         &mut events,
     );
     (st, events)
+}
+
+/// An epoch whose analysis failed (`reason`, e.g. too few points in common with the reference):
+/// raises the site-level `analysis_failed` alert, or keeps the open one up to date (its message
+/// names the latest failed epoch; no new event). The next epoch that is analysed resolves it
+/// ([`evaluate_alerts`]). A campaign arrived, so an open `campaign_overdue` resolves as well.
+pub fn analysis_failed(
+    config: &AlertConfig,
+    state: &AlertState,
+    epoch: i64,
+    observed_at: DateTime<Utc>,
+    reason: &str,
+    now: DateTime<Utc>,
+) -> (AlertState, Vec<AlertEvent>) {
+    let mut st = state.clone();
+    let mut events = vec![];
+    let site = config.site.as_str();
+    apply(
+        site,
+        &mut st,
+        Update {
+            point: None,
+            points: vec![],
+            kind: AlertKind::AnalysisFailed,
+            level: Some(config.analysis_failed_level),
+            value: None,
+            threshold: None,
+            unit: "",
+            rule: None,
+            epoch: Some(epoch),
+            observed_at: Some(observed_at),
+            id_suffix: epoch.to_string(),
+        },
+        now,
+        &mut events,
+    );
+    let text = format!(
+        "site {site}: epoch {epoch} ({}) stored without displacements: {reason}",
+        fmt_time(observed_at)
+    );
+    if let Some(a) = st
+        .alerts
+        .iter_mut()
+        .find(|a| a.rule == AlertKind::AnalysisFailed)
+    {
+        a.message = text.clone();
+    }
+    for e in &mut events {
+        e.alert.message = text.clone();
+    }
+    apply(
+        site,
+        &mut st,
+        Update {
+            point: None,
+            points: vec![],
+            kind: AlertKind::CampaignOverdue,
+            level: None,
+            value: None,
+            threshold: None,
+            unit: "hours",
+            rule: None,
+            epoch: Some(epoch),
+            observed_at: Some(observed_at),
+            id_suffix: epoch.to_string(),
+        },
+        now,
+        &mut events,
+    );
+    (st, events)
+}
+
+/// After the derived series was recomputed (reference changed, an epoch arrived out of order):
+/// brings the stored alert state to `replayed` — the state the rules reach when replayed from
+/// scratch over the recomputed series — without re-sending history staff already received.
+///
+/// Only the net difference is announced, stamped `now`: an alert open in both keeps its id,
+/// raising time and acknowledgement, and gets `alert.escalated` / `alert.deescalated` when its
+/// level differs (an escalation needs a new acknowledgement); an alert only in `replayed` is
+/// raised; an alert only in `current` is resolved. Intermediate transitions of the replay are
+/// not sent. `campaign_overdue` is not part of a replay (it depends on the clock, not on the
+/// series) and is kept as it is. The rules' memory is the replay's.
+pub fn reconcile(
+    current: &AlertState,
+    replayed: &AlertState,
+    now: DateTime<Utc>,
+) -> (AlertState, Vec<AlertEvent>) {
+    let mut out = AlertState {
+        alerts: vec![],
+        rules: replayed.rules.clone(),
+    };
+    let mut events = vec![];
+    for r in &replayed.alerts {
+        if r.rule == AlertKind::CampaignOverdue {
+            continue;
+        }
+        match current.find(r.point.as_deref(), r.rule) {
+            Some(c) => {
+                let mut a = r.clone();
+                a.id = c.id.clone();
+                a.raised_at = c.raised_at;
+                a.peak_level = c.peak_level.max(r.level);
+                a.acknowledged_by = c.acknowledged_by.clone();
+                a.comment = c.comment.clone();
+                a.status = c.status;
+                a.updated_at = c.updated_at;
+                if a.level != c.level {
+                    let ty = if a.level > c.level {
+                        a.status = AlertStatus::Open;
+                        AlertEventType::Escalated
+                    } else {
+                        AlertEventType::Deescalated
+                    };
+                    a.updated_at = now;
+                    events.push(AlertEvent {
+                        event_type: ty,
+                        timestamp: now,
+                        alert: a.clone(),
+                    });
+                }
+                out.alerts.push(a);
+            }
+            None => {
+                let mut a = r.clone();
+                a.raised_at = now;
+                a.updated_at = now;
+                a.status = AlertStatus::Open;
+                events.push(AlertEvent {
+                    event_type: AlertEventType::Raised,
+                    timestamp: now,
+                    alert: a.clone(),
+                });
+                out.alerts.push(a);
+            }
+        }
+    }
+    for c in &current.alerts {
+        if c.rule == AlertKind::CampaignOverdue {
+            out.alerts.push(c.clone());
+            continue;
+        }
+        if replayed.find(c.point.as_deref(), c.rule).is_none() {
+            let mut a = c.clone();
+            a.status = AlertStatus::Resolved;
+            a.updated_at = now;
+            a.message = format!("{} — resolved after the series was recomputed", c.message);
+            events.push(AlertEvent {
+                event_type: AlertEventType::Resolved,
+                timestamp: now,
+                alert: a,
+            });
+        }
+    }
+    (out, events)
 }
 
 /// Checks the campaign schedule: raises `campaign_overdue` when more than

@@ -12,7 +12,8 @@ use super::failure::FailureForecast;
 use super::stats::f_quantile;
 use super::velocity::Kinematics;
 
-/// One row of a point's displacement time series: exactly the contract's fields (plus the point name).
+/// One row of a point's displacement time series: the contract's fields, the point name and the
+/// off-diagonal terms of the covariance.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DisplacementRecord {
     /// Point name.
@@ -37,6 +38,16 @@ pub struct DisplacementRecord {
     pub sigma_dz_mm: f64,
     /// σ of `d_mm` in mm (linearised; √(trace/3) when d ≈ 0).
     pub sigma_mm: f64,
+    /// Covariance of dx and dy in mm² (with the σ it completes the 3 × 3 covariance of the
+    /// displacement; None for rows stored before it was kept).
+    #[serde(default)]
+    pub cov_dxdy_mm2: Option<f64>,
+    /// Covariance of dx and dz in mm².
+    #[serde(default)]
+    pub cov_dxdz_mm2: Option<f64>,
+    /// Covariance of dy and dz in mm².
+    #[serde(default)]
+    pub cov_dydz_mm2: Option<f64>,
     /// Component along the point's direction of interest in mm (None when no direction is set).
     pub d_along_mm: Option<f64>,
     /// Whether the displacement is significant at the configured confidence.

@@ -29,8 +29,9 @@ pub mod stats;
 pub mod velocity;
 
 pub use alerts::{
-    acknowledge, check_overdue, evaluate_alerts, resolve, Alert, AlertConfig, AlertEvent,
-    AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState, AlertStatus, Metric,
+    acknowledge, analysis_failed, check_overdue, evaluate_alerts, reconcile, resolve, Alert,
+    AlertConfig, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState,
+    AlertStatus, Metric,
 };
 pub use analyse::{analyse_epoch, DatumReport, EpochAnalysis, History};
 pub use congruence::CongruenceTest;

@@ -1,6 +1,8 @@
-//! `cliffwatch simulate --scene NAME --seed N [--out-dir DIR] [--blunder]`: writes
+//! `cliffwatch simulate --scene NAME --seed N [--out-dir DIR] [--blunder] [--epochs N]`: writes
 //! `NAME-seedN.epoch.json` (upload form) and `NAME-seedN.truth.json` (truth form of
-//! `shared/data/*.truth.json`).
+//! `shared/data/*.truth.json`). The `monitoring-series` scene writes one upload per epoch,
+//! `monitoring-series-seedN-KKK.epoch.json` (K from 1), and the series truth
+//! `monitoring-series-seedN.truth.json` ([`cliffwatch::simulate::series::SeriesTruth`]).
 
 use std::path::PathBuf;
 
@@ -9,6 +11,7 @@ use cliffwatch::simulate::scenes::{
     calibration, large, long_range, paper_table1, CalibrationParams, LabelSwap, LargeParams,
     LongRangeParams, PaperCase, PaperParams,
 };
+use cliffwatch::simulate::series::{image_series, ImageSeriesScenario};
 
 /// The scenes `cliffwatch simulate` can write.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -31,6 +34,9 @@ pub enum SceneName {
     Large,
     /// Benchmark network: 100 images × 10 000 points, each in 10 images.
     Huge,
+    /// A monitoring series of the long-range cliff (`--epochs` uploads, 12 h apart): stable targets
+    /// around a block creeping then accelerating to failure, cameras re-set-up every epoch.
+    MonitoringSeries,
 }
 
 /// Arguments of `cliffwatch simulate`.
@@ -48,6 +54,37 @@ pub struct SimulateArgs {
     /// Swap two targets' labels in one image (long-range scenes only).
     #[arg(long)]
     pub blunder: bool,
+    /// Number of epochs of `monitoring-series` (failure 12 h after the 40th epoch).
+    #[arg(long, default_value_t = 40)]
+    pub epochs: usize,
+}
+
+fn write(path: std::path::PathBuf, text: String) -> anyhow::Result<()> {
+    std::fs::write(&path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
+    println!("{}", path.display());
+    Ok(())
+}
+
+fn monitoring_series(args: &SimulateArgs) -> anyhow::Result<()> {
+    let series = image_series(&ImageSeriesScenario {
+        seed: args.seed,
+        epochs: args.epochs,
+        ..ImageSeriesScenario::default()
+    })
+    .context("generating the monitoring series")?;
+    std::fs::create_dir_all(&args.out_dir)
+        .with_context(|| format!("creating {}", args.out_dir.display()))?;
+    let stem = format!("monitoring-series-seed{}", args.seed);
+    for (k, epoch) in series.epochs.iter().enumerate() {
+        write(
+            args.out_dir.join(format!("{stem}-{:03}.epoch.json", k + 1)),
+            serde_json::to_string_pretty(epoch)?,
+        )?;
+    }
+    write(
+        args.out_dir.join(format!("{stem}.truth.json")),
+        serde_json::to_string_pretty(&series.truth)?,
+    )
 }
 
 /// Runs `cliffwatch simulate`.
@@ -112,6 +149,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
                 ..LargeParams::huge()
             }),
         ),
+        SceneName::MonitoringSeries => return monitoring_series(&args),
     };
     let (epoch, truth) = generated.context("generating the scene")?;
     std::fs::create_dir_all(&args.out_dir)
@@ -122,10 +160,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         ("epoch", serde_json::to_string_pretty(&epoch)?),
         ("truth", serde_json::to_string_pretty(&truth)?),
     ] {
-        let path = args.out_dir.join(format!("{stem}.{ext}.json"));
-        std::fs::write(&path, text + "\n")
-            .with_context(|| format!("writing {}", path.display()))?;
-        println!("{}", path.display());
+        write(args.out_dir.join(format!("{stem}.{ext}.json")), text)?;
     }
     Ok(())
 }

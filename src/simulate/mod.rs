@@ -2,8 +2,11 @@
 //!
 //! - [`scenes`]: the paper's Table 1 scene, the long-range cliff, flat faces, calibration networks.
 //! - [`images`]: rendered target images with ground-truth centres.
-//! - [`monitoring`]: monitoring series (stable points, a moving block, re-set-up cameras).
+//! - [`monitoring`]: monitoring series of adjusted coordinates (stable points, a moving block).
+//! - [`series`]: the same kind of series as image observations in the upload form (re-set-up
+//!   cameras, drifting c), for end-to-end tests through the service.
 
 pub mod images;
 pub mod monitoring;
 pub mod scenes;
+pub mod series;

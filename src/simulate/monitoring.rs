@@ -92,9 +92,23 @@ pub struct MonitoringSeries {
     pub start: DateTime<Utc>,
 }
 
-impl MonitoringScenario {
-    /// Block displacement magnitude in mm at `t` days (creep, then 1/v ∝ (t_f − t)).
-    pub fn block_displacement_mm(&self, t: f64) -> f64 {
+/// Kinematics of a block that creeps at a constant velocity and then accelerates to failure by the
+/// inverse-velocity law (Fukuzono 1985): after `acceleration_start_days` the velocity is
+/// `v(t) = v0 (t_f − t_a)/(t_f − t)`, so `1/v` falls linearly to zero at `t_f`. Times in days from
+/// the first epoch, displacements in mm, velocities in mm/day.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FailureLaw {
+    /// Creep velocity v0 in mm/day (before acceleration); 0 for nothing moving.
+    pub creep_mm_per_day: f64,
+    /// Days after the first epoch when the acceleration starts (None: creep only).
+    pub acceleration_start_days: Option<f64>,
+    /// Failure time t_f in days after the first epoch (must exceed the acceleration start).
+    pub failure_days: f64,
+}
+
+impl FailureLaw {
+    /// Displacement magnitude in mm at `t` days (creep, then the integral of `v0 (t_f − t_a)/(t_f − t)`).
+    pub fn displacement_mm(&self, t: f64) -> f64 {
         let v0 = self.creep_mm_per_day;
         match self.acceleration_start_days {
             Some(ta) if t > ta => {
@@ -106,13 +120,34 @@ impl MonitoringScenario {
         }
     }
 
-    /// Block velocity in mm/day at `t` days.
-    pub fn block_velocity(&self, t: f64) -> f64 {
+    /// Velocity in mm/day at `t` days.
+    pub fn velocity(&self, t: f64) -> f64 {
         let v0 = self.creep_mm_per_day;
         match self.acceleration_start_days {
             Some(ta) if t > ta => v0 * (self.failure_days - ta) / (self.failure_days - t).max(1e-6),
             _ => v0,
         }
+    }
+}
+
+impl MonitoringScenario {
+    /// The block's kinematics.
+    pub fn law(&self) -> FailureLaw {
+        FailureLaw {
+            creep_mm_per_day: self.creep_mm_per_day,
+            acceleration_start_days: self.acceleration_start_days,
+            failure_days: self.failure_days,
+        }
+    }
+
+    /// Block displacement magnitude in mm at `t` days (creep, then 1/v ∝ (t_f − t)).
+    pub fn block_displacement_mm(&self, t: f64) -> f64 {
+        self.law().displacement_mm(t)
+    }
+
+    /// Block velocity in mm/day at `t` days.
+    pub fn block_velocity(&self, t: f64) -> f64 {
+        self.law().velocity(t)
     }
 
     /// Generates the series.

@@ -35,6 +35,12 @@ pub struct Displacement {
     pub sigma_dz_mm: f64,
     /// σ of `d_mm` in mm.
     pub sigma_mm: f64,
+    /// Covariance of ΔX and ΔY in mm² (null for rows stored before schema version 4).
+    pub cov_dxdy_mm2: Option<f64>,
+    /// Covariance of ΔX and ΔZ in mm².
+    pub cov_dxdz_mm2: Option<f64>,
+    /// Covariance of ΔY and ΔZ in mm².
+    pub cov_dydz_mm2: Option<f64>,
     /// Component along the point's direction of interest in mm (when set).
     pub d_along_mm: Option<f64>,
     /// Significant at the site's confidence.
@@ -93,7 +99,7 @@ impl Displacement {
 
 const COLUMNS: &str = "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
     sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, velocity_mm_per_day, \
-    time_to_failure_hours";
+    time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2";
 
 fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
     for r in &mut rows {
@@ -110,7 +116,7 @@ pub async fn insert(
 ) -> Result<(), StoreError> {
     for d in rows {
         sqlx::query(&format!(
-            "INSERT INTO displacements (site_id, {COLUMNS}) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
+            "INSERT INTO displacements (site_id, {COLUMNS}) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
         ))
         .bind(site)
         .bind(&d.point)
@@ -129,6 +135,9 @@ pub async fn insert(
         .bind(d.significant)
         .bind(d.velocity_mm_per_day)
         .bind(d.time_to_failure_hours)
+        .bind(d.cov_dxdy_mm2)
+        .bind(d.cov_dxdz_mm2)
+        .bind(d.cov_dydz_mm2)
         .execute(&mut *db)
         .await?;
     }

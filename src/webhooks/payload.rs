@@ -7,6 +7,11 @@ use std::collections::BTreeMap;
 
 use crate::analysis::{AlertEvent, AlertEventType, AlertLevel};
 
+/// How long (days) an alert posted to Alertmanager stays firing without news: cliffwatch sends
+/// one event per change, not a heartbeat, so the firing alert must outlive Alertmanager's
+/// `resolve_timeout`; its resolution is sent explicitly.
+pub const ALERTMANAGER_FIRING_DAYS: i64 = 365;
+
 /// Body format of an endpoint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -257,4 +262,101 @@ pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody
             fingerprint: a.id.clone(),
         }],
     }
+}
+
+/// One alert of Alertmanager's API v2 `POST /api/v2/alerts` body (`postableAlert`): the body is
+/// a JSON array of these.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PostableAlert {
+    /// Identity and routing labels: `alertname` (`cliffwatch_{rule}`), `site`, `point` (point
+    /// alerts), `rule`, `severity` (the level).
+    pub labels: BTreeMap<String, String>,
+    /// `summary`, `event`, `alert_id`, `value`, `threshold`, `unit`, `epoch`, `observed_at`,
+    /// `points` when known.
+    pub annotations: BTreeMap<String, String>,
+    /// When the alert was raised, RFC 3339.
+    #[serde(rename = "startsAt")]
+    pub starts_at: String,
+    /// Firing: [`ALERTMANAGER_FIRING_DAYS`] after the event; resolved: the event time.
+    #[serde(rename = "endsAt")]
+    pub ends_at: String,
+    /// Link to the alert in the API (omitted when no base URL is known).
+    #[serde(
+        rename = "generatorURL",
+        default,
+        skip_serializing_if = "String::is_empty"
+    )]
+    pub generator_url: String,
+}
+
+/// Alertmanager API v2 body of an event (`POST /api/v2/alerts`, for users who route through
+/// Alertmanager or Grafana): `api_base` is the service's public base URL (e.g.
+/// `https://cliffwatch.example.org`; empty: no `generatorURL`).
+///
+/// Alertmanager identifies an alert by its labels, and `severity` is a label (routes use it), so
+/// each level is its own Alertmanager alert: every event posts all three levels of the alert,
+/// the current one firing and the others resolved (`endsAt` = the event time). An escalation
+/// thus resolves the lower level's notification, and `alert.resolved` resolves all of them.
+pub fn alertmanager_alerts(event: &AlertEvent, api_base: &str) -> Vec<PostableAlert> {
+    let a = &event.alert;
+    let firing = event.event_type != AlertEventType::Resolved;
+    let mut annotations = BTreeMap::new();
+    annotations.insert("summary".to_string(), a.message.clone());
+    annotations.insert("event".to_string(), event.event_type.as_str().to_string());
+    annotations.insert("alert_id".to_string(), a.id.clone());
+    if let Some(v) = a.value {
+        annotations.insert("value".to_string(), format!("{v}"));
+    }
+    if let Some(v) = a.threshold {
+        annotations.insert("threshold".to_string(), format!("{v}"));
+    }
+    if !a.unit.is_empty() {
+        annotations.insert("unit".to_string(), a.unit.clone());
+    }
+    if let Some(e) = a.epoch {
+        annotations.insert("epoch".to_string(), e.to_string());
+    }
+    if let Some(o) = a.observed_at {
+        annotations.insert("observed_at".to_string(), t(o));
+    }
+    if !a.points.is_empty() {
+        annotations.insert("points".to_string(), a.points.join(","));
+    }
+    let generator_url = if api_base.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "{}/api/v1/alerts/{}",
+            api_base.trim_end_matches('/'),
+            a.id.replace('%', "%25").replace(' ', "%20")
+        )
+    };
+    [AlertLevel::Watch, AlertLevel::Warning, AlertLevel::Alarm]
+        .into_iter()
+        .map(|level| {
+            let mut labels = BTreeMap::new();
+            labels.insert(
+                "alertname".to_string(),
+                format!("cliffwatch_{}", a.rule.as_str()),
+            );
+            labels.insert("site".to_string(), a.site.clone());
+            if let Some(p) = &a.point {
+                labels.insert("point".to_string(), p.clone());
+            }
+            labels.insert("rule".to_string(), a.rule.as_str().to_string());
+            labels.insert("severity".to_string(), level.as_str().to_string());
+            let ends = if firing && level == a.level {
+                event.timestamp + chrono::Duration::days(ALERTMANAGER_FIRING_DAYS)
+            } else {
+                event.timestamp
+            };
+            PostableAlert {
+                labels,
+                annotations: annotations.clone(),
+                starts_at: t(a.raised_at),
+                ends_at: t(ends),
+                generator_url: generator_url.clone(),
+            }
+        })
+        .collect()
 }

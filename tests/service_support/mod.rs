@@ -244,3 +244,94 @@ pub async fn snapshot(store: &Store) -> Vec<(String, i64)> {
     }
     out
 }
+
+/// The daemon binary (`cliffwatch serve`) serving a data directory on an ephemeral loopback port:
+/// a separate process, so tests can SIGKILL it and start another on the same data.
+pub struct Daemon {
+    child: std::process::Child,
+    /// `http://127.0.0.1:PORT`.
+    pub base: String,
+    /// HTTP client.
+    pub client: reqwest::Client,
+}
+
+/// A free loopback TCP port (bound, read, released).
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+impl Daemon {
+    /// Starts `cliffwatch serve` on `data_dir` with `config`; waits for `/readyz`.
+    pub async fn start(data_dir: &std::path::Path, config: &std::path::Path) -> Daemon {
+        let port = free_port();
+        let child = std::process::Command::new(env!("CARGO_BIN_EXE_cliffwatch"))
+            .args(["serve", "--listen"])
+            .arg(format!("127.0.0.1:{port}"))
+            .arg("--data-dir")
+            .arg(data_dir)
+            .arg("--config")
+            .arg(config)
+            .env("RUST_LOG", "warn")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::inherit())
+            .spawn()
+            .expect("start the daemon");
+        let d = Daemon {
+            child,
+            base: format!("http://127.0.0.1:{port}"),
+            client: reqwest::Client::new(),
+        };
+        for _ in 0..400 {
+            if let Ok(r) = d.client.get(d.url("/readyz")).send().await {
+                if r.status().is_success() {
+                    return d;
+                }
+            }
+            tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+        }
+        panic!("the daemon did not become ready");
+    }
+
+    /// `url` of a path.
+    pub fn url(&self, path: &str) -> String {
+        format!("{}{}", self.base, path)
+    }
+
+    /// SIGKILL, no shutdown of any kind.
+    pub fn kill9(mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
+    /// JSON request; returns status and body.
+    pub async fn send(
+        &self,
+        method: reqwest::Method,
+        path: &str,
+        body: Option<&Value>,
+    ) -> (u16, Value) {
+        let mut rq = self.client.request(method, self.url(path));
+        if let Some(b) = body {
+            rq = rq.json(b);
+        }
+        let r = rq.send().await.unwrap();
+        let s = r.status().as_u16();
+        (s, r.json().await.unwrap_or(Value::Null))
+    }
+
+    /// GET JSON.
+    pub async fn get(&self, path: &str) -> (u16, Value) {
+        self.send(reqwest::Method::GET, path, None).await
+    }
+}
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
