@@ -10,9 +10,12 @@
 //! weights the interior noise.
 //!
 //! The Jacobian is analytic (one model evaluation per pixel and iteration, shared with the residual
-//! sum of squares). Pixels with residuals beyond 4 robust σ (grown by one pixel) are masked and the
-//! fit repeated until the mask settles; this removes isolated defects, but a glint touching the target
-//! still pulls the fit (the conic stretches over the union) and is not handled yet.
+//! sum of squares). Light that does not belong to the target — a glint or a neighbouring blob
+//! touching it — is kept out in two steps: the fit starts from the largest disc inscribed in the
+//! half-amplitude region (the target, not the centroid of target and glint) and leaves out the bright
+//! pixels outside that disc whose point reflection through its centre is dark (an ellipse is
+//! point-symmetric, a glint beside it is not); after each fit, pixels with excess signal beyond 4
+//! robust σ (grown by one pixel) are masked and the fit repeated until the mask settles.
 
 use super::decode::GreyImage;
 use super::target::Polarity;
@@ -191,12 +194,14 @@ fn levenberg_marquardt(
 
 /// Residuals beyond this many robust σ (1.4826 × median |residual|) mark a pixel as an outlier.
 const OUTLIER_SIGMA: f64 = 4.0;
+/// Pixels within this many px (square neighbourhood) of an outlier are masked too: the blurred
+/// fringe of a glint is not yet an outlier but still pulls.
+const GROW: usize = 1;
 /// Most rounds of outlier masking after the first fit.
 const OUTLIER_ROUNDS: usize = 3;
 
-/// Fits the pixels of `keep`, then masks outliers over the whole window — pixels whose residual
-/// exceeds [`OUTLIER_SIGMA`] robust σ, grown by one pixel (a glint or a neighbouring blob touching the target, whose blurred fringe is
-/// not yet an outlier) — and refits, until the mask settles. The mask is recomputed from each fit, so
+/// Fits the pixels of `keep`, then masks outliers over the whole window — pixels whose excess
+/// signal (positive residual) exceeds [`OUTLIER_SIGMA`] robust σ, grown by [`GROW`] px — and refits, until the mask settles. The mask is recomputed from each fit, so
 /// edge pixels masked while the fit was still pulled come back. None when more than 40 % of the
 /// window would be masked. Returns the parameters, residual sum of squares, normal matrix and the
 /// count of pixels used.
@@ -211,15 +216,16 @@ fn robust_fit(
     for _ in 0..OUTLIER_ROUNDS {
         let res: Vec<f64> = pix.iter().map(|&(x, y, z)| z - model(&p, x, y)).collect();
         let mut abs: Vec<f64> = res.iter().map(|r| r.abs()).collect();
+        // only excess signal is an outlier: a glint or a neighbour adds light
         let mid = abs.len() / 2;
         let mad = *abs.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
         let lim = OUTLIER_SIGMA * 1.4826 * mad.max(1e-12);
         let mut next = vec![true; pix.len()];
         for (i, r) in res.iter().enumerate() {
-            if r.abs() > lim {
+            if *r > lim {
                 let (ix, iy) = (i % nx, i / nx);
-                for yy in iy.saturating_sub(1)..=(iy + 1).min(ny - 1) {
-                    for xx in ix.saturating_sub(1)..=(ix + 1).min(nx - 1) {
+                for yy in iy.saturating_sub(GROW)..=(iy + GROW).min(ny - 1) {
+                    for xx in ix.saturating_sub(GROW)..=(ix + GROW).min(nx - 1) {
                         next[yy * nx + xx] = false;
                     }
                 }
@@ -237,6 +243,73 @@ fn robust_fit(
     }
     let used = keep.iter().filter(|k| **k).count();
     Some((p, c, n, used))
+}
+
+/// The largest disc inscribed in the region `z > level` of the window (chamfer 3-4 distance to the
+/// nearest pixel outside), among pixels within `r0` of `near`: its centre (window px, the mean of the
+/// pixels at the largest distance) and radius (px). None if no pixel is inside.
+fn inscribed_disc(
+    pix: &Pixels,
+    nx: usize,
+    level: f64,
+    near: [f64; 2],
+    r0: f64,
+) -> Option<([f64; 2], f64)> {
+    let ny = pix.len() / nx;
+    const INF: u32 = u32::MAX / 2;
+    let mut d: Vec<u32> = pix
+        .iter()
+        .map(|p| if p.2 > level { INF } else { 0 })
+        .collect();
+    let at = |d: &[u32], x: isize, y: isize| -> u32 {
+        if x < 0 || y < 0 || x >= nx as isize || y >= ny as isize {
+            0
+        } else {
+            d[y as usize * nx + x as usize]
+        }
+    };
+    for y in 0..ny as isize {
+        for x in 0..nx as isize {
+            let i = y as usize * nx + x as usize;
+            if d[i] == 0 {
+                continue;
+            }
+            let m = (at(&d, x - 1, y) + 3)
+                .min(at(&d, x - 1, y - 1) + 4)
+                .min(at(&d, x, y - 1) + 3)
+                .min(at(&d, x + 1, y - 1) + 4);
+            d[i] = d[i].min(m);
+        }
+    }
+    for y in (0..ny as isize).rev() {
+        for x in (0..nx as isize).rev() {
+            let i = y as usize * nx + x as usize;
+            if d[i] == 0 {
+                continue;
+            }
+            let m = (at(&d, x + 1, y) + 3)
+                .min(at(&d, x + 1, y + 1) + 4)
+                .min(at(&d, x, y + 1) + 3)
+                .min(at(&d, x - 1, y + 1) + 4);
+            d[i] = d[i].min(m);
+        }
+    }
+    let r2 = r0 * r0;
+    let near_ok = |i: usize| {
+        let (x, y) = (pix[i].0, pix[i].1);
+        (x - near[0]).powi(2) + (y - near[1]).powi(2) <= r2
+    };
+    let best = (0..pix.len()).filter(|&i| near_ok(i)).map(|i| d[i]).max()?;
+    if best == 0 {
+        return None;
+    }
+    let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
+    for i in (0..pix.len()).filter(|&i| near_ok(i) && d[i] == best) {
+        sx += pix[i].0;
+        sy += pix[i].1;
+        n += 1.0;
+    }
+    Some(([sx / n, sy / n], best as f64 / 3.0 + 0.5))
 }
 
 /// Fits the blurred-ellipse model in a square window of half-size `half` px around `c0`, starting
@@ -293,20 +366,44 @@ pub fn fit_ellipse(
     if a0 <= 0.0 {
         return None;
     }
-    let q0 = 1.0 / (r0 * r0);
-    let p = Par::from_column_slice(&[
-        c0[0] - o[0],
-        c0[1] - o[1],
-        q0,
-        0.0,
-        q0,
-        0.8,
-        a0,
-        b0,
-        0.0,
-        0.0,
-    ]);
-    let (p, c_cur, n_final, used) = robust_fit(p, &pix, nx, vec![true; pix.len()])?;
+    // start: the largest disc inscribed in the half-amplitude region near the start — the target
+    // itself even when a glint or a neighbour touches it and pulls the centroid
+    let (cs, rs) = inscribed_disc(&pix, nx, b0 + 0.5 * a0, [c0[0] - o[0], c0[1] - o[1]], r0)
+        .unwrap_or(([c0[0] - o[0], c0[1] - o[1]], r0));
+    let q0 = 1.0 / (rs * rs);
+    let p = Par::from_column_slice(&[cs[0], cs[1], q0, 0.0, q0, 0.8, a0, b0, 0.0, 0.0]);
+    // first fit without the asymmetric bright parts: an ellipse is point-symmetric about its centre,
+    // so bright pixels outside the inscribed disc whose reflection through its centre is not bright
+    // belong to something else (a glint, a neighbour); they and their neighbours are left out
+    let ny = pix.len() / nx;
+    let level = b0 + 0.5 * a0;
+    let bright = |i: usize| pix[i].2 > level;
+    let outside = |i: usize| (pix[i].0 - cs[0]).hypot(pix[i].1 - cs[1]) > rs + 0.5;
+    let mut core = vec![true; pix.len()];
+    for i in 0..pix.len() {
+        if !(bright(i) && outside(i)) {
+            continue;
+        }
+        let (rx, ry) = (
+            (2.0 * cs[0] - pix[i].0).round(),
+            (2.0 * cs[1] - pix[i].1).round(),
+        );
+        let mirrored_bright = rx >= 0.0
+            && ry >= 0.0
+            && (rx as usize) < nx
+            && (ry as usize) < ny
+            && bright(ry as usize * nx + rx as usize);
+        if !mirrored_bright {
+            let (ix, iy) = (i % nx, i / nx);
+            for yy in iy.saturating_sub(GROW)..=(iy + GROW).min(ny - 1) {
+                for xx in ix.saturating_sub(GROW)..=(ix + GROW).min(nx - 1) {
+                    core[yy * nx + xx] = false;
+                }
+            }
+        }
+    }
+    let (p, c_cur, n_final, used) = robust_fit(p, &pix, nx, core)?;
+
     // validity: positive-definite conic, centre near the start, sensible size and blur
     let det = p[2] * p[4] - p[3] * p[3];
     if !(p[2] > 0.0 && p[4] > 0.0 && det > 0.0 && p[6] > 0.0 && p[5] < 0.5 * r0 + 2.0) {
