@@ -6,13 +6,14 @@
 //! SQLite-only forms where a standard one exists, so a PostgreSQL backend can follow.
 //!
 //! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`displacements`], [`alerts`],
-//! [`webhooks`].
+//! [`webhooks`], [`watch_state`].
 
 pub mod alerts;
 pub mod displacements;
 pub mod epochs;
 pub mod points;
 pub mod sites;
+pub mod watch_state;
 pub mod webhooks;
 
 use std::path::Path;
