@@ -5,7 +5,12 @@
 //! or from the orientation the watcher kept from the station's previous epoch, and the epoch is ingested
 //! through [`crate::ingest::ingest`] exactly as an upload. The folder then moves to
 //! `<site>/.done/` or, with `error.txt`, to `<site>/.failed/`. A folder whose content hash (sha256 of
-//! its files' names and bytes) is listed in `<site>/.state/ingested` is never ingested again.
+//! its files' names and bytes) is in the database ([`crate::store::watch_state`]) is never ingested
+//! again; the stations' orientations are kept there too, so the state is backed up and restored with
+//! the database. (Files `<site>/.state/ingested` and `<site>/.state/orientations.json` of earlier
+//! versions are still read, never written.) The state is written after the epoch's own transaction:
+//! when the daemon dies in between, the folder is taken again on restart and ingestion recognises
+//! the identical upload (same body hash), so it still becomes one epoch.
 //!
 //! Watching: `notify` events and a periodic rescan (events can be lost, e.g. on network shares).
 
@@ -20,7 +25,7 @@ use crate::detect::{detect_bytes, DetectError, DetectOptions};
 use crate::ingest::{ingest, IngestError, Ingested};
 use crate::photogrammetry::epoch::ObservationInput;
 use crate::photogrammetry::{Camera, EpochError, EpochInput, ImageOrientation};
-use crate::store::{points, Store};
+use crate::store::{points, watch_state, Store, StoreError};
 
 /// Why a watched folder failed (written to its `error.txt`).
 #[derive(Debug, thiserror::Error)]
@@ -142,7 +147,8 @@ fn state_dir(site_dir: &Path) -> PathBuf {
     site_dir.join(".state")
 }
 
-fn load_orientations(site_dir: &Path) -> BTreeMap<String, ImageOrientation> {
+/// Orientations from the file of earlier versions (`<site>/.state/orientations.json`), if any.
+fn legacy_orientations(site_dir: &Path) -> BTreeMap<String, ImageOrientation> {
     std::fs::read_to_string(state_dir(site_dir).join("orientations.json"))
         .ok()
         .and_then(|s| serde_json::from_str::<BTreeMap<String, StoredOrientation>>(&s).ok())
@@ -154,7 +160,18 @@ fn load_orientations(site_dir: &Path) -> BTreeMap<String, ImageOrientation> {
         .unwrap_or_default()
 }
 
-#[derive(serde::Serialize, serde::Deserialize)]
+/// The stations' orientations: the database's, else the legacy file's.
+async fn load_orientations(
+    store: &Store,
+    site: &str,
+    site_dir: &Path,
+) -> Result<BTreeMap<String, ImageOrientation>, StoreError> {
+    let mut all = legacy_orientations(site_dir);
+    all.extend(watch_state::orientations(store.reader(), site).await?);
+    Ok(all)
+}
+
+#[derive(serde::Deserialize)]
 struct StoredOrientation {
     camera: String,
     rotation: [[f64; 3]; 3],
@@ -224,7 +241,9 @@ async fn process(
             known.insert(c.point, c.xyz);
         }
     }
-    let previous = load_orientations(site_dir);
+    let previous = load_orientations(store, site, site_dir)
+        .await
+        .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
     let mut found = BTreeMap::new();
     for image in &mut input.images {
         let station = image.station.clone().unwrap_or_else(|| image.id.clone());
@@ -322,37 +341,24 @@ pub async fn take_folder(
     opts: &WatchOptions,
 ) -> std::io::Result<PathBuf> {
     let site_dir = folder.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let state = state_dir(&site_dir);
-    std::fs::create_dir_all(&state)?;
     let hash = content_hash(folder)?;
-    let ledger = state.join("ingested");
-    let seen = std::fs::read_to_string(&ledger).unwrap_or_default();
-    if seen
-        .lines()
-        .any(|l| l.split_whitespace().next() == Some(hash.as_str()))
-    {
+    let legacy = std::fs::read_to_string(state_dir(&site_dir).join("ingested")).unwrap_or_default();
+    let seen = watch_state::folder_epoch(store.reader(), site, &hash)
+        .await
+        .map_err(std::io::Error::other)?
+        .is_some()
+        || legacy
+            .lines()
+            .any(|l| l.split_whitespace().next() == Some(hash.as_str()));
+    if seen {
         tracing::warn!(site, folder = %folder.display(), "already ingested; not again");
         return move_to(folder, ".done");
     }
     match process(store, site, folder, opts).await {
         Ok((ing, found)) => {
-            let mut all: BTreeMap<String, StoredOrientation> = load_orientations(&site_dir)
-                .into_iter()
-                .map(|(k, o)| (k, to_stored(&o)))
-                .collect();
-            for (k, o) in &found {
-                all.insert(k.clone(), to_stored(o));
-            }
-            std::fs::write(
-                state.join("orientations.json"),
-                serde_json::to_string_pretty(&all).unwrap_or_default(),
-            )?;
-            use std::io::Write;
-            let mut f = std::fs::OpenOptions::new()
-                .create(true)
-                .append(true)
-                .open(&ledger)?;
-            writeln!(f, "{hash} epoch {}", ing.epoch)?;
+            save_state(store, site, &hash, ing.epoch, &found)
+                .await
+                .map_err(std::io::Error::other)?;
             move_to(folder, ".done")
         }
         Err(e) => {
@@ -363,12 +369,21 @@ pub async fn take_folder(
     }
 }
 
-fn to_stored(o: &ImageOrientation) -> StoredOrientation {
-    StoredOrientation {
-        camera: o.camera.clone(),
-        rotation: o.rotation,
-        center: o.center,
+/// Records the folder's hash and the stations' orientations in one transaction.
+async fn save_state(
+    store: &Store,
+    site: &str,
+    hash: &str,
+    epoch: i64,
+    found: &BTreeMap<String, ImageOrientation>,
+) -> Result<(), StoreError> {
+    let mut tx = store.begin_write().await?;
+    for (station, o) in found {
+        watch_state::set_orientation(&mut tx, site, station, o, epoch).await?;
     }
+    watch_state::record_folder(&mut tx, site, hash, epoch).await?;
+    tx.commit().await?;
+    Ok(())
 }
 
 /// Takes every ready folder once (sequentially).

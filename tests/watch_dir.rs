@@ -1,7 +1,7 @@
 //! The watched directory end to end: rendered station images of the long-range scene + `epoch.json`
 //! with 4 seeds per station → detection, identification, ingestion, `.done/`; a second epoch without
-//! seeds from the kept orientations; the same folder again is not ingested twice; a broken folder goes
-//! to `.failed/` with `error.txt`.
+//! seeds from the orientations kept in the database; the same folder again is not ingested twice
+//! (content hashes in the database); a broken folder goes to `.failed/` with `error.txt`.
 
 mod service_support;
 
@@ -77,6 +77,14 @@ fn write_epoch(
     std::fs::write(folder.join("READY"), "").unwrap();
 }
 
+/// Folders taken (content hashes in the database) and stations with a kept orientation.
+async fn taken(store: &cliffwatch::store::Store) -> i64 {
+    sqlx::query_scalar("SELECT COUNT(*) FROM watch_folders WHERE site_id = 'kamo'")
+        .fetch_one(store.reader())
+        .await
+        .unwrap()
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn watched_folders_are_detected_identified_ingested_once() {
     let server = TestServer::start(|_| {}).await;
@@ -102,8 +110,14 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     let dest = r[0].as_ref().unwrap();
     let err = std::fs::read_to_string(dest.join("error.txt")).unwrap_or_default();
     assert!(dest.starts_with(site.join(".done")), "{dest:?}: {err}");
-    let ledger = || std::fs::read_to_string(site.join(".state/ingested")).unwrap_or_default();
-    assert_eq!(ledger().lines().count(), 1);
+    assert_eq!(taken(&server.store).await, 1);
+    let stations: i64 =
+        sqlx::query_scalar("SELECT COUNT(*) FROM watch_orientations WHERE site_id = 'kamo'")
+            .fetch_one(server.store.reader())
+            .await
+            .unwrap();
+    assert_eq!(stations, 5, "orientations kept in the database");
+    assert!(!site.join(".state/orientations.json").exists());
 
     // epoch 2: no seeds, identified from the kept orientations
     write_epoch(&site, &epoch, "e2", "2026-11-21T09:00:00Z", false, 2);
@@ -111,7 +125,7 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     let dest = r[0].as_ref().unwrap();
     let err = std::fs::read_to_string(dest.join("error.txt")).unwrap_or_default();
     assert!(dest.starts_with(site.join(".done")), "{dest:?}: {err}");
-    assert_eq!(ledger().lines().count(), 2);
+    assert_eq!(taken(&server.store).await, 2);
     let (status, body) = server.get("/api/v1/sites/kamo/epochs").await;
     assert_eq!(status, 200, "{body}");
     assert_eq!(body.to_string().matches("observed_at").count(), 2, "{body}");
@@ -124,7 +138,7 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     }
     let r = scan_once(&server.store, &opts).await;
     assert!(r[0].as_ref().unwrap().starts_with(site.join(".done")));
-    assert_eq!(ledger().lines().count(), 2);
+    assert_eq!(taken(&server.store).await, 2);
 
     // broken: an image missing
     write_epoch(&site, &epoch, "e3", "2026-11-22T09:00:00Z", false, 3);

@@ -94,7 +94,10 @@ pub fn windowed_centroid(
     };
     let plane = annulus_plane(img, c0, r_bg, r_bg + 3.0)?;
     let r_w = 4.0 * sigma_w;
+    let r_w2 = r_w * r_w;
     let inv = 1.0 / (2.0 * sigma_w * sigma_w);
+    let w = img.width() as usize;
+    let mut wx: Vec<(f64, f64)> = Vec::with_capacity(2 * r_w as usize + 2);
     let mut c = c0;
     let mut out = None;
     for _ in 0..20 {
@@ -106,24 +109,36 @@ pub fn windowed_centroid(
         if x1 >= img.width() as usize || y1 >= img.height() as usize {
             return None;
         }
+        // the Gaussian window is separable: exp(−(dx² + dy²)/2σ²) = wx(dx)·wy(dy)
+        wx.clear();
+        wx.extend((x0..=x1).map(|x| {
+            let dx = x as f64 - c[0];
+            (dx, (-dx * dx * inv).exp())
+        }));
         let (mut sw, mut sx, mut sy, mut s2, mut n2x, mut n2y, mut peak) =
             (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, f64::MIN);
         for y in y0..=y1 {
-            for x in x0..=x1 {
-                let (dx, dy) = (x as f64 - c[0], y as f64 - c[1]);
+            let dy = y as f64 - c[1];
+            let wy = (-dy * dy * inv).exp();
+            let by = y as f64 - c0[1];
+            let row_bg = plane[0] + plane[2] * by;
+            let line = &img.data()[y * w + x0..=y * w + x1];
+            for ((&(dx, wxv), &v), x) in wx.iter().zip(line).zip(x0..) {
                 let d2 = dx * dx + dy * dy;
-                if d2 > r_w * r_w {
+                if d2 > r_w2 {
                     continue;
                 }
-                let (bx, by) = (x as f64 - c0[0], y as f64 - c0[1]);
-                let s = sign * (img.get(x, y) as f64 - plane[0] - plane[1] * bx - plane[2] * by);
-                let wt = (-d2 * inv).exp();
-                sw += wt * s;
-                sx += wt * s * dx;
-                sy += wt * s * dy;
-                s2 += wt * s * d2;
-                n2x += wt * wt * dx * dx;
-                n2y += wt * wt * dy * dy;
+                let bx = x as f64 - c0[0];
+                let s = sign * (v as f64 - row_bg - plane[1] * bx);
+                let wt = wxv * wy;
+                let ws = wt * s;
+                sw += ws;
+                sx += ws * dx;
+                sy += ws * dy;
+                s2 += ws * d2;
+                let w2 = wt * wt;
+                n2x += w2 * dx * dx;
+                n2y += w2 * dy * dy;
                 if d2 <= 2.0 {
                     peak = peak.max(s);
                 }

@@ -2,6 +2,7 @@
 
 use super::error::DetectError;
 use image::{DynamicImage, ImageReader};
+use rayon::prelude::*;
 use std::io::Cursor;
 
 /// Default limit on the pixel count of a decoded image (250 megapixels).
@@ -110,13 +111,16 @@ pub fn decode_with_limit(bytes: &[u8], max_pixels: u64) -> Result<GreyImage, Det
 fn from_dynamic(img: DynamicImage) -> Result<GreyImage, DetectError> {
     let (w, h) = (img.width(), img.height());
     let (depth, data): (u8, Vec<u16>) = match img {
-        DynamicImage::ImageLuma8(b) => (8, b.into_raw().into_iter().map(u16::from).collect()),
+        DynamicImage::ImageLuma8(b) => (8, b.as_raw().par_iter().map(|&v| u16::from(v)).collect()),
         DynamicImage::ImageLumaA8(b) => (8, b.pixels().map(|p| p.0[0] as u16).collect()),
         DynamicImage::ImageLuma16(b) => (16, b.into_raw()),
         DynamicImage::ImageLumaA16(b) => (16, b.pixels().map(|p| p.0[0]).collect()),
         DynamicImage::ImageRgb8(b) => (
             8,
-            b.pixels().map(|p| luma(p.0[0], p.0[1], p.0[2])).collect(),
+            b.as_raw()
+                .par_chunks_exact(3)
+                .map(|p| luma(p[0], p[1], p[2]))
+                .collect(),
         ),
         DynamicImage::ImageRgba8(b) => (
             8,

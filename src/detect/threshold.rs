@@ -116,6 +116,14 @@ pub fn threshold_runs(
             (j, tx as f32)
         })
         .collect();
+    // segments of columns between neighbouring cell centres (one interpolation interval each)
+    let mut segs: Vec<(usize, usize)> = Vec::new();
+    for x in 0..w {
+        match segs.last_mut() {
+            Some(last) if cols[last.0].0 == cols[x].0 => last.1 = x + 1,
+            _ => segs.push((x, x + 1)),
+        }
+    }
     let rows: Vec<Vec<Run>> = (0..h)
         .into_par_iter()
         .with_min_len(16)
@@ -130,22 +138,51 @@ pub fn threshold_runs(
                 })
                 .collect();
             let line = &img.data()[y * w..(y + 1) * w];
+            let bg_at = |x: usize| {
+                let (j, tx) = cols[x];
+                g[j] + (g[j + 1] - g[j]) * tx
+            };
             let mut runs = Vec::new();
             let mut start: Option<usize> = None;
-            for (x, (&v, &(j, tx))) in line.iter().zip(&cols).enumerate() {
-                let b = g[j] + (g[j + 1] - g[j]) * tx;
-                let fg = sign * (v as f32 - b) > t;
-                match (fg, start) {
-                    (true, None) => start = Some(x),
-                    (false, Some(s)) => {
+            for &(xs, xe) in &segs {
+                // the background is linear (monotone) over a segment: when even the extreme pixel is
+                // not foreground against the extreme background, no pixel of the segment is
+                let (b0, b1) = (bg_at(xs), bg_at(xe - 1));
+                let seg = &line[xs..xe];
+                let clear = match polarity {
+                    Polarity::BrightOnDark => {
+                        let vmax = seg.iter().copied().max().unwrap_or(0) as f32;
+                        vmax - b0.min(b1) <= t
+                    }
+                    Polarity::DarkOnBright => {
+                        let vmin = seg.iter().copied().min().unwrap_or(0) as f32;
+                        b0.max(b1) - vmin <= t
+                    }
+                };
+                if clear {
+                    if let Some(s) = start.take() {
                         runs.push(Run {
                             row: y as u32,
                             x0: s as u32,
-                            x1: x as u32,
+                            x1: xs as u32,
                         });
-                        start = None;
                     }
-                    _ => {}
+                    continue;
+                }
+                for (x, &v) in (xs..xe).zip(seg) {
+                    let fg = sign * (v as f32 - bg_at(x)) > t;
+                    match (fg, start) {
+                        (true, None) => start = Some(x),
+                        (false, Some(s)) => {
+                            runs.push(Run {
+                                row: y as u32,
+                                x0: s as u32,
+                                x1: x as u32,
+                            });
+                            start = None;
+                        }
+                        _ => {}
+                    }
                 }
             }
             if let Some(s) = start {

@@ -3,6 +3,7 @@
 //! noise, quantised to 8 or 16 bits. Coordinates follow the contract: the centre of the top-left pixel
 //! is (0, 0), columns grow right, rows down; a pixel covers ±0.5 px around its centre.
 
+use crate::detect::ellipse::normal_cdf;
 use crate::detect::GreyImage;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -297,33 +298,6 @@ fn add_shape(
     }
 }
 
-/// Standard normal CDF.
-fn phi(x: f64) -> f64 {
-    0.5 * libm_erfc(-x / std::f64::consts::SQRT_2)
-}
-
-/// erfc with |relative error| < 1.2e-7 (Numerical Recipes).
-fn libm_erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t
-        * (-z * z - 1.265_512_23
-            + t * (1.000_023_68
-                + t * (0.374_091_96
-                    + t * (0.096_784_18
-                        + t * (-0.186_288_06
-                            + t * (0.278_868_07
-                                + t * (-1.135_203_98
-                                    + t * (1.488_515_87
-                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-            .exp();
-    if x >= 0.0 {
-        r
-    } else {
-        2.0 - r
-    }
-}
-
 /// Renders `spec` with noise from the seed. Deterministic for a given spec and seed.
 pub fn render(spec: &ImageSpec, seed: u64) -> Result<Rendered, RenderError> {
     validate(spec)?;
@@ -404,7 +378,7 @@ pub fn render(spec: &ImageSpec, seed: u64) -> Result<Rendered, RenderError> {
                         if d.abs() > hw + 6.0 * s_band {
                             continue;
                         }
-                        let f = phi((hw - d) / s_band) - phi((-hw - d) / s_band);
+                        let f = normal_cdf((hw - d) / s_band) - normal_cdf((-hw - d) / s_band);
                         *v += (contrast * f) as f32;
                     }
                 }

@@ -6,7 +6,7 @@
 //! SQLite-only forms where a standard one exists, so a PostgreSQL backend can follow.
 //!
 //! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`displacements`], [`alerts`],
-//! [`webhooks`]; [`series`] serves a point's displacement time series fast.
+//! [`webhooks`], [`watch_state`]; [`series`] serves a point's displacement time series fast.
 //!
 //! # SQLite-specific constructs (all of them; what a PostgreSQL backend would replace)
 //! - Connection set-up in [`Store::open`] and [`backup_file`]: `SqliteConnectOptions` with WAL,
@@ -36,6 +36,7 @@ pub mod points;
 pub mod series;
 pub mod sites;
 pub mod sqlite_raw;
+pub mod watch_state;
 pub mod webhooks;
 
 use std::path::Path;

@@ -1,0 +1,99 @@
+//! State of the watched directory: each station's latest orientation and the content hashes of the
+//! folders taken (see [`crate::watch`]).
+
+use std::collections::BTreeMap;
+
+use sqlx::{SqliteConnection, SqliteExecutor};
+
+use super::{now, StoreError};
+use crate::photogrammetry::ImageOrientation;
+
+/// The stored orientation of every station of a site, by station (image and station fields empty).
+pub async fn orientations(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+) -> Result<BTreeMap<String, ImageOrientation>, StoreError> {
+    let rows: Vec<(String, String, String, String)> = sqlx::query_as(
+        "SELECT station, camera, rotation, center FROM watch_orientations WHERE site_id = ? \
+         ORDER BY station",
+    )
+    .bind(site)
+    .fetch_all(db)
+    .await?;
+    let mut out = BTreeMap::new();
+    for (station, camera, rotation, center) in rows {
+        out.insert(
+            station,
+            ImageOrientation {
+                image: String::new(),
+                station: String::new(),
+                camera,
+                rotation: serde_json::from_str(&rotation)?,
+                center: serde_json::from_str(&center)?,
+            },
+        );
+    }
+    Ok(out)
+}
+
+/// Stores (replaces) the orientation of `station` found with epoch `epoch`.
+pub async fn set_orientation(
+    db: &mut SqliteConnection,
+    site: &str,
+    station: &str,
+    o: &ImageOrientation,
+    epoch: i64,
+) -> Result<(), StoreError> {
+    sqlx::query(
+        "INSERT INTO watch_orientations (site_id, station, camera, rotation, center, epoch_id, updated_at) \
+         VALUES (?, ?, ?, ?, ?, ?, ?) \
+         ON CONFLICT (site_id, station) DO UPDATE SET camera = excluded.camera, \
+         rotation = excluded.rotation, center = excluded.center, epoch_id = excluded.epoch_id, \
+         updated_at = excluded.updated_at",
+    )
+    .bind(site)
+    .bind(station)
+    .bind(&o.camera)
+    .bind(serde_json::to_string(&o.rotation)?)
+    .bind(serde_json::to_string(&o.center)?)
+    .bind(epoch)
+    .bind(now())
+    .execute(db)
+    .await?;
+    Ok(())
+}
+
+/// The epoch a folder with content hash `hash` became, if it was taken before.
+pub async fn folder_epoch(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    hash: &str,
+) -> Result<Option<i64>, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT epoch_id FROM watch_folders WHERE site_id = ? AND hash = ?")
+            .bind(site)
+            .bind(hash)
+            .fetch_optional(db)
+            .await?,
+    )
+}
+
+/// Records that the folder with content hash `hash` became epoch `epoch` (idempotent).
+pub async fn record_folder(
+    db: &mut SqliteConnection,
+    site: &str,
+    hash: &str,
+    epoch: i64,
+) -> Result<(), StoreError> {
+    sqlx::query(
+        "INSERT INTO watch_folders (site_id, hash, epoch_id, taken_at) VALUES (?, ?, ?, ?) \
+         ON CONFLICT (site_id, hash) DO NOTHING",
+    )
+    .bind(site)
+    .bind(hash)
+    .bind(epoch)
+    .bind(now())
+    .execute(db)
+    .await?;
+    Ok(())
+}

@@ -1,0 +1,90 @@
+//! Shared helpers of the watched-directory tests: rendering an epoch of a scene into a folder
+//! `<site_dir>/<name>/` (one PNG per station, `epoch.json`, `READY`).
+#![allow(dead_code)]
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use cliffwatch::photogrammetry::epoch::ObservationInput;
+use cliffwatch::photogrammetry::EpochInput;
+use cliffwatch::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
+
+/// Target diameter of the rendered images in px.
+pub const TARGET_PX: f64 = 8.0;
+
+/// The 4 observations of an image nearest its corners (the hand-measured seeds of a first epoch).
+pub fn corner_seeds(obs: &[ObservationInput]) -> Vec<ObservationInput> {
+    let mut chosen: Vec<ObservationInput> = Vec::new();
+    for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+        let f = |o: &ObservationInput| sx * o.col.unwrap() + sy * o.row.unwrap();
+        let best = obs
+            .iter()
+            .filter(|o| !chosen.iter().any(|c| c.point == o.point))
+            .max_by(|a, b| f(a).total_cmp(&f(b)))
+            .unwrap();
+        chosen.push(best.clone());
+    }
+    chosen
+}
+
+/// Writes `<site_dir>/<name>/`: per image of `epoch` a PNG (8-bit, contrast-to-noise 50, targets of
+/// [`TARGET_PX`] at the observations' pixel positions, image noise from `noise_seed`) and
+/// `epoch.json` keeping only the 4 corner seeds per image (`seeds`) or no observations. `READY` is
+/// written last. Returns the folder and the rendered truth (image id → point → (col, row)).
+pub fn write_epoch(
+    site_dir: &Path,
+    epoch: &EpochInput,
+    name: &str,
+    observed_at: &str,
+    seeds: bool,
+    noise_seed: u64,
+) -> (PathBuf, BTreeMap<String, BTreeMap<String, [f64; 2]>>) {
+    let folder = site_dir.join(name);
+    std::fs::create_dir_all(&folder).unwrap();
+    let cam = &epoch.cameras[0];
+    let (w, h) = (cam.width_px.unwrap(), cam.height_px.unwrap());
+    let mut upload = epoch.clone();
+    upload.observed_at = observed_at.into();
+    let mut truth = BTreeMap::new();
+    for (k, image) in upload.images.iter_mut().enumerate() {
+        let mut spec = ImageSpec::new(w, h, 8);
+        spec.targets = image
+            .observations
+            .iter()
+            .map(|o| TargetTruth {
+                col: o.col.unwrap(),
+                row: o.row.unwrap(),
+                semi_major_px: 0.5 * TARGET_PX,
+                semi_minor_px: 0.5 * TARGET_PX,
+                angle_rad: 0.0,
+                contrast: 50.0 * spec.noise_sigma,
+            })
+            .collect();
+        let img = render(&spec, noise_seed * 100 + k as u64).unwrap().image;
+        let station = image.station.clone().unwrap_or_else(|| image.id.clone());
+        std::fs::write(
+            folder.join(format!("{station}.png")),
+            encode_png(&img).unwrap(),
+        )
+        .unwrap();
+        truth.insert(
+            image.id.clone(),
+            image
+                .observations
+                .iter()
+                .map(|o| (o.point.clone(), [o.col.unwrap(), o.row.unwrap()]))
+                .collect(),
+        );
+        let obs = std::mem::take(&mut image.observations);
+        if seeds {
+            image.observations = corner_seeds(&obs);
+        }
+    }
+    std::fs::write(
+        folder.join("epoch.json"),
+        serde_json::to_string(&upload).unwrap(),
+    )
+    .unwrap();
+    std::fs::write(folder.join("READY"), "").unwrap();
+    (folder, truth)
+}
