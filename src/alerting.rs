@@ -137,59 +137,16 @@ pub async fn history(
     .await?;
     let mut out: History = HashMap::new();
     for r in rows {
-        if let Some(rec) = to_record(&r) {
+        if let Some(rec) = r.to_record() {
             out.entry(r.point.clone()).or_default().push(rec);
         }
     }
     Ok(out)
 }
 
-fn to_record(d: &Displacement) -> Option<DisplacementRecord> {
-    Some(DisplacementRecord {
-        point: d.point.clone(),
-        epoch: d.epoch,
-        observed_at: store::parse_timestamp(&d.observed_at)?,
-        dx_mm: d.dx_mm,
-        dy_mm: d.dy_mm,
-        dz_mm: d.dz_mm,
-        d_mm: d.d_mm,
-        sigma_dx_mm: d.sigma_dx_mm,
-        sigma_dy_mm: d.sigma_dy_mm,
-        sigma_dz_mm: d.sigma_dz_mm,
-        sigma_mm: d.sigma_mm,
-        cov_dxdy_mm2: d.cov_dxdy_mm2,
-        cov_dxdz_mm2: d.cov_dxdz_mm2,
-        cov_dydz_mm2: d.cov_dydz_mm2,
-        d_along_mm: d.d_along_mm,
-        significant: d.significant,
-        velocity_mm_per_day: d.velocity_mm_per_day,
-        time_to_failure_hours: d.time_to_failure_hours,
-    })
-}
-
 /// A time-series row of the store from an analysis record (timestamps in the stored form).
 pub fn to_row(r: &DisplacementRecord, reference_epoch: i64) -> Displacement {
-    Displacement {
-        point: r.point.clone(),
-        epoch: r.epoch,
-        observed_at: store::timestamp(r.observed_at),
-        reference_epoch,
-        dx_mm: r.dx_mm,
-        dy_mm: r.dy_mm,
-        dz_mm: r.dz_mm,
-        d_mm: r.d_mm,
-        sigma_dx_mm: r.sigma_dx_mm,
-        sigma_dy_mm: r.sigma_dy_mm,
-        sigma_dz_mm: r.sigma_dz_mm,
-        sigma_mm: r.sigma_mm,
-        cov_dxdy_mm2: r.cov_dxdy_mm2,
-        cov_dxdz_mm2: r.cov_dxdz_mm2,
-        cov_dydz_mm2: r.cov_dydz_mm2,
-        d_along_mm: r.d_along_mm,
-        significant: r.significant,
-        velocity_mm_per_day: r.velocity_mm_per_day,
-        time_to_failure_hours: r.time_to_failure_hours,
-    }
+    Displacement::from_record(r, reference_epoch)
 }
 
 /// Runs [`analysis::analyse_epoch`] on a blocking thread.

@@ -42,12 +42,14 @@ async fn fill(s: &TestServer, site: &str) {
     .unwrap();
     sqlx::query(
         "INSERT INTO displacements (site_id, epoch_id, point, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
-         sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, velocity_mm_per_day, time_to_failure_hours) \
+         sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, velocity_mm_per_day, time_to_failure_hours, \
+         cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2) \
          SELECT e.site_id, e.id, p.name, e.observed_at, 1, e.id * 0.0001 * (1 - 2 * (e.id % 2)), \
          CASE WHEN e.id % 5 = 0 THEN 1e-9 * e.id ELSE -e.id * 17.3 END, e.id / 3.0, e.id * 0.000229, \
          0.11, 0.1 + e.id * 1e-7, 0.31, 0.2, NULL, e.id % 2, \
          CASE WHEN e.id % 4 = 0 THEN NULL ELSE 0.0055 * e.id END, \
-         CASE WHEN e.id % 7 = 0 THEN 48.0 / e.id ELSE NULL END \
+         CASE WHEN e.id % 7 = 0 THEN 48.0 / e.id ELSE NULL END, \
+         CASE WHEN e.id % 3 = 0 THEN NULL ELSE 0.001 * e.id END, -0.0021, 1e-5 * e.id \
          FROM epochs e CROSS JOIN points p WHERE e.site_id = ? AND p.site_id = ?",
     )
     .bind(site)
@@ -281,6 +283,9 @@ fn analysis_records_map_to_rows_and_back() {
         sigma_dy_mm: 0.2,
         sigma_dz_mm: 0.3,
         sigma_mm: 0.15,
+        cov_dxdy_mm2: Some(0.004),
+        cov_dxdz_mm2: None,
+        cov_dydz_mm2: Some(-1e-3),
         d_along_mm: Some(-0.5),
         significant: true,
         velocity_mm_per_day: None,

@@ -63,7 +63,8 @@ pub struct Written {
 
 const SQL: &str = "SELECT epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
     sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, significant, velocity_mm_per_day, \
-    time_to_failure_hours FROM displacements WHERE site_id = ? AND point = ? \
+    time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2 FROM displacements \
+    WHERE site_id = ? AND point = ? \
     AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY observed_at LIMIT ?";
 
 /// Reads the series of `q` and appends it to `out` in `format` (oldest first), on a blocking
@@ -270,6 +271,8 @@ struct Raw {
     significant: bool,
     velocity: Option<f64>,
     ttf: Option<f64>,
+    /// Covariances of (dx, dy), (dx, dz), (dy, dz) in mm² (null before schema version 4).
+    cov: [Option<f64>; 3],
 }
 
 impl Raw {
@@ -282,6 +285,7 @@ impl Raw {
             significant: r.int(11) != 0,
             velocity: r.opt_double(12),
             ttf: r.opt_double(13),
+            cov: std::array::from_fn(|k| r.opt_double(14 + k)),
         }
     }
 }
@@ -447,6 +451,11 @@ impl Writer {
                 for (name, v) in named {
                     let _ = write!(self.out, ",\"{name}\":");
                     self.float(v);
+                }
+                let cov = ["cov_dxdy_mm2", "cov_dxdz_mm2", "cov_dydz_mm2"];
+                for (name, v) in cov.iter().zip(r.cov) {
+                    let _ = write!(self.out, ",\"{name}\":");
+                    self.opt_float(v);
                 }
                 self.out.extend_from_slice(b",\"d_along_mm\":");
                 self.opt_float(d_along);
