@@ -810,8 +810,8 @@ fn solve(
             }
             let Some((k, _)) = worst.filter(|_| !capped) else {
                 if lin.modified() {
-                    let (dc, dp) = lin.step();
-                    bundle.apply(dc, dp);
+                    let (dc, dp) = lin.step(&cof);
+                    bundle.apply(&dc, &dp);
                     let n;
                     (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
                     cof = invert(&bundle, n)?;
@@ -824,7 +824,7 @@ fn solve(
             };
             if !lin.drop(&bundle, &cof, k) {
                 // No redundancy left for it in the linearized problem: decide exactly.
-                let (dc, dp) = lin.step().clone();
+                let (dc, dp) = lin.step(&cof);
                 bundle.obs[k].active = false;
                 bundle.apply(&dc, &dp);
                 let n;

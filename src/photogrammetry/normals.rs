@@ -5,6 +5,7 @@
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
 
 use super::bundle::{residual_jacobian, residual_value, ImageState, Obs, INTERIOR0, POINT0};
 use super::report::Model;
@@ -168,85 +169,35 @@ impl Bundle {
 
     /// Builds the normal equations at the current state. Only the lower triangle of U is accumulated
     /// (the local columns of an observation are in increasing global order: its image's six, then its
-    /// camera's interior parameters) and mirrored at the end.
+    /// camera's interior parameters) and mirrored at the end. Large networks are built in chunks of
+    /// points on the rayon pool, each with its own U, summed at the end.
     pub fn normals(&self) -> Normals {
         let nc = self.camera_unknowns();
         let lanes = self.interior_lanes();
-        let mut u = Mat::<f64>::zeros(nc, nc);
-        let mut bc = vec![0.0; nc];
         let np = self.points.len();
         let mut v = vec![Matrix3::zeros(); np];
         let mut bp = vec![Vector3::zeros(); np];
         let mut w = vec![Coupling::default(); np];
-        let mut cost = 0.0;
-        let mut cols = [(0usize, 0usize); 14];
-        for i in 0..np {
-            let wi = &mut w[i];
-            let nobs = self.point_obs[i].len();
-            wi.cols.reserve(7 * nobs);
-            wi.rows.reserve(7 * nobs);
-            // Interior couplings, appended after the image blocks so that the columns ascend.
-            let mut interior = Coupling::default();
-            for &oi in &self.point_obs[i] {
-                let o = &self.obs[oi];
-                if !o.active {
-                    continue;
+        let chunk = chunk_len(np, self.obs.len());
+        let work =
+            |ci: usize, v: &mut [Matrix3<f64>], bp: &mut [Vector3<f64>], w: &mut [Coupling]| {
+                let mut acc = (Mat::<f64>::zeros(nc, nc), vec![0.0; nc], 0.0);
+                for (k, ((v, bp), w)) in v.iter_mut().zip(bp).zip(w).enumerate() {
+                    self.point_normals(ci * chunk + k, &lanes, &mut acc, v, bp, w);
                 }
-                let cam = self.image_camera[o.image];
-                let p = o.weight / (self.sigma[cam] * self.sigma[cam]);
-                let f = residual_jacobian(
-                    self.model,
-                    &self.images[o.image],
-                    &self.interior[cam],
-                    &self.free[cam],
-                    &self.points[i],
-                    o.meas,
-                    self.zbar,
-                );
-                for (k, col) in cols.iter_mut().enumerate().take(6) {
-                    *col = (6 * o.image + k, k);
-                }
-                let n = 6 + lanes[cam].len();
-                cols[6..n].copy_from_slice(&lanes[cam]);
-                let mut wrows = [Vector3::zeros(); 14];
-                for fk in &f {
-                    let e = fk.v;
-                    cost += p * e * e;
-                    let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
-                    v[i] += p * jp * jp.transpose();
-                    bp[i] -= p * e * jp;
-                    for a in 0..n {
-                        let (ga, la) = cols[a];
-                        let pja = p * fk.d[la];
-                        if pja == 0.0 {
-                            continue;
-                        }
-                        bc[ga] -= pja * e;
-                        for &(gb, lb) in &cols[..=a] {
-                            u[(ga, gb)] += pja * fk.d[lb];
-                        }
-                        wrows[a] += pja * jp;
-                    }
-                }
-                for a in 0..6 {
-                    wi.cols.push(cols[a].0);
-                    wi.rows.push(wrows[a]);
-                }
-                for a in 6..n {
-                    interior.add(cols[a].0, wrows[a]);
-                }
-            }
-            wi.cols.extend_from_slice(&interior.cols);
-            wi.rows.extend_from_slice(&interior.rows);
-            wi.sorted = wi.cols.windows(2).all(|c| c[0] < c[1]);
-            if let Some((xc, s)) = self.control[i] {
-                let p = 1.0 / (s * s);
-                let e = self.points[i] - xc;
-                cost += p * e.norm_squared();
-                v[i] += p * Matrix3::identity();
-                bp[i] -= p * e;
-            }
-        }
+                acc
+            };
+        let (mut u, mut bc, mut cost) = if chunk >= np {
+            work(0, &mut v, &mut bp, &mut w)
+        } else {
+            v.par_chunks_mut(chunk)
+                .zip(bp.par_chunks_mut(chunk))
+                .zip(w.par_chunks_mut(chunk))
+                .enumerate()
+                .map(|(ci, ((v, bp), w))| work(ci, v, bp, w))
+                .reduce_with(add_partial)
+                .unwrap_or_else(|| (Mat::zeros(nc, nc), vec![0.0; nc], 0.0))
+        };
         for (cam, cols) in self.interior_columns().iter().enumerate() {
             for k in 0..8 {
                 if let (Some(g), Some((v, s))) = (cols[k], self.interior_prior[cam][k]) {
@@ -273,10 +224,109 @@ impl Bundle {
         }
     }
 
+    /// The share of point `i` in the normal equations: its block `v`, right-hand side `bp` and
+    /// coupling `w`, and its observations' terms added to the (lower triangle of) U, b_c and the cost
+    /// in `acc`.
+    fn point_normals(
+        &self,
+        i: usize,
+        lanes: &[Vec<(usize, usize)>],
+        acc: &mut (Mat<f64>, Vec<f64>, f64),
+        v: &mut Matrix3<f64>,
+        bp: &mut Vector3<f64>,
+        wi: &mut Coupling,
+    ) {
+        let (u, bc, cost) = acc;
+        let mut cols = [(0usize, 0usize); 14];
+        let nobs = self.point_obs[i].len();
+        wi.cols.reserve(7 * nobs);
+        wi.rows.reserve(7 * nobs);
+        // Interior couplings, appended after the image blocks so that the columns ascend.
+        let mut interior = Coupling::default();
+        for &oi in &self.point_obs[i] {
+            let o = &self.obs[oi];
+            if !o.active {
+                continue;
+            }
+            let cam = self.image_camera[o.image];
+            let p = o.weight / (self.sigma[cam] * self.sigma[cam]);
+            let f = residual_jacobian(
+                self.model,
+                &self.images[o.image],
+                &self.interior[cam],
+                &self.free[cam],
+                &self.points[i],
+                o.meas,
+                self.zbar,
+            );
+            for (k, col) in cols.iter_mut().enumerate().take(6) {
+                *col = (6 * o.image + k, k);
+            }
+            let n = 6 + lanes[cam].len();
+            cols[6..n].copy_from_slice(&lanes[cam]);
+            let mut wrows = [Vector3::zeros(); 14];
+            for fk in &f {
+                let e = fk.v;
+                *cost += p * e * e;
+                let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
+                *v += p * jp * jp.transpose();
+                *bp -= p * e * jp;
+                for a in 0..n {
+                    let (ga, la) = cols[a];
+                    let pja = p * fk.d[la];
+                    if pja == 0.0 {
+                        continue;
+                    }
+                    bc[ga] -= pja * e;
+                    for &(gb, lb) in &cols[..=a] {
+                        u[(ga, gb)] += pja * fk.d[lb];
+                    }
+                    wrows[a] += pja * jp;
+                }
+            }
+            for a in 0..6 {
+                wi.cols.push(cols[a].0);
+                wi.rows.push(wrows[a]);
+            }
+            for a in 6..n {
+                interior.add(cols[a].0, wrows[a]);
+            }
+        }
+        wi.cols.extend_from_slice(&interior.cols);
+        wi.rows.extend_from_slice(&interior.rows);
+        wi.sorted = wi.cols.windows(2).all(|c| c[0] < c[1]);
+        if let Some((xc, s)) = self.control[i] {
+            let p = 1.0 / (s * s);
+            let e = self.points[i] - xc;
+            *cost += p * e.norm_squared();
+            *v += p * Matrix3::identity();
+            *bp -= p * e;
+        }
+    }
+
     /// Reduces the normal equations with Marquardt damping λ (diagonal scaled by 1 + λ). Only the
     /// lower triangle of S is formed (all the Cholesky factorization reads); the upper keeps U's.
+    /// Large networks are reduced in chunks of points on the rayon pool, each with its own Σ W V⁻¹ Wᵀ.
     pub fn reduce(&self, n: &Normals, lambda: f64) -> Option<Reduced> {
         let nc = n.bc.len();
+        let np = n.v.len();
+        let chunk = chunk_len(np, self.obs.len());
+        let work = |ci: usize| {
+            let mut s = Mat::<f64>::zeros(nc, nc);
+            let mut rhs = vec![0.0; nc];
+            let range = ci * chunk..((ci + 1) * chunk).min(np);
+            let mut vinv = Vec::with_capacity(range.len());
+            let mut scratch = ReduceScratch::default();
+            for i in range {
+                vinv.push(self.reduce_point(n, i, lambda, &mut s, &mut rhs, &mut scratch)?);
+            }
+            Some((s, rhs, vinv))
+        };
+        let parts: Vec<Option<ReducedChunk>> = if chunk >= np {
+            vec![work(0)]
+        } else {
+            (0..np.div_ceil(chunk)).into_par_iter().map(work).collect()
+        };
         let mut s = n.u.clone();
         let umax = (0..nc).map(|k| n.u[(k, k)]).fold(0.0, f64::max);
         for k in 0..nc {
@@ -284,64 +334,88 @@ impl Bundle {
             s[(k, k)] += lambda * d;
         }
         let mut rhs = n.bc.clone();
-        let mut vinv = Vec::with_capacity(n.v.len());
-        // (W V⁻¹) by components, so that the update of a run of consecutive columns vectorizes.
-        let mut wv: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
-        let mut run_end: Vec<usize> = Vec::new();
-        for (i, vi) in n.v.iter().enumerate() {
-            let mut vd = *vi;
-            for k in 0..3 {
-                vd[(k, k)] += lambda * vi[(k, k)].max(1e-300) + self.gauge;
-            }
-            let inv = vd.try_inverse()?;
-            let wi = &n.w[i];
-            let nw = wi.cols.len();
-            for (k, c) in wv.iter_mut().enumerate() {
-                c.clear();
-                c.extend(wi.rows.iter().map(|r| (inv * r)[k]));
-            }
-            for (a, &ca) in wi.cols.iter().enumerate() {
-                rhs[ca] -= wv[0][a] * n.bp[i].x + wv[1][a] * n.bp[i].y + wv[2][a] * n.bp[i].z;
-            }
-            if wi.sorted {
-                // End (exclusive) of the run of consecutive global columns that holds each entry.
-                run_end.clear();
-                run_end.resize(nw, nw);
-                for a in (0..nw.saturating_sub(1)).rev() {
-                    run_end[a] = if wi.cols[a + 1] == wi.cols[a] + 1 {
-                        run_end[a + 1]
-                    } else {
-                        a + 1
-                    };
+        let mut vinv = Vec::with_capacity(np);
+        for part in parts {
+            let (ps, prhs, pv) = part?;
+            for c in 0..nc {
+                let (dst, src) = (s.col_as_slice_mut(c), ps.col_as_slice(c));
+                for (d, x) in dst[c..].iter_mut().zip(&src[c..]) {
+                    *d -= x;
                 }
             }
-            // S[ca, cb] −= (W V⁻¹)_a · W_b for ca ≥ cb, column by column.
-            for (b, &cb) in wi.cols.iter().enumerate() {
-                let rb = wi.rows[b];
-                let col = s.col_as_slice_mut(cb);
-                if wi.sorted {
-                    let mut a = b;
-                    while a < nw {
-                        let end = run_end[a];
-                        let g = wi.cols[a];
-                        let dst = &mut col[g..g + (end - a)];
-                        let (x, y, z) = (&wv[0][a..end], &wv[1][a..end], &wv[2][a..end]);
-                        for (((d, x), y), z) in dst.iter_mut().zip(x).zip(y).zip(z) {
-                            *d -= x * rb.x + y * rb.y + z * rb.z;
-                        }
-                        a = end;
-                    }
-                } else {
-                    for (a, &ca) in wi.cols.iter().enumerate() {
-                        if ca >= cb {
-                            col[ca] -= wv[0][a] * rb.x + wv[1][a] * rb.y + wv[2][a] * rb.z;
-                        }
-                    }
-                }
+            for (r, x) in rhs.iter_mut().zip(&prhs) {
+                *r -= x;
             }
-            vinv.push(inv);
+            vinv.extend(pv);
         }
         Some(Reduced { s, rhs, vinv })
+    }
+
+    /// Adds point i's W V⁻¹ Wᵀ (lower triangle) to `s` and W V⁻¹ b_p to `rhs`; returns the damped
+    /// (V + gauge)⁻¹, or None when it is singular.
+    fn reduce_point(
+        &self,
+        n: &Normals,
+        i: usize,
+        lambda: f64,
+        s: &mut Mat<f64>,
+        rhs: &mut [f64],
+        scratch: &mut ReduceScratch,
+    ) -> Option<Matrix3<f64>> {
+        let vi = &n.v[i];
+        let mut vd = *vi;
+        for k in 0..3 {
+            vd[(k, k)] += lambda * vi[(k, k)].max(1e-300) + self.gauge;
+        }
+        let inv = vd.try_inverse()?;
+        let wi = &n.w[i];
+        let nw = wi.cols.len();
+        // (W V⁻¹) by components, so that the update of a run of consecutive columns vectorizes.
+        let (wv, run_end) = (&mut scratch.wv, &mut scratch.run_end);
+        for (k, c) in wv.iter_mut().enumerate() {
+            c.clear();
+            c.extend(wi.rows.iter().map(|r| (inv * r)[k]));
+        }
+        for (a, &ca) in wi.cols.iter().enumerate() {
+            rhs[ca] += wv[0][a] * n.bp[i].x + wv[1][a] * n.bp[i].y + wv[2][a] * n.bp[i].z;
+        }
+        if wi.sorted {
+            // End (exclusive) of the run of consecutive global columns that holds each entry.
+            run_end.clear();
+            run_end.resize(nw, nw);
+            for a in (0..nw.saturating_sub(1)).rev() {
+                run_end[a] = if wi.cols[a + 1] == wi.cols[a] + 1 {
+                    run_end[a + 1]
+                } else {
+                    a + 1
+                };
+            }
+        }
+        // S[ca, cb] += (W V⁻¹)_a · W_b for ca ≥ cb, column by column (subtracted by the caller).
+        for (b, &cb) in wi.cols.iter().enumerate() {
+            let rb = wi.rows[b];
+            let col = s.col_as_slice_mut(cb);
+            if wi.sorted {
+                let mut a = b;
+                while a < nw {
+                    let end = run_end[a];
+                    let g = wi.cols[a];
+                    let dst = &mut col[g..g + (end - a)];
+                    let (x, y, z) = (&wv[0][a..end], &wv[1][a..end], &wv[2][a..end]);
+                    for (((d, x), y), z) in dst.iter_mut().zip(x).zip(y).zip(z) {
+                        *d += x * rb.x + y * rb.y + z * rb.z;
+                    }
+                    a = end;
+                }
+            } else {
+                for (a, &ca) in wi.cols.iter().enumerate() {
+                    if ca >= cb {
+                        col[ca] += wv[0][a] * rb.x + wv[1][a] * rb.y + wv[2][a] * rb.z;
+                    }
+                }
+            }
+        }
+        Some(inv)
     }
 
     /// Solves the damped normal equations: (Δ camera unknowns, Δ points). None if not positive definite.
@@ -394,4 +468,46 @@ impl Bundle {
             *x += d;
         }
     }
+}
+
+/// One chunk's Σ W V⁻¹ Wᵀ (lower triangle), Σ W V⁻¹ b_p and its points' (V + gauge)⁻¹.
+type ReducedChunk = (Mat<f64>, Vec<f64>, Vec<Matrix3<f64>>);
+
+/// Buffers reused across the points of [`Bundle::reduce`].
+#[derive(Default)]
+struct ReduceScratch {
+    wv: [Vec<f64>; 3],
+    run_end: Vec<usize>,
+}
+
+/// Observations below which the normal equations are built on the calling thread only (the rayon
+/// pool's overhead would exceed the gain).
+pub const PARALLEL_MIN_OBSERVATIONS: usize = 20_000;
+
+/// Points per chunk of parallel work: all of them for small networks, else two chunks per thread
+/// of the rayon pool (each chunk carries a dense matrix of the camera unknowns).
+pub fn chunk_len(points: usize, observations: usize) -> usize {
+    if observations < PARALLEL_MIN_OBSERVATIONS || rayon::current_num_threads() < 2 {
+        points.max(1)
+    } else {
+        points.div_ceil(2 * rayon::current_num_threads()).max(1)
+    }
+}
+
+/// Sum of two partial (U, b_c, cost).
+fn add_partial(
+    mut a: (Mat<f64>, Vec<f64>, f64),
+    b: (Mat<f64>, Vec<f64>, f64),
+) -> (Mat<f64>, Vec<f64>, f64) {
+    let nc = a.1.len();
+    for c in 0..nc {
+        let (dst, src) = (a.0.col_as_slice_mut(c), b.0.col_as_slice(c));
+        for (d, x) in dst[c..].iter_mut().zip(&src[c..]) {
+            *d += x;
+        }
+    }
+    for (d, x) in a.1.iter_mut().zip(&b.1) {
+        *d += x;
+    }
+    (a.0, a.1, a.2 + b.2)
 }

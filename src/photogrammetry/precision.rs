@@ -8,7 +8,8 @@ use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use super::bundle::{residual_jacobian, Obs, LOCAL, POINT0};
 use super::dual::Dual;
-use super::normals::{Bundle, Normals};
+use super::normals::{Bundle, Normals, PARALLEL_MIN_OBSERVATIONS};
+use rayon::prelude::*;
 
 type G = SMatrix<f64, 3, 7>;
 type M7 = SMatrix<f64, 7, 7>;
@@ -49,9 +50,16 @@ impl Cofactors {
             qpp: Vec::new(),
             datum: None,
         };
-        cof.qpp = (0..b.points.len())
-            .map(|i| cof.raw_point_block(i, i))
-            .collect();
+        cof.qpp = if b.obs.len() < PARALLEL_MIN_OBSERVATIONS {
+            (0..b.points.len())
+                .map(|i| cof.raw_point_block(i, i))
+                .collect()
+        } else {
+            (0..b.points.len())
+                .into_par_iter()
+                .map(|i| cof.raw_point_block(i, i))
+                .collect()
+        };
         if free_network {
             cof.datum = Some(cof.datum_projection(&b.points)?);
         }
@@ -157,6 +165,62 @@ impl Cofactors {
         }
     }
 
+    /// Camera part of `N⁻¹ [bc; bp]` for sparse right-hand sides (global column or point index and
+    /// value): `S⁻¹ (b_c − Σ W V⁻¹ b_p)`.
+    pub fn solve_cameras(&self, bc: &[(usize, f64)], bp: &[(usize, Vector3<f64>)]) -> Vec<f64> {
+        let n = &self.normals;
+        let mut rhs: Vec<(usize, f64)> = bc.to_vec();
+        for &(i, b) in bp {
+            let vb = self.vinv[i] * b;
+            let w = &n.w[i];
+            for (a, &ca) in w.cols.iter().enumerate() {
+                rhs.push((ca, -w.rows[a].dot(&vb)));
+            }
+        }
+        let mut dc = vec![0.0; self.qcc.nrows()];
+        for (s, r) in rhs {
+            if r != 0.0 {
+                for (d, q) in dc.iter_mut().zip(self.qcc.col_as_slice(s)) {
+                    *d += q * r;
+                }
+            }
+        }
+        dc
+    }
+
+    /// Point `i`'s part of the solution whose camera part is `cams` and point right-hand side the
+    /// sparse `bp`: `V_i⁻¹ (b_p,i − W_i x_c)`.
+    pub fn point_of(&self, cams: &[f64], bp: &[(usize, Vector3<f64>)], i: usize) -> Vector3<f64> {
+        let w = &self.normals.w[i];
+        let mut b: Vector3<f64> = bp.iter().filter(|(p, _)| *p == i).map(|(_, v)| *v).sum();
+        for (a, &ca) in w.cols.iter().enumerate() {
+            b -= w.rows[a] * cams[ca];
+        }
+        self.vinv[i] * b
+    }
+
+    /// Every point's part of that solution (see [`Cofactors::point_of`]).
+    pub fn points_of(&self, cams: &[f64], bp: &[(usize, Vector3<f64>)]) -> Vec<Vector3<f64>> {
+        let n = &self.normals;
+        let mut dense = vec![Vector3::zeros(); n.v.len()];
+        for &(i, v) in bp {
+            dense[i] += v;
+        }
+        let point = |i: usize| {
+            let w = &n.w[i];
+            let mut b = dense[i];
+            for (a, &ca) in w.cols.iter().enumerate() {
+                b -= w.rows[a] * cams[ca];
+            }
+            self.vinv[i] * b
+        };
+        if n.v.len() < PARALLEL_MIN_OBSERVATIONS / 10 {
+            (0..n.v.len()).map(point).collect()
+        } else {
+            (0..n.v.len()).into_par_iter().map(point).collect()
+        }
+    }
+
     /// `N⁻¹ [bc; bp]` through the Schur complement (raw cofactors, before any datum projection):
     /// (camera unknowns, points).
     pub fn solve(&self, bc: &[f64], bp: &[Vector3<f64>]) -> (Vec<f64>, Vec<Vector3<f64>>) {
@@ -181,16 +245,19 @@ impl Cofactors {
                 }
             }
         }
-        let dp = (0..n.v.len())
-            .map(|i| {
-                let w = &n.w[i];
-                let mut b = bp[i];
-                for (a, &ca) in w.cols.iter().enumerate() {
-                    b -= w.rows[a] * dc[ca];
-                }
-                self.vinv[i] * b
-            })
-            .collect();
+        let point = |i: usize| {
+            let w = &n.w[i];
+            let mut b = bp[i];
+            for (a, &ca) in w.cols.iter().enumerate() {
+                b -= w.rows[a] * dc[ca];
+            }
+            self.vinv[i] * b
+        };
+        let dp = if n.v.len() < PARALLEL_MIN_OBSERVATIONS / 10 {
+            (0..n.v.len()).map(point).collect()
+        } else {
+            (0..n.v.len()).into_par_iter().map(point).collect()
+        };
         (dc, dp)
     }
 

@@ -7,7 +7,9 @@ use nalgebra::{Matrix2, Vector2, Vector3};
 use super::bundle::{residual_jacobian, residual_value, LOCAL, POINT0};
 use super::dual::Dual;
 use super::normals::Bundle;
+use super::normals::PARALLEL_MIN_OBSERVATIONS;
 use super::precision::Cofactors;
+use rayon::prelude::*;
 
 /// Normalized residuals (w_x, w_y) of an active observation; for an inactive one, its misclosure
 /// against the solution over the σ of that misclosure (`q = σ² + a Q aᵀ`).
@@ -86,11 +88,34 @@ impl ActiveCounts {
     }
 }
 
-/// One observation removed in the linearized phase: `U = Q aₖᵀ` (two columns, camera unknowns and
-/// points) with Q the cofactors before its removal, and `M⁻¹ = (P⁻¹ − aₖ Q aₖᵀ)⁻¹`.
+/// A vector `N⁻¹ [b_c; b_p]` kept as its camera part and its sparse point right-hand side (the
+/// point part follows from them, see [`Cofactors::point_of`]), so that combining such vectors costs
+/// the camera unknowns, not every point.
+#[derive(Clone, Default)]
+struct Solution {
+    cams: Vec<f64>,
+    bp: Vec<(usize, Vector3<f64>)>,
+}
+
+impl Solution {
+    /// self += f · other.
+    fn add_scaled(&mut self, f: f64, other: &Solution) {
+        for (x, y) in self.cams.iter_mut().zip(&other.cams) {
+            *x += f * y;
+        }
+        for &(i, v) in &other.bp {
+            match self.bp.iter_mut().find(|(p, _)| *p == i) {
+                Some((_, w)) => *w += f * v,
+                None => self.bp.push((i, f * v)),
+            }
+        }
+    }
+}
+
+/// One observation removed in the linearized phase: `U = Q aₖᵀ` (two columns) with Q the cofactors
+/// before its removal, and `M⁻¹ = (P⁻¹ − aₖ Q aₖᵀ)⁻¹`.
 struct Removal {
-    cams: [Vec<f64>; 2],
-    points: [Vec<Vector3<f64>>; 2],
+    u: [Solution; 2],
     m_inv: Matrix2<f64>,
 }
 
@@ -110,37 +135,41 @@ pub struct LinearSnooping {
     aqa: Vec<[f64; 2]>,
     lanes: Vec<Vec<(usize, usize)>>,
     removals: Vec<Removal>,
-    /// Accumulated update of the unknowns since x*: (camera unknowns, points).
-    step: (Vec<f64>, Vec<Vector3<f64>>),
+    /// Accumulated update of the unknowns since x*.
+    step: Solution,
 }
 
 impl LinearSnooping {
     /// Starts from the exact solution held by the bundle and its cofactors.
     pub fn new(b: &Bundle, q: &Cofactors) -> Self {
-        let jac: Vec<[Dual<LOCAL>; 2]> = b
-            .obs
-            .iter()
-            .map(|o| {
-                let cam = b.image_camera[o.image];
-                residual_jacobian(
-                    b.model,
-                    &b.images[o.image],
-                    &b.interior[cam],
-                    &b.free[cam],
-                    &b.points[o.point],
-                    o.meas,
-                    b.zbar,
-                )
-            })
-            .collect();
+        let parallel = b.obs.len() >= PARALLEL_MIN_OBSERVATIONS;
+        let jacobian = |o: &super::bundle::Obs| {
+            let cam = b.image_camera[o.image];
+            residual_jacobian(
+                b.model,
+                &b.images[o.image],
+                &b.interior[cam],
+                &b.free[cam],
+                &b.points[o.point],
+                o.meas,
+                b.zbar,
+            )
+        };
+        let jac: Vec<[Dual<LOCAL>; 2]> = if parallel {
+            b.obs.par_iter().map(jacobian).collect()
+        } else {
+            b.obs.iter().map(jacobian).collect()
+        };
         let e = jac.iter().map(|f| [f[0].v, f[1].v]).collect();
         let lanes = b.interior_lanes();
-        let aqa = b
-            .obs
-            .iter()
-            .zip(&jac)
-            .map(|(o, f)| q.predicted_cofactor_of(b, o, f, &lanes[b.image_camera[o.image]]))
-            .collect();
+        let cofactor = |(o, f): (&super::bundle::Obs, &[Dual<LOCAL>; 2])| {
+            q.predicted_cofactor_of(b, o, f, &lanes[b.image_camera[o.image]])
+        };
+        let aqa = if parallel {
+            b.obs.par_iter().zip(&jac).map(cofactor).collect()
+        } else {
+            b.obs.iter().zip(&jac).map(cofactor).collect()
+        };
         let nc = b.camera_unknowns();
         LinearSnooping {
             jac,
@@ -148,7 +177,10 @@ impl LinearSnooping {
             aqa,
             lanes,
             removals: Vec::new(),
-            step: (vec![0.0; nc], vec![Vector3::zeros(); b.points.len()]),
+            step: Solution {
+                cams: vec![0.0; nc],
+                bp: Vec::new(),
+            },
         }
     }
 
@@ -168,20 +200,16 @@ impl LinearSnooping {
         (0..b.obs.len()).map(|k| self.w(b, k)).collect()
     }
 
-    /// The accumulated update of the unknowns since x* (camera unknowns, points).
-    pub fn step(&self) -> &(Vec<f64>, Vec<Vector3<f64>>) {
-        &self.step
+    /// The accumulated update of the unknowns since x* (camera unknowns, points); `q` are the
+    /// cofactors of x*.
+    pub fn step(&self, q: &Cofactors) -> (Vec<f64>, Vec<Vector3<f64>>) {
+        let points = q.points_of(&self.step.cams, &self.step.bp);
+        (self.step.cams.clone(), points)
     }
 
-    /// Row r of observation j's Jacobian times the vectors (cams, points).
-    fn row_times(
-        &self,
-        b: &Bundle,
-        j: usize,
-        r: usize,
-        cams: &[f64],
-        points: &[Vector3<f64>],
-    ) -> f64 {
+    /// Row r of observation j's Jacobian times a vector given by its camera part and the value `p`
+    /// at observation j's point.
+    fn row_times(&self, b: &Bundle, j: usize, r: usize, cams: &[f64], p: Vector3<f64>) -> f64 {
         let o = &b.obs[j];
         let d = &self.jac[j][r].d;
         let mut s = 0.0;
@@ -191,7 +219,6 @@ impl LinearSnooping {
         for &(g, lane) in &self.lanes[b.image_camera[o.image]] {
             s += d[lane] * cams[g];
         }
-        let p = points[o.point];
         s + d[POINT0] * p.x + d[POINT0 + 1] * p.y + d[POINT0 + 2] * p.z
     }
 
@@ -200,92 +227,79 @@ impl LinearSnooping {
     pub fn drop(&mut self, b: &Bundle, q: &Cofactors, k: usize) -> bool {
         let o = &b.obs[k];
         let cam = b.image_camera[o.image];
-        let nc = self.step.0.len();
-        let np = self.step.1.len();
+        let i = o.point;
         // U = Q₀ aₖᵀ + Σ previous U M⁻¹ (aₖ U)ᵀ.
-        let mut cams: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
-        let mut points: [Vec<Vector3<f64>>; 2] = [Vec::new(), Vec::new()];
-        for r in 0..2 {
+        let mut u: [Solution; 2] = std::array::from_fn(|r| {
             let d = &self.jac[k][r].d;
-            let mut bc = vec![0.0; nc];
-            for l in 0..6 {
-                bc[6 * o.image + l] = d[l];
+            let mut bc: Vec<(usize, f64)> = (0..6).map(|l| (6 * o.image + l, d[l])).collect();
+            bc.extend(self.lanes[cam].iter().map(|&(g, lane)| (g, d[lane])));
+            let bp = vec![(i, Vector3::new(d[POINT0], d[POINT0 + 1], d[POINT0 + 2]))];
+            Solution {
+                cams: q.solve_cameras(&bc, &bp),
+                bp,
             }
-            for &(g, lane) in &self.lanes[cam] {
-                bc[g] = d[lane];
-            }
-            let mut bp = vec![Vector3::zeros(); np];
-            bp[o.point] = Vector3::new(d[POINT0], d[POINT0 + 1], d[POINT0 + 2]);
-            let (c, p) = q.solve(&bc, &bp);
-            cams[r] = c;
-            points[r] = p;
-        }
-        for rem in &self.removals {
-            // A = aₖ U_e (2 × 2), then U += U_e M_e⁻¹ Aᵀ.
+        });
+        // aₖ times the two columns of a U.
+        let a_k = |u: &[Solution; 2]| {
             let mut a = Matrix2::zeros();
-            for r in 0..2 {
-                for c in 0..2 {
-                    a[(r, c)] = self.row_times(b, k, r, &rem.cams[c], &rem.points[c]);
+            for c in 0..2 {
+                let p = q.point_of(&u[c].cams, &u[c].bp, i);
+                for r in 0..2 {
+                    a[(r, c)] = self.row_times(b, k, r, &u[c].cams, p);
                 }
             }
-            let coef = rem.m_inv * a.transpose();
+            a
+        };
+        for rem in &self.removals {
+            let coef = rem.m_inv * a_k(&rem.u).transpose();
             for r in 0..2 {
                 for c in 0..2 {
                     let f = coef[(c, r)];
                     if f != 0.0 {
-                        for (x, y) in cams[r].iter_mut().zip(&rem.cams[c]) {
-                            *x += f * y;
-                        }
-                        for (x, y) in points[r].iter_mut().zip(&rem.points[c]) {
-                            *x += f * y;
-                        }
+                        u[r].add_scaled(f, &rem.u[c]);
                     }
                 }
             }
         }
         let s2 = b.sigma[cam] * b.sigma[cam] / o.weight;
-        let mut aqa_k = Matrix2::zeros();
-        for r in 0..2 {
-            for c in 0..2 {
-                aqa_k[(r, c)] = self.row_times(b, k, r, &cams[c], &points[c]);
-            }
-        }
-        let m = Matrix2::identity() * s2 - aqa_k;
+        let m = Matrix2::identity() * s2 - a_k(&u);
         let Some(m_inv) = m
             .try_inverse()
             .filter(|_| m.determinant() > 1e-12 * s2 * s2)
         else {
             return false;
         };
-        let ek = Vector2::from(self.e[k]);
-        let gain = m_inv * ek;
-        for j in 0..b.obs.len() {
+        let gain = m_inv * Vector2::from(self.e[k]);
+        let points: [Vec<Vector3<f64>>; 2] =
+            std::array::from_fn(|c| q.points_of(&u[c].cams, &u[c].bp));
+        let this = &*self;
+        let update = |j: usize| {
+            let p = b.obs[j].point;
             let mut a = Matrix2::zeros();
             for r in 0..2 {
                 for c in 0..2 {
-                    a[(r, c)] = self.row_times(b, j, r, &cams[c], &points[c]);
+                    a[(r, c)] = this.row_times(b, j, r, &u[c].cams, points[c][p]);
                 }
             }
             let de = a * gain;
             let dq = a * m_inv * a.transpose();
+            ([de[0], de[1]], [dq[(0, 0)], dq[(1, 1)]])
+        };
+        let changes: Vec<([f64; 2], [f64; 2])> = if b.obs.len() < PARALLEL_MIN_OBSERVATIONS {
+            (0..b.obs.len()).map(update).collect()
+        } else {
+            (0..b.obs.len()).into_par_iter().map(update).collect()
+        };
+        for ((e, q), (de, dq)) in self.e.iter_mut().zip(self.aqa.iter_mut()).zip(changes) {
             for r in 0..2 {
-                self.e[j][r] += de[r];
-                self.aqa[j][r] += dq[(r, r)];
+                e[r] += de[r];
+                q[r] += dq[r];
             }
         }
         for c in 0..2 {
-            for (x, y) in self.step.0.iter_mut().zip(&cams[c]) {
-                *x += gain[c] * y;
-            }
-            for (x, y) in self.step.1.iter_mut().zip(&points[c]) {
-                *x += gain[c] * y;
-            }
+            self.step.add_scaled(gain[c], &u[c]);
         }
-        self.removals.push(Removal {
-            cams,
-            points,
-            m_inv,
-        });
+        self.removals.push(Removal { u, m_inv });
         true
     }
 }
