@@ -114,31 +114,39 @@ pub async fn point_configs(
 }
 
 /// The last `per_point` displacement records of every point observed before `before` (stored
-/// timestamp form), oldest first per point. `ROW_NUMBER() OVER` is standard SQL (SQLite ≥ 3.25,
-/// PostgreSQL).
+/// timestamp form), oldest first per point. One range scan of the primary key (site, point,
+/// observed_at) per point, so the cost does not grow with the length of the site's history (a
+/// window function over the site's rows read all of them on every upload).
 pub async fn history(
     tx: &mut SqliteConnection,
     site: &str,
     before: &str,
     per_point: usize,
 ) -> Result<History, StoreError> {
-    let rows: Vec<Displacement> = sqlx::query_as(
-        "SELECT point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
-         sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, \
-         velocity_mm_per_day, time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2 FROM \
-         (SELECT d.*, ROW_NUMBER() OVER (PARTITION BY d.point ORDER BY d.observed_at DESC) AS rn \
-          FROM displacements d WHERE d.site_id = ? AND d.observed_at < ?) h \
-         WHERE h.rn <= ? ORDER BY h.point, h.observed_at",
-    )
-    .bind(site)
-    .bind(before)
-    .bind(per_point as i64)
-    .fetch_all(&mut *tx)
-    .await?;
+    let names: Vec<(String,)> = sqlx::query_as("SELECT name FROM points WHERE site_id = ?")
+        .bind(site)
+        .fetch_all(&mut *tx)
+        .await?;
     let mut out: History = HashMap::new();
-    for r in rows {
-        if let Some(rec) = r.to_record() {
-            out.entry(r.point.clone()).or_default().push(rec);
+    for (point,) in names {
+        let mut rows: Vec<Displacement> = sqlx::query_as(
+            "SELECT point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+             sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, \
+             velocity_mm_per_day, time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2 \
+             FROM displacements WHERE site_id = ? AND point = ? AND observed_at < ? \
+             ORDER BY observed_at DESC LIMIT ?",
+        )
+        .bind(site)
+        .bind(&point)
+        .bind(before)
+        .bind(per_point as i64)
+        .fetch_all(&mut *tx)
+        .await?;
+        rows.reverse();
+        let records: Vec<DisplacementRecord> =
+            rows.iter().filter_map(Displacement::to_record).collect();
+        if !records.is_empty() {
+            out.insert(point, records);
         }
     }
     Ok(out)
