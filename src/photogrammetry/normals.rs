@@ -7,7 +7,8 @@ use faer::{Mat, Side};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use super::bundle::{residual_jacobian, residual_value, ImageState, Obs, INTERIOR0, POINT0};
+use super::bundle::{residual_jacobian, residual_value, ImageState, Obs, INTERIOR0, LOCAL, POINT0};
+use super::dual::Dual;
 use super::report::Model;
 
 /// The adjustment's unknowns and observations in the working frame.
@@ -155,6 +156,20 @@ impl Bundle {
             .sum()
     }
 
+    /// Residual (mm) and Jacobian of observation `o` at the current state (see [`residual_jacobian`]).
+    pub fn jacobian(&self, o: &Obs) -> [Dual<LOCAL>; 2] {
+        let cam = self.image_camera[o.image];
+        residual_jacobian(
+            self.model,
+            &self.images[o.image],
+            &self.interior[cam],
+            &self.free[cam],
+            &self.points[o.point],
+            o.meas,
+            self.zbar,
+        )
+    }
+
     /// Global column and local Jacobian lane of each free interior parameter, per camera.
     pub fn interior_lanes(&self) -> Vec<Vec<(usize, usize)>> {
         self.interior_columns()
@@ -250,15 +265,7 @@ impl Bundle {
             }
             let cam = self.image_camera[o.image];
             let p = o.weight / (self.sigma[cam] * self.sigma[cam]);
-            let f = residual_jacobian(
-                self.model,
-                &self.images[o.image],
-                &self.interior[cam],
-                &self.free[cam],
-                &self.points[i],
-                o.meas,
-                self.zbar,
-            );
+            let f = self.jacobian(o);
             for (k, col) in cols.iter_mut().enumerate().take(6) {
                 *col = (6 * o.image + k, k);
             }

@@ -6,7 +6,7 @@ use faer::linalg::solvers::DenseSolveCore;
 use faer::{Mat, Side};
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
-use super::bundle::{residual_jacobian, Obs, LOCAL, POINT0};
+use super::bundle::{Obs, LOCAL, POINT0};
 use super::dual::Dual;
 use super::normals::{Bundle, Normals, PARALLEL_MIN_OBSERVATIONS};
 use rayon::prelude::*;
@@ -270,28 +270,17 @@ impl Cofactors {
     /// value. Datum-invariant, so the raw cofactors serve.
     pub fn predicted_cofactor(&self, b: &Bundle, o: &Obs) -> [f64; 2] {
         let cam = b.image_camera[o.image];
-        let f = residual_jacobian(
-            b.model,
-            &b.images[o.image],
-            &b.interior[cam],
-            &b.free[cam],
-            &b.points[o.point],
-            o.meas,
-            b.zbar,
-        );
-        self.predicted_cofactor_of(b, o, &f, &b.interior_lanes()[cam])
+        self.predicted_cofactor_of(o, &b.jacobian(o), &b.interior_lanes()[cam])
     }
 
     /// [`Cofactors::predicted_cofactor`] from the observation's Jacobian `f` and its camera's
     /// interior lanes (see [`Bundle::interior_lanes`]).
     pub fn predicted_cofactor_of(
         &self,
-        b: &Bundle,
         o: &Obs,
         f: &[Dual<LOCAL>; 2],
         interior_lanes: &[(usize, usize)],
     ) -> [f64; 2] {
-        let _ = b;
         let mut cols = [(0usize, 0usize); 14];
         for (l, c) in cols.iter_mut().enumerate().take(6) {
             *c = (6 * o.image + l, l);

@@ -4,7 +4,7 @@
 
 use nalgebra::{Matrix2, Vector2, Vector3};
 
-use super::bundle::{residual_jacobian, residual_value, LOCAL, POINT0};
+use super::bundle::{residual_value, LOCAL, POINT0};
 use super::dual::Dual;
 use super::normals::Bundle;
 use super::normals::PARALLEL_MIN_OBSERVATIONS;
@@ -143,18 +143,7 @@ impl LinearSnooping {
     /// Starts from the exact solution held by the bundle and its cofactors.
     pub fn new(b: &Bundle, q: &Cofactors) -> Self {
         let parallel = b.obs.len() >= PARALLEL_MIN_OBSERVATIONS;
-        let jacobian = |o: &super::bundle::Obs| {
-            let cam = b.image_camera[o.image];
-            residual_jacobian(
-                b.model,
-                &b.images[o.image],
-                &b.interior[cam],
-                &b.free[cam],
-                &b.points[o.point],
-                o.meas,
-                b.zbar,
-            )
-        };
+        let jacobian = |o: &super::bundle::Obs| b.jacobian(o);
         let jac: Vec<[Dual<LOCAL>; 2]> = if parallel {
             b.obs.par_iter().map(jacobian).collect()
         } else {
@@ -163,7 +152,7 @@ impl LinearSnooping {
         let e = jac.iter().map(|f| [f[0].v, f[1].v]).collect();
         let lanes = b.interior_lanes();
         let cofactor = |(o, f): (&super::bundle::Obs, &[Dual<LOCAL>; 2])| {
-            q.predicted_cofactor_of(b, o, f, &lanes[b.image_camera[o.image]])
+            q.predicted_cofactor_of(o, f, &lanes[b.image_camera[o.image]])
         };
         let aqa = if parallel {
             b.obs.par_iter().zip(&jac).map(cofactor).collect()
