@@ -19,7 +19,9 @@ use crate::analysis::{
 use crate::store::displacements::Displacement;
 use crate::store::sites::Site;
 use crate::store::{self, points, StoreError};
-use crate::webhooks::{accepts, message_id, PayloadFormat, WebhookEndpoint, WebhookPayload};
+use crate::webhooks::{
+    accepts, message_id, render, PayloadFormat, WebhookEndpoint, WebhookPayload,
+};
 
 /// The analysis settings of a site (its `confidence` for the significance tests; library defaults
 /// otherwise).
@@ -341,28 +343,39 @@ fn state_name(event: &AlertEvent) -> &'static str {
     }
 }
 
-/// The enabled webhook endpoints.
+/// The enabled webhook endpoints with their level filter and body format (a format the code
+/// does not know, impossible under the schema's CHECK, falls back to the contract body with a
+/// warning).
 pub async fn endpoints(tx: &mut SqliteConnection) -> Result<Vec<WebhookEndpoint>, StoreError> {
-    let rows: Vec<(String, String, String, String)> =
-        sqlx::query_as("SELECT id, url, secret, min_level FROM webhooks WHERE enabled = TRUE")
-            .fetch_all(&mut *tx)
-            .await?;
+    let rows: Vec<(String, String, String, String, String)> = sqlx::query_as(
+        "SELECT id, url, secret, min_level, format FROM webhooks WHERE enabled = TRUE",
+    )
+    .fetch_all(&mut *tx)
+    .await?;
     Ok(rows
         .into_iter()
-        .map(|(id, url, secret, min)| WebhookEndpoint {
-            id,
-            url,
-            secret,
-            min_level: serde_json::from_value(serde_json::Value::String(min)).ok(),
-            format: PayloadFormat::Standard,
-            enabled: true,
+        .map(|(id, url, secret, min, format)| {
+            let format = PayloadFormat::from_name(&format).unwrap_or_else(|| {
+                tracing::warn!(webhook = %id, format = %format, "unknown body format: contract body");
+                PayloadFormat::Standard
+            });
+            WebhookEndpoint {
+                id,
+                url,
+                secret,
+                min_level: serde_json::from_value(serde_json::Value::String(min)).ok(),
+                format,
+                enabled: true,
+            }
         })
         .collect())
 }
 
 /// Writes the outcome of alert events: the alert row of each (inserted or updated to the event's
-/// snapshot), one outbox row per event (id = [`message_id`], the `webhook-id` of every retry) and
-/// one pending delivery per endpoint that [`accepts`] it. Returns how many alerts were raised.
+/// snapshot), one outbox row per event (id = [`message_id`], the `webhook-id` of every retry;
+/// payload the contract body) and one pending delivery per endpoint that [`accepts`] it, holding
+/// the body in the endpoint's format when that is not the contract's ([`render`]), so that every
+/// retry sends the same bytes. Returns how many alerts were raised.
 pub async fn record_events(
     tx: &mut SqliteConnection,
     events: &[AlertEvent],
@@ -447,13 +460,18 @@ pub async fn record_events(
         .execute(&mut *tx)
         .await?;
         for h in hooks.iter().filter(|h| accepts(h, e)) {
+            let own_body = match h.format {
+                PayloadFormat::Standard => None,
+                _ => Some(render(e, h, "")?),
+            };
             sqlx::query(
-                "INSERT INTO webhook_deliveries (outbox_id, webhook_id, state, next_attempt_at) \
-                 VALUES (?, ?, 'pending', ?)",
+                "INSERT INTO webhook_deliveries (outbox_id, webhook_id, state, next_attempt_at, \
+                 payload) VALUES (?, ?, 'pending', ?, ?)",
             )
             .bind(&id)
             .bind(&h.id)
             .bind(&now)
+            .bind(own_body)
             .execute(&mut *tx)
             .await?;
         }

@@ -114,6 +114,10 @@ pub struct WebhookConfig {
     /// Lowest alert level delivered (`watch`, `warning`, `alarm`).
     #[serde(default = "default_min_level")]
     pub min_level: String,
+    /// Body format: `standard` (default, the contract body), `alertmanager_webhook` or
+    /// `alertmanager_api_v2` ([`crate::webhooks::PayloadFormat`]).
+    #[serde(default)]
+    pub format: crate::webhooks::PayloadFormat,
 }
 
 fn default_min_level() -> String {

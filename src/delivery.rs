@@ -1,7 +1,9 @@
 //! The webhook delivery worker and the periodic campaign check: a tokio task started by the server
 //! and stopped on shutdown. All of its state lives in the database (`webhook_deliveries`), so a
 //! restart resumes where the last run stopped; a crash between a POST and its bookkeeping sends that
-//! message again with the same `webhook-id` (at least once).
+//! message again with the same `webhook-id` (at least once). Each delivery sends the body stored
+//! with it (the endpoint's format, rendered when the event was written) or else the outbox's
+//! contract body, the same bytes on every retry, signed with the endpoint's secret.
 
 use std::time::Duration;
 
@@ -95,7 +97,8 @@ pub async fn deliver_due(
 ) -> Result<usize, StoreError> {
     let now = store::now();
     let due: Vec<Due> = sqlx::query_as(
-        "SELECT d.outbox_id, d.webhook_id, d.attempts, o.payload, w.url, w.secret \
+        "SELECT d.outbox_id, d.webhook_id, d.attempts, COALESCE(d.payload, o.payload) AS payload, \
+         w.url, w.secret \
          FROM webhook_deliveries d JOIN webhook_outbox o ON o.id = d.outbox_id \
          JOIN webhooks w ON w.id = d.webhook_id \
          WHERE d.state = 'pending' AND d.next_attempt_at <= ? AND w.enabled = TRUE \

@@ -6,7 +6,8 @@
 //!   <https://www.standardwebhooks.com>).
 //! - [`payload`]: the contract body `{"type", "timestamp", "data": {...}}` built from an
 //!   [`crate::analysis::AlertEvent`], per-endpoint level filtering, the Alertmanager webhook body (v4) and the
-//!   Alertmanager API v2 body (`POST /api/v2/alerts`).
+//!   Alertmanager API v2 body (`POST /api/v2/alerts`); [`render`] gives the body of an endpoint's
+//!   [`PayloadFormat`].
 //! - [`retry`]: exponential backoff with jitter, `Retry-After`, attempt limit.
 //! - [`deliver`]: one signed HTTP POST and the classification of its outcome (delivered, retry after,
 //!   gone on 410 → disable the endpoint, failed). The outbox worker (the service) stores the message id and
@@ -19,7 +20,7 @@ pub mod sign;
 
 pub use deliver::{deliver, DeliveryOutcome};
 pub use payload::{
-    accepts, alertmanager_alerts, alertmanager_body, message_id, AlertmanagerAlert,
+    accepts, alertmanager_alerts, alertmanager_body, message_id, render, AlertmanagerAlert,
     AlertmanagerBody, PayloadFormat, PostableAlert, WebhookData, WebhookEndpoint, WebhookPayload,
     ALERTMANAGER_FIRING_DAYS,
 };

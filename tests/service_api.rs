@@ -401,6 +401,20 @@ async fn health_metrics_openapi_and_request_ids() {
     let (_, hooks) = s.get("/api/v1/webhooks").await;
     assert_eq!(hooks["items"].as_array().unwrap().len(), 1);
     assert!(hooks["items"][0].get("secret").is_none());
+    assert_eq!(hooks["items"][0]["format"], "standard");
+    let r = s.client.post(s.url("/api/v1/webhooks")).json(&json!({"url": "http://127.0.0.1:9/am", "secret": "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw", "format": "alertmanager_api_v2"})).send().await.unwrap();
+    assert_eq!(r.status(), 201);
+    let created: Value = r.json().await.unwrap();
+    assert_eq!(created["format"], "alertmanager_api_v2");
+    let r = s.client.post(s.url("/api/v1/webhooks")).json(&json!({"url": "http://127.0.0.1:9/am", "secret": "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw", "format": "prometheus"})).send().await.unwrap();
+    assert_eq!(r.status(), 422);
+    let e: Value = r.json().await.unwrap();
+    assert!(
+        e["error"]["message"].as_str().unwrap().contains("format"),
+        "{e}"
+    );
+    let (_, hooks) = s.get("/api/v1/webhooks").await;
+    assert_eq!(hooks["items"].as_array().unwrap().len(), 2);
     s.stop().await;
 }
 
@@ -565,6 +579,15 @@ async fn openapi_describes_every_contract_endpoint_with_schemas() {
                 );
             }
         }
+    }
+    // the webhook schemas name the body formats
+    for name in ["NewWebhook", "Webhook"] {
+        let format = &doc["components"]["schemas"][name]["properties"]["format"];
+        assert_eq!(
+            format["enum"],
+            json!(["standard", "alertmanager_webhook", "alertmanager_api_v2"]),
+            "{name}.format: {format}"
+        );
     }
     // the documented upload form names every field the paper epochs use
     let form = &doc["paths"]["/api/v1/sites/{site}/epochs"]["post"]["requestBody"]["content"]

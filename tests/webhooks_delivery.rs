@@ -20,8 +20,8 @@ use sha2::Sha256;
 use cliffwatch::analysis::{Alert, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertStatus};
 use cliffwatch::webhooks::{
     accepts, alertmanager_alerts, alertmanager_body, backoff_delay, deliver, message_id,
-    next_retry, parse_retry_after, sign, verify, DeliveryOutcome, PayloadFormat, RetryPolicy,
-    WebhookEndpoint, WebhookPayload,
+    next_retry, parse_retry_after, render, sign, verify, DeliveryOutcome, PayloadFormat,
+    RetryPolicy, WebhookEndpoint, WebhookPayload,
 };
 
 const SECRET: &str = "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw";
@@ -432,4 +432,55 @@ fn alertmanager_v2_body_has_the_postable_alerts_shape() {
         assert_eq!(time(&a["endsAt"]), resolved.timestamp);
         assert!(a.get("generatorURL").is_none());
     }
+}
+
+/// The format names are the serde names (what `POST /api/v1/webhooks` and `[[webhooks]]` take and
+/// the database stores), and [`render`] gives each endpoint the body of its format.
+#[test]
+fn each_format_renders_its_body() {
+    let names: Vec<&str> = PayloadFormat::ALL.iter().map(|f| f.as_str()).collect();
+    assert_eq!(
+        names,
+        ["standard", "alertmanager_webhook", "alertmanager_api_v2"]
+    );
+    for f in PayloadFormat::ALL {
+        assert_eq!(serde_json::to_value(f).unwrap(), f.as_str());
+        assert_eq!(
+            serde_json::from_value::<PayloadFormat>(f.as_str().into()).unwrap(),
+            f
+        );
+        assert_eq!(PayloadFormat::from_name(f.as_str()), Some(f));
+    }
+    assert_eq!(PayloadFormat::from_name("alertmanager"), None);
+    assert!(serde_json::from_value::<PayloadFormat>("alertmanager".into()).is_err());
+    assert_eq!(PayloadFormat::default(), PayloadFormat::Standard);
+
+    let ev = event(AlertEventType::Raised, AlertLevel::Warning);
+    let ep = |format| WebhookEndpoint {
+        id: "ops".into(),
+        url: "http://x".into(),
+        secret: SECRET.into(),
+        min_level: None,
+        format,
+        enabled: true,
+    };
+    let body = |f| -> serde_json::Value {
+        serde_json::from_str(&render(&ev, &ep(f), "").expect("render")).expect("json")
+    };
+    let standard = body(PayloadFormat::Standard);
+    assert_eq!(
+        standard,
+        serde_json::to_value(WebhookPayload::from_event(&ev)).unwrap()
+    );
+    let v4 = body(PayloadFormat::AlertmanagerWebhook);
+    assert_eq!(v4["version"], "4");
+    assert_eq!(v4["receiver"], "ops");
+    assert_eq!(v4["status"], "firing");
+    assert_eq!(v4["alerts"][0]["labels"]["severity"], "warning");
+    let v2 = body(PayloadFormat::AlertmanagerApiV2);
+    assert_eq!(
+        v2,
+        serde_json::to_value(alertmanager_alerts(&ev, "")).unwrap()
+    );
+    assert_eq!(v2.as_array().map(Vec::len), Some(3));
 }

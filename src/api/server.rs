@@ -90,6 +90,7 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
             url: w.url.clone(),
             secret: w.secret.clone(),
             min_level: Some(w.min_level.clone()),
+            format: w.format,
         })
         .collect();
     for h in &hooks {

@@ -1,12 +1,30 @@
 //! Webhook endpoints and the outbox: one row per event (its id is the `webhook-id` of every
-//! retry) and one delivery row per (event, endpoint), written in the transaction that made the
-//! event. The delivery worker (`crate::webhooks`) reads the due deliveries.
+//! retry, its payload the contract body) and one delivery row per (event, endpoint) holding the
+//! body of the endpoint's format when that is not the contract's, written in the transaction that
+//! made the event (`crate::alerting::record_events`). The delivery worker (`crate::delivery`)
+//! reads the due deliveries.
 
 use serde::{Deserialize, Serialize};
 use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
+use utoipa::openapi::schema::{Object, ObjectBuilder, Type};
 use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
+use crate::webhooks::PayloadFormat;
+
+/// OpenAPI schema of a `format` field: a string, one of [`PayloadFormat`]'s names.
+fn format_schema() -> Object {
+    ObjectBuilder::new()
+        .schema_type(Type::String)
+        .enum_values(Some(PayloadFormat::ALL.map(PayloadFormat::as_str)))
+        .default(Some(PayloadFormat::Standard.as_str().into()))
+        .description(Some(
+            "Body format: `standard` (the contract body), `alertmanager_webhook` (Alertmanager's \
+             webhook body, version 4) or `alertmanager_api_v2` (the body of Alertmanager's \
+             `POST /api/v2/alerts`, a JSON array of alerts). Every format is signed the same way.",
+        ))
+        .build()
+}
 
 /// Rank of an alert level (`watch` < `warning` < `alarm`); unknown levels rank 0.
 pub fn level_rank(level: &str) -> u8 {
@@ -29,6 +47,10 @@ pub struct NewWebhook {
     /// Lowest level delivered (default `warning`).
     #[serde(default)]
     pub min_level: Option<String>,
+    /// Body format (default `standard`).
+    #[serde(default)]
+    #[schema(schema_with = format_schema)]
+    pub format: PayloadFormat,
 }
 
 /// A stored webhook endpoint (the secret is never returned).
@@ -40,6 +62,9 @@ pub struct Webhook {
     pub url: String,
     /// Lowest level delivered.
     pub min_level: String,
+    /// Body format ([`PayloadFormat`]'s name).
+    #[schema(schema_with = format_schema)]
+    pub format: String,
     /// `api` or `config`.
     pub source: String,
     /// Creation time.
@@ -49,7 +74,8 @@ pub struct Webhook {
 /// Every endpoint, newest first.
 pub async fn list(db: impl SqliteExecutor<'_>) -> Result<Vec<Webhook>, StoreError> {
     let mut rows: Vec<Webhook> = sqlx::query_as(
-        "SELECT id, url, min_level, source, created_at FROM webhooks ORDER BY created_at DESC, id DESC",
+        "SELECT id, url, min_level, format, source, created_at FROM webhooks \
+         ORDER BY created_at DESC, id DESC",
     )
     .fetch_all(db)
     .await?;
@@ -67,12 +93,14 @@ pub async fn insert(
 ) -> Result<String, StoreError> {
     let id = uuid::Uuid::new_v4().to_string();
     sqlx::query(
-        "INSERT INTO webhooks (id, url, secret, min_level, source, created_at) VALUES (?, ?, ?, ?, ?, ?)",
+        "INSERT INTO webhooks (id, url, secret, min_level, format, source, created_at) \
+         VALUES (?, ?, ?, ?, ?, ?, ?)",
     )
     .bind(&id)
     .bind(&hook.url)
     .bind(&hook.secret)
     .bind(hook.min_level.as_deref().unwrap_or("warning"))
+    .bind(hook.format.as_str())
     .bind(source)
     .bind(now())
     .execute(db)
@@ -80,32 +108,32 @@ pub async fn insert(
     Ok(id)
 }
 
-/// Replaces the endpoints that came from the configuration file.
+/// Replaces the endpoints that came from the configuration file: a stored one whose URL, secret,
+/// level and format are all still configured stays (with its id and pending deliveries).
 pub async fn replace_configured(
     db: &mut SqliteConnection,
     hooks: &[NewWebhook],
 ) -> Result<(), StoreError> {
-    let existing: Vec<(String, String, String, String)> =
-        sqlx::query_as("SELECT id, url, secret, min_level FROM webhooks WHERE source = 'config'")
-            .fetch_all(&mut *db)
-            .await?;
-    for (id, url, secret, min) in &existing {
-        let keep = hooks.iter().any(|h| {
-            &h.url == url
-                && &h.secret == secret
-                && h.min_level.as_deref().unwrap_or("warning") == min
-        });
-        if !keep {
-            delete(&mut *db, id).await?;
+    // (id, url, secret, min_level, format)
+    type Row = (String, String, String, String, String);
+    let existing: Vec<Row> = sqlx::query_as(
+        "SELECT id, url, secret, min_level, format FROM webhooks WHERE source = 'config'",
+    )
+    .fetch_all(&mut *db)
+    .await?;
+    let same = |h: &NewWebhook, (_, url, secret, min, format): &Row| {
+        &h.url == url
+            && &h.secret == secret
+            && h.min_level.as_deref().unwrap_or("warning") == min
+            && h.format.as_str() == format
+    };
+    for e in &existing {
+        if !hooks.iter().any(|h| same(h, e)) {
+            delete(&mut *db, &e.0).await?;
         }
     }
     for h in hooks {
-        let present = existing.iter().any(|(_, url, secret, min)| {
-            &h.url == url
-                && &h.secret == secret
-                && h.min_level.as_deref().unwrap_or("warning") == min
-        });
-        if !present {
+        if !existing.iter().any(|e| same(h, e)) {
             insert(&mut *db, h, "config").await?;
         }
     }
@@ -123,60 +151,6 @@ pub async fn delete(db: &mut SqliteConnection, id: &str) -> Result<bool, StoreEr
         .execute(&mut *db)
         .await?;
     Ok(done.rows_affected() == 1)
-}
-
-/// An event to deliver.
-#[derive(Debug, Clone)]
-pub struct NewEvent {
-    /// Event id (the `webhook-id`).
-    pub id: String,
-    /// `alert.raised`, `alert.acknowledged`, …
-    pub event_type: String,
-    /// The alert it concerns.
-    pub alert_id: Option<String>,
-    /// Alert level (endpoints with a higher `min_level` do not get it).
-    pub level: Option<String>,
-    /// The JSON body to send.
-    pub payload: serde_json::Value,
-}
-
-/// Writes events to the outbox with one pending delivery per endpoint whose `min_level` they
-/// reach. Call inside the transaction that made the events.
-pub async fn enqueue(db: &mut SqliteConnection, events: &[NewEvent]) -> Result<(), StoreError> {
-    if events.is_empty() {
-        return Ok(());
-    }
-    let hooks: Vec<(String, String)> = sqlx::query_as("SELECT id, min_level FROM webhooks")
-        .fetch_all(&mut *db)
-        .await?;
-    let t = now();
-    for e in events {
-        sqlx::query(
-            "INSERT INTO webhook_outbox (id, event_type, alert_id, level, payload, created_at) VALUES (?, ?, ?, ?, ?, ?)",
-        )
-        .bind(&e.id)
-        .bind(&e.event_type)
-        .bind(&e.alert_id)
-        .bind(&e.level)
-        .bind(e.payload.to_string())
-        .bind(&t)
-        .execute(&mut *db)
-        .await?;
-        let rank = e.level.as_deref().map(level_rank).unwrap_or(u8::MAX);
-        for (hook, min) in &hooks {
-            if rank >= level_rank(min) {
-                sqlx::query(
-                    "INSERT INTO webhook_deliveries (outbox_id, webhook_id, state, next_attempt_at) VALUES (?, ?, 'pending', ?)",
-                )
-                .bind(&e.id)
-                .bind(hook)
-                .bind(&t)
-                .execute(&mut *db)
-                .await?;
-            }
-        }
-    }
-    Ok(())
 }
 
 /// Number of pending deliveries (the `/metrics` queue depth).

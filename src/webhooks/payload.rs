@@ -1,4 +1,5 @@
-//! Webhook payloads: the contract body, endpoint filtering by level, and the Alertmanager webhook body.
+//! Webhook payloads: the contract body, endpoint filtering by level, the Alertmanager webhook body
+//! (v4) and the Alertmanager API v2 body, and [`render`], the body of an endpoint's format.
 
 use chrono::{DateTime, SecondsFormat, Utc};
 use serde::{Deserialize, Serialize};
@@ -12,15 +13,45 @@ use crate::analysis::{AlertEvent, AlertEventType, AlertLevel};
 /// `resolve_timeout`; its resolution is sent explicitly.
 pub const ALERTMANAGER_FIRING_DAYS: i64 = 365;
 
-/// Body format of an endpoint.
+/// Body format of an endpoint: what the delivery worker POSTs for each event. Every format is
+/// signed the same way (Standard Webhooks headers), so a proxy in front of Alertmanager can verify
+/// it; the serde names are the values of `format` in `POST /api/v1/webhooks` and `[[webhooks]]`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PayloadFormat {
-    /// The contract's body (default).
+    /// `standard`: the contract's body `{"type", "timestamp", "data"}` (default).
     #[default]
     Standard,
-    /// Prometheus Alertmanager webhook body (version 4), for receivers built for Alertmanager.
-    Alertmanager,
+    /// `alertmanager_webhook`: the body Prometheus Alertmanager sends to its webhook receivers
+    /// (version 4, [`alertmanager_body`]), for receivers built for Alertmanager.
+    AlertmanagerWebhook,
+    /// `alertmanager_api_v2`: the body of Alertmanager's `POST /api/v2/alerts` (a JSON array of
+    /// postable alerts, [`alertmanager_alerts`]), for routing through Alertmanager or Grafana: the
+    /// endpoint URL is e.g. `http://alertmanager:9093/api/v2/alerts`.
+    AlertmanagerApiV2,
+}
+
+impl PayloadFormat {
+    /// Every format, the default first.
+    pub const ALL: [PayloadFormat; 3] = [
+        PayloadFormat::Standard,
+        PayloadFormat::AlertmanagerWebhook,
+        PayloadFormat::AlertmanagerApiV2,
+    ];
+
+    /// The serde (and stored) name: `standard`, `alertmanager_webhook`, `alertmanager_api_v2`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PayloadFormat::Standard => "standard",
+            PayloadFormat::AlertmanagerWebhook => "alertmanager_webhook",
+            PayloadFormat::AlertmanagerApiV2 => "alertmanager_api_v2",
+        }
+    }
+
+    /// The format of a name as [`PayloadFormat::as_str`] gives it; `None` for any other string.
+    pub fn from_name(name: &str) -> Option<PayloadFormat> {
+        PayloadFormat::ALL.into_iter().find(|f| f.as_str() == name)
+    }
 }
 
 /// A webhook endpoint (`POST /api/v1/webhooks` or `[[webhooks]]`).
@@ -198,6 +229,26 @@ pub struct AlertmanagerBody {
     pub external_url: String,
     /// The one alert.
     pub alerts: Vec<AlertmanagerAlert>,
+}
+
+/// The body of an event in an endpoint's format, serialized as sent: the contract body
+/// ([`WebhookPayload`]), the Alertmanager webhook body with the endpoint id as `receiver`
+/// ([`alertmanager_body`]), or the Alertmanager API v2 array ([`alertmanager_alerts`]; `api_base`
+/// as there, empty: no `generatorURL`).
+pub fn render(
+    event: &AlertEvent,
+    endpoint: &WebhookEndpoint,
+    api_base: &str,
+) -> Result<String, serde_json::Error> {
+    match endpoint.format {
+        PayloadFormat::Standard => serde_json::to_string(&WebhookPayload::from_event(event)),
+        PayloadFormat::AlertmanagerWebhook => {
+            serde_json::to_string(&alertmanager_body(event, &endpoint.id))
+        }
+        PayloadFormat::AlertmanagerApiV2 => {
+            serde_json::to_string(&alertmanager_alerts(event, api_base))
+        }
+    }
 }
 
 /// Alertmanager-compatible body of an event (`resolved` for `alert.resolved`, else `firing`).

@@ -80,12 +80,14 @@ pub struct Received {
     pub id: String,
     /// The body as JSON.
     pub body: Value,
+    /// The body as received (the bytes that were signed).
+    pub raw: Vec<u8>,
     /// Whether it was answered 200.
     pub accepted: bool,
 }
 
-/// A loopback webhook receiver: verifies every signature (counting failures), answers 503 to the
-/// first `fail_first` requests, 200 afterwards.
+/// A loopback webhook receiver: verifies every signature (counting failures) with its secret,
+/// answers 503 to the first `fail_first` requests, 200 afterwards.
 #[derive(Clone)]
 pub struct Receiver {
     /// `http://127.0.0.1:PORT/hook`.
@@ -98,11 +100,18 @@ pub struct Receiver {
     pub fail_remaining: Arc<AtomicUsize>,
     /// When set, every request is answered 410 Gone.
     pub gone: Arc<std::sync::atomic::AtomicBool>,
+    /// The secret signatures are verified with.
+    pub secret: String,
 }
 
 impl Receiver {
-    /// Starts the receiver on an ephemeral port.
+    /// Starts the receiver on an ephemeral port, verifying with [`SECRET`].
     pub async fn start(fail_first: usize) -> Receiver {
+        Self::start_with_secret(fail_first, SECRET).await
+    }
+
+    /// Starts the receiver on an ephemeral port, verifying with `secret`.
+    pub async fn start_with_secret(fail_first: usize, secret: &str) -> Receiver {
         use axum::http::{HeaderMap, StatusCode};
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let addr = listener.local_addr().unwrap();
@@ -112,6 +121,7 @@ impl Receiver {
             bad_signatures: Arc::default(),
             fail_remaining: Arc::new(AtomicUsize::new(fail_first)),
             gone: Arc::default(),
+            secret: secret.to_string(),
         };
         let state = rx.clone();
         let app = axum::Router::new().route(
@@ -129,7 +139,7 @@ impl Receiver {
                     let id = h("webhook-id");
                     let ts: i64 = h("webhook-timestamp").parse().unwrap_or(0);
                     let ok = cliffwatch::webhooks::verify(
-                        SECRET,
+                        &st.secret,
                         &id,
                         ts,
                         &body,
@@ -143,6 +153,7 @@ impl Receiver {
                         st.log.lock().unwrap().push(Received {
                             id,
                             body: Value::Null,
+                            raw: body.to_vec(),
                             accepted: false,
                         });
                         return StatusCode::GONE;
@@ -154,6 +165,7 @@ impl Receiver {
                     st.log.lock().unwrap().push(Received {
                         id,
                         body: serde_json::from_slice(&body).unwrap_or(Value::Null),
+                        raw: body.to_vec(),
                         accepted: !refuse,
                     });
                     if refuse {
