@@ -186,10 +186,58 @@ pub struct SeriesAnalysis {
     pub analysed: Vec<i64>,
 }
 
-/// Analyses a whole series against one reference on a blocking thread: `epochs` oldest first; each
-/// epoch's history is the records computed before it, and the site's rules are replayed epoch by
-/// epoch from an empty state (each epoch stamped with its observation time). Epochs whose analysis
-/// fails are listed with the reason and replayed as [`analysis::analysis_failed`].
+/// Analyses a whole series against one reference (pure; the analysis part of
+/// `ingest::recompute_site`): `epochs` oldest first; each epoch's history is the records computed
+/// before it, and the site's rules are replayed epoch by epoch from an empty state (each epoch
+/// stamped with its observation time). Epochs whose analysis fails are listed with the reason and
+/// replayed as [`analysis::analysis_failed`].
+pub fn analyse_series(
+    reference: &EpochCoordinates,
+    epochs: &[EpochCoordinates],
+    points: &[PointConfig],
+    config: &AnalysisConfig,
+    alerts: &AlertConfig,
+) -> SeriesAnalysis {
+    let keep = config.history_epochs().max(1);
+    let mut history: History = HashMap::new();
+    let mut out = SeriesAnalysis::default();
+    for e in epochs {
+        match analysis::analyse_epoch(reference, e, points, &history, config) {
+            Ok(a) => {
+                for r in a.records() {
+                    let h = history.entry(r.point.clone()).or_default();
+                    h.push(r.clone());
+                    if h.len() > keep {
+                        h.remove(0);
+                    }
+                    out.records.push(r);
+                }
+                out.replayed =
+                    analysis::evaluate_alerts(alerts, &out.replayed, &a, e.observed_at).0;
+                out.analysed.push(e.epoch);
+            }
+            Err(err) => {
+                let reason = format!(
+                    "analysis against reference epoch {}: {err}",
+                    reference.epoch
+                );
+                out.replayed = analysis::analysis_failed(
+                    alerts,
+                    &out.replayed,
+                    e.epoch,
+                    e.observed_at,
+                    &reason,
+                    e.observed_at,
+                )
+                .0;
+                out.failures.push((e.epoch, reason));
+            }
+        }
+    }
+    out
+}
+
+/// [`analyse_series`] on a blocking thread.
 pub async fn analyse_series_blocking(
     reference: EpochCoordinates,
     epochs: Vec<EpochCoordinates>,
@@ -198,43 +246,7 @@ pub async fn analyse_series_blocking(
     alerts: AlertConfig,
 ) -> Result<SeriesAnalysis, tokio::task::JoinError> {
     tokio::task::spawn_blocking(move || {
-        let keep = config.history_epochs().max(1);
-        let mut history: History = HashMap::new();
-        let mut out = SeriesAnalysis::default();
-        for e in &epochs {
-            match analysis::analyse_epoch(&reference, e, &points, &history, &config) {
-                Ok(a) => {
-                    for r in a.records() {
-                        let h = history.entry(r.point.clone()).or_default();
-                        h.push(r.clone());
-                        if h.len() > keep {
-                            h.remove(0);
-                        }
-                        out.records.push(r);
-                    }
-                    out.replayed =
-                        analysis::evaluate_alerts(&alerts, &out.replayed, &a, e.observed_at).0;
-                    out.analysed.push(e.epoch);
-                }
-                Err(err) => {
-                    let reason = format!(
-                        "analysis against reference epoch {}: {err}",
-                        reference.epoch
-                    );
-                    out.replayed = analysis::analysis_failed(
-                        &alerts,
-                        &out.replayed,
-                        e.epoch,
-                        e.observed_at,
-                        &reason,
-                        e.observed_at,
-                    )
-                    .0;
-                    out.failures.push((e.epoch, reason));
-                }
-            }
-        }
-        out
+        analyse_series(&reference, &epochs, &points, &config, &alerts)
     })
     .await
 }
