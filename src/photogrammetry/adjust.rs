@@ -11,7 +11,10 @@ use super::central::CentralImage;
 use super::epoch::{EpochInput, EpochProblem};
 use super::error::AdjustError;
 use super::frame::{similarity_fit, WorkingFrame};
-use super::lm::{levenberg_marquardt, levenberg_marquardt_normals, LmOutcome};
+use super::lm::{
+    levenberg_marquardt, levenberg_marquardt_normals, levenberg_marquardt_within, LmOutcome,
+    ROUND_STEP,
+};
 use super::normals::{Bundle, Normals};
 use super::orthogonal::OrthoImage;
 use super::precision::Cofactors;
@@ -367,7 +370,7 @@ fn robust_rounds(bundle: &mut Bundle, iterations: usize, rounds: usize) -> bool 
         for (o, r) in bundle.obs.iter_mut().zip(&norms) {
             o.weight = 1.0 / (1.0 + (r / (3.0 * s)).powi(2));
         }
-        levenberg_marquardt(bundle, iterations);
+        levenberg_marquardt_within(bundle, iterations, ROUND_STEP);
     }
     for o in bundle.obs.iter_mut() {
         o.weight = 1.0;
@@ -592,8 +595,7 @@ pub fn adjust_problem(
             .collect(),
     };
     if datum == Datum::Free {
-        let n = bundle.normals();
-        let mean: f64 = n.v.iter().map(|v| v.trace() / 3.0).sum::<f64>() / np as f64;
+        let mean = bundle.point_block_trace() / (3 * np) as f64;
         bundle.gauge = GAUGE * mean.max(1e-300);
     }
     let unknowns = bundle.camera_unknowns() + 3 * np;
@@ -787,12 +789,12 @@ fn solve(
         // Between exact re-adjustments the drops are followed in the linearized problem (see
         // `LinearSnooping`); once no |w| exceeds the critical value there, the exact adjustment
         // from x* + Δ decides again.
-        let mut lin = LinearSnooping::new(&bundle, &cof);
+        let mut lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
         let max_of = |w: [f64; 2]| w[0].abs().max(w[1].abs());
+        let mut counts = ActiveCounts::of(&bundle);
         loop {
             let mut worst: Option<(usize, f64)> = None;
-            let counts = ActiveCounts::of(&bundle);
-            for k in 0..bundle.obs.len() {
+            for &k in lin.tracked() {
                 if !bundle.obs[k].active || !counts.droppable(&bundle, k) {
                     continue;
                 }
@@ -815,7 +817,7 @@ fn solve(
                     let n;
                     (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
                     cof = invert(&bundle, n)?;
-                    lin = LinearSnooping::new(&bundle, &cof);
+                    lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
                     if !capped {
                         continue;
                     }
@@ -830,10 +832,12 @@ fn solve(
                 let n;
                 (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
                 cof = invert(&bundle, n)?;
-                lin = LinearSnooping::new(&bundle, &cof);
+                lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
+                counts.drop(&bundle, k);
                 drops += 1;
                 continue;
             }
+            counts.drop(&bundle, k);
             bundle.obs[k].active = false;
             drops += 1;
         }
@@ -854,7 +858,7 @@ fn solve(
             let n;
             (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
             cof = invert(&bundle, n)?;
-            lin = LinearSnooping::new(&bundle, &cof);
+            lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
         }
         final_w = Some(lin.all_w(&bundle));
     } else {

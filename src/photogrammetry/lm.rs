@@ -49,6 +49,20 @@ pub fn levenberg_marquardt_normals(
     b: &mut Bundle,
     max_iterations: usize,
 ) -> (LmOutcome, Option<Normals>) {
+    levenberg_marquardt_within(b, max_iterations, CONVERGED_STEP)
+}
+
+/// Largest update (in a-priori σ) that ends a round of the reweighted first stage: its weights
+/// change with the next round, and the later stages converge to [`CONVERGED_STEP`] from it.
+pub const ROUND_STEP: f64 = 1e-3;
+
+/// As [`levenberg_marquardt_normals`], converged once the largest update falls below
+/// `converged_step` a-priori σ of its unknown.
+pub fn levenberg_marquardt_within(
+    b: &mut Bundle,
+    max_iterations: usize,
+    converged_step: f64,
+) -> (LmOutcome, Option<Normals>) {
     let mut lambda = 1e-4;
     let mut iterations = 0;
     let mut cost = b.cost();
@@ -72,7 +86,7 @@ pub fn levenberg_marquardt_normals(
             let step = step_in_sigmas(b, &n, &dc, &dp);
             b.apply(&dc, &dp);
             let c = b.cost();
-            if step < CONVERGED_STEP {
+            if step < converged_step {
                 // The update is far below the precision of every unknown: converged. Its cost is
                 // not compared, since rounding alone can make a negligible step look like an ascent.
                 let outcome = LmOutcome {
@@ -103,7 +117,7 @@ pub fn levenberg_marquardt_normals(
         iterations += 1;
         let decrease = (cost - c) / cost.max(1e-300);
         cost = c;
-        if step < CONVERGED_STEP || (decrease.abs() < 1e-13 && step < 1e-2) {
+        if step < converged_step || (decrease.abs() < 1e-13 && step < 1e-2) {
             let outcome = LmOutcome {
                 iterations,
                 converged: true,

@@ -12,6 +12,7 @@ pub mod affine;
 pub mod bundle;
 pub mod camera;
 pub mod central;
+pub mod dense;
 pub mod dual;
 pub mod epoch;
 pub mod error;

@@ -2,8 +2,7 @@
 //! redundancy numbers of the observations, and the S-transformation of the free network's point
 //! covariances to the inner constraints (minimum trace): `Q_S = S Q Sᵀ`, `S = I − G (GᵀG)⁻¹ Gᵀ`.
 
-use faer::linalg::solvers::DenseSolveCore;
-use faer::{Mat, Side};
+use faer::Mat;
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use super::bundle::{Obs, LOCAL, POINT0};
@@ -22,6 +21,9 @@ pub struct Cofactors {
     vinv: Vec<Matrix3<f64>>,
     /// Raw diagonal point blocks Q_ii (before the datum projection), computed once.
     qpp: Vec<Matrix3<f64>>,
+    /// Per point i, `Σ_x S⁻¹[c, c_x] W_i,x` for each of its coupling columns c (aligned with
+    /// `normals.w[i].cols`): shared by Q_ii and the cofactors of its observations.
+    qw: Vec<Vec<Vector3<f64>>>,
     /// Datum projection for the free network: (G_i per point, C = (GᵀG)⁻¹, H_i = Q G, M = GᵀQG).
     datum: Option<(Vec<G>, M7, Vec<G>, M7)>,
 }
@@ -39,7 +41,7 @@ impl Cofactors {
         let reduced = b.reduce(&normals, 0.0)?;
         let nc = reduced.rhs.len();
         let qcc = if nc > 0 {
-            reduced.s.llt(Side::Lower).ok()?.inverse()
+            super::dense::inverse(&super::dense::cholesky(&reduced.s)?)
         } else {
             Mat::zeros(0, 0)
         };
@@ -48,18 +50,19 @@ impl Cofactors {
             qcc,
             vinv: reduced.vinv,
             qpp: Vec::new(),
+            qw: Vec::new(),
             datum: None,
         };
-        cof.qpp = if b.obs.len() < PARALLEL_MIN_OBSERVATIONS {
-            (0..b.points.len())
-                .map(|i| cof.raw_point_block(i, i))
-                .collect()
-        } else {
-            (0..b.points.len())
-                .into_par_iter()
-                .map(|i| cof.raw_point_block(i, i))
-                .collect()
-        };
+        let blocks: Vec<(Matrix3<f64>, Vec<Vector3<f64>>)> =
+            if b.obs.len() < PARALLEL_MIN_OBSERVATIONS {
+                (0..b.points.len()).map(|i| cof.diagonal_block(i)).collect()
+            } else {
+                (0..b.points.len())
+                    .into_par_iter()
+                    .map(|i| cof.diagonal_block(i))
+                    .collect()
+            };
+        (cof.qpp, cof.qw) = blocks.into_iter().unzip();
         if free_network {
             cof.datum = Some(cof.datum_projection(&b.points)?);
         }
@@ -133,8 +136,34 @@ impl Cofactors {
         Some((gs, c, hs, m))
     }
 
+    /// Raw diagonal block Q_ii of point i (before the datum projection) and its `S⁻¹ W_i` products
+    /// (see the field `qw`).
+    fn diagonal_block(&self, i: usize) -> (Matrix3<f64>, Vec<Vector3<f64>>) {
+        let w = &self.normals.w[i];
+        let qw: Vec<Vector3<f64>> = w
+            .cols
+            .iter()
+            .map(|&cy| {
+                let q = self.qcc.col_as_slice(cy);
+                w.cols
+                    .iter()
+                    .zip(&w.rows)
+                    .fold(Vector3::zeros(), |t, (&cx, r)| t + q[cx] * r)
+            })
+            .collect();
+        let inner = qw
+            .iter()
+            .zip(&w.rows)
+            .fold(Matrix3::zeros(), |m, (t, r)| m + t * r.transpose());
+        let q = self.vinv[i] * inner * self.vinv[i] + self.vinv[i];
+        (q, qw)
+    }
+
     /// Raw cofactor block Q_ab of points a and b (before the datum projection).
     fn raw_point_block(&self, a: usize, b: usize) -> Matrix3<f64> {
+        if a == b && !self.qpp.is_empty() {
+            return self.qpp[a];
+        }
         let (wa, wb) = (&self.normals.w[a], &self.normals.w[b]);
         // Σ_x Σ_y Q(cx, cy) wa_x wb_yᵀ, one column of Q at a time.
         let mut inner = Matrix3::zeros();
@@ -189,10 +218,14 @@ impl Cofactors {
     }
 
     /// Point `i`'s part of the solution whose camera part is `cams` and point right-hand side the
-    /// sparse `bp`: `V_i⁻¹ (b_p,i − W_i x_c)`.
+    /// sparse `bp` (ascending by point index, one entry per point): `V_i⁻¹ (b_p,i − W_i x_c)`.
     pub fn point_of(&self, cams: &[f64], bp: &[(usize, Vector3<f64>)], i: usize) -> Vector3<f64> {
         let w = &self.normals.w[i];
-        let mut b: Vector3<f64> = bp.iter().filter(|(p, _)| *p == i).map(|(_, v)| *v).sum();
+        // `bp` ascends by point index (one entry per point).
+        let mut b = match bp.binary_search_by_key(&i, |(p, _)| *p) {
+            Ok(k) => bp[k].1,
+            Err(_) => Vector3::zeros(),
+        };
         for (a, &ca) in w.cols.iter().enumerate() {
             b -= w.rows[a] * cams[ca];
         }
@@ -294,12 +327,19 @@ impl Cofactors {
         // Q_cp restricted to this observation's columns: −S⁻¹[L, cols_i] W_i V_i⁻¹.
         let mut qcp = [Vector3::zeros(); 14];
         for (x, &(g, _)) in cols.iter().enumerate() {
-            // Q is symmetric: row g is column g.
-            let q = self.qcc.col_as_slice(g);
-            let mut acc = Vector3::zeros();
-            for (a, &ca) in w.cols.iter().enumerate() {
-                acc += q[ca] * w.rows[a];
-            }
+            // S⁻¹[g, ·] W_i, kept per point for the columns the point couples with (an inactive
+            // observation's image may not be one of them).
+            let acc = match w.cols.iter().position(|&c| c == g) {
+                Some(a) => self.qw[i][a],
+                None => {
+                    // Q is symmetric: row g is column g.
+                    let q = self.qcc.col_as_slice(g);
+                    w.cols
+                        .iter()
+                        .zip(&w.rows)
+                        .fold(Vector3::zeros(), |t, (&ca, r)| t + q[ca] * r)
+                }
+            };
             qcp[x] = -(self.vinv[i] * acc);
         }
         let mut out = [0.0; 2];

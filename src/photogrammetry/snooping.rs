@@ -94,21 +94,41 @@ impl ActiveCounts {
 #[derive(Clone, Default)]
 struct Solution {
     cams: Vec<f64>,
+    /// Point right-hand sides, ascending by point index, one entry per point.
     bp: Vec<(usize, Vector3<f64>)>,
 }
 
 impl Solution {
-    /// self += f · other.
+    /// self += f · other (the point right-hand sides merged in one pass).
     fn add_scaled(&mut self, f: f64, other: &Solution) {
         for (x, y) in self.cams.iter_mut().zip(&other.cams) {
             *x += f * y;
         }
-        for &(i, v) in &other.bp {
-            match self.bp.iter_mut().find(|(p, _)| *p == i) {
-                Some((_, w)) => *w += f * v,
-                None => self.bp.push((i, f * v)),
+        let mut merged = Vec::with_capacity(self.bp.len() + other.bp.len());
+        let (mut a, mut b) = (self.bp.iter().peekable(), other.bp.iter().peekable());
+        loop {
+            match (a.peek(), b.peek()) {
+                (Some(&&(i, v)), Some(&&(j, w))) if i == j => {
+                    merged.push((i, v + f * w));
+                    a.next();
+                    b.next();
+                }
+                (Some(&&(i, v)), Some(&&(j, _))) if i < j => {
+                    merged.push((i, v));
+                    a.next();
+                }
+                (_, Some(&&(j, w))) => {
+                    merged.push((j, f * w));
+                    b.next();
+                }
+                (Some(&&(i, v)), None) => {
+                    merged.push((i, v));
+                    a.next();
+                }
+                (None, None) => break,
             }
         }
+        self.bp = merged;
     }
 }
 
@@ -137,11 +157,29 @@ pub struct LinearSnooping {
     removals: Vec<Removal>,
     /// Accumulated update of the unknowns since x*.
     step: Solution,
+    /// Observations followed through the drops (ascending): all of them in networks below
+    /// [`TRACK_ALL_BELOW`] observations, else those whose |w| at x* exceeds [`TRACK_SHARE`] of the
+    /// critical value.
+    tracked: Vec<usize>,
+    /// Points of the tracked observations (ascending), or None when every observation is tracked.
+    tracked_points: Option<Vec<usize>>,
 }
 
+/// Networks of fewer observations follow every observation through the drops between exact
+/// re-adjustments.
+pub const TRACK_ALL_BELOW: usize = PARALLEL_MIN_OBSERVATIONS;
+
+/// In larger networks, share of the critical value of |w| above which an observation is followed
+/// through the drops. A drop changes the other observations' w by their correlation with the
+/// dropped one, which is small beyond its point and image in a network of this size; an observation
+/// below this share at x* that still crosses the critical value is found by the exact adjustment
+/// that ends every round of drops (every w is computed anew there).
+pub const TRACK_SHARE: f64 = 0.9;
+
 impl LinearSnooping {
-    /// Starts from the exact solution held by the bundle and its cofactors.
-    pub fn new(b: &Bundle, q: &Cofactors) -> Self {
+    /// Starts from the exact solution held by the bundle and its cofactors; `critical_w` is the
+    /// critical value of |w| (see [`TRACK_SHARE`]).
+    pub fn new(b: &Bundle, q: &Cofactors, critical_w: f64) -> Self {
         let parallel = b.obs.len() >= PARALLEL_MIN_OBSERVATIONS;
         let jacobian = |o: &super::bundle::Obs| b.jacobian(o);
         let jac: Vec<[Dual<LOCAL>; 2]> = if parallel {
@@ -149,17 +187,32 @@ impl LinearSnooping {
         } else {
             b.obs.iter().map(jacobian).collect()
         };
-        let e = jac.iter().map(|f| [f[0].v, f[1].v]).collect();
+        let e: Vec<[f64; 2]> = jac.iter().map(|f| [f[0].v, f[1].v]).collect();
         let lanes = b.interior_lanes();
         let cofactor = |(o, f): (&super::bundle::Obs, &[Dual<LOCAL>; 2])| {
             q.predicted_cofactor_of(o, f, &lanes[b.image_camera[o.image]])
         };
-        let aqa = if parallel {
+        let aqa: Vec<[f64; 2]> = if parallel {
             b.obs.par_iter().zip(&jac).map(cofactor).collect()
         } else {
             b.obs.iter().zip(&jac).map(cofactor).collect()
         };
         let nc = b.camera_unknowns();
+        let n = b.obs.len();
+        let (tracked, tracked_points) = if n < TRACK_ALL_BELOW {
+            ((0..n).collect(), None)
+        } else {
+            let tracked: Vec<usize> = (0..n)
+                .filter(|&k| {
+                    let w = w_of(b, k, e[k], aqa[k]);
+                    w[0].abs().max(w[1].abs()) > TRACK_SHARE * critical_w
+                })
+                .collect();
+            let mut points: Vec<usize> = tracked.iter().map(|&k| b.obs[k].point).collect();
+            points.sort_unstable();
+            points.dedup();
+            (tracked, Some(points))
+        };
         LinearSnooping {
             jac,
             e,
@@ -170,7 +223,15 @@ impl LinearSnooping {
                 cams: vec![0.0; nc],
                 bp: Vec::new(),
             },
+            tracked,
+            tracked_points,
         }
+    }
+
+    /// The observations whose w follow the drops (see [`TRACK_SHARE`]); the others' w are those of
+    /// x* until the next exact adjustment.
+    pub fn tracked(&self) -> &[usize] {
+        &self.tracked
     }
 
     /// Normalized residuals of observation `k` in the current linearized state (see
@@ -259,8 +320,17 @@ impl LinearSnooping {
             return false;
         };
         let gain = m_inv * Vector2::from(self.e[k]);
-        let points: [Vec<Vector3<f64>>; 2] =
-            std::array::from_fn(|c| q.points_of(&u[c].cams, &u[c].bp));
+        // U's point part at the points of the tracked observations.
+        let points: [Vec<Vector3<f64>>; 2] = std::array::from_fn(|c| match &self.tracked_points {
+            None => q.points_of(&u[c].cams, &u[c].bp),
+            Some(pts) => {
+                let mut v = vec![Vector3::zeros(); b.points.len()];
+                for &p in pts {
+                    v[p] = q.point_of(&u[c].cams, &u[c].bp, p);
+                }
+                v
+            }
+        });
         let this = &*self;
         let update = |j: usize| {
             let p = b.obs[j].point;
@@ -274,15 +344,15 @@ impl LinearSnooping {
             let dq = a * m_inv * a.transpose();
             ([de[0], de[1]], [dq[(0, 0)], dq[(1, 1)]])
         };
-        let changes: Vec<([f64; 2], [f64; 2])> = if b.obs.len() < PARALLEL_MIN_OBSERVATIONS {
-            (0..b.obs.len()).map(update).collect()
+        let changes: Vec<([f64; 2], [f64; 2])> = if self.tracked.len() < PARALLEL_MIN_OBSERVATIONS {
+            self.tracked.iter().map(|&j| update(j)).collect()
         } else {
-            (0..b.obs.len()).into_par_iter().map(update).collect()
+            self.tracked.par_iter().map(|&j| update(j)).collect()
         };
-        for ((e, q), (de, dq)) in self.e.iter_mut().zip(self.aqa.iter_mut()).zip(changes) {
+        for (&j, (de, dq)) in self.tracked.iter().zip(changes) {
             for r in 0..2 {
-                e[r] += de[r];
-                q[r] += dq[r];
+                self.e[j][r] += de[r];
+                self.aqa[j][r] += dq[r];
             }
         }
         for c in 0..2 {

@@ -6,9 +6,8 @@
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
 use super::affine::{is_planar, resect, resect_planar, tilt_significance, ConstrainedAffine};
-use super::dual::Dual;
 use super::error::AdjustError;
-use super::orthogonal::project;
+use super::orthogonal::{project, project_jacobian};
 use super::rotation::{perturbed, update};
 
 /// Below this ratio of smallest to largest principal spread the known points count as planar.
@@ -40,6 +39,10 @@ pub struct StartValues {
     /// Per image, the mirror solution (rotation, centre) of a planar point set, if any.
     pub mirrors: Vec<Option<(Matrix3<f64>, Vector3<f64>)>>,
 }
+
+/// Relative decrease of the squared misfit below which the refinement of a start orientation stops
+/// (the start needs to be close, not exact: the adjustment converges from it).
+const START_TOLERANCE: f64 = 1e-10;
 
 /// Refines one image's orientation on points of known coordinates with the closed-form model
 /// (c fixed), at most `iterations` Levenberg–Marquardt steps on (three rotation increments, m, A4, A8). Returns the refined
@@ -76,28 +79,12 @@ fn refine_image(
     for _ in 0..iterations {
         let mut n = Matrix6::zeros();
         let mut g = Vector6::zeros();
-        let rows = perturbed(
-            &rot,
-            [
-                Dual::<6>::variable(0.0, 0),
-                Dual::variable(0.0, 1),
-                Dual::variable(0.0, 2),
-            ],
-        );
         for (p, o) in local.iter().zip(xy) {
-            let x = [p.x.into(), p.y.into(), p.z.into()];
-            let f = project(
-                &rows,
-                Dual::variable(m, 3),
-                Dual::variable(a4, 4),
-                Dual::variable(a8, 5),
-                c.into(),
-                zbar,
-                &x,
-            );
-            for (k, fk) in f.iter().enumerate() {
-                let j = Vector6::from_column_slice(&fk.d);
-                let e = o[k] - fk.v;
+            // Columns 0..6 of the hand-derived Jacobian: rotation increments, m, A4, A8.
+            let (f, jac) = project_jacobian(&rot, m, a4, a8, c, zbar, p);
+            for k in 0..2 {
+                let j = Vector6::from_column_slice(&jac[k][..6]);
+                let e = o[k] - f[k];
                 n += j * j.transpose();
                 g += j * e;
             }
@@ -116,7 +103,7 @@ fn refine_image(
             let (m2, a42, a82) = (m + step[3], a4 + step[4], a8 + step[5]);
             let c2 = cost_of(&r_new, m2, a42, a82);
             if c2.is_finite() && c2 <= cost {
-                let done = cost - c2 <= 1e-14 * cost.max(1e-300);
+                let done = cost - c2 <= START_TOLERANCE * cost.max(1e-300);
                 rot = r_new;
                 m = m2;
                 a4 = a42;
@@ -280,6 +267,11 @@ fn misfit(
     ((o[0] - x).powi(2) + (o[1] - y).powi(2)).sqrt()
 }
 
+/// Known points of an image beyond which the resection for the start uses an evenly spaced subset
+/// (the start needs a good orientation, not the best one: the adjustment refines it). Keeps the
+/// start of networks with thousands of points per image from costing more than their adjustment.
+pub const RESECTION_MAX_POINTS: usize = 100;
+
 /// Resection of one image from its known points (rotation, centre, and the indices of the observations
 /// left out), robust to a few gross misfits: the worst point is left out while it misfits by more than
 /// eight robust σ and more than five points remain.
@@ -299,6 +291,11 @@ pub fn resect_image(
             image: im.id.clone(),
             known: used.len(),
         });
+    }
+    if used.len() > RESECTION_MAX_POINTS {
+        // An evenly spaced subset determines a start orientation as well as all of them would.
+        let step = used.len().div_ceil(RESECTION_MAX_POINTS);
+        used = used.into_iter().step_by(step).collect();
     }
     loop {
         let pts: Vec<Vector3<f64>> = used.iter().map(|u| u.0).collect();
