@@ -14,6 +14,11 @@ pub struct LmOutcome {
     pub cost: f64,
 }
 
+/// Relative increase of vᵀPv that a step may show and still be taken: the rounding of a sum of
+/// many squares (a step that close to the minimum cannot be judged by the cost, and rejecting it
+/// only raises the damping and solves again).
+const ROUNDING: f64 = 1e-12;
+
 /// Largest update (in a-priori σ of its unknown) that counts as converged.
 const CONVERGED_STEP: f64 = 1e-6;
 
@@ -96,7 +101,7 @@ pub fn levenberg_marquardt_within(
                 };
                 return (outcome, Some(n));
             }
-            if c.is_finite() && c <= cost * (1.0 + 1e-15) {
+            if c.is_finite() && c <= cost * (1.0 + ROUNDING) {
                 accepted = Some((c, step));
                 lambda = (lambda * 0.2).max(1e-12);
                 break;
