@@ -8,7 +8,7 @@ use chrono::{DateTime, SecondsFormat, Utc};
 use cliffwatch::store::displacements::{self, Displacement};
 use cliffwatch::store::series::BATCH_ROWS;
 use cliffwatch::store::series_blocks::{self, BLOCK_EPOCHS};
-use cliffwatch::store::{display_timestamp, timestamp};
+use cliffwatch::store::{display_timestamp, timestamp, Store, StoreOptions};
 use serde_json::json;
 use service_support::TestServer;
 
@@ -364,6 +364,28 @@ async fn ingest_paths_keep_the_packed_series_equal_to_the_table() {
     );
     assert_served_as_stored(&s, "ing", None, epochs as usize).await;
     s.stop().await;
+}
+
+#[tokio::test]
+async fn open_packs_series_stored_before_the_migration() {
+    // rows by SQL and no series_seals row: what migration 7 leaves of an older database
+    let s = TestServer::start(|_| {}).await;
+    fill(&s, "old").await;
+    let dir = s.stop().await;
+    let store = Store::open(&dir.path().join("cliffwatch.db"), &StoreOptions::default())
+        .await
+        .unwrap();
+    let (blocks, sealed): (i64, String) = sqlx::query_as(
+        "SELECT (SELECT COUNT(*) FROM series_blocks WHERE site_id = 'old'), \
+         (SELECT sealed_until FROM series_seals WHERE site_id = 'old')",
+    )
+    .fetch_one(store.reader())
+    .await
+    .unwrap();
+    let full = ROWS / BLOCK_EPOCHS;
+    assert_eq!(blocks as usize, 2 * full, "P1 and P2");
+    assert_eq!(sealed, time_of((full * BLOCK_EPOCHS) as i64));
+    store.close().await;
 }
 
 #[tokio::test]
