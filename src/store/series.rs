@@ -1,6 +1,6 @@
 //! A point's displacement time series written straight from the database into the bytes the API
 //! serves (CSV, or the items of a JSON page), on a blocking thread: no row structs, no per-value
-//! allocation, numbers through `ryu`/`itoa`, stored timestamps shortened in place.
+//! allocation, numbers through `zmij`/`itoa`, stored timestamps shortened in place.
 //!
 //! Ten years of hourly epochs is 87 600 rows a point (`docs/performance.md`, section "Service").
 //! One statement reads the point's packed blocks that overlap the range
@@ -344,7 +344,7 @@ struct Writer {
     /// The point name as a JSON string (quoted, escaped).
     point: Vec<u8>,
     rows: usize,
-    float: ryu::Buffer,
+    float: zmij::Buffer,
     int: itoa::Buffer,
 }
 
@@ -356,7 +356,7 @@ impl Writer {
             direction,
             point: json_string(point),
             rows: 0,
-            float: ryu::Buffer::new(),
+            float: zmij::Buffer::new(),
             int: itoa::Buffer::new(),
         }
     }
@@ -381,7 +381,8 @@ impl Writer {
         self.out.extend_from_slice(self.int.format(v).as_bytes());
     }
 
-    /// A float as serde_json writes it (ryu, shortest round trip); non-finite: `null` in JSON,
+    /// A float as serde_json writes it (its own formatter, `zmij`: shortest round trip);
+    /// non-finite: `null` in JSON,
     /// empty in CSV (SQLite stores NaN as NULL, so these do not come from the table).
     fn float(&mut self, v: f64) {
         if v.is_finite() {
