@@ -71,7 +71,7 @@ fn upload(c: &mut Criterion) {
 }
 
 /// Fills a site with `epochs` hourly epochs × `points` points of displacements, directly in SQL
-/// (bench set-up only: no adjustment).
+/// (bench set-up only: no adjustment), then packs the series (`series_blocks::rebuild`).
 async fn fill_history(server: &TestServer, site: &str, epochs: usize, points: usize) {
     server.create_site(site).await;
     let mut tx = server.store.begin_write().await.unwrap();
@@ -98,6 +98,10 @@ async fn fill_history(server: &TestServer, site: &str, epochs: usize, points: us
          WHERE e.site_id = ? AND p.site_id = ?",
     )
     .bind(site).bind(site).execute(&mut *tx).await.unwrap();
+    // the rows went in by SQL: pack the series as ingestion would have
+    cliffwatch::store::series_blocks::rebuild(&mut tx, site)
+        .await
+        .unwrap();
     tx.commit().await.unwrap();
 }
 

@@ -114,7 +114,8 @@ fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
     rows
 }
 
-/// Stores displacements (observed_at in store format). Call inside the epoch's write transaction.
+/// Stores displacements (observed_at in store format) and keeps the site's packed series
+/// consistent ([`super::series_blocks::added`]). Call inside the epoch's write transaction.
 pub async fn insert(
     db: &mut SqliteConnection,
     site: &str,
@@ -147,16 +148,17 @@ pub async fn insert(
         .execute(&mut *db)
         .await?;
     }
-    Ok(())
+    super::series_blocks::added(db, site, rows).await
 }
 
-/// Deletes every displacement of a site (before recomputing against a new reference).
+/// Deletes every displacement of a site (before recomputing against a new reference), with its
+/// packed series.
 pub async fn delete_site(db: &mut SqliteConnection, site: &str) -> Result<(), StoreError> {
     sqlx::query("DELETE FROM displacements WHERE site_id = ?")
         .bind(site)
-        .execute(db)
+        .execute(&mut *db)
         .await?;
-    Ok(())
+    super::series_blocks::delete_site(db, site).await
 }
 
 /// The time series of one point, oldest first, with `from ≤ observed_at ≤ to` and after the

@@ -6,7 +6,8 @@
 //! SQLite-only forms where a standard one exists, so a PostgreSQL backend can follow.
 //!
 //! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`displacements`], [`alerts`],
-//! [`webhooks`], [`watch_state`]; [`series`] serves a point's displacement time series fast.
+//! [`webhooks`], [`watch_state`]; [`series`] serves a point's displacement time series fast from
+//! the packed blocks of [`series_blocks`] (layout: [`series_record`]).
 //!
 //! # SQLite-specific constructs (all of them; what a PostgreSQL backend would replace)
 //! - Connection set-up in [`Store::open`] and [`backup_file`]: `SqliteConnectOptions` with WAL,
@@ -20,12 +21,17 @@
 //! - `WITHOUT ROWID` on `displacements` in the first migration (SQLite's clustering clause;
 //!   PostgreSQL: the same primary key, plus `CLUSTER` if wanted). Migrations are SQLite's dialect
 //!   otherwise only in types that PostgreSQL reads the same way (`TEXT`, `BIGINT`,
-//!   `DOUBLE PRECISION`, `BOOLEAN`); a PostgreSQL backend keeps its own migration directory.
+//!   `DOUBLE PRECISION`, `BOOLEAN`, `BLOB` — PostgreSQL `BYTEA`); a PostgreSQL backend keeps its
+//!   own migration directory.
+//! - [`series`]' statement merges `series_blocks` and `displacements` with `UNION ALL … ORDER BY
+//!   1` and untyped `NULL` columns (PostgreSQL wants them cast, e.g. `NULL::bytea`). The blocks'
+//!   bytes are the crate's own layout ([`series_record`], little-endian), not SQLite's.
 //! - `?` placeholders in every query (PostgreSQL: `$1`, `$2`, …).
 //! - [`TEXT_MAX`], the open upper bound of text ranges, relies on binary (memcmp) text order,
 //!   SQLite's default collation (PostgreSQL: `COLLATE "C"` on the key columns or no bound).
-//! - Portable and used as is: `ON CONFLICT … DO UPDATE/NOTHING` with `excluded.`, `ALTER TABLE …
-//!   ADD COLUMN`, timestamps as fixed-width RFC 3339 text, JSON documents as text.
+//! - Portable and used as is: `ON CONFLICT … DO UPDATE/NOTHING` with `excluded.`, `RETURNING`
+//!   (SQLite ≥ 3.35), `ALTER TABLE … ADD COLUMN`, timestamps as fixed-width RFC 3339 text, JSON
+//!   documents as text.
 //! - Benchmarks and tests only: `strftime`, `printf`, `WITH RECURSIVE` fills and the `dbstat`
 //!   table (`benches/service.rs`, `tests/service_series.rs`).
 
@@ -34,6 +40,8 @@ pub mod displacements;
 pub mod epochs;
 pub mod points;
 pub mod series;
+pub mod series_blocks;
+pub mod series_record;
 pub mod sites;
 pub mod sqlite_raw;
 pub mod watch_state;
@@ -71,6 +79,9 @@ pub enum StoreError {
         /// What failed and SQLite's message.
         message: String,
     },
+    /// A packed series block cannot be written or read ([`series_blocks`], [`series_record`]).
+    #[error("series block: {0}")]
+    Block(String),
     /// The data directory cannot be created.
     #[error("data directory: {0}")]
     Io(#[from] std::io::Error),
@@ -102,7 +113,8 @@ pub struct Store {
 }
 
 impl Store {
-    /// Opens (creating when missing) the database file, applies the migrations.
+    /// Opens (creating when missing) the database file, applies the migrations, packs the series
+    /// of sites stored before migration 20261122000700 ([`series_blocks::backfill`]).
     pub async fn open(path: &Path, options: &StoreOptions) -> Result<Store, StoreError> {
         if let Some(dir) = path.parent() {
             if !dir.as_os_str().is_empty() {
@@ -128,7 +140,9 @@ impl Store {
             .acquire_timeout(Duration::from_secs(60))
             .connect_with(connect.read_only(true))
             .await?;
-        Ok(Store { read, write })
+        let store = Store { read, write };
+        series_blocks::backfill(&store).await?;
+        Ok(store)
     }
 
     /// The read pool.

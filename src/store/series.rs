@@ -1,11 +1,13 @@
-//! A point's displacement time series written straight from the database rows into the bytes
-//! the API serves (CSV, or the items of a JSON page), on a blocking thread: no row structs, no
-//! per-value allocation, numbers through `ryu`/`itoa`, stored timestamps shortened in place.
+//! A point's displacement time series written straight from the database into the bytes the API
+//! serves (CSV, or the items of a JSON page), on a blocking thread: no row structs, no per-value
+//! allocation, numbers through `zmij`/`itoa`, stored timestamps shortened in place.
 //!
 //! Ten years of hourly epochs is 87 600 rows a point (`docs/performance.md`, section "Service").
-//! The rows come through [`super::sqlite_raw`] (SQLite C API); a PostgreSQL backend would feed the
-//! same writers from its own row loop. [`super::displacements::series`] is the portable sqlx read
-//! of the same rows, and the reference the tests compare this output with.
+//! One statement reads the point's packed blocks that overlap the range
+//! ([`super::series_blocks`]: ~128 rows each, decoded by [`super::series_record`]) followed by its
+//! unpacked tail rows, through [`super::sqlite_raw`] (SQLite C API); a PostgreSQL backend would
+//! feed the same writers from its own row loop. [`super::displacements::series`] is the portable
+//! sqlx read of the displacements table, and the reference the tests compare this output with.
 
 use std::io::Write;
 
@@ -13,6 +15,7 @@ use bytes::Bytes;
 use sqlx::SqlitePool;
 use tokio::sync::mpsc;
 
+use super::series_record::{self, Record};
 use super::sqlite_raw::{self, Param, Row};
 use super::{display_timestamp, StoreError};
 
@@ -61,11 +64,19 @@ pub struct Written {
     pub more: bool,
 }
 
-const SQL: &str = "SELECT epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+/// The blocks overlapping the range, then the tail rows in it, in time order (one statement: one
+/// snapshot). A block row has its last time and data, a tail row its time and values. The union
+/// is merged on the two primary keys (`EXPLAIN QUERY PLAN`: `MERGE (UNION ALL)`, no sort).
+const SQL: &str = "SELECT last_at, data, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
+    NULL, NULL, NULL, NULL, NULL, NULL, NULL FROM series_blocks \
+    WHERE site_id = ? AND point = ? AND last_at >= ? AND last_at > ? AND first_at <= ? \
+    UNION ALL \
+    SELECT observed_at, NULL, epoch_id, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
     sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, significant, velocity_mm_per_day, \
     time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2 FROM displacements \
     WHERE site_id = ? AND point = ? \
-    AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY observed_at LIMIT ?";
+    AND observed_at > COALESCE((SELECT sealed_until FROM series_seals WHERE site_id = ?), '') \
+    AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY 1";
 
 /// Reads the series of `q` and appends it to `out` in `format` (oldest first), on a blocking
 /// thread with one connection of `pool`.
@@ -86,8 +97,8 @@ pub const BATCH_ROWS: usize = 8192;
 
 /// Reads the CSV series of `q` on a blocking thread and sends it in chunks of [`BATCH_ROWS`] rows
 /// as they are ready, so the answer goes out while later rows are still read. The reader only
-/// copies the values out; each batch is formatted on the rayon pool (in order), so reading and
-/// formatting use both cores. The first message is the first chunk (the header with the first
+/// copies the packed records out (a block's as they are, a tail row packed); each batch is
+/// formatted on the rayon pool (in order), so reading and formatting use both cores. The first message is the first chunk (the header with the first
 /// rows) or the error that stopped the read before any row; a later error ends the stream with
 /// it. Dropping the receiver stops the read.
 pub async fn stream_csv(
@@ -106,21 +117,28 @@ pub async fn stream_csv(
 
 type Pending = std::collections::VecDeque<std::sync::mpsc::Receiver<Vec<u8>>>;
 
-/// Formats `batch` on the rayon pool; its bytes arrive on the receiver queued in `pending`.
-fn format_batch(batch: Vec<Raw>, header: bool, direction: Option<[f64; 3]>, pending: &mut Pending) {
+/// Formats `batch` (`rows` packed records) on the rayon pool; its bytes arrive on the receiver
+/// queued in `pending`.
+fn format_batch(
+    batch: Vec<u8>,
+    rows: usize,
+    header: bool,
+    direction: Option<[f64; 3]>,
+    pending: &mut Pending,
+) {
     let (done, result) = std::sync::mpsc::sync_channel(1);
     rayon::spawn(move || {
         let mut w = Writer::new(
             SeriesFormat::Csv,
             direction,
             "",
-            Vec::with_capacity(batch.len() * 170 + 256),
+            Vec::with_capacity(rows * 170 + 256),
         );
         if header {
             w.start();
         }
-        for r in &batch {
-            w.row(r);
+        for r in series_record::records(&batch) {
+            w.row(&r);
         }
         let _ = done.send(w.out);
     });
@@ -151,30 +169,96 @@ fn run_csv_batched(
     q: &SeriesQuery,
     tx: &mpsc::Sender<Result<Bytes, StoreError>>,
 ) -> Result<(), StoreError> {
-    let params = params(q);
     let limit = q.limit.map_or(usize::MAX, |l| l.max(0) as usize);
     let mut pending = Pending::new();
-    let mut batch = Vec::with_capacity(BATCH_ROWS);
+    let mut batch = Vec::with_capacity(BATCH_ROWS * 150);
+    let mut in_batch = 0usize;
     let mut rows = 0usize;
     let mut open = true;
-    sqlite_raw::query(conn, SQL, &params, |row| {
+    each_record(conn, q, |record| {
         if rows == limit {
             return false;
         }
-        batch.push(Raw::read(row));
+        batch.extend_from_slice(record);
+        in_batch += 1;
         rows += 1;
-        if batch.len() == BATCH_ROWS {
-            let full = std::mem::replace(&mut batch, Vec::with_capacity(BATCH_ROWS));
-            format_batch(full, rows == BATCH_ROWS, q.direction, &mut pending);
+        if in_batch == BATCH_ROWS {
+            let full = std::mem::replace(&mut batch, Vec::with_capacity(BATCH_ROWS * 150));
+            format_batch(
+                full,
+                in_batch,
+                rows == BATCH_ROWS,
+                q.direction,
+                &mut pending,
+            );
+            in_batch = 0;
             open = send_ready(&mut pending, 2, tx);
         }
         open
     })?;
-    if !batch.is_empty() || rows == 0 {
-        format_batch(batch, rows <= BATCH_ROWS, q.direction, &mut pending);
+    if in_batch > 0 || rows == 0 {
+        format_batch(
+            batch,
+            in_batch,
+            rows <= BATCH_ROWS,
+            q.direction,
+            &mut pending,
+        );
     }
     send_ready(&mut pending, 0, tx);
     Ok(())
+}
+
+/// Calls `each` with every row of `q` in time order as a packed record
+/// ([`series_record`]): a block's records in the range as they are stored, a tail row packed
+/// first. `each` returns `false` to stop.
+fn each_record(
+    conn: &mut sqlx::pool::PoolConnection<sqlx::Sqlite>,
+    q: &SeriesQuery,
+    mut each: impl FnMut(&[u8]) -> bool,
+) -> Result<(), StoreError> {
+    let from = q.from.as_deref().unwrap_or("").as_bytes();
+    let to = q.to.as_deref().unwrap_or(super::TEXT_MAX).as_bytes();
+    let after = q.after.as_deref().unwrap_or("").as_bytes();
+    let mut packed = Vec::with_capacity(256);
+    let mut failed = None;
+    sqlite_raw::query(conn, SQL, &params(q), |row| {
+        if row.is_null(1) {
+            // a tail row, in the range (the SQL's condition)
+            packed.clear();
+            if !series_record::encode(&tail_record(row), &mut packed) {
+                failed = Some("observed_at too long");
+                return false;
+            }
+            return each(&packed);
+        }
+        let Some((&series_record::FORMAT, mut rest)) = row.blob(1).split_first() else {
+            failed = Some("unknown block format");
+            return false;
+        };
+        while !rest.is_empty() {
+            let Some((t, n)) = series_record::peek(rest) else {
+                failed = Some("cut block");
+                return false;
+            };
+            let (record, later) = rest.split_at(n);
+            rest = later;
+            if t > to {
+                return false; // rows are in time order: none later is in the range
+            }
+            if t >= from && t > after && !each(record) {
+                return false;
+            }
+        }
+        true
+    })?;
+    match failed {
+        Some(what) => Err(StoreError::Block(format!(
+            "series of {}/{}: {what}",
+            q.site, q.point
+        ))),
+        None => Ok(()),
+    }
 }
 
 fn reader_failed(e: tokio::task::JoinError) -> StoreError {
@@ -193,100 +277,52 @@ fn run(
 ) -> Result<Written, StoreError> {
     let mut w = Writer::new(format, q.direction, &q.point, out);
     w.start();
-    let params = params(q);
-    let mut last = Raw::default();
+    let mut last = Vec::new();
     let limit = q.limit.map_or(usize::MAX, |l| l.max(0) as usize);
     let mut more = false;
-    sqlite_raw::query(conn, SQL, &params, |row| {
+    each_record(conn, q, |record| {
         if w.rows == limit {
             more = true;
             return false;
         }
-        last = Raw::read(row);
-        w.row(&last);
+        if let Some((r, _)) = series_record::decode(record) {
+            w.row(&r);
+            last.clear();
+            last.extend_from_slice(r.observed_at);
+        }
         true
     })?;
     w.finish();
     Ok(Written {
         rows: w.rows,
-        last_observed_at: (w.rows > 0)
-            .then(|| String::from_utf8_lossy(last.observed_at.bytes()).into_owned()),
+        last_observed_at: (w.rows > 0).then(|| String::from_utf8_lossy(&last).into_owned()),
         out: w.out,
         more,
     })
 }
 
-fn params(q: &SeriesQuery) -> [Param<'_>; 6] {
+fn params(q: &SeriesQuery) -> [Param<'_>; 11] {
+    let from = Param::Text(q.from.as_deref().unwrap_or(""));
+    let to = Param::Text(q.to.as_deref().unwrap_or(super::TEXT_MAX));
+    let after = Param::Text(q.after.as_deref().unwrap_or(""));
+    let site = Param::Text(&q.site);
+    let point = Param::Text(&q.point);
     [
-        Param::Text(&q.site),
-        Param::Text(&q.point),
-        Param::Text(q.from.as_deref().unwrap_or("")),
-        Param::Text(q.to.as_deref().unwrap_or(super::TEXT_MAX)),
-        Param::Text(q.after.as_deref().unwrap_or("")),
-        // one more than asked: it tells whether there are more
-        Param::Int(q.limit.map_or(i64::MAX, |l| l.max(0).saturating_add(1))),
+        site, point, from, after, to, site, point, site, from, to, after,
     ]
 }
 
-/// A stored time, inline when short (the store's form is 27 bytes).
-#[derive(Debug, Clone)]
-enum Stamp {
-    Inline([u8; 32], u8),
-    Heap(Box<[u8]>),
-}
-
-impl Default for Stamp {
-    fn default() -> Self {
-        Stamp::Inline([0; 32], 0)
-    }
-}
-
-impl Stamp {
-    fn new(text: &[u8]) -> Stamp {
-        if text.len() <= 32 {
-            let mut b = [0; 32];
-            b[..text.len()].copy_from_slice(text);
-            Stamp::Inline(b, text.len() as u8)
-        } else {
-            Stamp::Heap(text.into())
-        }
-    }
-
-    fn bytes(&self) -> &[u8] {
-        match self {
-            Stamp::Inline(b, n) => &b[..*n as usize],
-            Stamp::Heap(b) => b,
-        }
-    }
-}
-
-/// The values of one row of [`SQL`], copied out of SQLite.
-#[derive(Debug, Clone, Default)]
-struct Raw {
-    epoch: i64,
-    observed_at: Stamp,
-    reference: i64,
-    /// dx, dy, dz, d, σdx, σdy, σdz, σd (mm).
-    v: [f64; 8],
-    significant: bool,
-    velocity: Option<f64>,
-    ttf: Option<f64>,
-    /// Covariances of (dx, dy), (dx, dz), (dy, dz) in mm² (null before schema version 4).
-    cov: [Option<f64>; 3],
-}
-
-impl Raw {
-    fn read(r: &Row) -> Raw {
-        Raw {
-            epoch: r.int(0),
-            observed_at: Stamp::new(r.text(1)),
-            reference: r.int(2),
-            v: std::array::from_fn(|k| r.double(3 + k)),
-            significant: r.int(11) != 0,
-            velocity: r.opt_double(12),
-            ttf: r.opt_double(13),
-            cov: std::array::from_fn(|k| r.opt_double(14 + k)),
-        }
+/// A tail row of [`SQL`] (columns 0 and 2–17) as a record, borrowed until the next step.
+fn tail_record(r: &Row) -> Record<'_> {
+    Record {
+        epoch: r.int(2),
+        observed_at: r.text(0),
+        reference: r.int(3),
+        v: std::array::from_fn(|k| r.double(4 + k)),
+        significant: r.int(12) != 0,
+        velocity: r.opt_double(13),
+        ttf: r.opt_double(14),
+        cov: std::array::from_fn(|k| r.opt_double(15 + k)),
     }
 }
 
@@ -308,7 +344,7 @@ struct Writer {
     /// The point name as a JSON string (quoted, escaped).
     point: Vec<u8>,
     rows: usize,
-    float: ryu::Buffer,
+    float: zmij::Buffer,
     int: itoa::Buffer,
 }
 
@@ -320,7 +356,7 @@ impl Writer {
             direction,
             point: json_string(point),
             rows: 0,
-            float: ryu::Buffer::new(),
+            float: zmij::Buffer::new(),
             int: itoa::Buffer::new(),
         }
     }
@@ -345,7 +381,8 @@ impl Writer {
         self.out.extend_from_slice(self.int.format(v).as_bytes());
     }
 
-    /// A float as serde_json writes it (ryu, shortest round trip); non-finite: `null` in JSON,
+    /// A float as serde_json writes it (its own formatter, `zmij`: shortest round trip);
+    /// non-finite: `null` in JSON,
     /// empty in CSV (SQLite stores NaN as NULL, so these do not come from the table).
     fn float(&mut self, v: f64) {
         if v.is_finite() {
@@ -394,9 +431,9 @@ impl Writer {
         }
     }
 
-    fn row(&mut self, r: &Raw) {
+    fn row(&mut self, r: &Record<'_>) {
         let epoch = r.epoch;
-        let observed_at = r.observed_at.bytes();
+        let observed_at = r.observed_at;
         let reference = r.reference;
         let d = [r.v[0], r.v[1], r.v[2]];
         let length = r.v[3];

@@ -83,6 +83,24 @@ impl Row {
     }
 }
 
+impl Row {
+    /// Column `i` as a blob (bytes as stored; empty when NULL), borrowed until the next step.
+    pub fn blob(&self, i: usize) -> &[u8] {
+        let i = self.check(i);
+        // SAFETY: as in `text`: `sqlite3_column_blob` then `sqlite3_column_bytes` on a live row,
+        // the pointer valid while `&self` is borrowed.
+        unsafe {
+            let p = ffi::sqlite3_column_blob(self.stmt, i) as *const u8;
+            let n = ffi::sqlite3_column_bytes(self.stmt, i);
+            if p.is_null() || n <= 0 {
+                &[]
+            } else {
+                std::slice::from_raw_parts(p, n as usize)
+            }
+        }
+    }
+}
+
 /// Finalizes the statement on every path.
 struct Statement(*mut ffi::sqlite3_stmt);
 

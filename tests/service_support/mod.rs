@@ -231,6 +231,8 @@ pub async fn snapshot(store: &Store) -> Vec<(String, i64)> {
         "coordinates",
         "joint_covariances",
         "displacements",
+        "series_blocks",
+        "series_seals",
         "alerts",
         "webhooks",
         "webhook_outbox",

@@ -1,0 +1,237 @@
+//! Each point's displacement series packed into immutable blocks (tables `series_blocks` and
+//! `series_seals`, migration 20261122000700), so that [`super::series`] reads ten years of hourly
+//! rows as ~700 blobs instead of 87 600 rows of 17 columns.
+//!
+//! The displacements table stays the truth; the blocks are derived from it inside the caller's
+//! write transaction. Per site, the rows observed up to `sealed_until` are in the blocks, exactly
+//! once, each block holding one point's rows of up to [`BLOCK_EPOCHS`] consecutive epochs in
+//! [`super::series_record`]'s layout; later rows (the tail, fewer than [`BLOCK_EPOCHS`] epochs
+//! after a seal) are read as rows. A site without a `series_seals` row is all tail: correct,
+//! only slower. Blocks are packed from the rows as the table returns them, so the served values
+//! are the table's, bit for bit.
+//!
+//! Write paths: [`added`] after every insert of displacements ([`super::displacements::insert`]),
+//! [`delete_site`] with [`super::displacements::delete_site`], [`backfill`] at open for databases
+//! that had displacements before the migration.
+
+use std::collections::BTreeSet;
+
+use sqlx::{FromRow, SqliteConnection};
+
+use super::displacements::Displacement;
+use super::series_record::{self, Record};
+use super::{Store, StoreError};
+
+/// Epochs per block: a block holds one point's rows of this many consecutive epochs of its site
+/// (≈ 17 kB). Also the most epochs a site's tail holds after a seal.
+pub const BLOCK_EPOCHS: usize = 128;
+
+/// Keeps the blocks of `site` consistent after `rows` were inserted into displacements (same
+/// transaction): counts the new epochs, seals the next blocks when [`BLOCK_EPOCHS`] epochs are
+/// pending, and re-packs the site when a row is older than its sealed part.
+pub async fn added(
+    db: &mut SqliteConnection,
+    site: &str,
+    rows: &[Displacement],
+) -> Result<(), StoreError> {
+    let times: BTreeSet<&str> = rows.iter().map(|d| d.observed_at.as_str()).collect();
+    let Some(earliest) = times.first() else {
+        return Ok(());
+    };
+    let (sealed_until, pending): (String, i64) = sqlx::query_as(
+        "INSERT INTO series_seals (site_id, sealed_until, pending) VALUES (?, '', ?) \
+         ON CONFLICT (site_id) DO UPDATE SET pending = series_seals.pending + excluded.pending \
+         RETURNING sealed_until, pending",
+    )
+    .bind(site)
+    .bind(times.len() as i64)
+    .fetch_one(&mut *db)
+    .await?;
+    if *earliest <= sealed_until.as_str() {
+        return rebuild(db, site).await;
+    }
+    if pending >= BLOCK_EPOCHS as i64 {
+        seal(db, site, &sealed_until).await?;
+    }
+    Ok(())
+}
+
+/// Removes the blocks of `site` (with its displacements; same transaction).
+pub async fn delete_site(db: &mut SqliteConnection, site: &str) -> Result<(), StoreError> {
+    sqlx::query("DELETE FROM series_blocks WHERE site_id = ?")
+        .bind(site)
+        .execute(&mut *db)
+        .await?;
+    sqlx::query("DELETE FROM series_seals WHERE site_id = ?")
+        .bind(site)
+        .execute(&mut *db)
+        .await?;
+    Ok(())
+}
+
+/// Packs the whole series of `site` anew from its displacements (inside a write transaction):
+/// after an insert into its sealed past, at [`backfill`], or after rows were written by other
+/// means (benchmarks, tests).
+pub async fn rebuild(db: &mut SqliteConnection, site: &str) -> Result<(), StoreError> {
+    delete_site(db, site).await?;
+    sqlx::query("INSERT INTO series_seals (site_id, sealed_until, pending) VALUES (?, '', 0)")
+        .bind(site)
+        .execute(&mut *db)
+        .await?;
+    seal(db, site, "").await
+}
+
+/// Packs every site that has displacements but no `series_seals` row (databases from before
+/// migration 20261122000700), one write transaction per site. Called by [`Store::open`]; a
+/// no-op afterwards (two index probes per site).
+pub async fn backfill(store: &Store) -> Result<usize, StoreError> {
+    let sites: Vec<String> = sqlx::query_scalar(
+        "SELECT s.id FROM sites s WHERE NOT EXISTS (SELECT 1 FROM series_seals x WHERE x.site_id = s.id) \
+         AND EXISTS (SELECT 1 FROM displacements d WHERE d.site_id = s.id) ORDER BY s.id",
+    )
+    .fetch_all(store.reader())
+    .await?;
+    for site in &sites {
+        let mut tx = store.begin_write().await?;
+        rebuild(&mut tx, site).await?;
+        tx.commit().await?;
+    }
+    Ok(sites.len())
+}
+
+/// A displacement row as stored (the served columns).
+#[derive(FromRow)]
+struct Stored {
+    epoch_id: i64,
+    observed_at: String,
+    reference_epoch: i64,
+    dx_mm: f64,
+    dy_mm: f64,
+    dz_mm: f64,
+    d_mm: f64,
+    sigma_dx_mm: f64,
+    sigma_dy_mm: f64,
+    sigma_dz_mm: f64,
+    sigma_mm: f64,
+    significant: bool,
+    velocity_mm_per_day: Option<f64>,
+    time_to_failure_hours: Option<f64>,
+    cov_dxdy_mm2: Option<f64>,
+    cov_dxdz_mm2: Option<f64>,
+    cov_dydz_mm2: Option<f64>,
+}
+
+impl Stored {
+    fn record(&self) -> Record<'_> {
+        Record {
+            epoch: self.epoch_id,
+            observed_at: self.observed_at.as_bytes(),
+            reference: self.reference_epoch,
+            v: [
+                self.dx_mm,
+                self.dy_mm,
+                self.dz_mm,
+                self.d_mm,
+                self.sigma_dx_mm,
+                self.sigma_dy_mm,
+                self.sigma_dz_mm,
+                self.sigma_mm,
+            ],
+            significant: self.significant,
+            velocity: self.velocity_mm_per_day,
+            ttf: self.time_to_failure_hours,
+            cov: [self.cov_dxdy_mm2, self.cov_dxdz_mm2, self.cov_dydz_mm2],
+        }
+    }
+}
+
+/// Seals the site's epochs after `sealed_until` in groups of [`BLOCK_EPOCHS`]: every point's rows
+/// of each full group become one block; the rest stays tail.
+async fn seal(db: &mut SqliteConnection, site: &str, sealed_until: &str) -> Result<(), StoreError> {
+    let times: Vec<String> = sqlx::query_scalar(
+        "SELECT observed_at FROM epochs WHERE site_id = ? AND observed_at > ? ORDER BY observed_at",
+    )
+    .bind(site)
+    .bind(sealed_until)
+    .fetch_all(&mut *db)
+    .await?;
+    let full = times.len() / BLOCK_EPOCHS * BLOCK_EPOCHS;
+    // the last epoch of each full group
+    let cuts: Vec<&str> = times[..full]
+        .iter()
+        .skip(BLOCK_EPOCHS - 1)
+        .step_by(BLOCK_EPOCHS)
+        .map(String::as_str)
+        .collect();
+    if let Some(until) = cuts.last() {
+        // the series endpoint serves the points of the points table only
+        let points: Vec<String> =
+            sqlx::query_scalar("SELECT name FROM points WHERE site_id = ? ORDER BY name")
+                .bind(site)
+                .fetch_all(&mut *db)
+                .await?;
+        for point in &points {
+            let rows: Vec<Stored> = sqlx::query_as(
+                "SELECT epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+                 sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, significant, velocity_mm_per_day, \
+                 time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2 FROM displacements \
+                 WHERE site_id = ? AND point = ? AND observed_at > ? AND observed_at <= ? \
+                 ORDER BY observed_at",
+            )
+            .bind(site)
+            .bind(point)
+            .bind(sealed_until)
+            .bind(*until)
+            .fetch_all(&mut *db)
+            .await?;
+            let mut rest = rows.as_slice();
+            for cut in &cuts {
+                let n = rest.partition_point(|r| r.observed_at.as_str() <= *cut);
+                let (block, later) = rest.split_at(n);
+                rest = later;
+                insert_block(db, site, point, block).await?;
+            }
+        }
+    }
+    let until = cuts.last().copied().unwrap_or(sealed_until);
+    sqlx::query("UPDATE series_seals SET sealed_until = ?, pending = ? WHERE site_id = ?")
+        .bind(until)
+        .bind((times.len() - full) as i64)
+        .bind(site)
+        .execute(&mut *db)
+        .await?;
+    Ok(())
+}
+
+async fn insert_block(
+    db: &mut SqliteConnection,
+    site: &str,
+    point: &str,
+    rows: &[Stored],
+) -> Result<(), StoreError> {
+    let (Some(first), Some(last)) = (rows.first(), rows.last()) else {
+        return Ok(());
+    };
+    let mut data = Vec::with_capacity(1 + rows.len() * 150);
+    data.push(series_record::FORMAT);
+    for r in rows {
+        if !series_record::encode(&r.record(), &mut data) {
+            return Err(StoreError::Block(format!(
+                "observed_at of {site}/{point} too long to pack"
+            )));
+        }
+    }
+    sqlx::query(
+        "INSERT INTO series_blocks (site_id, point, last_at, first_at, n_rows, data) \
+         VALUES (?, ?, ?, ?, ?, ?)",
+    )
+    .bind(site)
+    .bind(point)
+    .bind(&last.observed_at)
+    .bind(&first.observed_at)
+    .bind(rows.len() as i64)
+    .bind(data)
+    .execute(&mut *db)
+    .await?;
+    Ok(())
+}

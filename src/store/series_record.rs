@@ -1,0 +1,187 @@
+//! The binary form of one row of a point's displacement series, as packed into the blocks of
+//! [`super::series_blocks`] and into the batches [`super::series`] formats: the served values
+//! exactly as stored (the time as its stored text, floats as their IEEE bits), nothing derived.
+//!
+//! Layout, little-endian, self-delimiting (no padding):
+//! `flags: u8` (bit 0 significant; bits 1–5 present: velocity, time to failure, cov(dx, dy),
+//! cov(dx, dz), cov(dy, dz)), `len: u8` and the `len` bytes of `observed_at` (store form),
+//! `epoch: i64`, `reference: i64`, 8 × `f64` (dx, dy, dz, d, σdx, σdy, σdz, σd in mm), then one
+//! `f64` per present optional value in that order. A block is [`FORMAT`] followed by records.
+//!
+//! Pure: no I/O. Rows whose stored time is longer than 255 bytes cannot be packed ([`encode`]
+//! says so); the store writes 27.
+
+/// First byte of a packed block: the version of this layout.
+pub const FORMAT: u8 = 1;
+
+/// One row of the series as stored, the time borrowed from its buffer. Lengths in mm, covariances
+/// in mm², velocity in mm/day, time to failure in hours.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Record<'a> {
+    /// Epoch id.
+    pub epoch: i64,
+    /// observed_at as stored (`YYYY-MM-DDTHH:MM:SS.ffffffZ`).
+    pub observed_at: &'a [u8],
+    /// The reference epoch's id.
+    pub reference: i64,
+    /// dx, dy, dz, d, σdx, σdy, σdz, σd in mm.
+    pub v: [f64; 8],
+    /// Significant at the site's confidence.
+    pub significant: bool,
+    /// Rate of d in mm/day (NULL: `None`).
+    pub velocity: Option<f64>,
+    /// Time to failure in hours (NULL: `None`).
+    pub ttf: Option<f64>,
+    /// Covariances of (dx, dy), (dx, dz), (dy, dz) in mm² (NULL: `None`).
+    pub cov: [Option<f64>; 3],
+}
+
+const FIXED: usize = 2 + 8 + 8 + 8 * 8;
+
+/// Appends `r` to `out`; `false` (nothing written) when its time is longer than 255 bytes.
+pub fn encode(r: &Record<'_>, out: &mut Vec<u8>) -> bool {
+    let Ok(len) = u8::try_from(r.observed_at.len()) else {
+        return false;
+    };
+    let optional = [r.velocity, r.ttf, r.cov[0], r.cov[1], r.cov[2]];
+    let mut flags = u8::from(r.significant);
+    for (k, v) in optional.iter().enumerate() {
+        if v.is_some() {
+            flags |= 2 << k;
+        }
+    }
+    out.reserve(FIXED + r.observed_at.len() + 40);
+    out.push(flags);
+    out.push(len);
+    out.extend_from_slice(r.observed_at);
+    out.extend_from_slice(&r.epoch.to_le_bytes());
+    out.extend_from_slice(&r.reference.to_le_bytes());
+    for v in r.v {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    for v in optional.into_iter().flatten() {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    true
+}
+
+/// The stored time and total length of the record at the start of `bytes`, without decoding the
+/// rest; `None` when `bytes` is shorter than the record.
+pub fn peek(bytes: &[u8]) -> Option<(&[u8], usize)> {
+    let flags = *bytes.first()?;
+    let len = *bytes.get(1)? as usize;
+    let total = FIXED + len + 8 * (flags >> 1 & 0x1f).count_ones() as usize;
+    (bytes.len() >= total).then(|| (&bytes[2..2 + len], total))
+}
+
+fn f64_at(bytes: &[u8], at: usize) -> f64 {
+    let mut b = [0u8; 8];
+    b.copy_from_slice(&bytes[at..at + 8]);
+    f64::from_le_bytes(b)
+}
+
+fn i64_at(bytes: &[u8], at: usize) -> i64 {
+    let mut b = [0u8; 8];
+    b.copy_from_slice(&bytes[at..at + 8]);
+    i64::from_le_bytes(b)
+}
+
+/// The record at the start of `bytes` and its length; `None` when `bytes` is shorter than it.
+pub fn decode(bytes: &[u8]) -> Option<(Record<'_>, usize)> {
+    let (observed_at, total) = peek(bytes)?;
+    let flags = bytes[0];
+    let mut at = 2 + observed_at.len();
+    let epoch = i64_at(bytes, at);
+    let reference = i64_at(bytes, at + 8);
+    at += 16;
+    let v = std::array::from_fn(|k| f64_at(bytes, at + 8 * k));
+    at += 64;
+    let mut optional = [None; 5];
+    for (k, slot) in optional.iter_mut().enumerate() {
+        if flags & (2 << k) != 0 {
+            *slot = Some(f64_at(bytes, at));
+            at += 8;
+        }
+    }
+    Some((
+        Record {
+            epoch,
+            observed_at,
+            reference,
+            v,
+            significant: flags & 1 != 0,
+            velocity: optional[0],
+            ttf: optional[1],
+            cov: [optional[2], optional[3], optional[4]],
+        },
+        total,
+    ))
+}
+
+/// The records packed one after another in `bytes` (a block without its format byte, or a
+/// batch), in order; stops at the first incomplete one.
+pub fn records(mut bytes: &[u8]) -> impl Iterator<Item = Record<'_>> {
+    std::iter::from_fn(move || {
+        let (r, n) = decode(bytes)?;
+        bytes = &bytes[n..];
+        Some(r)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn records_round_trip_bit_for_bit() {
+        let rows = [
+            Record {
+                epoch: 7,
+                observed_at: b"2026-01-02T03:04:05.000006Z",
+                reference: -1,
+                v: [0.1, -0.0, 1e-300, f64::MAX, 3.0, 2.5e-9, -7.25, 1.0 / 3.0],
+                significant: true,
+                velocity: Some(-0.0055),
+                ttf: None,
+                cov: [None, Some(-2.1e-3), Some(0.0)],
+            },
+            Record {
+                epoch: i64::MAX,
+                observed_at: b"",
+                reference: i64::MIN,
+                v: [f64::MIN_POSITIVE; 8],
+                significant: false,
+                velocity: None,
+                ttf: Some(48.0),
+                cov: [Some(1.0), None, None],
+            },
+        ];
+        let mut out = Vec::new();
+        for r in &rows {
+            assert!(encode(r, &mut out));
+        }
+        let back: Vec<Record> = records(&out).collect();
+        assert_eq!(back.len(), 2);
+        for (a, b) in back.iter().zip(&rows) {
+            assert_eq!(a.epoch, b.epoch);
+            assert_eq!(a.observed_at, b.observed_at);
+            assert_eq!(a.reference, b.reference);
+            assert_eq!(a.v.map(f64::to_bits), b.v.map(f64::to_bits));
+            assert_eq!(a.significant, b.significant);
+            assert_eq!(a.velocity.map(f64::to_bits), b.velocity.map(f64::to_bits));
+            assert_eq!(a.ttf, b.ttf);
+            assert_eq!(
+                a.cov.map(|c| c.map(f64::to_bits)),
+                b.cov.map(|c| c.map(f64::to_bits))
+            );
+        }
+        // a cut record is not read
+        assert_eq!(records(&out[..out.len() - 1]).count(), 1);
+        let long = vec![b'x'; 256];
+        let r = Record {
+            observed_at: &long,
+            ..rows[0]
+        };
+        assert!(!encode(&r, &mut Vec::new()));
+    }
+}
