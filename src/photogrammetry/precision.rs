@@ -140,16 +140,34 @@ impl Cofactors {
     /// (see the field `qw`).
     fn diagonal_block(&self, i: usize) -> (Matrix3<f64>, Vec<Vector3<f64>>) {
         let w = &self.normals.w[i];
-        let qw: Vec<Vector3<f64>> = w
-            .cols
-            .iter()
-            .map(|&cy| {
-                let q = self.qcc.col_as_slice(cy);
-                w.cols
-                    .iter()
-                    .zip(&w.rows)
-                    .fold(Vector3::zeros(), |t, (&cx, r)| t + q[cx] * r)
-            })
+        let n = w.cols.len();
+        // Runs of consecutive global columns (start, end) among the point's coupling columns.
+        let mut runs: Vec<(usize, usize)> = Vec::new();
+        for (y, &c) in w.cols.iter().enumerate() {
+            match runs.last_mut() {
+                Some((s, e)) if w.cols[*s] + (*e - *s) == c => *e = y + 1,
+                _ => runs.push((y, y + 1)),
+            }
+        }
+        // qw[y] = Σ_x S⁻¹[c_x, c_y] W_x, summed over x in order; S⁻¹ is symmetric, so row c_x over
+        // the run is a slice of its column c_x and each step is a plain (vectorized) update.
+        let mut acc = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        for (&cx, r) in w.cols.iter().zip(&w.rows) {
+            let qc = self.qcc.col_as_slice(cx);
+            for &(s, e) in &runs {
+                let g = w.cols[s];
+                let q = &qc[g..g + (e - s)];
+                let [a0, a1, a2] = &mut acc;
+                let (a0, a1, a2) = (&mut a0[s..e], &mut a1[s..e], &mut a2[s..e]);
+                for k in 0..q.len() {
+                    a0[k] += q[k] * r.x;
+                    a1[k] += q[k] * r.y;
+                    a2[k] += q[k] * r.z;
+                }
+            }
+        }
+        let qw: Vec<Vector3<f64>> = (0..n)
+            .map(|y| Vector3::new(acc[0][y], acc[1][y], acc[2][y]))
             .collect();
         let inner = qw
             .iter()
@@ -329,7 +347,12 @@ impl Cofactors {
         for (x, &(g, _)) in cols.iter().enumerate() {
             // S⁻¹[g, ·] W_i, kept per point for the columns the point couples with (an inactive
             // observation's image may not be one of them).
-            let acc = match w.cols.iter().position(|&c| c == g) {
+            let found = if w.sorted {
+                w.cols.binary_search(&g).ok()
+            } else {
+                w.cols.iter().position(|&c| c == g)
+            };
+            let acc = match found {
                 Some(a) => self.qw[i][a],
                 None => {
                     // Q is symmetric: row g is column g.
