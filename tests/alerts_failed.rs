@@ -6,7 +6,7 @@ mod alerts_support;
 
 use std::time::{Duration, Instant};
 
-use alerts_support::{day, write_config, Daemon, Receiver, Scene};
+use alerts_support::{day, mark_stable, write_config, Daemon, Receiver, Scene};
 use reqwest::Method;
 use serde_json::{json, Value};
 
@@ -60,16 +60,7 @@ async fn a_failed_analysis_raises_an_alert_and_says_why() {
         .send(Method::POST, "/api/v1/sites", Some(&json!({"id": "cliff"})))
         .await;
     assert_eq!(s, 201, "{b}");
-    for i in 0..scene.stable {
-        let (s, b) = daemon
-            .send(
-                Method::PUT,
-                &format!("/api/v1/sites/cliff/points/{}", Scene::name(i)),
-                Some(&json!({"role": "stable"})),
-            )
-            .await;
-        assert_eq!(s, 200, "{b}");
-    }
+    mark_stable(&daemon, "cliff", &scene).await;
     let upload = |k: usize, body: Value| {
         let d = &daemon;
         async move {

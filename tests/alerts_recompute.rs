@@ -8,7 +8,9 @@ mod alerts_support;
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use alerts_support::{day, outbox_events, write_config, Daemon, Receiver, Scene};
+use alerts_support::{
+    create_site, day, mark_stable, outbox_events, write_config, Daemon, Receiver, Scene,
+};
 use reqwest::Method;
 use serde_json::{json, Value};
 
@@ -18,24 +20,8 @@ async fn site(d: &Daemon, id: &str, scene: &Scene) {
     let rules = json!([
         {"level": "watch", "metric": "displacement_mm", "above": 5.0, "clear_below": 4.0},
         {"level": "warning", "metric": "displacement_mm", "above": 10.0, "clear_below": 8.0}]);
-    let (s, b) = d
-        .send(
-            Method::POST,
-            "/api/v1/sites",
-            Some(&json!({"id": id, "alert_rules": rules})),
-        )
-        .await;
-    assert_eq!(s, 201, "{b}");
-    for i in 0..scene.stable {
-        let (s, b) = d
-            .send(
-                Method::PUT,
-                &format!("/api/v1/sites/{id}/points/{}", Scene::name(i)),
-                Some(&json!({"role": "stable"})),
-            )
-            .await;
-        assert_eq!(s, 200, "{b}");
-    }
+    create_site(d, id, rules).await;
+    mark_stable(d, id, scene).await;
 }
 
 async fn upload(d: &Daemon, site: &str, scene: &Scene, k: usize) {

@@ -7,35 +7,13 @@ mod alerts_support;
 use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
 
-use alerts_support::{day, outbox_ids, write_config, Daemon, Receiver, Scene};
+use alerts_support::{
+    create_site, day, mark_stable, outbox_ids, write_config, Daemon, Receiver, Scene,
+};
 use reqwest::Method;
-use serde_json::{json, Value};
+use serde_json::json;
 
 const SITE: &str = "cliff";
-
-async fn create_site(d: &Daemon, id: &str, rules: Value) {
-    let (s, b) = d
-        .send(
-            Method::POST,
-            "/api/v1/sites",
-            Some(&json!({"id": id, "model": "orthogonal", "alert_rules": rules})),
-        )
-        .await;
-    assert_eq!(s, 201, "{b}");
-}
-
-async fn mark_stable(d: &Daemon, site: &str, scene: &Scene) {
-    for i in 0..scene.stable {
-        let (s, b) = d
-            .send(
-                Method::PUT,
-                &format!("/api/v1/sites/{site}/points/{}", Scene::name(i)),
-                Some(&json!({"role": "stable"})),
-            )
-            .await;
-        assert_eq!(s, 200, "{b}");
-    }
-}
 
 fn rank(level: &str) -> u8 {
     match level {

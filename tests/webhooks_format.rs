@@ -10,7 +10,9 @@ mod alerts_support;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
-use alerts_support::{day, outbox_ids, write_config, Daemon, Receiver, Scene};
+use alerts_support::{
+    create_site, day, mark_stable, outbox_ids, write_config, Daemon, Receiver, Scene,
+};
 use reqwest::Method;
 use serde_json::{json, Value};
 
@@ -128,25 +130,13 @@ async fn each_endpoint_gets_its_format_signed_and_unchanged_on_retry() {
 
     // A site whose block of 8 points moves 10 mm between two epochs: watch alerts above 5 mm.
     let scene = Scene { n: 16, stable: 8 };
-    let (s, b) = daemon
-        .send(
-            Method::POST,
-            "/api/v1/sites",
-            Some(&json!({"id": SITE, "model": "orthogonal", "alert_rules": [
-                {"level": "watch", "metric": "displacement_mm", "above": 5.0}]})),
-        )
-        .await;
-    assert_eq!(s, 201, "{b}");
-    for i in 0..scene.stable {
-        let (s, b) = daemon
-            .send(
-                Method::PUT,
-                &format!("/api/v1/sites/{SITE}/points/{}", Scene::name(i)),
-                Some(&json!({"role": "stable"})),
-            )
-            .await;
-        assert_eq!(s, 200, "{b}");
-    }
+    create_site(
+        &daemon,
+        SITE,
+        json!([{"level": "watch", "metric": "displacement_mm", "above": 5.0}]),
+    )
+    .await;
+    mark_stable(&daemon, SITE, &scene).await;
     for k in 0..2 {
         let body = scene.epoch(&day(k), 700 + k as u64, 10.0 * k as f64);
         let (s, b) = daemon

@@ -11,9 +11,36 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
-use serde_json::Value;
+use reqwest::Method;
+use serde_json::{json, Value};
 
 pub use service_support::Daemon;
+
+/// Creates site `id` (orthogonal model) with the given alert rules through the API.
+pub async fn create_site(d: &Daemon, id: &str, rules: Value) {
+    let (s, b) = d
+        .send(
+            Method::POST,
+            "/api/v1/sites",
+            Some(&json!({"id": id, "model": "orthogonal", "alert_rules": rules})),
+        )
+        .await;
+    assert_eq!(s, 201, "{b}");
+}
+
+/// Marks the scene's fixed points (index < `stable`) of site `site` as stable points.
+pub async fn mark_stable(d: &Daemon, site: &str, scene: &Scene) {
+    for i in 0..scene.stable {
+        let (s, b) = d
+            .send(
+                Method::PUT,
+                &format!("/api/v1/sites/{site}/points/{}", Scene::name(i)),
+                Some(&json!({"role": "stable"})),
+            )
+            .await;
+        assert_eq!(s, 200, "{b}");
+    }
+}
 
 /// Webhook secret of the tests (`whsec_` + base64 of 24 bytes).
 pub const SECRET: &str = "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw";
