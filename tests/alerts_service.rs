@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
 
 use alerts_support::{
-    create_site, day, mark_stable, outbox_ids, write_config, Daemon, Receiver, Scene,
+    create_site, day, mark_stable, outbox_ids, upload_new, write_config, Daemon, Receiver, Scene,
 };
 use reqwest::Method;
 use serde_json::json;
@@ -383,14 +383,7 @@ async fn gone_disables_the_endpoint() {
     mark_stable(&daemon, SITE, &scene).await;
     for k in 0..2 {
         let body = scene.epoch(&day(k), 300 + k as u64, 10.0 * k as f64);
-        let (s, b) = daemon
-            .send(
-                Method::POST,
-                &format!("/api/v1/sites/{SITE}/epochs"),
-                Some(&body),
-            )
-            .await;
-        assert_eq!(s, 201, "{b}");
+        upload_new(&daemon, SITE, &body).await;
     }
     let deadline = Instant::now() + Duration::from_secs(20);
     while alerts_support::endpoints_enabled(&data).await != vec![false] {

@@ -11,7 +11,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
 use alerts_support::{
-    create_site, day, mark_stable, outbox_ids, write_config, Daemon, Receiver, Scene,
+    create_site, day, mark_stable, outbox_ids, upload_new, write_config, Daemon, Receiver, Scene,
 };
 use reqwest::Method;
 use serde_json::{json, Value};
@@ -139,14 +139,7 @@ async fn each_endpoint_gets_its_format_signed_and_unchanged_on_retry() {
     mark_stable(&daemon, SITE, &scene).await;
     for k in 0..2 {
         let body = scene.epoch(&day(k), 700 + k as u64, 10.0 * k as f64);
-        let (s, b) = daemon
-            .send(
-                Method::POST,
-                &format!("/api/v1/sites/{SITE}/epochs"),
-                Some(&body),
-            )
-            .await;
-        assert_eq!(s, 201, "epoch {k}: {b}");
+        upload_new(&daemon, SITE, &body).await;
     }
 
     let expected: BTreeSet<String> = outbox_ids(&data)

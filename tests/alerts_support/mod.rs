@@ -28,6 +28,19 @@ pub async fn create_site(d: &Daemon, id: &str, rules: Value) {
     assert_eq!(s, 201, "{b}");
 }
 
+/// Uploads an epoch to site `site` and asserts that it was created (201); returns the summary.
+pub async fn upload_new(d: &Daemon, site: &str, body: &Value) -> Value {
+    let (s, b) = d
+        .send(
+            Method::POST,
+            &format!("/api/v1/sites/{site}/epochs"),
+            Some(body),
+        )
+        .await;
+    assert_eq!(s, 201, "{b}");
+    b
+}
+
 /// Marks the scene's fixed points (index < `stable`) of site `site` as stable points.
 pub async fn mark_stable(d: &Daemon, site: &str, scene: &Scene) {
     for i in 0..scene.stable {
