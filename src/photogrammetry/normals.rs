@@ -52,6 +52,9 @@ pub struct Coupling {
     pub rows: Vec<Vector3<f64>>,
     /// Whether `cols` ascend (then the Schur complement visits only its lower triangle's pairs).
     pub sorted: bool,
+    /// End (exclusive) of the run of consecutive global columns that holds each entry of `cols`:
+    /// the Schur complement and the cofactors work run by run.
+    pub run_end: Vec<usize>,
 }
 
 impl Coupling {
@@ -349,6 +352,16 @@ impl Bundle {
         wi.cols.extend_from_slice(&interior.cols);
         wi.rows.extend_from_slice(&interior.rows);
         wi.sorted = wi.cols.windows(2).all(|c| c[0] < c[1]);
+        let nw = wi.cols.len();
+        wi.run_end.clear();
+        wi.run_end.resize(nw, nw);
+        for a in (0..nw.saturating_sub(1)).rev() {
+            wi.run_end[a] = if wi.cols[a + 1] == wi.cols[a] + 1 {
+                wi.run_end[a + 1]
+            } else {
+                a + 1
+            };
+        }
         if let Some((xc, s)) = self.control[i] {
             let p = 1.0 / (s * s);
             let e = self.points[i] - xc;
@@ -460,7 +473,7 @@ impl Bundle {
         let wi = &n.w[i];
         let nw = wi.cols.len();
         // (W V⁻¹) by components, so that the update of a run of consecutive columns vectorizes.
-        let (wv, run_end) = (&mut scratch.wv, &mut scratch.run_end);
+        let wv = &mut scratch.wv;
         for c in wv.iter_mut() {
             c.clear();
         }
@@ -473,18 +486,6 @@ impl Bundle {
         for (a, &ca) in wi.cols.iter().enumerate() {
             rhs[ca] += wv[0][a] * n.bp[i].x + wv[1][a] * n.bp[i].y + wv[2][a] * n.bp[i].z;
         }
-        if wi.sorted {
-            // End (exclusive) of the run of consecutive global columns that holds each entry.
-            run_end.clear();
-            run_end.resize(nw, nw);
-            for a in (0..nw.saturating_sub(1)).rev() {
-                run_end[a] = if wi.cols[a + 1] == wi.cols[a] + 1 {
-                    run_end[a + 1]
-                } else {
-                    a + 1
-                };
-            }
-        }
         // S[ca, cb] += (W V⁻¹)_a · W_b for ca ≥ cb, column by column (subtracted by the caller).
         for (b, &cb) in wi.cols.iter().enumerate() {
             let rb = wi.rows[b];
@@ -492,7 +493,7 @@ impl Bundle {
             if wi.sorted {
                 let mut a = b;
                 while a < nw {
-                    let end = run_end[a];
+                    let end = wi.run_end[a];
                     let g = wi.cols[a];
                     add_run(
                         &mut col[g..g + (end - a)],
@@ -583,7 +584,6 @@ type ReducedChunk = (Mat<f64>, Vec<f64>, Vec<Matrix3<f64>>);
 #[derive(Default)]
 struct ReduceScratch {
     wv: [Vec<f64>; 3],
-    run_end: Vec<usize>,
 }
 
 /// Observations per chunk of the parallel cost evaluation.

@@ -141,21 +141,14 @@ impl Cofactors {
     fn diagonal_block(&self, i: usize) -> (Matrix3<f64>, Vec<Vector3<f64>>) {
         let w = &self.normals.w[i];
         let n = w.cols.len();
-        // Runs of consecutive global columns (start, end) among the point's coupling columns.
-        let mut runs: Vec<(usize, usize)> = Vec::new();
-        for (y, &c) in w.cols.iter().enumerate() {
-            match runs.last_mut() {
-                Some((s, e)) if w.cols[*s] + (*e - *s) == c => *e = y + 1,
-                _ => runs.push((y, y + 1)),
-            }
-        }
         // qw[y] = Σ_x S⁻¹[c_x, c_y] W_x, summed over x in order; S⁻¹ is symmetric, so row c_x over
         // the run is a slice of its column c_x and each step is a plain (vectorized) update.
         let mut acc = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         for (&cx, r) in w.cols.iter().zip(&w.rows) {
             let qc = self.qcc.col_as_slice(cx);
-            for &(s, e) in &runs {
-                let g = w.cols[s];
+            let mut s = 0;
+            while s < n {
+                let (g, e) = (w.cols[s], w.run_end[s]);
                 let q = &qc[g..g + (e - s)];
                 let [a0, a1, a2] = &mut acc;
                 let (a0, a1, a2) = (&mut a0[s..e], &mut a1[s..e], &mut a2[s..e]);
@@ -164,6 +157,7 @@ impl Cofactors {
                     a1[k] += q[k] * r.y;
                     a2[k] += q[k] * r.z;
                 }
+                s = e;
             }
         }
         let qw: Vec<Vector3<f64>> = (0..n)
