@@ -7,8 +7,8 @@ use super::normals::{Bundle, Normals};
 pub struct LmOutcome {
     /// Accepted iterations.
     pub iterations: usize,
-    /// True when the largest update fell below 1e-6 of its a-priori σ (or vᵀPv stopped changing
-    /// in the 13th digit).
+    /// True when the largest update, or the distance to the optimum extrapolated from the last two
+    /// updates, fell below 1e-6 of its a-priori σ (or vᵀPv stopped changing in the 13th digit).
     pub converged: bool,
     /// Final vᵀPv.
     pub cost: f64,
@@ -21,6 +21,26 @@ const ROUNDING: f64 = 1e-12;
 
 /// Largest update (in a-priori σ of its unknown) that counts as converged.
 const CONVERGED_STEP: f64 = 1e-6;
+
+/// A step whose size (a-priori σ) is below this multiple of the convergence threshold may end the
+/// iteration by the extrapolated distance to the optimum (see [`distance_left`]).
+const EXTRAPOLATE_WITHIN: f64 = 100.0;
+
+/// Largest contraction ratio taken from two successive steps; beyond it the iteration is not yet in
+/// its linear regime and no distance is extrapolated.
+const MAX_RATIO: f64 = 0.5;
+
+/// Distance (a-priori σ) from the state after a step of size `step` to the optimum, extrapolated
+/// from the linear convergence of Gauss–Newton: with the ratio ρ = step / previous of two successive
+/// steps, the steps still to come sum to step · ρ / (1 − ρ). Gauss–Newton converges linearly on a
+/// problem with non-zero residuals, at a rate set by the residuals and the curvature of the model
+/// (here ρ ≈ 10⁻²…10⁻³ per iteration), so that once the ratio is small the state is far closer to
+/// the optimum than the last step. `None` without a previous step or with a ratio above
+/// [`MAX_RATIO`].
+fn distance_left(step: f64, previous: Option<f64>) -> Option<f64> {
+    let rho = step / previous?;
+    (rho <= MAX_RATIO).then(|| step * rho / (1.0 - rho))
+}
 
 /// The largest update measured in units of its a-priori σ, 1/√N_kk.
 fn step_in_sigmas(
@@ -47,9 +67,10 @@ pub fn levenberg_marquardt(b: &mut Bundle, max_iterations: usize) -> LmOutcome {
     levenberg_marquardt_normals(b, max_iterations).0
 }
 
-/// As [`levenberg_marquardt`], also returning, when it converged by a negligible last step (below
-/// 1e-6 σ of every unknown), the normal equations of the state before that step: good for the
-/// cofactors of the solution without building them again.
+/// As [`levenberg_marquardt`], also returning, when it converged by a small last step (below 1e-6 σ
+/// of every unknown, or below 1e-4 σ with the distance left extrapolated below 1e-6 σ), the normal
+/// equations of the state before that step: good for the cofactors of the solution without building
+/// them again (the Jacobian does not change measurably over 10⁻⁴ σ).
 pub fn levenberg_marquardt_normals(
     b: &mut Bundle,
     max_iterations: usize,
@@ -79,6 +100,7 @@ pub fn levenberg_marquardt_within(
         };
         return (outcome, None);
     }
+    let mut previous_step = None;
     while iterations < max_iterations {
         let n = b.normals();
         let saved = (b.images.clone(), b.interior.clone(), b.points.clone());
@@ -101,7 +123,21 @@ pub fn levenberg_marquardt_within(
                 };
                 return (outcome, Some(n));
             }
-            if c.is_finite() && c <= cost * (1.0 + ROUNDING) {
+            let descends = c.is_finite() && c <= cost * (1.0 + ROUNDING);
+            if descends
+                && step < EXTRAPOLATE_WITHIN * converged_step
+                && distance_left(step, previous_step).is_some_and(|d| d < converged_step)
+            {
+                // What is left after this step is below the threshold: converged as well, without
+                // one more build of the normal equations only to see a negligible step.
+                let outcome = LmOutcome {
+                    iterations: iterations + 1,
+                    converged: true,
+                    cost: c,
+                };
+                return (outcome, Some(n));
+            }
+            if descends {
                 accepted = Some((c, step));
                 lambda = (lambda * 0.2).max(1e-12);
                 break;
@@ -120,6 +156,7 @@ pub fn levenberg_marquardt_within(
             return (outcome, Some(n));
         };
         iterations += 1;
+        previous_step = Some(step);
         let decrease = (cost - c) / cost.max(1e-300);
         cost = c;
         if step < converged_step || (decrease.abs() < 1e-13 && step < 1e-2) {
