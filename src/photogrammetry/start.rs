@@ -42,7 +42,7 @@ pub struct StartValues {
 
 /// Relative decrease of the squared misfit below which the refinement of a start orientation stops
 /// (the start needs to be close, not exact: the adjustment converges from it).
-const START_TOLERANCE: f64 = 1e-10;
+const START_TOLERANCE: f64 = 1e-6;
 
 /// Refines one image's orientation on points of known coordinates with the closed-form model
 /// (c fixed), at most `iterations` Levenberg–Marquardt steps on (three rotation increments, m, A4, A8). Returns the refined
