@@ -591,7 +591,7 @@ const COST_CHUNK: usize = 4096;
 
 /// Observations below which the normal equations are built on the calling thread only (the rayon
 /// pool's overhead would exceed the gain).
-pub const PARALLEL_MIN_OBSERVATIONS: usize = 20_000;
+pub const PARALLEL_MIN_OBSERVATIONS: usize = 2_000;
 
 /// Points per chunk of parallel work: all of them for small networks, else two chunks per thread
 /// of the rayon pool (each chunk carries a dense matrix of the camera unknowns).

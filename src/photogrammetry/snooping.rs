@@ -167,7 +167,7 @@ pub struct LinearSnooping {
 
 /// Networks of fewer observations follow every observation through the drops between exact
 /// re-adjustments.
-pub const TRACK_ALL_BELOW: usize = PARALLEL_MIN_OBSERVATIONS;
+pub const TRACK_ALL_BELOW: usize = 20_000;
 
 /// In larger networks, share of the critical value of |w| above which an observation is followed
 /// through the drops. A drop changes the other observations' w by their correlation with the
