@@ -13,6 +13,7 @@ pub mod bundle;
 pub mod camera;
 pub mod central;
 pub mod dense;
+pub mod dense_schur;
 pub mod dual;
 pub mod epoch;
 pub mod error;

@@ -93,6 +93,8 @@ pub struct Reduced {
     pub rhs: Vec<f64>,
     /// (V_i + damping + gauge)⁻¹.
     pub vinv: Vec<Matrix3<f64>>,
+    /// W and W V⁻¹ as dense matrices, when the reduction ran as matrix products.
+    pub dense: Option<super::dense_schur::DenseCouplings>,
 }
 
 impl Bundle {
@@ -375,6 +377,9 @@ impl Bundle {
     /// lower triangle of S is formed (all the Cholesky factorization reads); the upper keeps U's.
     /// Large networks are reduced in chunks of points on the rayon pool, each with its own Σ W V⁻¹ Wᵀ.
     pub fn reduce(&self, n: &Normals, lambda: f64) -> Option<Reduced> {
+        if super::dense_schur::is_dense(n, self.obs.len()) {
+            return self.reduce_dense(n, lambda);
+        }
         let nc = n.bc.len();
         let np = n.v.len();
         let chunk = chunk_len(np, self.obs.len());
@@ -394,12 +399,7 @@ impl Bundle {
         } else {
             (0..np.div_ceil(chunk)).into_par_iter().map(work).collect()
         };
-        let mut s = n.u.clone();
-        let umax = (0..nc).map(|k| n.u[(k, k)]).fold(0.0, f64::max);
-        for k in 0..nc {
-            let d = n.u[(k, k)].max(umax * 1e-14).max(1e-300);
-            s[(k, k)] += lambda * d;
-        }
+        let mut s = damped_u(n, lambda);
         let mut rhs = n.bc.clone();
         let mut vinv = Vec::with_capacity(np);
         for part in parts {
@@ -415,7 +415,41 @@ impl Bundle {
             }
             vinv.extend(pv);
         }
-        Some(Reduced { s, rhs, vinv })
+        Some(Reduced {
+            s,
+            rhs,
+            vinv,
+            dense: None,
+        })
+    }
+
+    /// [`Bundle::reduce`] for densely coupled networks (see [`super::dense_schur`]): the same
+    /// system, with Σ W V⁻¹ Wᵀ as one matrix product.
+    fn reduce_dense(&self, n: &Normals, lambda: f64) -> Option<Reduced> {
+        let vinv = (0..n.v.len())
+            .map(|i| self.point_inverse(n, i, lambda))
+            .collect::<Option<Vec<_>>>()?;
+        let mut rhs = n.bc.clone();
+        let dense = super::dense_schur::couplings(n, &vinv, &mut rhs);
+        let mut s = damped_u(n, lambda);
+        super::dense_schur::subtract_product(&mut s, &dense);
+        Some(Reduced {
+            s,
+            rhs,
+            vinv,
+            dense: Some(dense),
+        })
+    }
+
+    /// (V_i + damping + gauge)⁻¹ of point i, or None when it is singular.
+    #[inline(always)]
+    fn point_inverse(&self, n: &Normals, i: usize, lambda: f64) -> Option<Matrix3<f64>> {
+        let vi = &n.v[i];
+        let mut vd = *vi;
+        for k in 0..3 {
+            vd[(k, k)] += lambda * vi[(k, k)].max(1e-300) + self.gauge;
+        }
+        vd.try_inverse()
     }
 
     /// Adds point i's W V⁻¹ Wᵀ (lower triangle) to `s` and W V⁻¹ b_p to `rhs`; returns the damped
@@ -464,12 +498,7 @@ impl Bundle {
         rhs: &mut [f64],
         scratch: &mut ReduceScratch,
     ) -> Option<Matrix3<f64>> {
-        let vi = &n.v[i];
-        let mut vd = *vi;
-        for k in 0..3 {
-            vd[(k, k)] += lambda * vi[(k, k)].max(1e-300) + self.gauge;
-        }
-        let inv = vd.try_inverse()?;
+        let inv = self.point_inverse(n, i, lambda)?;
         let wi = &n.w[i];
         let nw = wi.cols.len();
         // (W V⁻¹) by components, so that the update of a run of consecutive columns vectorizes.
@@ -529,7 +558,7 @@ impl Bundle {
         if dcv.iter().any(|v| !v.is_finite()) {
             return None;
         }
-        let dp = (0..n.v.len())
+        let dp: Vec<Vector3<f64>> = (0..n.v.len())
             .map(|i| {
                 let wi = &n.w[i];
                 let mut b = n.bp[i];
@@ -539,6 +568,9 @@ impl Bundle {
                 r.vinv[i] * b
             })
             .collect();
+        if dp.iter().flatten().any(|v| !v.is_finite()) {
+            return None;
+        }
         Some((dcv, dp))
     }
 
@@ -575,6 +607,19 @@ fn add_run(dst: &mut [f64], z: [&[f64]; 3], r: [f64; 3]) {
     for k in 0..n {
         dst[k] += z0[k] * r[0] + z1[k] * r[1] + z2[k] * r[2];
     }
+}
+
+/// U with Marquardt damping λ on its diagonal (scaled by the diagonal, floored at 1e-14 of its
+/// largest element).
+fn damped_u(n: &Normals, lambda: f64) -> Mat<f64> {
+    let nc = n.bc.len();
+    let mut s = n.u.clone();
+    let umax = (0..nc).map(|k| n.u[(k, k)]).fold(0.0, f64::max);
+    for k in 0..nc {
+        let d = n.u[(k, k)].max(umax * 1e-14).max(1e-300);
+        s[(k, k)] += lambda * d;
+    }
+    s
 }
 
 /// One chunk's Σ W V⁻¹ Wᵀ (lower triangle), Σ W V⁻¹ b_p and its points' (V + gauge)⁻¹.

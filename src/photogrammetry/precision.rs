@@ -53,15 +53,19 @@ impl Cofactors {
             qw: Vec::new(),
             datum: None,
         };
-        let blocks: Vec<(Matrix3<f64>, Vec<Vector3<f64>>)> =
-            if b.obs.len() < PARALLEL_MIN_OBSERVATIONS {
-                (0..b.points.len()).map(|i| cof.diagonal_block(i)).collect()
-            } else {
-                (0..b.points.len())
-                    .into_par_iter()
-                    .map(|i| cof.diagonal_block(i))
-                    .collect()
-            };
+        let blocks: Vec<(Matrix3<f64>, Vec<Vector3<f64>>)> = if let Some(d) = &reduced.dense {
+            let qw = super::dense_schur::cofactor_product(&cof.qcc, &d.w);
+            (0..b.points.len())
+                .map(|i| cof.diagonal_block_from(i, &qw))
+                .collect()
+        } else if b.obs.len() < PARALLEL_MIN_OBSERVATIONS {
+            (0..b.points.len()).map(|i| cof.diagonal_block(i)).collect()
+        } else {
+            (0..b.points.len())
+                .into_par_iter()
+                .map(|i| cof.diagonal_block(i))
+                .collect()
+        };
         (cof.qpp, cof.qw) = blocks.into_iter().unzip();
         if free_network {
             cof.datum = Some(cof.datum_projection(&b.points)?);
@@ -163,12 +167,34 @@ impl Cofactors {
         let qw: Vec<Vector3<f64>> = (0..n)
             .map(|y| Vector3::new(acc[0][y], acc[1][y], acc[2][y]))
             .collect();
+        self.block_of(i, qw)
+    }
+
+    /// Q_ii = V⁻¹ + V⁻¹ Wᵢᵀ S⁻¹ Wᵢ V⁻¹ of point i from its `S⁻¹ W_i` products `qw`, returned with them.
+    fn block_of(&self, i: usize, qw: Vec<Vector3<f64>>) -> (Matrix3<f64>, Vec<Vector3<f64>>) {
         let inner = qw
             .iter()
-            .zip(&w.rows)
+            .zip(&self.normals.w[i].rows)
             .fold(Matrix3::zeros(), |m, (t, r)| m + t * r.transpose());
         let q = self.vinv[i] * inner * self.vinv[i] + self.vinv[i];
         (q, qw)
+    }
+
+    /// [`Cofactors::diagonal_block`] from `Q W` of all points (see
+    /// [`super::dense_schur::cofactor_product`]).
+    fn diagonal_block_from(
+        &self,
+        i: usize,
+        qw_all: &Mat<f64>,
+    ) -> (Matrix3<f64>, Vec<Vector3<f64>>) {
+        let w = &self.normals.w[i];
+        let cols = [0, 1, 2].map(|k| qw_all.col_as_slice(3 * i + k));
+        let qw: Vec<Vector3<f64>> = w
+            .cols
+            .iter()
+            .map(|&c| Vector3::new(cols[0][c], cols[1][c], cols[2][c]))
+            .collect();
+        self.block_of(i, qw)
     }
 
     /// Raw cofactor block Q_ab of points a and b (before the datum projection).
