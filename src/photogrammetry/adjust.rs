@@ -12,7 +12,7 @@ use super::epoch::{EpochInput, EpochProblem};
 use super::error::AdjustError;
 use super::frame::{similarity_fit, WorkingFrame};
 use super::lm::{
-    levenberg_marquardt, levenberg_marquardt_normals, levenberg_marquardt_within, LmOutcome,
+    levenberg_marquardt, levenberg_marquardt_normals, levenberg_marquardt_within, LmOutcome, Start,
     ROUND_STEP,
 };
 use super::normals::{Bundle, Normals};
@@ -715,6 +715,9 @@ fn solve(
     // error cannot pull the solution into a wrong basin; then gross residuals are set aside.
     let converged = choose_mirrors(&mut bundle, mirrors);
     let robust = options.snooping;
+    // The stages after the robust first one start from its converged state; without it (snooping
+    // off) stage 2 starts from the start values.
+    let continuing = if robust { Start::Near } else { Start::Rough };
     if affine_first && bundle.model == Model::Orthogonal {
         affine_stage(&mut bundle, robust);
     }
@@ -734,7 +737,8 @@ fn solve(
         );
         if calibrate {
             bundle.free = stage2;
-            let (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
+            let (outcome, n) =
+                levenberg_marquardt_normals(&mut bundle, options.max_iterations, continuing);
             normals = n;
             outcome
         } else {
@@ -815,7 +819,11 @@ fn solve(
                     let (dc, dp) = lin.step(&cof);
                     bundle.apply(&dc, &dp);
                     let n;
-                    (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
+                    (outcome, n) = levenberg_marquardt_normals(
+                        &mut bundle,
+                        options.max_iterations,
+                        Start::Near,
+                    );
                     cof = invert(&bundle, n)?;
                     lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
                     if !capped {
@@ -830,7 +838,8 @@ fn solve(
                 bundle.obs[k].active = false;
                 bundle.apply(&dc, &dp);
                 let n;
-                (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
+                (outcome, n) =
+                    levenberg_marquardt_normals(&mut bundle, options.max_iterations, Start::Near);
                 cof = invert(&bundle, n)?;
                 lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
                 counts.drop(&bundle, k);
@@ -856,7 +865,8 @@ fn solve(
                 bundle.obs[k].active = true;
             }
             let n;
-            (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
+            (outcome, n) =
+                levenberg_marquardt_normals(&mut bundle, options.max_iterations, Start::Near);
             cof = invert(&bundle, n)?;
             lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
         }
@@ -866,7 +876,7 @@ fn solve(
             bundle.obs[k].active = true;
         }
         let n;
-        (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations);
+        (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations, continuing);
         cof = invert(&bundle, n)?;
     }
     let w: Vec<[f64; 2]> = match final_w {
