@@ -555,7 +555,7 @@ pub fn adjust_problem(
                 image: j,
                 point: o.point,
                 meas: o.xy,
-                active: !start.suspects.contains(&(j, k)),
+                active: start.suspects.binary_search(&(j, k)).is_err(),
                 weight: 1.0,
             });
         }

@@ -370,7 +370,7 @@ impl EpochInput {
                 return Err(EpochError::DuplicatePoint(c.point.clone()));
             }
             // Control points nobody observed are ignored: they carry no information.
-            if let Some(i) = points.iter().position(|p| p == &c.point) {
+            if let Some(&i) = point_index.get(c.point.as_str()) {
                 control[i] = Some(Control { xyz, sigma_m });
                 approx[i] = Some(xyz);
             }
@@ -386,7 +386,7 @@ impl EpochInput {
             if !seen_approx.insert(a.point.clone()) {
                 return Err(EpochError::DuplicatePoint(a.point.clone()));
             }
-            if let Some(i) = points.iter().position(|p| p == &a.point) {
+            if let Some(&i) = point_index.get(a.point.as_str()) {
                 if approx[i].is_none() {
                     approx[i] = Some(xyz);
                 }

@@ -34,7 +34,7 @@ pub struct StartValues {
     pub centers: Vec<Vector3<f64>>,
     /// Point coordinates (m).
     pub points: Vec<Vector3<f64>>,
-    /// Observations (image, index into its observations) whose start misfit is gross.
+    /// Observations (image, index into its observations) whose start misfit is gross, ascending.
     pub suspects: Vec<(usize, usize)>,
     /// Per image, the mirror solution (rotation, centre) of a planar point set, if any.
     pub mirrors: Vec<Option<(Matrix3<f64>, Vector3<f64>)>>,
@@ -371,6 +371,7 @@ pub fn start_values(
         mirrors.push(res.mirror);
         suspects.extend(res.removed.into_iter().map(|k| (i, k)));
     }
+    suspects.sort_unstable();
     // Observations per point (image, index in the image), for the intersections.
     let mut seen_by: Vec<Vec<(usize, usize)>> = vec![Vec::new(); known.len()];
     for (i, im) in images.iter().enumerate() {
@@ -386,7 +387,7 @@ pub fn start_values(
         }
         let rays: Vec<_> = seen_by[p]
             .iter()
-            .filter(|ik| !suspects.contains(ik))
+            .filter(|ik| suspects.binary_search(ik).is_err())
             .map(|&(i, k)| {
                 let xy = images[i].observations[k].1;
                 let d = rotations[i].transpose() * Vector3::new(xy[0], xy[1], -images[i].c);
