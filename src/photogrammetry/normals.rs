@@ -228,12 +228,33 @@ impl Bundle {
     /// camera's interior parameters) and mirrored at the end. Large networks are built in chunks of
     /// points on the rayon pool, each with its own U, summed at the end.
     pub fn normals(&self) -> Normals {
+        let mut n = Normals {
+            u: Mat::zeros(0, 0),
+            bc: Vec::new(),
+            v: Vec::new(),
+            bp: Vec::new(),
+            w: Vec::new(),
+            cost: 0.0,
+        };
+        self.normals_into(&mut n);
+        n
+    }
+
+    /// [`Bundle::normals`] into the buffers of earlier normal equations `n` (of this bundle or
+    /// another): the couplings' vectors keep their capacity, so that an iteration does not allocate
+    /// (and fault in) them anew.
+    pub fn normals_into(&self, n: &mut Normals) {
         let nc = self.camera_unknowns();
         let lanes = self.interior_lanes();
         let np = self.points.len();
-        let mut v = vec![Matrix3::zeros(); np];
-        let mut bp = vec![Vector3::zeros(); np];
-        let mut w = vec![Coupling::default(); np];
+        let mut w = std::mem::take(&mut n.w);
+        w.resize_with(np, Coupling::default);
+        let mut v = std::mem::take(&mut n.v);
+        v.clear();
+        v.resize(np, Matrix3::zeros());
+        let mut bp = std::mem::take(&mut n.bp);
+        bp.clear();
+        bp.resize(np, Vector3::zeros());
         let chunk = chunk_len(np, self.obs.len());
         let work =
             |ci: usize, v: &mut [Matrix3<f64>], bp: &mut [Vector3<f64>], w: &mut [Coupling]| {
@@ -270,14 +291,14 @@ impl Bundle {
                 u[(b, a)] = u[(a, b)];
             }
         }
-        Normals {
+        *n = Normals {
             u,
             bc,
             v,
             bp,
             w,
             cost,
-        }
+        };
     }
 
     /// The share of point `i` in the normal equations: its block `v`, right-hand side `bp` and
@@ -295,6 +316,8 @@ impl Bundle {
         let (u, bc, cost) = acc;
         let mut cols = [(0usize, 0usize); 14];
         let nobs = self.point_obs[i].len();
+        wi.cols.clear();
+        wi.rows.clear();
         wi.cols.reserve(7 * nobs);
         wi.rows.reserve(7 * nobs);
         // Interior couplings, appended after the image blocks so that the columns ascend.
