@@ -36,6 +36,22 @@ pub fn cholesky(a: &Mat<f64>) -> Option<Mat<f64>> {
     Some(l)
 }
 
+/// [`cholesky`] in the memory of `a` (only its lower triangle is read; the factor is its lower
+/// triangle, the upper one is left as it was).
+pub fn cholesky_in_place(mut a: Mat<f64>) -> Option<Mat<f64>> {
+    let n = a.nrows();
+    let p = par(n);
+    let mut mem = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(
+        n,
+        p,
+        Default::default(),
+    ));
+    let stack = MemStack::new(&mut mem);
+    llt::factor::cholesky_in_place(a.as_mut(), Default::default(), p, stack, Default::default())
+        .ok()?;
+    Some(a)
+}
+
 /// Solves A x = b in place (b: one or more columns) from the factor of [`cholesky`].
 pub fn solve_in_place(l: &Mat<f64>, b: &mut Mat<f64>) {
     let n = l.nrows();
@@ -91,6 +107,26 @@ mod tests {
             for i in 0..n {
                 assert!((back[(i, 0)] - i as f64).abs() < 1e-9 * n as f64);
             }
+        }
+        // In place, with garbage above the diagonal (the reduction leaves U's values there).
+        let n = 40;
+        let mut a = Mat::<f64>::zeros(n, n);
+        for i in 0..n {
+            for j in 0..=i {
+                a[(i, j)] = 1.0 / (1.0 + (i as f64 - j as f64).abs());
+            }
+            a[(i, i)] += n as f64;
+            for j in i + 1..n {
+                a[(i, j)] = 1e30;
+            }
+        }
+        let full = Mat::<f64>::from_fn(n, n, |i, j| a[(i.max(j), i.min(j))]);
+        let l = cholesky_in_place(a).expect("positive definite");
+        let mut b = Mat::<f64>::from_fn(n, 1, |i, _| i as f64);
+        solve_in_place(&l, &mut b);
+        let back = &full * &b;
+        for i in 0..n {
+            assert!((back[(i, 0)] - i as f64).abs() < 1e-9 * n as f64);
         }
         let mut bad = Mat::<f64>::identity(3, 3);
         bad[(2, 2)] = -1.0;

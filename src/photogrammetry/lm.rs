@@ -1,6 +1,6 @@
 //! Gauss–Newton with Levenberg–Marquardt damping over the bundle's normal equations.
 
-use super::normals::{Bundle, Normals};
+use super::normals::{Bundle, Normals, ReduceBuffers};
 
 /// How an iteration ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -141,6 +141,7 @@ fn run(
     let mut previous_step = None;
     // The normal equations of the previous iteration, rebuilt in place.
     let mut buffer: Option<Normals> = None;
+    let mut reduce_buffers = ReduceBuffers::default();
     while iterations < max_iterations {
         let n = match buffer.take() {
             Some(mut n) => {
@@ -152,7 +153,7 @@ fn run(
         let saved = (b.images.clone(), b.interior.clone(), b.points.clone());
         let mut accepted = None;
         for _ in 0..20 {
-            let Some((dc, dp)) = b.solve(&n, lambda) else {
+            let Some((dc, dp)) = b.solve_with(&n, lambda, &mut reduce_buffers) else {
                 lambda *= 10.0;
                 continue;
             };

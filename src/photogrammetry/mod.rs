@@ -11,6 +11,7 @@ pub mod adjust;
 pub mod affine;
 pub mod bundle;
 pub mod camera;
+pub mod camera_blocks;
 pub mod central;
 pub mod dense;
 pub mod dense_schur;

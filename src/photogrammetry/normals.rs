@@ -7,6 +7,7 @@ use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use super::bundle::{residual, residual_jacobian, ImageState, Obs, INTERIOR0, LOCAL, POINT0};
+use super::camera_blocks::CameraBlocks;
 use super::dual::Dual;
 use super::report::Model;
 use super::rotation::perturbed;
@@ -256,15 +257,20 @@ impl Bundle {
         bp.clear();
         bp.resize(np, Vector3::zeros());
         let chunk = chunk_len(np, self.obs.len());
+        let interior_cols: Vec<Vec<usize>> = lanes
+            .iter()
+            .map(|l| l.iter().map(|&(g, _)| g).collect())
+            .collect();
+        let counts: Vec<usize> = lanes.iter().map(Vec::len).collect();
         let work =
             |ci: usize, v: &mut [Matrix3<f64>], bp: &mut [Vector3<f64>], w: &mut [Coupling]| {
-                let mut acc = (Mat::<f64>::zeros(nc, nc), vec![0.0; nc], 0.0);
+                let mut acc = CameraBlocks::new(&self.image_camera, &counts, nc);
                 for (k, ((v, bp), w)) in v.iter_mut().zip(bp).zip(w).enumerate() {
                     self.point_normals(ci * chunk + k, &lanes, &mut acc, v, bp, w);
                 }
                 acc
             };
-        let (mut u, mut bc, mut cost) = if chunk >= np {
+        let blocks = if chunk >= np {
             work(0, &mut v, &mut bp, &mut w)
         } else {
             v.par_chunks_mut(chunk)
@@ -272,9 +278,12 @@ impl Bundle {
                 .zip(w.par_chunks_mut(chunk))
                 .enumerate()
                 .map(|(ci, ((v, bp), w))| work(ci, v, bp, w))
-                .reduce_with(add_partial)
-                .unwrap_or_else(|| (Mat::zeros(nc, nc), vec![0.0; nc], 0.0))
+                .reduce_with(CameraBlocks::merge)
+                .unwrap_or_else(|| CameraBlocks::new(&self.image_camera, &counts, nc))
         };
+        let mut u = std::mem::replace(&mut n.u, Mat::zeros(0, 0));
+        blocks.write(&mut u, &self.image_camera, &interior_cols);
+        let (mut bc, mut cost) = (blocks.bc, blocks.cost);
         for (cam, cols) in self.interior_columns().iter().enumerate() {
             for k in 0..8 {
                 if let (Some(g), Some((v, s))) = (cols[k], self.interior_prior[cam][k]) {
@@ -284,11 +293,6 @@ impl Bundle {
                     u[(g, g)] += p;
                     bc[g] -= p * e;
                 }
-            }
-        }
-        for a in 0..nc {
-            for b in 0..a {
-                u[(b, a)] = u[(a, b)];
             }
         }
         *n = Normals {
@@ -302,18 +306,16 @@ impl Bundle {
     }
 
     /// The share of point `i` in the normal equations: its block `v`, right-hand side `bp` and
-    /// coupling `w`, and its observations' terms added to the (lower triangle of) U, b_c and the cost
-    /// in `acc`.
+    /// coupling `w`, and its observations' terms added to the blocks of U, b_c and the cost in `acc`.
     fn point_normals(
         &self,
         i: usize,
         lanes: &[Vec<(usize, usize)>],
-        acc: &mut (Mat<f64>, Vec<f64>, f64),
+        acc: &mut CameraBlocks,
         v: &mut Matrix3<f64>,
         bp: &mut Vector3<f64>,
         wi: &mut Coupling,
     ) {
-        let (u, bc, cost) = acc;
         let mut cols = [(0usize, 0usize); 14];
         let nobs = self.point_obs[i].len();
         wi.cols.clear();
@@ -342,7 +344,7 @@ impl Bundle {
             let mut jte = [0.0f64; 14];
             for fk in &f {
                 let e = fk.v;
-                *cost += p * e * e;
+                acc.cost += p * e * e;
                 let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
                 *v += p * jp * jp.transpose();
                 *bp -= p * e * jp;
@@ -359,13 +361,7 @@ impl Bundle {
                     wrows[a] += pja * jp;
                 }
             }
-            for a in 0..n {
-                let ga = cols[a].0;
-                bc[ga] -= jte[a];
-                for (b, t) in jtj[a][..=a].iter().enumerate() {
-                    u.col_as_slice_mut(cols[b].0)[ga] += t;
-                }
-            }
+            acc.add(o.image, cam, &jtj, &jte, &cols[..n]);
             for a in 0..6 {
                 wi.cols.push(cols[a].0);
                 wi.rows.push(wrows[a]);
@@ -390,7 +386,7 @@ impl Bundle {
         if let Some((xc, s)) = self.control[i] {
             let p = 1.0 / (s * s);
             let e = self.points[i] - xc;
-            *cost += p * e.norm_squared();
+            acc.cost += p * e.norm_squared();
             *v += p * Matrix3::identity();
             *bp -= p * e;
         }
@@ -400,33 +396,54 @@ impl Bundle {
     /// lower triangle of S is formed (all the Cholesky factorization reads); the upper keeps U's.
     /// Large networks are reduced in chunks of points on the rayon pool, each with its own Σ W V⁻¹ Wᵀ.
     pub fn reduce(&self, n: &Normals, lambda: f64) -> Option<Reduced> {
+        self.reduce_with(n, lambda, &mut ReduceBuffers::default())
+    }
+
+    /// [`Bundle::reduce`] in the dense matrices of `buffers` (kept from an earlier reduction).
+    pub fn reduce_with(
+        &self,
+        n: &Normals,
+        lambda: f64,
+        buffers: &mut ReduceBuffers,
+    ) -> Option<Reduced> {
         if super::dense_schur::is_dense(n, self.obs.len()) {
-            return self.reduce_dense(n, lambda);
+            return self.reduce_dense(n, lambda, buffers);
         }
         let nc = n.bc.len();
         let np = n.v.len();
         let chunk = chunk_len(np, self.obs.len());
-        let work = |ci: usize| {
-            let mut s = Mat::<f64>::zeros(nc, nc);
+        let work = |ci: usize, s: &mut Mat<f64>| {
+            if s.nrows() == nc && s.ncols() == nc {
+                s.fill(0.0);
+            } else {
+                *s = Mat::zeros(nc, nc);
+            }
             let mut rhs = vec![0.0; nc];
             let range = ci * chunk..((ci + 1) * chunk).min(np);
             let mut vinv = Vec::with_capacity(range.len());
             let mut scratch = ReduceScratch::default();
             for i in range {
-                vinv.push(self.reduce_point(n, i, lambda, &mut s, &mut rhs, &mut scratch)?);
+                vinv.push(self.reduce_point(n, i, lambda, s, &mut rhs, &mut scratch)?);
             }
-            Some((s, rhs, vinv))
+            Some((rhs, vinv))
         };
-        let parts: Vec<Option<ReducedChunk>> = if chunk >= np {
-            vec![work(0)]
+        let chunks = np.div_ceil(chunk).max(1);
+        let partials = &mut buffers.partials;
+        partials.resize_with(chunks, || Mat::zeros(0, 0));
+        let parts: Vec<Option<ChunkRest>> = if chunks == 1 {
+            vec![work(0, &mut partials[0])]
         } else {
-            (0..np.div_ceil(chunk)).into_par_iter().map(work).collect()
+            partials
+                .par_iter_mut()
+                .enumerate()
+                .map(|(ci, s)| work(ci, s))
+                .collect()
         };
-        let mut s = damped_u(n, lambda);
+        let mut s = damped_u(n, lambda, buffers.s.take());
         let mut rhs = n.bc.clone();
         let mut vinv = Vec::with_capacity(np);
-        for part in parts {
-            let (ps, prhs, pv) = part?;
+        for (part, ps) in parts.into_iter().zip(&buffers.partials) {
+            let (prhs, pv) = part?;
             for c in 0..nc {
                 let (dst, src) = (s.col_as_slice_mut(c), ps.col_as_slice(c));
                 for (d, x) in dst[c..].iter_mut().zip(&src[c..]) {
@@ -448,13 +465,18 @@ impl Bundle {
 
     /// [`Bundle::reduce`] for densely coupled networks (see [`super::dense_schur`]): the same
     /// system, with Σ W V⁻¹ Wᵀ as one matrix product.
-    fn reduce_dense(&self, n: &Normals, lambda: f64) -> Option<Reduced> {
+    fn reduce_dense(
+        &self,
+        n: &Normals,
+        lambda: f64,
+        buffers: &mut ReduceBuffers,
+    ) -> Option<Reduced> {
         let vinv = (0..n.v.len())
             .map(|i| self.point_inverse(n, i, lambda))
             .collect::<Option<Vec<_>>>()?;
         let mut rhs = n.bc.clone();
         let dense = super::dense_schur::couplings(n, &vinv, &mut rhs);
-        let mut s = damped_u(n, lambda);
+        let mut s = damped_u(n, lambda, buffers.s.take());
         super::dense_schur::subtract_product(&mut s, &dense);
         Some(Reduced {
             s,
@@ -567,15 +589,26 @@ impl Bundle {
 
     /// Solves the damped normal equations: (Δ camera unknowns, Δ points). None if not positive definite.
     pub fn solve(&self, n: &Normals, lambda: f64) -> Option<(Vec<f64>, Vec<Vector3<f64>>)> {
-        let r = self.reduce(n, lambda)?;
+        self.solve_with(n, lambda, &mut ReduceBuffers::default())
+    }
+
+    /// [`Bundle::solve`] in the dense matrices of `buffers`, which keep them for the next solve.
+    pub fn solve_with(
+        &self,
+        n: &Normals,
+        lambda: f64,
+        buffers: &mut ReduceBuffers,
+    ) -> Option<(Vec<f64>, Vec<Vector3<f64>>)> {
+        let r = self.reduce_with(n, lambda, buffers)?;
         let nc = r.rhs.len();
         let mut dc = Mat::<f64>::zeros(nc, 1);
         for k in 0..nc {
             dc[(k, 0)] = r.rhs[k];
         }
         if nc > 0 {
-            let l = super::dense::cholesky(&r.s)?;
+            let l = super::dense::cholesky_in_place(r.s)?;
             super::dense::solve_in_place(&l, &mut dc);
+            buffers.s = Some(l);
         }
         let dcv: Vec<f64> = (0..nc).map(|k| dc[(k, 0)]).collect();
         if dcv.iter().any(|v| !v.is_finite()) {
@@ -633,10 +666,16 @@ fn add_run(dst: &mut [f64], z: [&[f64]; 3], r: [f64; 3]) {
 }
 
 /// U with Marquardt damping λ on its diagonal (scaled by the diagonal, floored at 1e-14 of its
-/// largest element).
-fn damped_u(n: &Normals, lambda: f64) -> Mat<f64> {
+/// largest element), in the memory of `buffer` when it has the size.
+fn damped_u(n: &Normals, lambda: f64, buffer: Option<Mat<f64>>) -> Mat<f64> {
     let nc = n.bc.len();
-    let mut s = n.u.clone();
+    let mut s = match buffer {
+        Some(mut b) if b.nrows() == nc && b.ncols() == nc => {
+            b.copy_from(&n.u);
+            b
+        }
+        _ => n.u.clone(),
+    };
     let umax = (0..nc).map(|k| n.u[(k, k)]).fold(0.0, f64::max);
     for k in 0..nc {
         let d = n.u[(k, k)].max(umax * 1e-14).max(1e-300);
@@ -645,8 +684,18 @@ fn damped_u(n: &Normals, lambda: f64) -> Mat<f64> {
     s
 }
 
-/// One chunk's Σ W V⁻¹ Wᵀ (lower triangle), Σ W V⁻¹ b_p and its points' (V + gauge)⁻¹.
-type ReducedChunk = (Mat<f64>, Vec<f64>, Vec<Matrix3<f64>>);
+/// One chunk's Σ W V⁻¹ b_p and its points' (V + gauge)⁻¹ (its Σ W V⁻¹ Wᵀ is in its buffer).
+type ChunkRest = (Vec<f64>, Vec<Matrix3<f64>>);
+
+/// Dense matrices of the reduction kept from one solve to the next (see [`Bundle::solve_with`]):
+/// the chunks' partial sums of Σ W V⁻¹ Wᵀ and S itself (then its Cholesky factor), which would
+/// otherwise be allocated, and faulted in, anew for every solve (2.9 MB each for 600 camera
+/// unknowns).
+#[derive(Default)]
+pub struct ReduceBuffers {
+    partials: Vec<Mat<f64>>,
+    s: Option<Mat<f64>>,
+}
 
 /// Buffers reused across the points of [`Bundle::reduce`].
 #[derive(Default)]
@@ -669,22 +718,4 @@ pub fn chunk_len(points: usize, observations: usize) -> usize {
     } else {
         points.div_ceil(2 * rayon::current_num_threads()).max(1)
     }
-}
-
-/// Sum of two partial (U, b_c, cost).
-fn add_partial(
-    mut a: (Mat<f64>, Vec<f64>, f64),
-    b: (Mat<f64>, Vec<f64>, f64),
-) -> (Mat<f64>, Vec<f64>, f64) {
-    let nc = a.1.len();
-    for c in 0..nc {
-        let (dst, src) = (a.0.col_as_slice_mut(c), b.0.col_as_slice(c));
-        for (d, x) in dst[c..].iter_mut().zip(&src[c..]) {
-            *d += x;
-        }
-    }
-    for (d, x) in a.1.iter_mut().zip(&b.1) {
-        *d += x;
-    }
-    (a.0, a.1, a.2 + b.2)
 }
