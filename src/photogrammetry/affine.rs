@@ -79,7 +79,22 @@ pub fn is_planar(points: &[Vector3<f64>], ratio: f64) -> bool {
 }
 
 fn lstsq(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
-    if !(a.iter().chain(b.iter()).all(|v| v.is_finite())) {
+    lstsq_pair(a, b, b).map(|(x, _)| x)
+}
+
+/// Least-squares solutions of `a x = bx` and `a y = by` from one SVD of `a`; None when `a` is
+/// rank-deficient (condition beyond 10¹²) or not finite.
+fn lstsq_pair(
+    a: &DMatrix<f64>,
+    bx: &DVector<f64>,
+    by: &DVector<f64>,
+) -> Option<(DVector<f64>, DVector<f64>)> {
+    if !(a
+        .iter()
+        .chain(bx.iter())
+        .chain(by.iter())
+        .all(|v| v.is_finite()))
+    {
         return None;
     }
     let svd = a.clone().try_svd(true, true, f64::EPSILON, 200)?;
@@ -87,7 +102,11 @@ fn lstsq(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
     if svd.singular_values.min() <= smax * 1e-12 {
         return None;
     }
-    svd.solve(b, 0.0).ok()
+    let mut b = DMatrix::zeros(a.nrows(), 2);
+    b.set_column(0, bx);
+    b.set_column(1, by);
+    let x = svd.solve(&b, 0.0).ok()?;
+    Some((x.column(0).into_owned(), x.column(1).into_owned()))
 }
 
 /// Unconstrained affine resection from ≥ 4 non-coplanar points: linear least squares for A1..A8.
@@ -106,8 +125,7 @@ pub fn resect(points: &[Vector3<f64>], xy: &[[f64; 2]]) -> Option<AffineImage> {
         bx[i] = o[0];
         by[i] = o[1];
     }
-    let sx = lstsq(&a, &bx)?;
-    let sy = lstsq(&a, &by)?;
+    let (sx, sy) = lstsq_pair(&a, &bx, &by)?;
     let av = Vector3::new(sx[0], sx[1], sx[2]);
     let bv = Vector3::new(sy[0], sy[1], sy[2]);
     Some(AffineImage {
@@ -176,8 +194,7 @@ pub fn resect_planar(points: &[Vector3<f64>], xy: &[[f64; 2]]) -> Option<[Constr
         bx[i] = o[0];
         by[i] = o[1];
     }
-    let sx = lstsq(&a, &bx)?;
-    let sy = lstsq(&a, &by)?;
+    let (sx, sy) = lstsq_pair(&a, &bx, &by)?;
     let (al1, be1, al2, be2) = (sx[0], sx[1], sy[0], sy[1]);
     let p = al1 * al2 + be1 * be2;
     let q = (al2 * al2 + be2 * be2) - (al1 * al1 + be1 * be1);

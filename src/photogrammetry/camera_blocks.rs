@@ -59,14 +59,14 @@ impl CameraBlocks {
 
     /// Adds one observation's local lower triangle `jtj` of JᵀPJ and its JᵀPe `jte` (local columns:
     /// image `image`'s six unknowns, then its camera `cam`'s interior lanes at global columns
-    /// `cols[6..]`).
+    /// `cols[6..]`; N ≥ `cols.len()`, entries beyond are ignored).
     #[inline(always)]
-    pub fn add(
+    pub fn add<const N: usize>(
         &mut self,
         image: usize,
         cam: usize,
-        jtj: &[[f64; 14]; 14],
-        jte: &[f64; 14],
+        jtj: &[[f64; N]; N],
+        jte: &[f64; N],
         cols: &[(usize, usize)],
     ) {
         let block = &mut self.image[image];

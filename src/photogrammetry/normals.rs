@@ -265,8 +265,9 @@ impl Bundle {
         let work =
             |ci: usize, v: &mut [Matrix3<f64>], bp: &mut [Vector3<f64>], w: &mut [Coupling]| {
                 let mut acc = CameraBlocks::new(&self.image_camera, &counts, nc);
+                let mut interior = Coupling::default();
                 for (k, ((v, bp), w)) in v.iter_mut().zip(bp).zip(w).enumerate() {
-                    self.point_normals(ci * chunk + k, &lanes, &mut acc, v, bp, w);
+                    self.point_normals(ci * chunk + k, &lanes, &mut acc, v, bp, w, &mut interior);
                 }
                 acc
             };
@@ -306,7 +307,9 @@ impl Bundle {
     }
 
     /// The share of point `i` in the normal equations: its block `v`, right-hand side `bp` and
-    /// coupling `w`, and its observations' terms added to the blocks of U, b_c and the cost in `acc`.
+    /// coupling `w`, and its observations' terms added to the blocks of U, b_c and the cost in `acc`;
+    /// `interior` is scratch for its interior couplings.
+    #[allow(clippy::too_many_arguments)]
     fn point_normals(
         &self,
         i: usize,
@@ -315,6 +318,7 @@ impl Bundle {
         v: &mut Matrix3<f64>,
         bp: &mut Vector3<f64>,
         wi: &mut Coupling,
+        interior: &mut Coupling,
     ) {
         let mut cols = [(0usize, 0usize); 14];
         let nobs = self.point_obs[i].len();
@@ -323,7 +327,8 @@ impl Bundle {
         wi.cols.reserve(7 * nobs);
         wi.rows.reserve(7 * nobs);
         // Interior couplings, appended after the image blocks so that the columns ascend.
-        let mut interior = Coupling::default();
+        interior.cols.clear();
+        interior.rows.clear();
         for &oi in &self.point_obs[i] {
             let o = &self.obs[oi];
             if !o.active {
@@ -337,31 +342,17 @@ impl Bundle {
             }
             let n = 6 + lanes[cam].len();
             cols[6..n].copy_from_slice(&lanes[cam]);
-            let mut wrows = [Vector3::zeros(); 14];
-            // The observation's two rows summed in a local lower triangle first, then added to U
-            // once.
-            let mut jtj = [[0.0f64; 14]; 14];
-            let mut jte = [0.0f64; 14];
-            for fk in &f {
-                let e = fk.v;
-                acc.cost += p * e * e;
-                let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
-                *v += p * jp * jp.transpose();
-                *bp -= p * e * jp;
-                let d: [f64; 14] = std::array::from_fn(|a| fk.d[cols[a].1]);
-                for a in 0..n {
-                    let pja = p * d[a];
-                    if pja == 0.0 {
-                        continue;
-                    }
-                    jte[a] += pja * e;
-                    for (t, db) in jtj[a][..=a].iter_mut().zip(&d[..=a]) {
-                        *t += pja * db;
-                    }
-                    wrows[a] += pja * jp;
-                }
-            }
-            acc.add(o.image, cam, &jtj, &jte, &cols[..n]);
+            let cols = &cols[..n];
+            // Fixed sizes for the usual column counts (c held or free), so that the loops unroll.
+            let wrows: [Vector3<f64>; 14] = match n {
+                6 => pad(observation_terms::<6>(
+                    &f, cols, p, o.image, cam, acc, v, bp,
+                )),
+                7 => pad(observation_terms::<7>(
+                    &f, cols, p, o.image, cam, acc, v, bp,
+                )),
+                _ => observation_terms::<14>(&f, cols, p, o.image, cam, acc, v, bp),
+            };
             for a in 0..6 {
                 wi.cols.push(cols[a].0);
                 wi.rows.push(wrows[a]);
@@ -663,6 +654,54 @@ fn add_run(dst: &mut [f64], z: [&[f64]; 3], r: [f64; 3]) {
     for k in 0..n {
         dst[k] += z0[k] * r[0] + z1[k] * r[1] + z2[k] * r[2];
     }
+}
+
+/// One observation's terms of the normal equations from its Jacobian rows `f` (local columns
+/// `cols`, at most N; weight `p`): JᵀPJ and JᵀPe of its image and interior columns added to `acc`,
+/// its point block and right-hand side to `v` and `bp`; returns its coupling rows
+/// (∂e/∂column)ᵀ P ∂e/∂point, one per local column.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn observation_terms<const N: usize>(
+    f: &[Dual<LOCAL>; 2],
+    cols: &[(usize, usize)],
+    p: f64,
+    image: usize,
+    cam: usize,
+    acc: &mut CameraBlocks,
+    v: &mut Matrix3<f64>,
+    bp: &mut Vector3<f64>,
+) -> [Vector3<f64>; N] {
+    let n = cols.len();
+    let mut wrows = [Vector3::zeros(); N];
+    // The observation's two rows summed in a local lower triangle first, then added to U once.
+    let mut jtj = [[0.0f64; N]; N];
+    let mut jte = [0.0f64; N];
+    for fk in f {
+        let e = fk.v;
+        acc.cost += p * e * e;
+        let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
+        *v += p * jp * jp.transpose();
+        *bp -= p * e * jp;
+        let d: [f64; N] = std::array::from_fn(|a| if a < n { fk.d[cols[a].1] } else { 0.0 });
+        for a in 0..N {
+            let pja = p * d[a];
+            jte[a] += pja * e;
+            for b in 0..=a {
+                jtj[a][b] += pja * d[b];
+            }
+            wrows[a] += pja * jp;
+        }
+    }
+    acc.add(image, cam, &jtj, &jte, cols);
+    wrows
+}
+
+/// Rows of a smaller local column count padded to the largest.
+fn pad<const N: usize>(rows: [Vector3<f64>; N]) -> [Vector3<f64>; 14] {
+    let mut out = [Vector3::zeros(); 14];
+    out[..N].copy_from_slice(&rows);
+    out
 }
 
 /// U with Marquardt damping λ on its diagonal (scaled by the diagonal, floored at 1e-14 of its

@@ -19,14 +19,12 @@ pub fn rodrigues(omega: Vector3<f64>) -> Matrix3<f64> {
 
 /// Applies the adjustment's rotation update: `R ← exp([δ]×) R` (the convention of [`perturbed`]).
 pub fn update(r: &Matrix3<f64>, delta: Vector3<f64>) -> Matrix3<f64> {
-    let mut out = rodrigues(delta) * r;
-    // Re-orthonormalize against drift over many iterations.
-    if let Some(svd) = out.try_svd(true, true, f64::EPSILON, 200) {
-        if let (Some(u), Some(v_t)) = (svd.u, svd.v_t) {
-            out = u * v_t;
-        }
-    }
-    out
+    let out = rodrigues(delta) * r;
+    // Both factors are rotations, so the product is one to rounding; one Newton–Schulz step of the
+    // polar decomposition, R (3I − RᵀR) / 2, takes the rounding drift of many iterations back
+    // (quadratically: an error ε in RᵀR becomes O(ε²)) at the cost of two 3 × 3 products, where an
+    // SVD took 25 times more.
+    out * (Matrix3::identity() * 3.0 - out.transpose() * out) * 0.5
 }
 
 /// `(I + [δ]×) R0` as rows of generic scalars: equal to `exp([δ]×) R0` to first order, which is all the
@@ -92,6 +90,26 @@ mod tests {
         assert!((r * r.transpose() - Matrix3::identity()).norm() < 1e-14);
         assert!((r.determinant() - 1.0).abs() < 1e-14);
         assert!((r * omega - omega).norm() < 1e-14);
+    }
+
+    /// Ten thousand updates stay a rotation, and the same rotation as their product.
+    #[test]
+    fn many_updates_stay_orthonormal() {
+        let mut r = rodrigues(Vector3::new(0.2, -1.1, 0.4));
+        let mut composed = r;
+        for k in 0..10_000 {
+            let delta = Vector3::new(1e-3 * (k % 7) as f64, -2e-3, 5e-4 * (k % 3) as f64);
+            r = update(&r, delta);
+            composed = rodrigues(delta) * composed;
+        }
+        assert!((r * r.transpose() - Matrix3::identity()).norm() < 1e-14);
+        assert!((r.determinant() - 1.0).abs() < 1e-14);
+        assert!((r - composed).norm() < 1e-11);
+        // A perturbed start is pulled back to a rotation in one step.
+        let mut off = rodrigues(Vector3::new(0.3, 0.1, -0.2));
+        off[(0, 1)] += 1e-7;
+        let back = update(&off, Vector3::zeros());
+        assert!((back * back.transpose() - Matrix3::identity()).norm() < 1e-13);
     }
 
     #[test]
