@@ -362,17 +362,23 @@ impl Cofactors {
         let i = o.point;
         let w = &self.normals.w[i];
         let qpp = self.qpp[i];
-        // Q_cp restricted to this observation's columns: −S⁻¹[L, cols_i] W_i V_i⁻¹.
-        let mut qcp = [Vector3::zeros(); 14];
+        let vinv = self.vinv[i];
+        // S⁻¹[g, ·] W_i for each local column g, kept per point for the columns the point couples
+        // with (an inactive observation's image may not be one of them). The image's six columns
+        // are consecutive among the point's when it holds them: one search for the six.
+        let image_run = w
+            .sorted
+            .then(|| w.cols.binary_search(&(6 * o.image)).ok())
+            .flatten()
+            .filter(|&a| a + 5 < w.cols.len() && w.cols[a + 5] == 6 * o.image + 5);
+        let mut sw = [Vector3::zeros(); 14];
         for (x, &(g, _)) in cols.iter().enumerate() {
-            // S⁻¹[g, ·] W_i, kept per point for the columns the point couples with (an inactive
-            // observation's image may not be one of them).
-            let found = if w.sorted {
-                w.cols.binary_search(&g).ok()
-            } else {
-                w.cols.iter().position(|&c| c == g)
+            let found = match image_run {
+                Some(a0) if x < 6 => Some(a0 + x),
+                _ if w.sorted => w.cols.binary_search(&g).ok(),
+                _ => w.cols.iter().position(|&c| c == g),
             };
-            let acc = match found {
+            sw[x] = match found {
                 Some(a) => self.qw[i][a],
                 None => {
                     // Q is symmetric: row g is column g.
@@ -383,27 +389,176 @@ impl Cofactors {
                         .fold(Vector3::zeros(), |t, (&ca, r)| t + q[ca] * r)
                 }
             };
-            qcp[x] = -(self.vinv[i] * acc);
+        }
+        // S⁻¹ restricted to the local columns, read once for both rows.
+        let mut qsub = [[0.0f64; 14]; 14];
+        for (x, &(gx, _)) in cols.iter().enumerate() {
+            let q = self.qcc.col_as_slice(gx);
+            for (y, &(gy, _)) in cols.iter().enumerate() {
+                qsub[x][y] = q[gy];
+            }
         }
         let mut out = [0.0; 2];
         for (k, fk) in f.iter().enumerate() {
             let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
+            let j: [f64; 14] = std::array::from_fn(|x| if x < n { fk.d[cols[x].1] } else { 0.0 });
             let mut s = (jp.transpose() * qpp * jp)[0];
-            for (x, &(gx, lx)) in cols.iter().enumerate() {
-                let jx = fk.d[lx];
-                if jx == 0.0 {
-                    continue;
-                }
-                s += 2.0 * jx * qcp[x].dot(&jp);
-                let q = self.qcc.col_as_slice(gx);
-                let mut t = 0.0;
-                for &(gy, ly) in cols {
-                    t += q[gy] * fk.d[ly];
-                }
-                s += jx * t;
+            // Q_cp = −S⁻¹ W V⁻¹, so 2 j_c Q_cp j_p = −2 (Σ_x j_x S⁻¹W_x) · (V⁻¹ j_p).
+            let cross = (0..n).fold(Vector3::zeros(), |t, x| t + j[x] * sw[x]);
+            s -= 2.0 * cross.dot(&(vinv * jp));
+            for x in 0..n {
+                let t: f64 = (0..n).map(|y| qsub[x][y] * j[y]).sum();
+                s += j[x] * t;
             }
             out[k] = s;
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::photogrammetry::bundle::ImageState;
+    use crate::photogrammetry::orthogonal::OrthoImage;
+    use crate::photogrammetry::report::Model;
+    use crate::photogrammetry::rotation::rodrigues;
+    use nalgebra::DMatrix;
+
+    /// A small orthogonal-model bundle: `nimg` images around the Z axis looking at `np` points, c
+    /// free, point p in the `per_point` images from p mod `nimg` on, one observation inactive.
+    fn bundle(nimg: usize, np: usize, per_point: usize) -> Bundle {
+        let c = 300.0;
+        let points: Vec<Vector3<f64>> = (0..np)
+            .map(|k| {
+                let t = k as f64;
+                Vector3::new((t * 1.7).sin(), (t * 0.9).cos(), 0.3 * (t * 2.3).sin())
+            })
+            .collect();
+        let mut images = Vec::new();
+        let mut obs = Vec::new();
+        let mut point_obs = vec![Vec::new(); np];
+        for j in 0..nimg {
+            let angle = -0.3 + 0.6 * j as f64 / (nimg - 1) as f64;
+            let r = rodrigues(Vector3::new(0.02 * j as f64, angle, 0.01));
+            let centre = r.transpose() * Vector3::new(0.0, 0.0, 20.0);
+            let o = OrthoImage::from_center(r, centre, c, 0.0);
+            images.push(ImageState {
+                rotation: r,
+                p: [o.m, o.a4, o.a8],
+            });
+            for p in 0..np {
+                if (j + nimg - p % nimg) % nimg >= per_point {
+                    continue;
+                }
+                point_obs[p].push(obs.len());
+                obs.push(Obs {
+                    image: j,
+                    point: p,
+                    meas: [0.01 * (p + j) as f64, -0.02 * p as f64],
+                    active: !(j == 1 && p == 2),
+                    weight: 1.0,
+                });
+            }
+        }
+        let mut free = [false; 8];
+        free[0] = true;
+        let mut prior = [None; 8];
+        prior[0] = Some((c, 0.1 * c));
+        let mut b = Bundle {
+            model: Model::Orthogonal,
+            zbar: 0.0,
+            images,
+            image_camera: vec![0; nimg],
+            interior: vec![[c, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]],
+            free: vec![free],
+            sigma: vec![0.003],
+            points,
+            obs,
+            point_obs,
+            control: vec![None; np],
+            gauge: 0.0,
+            interior_prior: vec![prior],
+        };
+        b.gauge = 1e-6 * b.point_block_trace() / (3 * np) as f64;
+        b
+    }
+
+    /// a Q aᵀ of every observation, the point cofactor blocks and the camera cofactors equal those
+    /// of the dense inverse of the whole normal matrix (gauge included), for a network reduced as a
+    /// dense product (all points in all images) and one reduced point by point (each point in 3 of
+    /// 12 images).
+    #[test]
+    fn cofactors_equal_the_dense_inverse() {
+        for (nimg, np, per_point) in [(4, 7, 4), (12, 40, 3)] {
+            let b = bundle(nimg, np, per_point);
+            let n = b.normals();
+            assert_eq!(
+                crate::photogrammetry::dense_schur::is_dense(&n, b.obs.len()),
+                per_point == nimg
+            );
+            let nc = n.bc.len();
+            let dim = nc + 3 * np;
+            let mut full = DMatrix::<f64>::zeros(dim, dim);
+            for r in 0..nc {
+                for c in 0..nc {
+                    full[(r, c)] = n.u[(r, c)];
+                }
+            }
+            for i in 0..np {
+                for r in 0..3 {
+                    for c in 0..3 {
+                        full[(nc + 3 * i + r, nc + 3 * i + c)] = n.v[i][(r, c)];
+                    }
+                    full[(nc + 3 * i + r, nc + 3 * i + r)] += b.gauge;
+                }
+                for (&col, row) in n.w[i].cols.iter().zip(&n.w[i].rows) {
+                    for k in 0..3 {
+                        full[(col, nc + 3 * i + k)] = row[k];
+                        full[(nc + 3 * i + k, col)] = row[k];
+                    }
+                }
+            }
+            let q = full.clone().try_inverse().expect("invertible");
+            let cof = Cofactors::from_normals(&b, n, false).expect("positive definite");
+            let scale = q.diagonal().amax();
+            let lanes = b.interior_lanes();
+            for (k, o) in b.obs.iter().enumerate() {
+                let f = b.jacobian(o);
+                let got = cof.predicted_cofactor(&b, o);
+                for (r, fk) in f.iter().enumerate() {
+                    let mut a = vec![0.0; dim];
+                    for l in 0..6 {
+                        a[6 * o.image + l] = fk.d[l];
+                    }
+                    for &(g, lane) in &lanes[0] {
+                        a[g] = fk.d[lane];
+                    }
+                    for m in 0..3 {
+                        a[nc + 3 * o.point + m] = fk.d[POINT0 + m];
+                    }
+                    let av = nalgebra::DVector::from_vec(a);
+                    let want = (av.transpose() * &q * &av)[0];
+                    assert!(
+                        (got[r] - want).abs() <= 1e-7 * want.abs().max(1e-12),
+                        "{nimg}×{np}, observation {k} row {r}: {} vs {want}",
+                        got[r]
+                    );
+                }
+            }
+            for i in (0..np).step_by(3) {
+                let block = cof.point_block(i, i);
+                for r in 0..3 {
+                    for c in 0..3 {
+                        let want = q[(nc + 3 * i + r, nc + 3 * i + c)];
+                        assert!((block[(r, c)] - want).abs() <= 1e-7 * scale);
+                    }
+                }
+            }
+            for c in 0..nc {
+                let want = q[(c, c)];
+                assert!((cof.camera_cofactor(c) - want).abs() <= 1e-7 * want.abs());
+            }
+        }
     }
 }
