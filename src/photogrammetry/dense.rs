@@ -24,16 +24,7 @@ pub fn cholesky(a: &Mat<f64>) -> Option<Mat<f64>> {
     let n = a.nrows();
     let mut l = Mat::<f64>::zeros(n, n);
     l.copy_from_triangular_lower(a);
-    let p = par(n);
-    let mut mem = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(
-        n,
-        p,
-        Default::default(),
-    ));
-    let stack = MemStack::new(&mut mem);
-    llt::factor::cholesky_in_place(l.as_mut(), Default::default(), p, stack, Default::default())
-        .ok()?;
-    Some(l)
+    cholesky_in_place(l)
 }
 
 /// [`cholesky`] in the memory of `a` (only its lower triangle is read; the factor is its lower

@@ -95,9 +95,9 @@ pub fn levenberg_marquardt(b: &mut Bundle, max_iterations: usize) -> LmOutcome {
 
 /// As [`levenberg_marquardt`] from `start` (see [`Start`]), also returning, when it converged
 /// by a small last step (below 1e-6 σ of every unknown, or below 1e-4 σ with the distance left
-/// extrapolated below 1e-6 σ), the normal equations of the state before that step: good for the
-/// cofactors of the solution without building them again (the Jacobian does not change measurably
-/// over 10⁻⁴ σ).
+/// extrapolated below 1e-6 σ; or stationary, vᵀPv unchanged with a step below 1e-2 σ), the normal
+/// equations of the state before that step: good for the cofactors of the solution without building
+/// them again (the Jacobian does not change measurably over such steps).
 pub fn levenberg_marquardt_normals(
     b: &mut Bundle,
     max_iterations: usize,
@@ -155,7 +155,7 @@ fn run(
         let saved = (b.images.clone(), b.interior.clone(), b.points.clone());
         let mut accepted = None;
         for _ in 0..20 {
-            let Some((dc, dp)) = b.solve_with(&n, lambda, &mut reduce_buffers) else {
+            let Some((dc, dp)) = b.solve(&n, lambda, &mut reduce_buffers) else {
                 lambda *= 10.0;
                 continue;
             };

@@ -224,10 +224,9 @@ impl Bundle {
             .collect()
     }
 
-    /// Builds the normal equations at the current state. Only the lower triangle of U is accumulated
-    /// (the local columns of an observation are in increasing global order: its image's six, then its
-    /// camera's interior parameters) and mirrored at the end. Large networks are built in chunks of
-    /// points on the rayon pool, each with its own U, summed at the end.
+    /// Builds the normal equations at the current state. U is accumulated block by block (see
+    /// [`CameraBlocks`]) and written into the dense, symmetric U at the end. Large networks are built
+    /// in chunks of points on the rayon pool, each with its own blocks, summed at the end.
     pub fn normals(&self) -> Normals {
         let mut n = Normals {
             u: Mat::zeros(0, 0),
@@ -578,13 +577,10 @@ impl Bundle {
         Some(inv)
     }
 
-    /// Solves the damped normal equations: (Δ camera unknowns, Δ points). None if not positive definite.
-    pub fn solve(&self, n: &Normals, lambda: f64) -> Option<(Vec<f64>, Vec<Vector3<f64>>)> {
-        self.solve_with(n, lambda, &mut ReduceBuffers::default())
-    }
-
-    /// [`Bundle::solve`] in the dense matrices of `buffers`, which keep them for the next solve.
-    pub fn solve_with(
+    /// Solves the damped normal equations: (Δ camera unknowns, Δ points). None if not positive
+    /// definite or not finite. Works in the dense matrices of `buffers`, which keep them for the
+    /// next solve.
+    pub fn solve(
         &self,
         n: &Normals,
         lambda: f64,
@@ -726,7 +722,7 @@ fn damped_u(n: &Normals, lambda: f64, buffer: Option<Mat<f64>>) -> Mat<f64> {
 /// One chunk's Σ W V⁻¹ b_p and its points' (V + gauge)⁻¹ (its Σ W V⁻¹ Wᵀ is in its buffer).
 type ChunkRest = (Vec<f64>, Vec<Matrix3<f64>>);
 
-/// Dense matrices of the reduction kept from one solve to the next (see [`Bundle::solve_with`]):
+/// Dense matrices of the reduction kept from one solve to the next (see [`Bundle::solve`]):
 /// the chunks' partial sums of Σ W V⁻¹ Wᵀ and S itself (then its Cholesky factor), which would
 /// otherwise be allocated, and faulted in, anew for every solve (2.9 MB each for 600 camera
 /// unknowns).
