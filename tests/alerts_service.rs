@@ -8,7 +8,8 @@ use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
 
 use alerts_support::{
-    create_site, day, mark_stable, outbox_ids, upload_new, write_config, Daemon, Receiver, Scene,
+    create_site, day, mark_stable, outbox_ids, watch_block_moving, write_config, Daemon, Receiver,
+    Scene,
 };
 use reqwest::Method;
 use serde_json::json;
@@ -374,17 +375,7 @@ async fn gone_disables_the_endpoint() {
     let data = dir.path().join("data");
     let scene = Scene { n: 16, stable: 8 };
     let daemon = Daemon::start(&data, &config).await;
-    create_site(
-        &daemon,
-        SITE,
-        json!([{"level": "watch", "metric": "displacement_mm", "above": 5.0}]),
-    )
-    .await;
-    mark_stable(&daemon, SITE, &scene).await;
-    for k in 0..2 {
-        let body = scene.epoch(&day(k), 300 + k as u64, 10.0 * k as f64);
-        upload_new(&daemon, SITE, &body).await;
-    }
+    watch_block_moving(&daemon, SITE, &scene, 300).await;
     let deadline = Instant::now() + Duration::from_secs(20);
     while alerts_support::endpoints_enabled(&data).await != vec![false] {
         assert!(Instant::now() < deadline, "endpoint not disabled");

@@ -10,9 +10,7 @@ mod alerts_support;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
-use alerts_support::{
-    create_site, day, mark_stable, outbox_ids, upload_new, write_config, Daemon, Receiver, Scene,
-};
+use alerts_support::{outbox_ids, watch_block_moving, write_config, Daemon, Receiver, Scene};
 use reqwest::Method;
 use serde_json::{json, Value};
 
@@ -130,17 +128,7 @@ async fn each_endpoint_gets_its_format_signed_and_unchanged_on_retry() {
 
     // A site whose block of 8 points moves 10 mm between two epochs: watch alerts above 5 mm.
     let scene = Scene { n: 16, stable: 8 };
-    create_site(
-        &daemon,
-        SITE,
-        json!([{"level": "watch", "metric": "displacement_mm", "above": 5.0}]),
-    )
-    .await;
-    mark_stable(&daemon, SITE, &scene).await;
-    for k in 0..2 {
-        let body = scene.epoch(&day(k), 700 + k as u64, 10.0 * k as f64);
-        upload_new(&daemon, SITE, &body).await;
-    }
+    watch_block_moving(&daemon, SITE, &scene, 700).await;
 
     let expected: BTreeSet<String> = outbox_ids(&data)
         .await

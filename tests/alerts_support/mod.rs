@@ -55,6 +55,23 @@ pub async fn mark_stable(d: &Daemon, site: &str, scene: &Scene) {
     }
 }
 
+/// Site `site` with a watch rule above 5 mm of displacement, the scene's fixed points marked
+/// stable, and two epochs (seeds `seed`, `seed + 1`) between which the scene's block moves 10 mm:
+/// one watch alert per moving point.
+pub async fn watch_block_moving(d: &Daemon, site: &str, scene: &Scene, seed: u64) {
+    create_site(
+        d,
+        site,
+        json!([{"level": "watch", "metric": "displacement_mm", "above": 5.0}]),
+    )
+    .await;
+    mark_stable(d, site, scene).await;
+    for k in 0..2 {
+        let body = scene.epoch(&day(k), seed + k as u64, 10.0 * k as f64);
+        upload_new(d, site, &body).await;
+    }
+}
+
 /// Webhook secret of the tests (`whsec_` + base64 of 24 bytes).
 pub const SECRET: &str = "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw";
 
