@@ -97,30 +97,28 @@ fn rescue(bundle: &mut Bundle, initial: &Bundle) {
     *bundle = trial;
 }
 
-/// The first stage from the start values: with `robust`, reweighted rounds (and the leave-one-image-out
-/// rescue when they end in a poor fit) followed by the screening of gross residuals; then plain
-/// Levenberg–Marquardt.
+/// The first stage from the start values: reweighted rounds (and the leave-one-image-out rescue when
+/// they end in a poor fit) followed by the screening of gross residuals; then plain
+/// Levenberg–Marquardt. The stage is robust whether or not data snooping follows: without snooping,
+/// the observations set aside here are taken back before the final adjustment.
 /// `converged` is the outcome of an adjustment that already converged at the bundle's state (the
 /// mirror choice's); when the robust stage leaves that state as it is, it is not repeated. Without
 /// `max_iterations` the final Levenberg–Marquardt is left to the next stage (the outcome returned is
 /// then that of the state reached, marked not converged).
 fn first_stage(
     bundle: &mut Bundle,
-    robust: bool,
     max_iterations: Option<usize>,
     converged: Option<LmOutcome>,
 ) -> LmOutcome {
+    let initial = bundle.clone();
     let mut unchanged = converged.is_some();
-    if robust {
-        let initial = bundle.clone();
-        unchanged &= !robust_rounds(bundle, ROBUST_ITERATIONS, ROBUST_ROUNDS);
-        if residual_scale(bundle, &residual_norms(bundle)) > RESCUE_SCALE {
-            rescue(bundle, &initial);
-            unchanged = false;
-        }
-        unchanged &= screen(bundle) == 0;
-        unchanged &= !repair_images(bundle);
+    unchanged &= !robust_rounds(bundle, ROBUST_ITERATIONS, ROBUST_ROUNDS);
+    if residual_scale(bundle, &residual_norms(bundle)) > RESCUE_SCALE {
+        rescue(bundle, &initial);
+        unchanged = false;
     }
+    unchanged &= screen(bundle) == 0;
+    unchanged &= !repair_images(bundle);
     match (converged, max_iterations) {
         (Some(outcome), _) if unchanged => outcome,
         (_, Some(max)) => levenberg_marquardt(bundle, max),
@@ -204,16 +202,12 @@ const AFFINE_ROUNDS: usize = 4;
 /// Its basin differs from the perspective one, and in the orthogonal parametrization its solution
 /// (m, A4, A8, R, points) is directly a start of the perspective adjustment. Reweighted so that gross
 /// errors cannot steer it.
-fn affine_stage(bundle: &mut Bundle, robust: bool) {
+fn affine_stage(bundle: &mut Bundle) {
     let c: Vec<f64> = bundle.interior.iter().map(|i| i[0]).collect();
     for i in bundle.interior.iter_mut() {
         i[0] *= AFFINE_C_FACTOR;
     }
-    if robust {
-        robust_rounds(bundle, ROBUST_ITERATIONS, AFFINE_ROUNDS);
-    } else {
-        levenberg_marquardt(bundle, AFFINE_ROUNDS * ROBUST_ITERATIONS);
-    }
+    robust_rounds(bundle, ROBUST_ITERATIONS, AFFINE_ROUNDS);
     for (i, c) in bundle.interior.iter_mut().zip(c) {
         i[0] = c;
     }
@@ -711,15 +705,12 @@ fn solve(
     affine_first: bool,
 ) -> Result<Solved, AdjustError> {
     let mut warnings = Vec::new();
-    // Stage 1: interior held; with snooping on, iteratively reweighted from the start so that a gross
-    // error cannot pull the solution into a wrong basin; then gross residuals are set aside.
+    // Stage 1: interior held, iteratively reweighted from the start so that a gross error cannot pull
+    // the solution into a wrong basin; then gross residuals are set aside (and, with snooping off,
+    // taken back before the final adjustment).
     let converged = choose_mirrors(&mut bundle, mirrors);
-    let robust = options.snooping;
-    // The stages after the robust first one start from its converged state; without it (snooping
-    // off) stage 2 starts from the start values.
-    let continuing = if robust { Start::Near } else { Start::Rough };
     if affine_first && bundle.model == Model::Orthogonal {
-        affine_stage(&mut bundle, robust);
+        affine_stage(&mut bundle);
     }
     let mut normals = None;
     let mut outcome = if options.model == Model::Orthogonal {
@@ -731,14 +722,13 @@ fn solve(
         // With c to be freed, stage 1 ends with the robust rounds: stage 2 converges from there.
         let outcome = first_stage(
             &mut bundle,
-            robust,
             (!calibrate).then_some(options.max_iterations),
             converged,
         );
         if calibrate {
             bundle.free = stage2;
             let (outcome, n) =
-                levenberg_marquardt_normals(&mut bundle, options.max_iterations, continuing);
+                levenberg_marquardt_normals(&mut bundle, options.max_iterations, Start::Near);
             normals = n;
             outcome
         } else {
@@ -773,7 +763,7 @@ fn solve(
         bundle.model = Model::Central;
         bundle.free = free.to_vec();
         levenberg_marquardt(&mut bundle, options.max_iterations);
-        first_stage(&mut bundle, robust, Some(options.max_iterations), None)
+        first_stage(&mut bundle, Some(options.max_iterations), None)
     };
 
     // Data snooping, one observation at a time.
@@ -876,7 +866,8 @@ fn solve(
             bundle.obs[k].active = true;
         }
         let n;
-        (outcome, n) = levenberg_marquardt_normals(&mut bundle, options.max_iterations, continuing);
+        (outcome, n) =
+            levenberg_marquardt_normals(&mut bundle, options.max_iterations, Start::Near);
         cof = invert(&bundle, n)?;
     }
     let w: Vec<[f64; 2]> = match final_w {
