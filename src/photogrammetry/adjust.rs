@@ -767,7 +767,6 @@ fn solve(
     };
 
     // Data snooping, one observation at a time.
-    let max_drops = (bundle.obs.len() / 10).max(1);
     // The cofactors of the solution, from the normal equations of its last (negligible) step when
     // the adjustment returned them.
     let invert = |b: &Bundle, n: Option<Normals>| {
@@ -779,88 +778,13 @@ fn solve(
     let mut cof = invert(&bundle, normals)?;
     let mut final_w = None;
     if options.snooping {
-        let mut drops = bundle.obs.iter().filter(|o| !o.active).count();
-        // Between exact re-adjustments the drops are followed in the linearized problem (see
-        // `LinearSnooping`); once no |w| exceeds the critical value there, the exact adjustment
-        // from x* + Δ decides again.
-        let mut lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
-        let max_of = |w: [f64; 2]| w[0].abs().max(w[1].abs());
-        let mut counts = ActiveCounts::of(&bundle);
-        loop {
-            let mut worst: Option<(usize, f64)> = None;
-            for &k in lin.tracked() {
-                if !bundle.obs[k].active || !counts.droppable(&bundle, k) {
-                    continue;
-                }
-                let m = max_of(lin.w(&bundle, k));
-                if m > options.critical_w && worst.is_none_or(|(_, x)| m > x) {
-                    worst = Some((k, m));
-                }
-            }
-            let capped = worst.is_some() && drops >= max_drops;
-            if capped {
-                warnings.push(format!(
-                    "data snooping stopped after {max_drops} dropped observations; more residuals exceed |w| = {}",
-                    options.critical_w
-                ));
-            }
-            let Some((k, _)) = worst.filter(|_| !capped) else {
-                if lin.modified() {
-                    let (dc, dp) = lin.step(&cof);
-                    bundle.apply(&dc, &dp);
-                    let n;
-                    (outcome, n) = levenberg_marquardt_normals(
-                        &mut bundle,
-                        options.max_iterations,
-                        Start::Near,
-                    );
-                    cof = invert(&bundle, n)?;
-                    lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
-                    if !capped {
-                        continue;
-                    }
-                }
-                break;
-            };
-            if !lin.drop(&bundle, &cof, k) {
-                // No redundancy left for it in the linearized problem: decide exactly.
-                let (dc, dp) = lin.step(&cof);
-                bundle.obs[k].active = false;
-                bundle.apply(&dc, &dp);
-                let n;
-                (outcome, n) =
-                    levenberg_marquardt_normals(&mut bundle, options.max_iterations, Start::Near);
-                cof = invert(&bundle, n)?;
-                lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
-                counts.drop(&bundle, k);
-                drops += 1;
-                continue;
-            }
-            counts.drop(&bundle, k);
-            bundle.obs[k].active = false;
-            drops += 1;
-        }
-        // Backward step: observations set aside at the start or dropped while a worse blunder still
-        // distorted the solution are tested against the final one and taken back where they fit.
-        for _ in 0..3 {
-            let back: Vec<usize> = (0..bundle.obs.len())
-                .filter(|&k| {
-                    !bundle.obs[k].active && max_of(lin.w(&bundle, k)) <= options.critical_w
-                })
-                .collect();
-            if back.is_empty() {
-                break;
-            }
-            for k in back {
-                bundle.obs[k].active = true;
-            }
-            let n;
-            (outcome, n) =
-                levenberg_marquardt_normals(&mut bundle, options.max_iterations, Start::Near);
-            cof = invert(&bundle, n)?;
-            lin = LinearSnooping::new(&bundle, &cof, options.critical_w);
-        }
-        final_w = Some(lin.all_w(&bundle));
+        let snooped = snoop(&mut bundle, cof, options, invert)?;
+        (outcome, cof, final_w) = (
+            snooped.outcome.unwrap_or(outcome),
+            snooped.cof,
+            Some(snooped.w),
+        );
+        warnings.extend(snooped.warning);
     } else {
         for k in 0..bundle.obs.len() {
             bundle.obs[k].active = true;
@@ -895,6 +819,117 @@ fn solve(
         dropped,
         snooping_capped,
         w,
+    })
+}
+
+/// What data snooping leaves: the outcome of its last exact adjustment (None when it made none),
+/// the cofactors and normalized residuals of the final solution, and a warning when it was capped.
+struct Snooped {
+    outcome: Option<LmOutcome>,
+    cof: Cofactors,
+    w: Vec<[f64; 2]>,
+    warning: Option<String>,
+}
+
+/// Times one observation may be taken back by the backward step, so that one whose |w| lies at the
+/// critical value within the linearization error cannot go back and forth.
+const MAX_RESTORES: u8 = 2;
+
+/// Data snooping (Baarda), one observation at a time, from the converged bundle and its cofactors
+/// `cof`; `invert` gives the cofactors of a new solution from its normal equations.
+///
+/// Between exact re-adjustments the drops are followed in the linearized problem (see
+/// [`LinearSnooping`]). Once no |w| there exceeds the critical value (or the drops reach their cap,
+/// a tenth of the observations), the backward step tests the observations set aside (at the start,
+/// or dropped while a worse blunder still distorted the solution) against that solution and takes
+/// back those that fit, again in the linearized problem; then the exact adjustment from x* + Δ
+/// decides again. It ends at an exact solution with nothing to drop and nothing to take back.
+fn snoop(
+    bundle: &mut Bundle,
+    mut cof: Cofactors,
+    options: &AdjustOptions,
+    invert: impl Fn(&Bundle, Option<Normals>) -> Result<Cofactors, AdjustError>,
+) -> Result<Snooped, AdjustError> {
+    let max_drops = (bundle.obs.len() / 10).max(1);
+    let mut drops = bundle.obs.iter().filter(|o| !o.active).count();
+    let mut lin = LinearSnooping::new(bundle, &cof, options.critical_w);
+    let max_of = |w: [f64; 2]| w[0].abs().max(w[1].abs());
+    let mut counts = ActiveCounts::of(bundle);
+    let mut restores = vec![0u8; bundle.obs.len()];
+    let mut outcome = None;
+    let mut warning = None;
+    loop {
+        let mut worst: Option<(usize, f64)> = None;
+        for &k in lin.tracked() {
+            if !bundle.obs[k].active || !counts.droppable(bundle, k) {
+                continue;
+            }
+            let m = max_of(lin.w(bundle, k));
+            if m > options.critical_w && worst.is_none_or(|(_, x)| m > x) {
+                worst = Some((k, m));
+            }
+        }
+        let capped = worst.is_some() && drops >= max_drops;
+        if worst.is_none() || capped {
+            // The backward step (every inactive observation is tracked).
+            let back: Vec<usize> = lin
+                .tracked()
+                .iter()
+                .copied()
+                .filter(|&k| {
+                    !bundle.obs[k].active
+                        && restores[k] < MAX_RESTORES
+                        && max_of(lin.w(bundle, k)) <= options.critical_w
+                })
+                .collect();
+            let mut restored = false;
+            for k in back {
+                if lin.restore(bundle, &cof, k) {
+                    restores[k] += 1;
+                    bundle.obs[k].active = true;
+                    counts.restore(bundle, k);
+                    drops = drops.saturating_sub(1);
+                    restored = true;
+                }
+            }
+            if restored {
+                continue;
+            }
+        }
+        let drop = worst.filter(|_| !capped).map(|(k, _)| k);
+        if let Some(k) = drop {
+            counts.drop(bundle, k);
+            drops += 1;
+            if lin.drop(bundle, &cof, k) {
+                bundle.obs[k].active = false;
+                continue;
+            }
+            // No redundancy left for it in the linearized problem: decide exactly.
+        }
+        if !lin.modified() && drop.is_none() {
+            if capped {
+                warning = Some(format!(
+                    "data snooping stopped after {max_drops} dropped observations; more residuals exceed |w| = {}",
+                    options.critical_w
+                ));
+            }
+            break;
+        }
+        let (dc, dp) = lin.step(&cof);
+        if let Some(k) = drop {
+            bundle.obs[k].active = false;
+        }
+        bundle.apply(&dc, &dp);
+        let (o, n) = levenberg_marquardt_normals(bundle, options.max_iterations, Start::Near);
+        outcome = Some(o);
+        cof = invert(bundle, n)?;
+        lin = LinearSnooping::new(bundle, &cof, options.critical_w);
+    }
+    Ok(Snooped {
+        outcome,
+        w: lin.all_w(bundle),
+        cof,
+        warning,
     })
 }
 

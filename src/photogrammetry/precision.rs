@@ -3,7 +3,7 @@
 //! covariances to the inner constraints (minimum trace): `Q_S = S Q Sᵀ`, `S = I − G (GᵀG)⁻¹ Gᵀ`.
 
 use faer::Mat;
-use nalgebra::{Matrix3, SMatrix, Vector3};
+use nalgebra::{Matrix2, Matrix3, SMatrix, Vector3};
 
 use super::bundle::{Obs, LOCAL, POINT0};
 use super::dual::Dual;
@@ -337,9 +337,9 @@ impl Cofactors {
         self.qcc[(col, col)]
     }
 
-    /// a Q aᵀ for the x and y equation of an observation: the cofactor of its adjusted (predicted)
-    /// value. Datum-invariant, so the raw cofactors serve.
-    pub fn predicted_cofactor(&self, b: &Bundle, o: &Obs) -> [f64; 2] {
+    /// a Q aᵀ of the x and y equations of an observation (2 × 2, mm² at a-priori scale): the
+    /// cofactor of its adjusted (predicted) value. Datum-invariant, so the raw cofactors serve.
+    pub fn predicted_cofactor(&self, b: &Bundle, o: &Obs) -> Matrix2<f64> {
         let cam = b.image_camera[o.image];
         self.predicted_cofactor_of(o, &b.jacobian(o), &b.interior_lanes()[cam])
     }
@@ -351,7 +351,7 @@ impl Cofactors {
         o: &Obs,
         f: &[Dual<LOCAL>; 2],
         interior_lanes: &[(usize, usize)],
-    ) -> [f64; 2] {
+    ) -> Matrix2<f64> {
         let mut cols = [(0usize, 0usize); 14];
         for (l, c) in cols.iter_mut().enumerate().take(6) {
             *c = (6 * o.image + l, l);
@@ -398,21 +398,24 @@ impl Cofactors {
                 qsub[x][y] = q[gy];
             }
         }
-        let mut out = [0.0; 2];
-        for (k, fk) in f.iter().enumerate() {
+        // Per row k: the point part j_p, the local camera part j, (Σ_x j_x S⁻¹W_x), V⁻¹ j_p, S⁻¹ j.
+        let terms = f.each_ref().map(|fk| {
             let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
             let j: [f64; 14] = std::array::from_fn(|x| if x < n { fk.d[cols[x].1] } else { 0.0 });
-            let mut s = (jp.transpose() * qpp * jp)[0];
-            // Q_cp = −S⁻¹ W V⁻¹, so 2 j_c Q_cp j_p = −2 (Σ_x j_x S⁻¹W_x) · (V⁻¹ j_p).
             let cross = (0..n).fold(Vector3::zeros(), |t, x| t + j[x] * sw[x]);
-            s -= 2.0 * cross.dot(&(vinv * jp));
-            for x in 0..n {
-                let t: f64 = (0..n).map(|y| qsub[x][y] * j[y]).sum();
-                s += j[x] * t;
-            }
-            out[k] = s;
-        }
-        out
+            let qj: [f64; 14] = std::array::from_fn(|x| (0..n).map(|y| qsub[x][y] * j[y]).sum());
+            (jp, j, cross, vinv * jp, qj)
+        });
+        // a_k Q a_lᵀ = j_pkᵀ Q_pp j_pl + j_k Q_cp j_pl + j_l Q_cp j_pk + j_k S⁻¹ j_l, with
+        // Q_cp = −S⁻¹ W V⁻¹, so j_k Q_cp j_pl = −(Σ_x j_kx S⁻¹W_x) · (V⁻¹ j_pl).
+        let entry = |k: usize, l: usize| {
+            let (jpk, jk, crossk, vjk, _) = &terms[k];
+            let (jpl, _, crossl, vjl, qjl) = &terms[l];
+            let camera: f64 = (0..n).map(|x| jk[x] * qjl[x]).sum();
+            (jpk.transpose() * qpp * jpl)[0] - crossk.dot(vjl) - crossl.dot(vjk) + camera
+        };
+        let xy = entry(0, 1);
+        Matrix2::new(entry(0, 0), xy, xy, entry(1, 1))
     }
 }
 
@@ -526,7 +529,7 @@ mod tests {
             for (k, o) in b.obs.iter().enumerate() {
                 let f = b.jacobian(o);
                 let got = cof.predicted_cofactor(&b, o);
-                for (r, fk) in f.iter().enumerate() {
+                let rows = f.each_ref().map(|fk| {
                     let mut a = vec![0.0; dim];
                     for l in 0..6 {
                         a[6 * o.image + l] = fk.d[l];
@@ -537,13 +540,18 @@ mod tests {
                     for m in 0..3 {
                         a[nc + 3 * o.point + m] = fk.d[POINT0 + m];
                     }
-                    let av = nalgebra::DVector::from_vec(a);
-                    let want = (av.transpose() * &q * &av)[0];
-                    assert!(
-                        (got[r] - want).abs() <= 1e-7 * want.abs().max(1e-12),
-                        "{nimg}×{np}, observation {k} row {r}: {} vs {want}",
-                        got[r]
-                    );
+                    nalgebra::DVector::from_vec(a)
+                });
+                for r in 0..2 {
+                    for c in 0..2 {
+                        let want = (rows[r].transpose() * &q * &rows[c])[0];
+                        let scale = (got[(0, 0)] * got[(1, 1)]).sqrt();
+                        assert!(
+                            (got[(r, c)] - want).abs() <= 1e-7 * scale.max(1e-12),
+                            "{nimg}×{np}, observation {k} ({r}, {c}): {} vs {want}",
+                            got[(r, c)]
+                        );
+                    }
                 }
             }
             for i in (0..np).step_by(3) {

@@ -11,8 +11,12 @@ use super::normals::PARALLEL_MIN_OBSERVATIONS;
 use super::precision::Cofactors;
 use rayon::prelude::*;
 
-/// Normalized residuals (w_x, w_y) of an active observation; for an inactive one, its misclosure
-/// against the solution over the σ of that misclosure (`q = σ² + a Q aᵀ`).
+/// Normalized residuals (w_x, w_y) of an active observation, `w = v / √q_vv` per coordinate. For an
+/// inactive one, the w it would have once taken back, from its misclosure e against the solution
+/// without it and the cofactor of that misclosure `M = σ² I + a Q aᵀ` (2 × 2): with it, `v = σ² M⁻¹ e`
+/// and `Q_vv = σ⁴ M⁻¹`, so `w = (M⁻¹ e)_k / √(M⁻¹)_kk`. Testing it this way keeps the backward
+/// step consistent with the snooping: an observation taken back because its w is below the
+/// critical value has that w once active (`e_k / √M_kk` would not, where x and y correlate).
 pub fn normalized_residual(b: &Bundle, q: &Cofactors, o_index: usize) -> [f64; 2] {
     let o = &b.obs[o_index];
     let cam = b.image_camera[o.image];
@@ -32,22 +36,23 @@ pub fn normalized(b: &Bundle, q: &Cofactors, o_index: usize, e: [f64; 2]) -> [f6
     w_of(b, o_index, e, q.predicted_cofactor(b, &b.obs[o_index]))
 }
 
-/// Normalized residuals of observation `o_index` from its residual `e` (mm) and the cofactor `aqa` of
-/// its predicted value (mm²).
-fn w_of(b: &Bundle, o_index: usize, e: [f64; 2], aqa: [f64; 2]) -> [f64; 2] {
+/// Normalized residuals of observation `o_index` from its residual `e` (mm) and the 2 × 2 cofactor
+/// `aqa` of its predicted value (mm², a-priori scale); see [`normalized_residual`].
+fn w_of(b: &Bundle, o_index: usize, e: [f64; 2], aqa: Matrix2<f64>) -> [f64; 2] {
     let o = &b.obs[o_index];
     let cam = b.image_camera[o.image];
     let s2 = b.sigma[cam] * b.sigma[cam];
-    let mut w = [0.0; 2];
-    for k in 0..2 {
-        let var = if o.active {
-            (s2 - aqa[k]).max(s2 * 1e-12)
-        } else {
-            s2 + aqa[k]
-        };
-        w[k] = e[k] / var.sqrt();
+    if o.active {
+        return std::array::from_fn(|k| e[k] / (s2 - aqa[(k, k)]).max(s2 * 1e-12).sqrt());
     }
-    w
+    let m = Matrix2::identity() * s2 + aqa;
+    match m.try_inverse() {
+        Some(m_inv) => {
+            let z = m_inv * Vector2::from(e);
+            std::array::from_fn(|k| z[k] / m_inv[(k, k)].sqrt())
+        }
+        None => std::array::from_fn(|k| e[k] / m[(k, k)].sqrt()),
+    }
 }
 
 /// Active observations per image and per point: what decides whether one more may be dropped.
@@ -85,6 +90,13 @@ impl ActiveCounts {
         let o = &b.obs[o_index];
         self.per_point[o.point] -= 1;
         self.per_image[o.image] -= 1;
+    }
+
+    /// Records that observation `o_index` was activated again.
+    pub fn restore(&mut self, b: &Bundle, o_index: usize) {
+        let o = &b.obs[o_index];
+        self.per_point[o.point] += 1;
+        self.per_image[o.image] += 1;
     }
 }
 
@@ -132,9 +144,16 @@ impl Solution {
     }
 }
 
-/// One observation removed in the linearized phase: `U = Q aₖᵀ` (two columns) with Q the cofactors
+/// Whether an observation leaves the linearized problem or comes back into it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Change {
+    Remove,
+    Restore,
+}
+
+/// One observation removed (or restored) in the linearized phase: `U = Q aₖᵀ` (two columns) with Q the cofactors
 /// before its removal, and `M⁻¹ = (P⁻¹ − aₖ Q aₖᵀ)⁻¹`.
-struct Removal {
+struct Modification {
     u: [Solution; 2],
     m_inv: Matrix2<f64>,
 }
@@ -151,15 +170,15 @@ pub struct LinearSnooping {
     jac: Vec<[Dual<LOCAL>; 2]>,
     /// Current linearized residuals per observation (mm).
     e: Vec<[f64; 2]>,
-    /// Current a Q aᵀ (x and y) per observation (mm², a-priori scale).
-    aqa: Vec<[f64; 2]>,
+    /// Current a Q aᵀ (2 × 2, x and y) per observation (mm², a-priori scale).
+    aqa: Vec<Matrix2<f64>>,
     lanes: Vec<Vec<(usize, usize)>>,
-    removals: Vec<Removal>,
+    modifications: Vec<Modification>,
     /// Accumulated update of the unknowns since x*.
     step: Solution,
     /// Observations followed through the drops (ascending): all of them in networks below
-    /// [`TRACK_ALL_BELOW`] observations, else those whose |w| at x* exceeds [`TRACK_SHARE`] of the
-    /// critical value.
+    /// [`TRACK_ALL_BELOW`] observations, else the inactive ones and those whose |w| at x* exceeds
+    /// [`TRACK_SHARE`] of the critical value.
     tracked: Vec<usize>,
     /// Points of the tracked observations (ascending), or None when every observation is tracked.
     tracked_points: Option<Vec<usize>>,
@@ -192,7 +211,7 @@ impl LinearSnooping {
         let cofactor = |(o, f): (&super::bundle::Obs, &[Dual<LOCAL>; 2])| {
             q.predicted_cofactor_of(o, f, &lanes[b.image_camera[o.image]])
         };
-        let aqa: Vec<[f64; 2]> = if parallel {
+        let aqa: Vec<Matrix2<f64>> = if parallel {
             b.obs.par_iter().zip(&jac).map(cofactor).collect()
         } else {
             b.obs.iter().zip(&jac).map(cofactor).collect()
@@ -205,7 +224,7 @@ impl LinearSnooping {
             let tracked: Vec<usize> = (0..n)
                 .filter(|&k| {
                     let w = w_of(b, k, e[k], aqa[k]);
-                    w[0].abs().max(w[1].abs()) > TRACK_SHARE * critical_w
+                    !b.obs[k].active || w[0].abs().max(w[1].abs()) > TRACK_SHARE * critical_w
                 })
                 .collect();
             let mut points: Vec<usize> = tracked.iter().map(|&k| b.obs[k].point).collect();
@@ -218,7 +237,7 @@ impl LinearSnooping {
             e,
             aqa,
             lanes,
-            removals: Vec::new(),
+            modifications: Vec::new(),
             step: Solution {
                 cams: vec![0.0; nc],
                 bp: Vec::new(),
@@ -242,7 +261,7 @@ impl LinearSnooping {
 
     /// Whether observations were removed since x*.
     pub fn modified(&self) -> bool {
-        !self.removals.is_empty()
+        !self.modifications.is_empty()
     }
 
     /// Normalized residuals of every observation (see [`LinearSnooping::w`]).
@@ -275,6 +294,19 @@ impl LinearSnooping {
     /// Removes observation `k` (still marked active in `b`) from the linearized problem. `q` are the
     /// cofactors of x*. Returns false when its residual has no redundancy left (M singular).
     pub fn drop(&mut self, b: &Bundle, q: &Cofactors, k: usize) -> bool {
+        self.change(b, q, k, Change::Remove)
+    }
+
+    /// Takes observation `k` (still marked inactive in `b`, and tracked: see
+    /// [`LinearSnooping::tracked`]) back into the linearized problem: the same update as
+    /// [`LinearSnooping::drop`] with the opposite sign of its weight, `M = −(P⁻¹ + aₖ Q aₖᵀ)`.
+    /// `q` are the cofactors of x*. Returns false when M is singular.
+    pub fn restore(&mut self, b: &Bundle, q: &Cofactors, k: usize) -> bool {
+        self.change(b, q, k, Change::Restore)
+    }
+
+    /// The rank-2 change of the normal equations by observation `k` (see [`LinearSnooping`]).
+    fn change(&mut self, b: &Bundle, q: &Cofactors, k: usize, change: Change) -> bool {
         let o = &b.obs[k];
         let cam = b.image_camera[o.image];
         let i = o.point;
@@ -300,7 +332,7 @@ impl LinearSnooping {
             }
             a
         };
-        for rem in &self.removals {
+        for rem in &self.modifications {
             let coef = rem.m_inv * a_k(&rem.u).transpose();
             for r in 0..2 {
                 for c in 0..2 {
@@ -312,7 +344,12 @@ impl LinearSnooping {
             }
         }
         let s2 = b.sigma[cam] * b.sigma[cam] / o.weight;
-        let m = Matrix2::identity() * s2 - a_k(&u);
+        // Removal: M = P⁻¹ − aₖ Q aₖᵀ, the cofactor of its residual (singular without redundancy).
+        // Restoration: the weight changes sign, M = −(P⁻¹ + aₖ Q aₖᵀ), always regular.
+        let m = match change {
+            Change::Remove => Matrix2::identity() * s2 - a_k(&u),
+            Change::Restore => -(Matrix2::identity() * s2 + a_k(&u)),
+        };
         let Some(m_inv) = m
             .try_inverse()
             .filter(|_| m.determinant() > 1e-12 * s2 * s2)
@@ -340,25 +377,24 @@ impl LinearSnooping {
                     a[(r, c)] = this.row_times(b, j, r, &u[c].cams, points[c][p]);
                 }
             }
-            let de = a * gain;
-            let dq = a * m_inv * a.transpose();
-            ([de[0], de[1]], [dq[(0, 0)], dq[(1, 1)]])
+            (a * gain, a * m_inv * a.transpose())
         };
-        let changes: Vec<([f64; 2], [f64; 2])> = if self.tracked.len() < PARALLEL_MIN_OBSERVATIONS {
-            self.tracked.iter().map(|&j| update(j)).collect()
-        } else {
-            self.tracked.par_iter().map(|&j| update(j)).collect()
-        };
+        let changes: Vec<(Vector2<f64>, Matrix2<f64>)> =
+            if self.tracked.len() < PARALLEL_MIN_OBSERVATIONS {
+                self.tracked.iter().map(|&j| update(j)).collect()
+            } else {
+                self.tracked.par_iter().map(|&j| update(j)).collect()
+            };
         for (&j, (de, dq)) in self.tracked.iter().zip(changes) {
             for r in 0..2 {
                 self.e[j][r] += de[r];
-                self.aqa[j][r] += dq[r];
             }
+            self.aqa[j] += dq;
         }
         for c in 0..2 {
             self.step.add_scaled(gain[c], &u[c]);
         }
-        self.removals.push(Removal { u, m_inv });
+        self.modifications.push(Modification { u, m_inv });
         true
     }
 }
