@@ -242,7 +242,8 @@ fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) -> Option
     // The start roots already fit at the noise level (robustly and by the plain RMS): every
     // alternative would fit worse.
     let mut base = bundle.clone();
-    let outcome = levenberg_marquardt(&mut base, 2 * ROBUST_ITERATIONS);
+    let (outcome, _) =
+        levenberg_marquardt_normals(&mut base, 2 * ROBUST_ITERATIONS, Start::Adaptive);
     let norms = residual_norms(&base);
     if outcome.converged
         && residual_scale(&base, &norms) < MIRROR_ACCEPT_SCALE
@@ -610,7 +611,7 @@ pub fn adjust_problem(
         let dof = dof_of(&x.bundle).max(1) as f64;
         x.outcome.cost / dof > chi2_upper(dof, GLOBAL_TEST_Z) / dof
     };
-    let failed = |x: &Solved| !x.outcome.converged || (x.snooping_capped && global_test_fails(x));
+    let failed = |x: &Solved| !x.outcome.converged || (x.too_many_outliers && global_test_fails(x));
     let mut solved = solve(
         problem,
         options,
@@ -621,23 +622,26 @@ pub fn adjust_problem(
         datum,
         false,
     )?;
-    if failed(&solved) && options.model == Model::Orthogonal {
+    // Without snooping, a failed global test may be a wrong basin as well as gross errors kept: worth
+    // the second try, though not a reason to refuse the result (it carries the test's warning).
+    let suspect = |x: &Solved| failed(x) || (!options.snooping && global_test_fails(x));
+    if suspect(&solved) && options.model == Model::Orthogonal {
         // A wrong basin (many blunders and a failed global test): try again from the affine bundle.
         if let Ok(second) = solve(problem, options, bundle, &mirrors, &free, zbar, datum, true) {
             let vf = |x: &Solved| x.outcome.cost / dof_of(&x.bundle).max(1) as f64;
-            if !failed(&second) || (second.outcome.converged && vf(&second) < vf(&solved)) {
+            if !suspect(&second) || (second.outcome.converged && vf(&second) < vf(&solved)) {
                 solved = second;
             }
         }
     }
     // A wrong basin, whether the iteration still crawled along it or not, is refused as such.
     if failed(&solved)
-        && (solved.outcome.converged || (solved.snooping_capped && global_test_fails(&solved)))
+        && (solved.outcome.converged || (solved.too_many_outliers && global_test_fails(&solved)))
     {
         let dof = dof_of(&solved.bundle).max(1) as f64;
         return Err(AdjustError::Inconsistent {
             sigma0_mm: problem.cameras[0].sigma_mm * (solved.outcome.cost / dof).sqrt(),
-            dropped: solved.dropped.len(),
+            outliers: solved.outliers,
         });
     }
     let Solved {
@@ -685,7 +689,11 @@ struct Solved {
     cof: Cofactors,
     warnings: Vec<String>,
     dropped: Vec<DroppedObservation>,
-    snooping_capped: bool,
+    /// More than a tenth of the observations beyond the critical |w|: data snooping reached its cap
+    /// with more left, or, without snooping, that many are kept.
+    too_many_outliers: bool,
+    /// Observations beyond the critical |w|, dropped or (without snooping) kept.
+    outliers: usize,
     /// Normalized residuals (w_x, w_y) of every observation at the solution.
     w: Vec<[f64; 2]>,
 }
@@ -808,16 +816,31 @@ fn solve(
             w: w[k][0].abs().max(w[k][1].abs()),
         })
         .collect();
-    let snooping_capped = warnings
-        .iter()
-        .any(|w| w.starts_with("data snooping stopped"));
+    let max_of = |w: &[f64; 2]| w[0].abs().max(w[1].abs());
+    let beyond = (0..bundle.obs.len())
+        .filter(|&k| bundle.obs[k].active && max_of(&w[k]) > options.critical_w)
+        .count();
+    if !options.snooping && beyond > 0 {
+        warnings.push(format!(
+            "{beyond} observations exceed |w| = {} (data snooping is off)",
+            options.critical_w
+        ));
+    }
+    let too_many_outliers = if options.snooping {
+        warnings
+            .iter()
+            .any(|w| w.starts_with("data snooping stopped"))
+    } else {
+        beyond > (bundle.obs.len() / 10).max(1)
+    };
     Ok(Solved {
+        outliers: dropped.len() + beyond,
         bundle,
         outcome,
         cof,
         warnings,
         dropped,
-        snooping_capped,
+        too_many_outliers,
         w,
     })
 }

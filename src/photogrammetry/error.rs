@@ -119,14 +119,15 @@ pub enum AdjustError {
         /// σ0 of the last iterate in mm.
         sigma0_mm: f64,
     },
-    /// The iteration ended in a solution that fails the global test while data snooping had to drop
-    /// more than a tenth of the observations: a wrong basin, not an answer.
-    #[error("no consistent solution: σ0 {sigma0_mm} mm fails the global test after {dropped} observations were dropped as blunders")]
+    /// The iteration ended in a solution that fails the global test with more than a tenth of the
+    /// observations beyond the critical |w| (dropped by data snooping, or kept without it): a wrong
+    /// basin, not an answer.
+    #[error("no consistent solution: σ0 {sigma0_mm} mm fails the global test with {outliers} observations beyond the critical |w| (dropped by data snooping, or kept without it)")]
     Inconsistent {
         /// σ0 of the best solution found, mm.
         sigma0_mm: f64,
-        /// Observations data snooping dropped.
-        dropped: usize,
+        /// Observations whose |w| exceeds the critical value.
+        outliers: usize,
     },
     /// The normal equations are singular.
     #[error("the normal equations are singular: {0}")]

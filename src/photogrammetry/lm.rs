@@ -33,13 +33,20 @@ pub enum Start {
     /// iterations it takes to decay. On the 100 × 10 000 network these stages took 18 iterations
     /// with the rough start's damping, 8 with this.
     Near,
+    /// From start values that are likely good (the start roots, before any mirror is tried): as
+    /// Rough, but λ falls × 0.01 after a step whose decrease of vᵀPv the linearized model predicted
+    /// within [`LINEAR_GAIN`] (ρ = actual / predicted decrease). There the damping only holds back
+    /// the weakly determined directions, so releasing it fast saves iterations: 9 → 5 on the
+    /// 100 × 10 000 network. Used only where a wrong basin is caught afterwards (the mirror choice
+    /// judges the fit): released everywhere, it sent flat-face seed 6 and label-swap seed 5 astray.
+    Adaptive,
 }
 
 impl Start {
     /// (initial λ, factor after an accepted step).
     fn damping(self) -> (f64, f64) {
         match self {
-            Start::Rough => (1e-4, 0.2),
+            Start::Rough | Start::Adaptive => (1e-4, 0.2),
             Start::Near => (1e-8, 0.1),
         }
     }
@@ -66,6 +73,34 @@ const MAX_RATIO: f64 = 0.5;
 fn distance_left(step: f64, previous: Option<f64>) -> Option<f64> {
     let rho = step / previous?;
     (rho <= MAX_RATIO).then(|| step * rho / (1.0 - rho))
+}
+
+/// |ρ − 1| within which a step of [`Start::Adaptive`] counts as linear.
+const LINEAR_GAIN: f64 = 0.05;
+
+/// Factor on λ after a linear step of [`Start::Adaptive`].
+const LINEAR_DECREASE: f64 = 0.01;
+
+/// Decrease of vᵀPv that the linearized model predicts for the update (dc, dp) solved with damping
+/// λ: with (N + G + λD) h = g, it is 2 hᵀg − hᵀNh = hᵀg + hᵀGh + λ hᵀDh.
+fn predicted_decrease(
+    b: &Bundle,
+    n: &super::normals::Normals,
+    dc: &[f64],
+    dp: &[nalgebra::Vector3<f64>],
+    lambda: f64,
+) -> f64 {
+    let mut s = 0.0;
+    for (k, d) in dc.iter().enumerate() {
+        s += d * n.bc[k] + lambda * n.u[(k, k)] * d * d;
+    }
+    for (i, d) in dp.iter().enumerate() {
+        s += d.dot(&n.bp[i]) + b.gauge * d.norm_squared();
+        for k in 0..3 {
+            s += lambda * n.v[i][(k, k)] * d[k] * d[k];
+        }
+    }
+    s
 }
 
 /// The largest update measured in units of its a-priori σ, 1/√N_kk.
@@ -188,7 +223,12 @@ fn run(
             }
             if descends {
                 accepted = Some((c, step));
-                lambda = (lambda * decrease).max(1e-12);
+                let linear = start == Start::Adaptive && {
+                    let rho = (cost - c) / predicted_decrease(b, &n, &dc, &dp, lambda).max(1e-300);
+                    (rho - 1.0).abs() < LINEAR_GAIN
+                };
+                let f = if linear { LINEAR_DECREASE } else { decrease };
+                lambda = (lambda * f).max(1e-12);
                 break;
             }
             (b.images, b.interior, b.points) = saved.clone();
@@ -226,4 +266,52 @@ fn run(
         cost,
     };
     (outcome, None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::photogrammetry::bundle::residual_value;
+    use crate::photogrammetry::test_support::bundle;
+    use nalgebra::Vector3;
+
+    /// Near a zero-residual solution the model is linear: the decrease of vᵀPv a damped step
+    /// achieves equals the predicted one to within the step's second-order effects (a sign error
+    /// or a factor 2 in the prediction would give ρ = −1, 2 or ½).
+    #[test]
+    fn predicted_decrease_matches_the_actual_one_near_a_solution() {
+        for (nimg, np, per_point) in [(4, 7, 4), (12, 40, 3)] {
+            let mut b = bundle(nimg, np, per_point);
+            for k in 0..b.obs.len() {
+                let o = b.obs[k].clone();
+                let e = residual_value(
+                    b.model,
+                    &b.images[o.image],
+                    &b.interior[0],
+                    &b.points[o.point],
+                    o.meas,
+                    b.zbar,
+                );
+                b.obs[k].meas = [o.meas[0] - e[0], o.meas[1] - e[1]];
+            }
+            for (i, p) in b.points.iter_mut().enumerate() {
+                let t = i as f64;
+                *p += 1e-4 * Vector3::new((3.1 * t).sin(), (1.3 * t).cos(), (0.7 * t).sin());
+            }
+            for lambda in [1e-6, 1e-3, 1e-1] {
+                let mut trial = b.clone();
+                let n = trial.normals();
+                let cost = trial.cost();
+                let mut buffers = ReduceBuffers::default();
+                let (dc, dp) = trial.solve(&n, lambda, &mut buffers).expect("solves");
+                let predicted = predicted_decrease(&trial, &n, &dc, &dp, lambda);
+                trial.apply(&dc, &dp);
+                let rho = (cost - trial.cost()) / predicted;
+                assert!(
+                    (rho - 1.0).abs() < 1e-3,
+                    "{nimg} x {np}, λ {lambda}: ρ = {rho}"
+                );
+            }
+        }
+    }
 }

@@ -29,6 +29,8 @@ pub mod result;
 pub mod rotation;
 pub mod snooping;
 pub mod start;
+#[cfg(test)]
+mod test_support;
 
 pub use adjust::{adjust, adjust_problem};
 pub use camera::Camera;
