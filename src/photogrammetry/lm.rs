@@ -283,7 +283,7 @@ mod tests {
         for (nimg, np, per_point) in [(4, 7, 4), (12, 40, 3)] {
             let mut b = bundle(nimg, np, per_point);
             for k in 0..b.obs.len() {
-                let o = b.obs[k].clone();
+                let o = b.obs[k];
                 let e = residual_value(
                     b.model,
                     &b.images[o.image],
