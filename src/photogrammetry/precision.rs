@@ -13,6 +13,16 @@ use rayon::prelude::*;
 type G = SMatrix<f64, 3, 7>;
 type M7 = SMatrix<f64, 7, 7>;
 
+/// S⁻¹ restricted to the local camera columns of one image's observations (see
+/// [`Cofactors::image_block`]).
+pub struct ImageBlock {
+    /// (global column, local lane) of each local column; the first `n` are used.
+    cols: [(usize, usize); 14],
+    n: usize,
+    /// S⁻¹[cols, cols].
+    q: [[f64; 14]; 14],
+}
+
 /// Cofactor blocks of the final solution (a-priori scale; multiply by the variance factor).
 pub struct Cofactors {
     normals: Normals,
@@ -68,12 +78,17 @@ impl Cofactors {
         };
         (cof.qpp, cof.qw) = blocks.into_iter().unzip();
         if free_network {
-            cof.datum = Some(cof.datum_projection(&b.points)?);
+            cof.datum =
+                Some(cof.datum_projection(&b.points, b.obs.len() >= PARALLEL_MIN_OBSERVATIONS)?);
         }
         Some(cof)
     }
 
-    fn datum_projection(&self, points: &[Vector3<f64>]) -> Option<(Vec<G>, M7, Vec<G>, M7)> {
+    fn datum_projection(
+        &self,
+        points: &[Vector3<f64>],
+        parallel: bool,
+    ) -> Option<(Vec<G>, M7, Vec<G>, M7)> {
         let n = points.len() as f64;
         let centroid = points.iter().fold(Vector3::zeros(), |a, p| a + p) / n;
         let extent = (points
@@ -98,8 +113,7 @@ impl Cofactors {
         let c = gtg.try_inverse()?;
         // B = Σ_j W_j V_j⁻¹ G_j (nc × 7), T = S⁻¹ B.
         let nc = self.qcc.nrows();
-        let mut bm = vec![[0.0f64; 7]; nc];
-        for (j, g) in gs.iter().enumerate() {
+        let add_points = |mut bm: Vec<[f64; 7]>, (j, g): (usize, &G)| {
             let vg = self.vinv[j] * g;
             let w = &self.normals.w[j];
             for (a, &ca) in w.cols.iter().enumerate() {
@@ -108,34 +122,61 @@ impl Cofactors {
                     bm[ca][k] += row[k];
                 }
             }
-        }
-        let mut t = vec![[0.0f64; 7]; nc];
-        for (r, tr) in t.iter_mut().enumerate() {
-            for (s, bs) in bm.iter().enumerate() {
-                let q = self.qcc[(r, s)];
-                if q != 0.0 {
-                    for k in 0..7 {
-                        tr[k] += q * bs[k];
+            bm
+        };
+        let bm: Vec<[f64; 7]> = if parallel {
+            gs.par_iter()
+                .enumerate()
+                .fold(|| vec![[0.0f64; 7]; nc], add_points)
+                .reduce(
+                    || vec![[0.0f64; 7]; nc],
+                    |mut a, b| {
+                        for (x, y) in a.iter_mut().zip(&b) {
+                            for k in 0..7 {
+                                x[k] += y[k];
+                            }
+                        }
+                        a
+                    },
+                )
+        } else {
+            gs.iter()
+                .enumerate()
+                .fold(vec![[0.0f64; 7]; nc], add_points)
+        };
+        // S⁻¹ is symmetric: its row r is its column r, read contiguously.
+        let row_of_t = |r: usize| {
+            let q = self.qcc.col_as_slice(r);
+            let mut tr = [0.0f64; 7];
+            for (qs, bs) in q.iter().zip(&bm) {
+                for k in 0..7 {
+                    tr[k] += qs * bs[k];
+                }
+            }
+            tr
+        };
+        let t: Vec<[f64; 7]> = if parallel {
+            (0..nc).into_par_iter().map(row_of_t).collect()
+        } else {
+            (0..nc).map(row_of_t).collect()
+        };
+        let h_of = |(i, g): (usize, &G)| {
+            let mut inner = *g;
+            let w = &self.normals.w[i];
+            for (a, &ca) in w.cols.iter().enumerate() {
+                for k in 0..7 {
+                    for r in 0..3 {
+                        inner[(r, k)] += w.rows[a][r] * t[ca][k];
                     }
                 }
             }
-        }
-        let hs: Vec<G> = gs
-            .iter()
-            .enumerate()
-            .map(|(i, g)| {
-                let mut inner = *g;
-                let w = &self.normals.w[i];
-                for (a, &ca) in w.cols.iter().enumerate() {
-                    for k in 0..7 {
-                        for r in 0..3 {
-                            inner[(r, k)] += w.rows[a][r] * t[ca][k];
-                        }
-                    }
-                }
-                self.vinv[i] * inner
-            })
-            .collect();
+            self.vinv[i] * inner
+        };
+        let hs: Vec<G> = if parallel {
+            gs.par_iter().enumerate().map(h_of).collect()
+        } else {
+            gs.iter().enumerate().map(h_of).collect()
+        };
         let m: M7 = gs.iter().zip(&hs).map(|(g, h)| g.transpose() * h).sum();
         Some((gs, c, hs, m))
     }
@@ -341,24 +382,40 @@ impl Cofactors {
     /// cofactor of its adjusted (predicted) value. Datum-invariant, so the raw cofactors serve.
     pub fn predicted_cofactor(&self, b: &Bundle, o: &Obs) -> Matrix2<f64> {
         let cam = b.image_camera[o.image];
-        self.predicted_cofactor_of(o, &b.jacobian(o), &b.interior_lanes()[cam])
+        let block = self.image_block(o.image, &b.interior_lanes()[cam]);
+        self.predicted_cofactor_of(o, &b.jacobian(o), &block)
     }
 
-    /// [`Cofactors::predicted_cofactor`] from the observation's Jacobian `f` and its camera's
-    /// interior lanes (see [`Bundle::interior_lanes`]).
+    /// S⁻¹ restricted to the local camera columns of an image's observations (its six, then its
+    /// camera's free interior parameters, see [`Bundle::interior_lanes`]): the same for all of them.
+    pub fn image_block(&self, image: usize, interior_lanes: &[(usize, usize)]) -> ImageBlock {
+        let mut cols = [(0usize, 0usize); 14];
+        for (l, c) in cols.iter_mut().enumerate().take(6) {
+            *c = (6 * image + l, l);
+        }
+        let n = 6 + interior_lanes.len();
+        cols[6..n].copy_from_slice(interior_lanes);
+        let mut q = [[0.0f64; 14]; 14];
+        for (x, &(gx, _)) in cols[..n].iter().enumerate() {
+            let col = self.qcc.col_as_slice(gx);
+            for (y, &(gy, _)) in cols[..n].iter().enumerate() {
+                q[x][y] = col[gy];
+            }
+        }
+        ImageBlock { cols, n, q }
+    }
+
+    /// [`Cofactors::predicted_cofactor`] from the observation's Jacobian `f` and its image's
+    /// [`Cofactors::image_block`].
     pub fn predicted_cofactor_of(
         &self,
         o: &Obs,
         f: &[Dual<LOCAL>; 2],
-        interior_lanes: &[(usize, usize)],
+        block: &ImageBlock,
     ) -> Matrix2<f64> {
-        let mut cols = [(0usize, 0usize); 14];
-        for (l, c) in cols.iter_mut().enumerate().take(6) {
-            *c = (6 * o.image + l, l);
-        }
-        let n = 6 + interior_lanes.len();
-        cols[6..n].copy_from_slice(interior_lanes);
-        let cols = &cols[..n];
+        let n = block.n;
+        let cols = &block.cols[..n];
+        let qsub = &block.q;
         let i = o.point;
         let w = &self.normals.w[i];
         let qpp = self.qpp[i];
@@ -390,14 +447,6 @@ impl Cofactors {
                 }
             };
         }
-        // S⁻¹ restricted to the local columns, read once for both rows.
-        let mut qsub = [[0.0f64; 14]; 14];
-        for (x, &(gx, _)) in cols.iter().enumerate() {
-            let q = self.qcc.col_as_slice(gx);
-            for (y, &(gy, _)) in cols.iter().enumerate() {
-                qsub[x][y] = q[gy];
-            }
-        }
         // Per row k: the point part j_p, the local camera part j, (Σ_x j_x S⁻¹W_x), V⁻¹ j_p, S⁻¹ j.
         let terms = f.each_ref().map(|fk| {
             let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
@@ -424,6 +473,31 @@ mod tests {
     use super::*;
     use crate::photogrammetry::test_support::bundle;
     use nalgebra::DMatrix;
+
+    /// The datum projection of the free network comes out the same summed over the points on the
+    /// thread pool as in one pass.
+    #[test]
+    fn datum_projection_is_the_same_in_parallel() {
+        let b = bundle(12, 40, 3);
+        let cof = Cofactors::from_normals(&b, b.normals(), false).expect("positive definite");
+        let (g1, c1, h1, m1) = cof.datum_projection(&b.points, false).expect("regular");
+        let (g2, c2, h2, m2) = cof.datum_projection(&b.points, true).expect("regular");
+        // Summed in another order: equal to rounding, relative to the largest element.
+        let differ = |a: &[f64], b: &[f64]| {
+            let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let d = a
+                .iter()
+                .zip(b)
+                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+            d / scale.max(1e-300)
+        };
+        assert!(m1.norm() > 0.0);
+        assert_eq!(differ(c1.as_slice(), c2.as_slice()), 0.0);
+        assert!(differ(m1.as_slice(), m2.as_slice()) < 1e-10);
+        for (x, y) in g1.iter().zip(&g2).chain(h1.iter().zip(&h2)) {
+            assert!(differ(x.as_slice(), y.as_slice()) < 1e-10);
+        }
+    }
 
     /// a Q aᵀ of every observation, the point cofactor blocks and the camera cofactors equal those
     /// of the dense inverse of the whole normal matrix (gauge included), for a network reduced as a

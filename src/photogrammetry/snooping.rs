@@ -8,7 +8,7 @@ use super::bundle::{residual_value, LOCAL, POINT0};
 use super::dual::Dual;
 use super::normals::Bundle;
 use super::normals::PARALLEL_MIN_OBSERVATIONS;
-use super::precision::Cofactors;
+use super::precision::{Cofactors, ImageBlock};
 use rayon::prelude::*;
 
 /// Normalized residuals (w_x, w_y) of an active observation, `w = v / √q_vv` per coordinate. For an
@@ -208,13 +208,17 @@ impl LinearSnooping {
         };
         let e: Vec<[f64; 2]> = jac.iter().map(|f| [f[0].v, f[1].v]).collect();
         let lanes = b.interior_lanes();
-        let cofactor = |(o, f): (&super::bundle::Obs, &[Dual<LOCAL>; 2])| {
-            q.predicted_cofactor_of(o, f, &lanes[b.image_camera[o.image]])
+        let blocks: Vec<ImageBlock> = (0..b.images.len())
+            .map(|j| q.image_block(j, &lanes[b.image_camera[j]]))
+            .collect();
+        let cofactor = |k: usize| {
+            let o = &b.obs[k];
+            q.predicted_cofactor_of(o, &jac[k], &blocks[o.image])
         };
         let aqa: Vec<Matrix2<f64>> = if parallel {
-            b.obs.par_iter().zip(&jac).map(cofactor).collect()
+            (0..b.obs.len()).into_par_iter().map(cofactor).collect()
         } else {
-            b.obs.iter().zip(&jac).map(cofactor).collect()
+            (0..b.obs.len()).map(cofactor).collect()
         };
         let nc = b.camera_unknowns();
         let n = b.obs.len();
