@@ -447,21 +447,30 @@ impl Cofactors {
                 }
             };
         }
-        // Per row k: the point part j_p, the local camera part j, (Σ_x j_x S⁻¹W_x), V⁻¹ j_p, S⁻¹ j.
-        let terms = f.each_ref().map(|fk| {
-            let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
-            let j: [f64; 14] = std::array::from_fn(|x| if x < n { fk.d[cols[x].1] } else { 0.0 });
-            let cross = (0..n).fold(Vector3::zeros(), |t, x| t + j[x] * sw[x]);
-            let qj: [f64; 14] = std::array::from_fn(|x| (0..n).map(|y| qsub[x][y] * j[y]).sum());
-            (jp, j, cross, vinv * jp, qj)
-        });
+        // Per row k: the point part j_p, the local camera part j, (Σ_x j_x S⁻¹W_x), V⁻¹ j_p and
+        // S⁻¹ j (local columns only).
+        let mut jp = [Vector3::zeros(); 2];
+        let mut j = [[0.0f64; 14]; 2];
+        let mut cross = [Vector3::zeros(); 2];
+        let mut vj = [Vector3::zeros(); 2];
+        let mut qj = [[0.0f64; 14]; 2];
+        for (k, fk) in f.iter().enumerate() {
+            jp[k] = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
+            vj[k] = vinv * jp[k];
+            for x in 0..n {
+                j[k][x] = fk.d[cols[x].1];
+                cross[k] += j[k][x] * sw[x];
+            }
+            for x in 0..n {
+                let row = &qsub[x];
+                qj[k][x] = (0..n).map(|y| row[y] * j[k][y]).sum();
+            }
+        }
         // a_k Q a_lᵀ = j_pkᵀ Q_pp j_pl + j_k Q_cp j_pl + j_l Q_cp j_pk + j_k S⁻¹ j_l, with
         // Q_cp = −S⁻¹ W V⁻¹, so j_k Q_cp j_pl = −(Σ_x j_kx S⁻¹W_x) · (V⁻¹ j_pl).
         let entry = |k: usize, l: usize| {
-            let (jpk, jk, crossk, vjk, _) = &terms[k];
-            let (jpl, _, crossl, vjl, qjl) = &terms[l];
-            let camera: f64 = (0..n).map(|x| jk[x] * qjl[x]).sum();
-            (jpk.transpose() * qpp * jpl)[0] - crossk.dot(vjl) - crossl.dot(vjk) + camera
+            let camera: f64 = (0..n).map(|x| j[k][x] * qj[l][x]).sum();
+            jp[k].dot(&(qpp * jp[l])) - cross[k].dot(&vj[l]) - cross[l].dot(&vj[k]) + camera
         };
         let xy = entry(0, 1);
         Matrix2::new(entry(0, 0), xy, xy, entry(1, 1))
