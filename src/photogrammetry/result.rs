@@ -16,7 +16,9 @@ pub struct AdjustOptions {
     pub prior: PriorCoordinates,
     /// Points whose joint 3n × 3n covariance is wanted (e.g. the site's stable points).
     pub joint_covariance_of: Vec<String>,
-    /// Run data snooping (Baarda, |w| > `critical_w`, one observation at a time).
+    /// Run data snooping (Baarda, |w| > `critical_w`, one observation at a time). Without it every
+    /// observation is kept; those beyond `critical_w` are named in a warning, and a solution that
+    /// fails the global test with more than a tenth of them is refused as inconsistent, as with it.
     pub snooping: bool,
     /// Critical value of the normalized residual w.
     pub critical_w: f64,
