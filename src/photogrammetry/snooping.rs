@@ -151,8 +151,9 @@ enum Change {
     Restore,
 }
 
-/// One observation removed (or restored) in the linearized phase: `U = Q aₖᵀ` (two columns) with Q the cofactors
-/// before its removal, and `M⁻¹ = (P⁻¹ − aₖ Q aₖᵀ)⁻¹`.
+/// One observation removed (or restored) in the linearized phase: `U = Q aₖᵀ` (two columns) with Q
+/// the cofactors before the change, and `M⁻¹ = (P⁻¹ − aₖ Q aₖᵀ)⁻¹` for a removal,
+/// `−(P⁻¹ + aₖ Q aₖᵀ)⁻¹` for a restoration.
 struct Modification {
     u: [Solution; 2],
     m_inv: Matrix2<f64>,
@@ -164,7 +165,8 @@ struct Modification {
 /// `Q' = Q + U M⁻¹ Uᵀ` with `U = Q aₖᵀ`, `M = P⁻¹ − aₖ Q aₖᵀ` (the cofactor of its residual), so
 /// `aⱼ Q' aⱼᵀ = aⱼ Q aⱼᵀ + (aⱼU) M⁻¹ (aⱼU)ᵀ` and the residuals `eⱼ' = eⱼ + (aⱼU) M⁻¹ eₖ`. Each drop
 /// costs one solve with the factored normal equations and a pass over the observations instead of
-/// a re-adjustment and a new inverse.
+/// a re-adjustment and a new inverse. An observation taken back is the same update with its weight
+/// of the opposite sign (`M = −(P⁻¹ + aₖ Q aₖᵀ)`, a rank-2 update).
 pub struct LinearSnooping {
     /// Jacobian rows (and residuals at x*) per observation.
     jac: Vec<[Dual<LOCAL>; 2]>,
@@ -263,7 +265,7 @@ impl LinearSnooping {
         w_of(b, k, self.e[k], self.aqa[k])
     }
 
-    /// Whether observations were removed since x*.
+    /// Whether observations were removed or restored since x*.
     pub fn modified(&self) -> bool {
         !self.modifications.is_empty()
     }
