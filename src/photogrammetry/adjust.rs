@@ -785,6 +785,7 @@ fn solve(
     };
     let mut cof = invert(&bundle, normals)?;
     let mut final_w = None;
+    let mut capped = false;
     if options.snooping {
         let snooped = snoop(&mut bundle, cof, options, invert)?;
         (outcome, cof, final_w) = (
@@ -792,6 +793,7 @@ fn solve(
             snooped.cof,
             Some(snooped.w),
         );
+        capped = snooped.warning.is_some();
         warnings.extend(snooped.warning);
     } else {
         for k in 0..bundle.obs.len() {
@@ -813,12 +815,11 @@ fn solve(
         .map(|k| DroppedObservation {
             image: problem.images[bundle.obs[k].image].id.clone(),
             point: problem.points[bundle.obs[k].point].clone(),
-            w: w[k][0].abs().max(w[k][1].abs()),
+            w: largest(w[k]),
         })
         .collect();
-    let max_of = |w: &[f64; 2]| w[0].abs().max(w[1].abs());
     let beyond = (0..bundle.obs.len())
-        .filter(|&k| bundle.obs[k].active && max_of(&w[k]) > options.critical_w)
+        .filter(|&k| bundle.obs[k].active && largest(w[k]) > options.critical_w)
         .count();
     if !options.snooping && beyond > 0 {
         warnings.push(format!(
@@ -827,11 +828,9 @@ fn solve(
         ));
     }
     let too_many_outliers = if options.snooping {
-        warnings
-            .iter()
-            .any(|w| w.starts_with("data snooping stopped"))
+        capped
     } else {
-        beyond > (bundle.obs.len() / 10).max(1)
+        beyond > outlier_cap(bundle.obs.len())
     };
     Ok(Solved {
         outliers: dropped.len() + beyond,
@@ -843,6 +842,17 @@ fn solve(
         too_many_outliers,
         w,
     })
+}
+
+/// Largest |w| of an observation's two coordinates.
+fn largest(w: [f64; 2]) -> f64 {
+    w[0].abs().max(w[1].abs())
+}
+
+/// Observations (a tenth of `observations`, at least one) that data snooping may drop, and beyond
+/// which a solution failing the global test is taken for a wrong basin.
+fn outlier_cap(observations: usize) -> usize {
+    (observations / 10).max(1)
 }
 
 /// What data snooping leaves: the outcome of its last exact adjustment (None when it made none),
@@ -873,10 +883,9 @@ fn snoop(
     options: &AdjustOptions,
     invert: impl Fn(&Bundle, Option<Normals>) -> Result<Cofactors, AdjustError>,
 ) -> Result<Snooped, AdjustError> {
-    let max_drops = (bundle.obs.len() / 10).max(1);
+    let max_drops = outlier_cap(bundle.obs.len());
     let mut drops = bundle.obs.iter().filter(|o| !o.active).count();
     let mut lin = LinearSnooping::new(bundle, &cof, options.critical_w);
-    let max_of = |w: [f64; 2]| w[0].abs().max(w[1].abs());
     let mut counts = ActiveCounts::of(bundle);
     let mut restores = vec![0u8; bundle.obs.len()];
     let mut outcome = None;
@@ -887,7 +896,7 @@ fn snoop(
             if !bundle.obs[k].active || !counts.droppable(bundle, k) {
                 continue;
             }
-            let m = max_of(lin.w(bundle, k));
+            let m = largest(lin.w(bundle, k));
             if m > options.critical_w && worst.is_none_or(|(_, x)| m > x) {
                 worst = Some((k, m));
             }
@@ -902,7 +911,7 @@ fn snoop(
                 .filter(|&k| {
                     !bundle.obs[k].active
                         && restores[k] < MAX_RESTORES
-                        && max_of(lin.w(bundle, k)) <= options.critical_w
+                        && largest(lin.w(bundle, k)) <= options.critical_w
                 })
                 .collect();
             let mut restored = false;
