@@ -64,6 +64,8 @@ fn setup() -> (
                     significant: false,
                     velocity_mm_per_day: Some(0.002),
                     time_to_failure_hours: None,
+                    time_to_failure_sigma_hours: None,
+                    filtered: None,
                 }
             })
             .collect();

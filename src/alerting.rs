@@ -48,6 +48,7 @@ pub fn alert_config(site: &Site) -> AlertConfig {
         .collect();
     let mut c = AlertConfig::new(site.id.clone(), rules);
     c.schedule_hours = site.schedule_hours;
+    c.confidence = site.confidence;
     c
 }
 
@@ -184,6 +185,8 @@ pub struct SeriesAnalysis {
     pub failures: Vec<(i64, String)>,
     /// Epochs analysed.
     pub analysed: Vec<i64>,
+    /// Every alert event of the replay, in order, with the epoch that caused it.
+    pub events: Vec<(i64, AlertEvent)>,
 }
 
 /// Analyses a whole series against one reference (pure; the analysis part of
@@ -212,8 +215,11 @@ pub fn analyse_series(
                     }
                     out.records.push(r);
                 }
-                out.replayed =
-                    analysis::evaluate_alerts(alerts, &out.replayed, &a, e.observed_at).0;
+                let (state, events) =
+                    analysis::evaluate_alerts(alerts, &out.replayed, &a, e.observed_at);
+                out.replayed = state;
+                out.events
+                    .extend(events.into_iter().map(|ev| (e.epoch, ev)));
                 out.analysed.push(e.epoch);
             }
             Err(err) => {
@@ -221,15 +227,17 @@ pub fn analyse_series(
                     "analysis against reference epoch {}: {err}",
                     reference.epoch
                 );
-                out.replayed = analysis::analysis_failed(
+                let (state, events) = analysis::analysis_failed(
                     alerts,
                     &out.replayed,
                     e.epoch,
                     e.observed_at,
                     &reason,
                     e.observed_at,
-                )
-                .0;
+                );
+                out.replayed = state;
+                out.events
+                    .extend(events.into_iter().map(|ev| (e.epoch, ev)));
                 out.failures.push((e.epoch, reason));
             }
         }
@@ -425,13 +433,15 @@ pub async fn record_events(
         .await?;
         if updated.rows_affected() == 0 {
             sqlx::query(
-                "INSERT INTO alerts (id, site_id, point, points, level, rule, value, threshold, unit, \
-                 epoch_id, observed_at, message, state, raised_at, updated_at, acknowledged_by, \
-                 ack_comment) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                "INSERT INTO alerts (id, site_id, point, group_name, points, level, rule, value, \
+                 threshold, unit, epoch_id, observed_at, message, state, raised_at, updated_at, \
+                 acknowledged_by, ack_comment) \
+                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             )
             .bind(&a.id)
             .bind(&a.site)
             .bind(&a.point)
+            .bind(&a.group)
             .bind(serde_json::to_string(&a.points)?)
             .bind(a.level.as_str())
             .bind(a.rule.as_str())

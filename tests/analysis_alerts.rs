@@ -1,5 +1,9 @@
 //! The alert state machine: contract rule JSON, raise/escalate/de-escalate/resolve, hysteresis, quiet
-//! epochs, significance, groups, acknowledgement, manual resolution, site-level alerts.
+//! epochs, significance, groups, acknowledgement, manual resolution, site-level alerts; threshold
+//! exceedance at confidence, persistence (`for_epochs`), the filtered source and block groups.
+//!
+//! The state-machine tests use σ = 0.1 mm, so that a value 0.25 mm past a threshold exceeds it at
+//! 99 % (z = 2.33); the confidence tests use σ = 0.5 mm.
 
 use chrono::{DateTime, Duration, TimeZone, Utc};
 
@@ -22,6 +26,17 @@ fn analysis(
     group: Option<&str>,
     excluded: &[&str],
 ) -> EpochAnalysis {
+    analysis_sigma(epoch, d_mm, 0.1, significant, group, excluded)
+}
+
+fn analysis_sigma(
+    epoch: i64,
+    d_mm: f64,
+    sigma_mm: f64,
+    significant: bool,
+    group: Option<&str>,
+    excluded: &[&str],
+) -> EpochAnalysis {
     let at = t0() + Duration::days(epoch);
     let record = DisplacementRecord {
         point: "T1".into(),
@@ -31,10 +46,10 @@ fn analysis(
         dy_mm: 0.0,
         dz_mm: 0.0,
         d_mm,
-        sigma_dx_mm: 0.5,
-        sigma_dy_mm: 0.5,
-        sigma_dz_mm: 0.5,
-        sigma_mm: 0.5,
+        sigma_dx_mm: sigma_mm,
+        sigma_dy_mm: sigma_mm,
+        sigma_dz_mm: sigma_mm,
+        sigma_mm,
         cov_dxdy_mm2: None,
         cov_dxdz_mm2: None,
         cov_dydz_mm2: None,
@@ -42,6 +57,8 @@ fn analysis(
         significant,
         velocity_mm_per_day: None,
         time_to_failure_hours: None,
+        time_to_failure_sigma_hours: None,
+        filtered: None,
     };
     EpochAnalysis {
         epoch,
@@ -61,16 +78,23 @@ fn analysis(
             role: PointRole::Monitored,
             group: group.map(str::to_string),
             in_datum: false,
-            covariance_mm2: [[0.25, 0.0, 0.0], [0.0, 0.25, 0.0], [0.0, 0.0, 0.25]],
+            covariance_mm2: [
+                [sigma_mm * sigma_mm, 0.0, 0.0],
+                [0.0, sigma_mm * sigma_mm, 0.0],
+                [0.0, 0.0, sigma_mm * sigma_mm],
+            ],
             sigma_along_mm: None,
             test_statistic: 0.0,
             test_dof: 3,
             critical_value: 11.34,
             kinematics: None,
             failure: None,
+            filtered_along_mm: None,
+            filtered_failure: None,
         }],
         new_points: vec![],
         warnings: vec![],
+        blocks: vec![],
     }
 }
 
@@ -351,4 +375,168 @@ fn analysis_failed_raises_once_and_resolves_on_the_next_analysis() {
     assert_eq!(ev[0].event_type, Resolved);
     assert_eq!(ev[0].alert.rule, AlertKind::AnalysisFailed);
     assert!(st.alerts.is_empty());
+}
+
+/// Feeds (d_mm, σ_mm) epochs (all significant) and returns the event types per epoch.
+fn feed_sigma(cfg: &AlertConfig, series: &[(f64, f64)]) -> Vec<Vec<(AlertEventType, AlertLevel)>> {
+    let mut st = AlertState::default();
+    let mut out = vec![];
+    for (k, &(d, s)) in series.iter().enumerate() {
+        let a = analysis_sigma(k as i64 + 2, d, s, true, None, &[]);
+        let (n, ev) = evaluate_alerts(cfg, &st, &a, a.observed_at);
+        st = n;
+        out.push(ev.iter().map(|e| (e.event_type, e.alert.level)).collect());
+    }
+    out
+}
+
+/// A value significantly different from zero is not enough: it must exceed the threshold at the
+/// site's one-sided confidence, `d − z·σ > above` (z = 2.326 at 99 %, 1.645 at 95 %).
+#[test]
+fn threshold_exceedance_is_tested_at_the_confidence() {
+    use AlertEventType::*;
+    use AlertLevel::*;
+    let cfg = contract_config();
+    assert!((cfg.z() - 2.326).abs() < 1e-3);
+    // 5.9 mm ± 0.5: 5.9 − 1.16 < 5, no watch; 6.2: 6.2 − 1.16 > 5, watch.
+    let ev = feed_sigma(&cfg, &[(5.9, 0.5), (6.2, 0.5)]);
+    assert_eq!(ev[0], vec![]);
+    assert_eq!(ev[1], vec![(Raised, Watch)]);
+    // At 95 % the margin is 0.82 mm: 5.9 raises.
+    let cfg95 = AlertConfig {
+        confidence: 0.95,
+        ..contract_config()
+    };
+    let ev = feed_sigma(&cfg95, &[(5.9, 0.5)]);
+    assert_eq!(ev[0], vec![(Raised, Watch)]);
+    // A `below` rule: the value plus z·σ must lie below the threshold.
+    let ttf: AlertRule = serde_json::from_str(
+        r#"{"level": "alarm", "metric": "time_to_failure_hours", "below": 96, "source": "raw"}"#,
+    )
+    .expect("rule");
+    let cfg = AlertConfig::new("kamo", vec![ttf]);
+    let mut a = analysis_sigma(2, 30.0, 0.5, true, None, &[]);
+    let f = |h: f64, s: f64| -> cliffwatch::analysis::FailureForecast {
+        serde_json::from_value(serde_json::json!({
+            "time_to_failure_hours": h, "sigma_hours": s, "r2": 0.9, "velocities": 8
+        }))
+        .expect("forecast")
+    };
+    a.points[0].failure = Some(f(80.0, 10.0));
+    let (_, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
+    assert!(ev.is_empty(), "80 + 2.33·10 > 96: not yet");
+    a.points[0].failure = Some(f(60.0, 10.0));
+    let (_, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].alert.level, Alarm);
+    // Out-of-range confidences are refused.
+    for c in [0.5, 1.0, 0.3, f64::NAN] {
+        let bad = AlertConfig {
+            confidence: c,
+            ..contract_config()
+        };
+        assert!(bad.validate().is_err(), "confidence {c}");
+    }
+}
+
+/// `for_epochs: N` needs N consecutive triggering epochs; one quiet epoch starts the count anew.
+#[test]
+fn for_epochs_asks_for_consecutive_triggering_epochs() {
+    use AlertEventType::*;
+    use AlertLevel::*;
+    let mut cfg = contract_config();
+    cfg.rules[0].for_epochs = Some(3);
+    let ev = feed_sigma(
+        &cfg,
+        &[(7.0, 0.1), (7.0, 0.1), (3.0, 0.1), (7.0, 0.1), (7.0, 0.1), (7.0, 0.1)],
+    );
+    assert!(ev[..5].iter().all(Vec::is_empty), "{ev:?}");
+    assert_eq!(ev[5], vec![(Raised, Watch)]);
+    let bad: AlertRule = serde_json::from_str(
+        r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "for_epochs": 0}"#,
+    )
+    .expect("parses");
+    assert!(bad.validate().is_err());
+}
+
+/// Rules read the filtered state when they say so (and velocity and time to failure by default).
+#[test]
+fn filtered_source_reads_the_filtered_state() {
+    use cliffwatch::analysis::{FilteredValues, Metric, Source};
+    let rule: AlertRule = serde_json::from_str(
+        r#"{"level": "warning", "metric": "displacement_mm", "above": 10, "source": "filtered"}"#,
+    )
+    .expect("rule");
+    assert_eq!(rule.source(), Source::Filtered);
+    let v: AlertRule = serde_json::from_str(
+        r#"{"level": "alarm", "metric": "velocity_mm_per_day", "above": 5}"#,
+    )
+    .expect("rule");
+    assert_eq!(v.source(), Metric::VelocityMmPerDay.default_source());
+    assert_eq!(v.source(), Source::Filtered);
+    let cfg = AlertConfig::new("kamo", vec![rule]);
+    // Raw 12 mm, but no filtered state: nothing.
+    let mut a = analysis_sigma(2, 12.0, 0.1, true, None, &[]);
+    let (_, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
+    assert!(ev.is_empty());
+    let filtered = |d: f64| FilteredValues {
+        f_dx_mm: d,
+        f_dy_mm: 0.0,
+        f_dz_mm: 0.0,
+        f_d_mm: d,
+        sigma_f_dx_mm: 0.3,
+        sigma_f_dy_mm: 0.3,
+        sigma_f_dz_mm: 0.3,
+        sigma_f_d_mm: 0.3,
+        f_velocity_mm_per_day: 0.0,
+        sigma_f_velocity_mm_per_day: 0.1,
+        f_acceleration_mm_per_day2: None,
+        sigma_f_acceleration_mm_per_day2: None,
+    };
+    a.points[0].record.filtered = Some(filtered(10.5));
+    let (_, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
+    assert!(ev.is_empty(), "10.5 − 2.33·0.3 < 10");
+    a.points[0].record.filtered = Some(filtered(11.0));
+    let (_, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].alert.value, Some(11.0));
+}
+
+/// A rule naming a declared block applies to the block's motion: one alert for the group, with
+/// `point` null, the group and its points; the block's own points are not alerted by it.
+#[test]
+fn block_rules_raise_group_alerts() {
+    use cliffwatch::analysis::{BlockAnalysis, Metric, Reading, Readings, Source};
+    let rule: AlertRule = serde_json::from_str(
+        r#"{"level": "warning", "metric": "displacement_mm", "above": 10, "group": "B1"}"#,
+    )
+    .expect("rule");
+    let cfg = AlertConfig::new("kamo", vec![rule]);
+    let mut a = analysis_sigma(2, 20.0, 0.1, true, Some("B1"), &[]);
+    let mut readings = Readings::default();
+    readings.set(
+        Metric::DisplacementMm,
+        Source::Raw,
+        Reading {
+            value: Some(12.0),
+            sigma: 0.2,
+            significant: true,
+        },
+    );
+    a.blocks.push(BlockAnalysis {
+        group: "B1".into(),
+        points: vec!["T1".into(), "T2".into()],
+        readings,
+    });
+    let (st, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
+    assert_eq!(ev.len(), 1, "{ev:?}");
+    let al = &ev[0].alert;
+    assert_eq!(al.point, None);
+    assert_eq!(al.group.as_deref(), Some("B1"));
+    assert_eq!(al.points, vec!["T1".to_string(), "T2".to_string()]);
+    assert_eq!(al.value, Some(12.0));
+    assert!(al.id.contains("group-B1"), "{}", al.id);
+    // Resolving it by hand resets the group's rule memory.
+    let (st, _) = resolve(&st, &al.id, "ops", t0()).expect("resolve");
+    assert!(st.rules.is_empty(), "{:?}", st.rules);
 }

@@ -26,6 +26,8 @@ fn rule(
         clear_below,
         clear_above: None,
         group: None,
+        source: None,
+        for_epochs: None,
         require_significant: true,
         quiet_epochs: None,
     }
@@ -159,14 +161,16 @@ fn alerts_escalate_and_failure_forecast_converges() {
                 .map(|x| x.1)
                 .expect("level reached")
         };
-        // Exactly where the estimate first crosses (significantly) …
+        // Exactly where the estimate first exceeds the threshold at the rules' confidence
+        // (d − z·σ > threshold, z = 2.326) …
+        let z = alerts.z();
         let est = |th: f64| {
             steps
                 .iter()
                 .position(|s| {
-                    s.analysis
-                        .point("B1")
-                        .is_some_and(|p| p.record.significant && p.record.d_mm > th)
+                    s.analysis.point("B1").is_some_and(|p| {
+                        p.record.significant && p.record.d_mm - z * p.record.sigma_mm > th
+                    })
                 })
                 .map(|k| k + 1)
         };

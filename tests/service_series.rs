@@ -474,6 +474,8 @@ fn analysis_records_map_to_rows_and_back() {
         significant: true,
         velocity_mm_per_day: None,
         time_to_failure_hours: Some(36.0),
+        time_to_failure_sigma_hours: None,
+        filtered: None,
     };
     let row = Displacement::from_record(&record, 3);
     assert_eq!(row.reference_epoch, 3);

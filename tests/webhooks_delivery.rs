@@ -80,6 +80,7 @@ fn event(ty: AlertEventType, level: AlertLevel) -> AlertEvent {
             id: "kamo/T103/displacement_mm/17".into(),
             site: "kamo".into(),
             point: Some("T103".into()),
+            group: None,
             points: vec![],
             rule: AlertKind::DisplacementMm,
             level,

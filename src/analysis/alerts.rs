@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 use super::analyse::EpochAnalysis;
 use super::displacement::PointAnalysis;
 use super::error::AnalysisError;
+use super::stats::normal_quantile;
 
 /// Alert level; ordered `watch` < `warning` < `alarm`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
@@ -66,21 +67,156 @@ impl Metric {
         }
     }
 
-    /// Value of the metric for a point and whether it is significant.
-    pub fn value(self, p: &PointAnalysis) -> (Option<f64>, bool) {
-        let r = &p.record;
+    /// Where the metric is read by default: the raw series for displacements, the Kalman-filtered
+    /// state for velocity and time to failure (a raw velocity of noisy epochs flickers).
+    pub fn default_source(self) -> Source {
         match self {
-            Metric::DisplacementMm => (Some(r.d_mm), r.significant),
-            Metric::DisplacementAlongMm => (r.d_along_mm, r.significant),
-            Metric::VelocityMmPerDay => (
-                r.velocity_mm_per_day,
-                r.significant && p.kinematics.is_some_and(|k| k.velocity_significant),
-            ),
-            // A forecast exists only for a significant, accelerating point.
-            Metric::TimeToFailureHours => {
-                (r.time_to_failure_hours, r.time_to_failure_hours.is_some())
-            }
+            Metric::DisplacementMm | Metric::DisplacementAlongMm => Source::Raw,
+            Metric::VelocityMmPerDay | Metric::TimeToFailureHours => Source::Filtered,
         }
+    }
+
+    fn index(self) -> usize {
+        match self {
+            Metric::DisplacementMm => 0,
+            Metric::DisplacementAlongMm => 1,
+            Metric::VelocityMmPerDay => 2,
+            Metric::TimeToFailureHours => 3,
+        }
+    }
+}
+
+/// Which estimate of a metric a rule reads (contract: `"source": "raw" | "filtered"`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Source {
+    /// The epoch's own value (displacement against the reference; velocity and time to failure
+    /// from least-squares fits over the last epochs).
+    Raw,
+    /// The Kalman filter's estimate at the epoch (see [`super::kalman`]).
+    Filtered,
+}
+
+/// One value of a metric with its σ (unit of the metric) and whether it is significant.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Reading {
+    /// The value (None when not available, e.g. no forecast).
+    pub value: Option<f64>,
+    /// Its σ (0 when unknown).
+    pub sigma: f64,
+    /// Whether the value differs significantly from zero (the raw displacement test; filtered
+    /// values carry their own σ and count as significant).
+    pub significant: bool,
+}
+
+impl Reading {
+    /// A value with σ, significant.
+    pub fn new(value: Option<f64>, sigma: Option<f64>) -> Self {
+        Reading {
+            value,
+            sigma: sigma.filter(|s| s.is_finite() && *s >= 0.0).unwrap_or(0.0),
+            significant: value.is_some(),
+        }
+    }
+}
+
+/// The values the rules can read for one subject (a point or a block): per [`Source`], one
+/// [`Reading`] per [`Metric`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Readings {
+    /// Raw readings, indexed like [`Metric`] (displacement, along, velocity, time to failure).
+    pub raw: [Reading; 4],
+    /// Filtered readings, same order.
+    pub filtered: [Reading; 4],
+}
+
+impl Readings {
+    /// The reading of `metric` from `source`.
+    pub fn get(&self, metric: Metric, source: Source) -> Reading {
+        match source {
+            Source::Raw => self.raw[metric.index()],
+            Source::Filtered => self.filtered[metric.index()],
+        }
+    }
+
+    /// Sets the reading of `metric` from `source`.
+    pub fn set(&mut self, metric: Metric, source: Source, reading: Reading) {
+        match source {
+            Source::Raw => self.raw[metric.index()] = reading,
+            Source::Filtered => self.filtered[metric.index()] = reading,
+        }
+    }
+
+    /// The readings of a point's analysis.
+    pub fn of_point(p: &PointAnalysis) -> Self {
+        let r = &p.record;
+        let mut out = Readings::default();
+        out.set(
+            Metric::DisplacementMm,
+            Source::Raw,
+            Reading {
+                value: Some(r.d_mm),
+                sigma: r.sigma_mm,
+                significant: r.significant,
+            },
+        );
+        out.set(
+            Metric::DisplacementAlongMm,
+            Source::Raw,
+            Reading {
+                value: r.d_along_mm,
+                sigma: p.sigma_along_mm.unwrap_or(0.0),
+                significant: r.significant,
+            },
+        );
+        out.set(
+            Metric::VelocityMmPerDay,
+            Source::Raw,
+            Reading {
+                value: r.velocity_mm_per_day,
+                sigma: p.kinematics.map_or(0.0, |k| k.sigma_velocity_mm_per_day),
+                significant: r.significant && p.kinematics.is_some_and(|k| k.velocity_significant),
+            },
+        );
+        // A forecast exists only for a significant, accelerating point.
+        out.set(
+            Metric::TimeToFailureHours,
+            Source::Raw,
+            Reading::new(
+                p.failure.map(|f| f.time_to_failure_hours),
+                p.failure.map(|f| f.sigma_hours),
+            ),
+        );
+        if let Some(f) = &r.filtered {
+            out.set(
+                Metric::DisplacementMm,
+                Source::Filtered,
+                Reading::new(Some(f.f_d_mm), Some(f.sigma_f_d_mm)),
+            );
+            out.set(
+                Metric::VelocityMmPerDay,
+                Source::Filtered,
+                Reading::new(
+                    Some(f.f_velocity_mm_per_day),
+                    Some(f.sigma_f_velocity_mm_per_day),
+                ),
+            );
+        }
+        if let Some((d, s)) = p.filtered_along_mm {
+            out.set(
+                Metric::DisplacementAlongMm,
+                Source::Filtered,
+                Reading::new(Some(d), Some(s)),
+            );
+        }
+        if let Some(f) = &p.filtered_failure {
+            out.set(
+                Metric::TimeToFailureHours,
+                Source::Filtered,
+                Reading::new(Some(f.time_to_failure_hours), Some(f.sigma_hours)),
+            );
+        }
+        out
     }
 }
 
@@ -154,9 +290,16 @@ pub struct AlertRule {
     /// Hysteresis of a `below` rule: once active, clears only above this value.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clear_above: Option<f64>,
-    /// Restricts the rule to points of this group (all points when absent).
+    /// Restricts the rule to points of this group (all points when absent); when the group is
+    /// declared a block, the rule applies to the block's motion instead of its single points.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub group: Option<String>,
+    /// Which estimate the rule reads (default: [`Metric::default_source`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<Source>,
+    /// Consecutive triggering epochs needed before the rule becomes active (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub for_epochs: Option<u32>,
     /// Only significant values trigger (default true).
     #[serde(default = "yes")]
     pub require_significant: bool,
@@ -188,7 +331,15 @@ impl AlertRule {
             }
             _ => return bad("exactly one finite `above` or `below` is needed"),
         }
+        if self.for_epochs == Some(0) {
+            return bad("for_epochs must be ≥ 1");
+        }
         Ok(())
+    }
+
+    /// The estimate the rule reads.
+    pub fn source(&self) -> Source {
+        self.source.unwrap_or(self.metric.default_source())
     }
 
     fn applies_to(&self, group: Option<&str>) -> bool {
@@ -199,10 +350,12 @@ impl AlertRule {
         self.above.or(self.below)
     }
 
-    fn triggers(&self, v: f64) -> bool {
+    /// Whether the value exceeds the threshold at one-sided confidence: `v − z·σ > above` or
+    /// `v + z·σ < below`, σ the value's own σ (`z` the normal quantile of the site's confidence).
+    fn triggers(&self, v: f64, sigma: f64, z: f64) -> bool {
         match (self.above, self.below) {
-            (Some(a), None) => v > a,
-            (None, Some(b)) => v < b,
+            (Some(a), None) => v - z * sigma > a,
+            (None, Some(b)) => v + z * sigma < b,
             _ => false,
         }
     }
@@ -218,14 +371,22 @@ impl AlertRule {
 
     /// Stable key of the rule in the state.
     pub fn key(&self) -> String {
-        format!(
+        let mut k = format!(
             "{}:{}:{}:{}:{}",
             AlertKind::from(self.metric).as_str(),
             self.level.as_str(),
             self.above.map_or("-".into(), |a| format!("above{a}")),
             self.below.map_or("-".into(), |b| format!("below{b}")),
             self.group.as_deref().unwrap_or("*")
-        )
+        );
+        if self.source.is_some() || self.for_epochs.is_some() {
+            let src = match self.source() {
+                Source::Raw => "raw",
+                Source::Filtered => "filtered",
+            };
+            k.push_str(&format!(":{src}:{}", self.for_epochs.unwrap_or(1)));
+        }
+        k
     }
 }
 
@@ -243,6 +404,9 @@ fn default_failed() -> AlertLevel {
 }
 fn default_grace() -> f64 {
     0.25
+}
+fn default_confidence() -> f64 {
+    0.99
 }
 
 /// Alert configuration of a site.
@@ -271,6 +435,10 @@ pub struct AlertConfig {
     /// Grace as a fraction of the schedule before `campaign_overdue` (default 0.25).
     #[serde(default = "default_grace")]
     pub overdue_grace: f64,
+    /// One-sided confidence at which a value must exceed a rule's threshold (the site's
+    /// `confidence`, in (0.5, 1); default 0.99).
+    #[serde(default = "default_confidence")]
+    pub confidence: f64,
 }
 
 impl AlertConfig {
@@ -285,12 +453,27 @@ impl AlertConfig {
             analysis_failed_level: AlertLevel::Warning,
             schedule_hours: None,
             overdue_grace: 0.25,
+            confidence: 0.99,
         }
     }
 
-    /// Validates every rule.
+    /// Validates the confidence and every rule.
     pub fn validate(&self) -> Result<(), AnalysisError> {
+        if !(self.confidence > 0.5 && self.confidence < 1.0) {
+            return Err(AnalysisError::InvalidConfig(
+                "confidence must lie in (0.5, 1)".into(),
+            ));
+        }
         self.rules.iter().try_for_each(AlertRule::validate)
+    }
+
+    /// The one-sided normal quantile of [`AlertConfig::confidence`] (0 when it is out of range).
+    pub fn z(&self) -> f64 {
+        if self.confidence > 0.5 && self.confidence < 1.0 {
+            normal_quantile(self.confidence)
+        } else {
+            0.0
+        }
     }
 }
 
@@ -314,8 +497,11 @@ pub struct Alert {
     pub id: String,
     /// Site id.
     pub site: String,
-    /// Point, None for site-level alerts.
+    /// Point, None for site-level and group alerts.
     pub point: Option<String>,
+    /// Block group of a group alert (None otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<String>,
     /// Points concerned by a site-level alert (empty for point alerts).
     pub points: Vec<String>,
     /// Metric or site-level kind.
@@ -355,6 +541,9 @@ pub struct RuleMemory {
     pub active: bool,
     /// Consecutive epochs without triggering while active.
     pub quiet_epochs: u32,
+    /// Consecutive triggering epochs (counts towards the rule's `for_epochs`).
+    #[serde(default)]
+    pub streak: u32,
 }
 
 /// The alert state of a site (serialize it to store).
@@ -369,9 +558,19 @@ pub struct AlertState {
 impl AlertState {
     /// The open alert of a point (None for site level) and kind.
     pub fn find(&self, point: Option<&str>, kind: AlertKind) -> Option<&Alert> {
-        self.alerts
-            .iter()
-            .find(|a| a.point.as_deref() == point && a.rule == kind)
+        self.find_subject(point, None, kind)
+    }
+
+    /// The open alert of a point, or of a block group, or of the site (both None), and kind.
+    pub fn find_subject(
+        &self,
+        point: Option<&str>,
+        group: Option<&str>,
+        kind: AlertKind,
+    ) -> Option<&Alert> {
+        self.alerts.iter().find(|a| {
+            a.point.as_deref() == point && a.group.as_deref() == group && a.rule == kind
+        })
     }
 
     /// Highest open level of a point (for `GET .../points`).
@@ -435,14 +634,18 @@ fn fmt_time(t: DateTime<Utc>) -> String {
 
 fn message(
     site: &str,
-    point: Option<&str>,
+    subject: Subject<'_>,
     kind: AlertKind,
     level: AlertLevel,
     value: Option<f64>,
     rule: Option<&AlertRule>,
     unit: &str,
 ) -> String {
-    let who = point.map_or_else(|| format!("site {site}"), |p| format!("{site}/{p}"));
+    let who = match subject {
+        Subject::Point(p) => format!("{site}/{p}"),
+        Subject::Group(g) => format!("{site}/block {g}"),
+        Subject::Site => format!("site {site}"),
+    };
     let cmp = match rule {
         Some(r) if r.above.is_some() => format!(" above {} {unit}", r.above.unwrap_or_default()),
         Some(r) if r.below.is_some() => format!(" below {} {unit}", r.below.unwrap_or_default()),
@@ -452,8 +655,41 @@ fn message(
     format!("{}: {}{v}{cmp} ({})", who, kind.as_str(), level.as_str())
 }
 
+/// What an alert is about.
+#[derive(Clone, Copy)]
+enum Subject<'a> {
+    Point(&'a str),
+    Group(&'a str),
+    Site,
+}
+
+impl<'a> Subject<'a> {
+    fn point(self) -> Option<&'a str> {
+        match self {
+            Subject::Point(p) => Some(p),
+            _ => None,
+        }
+    }
+
+    fn group(self) -> Option<&'a str> {
+        match self {
+            Subject::Group(g) => Some(g),
+            _ => None,
+        }
+    }
+
+    /// Prefix of the subject's rule memories in [`AlertState::rules`].
+    fn memory_prefix(self) -> String {
+        match self {
+            Subject::Point(p) => format!("{p}|"),
+            Subject::Group(g) => format!("group:{g}|"),
+            Subject::Site => "-|".into(),
+        }
+    }
+}
+
 struct Update<'a> {
-    point: Option<&'a str>,
+    subject: Subject<'a>,
     points: Vec<String>,
     kind: AlertKind,
     level: Option<AlertLevel>,
@@ -473,22 +709,30 @@ fn apply(
     now: DateTime<Utc>,
     events: &mut Vec<AlertEvent>,
 ) {
-    let pos = state
-        .alerts
-        .iter()
-        .position(|a| a.point.as_deref() == up.point && a.rule == up.kind);
+    let (point, group) = (up.subject.point(), up.subject.group());
+    let pos = state.alerts.iter().position(|a| {
+        a.point.as_deref() == point && a.group.as_deref() == group && a.rule == up.kind
+    });
     match (pos, up.level) {
         (None, None) => {}
         (None, Some(level)) => {
             let alert = Alert {
-                id: format!(
-                    "{site}:{}:{}:{}",
-                    up.point.unwrap_or("-"),
-                    up.kind.as_str(),
-                    up.id_suffix
-                ),
+                id: match up.subject {
+                    Subject::Group(g) => format!(
+                        "{site}:group-{g}:{}:{}",
+                        up.kind.as_str(),
+                        up.id_suffix
+                    ),
+                    _ => format!(
+                        "{site}:{}:{}:{}",
+                        point.unwrap_or("-"),
+                        up.kind.as_str(),
+                        up.id_suffix
+                    ),
+                },
                 site: site.to_string(),
-                point: up.point.map(str::to_string),
+                point: point.map(str::to_string),
+                group: group.map(str::to_string),
                 points: up.points,
                 rule: up.kind,
                 level,
@@ -503,7 +747,7 @@ fn apply(
                 status: AlertStatus::Open,
                 acknowledged_by: None,
                 comment: None,
-                message: message(site, up.point, up.kind, level, up.value, up.rule, up.unit),
+                message: message(site, up.subject, up.kind, level, up.value, up.rule, up.unit),
             };
             state.alerts.push(alert.clone());
             events.push(AlertEvent {
@@ -528,7 +772,7 @@ fn apply(
                     a.updated_at = now;
                     a.message = format!(
                         "{} — resolved",
-                        message(site, up.point, up.kind, a.level, a.value, None, up.unit)
+                        message(site, up.subject, up.kind, a.level, a.value, None, up.unit)
                     );
                     let alert = state.alerts.remove(i);
                     events.push(AlertEvent {
@@ -551,7 +795,7 @@ fn apply(
                     a.peak_level = a.peak_level.max(l);
                     a.threshold = up.threshold;
                     a.updated_at = now;
-                    a.message = message(site, up.point, up.kind, l, a.value, up.rule, up.unit);
+                    a.message = message(site, up.subject, up.kind, l, a.value, up.rule, up.unit);
                     events.push(AlertEvent {
                         event_type: ty,
                         timestamp: now,
@@ -561,6 +805,107 @@ fn apply(
                 Some(_) => {}
             }
         }
+    }
+}
+
+/// A point or block with the values its rules read.
+struct SubjectReadings<'a> {
+    subject: Subject<'a>,
+    points: Vec<String>,
+    readings: Readings,
+}
+
+/// Runs `rules` (those applying to the subject) over its readings: updates their memories
+/// (hysteresis, persistence) and the subject's alert per metric.
+#[allow(clippy::too_many_arguments)]
+fn evaluate_subject(
+    config: &AlertConfig,
+    st: &mut AlertState,
+    s: &SubjectReadings<'_>,
+    rules: &[&AlertRule],
+    z: f64,
+    analysis: &EpochAnalysis,
+    suffix: &str,
+    now: DateTime<Utc>,
+    events: &mut Vec<AlertEvent>,
+) {
+    let mut metrics: Vec<Metric> = vec![];
+    for r in rules {
+        if !metrics.contains(&r.metric) {
+            metrics.push(r.metric);
+        }
+    }
+    let prefix = s.subject.memory_prefix();
+    for m in metrics {
+        let mut top: Option<&AlertRule> = None;
+        let mut shown = s.readings.get(m, m.default_source()).value;
+        for r in rules.iter().filter(|r| r.metric == m) {
+            let reading = s.readings.get(m, r.source());
+            let key = format!("{prefix}{}", r.key());
+            let mut mem = st.rules.get(&key).copied().unwrap_or_default();
+            let ok = !r.require_significant || reading.significant;
+            let triggered = reading
+                .value
+                .is_some_and(|v| ok && r.triggers(v, reading.sigma, z));
+            if triggered {
+                mem.streak = mem.streak.saturating_add(1);
+                if mem.streak >= r.for_epochs.unwrap_or(1).max(1) {
+                    mem.active = true;
+                }
+                mem.quiet_epochs = 0;
+            } else {
+                mem.streak = 0;
+                if mem.active {
+                    let cleared = match reading.value {
+                        Some(v) if ok => r.clears(v),
+                        _ => r.clears(f64::NAN).map(|_| true),
+                    };
+                    match cleared {
+                        Some(c) => {
+                            if c {
+                                mem = RuleMemory::default();
+                            }
+                        }
+                        None => {
+                            mem.quiet_epochs += 1;
+                            if mem.quiet_epochs
+                                >= r.quiet_epochs.unwrap_or(config.quiet_epochs).max(1)
+                            {
+                                mem = RuleMemory::default();
+                            }
+                        }
+                    }
+                }
+            }
+            if mem == RuleMemory::default() {
+                st.rules.remove(&key);
+            } else {
+                st.rules.insert(key, mem);
+            }
+            if mem.active && top.is_none_or(|t| r.level > t.level) {
+                top = Some(*r);
+                shown = reading.value;
+            }
+        }
+        apply(
+            &config.site,
+            st,
+            Update {
+                subject: s.subject,
+                points: s.points.clone(),
+                kind: m.into(),
+                level: top.map(|r| r.level),
+                value: shown,
+                threshold: top.and_then(|r| r.threshold()),
+                unit: m.unit(),
+                rule: top,
+                epoch: Some(analysis.epoch),
+                observed_at: Some(analysis.observed_at),
+                id_suffix: suffix.to_string(),
+            },
+            now,
+            events,
+        );
     }
 }
 
@@ -585,80 +930,41 @@ pub fn evaluate_alerts(
         .filter(|r| r.validate().is_ok())
         .collect();
     let suffix = analysis.epoch.to_string();
+    let z = config.z();
+    let blocks: Vec<&str> = analysis.blocks.iter().map(|b| b.group.as_str()).collect();
+    // A rule naming a block group applies to the block's motion, not to its single points.
+    let (block_rules, point_rules): (Vec<&AlertRule>, Vec<&AlertRule>) = rules
+        .iter()
+        .partition(|r| r.group.as_deref().is_some_and(|g| blocks.contains(&g)));
     for p in &analysis.points {
-        let name = p.record.point.as_str();
-        let mut metrics: Vec<Metric> = vec![];
-        for r in &rules {
-            if r.applies_to(p.group.as_deref()) && !metrics.contains(&r.metric) {
-                metrics.push(r.metric);
-            }
-        }
-        for m in metrics {
-            let (value, significant) = m.value(p);
-            let mut top: Option<&AlertRule> = None;
-            for r in rules
-                .iter()
-                .filter(|r| r.metric == m && r.applies_to(p.group.as_deref()))
-            {
-                let key = format!("{name}|{}", r.key());
-                let mut mem = st.rules.get(&key).copied().unwrap_or_default();
-                let ok = !r.require_significant || significant;
-                let triggered = value.is_some_and(|v| ok && r.triggers(v));
-                if triggered {
-                    mem = RuleMemory {
-                        active: true,
-                        quiet_epochs: 0,
-                    };
-                } else if mem.active {
-                    let cleared = match value {
-                        Some(v) if ok => r.clears(v),
-                        _ => r.clears(f64::NAN).map(|_| true),
-                    };
-                    match cleared {
-                        Some(c) => {
-                            if c {
-                                mem = RuleMemory::default();
-                            }
-                        }
-                        None => {
-                            mem.quiet_epochs += 1;
-                            if mem.quiet_epochs
-                                >= r.quiet_epochs.unwrap_or(config.quiet_epochs).max(1)
-                            {
-                                mem = RuleMemory::default();
-                            }
-                        }
-                    }
-                }
-                if mem == RuleMemory::default() {
-                    st.rules.remove(&key);
-                } else {
-                    st.rules.insert(key, mem);
-                }
-                if mem.active && top.is_none_or(|t| r.level > t.level) {
-                    top = Some(*r);
-                }
-            }
-            apply(
-                site,
-                &mut st,
-                Update {
-                    point: Some(name),
-                    points: vec![],
-                    kind: m.into(),
-                    level: top.map(|r| r.level),
-                    value,
-                    threshold: top.and_then(|r| r.threshold()),
-                    unit: m.unit(),
-                    rule: top,
-                    epoch: Some(analysis.epoch),
-                    observed_at: Some(analysis.observed_at),
-                    id_suffix: suffix.clone(),
-                },
-                now,
-                &mut events,
-            );
-        }
+        let applicable: Vec<&AlertRule> = point_rules
+            .iter()
+            .copied()
+            .filter(|r| r.applies_to(p.group.as_deref()))
+            .collect();
+        let subject = SubjectReadings {
+            subject: Subject::Point(p.record.point.as_str()),
+            points: vec![],
+            readings: Readings::of_point(p),
+        };
+        evaluate_subject(
+            config, &mut st, &subject, &applicable, z, analysis, &suffix, now, &mut events,
+        );
+    }
+    for b in &analysis.blocks {
+        let applicable: Vec<&AlertRule> = block_rules
+            .iter()
+            .copied()
+            .filter(|r| r.group.as_deref() == Some(b.group.as_str()))
+            .collect();
+        let subject = SubjectReadings {
+            subject: Subject::Group(b.group.as_str()),
+            points: b.points.clone(),
+            readings: b.readings,
+        };
+        evaluate_subject(
+            config, &mut st, &subject, &applicable, z, analysis, &suffix, now, &mut events,
+        );
     }
     // Site level: reference stability.
     let excluded = &analysis.datum.excluded;
@@ -668,7 +974,7 @@ pub fn evaluate_alerts(
         site,
         &mut st,
         Update {
-            point: None,
+            subject: Subject::Site,
             points: excluded.clone(),
             kind: AlertKind::ReferenceUnstable,
             // Raised when stable points are excluded; it does not resolve by itself (a moved reference point
@@ -709,7 +1015,7 @@ pub fn evaluate_alerts(
         site,
         &mut st,
         Update {
-            point: None,
+            subject: Subject::Site,
             points: vec![],
             kind: AlertKind::AnalysisFailed,
             level: None,
@@ -729,7 +1035,7 @@ pub fn evaluate_alerts(
         site,
         &mut st,
         Update {
-            point: None,
+            subject: Subject::Site,
             points: vec![],
             kind: AlertKind::CampaignOverdue,
             level: None,
@@ -766,7 +1072,7 @@ pub fn analysis_failed(
         site,
         &mut st,
         Update {
-            point: None,
+            subject: Subject::Site,
             points: vec![],
             kind: AlertKind::AnalysisFailed,
             level: Some(config.analysis_failed_level),
@@ -799,7 +1105,7 @@ pub fn analysis_failed(
         site,
         &mut st,
         Update {
-            point: None,
+            subject: Subject::Site,
             points: vec![],
             kind: AlertKind::CampaignOverdue,
             level: None,
@@ -841,7 +1147,7 @@ pub fn reconcile(
         if r.rule == AlertKind::CampaignOverdue {
             continue;
         }
-        match current.find(r.point.as_deref(), r.rule) {
+        match current.find_subject(r.point.as_deref(), r.group.as_deref(), r.rule) {
             Some(c) => {
                 let mut a = r.clone();
                 a.id = c.id.clone();
@@ -886,7 +1192,10 @@ pub fn reconcile(
             out.alerts.push(c.clone());
             continue;
         }
-        if replayed.find(c.point.as_deref(), c.rule).is_none() {
+        if replayed
+            .find_subject(c.point.as_deref(), c.group.as_deref(), c.rule)
+            .is_none()
+        {
             let mut a = c.clone();
             a.status = AlertStatus::Resolved;
             a.updated_at = now;
@@ -924,7 +1233,7 @@ pub fn check_overdue(
             &config.site,
             &mut st,
             Update {
-                point: None,
+                subject: Subject::Site,
                 points: vec![],
                 kind: AlertKind::CampaignOverdue,
                 level: Some(config.campaign_overdue_level),
@@ -995,8 +1304,13 @@ pub fn resolve(
         .position(|a| a.id == alert_id)
         .ok_or_else(|| AnalysisError::UnknownAlert(alert_id.to_string()))?;
     let mut alert = st.alerts.remove(i);
-    if let Some(p) = &alert.point {
-        let prefix = format!("{p}|{}:", alert.rule.as_str());
+    let subject = match (&alert.point, &alert.group) {
+        (Some(p), _) => Some(Subject::Point(p)),
+        (None, Some(g)) => Some(Subject::Group(g)),
+        _ => None,
+    };
+    if let Some(subject) = subject {
+        let prefix = format!("{}{}:", subject.memory_prefix(), alert.rule.as_str());
         st.rules.retain(|k, _| !k.starts_with(&prefix));
     }
     alert.status = AlertStatus::Resolved;

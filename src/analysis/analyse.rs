@@ -10,6 +10,7 @@ use super::congruence::{test_and_localise, CongruenceTest};
 use super::datum::{fit_iwst, transform_all, DatumFit, DatumMethod, Differences};
 use super::displacement::{point_test, sigma_length, DisplacementRecord, PointAnalysis};
 use super::epoch::{AnalysisConfig, EpochCoordinates, PointConfig, PointRole};
+use super::alerts::Readings;
 use super::error::AnalysisError;
 use super::failure::forecast;
 use super::stats::{f_quantile, normal_quantile};
@@ -57,6 +58,21 @@ pub struct EpochAnalysis {
     pub new_points: Vec<String>,
     /// Human-readable remarks (fallbacks taken).
     pub warnings: Vec<String>,
+    /// The motion of each declared block group.
+    #[serde(default)]
+    pub blocks: Vec<BlockAnalysis>,
+}
+
+/// The analysis of one block group in one epoch: its members and the values its rules read.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BlockAnalysis {
+    /// Group name.
+    pub group: String,
+    /// Member points present in this epoch.
+    pub points: Vec<String>,
+    /// Raw and filtered values of the block's metrics (displacement at the block's centroid in
+    /// mm, along the block's direction in mm, velocity in mm/day, time to failure in hours).
+    pub readings: Readings,
 }
 
 impl EpochAnalysis {
@@ -271,6 +287,8 @@ pub fn analyse_epoch(
             significant,
             velocity_mm_per_day: kin.map(|k| k.velocity_mm_per_day),
             time_to_failure_hours: failure.map(|f| f.time_to_failure_hours),
+            time_to_failure_sigma_hours: None,
+            filtered: None,
         };
         out.push(PointAnalysis {
             record,
@@ -284,6 +302,8 @@ pub fn analyse_epoch(
             critical_value: test.critical,
             kinematics: kin,
             failure,
+            filtered_along_mm: None,
+            filtered_failure: None,
         });
     }
     Ok(EpochAnalysis {
@@ -294,5 +314,6 @@ pub fn analyse_epoch(
         points: out,
         new_points,
         warnings,
+        blocks: vec![],
     })
 }

@@ -56,6 +56,45 @@ pub struct DisplacementRecord {
     pub velocity_mm_per_day: Option<f64>,
     /// Forecast time to failure in hours (None unless the point accelerates).
     pub time_to_failure_hours: Option<f64>,
+    /// σ of `time_to_failure_hours` in hours.
+    #[serde(default)]
+    pub time_to_failure_sigma_hours: Option<f64>,
+    /// The Kalman-filtered state at this epoch (None for rows stored before it was kept, or when
+    /// the filter had no estimate).
+    #[serde(default, flatten)]
+    pub filtered: Option<FilteredValues>,
+}
+
+/// Kalman-filtered displacement, velocity and acceleration of a point at one epoch (the causal
+/// filter's estimate with what was known then; see [`super::kalman`]), with their σ.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FilteredValues {
+    /// Filtered displacement along X in mm.
+    pub f_dx_mm: f64,
+    /// Filtered displacement along Y in mm.
+    pub f_dy_mm: f64,
+    /// Filtered displacement along Z in mm.
+    pub f_dz_mm: f64,
+    /// 3-D length of the filtered displacement in mm.
+    pub f_d_mm: f64,
+    /// σ of `f_dx_mm` in mm.
+    pub sigma_f_dx_mm: f64,
+    /// σ of `f_dy_mm` in mm.
+    pub sigma_f_dy_mm: f64,
+    /// σ of `f_dz_mm` in mm.
+    pub sigma_f_dz_mm: f64,
+    /// σ of `f_d_mm` in mm.
+    pub sigma_f_d_mm: f64,
+    /// Filtered rate of the displacement's length in mm/day (the velocity vector along the
+    /// displacement's direction, or along the direction of interest when one is set).
+    pub f_velocity_mm_per_day: f64,
+    /// σ of `f_velocity_mm_per_day` in mm/day.
+    pub sigma_f_velocity_mm_per_day: f64,
+    /// Filtered acceleration along the same direction in mm/day² (None for a constant-velocity
+    /// model).
+    pub f_acceleration_mm_per_day2: Option<f64>,
+    /// σ of `f_acceleration_mm_per_day2` in mm/day².
+    pub sigma_f_acceleration_mm_per_day2: Option<f64>,
 }
 
 /// Everything the analysis found for one point in one epoch.
@@ -81,8 +120,15 @@ pub struct PointAnalysis {
     pub critical_value: f64,
     /// Velocity and acceleration (None with fewer than 2 epochs).
     pub kinematics: Option<Kinematics>,
-    /// Time-to-failure forecast (None unless accelerating).
+    /// Time-to-failure forecast from the raw series (None unless accelerating).
     pub failure: Option<FailureForecast>,
+    /// Filtered displacement along the direction of interest and its σ, mm (None without a
+    /// direction or a filtered state).
+    #[serde(default)]
+    pub filtered_along_mm: Option<(f64, f64)>,
+    /// Time-to-failure forecast from the filtered velocities (None unless accelerating).
+    #[serde(default)]
+    pub filtered_failure: Option<FailureForecast>,
 }
 
 /// Result of the single-point test.

@@ -99,6 +99,49 @@ pub struct PointConfig {
     pub direction: Option<[f64; 3]>,
 }
 
+/// What a point group is (contract: `"kind": "block"`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GroupKind {
+    /// A rigid block: its motion is estimated from all its points, and rules naming the group
+    /// apply to that motion.
+    #[default]
+    Block,
+}
+
+/// A point group declared through `PUT .../groups/{group}`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GroupConfig {
+    /// Group name (`[A-Za-z0-9._-]{1,64}`).
+    pub name: String,
+    /// Kind of group.
+    #[serde(default)]
+    pub kind: GroupKind,
+    /// Direction of interest of the block in the site frame (need not be normalised).
+    #[serde(default)]
+    pub direction: Option<[f64; 3]>,
+    /// Member points; empty: the points whose `group` names this group.
+    #[serde(default)]
+    pub points: Vec<String>,
+    /// Process noise of the block's Kalman filter (see [`super::kalman`]); None: the site's.
+    #[serde(default)]
+    pub process_noise: Option<f64>,
+}
+
+impl GroupConfig {
+    /// The member points: the explicit list, else the points whose `group` names this group.
+    pub fn members(&self, points: &[PointConfig]) -> Vec<String> {
+        if !self.points.is_empty() {
+            return self.points.clone();
+        }
+        points
+            .iter()
+            .filter(|p| p.group.as_deref() == Some(self.name.as_str()))
+            .map(|p| p.name.clone())
+            .collect()
+    }
+}
+
 /// The similarity-transformation model of the datum (parameters estimated per epoch).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -31,15 +31,15 @@ pub mod velocity;
 pub use alerts::{
     acknowledge, analysis_failed, check_overdue, evaluate_alerts, reconcile, resolve, Alert,
     AlertConfig, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState,
-    AlertStatus, Metric,
+    AlertStatus, Metric, Reading, Readings, Source,
 };
-pub use analyse::{analyse_epoch, DatumReport, EpochAnalysis, History};
+pub use analyse::{analyse_epoch, BlockAnalysis, DatumReport, EpochAnalysis, History};
 pub use congruence::CongruenceTest;
 pub use datum::DatumMethod;
-pub use displacement::{DisplacementRecord, PointAnalysis};
+pub use displacement::{DisplacementRecord, FilteredValues, PointAnalysis};
 pub use epoch::{
-    AnalysisConfig, DatumTransformation, EpochCoordinates, FailureConfig, JointCovarianceM2,
-    PointConfig, PointCoordinates, PointRole, Window,
+    AnalysisConfig, DatumTransformation, EpochCoordinates, FailureConfig, GroupConfig, GroupKind,
+    JointCovarianceM2, PointConfig, PointCoordinates, PointRole, Window,
 };
 pub use error::AnalysisError;
 pub use failure::FailureForecast;

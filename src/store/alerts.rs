@@ -14,8 +14,12 @@ pub struct Alert {
     /// Site id.
     #[sqlx(rename = "site_id")]
     pub site: String,
-    /// Point (null for site-level alerts).
+    /// Point (null for site-level and block-group alerts).
     pub point: Option<String>,
+    /// Block group of a group alert (null otherwise).
+    #[sqlx(rename = "group_name")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub group: Option<String>,
     /// Points concerned (JSON array text in the database; a list here).
     #[sqlx(skip)]
     pub points: Vec<String>,
@@ -79,7 +83,7 @@ pub struct NewAlert {
 }
 
 const COLUMNS: &str =
-    "id, site_id, point, points AS points, level, rule, value, threshold, unit, epoch_id, \
+    "id, site_id, point, group_name, points AS points, level, rule, value, threshold, unit, epoch_id, \
     observed_at, message, state, raised_at, updated_at, acknowledged_by, ack_comment";
 
 fn finish(mut rows: Vec<Alert>) -> Vec<Alert> {

@@ -99,6 +99,8 @@ impl Displacement {
             significant: self.significant,
             velocity_mm_per_day: self.velocity_mm_per_day,
             time_to_failure_hours: self.time_to_failure_hours,
+            time_to_failure_sigma_hours: None,
+            filtered: None,
         })
     }
 }

@@ -94,9 +94,12 @@ pub struct WebhookData {
     pub alert_id: String,
     /// Site id.
     pub site: String,
-    /// Point (null for site-level alerts).
+    /// Point (null for site-level and block-group alerts).
     pub point: Option<String>,
-    /// Points concerned by a site-level alert.
+    /// Block group of a group alert (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub group: Option<String>,
+    /// Points concerned by a site-level or group alert.
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub points: Vec<String>,
     /// Level.
@@ -144,6 +147,7 @@ impl WebhookPayload {
                 alert_id: a.id.clone(),
                 site: a.site.clone(),
                 point: a.point.clone(),
+                group: a.group.clone(),
                 points: if a.point.is_none() {
                     a.points.clone()
                 } else {
@@ -270,6 +274,9 @@ pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody
     if let Some(p) = &a.point {
         labels.insert("point".to_string(), p.clone());
     }
+    if let Some(g) = &a.group {
+        labels.insert("group".to_string(), g.clone());
+    }
     let mut ann = BTreeMap::new();
     ann.insert("summary".to_string(), a.message.clone());
     ann.insert("event".to_string(), event.event_type.as_str().to_string());
@@ -393,6 +400,9 @@ pub fn alertmanager_alerts(event: &AlertEvent, api_base: &str) -> Vec<PostableAl
             labels.insert("site".to_string(), a.site.clone());
             if let Some(p) = &a.point {
                 labels.insert("point".to_string(), p.clone());
+            }
+            if let Some(g) = &a.group {
+                labels.insert("group".to_string(), g.clone());
             }
             labels.insert("rule".to_string(), a.rule.as_str().to_string());
             labels.insert("severity".to_string(), level.as_str().to_string());
