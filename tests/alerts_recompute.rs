@@ -14,7 +14,7 @@ use alerts_support::{
 use reqwest::Method;
 use serde_json::{json, Value};
 
-const STEP_MM: f64 = 2.5;
+const STEP_MM: f64 = 3.5;
 
 async fn site(d: &Daemon, id: &str, scene: &Scene) {
     let rules = json!([
@@ -98,12 +98,15 @@ async fn reference_change_reevaluates_alerts_without_resending_history() {
     for k in 0..6 {
         upload(&d, "cliff", &scene, k).await;
     }
-    // 12.5 mm after 5 days: the block's points are at warning.
+    // 17.5 mm after 5 days: the block's points exceed the warning threshold at 99 %.
     let before = displacement_alerts(&d, "cliff").await;
     assert_eq!(before.len(), scene.n - scene.stable, "{before:?}");
-    assert!(before
-        .iter()
-        .all(|a| a["level"] == "warning" && a["state"] == "open"));
+    assert!(
+        before
+            .iter()
+            .all(|a| a["level"] == "warning" && a["state"] == "open"),
+        "{before:?}"
+    );
     // Staff acknowledge one of them.
     let acked = before[0]["id"].as_str().unwrap().to_string();
     let (s, b) = d
@@ -116,7 +119,7 @@ async fn reference_change_reevaluates_alerts_without_resending_history() {
     assert_eq!(s, 200, "{b}");
     let outbox_before = displacement_events(&data).await;
 
-    // Against day 4 the block moved only 2.5 mm: no rule holds, every alert resolves, once.
+    // Against day 4 the block moved only 3.5 mm: no rule holds, every alert resolves, once.
     let (s, b) = d
         .send(
             Method::PUT,
