@@ -448,7 +448,14 @@ fn for_epochs_asks_for_consecutive_triggering_epochs() {
     cfg.rules[0].for_epochs = Some(3);
     let ev = feed_sigma(
         &cfg,
-        &[(7.0, 0.1), (7.0, 0.1), (3.0, 0.1), (7.0, 0.1), (7.0, 0.1), (7.0, 0.1)],
+        &[
+            (7.0, 0.1),
+            (7.0, 0.1),
+            (3.0, 0.1),
+            (7.0, 0.1),
+            (7.0, 0.1),
+            (7.0, 0.1),
+        ],
     );
     assert!(ev[..5].iter().all(Vec::is_empty), "{ev:?}");
     assert_eq!(ev[5], vec![(Raised, Watch)]);
@@ -468,10 +475,9 @@ fn filtered_source_reads_the_filtered_state() {
     )
     .expect("rule");
     assert_eq!(rule.source(), Source::Filtered);
-    let v: AlertRule = serde_json::from_str(
-        r#"{"level": "alarm", "metric": "velocity_mm_per_day", "above": 5}"#,
-    )
-    .expect("rule");
+    let v: AlertRule =
+        serde_json::from_str(r#"{"level": "alarm", "metric": "velocity_mm_per_day", "above": 5}"#)
+            .expect("rule");
     assert_eq!(v.source(), Metric::VelocityMmPerDay.default_source());
     assert_eq!(v.source(), Source::Filtered);
     let cfg = AlertConfig::new("kamo", vec![rule]);
@@ -492,6 +498,8 @@ fn filtered_source_reads_the_filtered_state() {
         sigma_f_velocity_mm_per_day: 0.1,
         f_acceleration_mm_per_day2: None,
         sigma_f_acceleration_mm_per_day2: None,
+        f_time_to_failure_hours: None,
+        sigma_f_time_to_failure_hours: None,
     };
     a.points[0].record.filtered = Some(filtered(10.5));
     let (_, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
@@ -527,6 +535,10 @@ fn block_rules_raise_group_alerts() {
         group: "B1".into(),
         points: vec!["T1".into(), "T2".into()],
         readings,
+        motion: None,
+        failure: None,
+        filtered: None,
+        filtered_failure: None,
     });
     let (st, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
     assert_eq!(ev.len(), 1, "{ev:?}");

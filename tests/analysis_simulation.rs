@@ -135,8 +135,18 @@ fn alerts_escalate_and_failure_forecast_converges() {
                 .find(|&e| f(e as f64 * dt))
                 .expect("crossing")
         };
-        let e_watch = first_true(&|t| sc.block_displacement_mm(t) > 5.0);
-        let e_warn = first_true(&|t| sc.block_displacement_mm(t) > 10.0);
+        // A rule fires when the estimate exceeds its threshold at 99 % (d − z·σ > threshold), so
+        // the truth is expected to cross threshold + z·σ(d) then.
+        let z = alerts.z();
+        let sigma_at = |t: f64| {
+            let k = ((t / dt).round() as usize).min(steps.len()) - 1;
+            steps[k]
+                .analysis
+                .point("B1")
+                .map_or(0.0, |p| p.record.sigma_mm)
+        };
+        let e_watch = first_true(&|t| sc.block_displacement_mm(t) > 5.0 + z * sigma_at(t));
+        let e_warn = first_true(&|t| sc.block_displacement_mm(t) > 10.0 + z * sigma_at(t));
         let e_alarm = first_true(&|t| sc.block_velocity(t) > 5.0);
         // Epoch index (0-based in the series) where B1's alert reached each level.
         let mut reached: Vec<(AlertLevel, usize)> = vec![];

@@ -568,9 +568,9 @@ impl AlertState {
         group: Option<&str>,
         kind: AlertKind,
     ) -> Option<&Alert> {
-        self.alerts.iter().find(|a| {
-            a.point.as_deref() == point && a.group.as_deref() == group && a.rule == kind
-        })
+        self.alerts
+            .iter()
+            .find(|a| a.point.as_deref() == point && a.group.as_deref() == group && a.rule == kind)
     }
 
     /// Highest open level of a point (for `GET .../points`).
@@ -718,11 +718,9 @@ fn apply(
         (None, Some(level)) => {
             let alert = Alert {
                 id: match up.subject {
-                    Subject::Group(g) => format!(
-                        "{site}:group-{g}:{}:{}",
-                        up.kind.as_str(),
-                        up.id_suffix
-                    ),
+                    Subject::Group(g) => {
+                        format!("{site}:group-{g}:{}:{}", up.kind.as_str(), up.id_suffix)
+                    }
                     _ => format!(
                         "{site}:{}:{}:{}",
                         point.unwrap_or("-"),
@@ -948,7 +946,15 @@ pub fn evaluate_alerts(
             readings: Readings::of_point(p),
         };
         evaluate_subject(
-            config, &mut st, &subject, &applicable, z, analysis, &suffix, now, &mut events,
+            config,
+            &mut st,
+            &subject,
+            &applicable,
+            z,
+            analysis,
+            &suffix,
+            now,
+            &mut events,
         );
     }
     for b in &analysis.blocks {
@@ -963,7 +969,15 @@ pub fn evaluate_alerts(
             readings: b.readings,
         };
         evaluate_subject(
-            config, &mut st, &subject, &applicable, z, analysis, &suffix, now, &mut events,
+            config,
+            &mut st,
+            &subject,
+            &applicable,
+            z,
+            analysis,
+            &suffix,
+            now,
+            &mut events,
         );
     }
     // Site level: reference stability.

@@ -6,14 +6,17 @@ use chrono::{DateTime, Utc};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use super::alerts::{Metric, Reading, Readings, Source};
+use super::block::{estimate_block, BlockMotion, BlockPoint};
 use super::congruence::{test_and_localise, CongruenceTest};
 use super::datum::{fit_iwst, transform_all, DatumFit, DatumMethod, Differences};
 use super::displacement::{point_test, sigma_length, DisplacementRecord, PointAnalysis};
+use super::epoch::GroupConfig;
 use super::epoch::{AnalysisConfig, EpochCoordinates, PointConfig, PointRole};
-use super::alerts::Readings;
 use super::error::AnalysisError;
-use super::failure::forecast;
+use super::failure::{forecast, FailureForecast};
 use super::stats::{f_quantile, normal_quantile};
+use super::tracking::{track, Observed};
 use super::velocity::{days_between, kinematics_z, Sample};
 
 /// Past displacement records per point name, each list oldest first (records at or after the current
@@ -73,6 +76,18 @@ pub struct BlockAnalysis {
     /// Raw and filtered values of the block's metrics (displacement at the block's centroid in
     /// mm, along the block's direction in mm, velocity in mm/day, time to failure in hours).
     pub readings: Readings,
+    /// The block's motion in this epoch (None when it could not be estimated).
+    #[serde(default)]
+    pub motion: Option<BlockMotion>,
+    /// Raw time-to-failure forecast of the block (inverse velocity of its translation).
+    #[serde(default)]
+    pub failure: Option<FailureForecast>,
+    /// Filtered state of the block's translation.
+    #[serde(default)]
+    pub filtered: Option<super::displacement::FilteredValues>,
+    /// Time-to-failure forecast from the block's smoothed velocities, with its interval.
+    #[serde(default)]
+    pub filtered_failure: Option<FailureForecast>,
 }
 
 impl EpochAnalysis {
@@ -114,6 +129,268 @@ fn samples_of(
             sigma_mm: r.sigma_mm,
         })
         .collect()
+}
+
+/// The 3 × 3 covariance of a stored record (mm²); `None` when it is not positive definite (the
+/// reference epoch's own zero row).
+fn record_covariance(r: &DisplacementRecord) -> Option<Matrix3<f64>> {
+    let (xy, xz, yz) = (
+        r.cov_dxdy_mm2.unwrap_or(0.0),
+        r.cov_dxdz_mm2.unwrap_or(0.0),
+        r.cov_dydz_mm2.unwrap_or(0.0),
+    );
+    let c = Matrix3::new(
+        r.sigma_dx_mm.powi(2),
+        xy,
+        xz,
+        xy,
+        r.sigma_dy_mm.powi(2),
+        yz,
+        xz,
+        yz,
+        r.sigma_dz_mm.powi(2),
+    );
+    (c.iter().all(|v| v.is_finite()) && c.cholesky().is_some()).then_some(c)
+}
+
+/// The filter's input from a point's past records (before `now`, the last
+/// [`AnalysisConfig::filter_epochs`] − 1 of them; rows without a usable covariance are skipped).
+fn observed_of(
+    history: Option<&Vec<DisplacementRecord>>,
+    now: DateTime<Utc>,
+    config: &AnalysisConfig,
+) -> Vec<Observed> {
+    let Some(h) = history else { return vec![] };
+    let end = h.partition_point(|r| r.observed_at < now);
+    let start = end.saturating_sub(config.filter_epochs.saturating_sub(1));
+    h[start..end]
+        .iter()
+        .filter_map(|r| {
+            let cov = record_covariance(r)?;
+            let d = Vector3::new(r.dx_mm, r.dy_mm, r.dz_mm);
+            d.iter().all(|v| v.is_finite()).then_some(Observed {
+                t_days: days_between(now, r.observed_at),
+                d_mm: d,
+                cov_mm2: cov,
+            })
+        })
+        .collect()
+}
+
+/// The motion of each declared block in this epoch and in the past epochs of the history, its
+/// filtered kinematics and forecasts, and the readings its rules see.
+#[allow(clippy::too_many_arguments)]
+fn analyse_blocks(
+    reference: &EpochCoordinates,
+    points: &[PointConfig],
+    out: &[PointAnalysis],
+    history: &History,
+    now: DateTime<Utc>,
+    config: &AnalysisConfig,
+    z_vel: f64,
+    z_acc: f64,
+) -> Vec<BlockAnalysis> {
+    let positions: HashMap<&str, [f64; 3]> = reference
+        .points
+        .iter()
+        .map(|p| (p.name.as_str(), p.xyz_m))
+        .collect();
+    config
+        .groups
+        .iter()
+        .map(|g| {
+            analyse_block(
+                g, &positions, points, out, history, now, config, z_vel, z_acc,
+            )
+        })
+        .collect()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn analyse_block(
+    g: &GroupConfig,
+    positions: &HashMap<&str, [f64; 3]>,
+    points: &[PointConfig],
+    out: &[PointAnalysis],
+    history: &History,
+    now: DateTime<Utc>,
+    config: &AnalysisConfig,
+    z_vel: f64,
+    z_acc: f64,
+) -> BlockAnalysis {
+    let members: Vec<String> = g
+        .members(points)
+        .into_iter()
+        .filter(|m| positions.contains_key(m.as_str()) && out.iter().any(|p| &p.record.point == m))
+        .collect();
+    let current: Vec<BlockPoint> = members
+        .iter()
+        .filter_map(|m| {
+            let p = out.iter().find(|p| &p.record.point == m)?;
+            let r = &p.record;
+            Some(BlockPoint {
+                name: m.clone(),
+                xyz_m: positions[m.as_str()],
+                d_mm: [r.dx_mm, r.dy_mm, r.dz_mm],
+                cov_mm2: p.covariance_mm2,
+            })
+        })
+        .collect();
+    let motion = estimate_block(&current, config.confidence).ok();
+    // Past motions: the epochs in which every current member has a usable record.
+    let mut by_epoch: std::collections::BTreeMap<DateTime<Utc>, Vec<BlockPoint>> =
+        Default::default();
+    for m in &members {
+        let Some(h) = history.get(m) else { continue };
+        let end = h.partition_point(|r| r.observed_at < now);
+        let start = end.saturating_sub(config.filter_epochs.saturating_sub(1));
+        for r in &h[start..end] {
+            if let Some(cov) = record_covariance(r) {
+                by_epoch.entry(r.observed_at).or_default().push(BlockPoint {
+                    name: m.clone(),
+                    xyz_m: positions[m.as_str()],
+                    d_mm: [r.dx_mm, r.dy_mm, r.dz_mm],
+                    cov_mm2: cov.into(),
+                });
+            }
+        }
+    }
+    let mut series: Vec<Observed> = by_epoch
+        .into_iter()
+        .filter(|(_, ps)| ps.len() == members.len())
+        .filter_map(|(t, ps)| {
+            let b = estimate_block(&ps, config.confidence).ok()?;
+            Some(Observed {
+                t_days: days_between(now, t),
+                d_mm: Vector3::from(b.translation_mm),
+                cov_mm2: Matrix3::from(b.covariance_mm2),
+            })
+        })
+        .collect();
+    let mut readings = Readings::default();
+    let (mut failure, mut filtered, mut filtered_failure) = (None, None, None);
+    if let Some(b) = &motion {
+        series.push(Observed {
+            t_days: 0.0,
+            d_mm: Vector3::from(b.translation_mm),
+            cov_mm2: Matrix3::from(b.covariance_mm2),
+        });
+        let (d, sd) = b.length();
+        let significant = d > z_vel * sd;
+        readings.set(
+            Metric::DisplacementMm,
+            Source::Raw,
+            Reading {
+                value: Some(d),
+                sigma: sd,
+                significant,
+            },
+        );
+        let dir = g
+            .direction
+            .map(Vector3::from)
+            .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
+        if let Some(v) = dir {
+            let (a, sa) = b.along(v.into());
+            readings.set(
+                Metric::DisplacementAlongMm,
+                Source::Raw,
+                Reading {
+                    value: Some(a),
+                    sigma: sa,
+                    significant,
+                },
+            );
+        }
+        // Raw velocity and forecast from the block's length series, as for a point.
+        let samples: Vec<Sample> = series
+            .iter()
+            .map(|o| {
+                let (len, s) = length_of(&o.d_mm, &o.cov_mm2);
+                Sample {
+                    t_days: o.t_days,
+                    d_mm: len,
+                    sigma_mm: s.max(1e-6),
+                }
+            })
+            .collect();
+        let kin = kinematics_z(
+            &samples,
+            config.velocity_window,
+            config.failure.window,
+            z_vel,
+            z_acc,
+        );
+        if let Some(k) = kin {
+            readings.set(
+                Metric::VelocityMmPerDay,
+                Source::Raw,
+                Reading {
+                    value: Some(k.velocity_mm_per_day),
+                    sigma: k.sigma_velocity_mm_per_day,
+                    significant: significant && k.velocity_significant,
+                },
+            );
+            if k.accelerating && significant {
+                failure = forecast(&samples, &config.failure);
+            }
+        }
+        readings.set(
+            Metric::TimeToFailureHours,
+            Source::Raw,
+            Reading::new(
+                failure.map(|f| f.time_to_failure_hours),
+                failure.map(|f| f.sigma_hours),
+            ),
+        );
+        if let Some(t) = track(&series, dir, g.process_noise, config) {
+            let f = t.values;
+            readings.set(
+                Metric::DisplacementMm,
+                Source::Filtered,
+                Reading::new(Some(f.f_d_mm), Some(f.sigma_f_d_mm)),
+            );
+            if let Some((a, sa)) = t.along_mm {
+                readings.set(
+                    Metric::DisplacementAlongMm,
+                    Source::Filtered,
+                    Reading::new(Some(a), Some(sa)),
+                );
+            }
+            readings.set(
+                Metric::VelocityMmPerDay,
+                Source::Filtered,
+                Reading::new(
+                    Some(f.f_velocity_mm_per_day),
+                    Some(f.sigma_f_velocity_mm_per_day),
+                ),
+            );
+            readings.set(
+                Metric::TimeToFailureHours,
+                Source::Filtered,
+                Reading::new(
+                    t.failure.map(|f| f.time_to_failure_hours),
+                    t.failure.map(|f| f.sigma_hours),
+                ),
+            );
+            filtered = Some(f);
+            filtered_failure = t.failure;
+        }
+    }
+    BlockAnalysis {
+        group: g.name.clone(),
+        points: members,
+        readings,
+        motion,
+        failure,
+        filtered,
+        filtered_failure,
+    }
+}
+
+/// Length of a displacement and its linearised σ (mm).
+fn length_of(d: &Vector3<f64>, cov: &Matrix3<f64>) -> (f64, f64) {
+    (d.norm(), sigma_length(d, cov))
 }
 
 /// Analyses `current` against `reference`.
@@ -267,6 +544,17 @@ pub fn analyse_epoch(
             Some(k) if k.accelerating && significant => forecast(&samples, &config.failure),
             _ => None,
         };
+        let tracked = if same_epoch {
+            None
+        } else {
+            let mut series = observed_of(history.get(name), current.observed_at, config);
+            series.push(Observed {
+                t_days: 0.0,
+                d_mm: d,
+                cov_mm2: cov,
+            });
+            track(&series, dir, None, config)
+        };
         let sd = |k: usize| cov[(k, k)].max(0.0).sqrt();
         let record = DisplacementRecord {
             point: name.clone(),
@@ -287,8 +575,8 @@ pub fn analyse_epoch(
             significant,
             velocity_mm_per_day: kin.map(|k| k.velocity_mm_per_day),
             time_to_failure_hours: failure.map(|f| f.time_to_failure_hours),
-            time_to_failure_sigma_hours: None,
-            filtered: None,
+            time_to_failure_sigma_hours: failure.map(|f| f.sigma_hours),
+            filtered: tracked.map(|t| t.values),
         };
         out.push(PointAnalysis {
             record,
@@ -302,10 +590,20 @@ pub fn analyse_epoch(
             critical_value: test.critical,
             kinematics: kin,
             failure,
-            filtered_along_mm: None,
-            filtered_failure: None,
+            filtered_along_mm: tracked.and_then(|t| t.along_mm),
+            filtered_failure: tracked.and_then(|t| t.failure),
         });
     }
+    let blocks = analyse_blocks(
+        reference,
+        points,
+        &out,
+        history,
+        current.observed_at,
+        config,
+        z_vel,
+        z_acc,
+    );
     Ok(EpochAnalysis {
         epoch: current.epoch,
         observed_at: current.observed_at,
@@ -314,6 +612,6 @@ pub fn analyse_epoch(
         points: out,
         new_points,
         warnings,
-        blocks: vec![],
+        blocks,
     })
 }

@@ -95,6 +95,13 @@ pub struct FilteredValues {
     pub f_acceleration_mm_per_day2: Option<f64>,
     /// σ of `f_acceleration_mm_per_day2` in mm/day².
     pub sigma_f_acceleration_mm_per_day2: Option<f64>,
+    /// Time to failure in hours from the inverse-velocity fit over the smoothed velocities
+    /// (None unless the point moves and the fit holds).
+    #[serde(default)]
+    pub f_time_to_failure_hours: Option<f64>,
+    /// σ of `f_time_to_failure_hours` in hours.
+    #[serde(default)]
+    pub sigma_f_time_to_failure_hours: Option<f64>,
 }
 
 /// Everything the analysis found for one point in one epoch.

@@ -5,6 +5,7 @@ use chrono::{DateTime, Utc};
 use serde::{Deserialize, Serialize};
 
 use super::error::AnalysisError;
+use super::kalman::KalmanConfig;
 use crate::photogrammetry::Adjustment;
 
 /// Adjusted coordinates of one point in one epoch.
@@ -231,6 +232,12 @@ pub struct AnalysisConfig {
     pub velocity_window: Window,
     /// Time-to-failure settings.
     pub failure: FailureConfig,
+    /// The Kalman filter of the points' (and blocks') kinematics (model and process noise).
+    pub kalman: KalmanConfig,
+    /// Epochs the filter runs over at each analysis (the current one and the ones before it).
+    pub filter_epochs: usize,
+    /// Declared point groups (blocks).
+    pub groups: Vec<GroupConfig>,
 }
 
 impl Default for AnalysisConfig {
@@ -243,6 +250,9 @@ impl Default for AnalysisConfig {
             iwst_max_iterations: 100,
             velocity_window: Window::Epochs(5),
             failure: FailureConfig::default(),
+            kalman: KalmanConfig::default(),
+            filter_epochs: 40,
+            groups: vec![],
         }
     }
 }
@@ -281,6 +291,22 @@ impl AnalysisConfig {
                 _ => {}
             }
         }
+        self.kalman.validate()?;
+        if self.filter_epochs < 2 {
+            return Err(AnalysisError::InvalidConfig(
+                "filter_epochs must be ≥ 2".into(),
+            ));
+        }
+        for g in &self.groups {
+            if let Some(q) = g.process_noise {
+                if !(q > 0.0 && q.is_finite()) {
+                    return Err(AnalysisError::InvalidConfig(format!(
+                        "group {}: process_noise must be a finite number > 0",
+                        g.name
+                    )));
+                }
+            }
+        }
         if self.failure.smoothing_epochs < 2 {
             return Err(AnalysisError::InvalidConfig(
                 "smoothing_epochs must be ≥ 2".into(),
@@ -305,6 +331,8 @@ impl AnalysisConfig {
             Window::Epochs(n) => n,
             Window::Days(_) => 0,
         };
-        n(self.velocity_window).max(n(self.failure.window) + self.failure.smoothing_epochs)
+        n(self.velocity_window)
+            .max(n(self.failure.window) + self.failure.smoothing_epochs)
+            .max(self.filter_epochs)
     }
 }

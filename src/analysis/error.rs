@@ -39,4 +39,8 @@ pub enum AnalysisError {
     /// No open alert has that id.
     #[error("unknown alert {0}")]
     UnknownAlert(String),
+    /// A series the filter cannot take (non-finite value, times not increasing, a covariance that
+    /// is not positive definite): the message names the measurement.
+    #[error("invalid input: {0}")]
+    InvalidInput(String),
 }

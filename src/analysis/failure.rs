@@ -23,6 +23,24 @@ pub struct FailureForecast {
     pub r2: f64,
     /// Smoothed velocities used.
     pub velocities: usize,
+    /// Lower end of the 90 % interval of the failure time, hours from the current epoch (≥ 0).
+    #[serde(default)]
+    pub lower_hours: Option<f64>,
+    /// Upper end of the 90 % interval of the failure time, hours from the current epoch.
+    #[serde(default)]
+    pub upper_hours: Option<f64>,
+}
+
+/// Two-sided 90 % normal quantile of the forecast interval.
+const INTERVAL_Z: f64 = 1.6449;
+
+impl FailureForecast {
+    fn with_interval(mut self) -> Self {
+        self.lower_hours =
+            Some((self.time_to_failure_hours - INTERVAL_Z * self.sigma_hours).max(0.0));
+        self.upper_hours = Some(self.time_to_failure_hours + INTERVAL_Z * self.sigma_hours);
+        self
+    }
 }
 
 /// Forecast from the displacement samples (oldest first, the current epoch last, t = 0).
@@ -88,6 +106,79 @@ pub fn forecast(samples: &[Sample], config: &FailureConfig) -> Option<FailureFor
         sigma_hours: var_tf.max(0.0).sqrt() * 24.0,
         r2,
         velocities: n,
-    };
+        lower_hours: None,
+        upper_hours: None,
+    }
+    .with_interval();
     out.time_to_failure_hours.is_finite().then_some(out)
+}
+
+/// Forecast from filtered or smoothed velocities (Fukuzono 1985 on the Kalman smoother's
+/// velocities, [`super::kalman`]): `t_days` ≤ 0 relative to the current epoch (oldest first),
+/// velocities in mm/day along the direction of motion with their σ.
+///
+/// `1/v` is fitted by a straight line `a + b t`, weighted by `1/σ(1/v)²` with `σ(1/v) = σ_v/v²`;
+/// the failure time is where the line reaches zero, `t_f = −a/b`, its σ propagated from the
+/// line's covariance, scaled by the a-posteriori variance factor when that exceeds 1 (smoothed
+/// velocities are correlated, so the factor is a floor, not an estimate). The forecast is
+/// refused (None) while the fit is poor: fewer than 4 velocities significantly positive (v > 2σ)
+/// in the window, a line that does not fall significantly (b + 2σ_b ≥ 0), or R² below
+/// `config.min_r2`.
+pub fn forecast_from_velocities(
+    t_days: &[f64],
+    v_mm_per_day: &[f64],
+    sigma_v: &[f64],
+    config: &FailureConfig,
+) -> Option<FailureForecast> {
+    let mut rows = vec![];
+    for ((&t, &v), &s) in t_days.iter().zip(v_mm_per_day).zip(sigma_v) {
+        if !(t.is_finite() && v.is_finite() && s > 0.0 && s.is_finite() && v > 2.0 * s) {
+            continue;
+        }
+        let y = 1.0 / v;
+        let sy = s / (v * v);
+        rows.push((t, y, 1.0 / (sy * sy)));
+    }
+    let n = rows.len();
+    if n < 4 {
+        return None;
+    }
+    let sw: f64 = rows.iter().map(|r| r.2).sum();
+    let tm = rows.iter().map(|r| r.2 * r.0).sum::<f64>() / sw;
+    let ym = rows.iter().map(|r| r.2 * r.1).sum::<f64>() / sw;
+    let stt: f64 = rows.iter().map(|r| r.2 * (r.0 - tm).powi(2)).sum();
+    let sty: f64 = rows.iter().map(|r| r.2 * (r.0 - tm) * (r.1 - ym)).sum();
+    let syy: f64 = rows.iter().map(|r| r.2 * (r.1 - ym).powi(2)).sum();
+    if !(stt > 0.0) || !(syy > 0.0) {
+        return None;
+    }
+    let b = sty / stt;
+    let a = ym - b * tm;
+    // Weighted residuals and the variance factor (≥ 1).
+    let vtpv: f64 = rows.iter().map(|r| r.2 * (r.1 - a - b * r.0).powi(2)).sum();
+    let factor = (vtpv / (n as f64 - 2.0)).max(1.0);
+    // Covariance of (a, b) about the weighted mean time: var(b) = f/stt, var(ā) = f/sw.
+    let var_b = factor / stt;
+    let var_a = factor * (1.0 / sw + tm * tm / stt);
+    let cov_ab = -factor * tm / stt;
+    if !(b + 2.0 * var_b.sqrt() < 0.0) {
+        return None;
+    }
+    let r2 = sty * sty / (stt * syy);
+    if r2 < config.min_r2 {
+        return None;
+    }
+    let tf_days = -a / b;
+    let (da, db) = (-1.0 / b, a / (b * b));
+    let var_tf = da * da * var_a + db * db * var_b + 2.0 * da * db * cov_ab;
+    let out = FailureForecast {
+        time_to_failure_hours: (tf_days * 24.0).max(0.0),
+        sigma_hours: var_tf.max(0.0).sqrt() * 24.0,
+        r2,
+        velocities: n,
+        lower_hours: None,
+        upper_hours: None,
+    }
+    .with_interval();
+    (out.time_to_failure_hours.is_finite() && out.sigma_hours.is_finite()).then_some(out)
 }

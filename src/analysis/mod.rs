@@ -19,13 +19,16 @@
 
 pub mod alerts;
 pub mod analyse;
+pub mod block;
 pub mod congruence;
 pub mod datum;
 pub mod displacement;
 pub mod epoch;
 pub mod error;
 pub mod failure;
+pub mod kalman;
 pub mod stats;
+pub mod tracking;
 pub mod velocity;
 
 pub use alerts::{

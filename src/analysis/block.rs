@@ -1,0 +1,203 @@
+//! The motion of a rigid block from its points' displacements (the rigid-body model of deformation
+//! analysis, Caspary 1987 §7.2; Niemeier 2008 §12.6): `d_i = t + ω × (x_i − c)`, with `t` the
+//! translation at the block's centroid `c` (mm), `ω` small rotations (mrad = mm/m) and `x_i` the
+//! points' reference positions (m). Estimated by weighted least squares with each point's 3 × 3
+//! displacement covariance (cross-covariances between points are not available and taken as zero).
+//! With fewer than three points, or points on a line, only the translation is estimated (the
+//! weighted mean). The residuals' χ² test says whether the points move as one block.
+
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::error::AnalysisError;
+use super::stats::f_quantile;
+
+/// One member point: reference position (m), displacement (mm) and its covariance (mm²).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlockPoint {
+    /// Point name.
+    pub name: String,
+    /// Reference position in the site frame, m.
+    pub xyz_m: [f64; 3],
+    /// Displacement in mm.
+    pub d_mm: [f64; 3],
+    /// Covariance of the displacement in mm².
+    pub cov_mm2: [[f64; 3]; 3],
+}
+
+/// Which motion model was estimated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BlockModel {
+    /// Translation and three small rotations (≥ 3 points, not on a line).
+    Rigid,
+    /// Translation only.
+    Translation,
+}
+
+/// The estimated motion of a block.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BlockMotion {
+    /// The model estimated.
+    pub model: BlockModel,
+    /// Member points used.
+    pub points: Vec<String>,
+    /// Translation at the block's centroid, mm.
+    pub translation_mm: [f64; 3],
+    /// Covariance of the translation, mm².
+    pub covariance_mm2: [[f64; 3]; 3],
+    /// Small rotations about X, Y, Z in mrad (rigid model only).
+    pub rotation_mrad: Option<[f64; 3]>,
+    /// σ of the rotations in mrad.
+    pub sigma_rotation_mrad: Option<[f64; 3]>,
+    /// Weighted sum of squared residuals vᵀPv.
+    pub test_statistic: f64,
+    /// Redundancy (3n − parameters).
+    pub redundancy: usize,
+    /// The residuals pass the χ² test at the confidence given: the points move as one block.
+    pub rigid: bool,
+}
+
+impl BlockMotion {
+    /// The translation along a direction (normalised here) and its σ, mm.
+    pub fn along(&self, direction: [f64; 3]) -> (f64, f64) {
+        let u = Vector3::from(direction);
+        let u = if u.norm() > 0.0 { u / u.norm() } else { u };
+        let c = Matrix3::from(self.covariance_mm2);
+        (
+            u.dot(&Vector3::from(self.translation_mm)),
+            (u.transpose() * c * u)[(0, 0)].max(0.0).sqrt(),
+        )
+    }
+
+    /// 3-D length of the translation and its linearised σ, mm.
+    pub fn length(&self) -> (f64, f64) {
+        let t = Vector3::from(self.translation_mm);
+        let c = Matrix3::from(self.covariance_mm2);
+        let n = t.norm();
+        if n < 1e-9 {
+            return (n, (c.trace() / 3.0).max(0.0).sqrt());
+        }
+        let u = t / n;
+        (n, (u.transpose() * c * u)[(0, 0)].max(0.0).sqrt())
+    }
+}
+
+/// Estimates the block's motion; `confidence` is that of the rigidity test.
+///
+/// Errors: no point, a non-finite value or a covariance that is not positive definite (the point
+/// is named), or normal equations that cannot be inverted.
+pub fn estimate_block(
+    points: &[BlockPoint],
+    confidence: f64,
+) -> Result<BlockMotion, AnalysisError> {
+    if points.is_empty() {
+        return Err(AnalysisError::InvalidInput(
+            "a block needs at least one point".into(),
+        ));
+    }
+    let mut weights = Vec::with_capacity(points.len());
+    for p in points {
+        if !p
+            .xyz_m
+            .iter()
+            .chain(&p.d_mm)
+            .chain(p.cov_mm2.iter().flatten())
+            .all(|v| v.is_finite())
+        {
+            return Err(AnalysisError::NonFinite {
+                what: format!("block point {}", p.name),
+            });
+        }
+        let c = Matrix3::from(p.cov_mm2);
+        let inv = c
+            .cholesky()
+            .map(|ch| ch.inverse())
+            .ok_or_else(|| AnalysisError::Singular {
+                what: format!("displacement covariance of block point {}", p.name),
+            })?;
+        weights.push(inv);
+    }
+    let n = points.len() as f64;
+    let centroid = points
+        .iter()
+        .fold(Vector3::zeros(), |a, p| a + Vector3::from(p.xyz_m))
+        / n;
+    let arms: Vec<Vector3<f64>> = points
+        .iter()
+        .map(|p| Vector3::from(p.xyz_m) - centroid)
+        .collect();
+    // Rigid only when the arms span a plane: the second singular value of the arms is not tiny.
+    let spread = DMatrix::from_fn(arms.len(), 3, |r, c| arms[r][c]);
+    let sv = spread.singular_values();
+    let mut s: Vec<f64> = sv.iter().copied().collect();
+    s.sort_by(|a, b| b.total_cmp(a));
+    let rigid_model =
+        points.len() >= 3 && s.len() >= 2 && s[1] > 1e-3 * s[0].max(1e-9) && s[1] > 1e-4;
+    let u = if rigid_model { 6 } else { 3 };
+    let mut nm = DMatrix::<f64>::zeros(u, u);
+    let mut rhs = DVector::<f64>::zeros(u);
+    let design = |arm: &Vector3<f64>| {
+        // d = t + ω × r = t − [r]× ω, ω in mrad = mm/m, r in m.
+        let mut a = DMatrix::<f64>::zeros(3, u);
+        for k in 0..3 {
+            a[(k, k)] = 1.0;
+        }
+        if u == 6 {
+            let cross = Matrix3::new(0.0, -arm.z, arm.y, arm.z, 0.0, -arm.x, -arm.y, arm.x, 0.0);
+            for r in 0..3 {
+                for c in 0..3 {
+                    a[(r, 3 + c)] = -cross[(r, c)];
+                }
+            }
+        }
+        a
+    };
+    for ((p, w), arm) in points.iter().zip(&weights).zip(&arms) {
+        let a = design(arm);
+        let wd = DMatrix::from_fn(3, 3, |r, c| w[(r, c)]);
+        let at_w = a.transpose() * &wd;
+        nm += &at_w * &a;
+        rhs += &at_w * DVector::from_column_slice(&p.d_mm);
+    }
+    let qxx =
+        nm.clone()
+            .cholesky()
+            .map(|c| c.inverse())
+            .ok_or_else(|| AnalysisError::Singular {
+                what: "normal equations of the block motion".into(),
+            })?;
+    let x = &qxx * &rhs;
+    let mut vtpv = 0.0;
+    for ((p, w), arm) in points.iter().zip(&weights).zip(&arms) {
+        let a = design(arm);
+        let v = &a * &x - DVector::from_column_slice(&p.d_mm);
+        let v3 = Vector3::new(v[0], v[1], v[2]);
+        vtpv += (v3.transpose() * w * v3)[(0, 0)];
+    }
+    let redundancy = 3 * points.len() - u;
+    let rigid = redundancy == 0
+        || vtpv <= redundancy as f64 * f_quantile(confidence, redundancy as f64, f64::INFINITY);
+    let cov = Matrix3::from_fn(|r, c| qxx[(r, c)]);
+    Ok(BlockMotion {
+        model: if u == 6 {
+            BlockModel::Rigid
+        } else {
+            BlockModel::Translation
+        },
+        points: points.iter().map(|p| p.name.clone()).collect(),
+        translation_mm: [x[0], x[1], x[2]],
+        covariance_mm2: cov.into(),
+        rotation_mrad: (u == 6).then(|| [x[3], x[4], x[5]]),
+        sigma_rotation_mrad: (u == 6).then(|| {
+            [
+                qxx[(3, 3)].max(0.0).sqrt(),
+                qxx[(4, 4)].max(0.0).sqrt(),
+                qxx[(5, 5)].max(0.0).sqrt(),
+            ]
+        }),
+        test_statistic: vtpv,
+        redundancy,
+        rigid,
+    })
+}
