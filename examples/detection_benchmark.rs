@@ -15,6 +15,9 @@
 //! the last epoch, day 39, is up to two days before it), the block's direction drawn per seed,
 //! every third one mostly in depth (towards the cameras).
 
+// Numerical code indexes several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use std::collections::{BTreeMap, HashMap};
 
 use chrono::{DateTime, Utc};
@@ -24,9 +27,9 @@ use rayon::prelude::*;
 use serde_json::json;
 
 use cliffwatch::analysis::{
-    analyse_epoch, evaluate_alerts, AlertConfig, AlertEventType, AlertLevel, AlertRule,
-    AlertState, AnalysisConfig, EpochAnalysis, EpochCoordinates, GroupConfig, GroupKind, History,
-    PointConfig, PointRole,
+    analyse_epoch, evaluate_alerts, AlertConfig, AlertEventType, AlertLevel, AlertRule, AlertState,
+    AnalysisConfig, EpochAnalysis, EpochCoordinates, GroupConfig, GroupKind, History, PointConfig,
+    PointRole,
 };
 use cliffwatch::photogrammetry::camera::DEFAULT_SIGMA_MM;
 use cliffwatch::photogrammetry::{adjust_problem, AdjustOptions};
@@ -120,7 +123,11 @@ fn scenario(index: usize) -> (ImageSeriesScenario, bool) {
         // Mostly in depth, towards the cameras.
         [rng.gen_range(-0.3..0.3), rng.gen_range(-0.3..0.3), 1.0]
     } else {
-        [rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..0.2), rng.gen_range(-0.3..0.6)]
+        [
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..0.2),
+            rng.gen_range(-0.3..0.6),
+        ]
     };
     let law = if failing {
         FailureLaw {
@@ -248,7 +255,11 @@ fn process(index: usize) -> Processed {
                     p.record.dy_mm - t[1],
                     p.record.dz_mm - t[2],
                 ];
-                let s = [p.record.sigma_dx_mm, p.record.sigma_dy_mm, p.record.sigma_dz_mm];
+                let s = [
+                    p.record.sigma_dx_mm,
+                    p.record.sigma_dy_mm,
+                    p.record.sigma_dz_mm,
+                ];
                 for i in 0..3 {
                     z2[i] += (e[i] / s[i]).powi(2);
                 }
@@ -371,7 +382,8 @@ fn main() {
             failing += 1;
             let truth = &p.series.truth;
             let tf = truth.failure_at.expect("failure time");
-            let day = |t: DateTime<Utc>| (t - truth.epochs[0].observed_at).num_seconds() as f64 / 86400.0;
+            let day =
+                |t: DateTime<Utc>| (t - truth.epochs[0].observed_at).num_seconds() as f64 / 86400.0;
             for b in &p.block {
                 for (th, delays, missed, level) in [
                     (5.0, &mut d_watch, &mut miss_watch, AlertLevel::Watch),

@@ -12,7 +12,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::displacement::FilteredValues;
 use super::epoch::AnalysisConfig;
-use super::failure::{forecast_from_velocities, FailureForecast};
+use super::epoch::ForecastMethod;
+use super::failure::{forecast_from_displacements, forecast_from_velocities, FailureForecast};
 use super::kalman::{filter, smooth, KalmanConfig, Measurement};
 use super::stats::normal_quantile;
 use super::velocity::{window_slice, Sample};
@@ -92,6 +93,8 @@ pub fn track(
         sigma_f_time_to_failure_hours: None,
     };
     let z = normal_quantile(0.5 + 0.5 * config.confidence);
+    // A forecast only while the subject moves significantly; whether it accelerates is the
+    // forecast's own test (the law against a straight line).
     let moving = f_d > z * s_d && along.v_mm_per_day > z * along.sigma_v_mm_per_day;
     let failure = if moving {
         forecast_smoothed(&meas, &kc, u, config)
@@ -108,31 +111,50 @@ pub fn track(
     })
 }
 
-/// The inverse-velocity forecast over the smoothed velocities along `u` of the failure window.
+/// The inverse-velocity forecast over the failure window: by default the law integrated and
+/// fitted to the displacements along `u` ([`forecast_from_displacements`]); with
+/// [`FailureConfig::method`] `smoothed_velocity`, Fukuzono's line through the inverse of the
+/// smoothed velocities ([`forecast_from_velocities`]).
 fn forecast_smoothed(
     meas: &[Measurement],
     kc: &KalmanConfig,
     u: Vector3<f64>,
     config: &AnalysisConfig,
 ) -> Option<FailureForecast> {
-    let smoothed = smooth(meas, kc).ok()?;
     // The window's epochs (the window counts epochs or days back from the current one).
-    let times: Vec<Sample> = smoothed
+    let times: Vec<Sample> = meas
         .iter()
-        .map(|s| Sample {
-            t_days: s.t_days,
+        .map(|m| Sample {
+            t_days: m.t_days,
             d_mm: 0.0,
             sigma_mm: 1.0,
         })
         .collect();
-    let n = window_slice(&times, config.failure.window).len();
-    let win = &smoothed[smoothed.len() - n..];
-    let (mut t, mut v, mut s) = (vec![], vec![], vec![]);
-    for st in win {
-        let a = st.along(u.into());
-        t.push(st.t_days);
-        v.push(a.v_mm_per_day);
-        s.push(a.sigma_v_mm_per_day);
+    match config.failure.method {
+        ForecastMethod::Displacement => {
+            let n = window_slice(&times, config.failure.law_window).len();
+            let win = &meas[meas.len() - n..];
+            let (mut t, mut d, mut s) = (vec![], vec![], vec![]);
+            for m in win {
+                let c = Matrix3::from(m.cov_mm2);
+                t.push(m.t_days);
+                d.push(u.dot(&Vector3::from(m.d_mm)));
+                s.push((u.transpose() * c * u)[(0, 0)].max(0.0).sqrt());
+            }
+            forecast_from_displacements(&t, &d, &s)
+        }
+        ForecastMethod::SmoothedVelocity => {
+            let n = window_slice(&times, config.failure.window).len();
+            let smoothed = smooth(meas, kc).ok()?;
+            let win = &smoothed[smoothed.len() - n..];
+            let (mut t, mut v, mut s) = (vec![], vec![], vec![]);
+            for st in win {
+                let a = st.along(u.into());
+                t.push(st.t_days);
+                v.push(a.v_mm_per_day);
+                s.push(a.sigma_v_mm_per_day);
+            }
+            forecast_from_velocities(&t, &v, &s, &config.failure)
+        }
     }
-    forecast_from_velocities(&t, &v, &s, &config.failure)
 }
