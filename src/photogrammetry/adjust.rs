@@ -20,7 +20,7 @@ use super::orthogonal::OrthoImage;
 use super::precision::Cofactors;
 use super::report::{
     AdjustmentReport, CalibratedParameter, CameraReport, DroppedObservation, ImageReport, Model,
-    PointReport, ResidualReport,
+    PointReport, ResidualReport, VarianceModel,
 };
 use super::result::{AdjustOptions, AdjustedPoint, Adjustment, ImageOrientation, JointCovariance};
 use super::snooping::{normalized_residual, ActiveCounts, LinearSnooping};
@@ -37,6 +37,50 @@ const GLOBAL_TEST_Z: f64 = 3.09;
 fn chi2_upper(nu: f64, z: f64) -> f64 {
     let a = 2.0 / (9.0 * nu);
     nu * (1.0 - a + z * a.sqrt()).powi(3)
+}
+
+/// Lower quantile of χ²(ν) for the standard normal quantile z (Wilson–Hilferty).
+fn chi2_lower(nu: f64, z: f64) -> f64 {
+    chi2_upper(nu, -z)
+}
+
+/// Critical value of Pope's τ statistic with `r` degrees of freedom at the level whose normal
+/// critical value is `z`: τ = t √r / √(r − 1 + t²) with t the Student quantile of r − 1 degrees of
+/// freedom (Pope 1976, eq 17), t from z by the Cornish–Fisher expansion.
+fn tau_critical(z: f64, r: f64) -> f64 {
+    let nu = (r - 1.0).max(1.0);
+    let (z3, z5) = (z.powi(3), z.powi(5));
+    let t = z + (z3 + z) / (4.0 * nu) + (5.0 * z5 + 16.0 * z3 + 3.0 * z) / (96.0 * nu * nu);
+    let tau = t * (r / (r - 1.0 + t * t)).sqrt();
+    // τ is bounded by √r; with almost no redundancy the test degenerates to that bound.
+    tau.min(r.sqrt())
+}
+
+/// Variance factor beyond which the snooping keeps the a-priori σ although the global test rejects
+/// it: an a-priori σ off by more than a factor 2 is taken for a wrong basin or many gross errors,
+/// which the capped snooping and the retry from the affine bundle must see, not for a misstated σ.
+const MAX_TAU_VARIANCE_FACTOR: f64 = 4.0;
+
+/// The snooping's variance model for the bundle's current solution: a-priori when the global test
+/// (two-sided, 99.9 %) accepts the variance factor or it exceeds [`MAX_TAU_VARIANCE_FACTOR`], else
+/// Pope's τ test with σ̂0. Returns the model and
+/// the factor √(variance factor) · τ_crit / `critical_w` by which the critical |w| (formed with the
+/// a-priori σ) is widened, and √(variance factor) by which reported w are divided.
+fn variance_model(b: &Bundle, dof: i64, critical_w: f64) -> (VarianceModel, f64, f64) {
+    let r = dof.max(2) as f64;
+    let vf = b.cost() / r;
+    let upper = chi2_upper(r, GLOBAL_TEST_Z) / r;
+    let lower = chi2_lower(r, GLOBAL_TEST_Z) / r;
+    if (lower..=upper).contains(&vf) || !(vf > 0.0 && vf <= MAX_TAU_VARIANCE_FACTOR) {
+        (VarianceModel::APriori, 1.0, 1.0)
+    } else {
+        let s = vf.sqrt();
+        (
+            VarianceModel::APosteriori,
+            s * tau_critical(critical_w, r) / critical_w,
+            s,
+        )
+    }
 }
 
 /// σ of the prior on a self-calibrated c, relative to its given value.
@@ -621,13 +665,16 @@ pub fn adjust_problem(
         zbar,
         datum,
         false,
+        &dof_of,
     )?;
     // Without snooping, a failed global test may be a wrong basin as well as gross errors kept: worth
     // the second try, though not a reason to refuse the result (it carries the test's warning).
     let suspect = |x: &Solved| failed(x) || (!options.snooping && global_test_fails(x));
     if suspect(&solved) && options.model == Model::Orthogonal {
         // A wrong basin (many blunders and a failed global test): try again from the affine bundle.
-        if let Ok(second) = solve(problem, options, bundle, &mirrors, &free, zbar, datum, true) {
+        if let Ok(second) = solve(
+            problem, options, bundle, &mirrors, &free, zbar, datum, true, &dof_of,
+        ) {
             let vf = |x: &Solved| x.outcome.cost / dof_of(&x.bundle).max(1) as f64;
             if !suspect(&second) || (second.outcome.converged && vf(&second) < vf(&solved)) {
                 solved = second;
@@ -651,6 +698,7 @@ pub fn adjust_problem(
         warnings: more,
         dropped,
         w,
+        variance_model,
         ..
     } = solved;
     warnings.extend(more);
@@ -678,6 +726,7 @@ pub fn adjust_problem(
         warnings,
         dropped,
         w,
+        variance_model,
         &start_points,
     )
 }
@@ -696,6 +745,8 @@ struct Solved {
     outliers: usize,
     /// Normalized residuals (w_x, w_y) of every observation at the solution.
     w: Vec<[f64; 2]>,
+    /// The variance the snooping's statistics `w` rest on.
+    variance_model: VarianceModel,
 }
 
 /// The pipeline from the start values: mirror choice, first stage (robust), self-calibration, the
@@ -711,6 +762,7 @@ fn solve(
     zbar: f64,
     datum: Datum,
     affine_first: bool,
+    dof_of: &dyn Fn(&Bundle) -> i64,
 ) -> Result<Solved, AdjustError> {
     let mut warnings = Vec::new();
     // Stage 1: interior held, iteratively reweighted from the start so that a gross error cannot pull
@@ -786,13 +838,15 @@ fn solve(
     let mut cof = invert(&bundle, normals)?;
     let mut final_w = None;
     let mut capped = false;
+    let mut model = VarianceModel::APriori;
     if options.snooping {
-        let snooped = snoop(&mut bundle, cof, options, invert)?;
+        let snooped = snoop(&mut bundle, cof, options, invert, dof_of)?;
         (outcome, cof, final_w) = (
             snooped.outcome.unwrap_or(outcome),
             snooped.cof,
             Some(snooped.w),
         );
+        model = snooped.variance_model;
         capped = snooped.warning.is_some();
         warnings.extend(snooped.warning);
     } else {
@@ -806,9 +860,15 @@ fn solve(
     }
     let w: Vec<[f64; 2]> = match final_w {
         Some(w) => w,
-        None => (0..bundle.obs.len())
-            .map(|k| normalized_residual(&bundle, &cof, k))
-            .collect(),
+        None => {
+            // Without snooping the statistics follow the same variance model (Pope's τ when the
+            // global test rejects the a-priori σ).
+            let (m, _, s) = variance_model(&bundle, dof_of(&bundle), options.critical_w);
+            model = m;
+            (0..bundle.obs.len())
+                .map(|k| normalized_residual(&bundle, &cof, k).map(|x| x / s))
+                .collect()
+        }
     };
     let dropped: Vec<DroppedObservation> = (0..bundle.obs.len())
         .filter(|&k| !bundle.obs[k].active)
@@ -841,6 +901,7 @@ fn solve(
         dropped,
         too_many_outliers,
         w,
+        variance_model: model,
     })
 }
 
@@ -862,6 +923,7 @@ struct Snooped {
     cof: Cofactors,
     w: Vec<[f64; 2]>,
     warning: Option<String>,
+    variance_model: VarianceModel,
 }
 
 /// Times one observation may be taken back by the backward step, so that one whose |w| lies at the
@@ -882,10 +944,17 @@ fn snoop(
     mut cof: Cofactors,
     options: &AdjustOptions,
     invert: impl Fn(&Bundle, Option<Normals>) -> Result<Cofactors, AdjustError>,
+    dof_of: &dyn Fn(&Bundle) -> i64,
 ) -> Result<Snooped, AdjustError> {
     let max_drops = outlier_cap(bundle.obs.len());
     let mut drops = bundle.obs.iter().filter(|o| !o.active).count();
-    let mut lin = LinearSnooping::new(bundle, &cof, options.critical_w);
+    // The critical |w| (w formed with the a-priori σ) of the variance model of the current exact
+    // solution: Baarda's, or Pope's τ_crit · σ̂0 / σ when the global test rejects σ; σ̂0 is
+    // re-estimated after every exact re-adjustment.
+    let (mut model, widen, mut w_scale) =
+        variance_model(bundle, dof_of(bundle), options.critical_w);
+    let mut critical_w = options.critical_w * widen;
+    let mut lin = LinearSnooping::new(bundle, &cof, critical_w);
     let mut counts = ActiveCounts::of(bundle);
     let mut restores = vec![0u8; bundle.obs.len()];
     let mut outcome = None;
@@ -897,7 +966,7 @@ fn snoop(
                 continue;
             }
             let m = largest(lin.w(bundle, k));
-            if m > options.critical_w && worst.is_none_or(|(_, x)| m > x) {
+            if m > critical_w && worst.is_none_or(|(_, x)| m > x) {
                 worst = Some((k, m));
             }
         }
@@ -911,7 +980,7 @@ fn snoop(
                 .filter(|&k| {
                     !bundle.obs[k].active
                         && restores[k] < MAX_RESTORES
-                        && largest(lin.w(bundle, k)) <= options.critical_w
+                        && largest(lin.w(bundle, k)) <= critical_w
                 })
                 .collect();
             let mut restored = false;
@@ -955,13 +1024,21 @@ fn snoop(
         let (o, n) = levenberg_marquardt_normals(bundle, options.max_iterations, Start::Near);
         outcome = Some(o);
         cof = invert(bundle, n)?;
-        lin = LinearSnooping::new(bundle, &cof, options.critical_w);
+        let widen;
+        (model, widen, w_scale) = variance_model(bundle, dof_of(bundle), options.critical_w);
+        critical_w = options.critical_w * widen;
+        lin = LinearSnooping::new(bundle, &cof, critical_w);
     }
     Ok(Snooped {
         outcome,
-        w: lin.all_w(bundle),
+        w: lin
+            .all_w(bundle)
+            .into_iter()
+            .map(|w| w.map(|x| x / w_scale))
+            .collect(),
         cof,
         warning,
+        variance_model: model,
     })
 }
 
@@ -979,6 +1056,7 @@ fn finish(
     warnings: Vec<String>,
     dropped: Vec<DroppedObservation>,
     w: Vec<[f64; 2]>,
+    variance_model: VarianceModel,
     start_points: &[Vector3<f64>],
 ) -> Result<Adjustment, AdjustError> {
     if !outcome.converged {
@@ -1199,6 +1277,7 @@ fn finish(
         },
         index3_rmse_mm: None,
         index4_rmse_mm: None,
+        variance_model,
     };
     Ok(Adjustment {
         report,
@@ -1207,4 +1286,37 @@ fn finish(
         cameras,
         joint_covariance,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pope's τ critical value against the Student-t table: t(0.9995; 99) = 3.392 gives
+    /// τ = 3.392 √(100 / (99 + 3.392²)) = 3.227 for r = 100; it tends to z for large r and never
+    /// exceeds √r.
+    #[test]
+    fn tau_critical_matches_the_table() {
+        assert!((tau_critical(3.2905, 100.0) - 3.227).abs() < 0.01);
+        assert!((tau_critical(3.2905, 1e6) - 3.2905).abs() < 1e-3);
+        assert!(tau_critical(3.2905, 3.0) <= 3f64.sqrt());
+        assert!(tau_critical(3.2905, 170.0) < 3.2905);
+    }
+
+    /// The global test's two bounds bracket 1 and tighten with the redundancy.
+    #[test]
+    fn global_test_bounds_bracket_one() {
+        for r in [20.0, 170.0, 2000.0] {
+            let (lo, hi) = (
+                chi2_lower(r, GLOBAL_TEST_Z) / r,
+                chi2_upper(r, GLOBAL_TEST_Z) / r,
+            );
+            assert!(lo < 1.0 && hi > 1.0 && lo > 0.0, "r = {r}: {lo} {hi}");
+        }
+        let w170 =
+            chi2_upper(170.0, GLOBAL_TEST_Z) / 170.0 - chi2_lower(170.0, GLOBAL_TEST_Z) / 170.0;
+        let w2000 =
+            chi2_upper(2000.0, GLOBAL_TEST_Z) / 2000.0 - chi2_lower(2000.0, GLOBAL_TEST_Z) / 2000.0;
+        assert!(w2000 < w170);
+    }
 }

@@ -3,6 +3,18 @@
 
 use serde::{Deserialize, Serialize};
 
+/// The variance behind the data snooping's test statistics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VarianceModel {
+    /// Baarda's w with the a-priori σ and the normal critical value (the global test accepted σ).
+    #[default]
+    APriori,
+    /// Pope's τ test: w with the a-posteriori σ̂0 and the critical value of the τ distribution (the
+    /// global test rejected the a-priori σ, either way).
+    APosteriori,
+}
+
 /// Which projection model an adjustment uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
@@ -156,4 +168,8 @@ pub struct AdjustmentReport {
     /// Index 4 with `--truth`: RMSE [x, y, z, xyz] in mm after a 3-D affine fit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub index4_rmse_mm: Option<[f64; 4]>,
+    /// Which variance the data snooping's normalized residuals (`w` of residuals and dropped
+    /// observations) rest on; the covariances always carry the a-posteriori variance factor.
+    #[serde(default)]
+    pub variance_model: VarianceModel,
 }
