@@ -290,8 +290,9 @@ pub struct AlertRule {
     /// Hysteresis of a `below` rule: once active, clears only above this value.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clear_above: Option<f64>,
-    /// Restricts the rule to points of this group (all points when absent); when the group is
-    /// declared a block, the rule applies to the block's motion instead of its single points.
+    /// Restricts the rule to points of this group (all points and all declared blocks when
+    /// absent); when the group is declared a block, the rule applies to the block's motion
+    /// instead of its single points.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub group: Option<String>,
     /// Which estimate the rule reads (default: [`Metric::default_source`]).
@@ -930,7 +931,8 @@ pub fn evaluate_alerts(
     let suffix = analysis.epoch.to_string();
     let z = config.z();
     let blocks: Vec<&str> = analysis.blocks.iter().map(|b| b.group.as_str()).collect();
-    // A rule naming a block group applies to the block's motion, not to its single points.
+    // A rule naming a block group applies to the block's motion, not to its single points; a
+    // rule without a group applies to every point and every declared block.
     let (block_rules, point_rules): (Vec<&AlertRule>, Vec<&AlertRule>) = rules
         .iter()
         .partition(|r| r.group.as_deref().is_some_and(|g| blocks.contains(&g)));
@@ -960,8 +962,9 @@ pub fn evaluate_alerts(
     for b in &analysis.blocks {
         let applicable: Vec<&AlertRule> = block_rules
             .iter()
+            .chain(point_rules.iter())
             .copied()
-            .filter(|r| r.group.as_deref() == Some(b.group.as_str()))
+            .filter(|r| r.group.as_deref().is_none_or(|g| g == b.group.as_str()))
             .collect();
         let subject = SubjectReadings {
             subject: Subject::Group(b.group.as_str()),
