@@ -76,6 +76,24 @@ pub fn body_hash(input: &EpochInput) -> String {
     hex::encode(Sha256::digest(input.canonical_json().as_bytes()))
 }
 
+/// Networks up to this many points store the joint covariance of all of them; larger ones that of
+/// their stable points only (the matrix grows with the square of the points: 28 points make
+/// 84 × 84 values, about 150 kB of JSON per epoch).
+pub const JOINT_COVARIANCE_ALL_POINTS_MAX: usize = 40;
+
+/// The points whose joint covariance an epoch stores: every point of a network of up to
+/// [`JOINT_COVARIANCE_ALL_POINTS_MAX`] points, else the stable ones. The displacement analysis
+/// propagates the stable-point datum with the cross-covariances between each point and the datum
+/// points; without them the depth σ of displacements came out 8 % optimistic in the calibration
+/// test (`tests/adjust_calibration.rs`).
+pub fn joint_covariance_points(points: &[String], stable: Vec<String>) -> Vec<String> {
+    if points.len() <= JOINT_COVARIANCE_ALL_POINTS_MAX {
+        points.to_vec()
+    } else {
+        stable
+    }
+}
+
 /// Ingests one epoch of the upload form into a site.
 pub async fn ingest(
     store: &Store,
@@ -100,7 +118,10 @@ pub async fn ingest(
     let options = AdjustOptions {
         model: site.model.parse().unwrap_or(Model::Orthogonal),
         prior,
-        joint_covariance_of: points::stable(store.reader(), &site.id).await?,
+        joint_covariance_of: joint_covariance_points(
+            &problem.points,
+            points::stable(store.reader(), &site.id).await?,
+        ),
         ..AdjustOptions::default()
     };
     let started = Instant::now();
