@@ -23,13 +23,82 @@ use crate::webhooks::{
     accepts, message_id, render, PayloadFormat, WebhookEndpoint, WebhookPayload,
 };
 
-/// The analysis settings of a site (its `confidence` for the significance tests; library defaults
-/// otherwise).
+/// The ids of the epochs that make the reference: the reference epoch and the next
+/// `reference_epochs − 1` epochs in time.
+pub async fn reference_window(
+    tx: &mut SqliteConnection,
+    site: &Site,
+    reference: i64,
+) -> Result<Vec<i64>, StoreError> {
+    Ok(sqlx::query_scalar(
+        "SELECT id FROM epochs WHERE site_id = ? AND observed_at >= \
+         (SELECT observed_at FROM epochs WHERE site_id = ? AND id = ?) ORDER BY observed_at LIMIT ?",
+    )
+    .bind(&site.id)
+    .bind(&site.id)
+    .bind(reference)
+    .bind(site.reference_epochs.max(1))
+    .fetch_all(&mut *tx)
+    .await?)
+}
+
+/// The reference coordinates of a site: those of `reference`, or with `reference_epochs` K > 1
+/// the covariance-weighted mean of the K epochs from it on
+/// ([`analysis::reference::combine_reference`]). `Ok(None)` when the reference epoch has no
+/// coordinates; `Err` inside `Ok` when the epochs cannot be combined.
+pub async fn reference_coordinates(
+    tx: &mut SqliteConnection,
+    site: &Site,
+    reference: i64,
+    points: &[PointConfig],
+    config: &AnalysisConfig,
+) -> Result<Option<Result<EpochCoordinates, AnalysisError>>, StoreError> {
+    let Some(first) = epoch_coordinates(tx, &site.id, reference).await? else {
+        return Ok(None);
+    };
+    if site.reference_epochs <= 1 {
+        return Ok(Some(Ok(first)));
+    }
+    let mut epochs = vec![first];
+    for id in reference_window(tx, site, reference).await? {
+        if id == reference {
+            continue;
+        }
+        if let Some(e) = epoch_coordinates(tx, &site.id, id).await? {
+            epochs.push(e);
+        }
+    }
+    let (points, config) = (points.to_vec(), config.clone());
+    let combined = tokio::task::spawn_blocking(move || {
+        analysis::reference::combine_reference(&epochs, &points, &config)
+    })
+    .await
+    .map_err(|e| StoreError::Corrupt(format!("reference task: {e}")))?;
+    Ok(Some(combined))
+}
+
+/// The analysis settings of a site (its `confidence` for the significance tests, its
+/// `process_noise` for the Kalman filter; library defaults otherwise), without its groups (see
+/// [`site_analysis_config`]).
 pub fn analysis_config(site: &Site) -> AnalysisConfig {
-    AnalysisConfig {
+    let mut config = AnalysisConfig {
         confidence: site.confidence,
         ..AnalysisConfig::default()
+    };
+    if let Some(q) = site.process_noise {
+        config.kalman.process_noise = q;
     }
+    config
+}
+
+/// [`analysis_config`] with the site's declared block groups.
+pub async fn site_analysis_config(
+    tx: &mut SqliteConnection,
+    site: &Site,
+) -> Result<AnalysisConfig, StoreError> {
+    let mut config = analysis_config(site);
+    config.groups = store::groups::list(&mut *tx, &site.id).await?;
+    Ok(config)
 }
 
 /// The alert configuration of a site: its `alert_rules` (from the API or the configuration file;

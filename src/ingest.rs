@@ -207,6 +207,29 @@ async fn reference_epoch(
     })
 }
 
+/// The site's reference coordinates ([`alerting::reference_coordinates`]); when the epochs of a
+/// several-epoch reference cannot be combined, the reference epoch alone (logged), so that an
+/// upload and a recompute always agree.
+async fn site_reference(
+    tx: &mut SqliteConnection,
+    site: &Site,
+    reference: i64,
+    points: &[crate::analysis::PointConfig],
+    config: &crate::analysis::AnalysisConfig,
+) -> Result<Option<EpochCoordinates>, IngestError> {
+    Ok(
+        match alerting::reference_coordinates(tx, site, reference, points, config).await? {
+            None => None,
+            Some(Ok(r)) => Some(r),
+            Some(Err(e)) => {
+                tracing::warn!(site = %site.id, reference, error = %e,
+                    "the reference epochs cannot be combined; the reference epoch alone is used");
+                alerting::epoch_coordinates(tx, &site.id, reference).await?
+            }
+        },
+    )
+}
+
 /// THE seam of the displacement analysis and the alert rules: runs inside the epoch's write
 /// transaction (history read from `tx` is consistent with what is written).
 ///
@@ -234,7 +257,14 @@ async fn derive(
             .bind(observed_at)
             .fetch_one(&mut *tx)
             .await?;
-    if later > 0 {
+    let reference = site.reference_epoch.unwrap_or(earliest);
+    // An epoch inside a reference of several epochs changes the reference itself.
+    let in_reference = site.reference_epochs > 1
+        && reference != epoch
+        && alerting::reference_window(tx, site, reference)
+            .await?
+            .contains(&epoch);
+    if later > 0 || in_reference {
         // Out of order: later epochs' histories (velocities, forecasts) and, when this epoch is the
         // earliest without a set reference, the reference itself change. Recompute the series.
         let raised = recompute_site(tx, site).await?;
@@ -243,15 +273,16 @@ async fn derive(
             raised,
         });
     }
-    let reference = site.reference_epoch.unwrap_or(earliest);
     let Some(t) = store::parse_timestamp(observed_at) else {
         return Ok(Derived::default());
     };
     let current = EpochCoordinates::from_adjustment(epoch, t, adjustment);
+    let config = alerting::site_analysis_config(tx, site).await?;
+    let points = alerting::point_configs(tx, &site.id).await?;
     let reference = if reference == epoch {
         current.clone()
     } else {
-        match alerting::epoch_coordinates(tx, &site.id, reference).await? {
+        match site_reference(tx, site, reference, &points, &config).await? {
             Some(r) => r,
             None => {
                 let reason = format!("the reference epoch {reference} has no coordinates");
@@ -260,8 +291,6 @@ async fn derive(
         }
     };
     let reference_id = reference.epoch;
-    let config = alerting::analysis_config(site);
-    let points = alerting::point_configs(tx, &site.id).await?;
     let history = alerting::history(tx, &site.id, observed_at, config.history_epochs()).await?;
     let analysis = alerting::analyse_blocking(reference, current, points, history, config)
         .await
@@ -333,7 +362,9 @@ pub async fn recompute_site(tx: &mut SqliteConnection, site: &Site) -> Result<us
     let Some(reference) = reference_epoch(tx, &site).await? else {
         return Ok(0);
     };
-    let Some(reference) = alerting::epoch_coordinates(tx, &site.id, reference).await? else {
+    let config = alerting::site_analysis_config(tx, &site).await?;
+    let points = alerting::point_configs(tx, &site.id).await?;
+    let Some(reference) = site_reference(tx, &site, reference, &points, &config).await? else {
         return Ok(0);
     };
     let ids: Vec<i64> =
@@ -347,8 +378,6 @@ pub async fn recompute_site(tx: &mut SqliteConnection, site: &Site) -> Result<us
             series.push(e);
         }
     }
-    let config = alerting::analysis_config(&site);
-    let points = alerting::point_configs(tx, &site.id).await?;
     let reference_id = reference.epoch;
     let out = alerting::analyse_series_blocking(
         reference,

@@ -433,7 +433,8 @@ pub fn analyse_epoch(
             needed: kind.min_points(),
         });
     }
-    let same_epoch = reference.epoch == current.epoch;
+    // The reference epoch itself (not a mean of several epochs that includes it): zero.
+    let same_epoch = reference.epoch == current.epoch && reference.points == current.points;
     let stable: Vec<usize> = (0..diffs.len())
         .filter(|&i| role(&diffs.names[i]) == PointRole::Stable)
         .collect();

@@ -27,6 +27,7 @@ pub mod epoch;
 pub mod error;
 pub mod failure;
 pub mod kalman;
+pub mod reference;
 pub mod stats;
 pub mod tracking;
 pub mod velocity;

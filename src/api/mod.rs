@@ -8,6 +8,7 @@ pub mod alerts;
 pub mod auth;
 pub mod epochs;
 pub mod error;
+pub mod groups;
 pub mod health;
 pub mod list;
 pub mod openapi;
@@ -65,6 +66,11 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/sites/{site}/epochs/{epoch}", get(epochs::get_one))
         .route("/api/v1/sites/{site}/reference", put(sites::set_reference))
         .route("/api/v1/sites/{site}/points", get(points::list))
+        .route("/api/v1/sites/{site}/groups", get(groups::list))
+        .route(
+            "/api/v1/sites/{site}/groups/{group}",
+            put(groups::put).get(groups::get_one),
+        )
         .route("/api/v1/sites/{site}/points/{point}", put(points::update))
         .route(
             "/api/v1/sites/{site}/points/{point}/displacements",

@@ -12,6 +12,7 @@ use utoipa::OpenApi;
         super::sites::create, super::sites::list, super::sites::get_one, super::sites::set_reference,
         super::epochs::upload, super::epochs::list, super::epochs::get_one,
         super::points::list, super::points::update, super::points::displacements,
+        super::groups::put, super::groups::list, super::groups::get_one,
         super::alerts::list, super::alerts::acknowledge,
         super::webhooks::create, super::webhooks::list, super::webhooks::delete,
     ),
@@ -23,7 +24,7 @@ use utoipa::OpenApi;
         super::schemas::ErrorBody, super::schemas::ErrorDetail, super::schemas::Status,
         super::schemas::UploadForm, super::schemas::CameraForm, super::schemas::ImageForm,
         super::schemas::ObservationForm, super::schemas::ControlForm, super::schemas::ApproxForm,
-        super::schemas::EpochSummary,
+        super::schemas::EpochSummary, super::groups::GroupBody, super::groups::Group,
     )),
     modifiers(&BearerAuth)
 )]

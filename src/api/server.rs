@@ -81,7 +81,19 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
     let mut tx = store.begin_write().await?;
     for site in &config.sites {
         super::sites::check_site(site).map_err(|e| ServeError::Site(site.id.clone(), e.message))?;
+        let before = store::sites::get(&mut *tx, &site.id).await?;
         store::sites::upsert(&mut tx, site).await?;
+        // Settings the analysis depends on changed: the series is recomputed (like a new
+        // reference epoch through the API).
+        if let (Some(b), Some(a)) = (before, store::sites::get(&mut *tx, &site.id).await?) {
+            if (b.reference_epochs, b.process_noise, b.confidence)
+                != (a.reference_epochs, a.process_noise, a.confidence)
+            {
+                crate::ingest::recompute_displacements(&mut tx, &a)
+                    .await
+                    .map_err(|e| ServeError::Site(site.id.clone(), e.to_string()))?;
+            }
+        }
     }
     let hooks: Vec<NewWebhook> = config
         .webhooks

@@ -9,6 +9,7 @@ use utoipa::ToSchema;
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{Page, PageParams};
 use super::AppState;
+use crate::analysis::AlertRule;
 use crate::photogrammetry::epoch::is_valid_identifier;
 use crate::store::sites::{self, NewSite, Site};
 use crate::store::{epochs, StoreError};
@@ -40,6 +41,22 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
             ));
         }
     }
+    if let Some(k) = s.reference_epochs {
+        if !(1..=100).contains(&k) {
+            return Err(ApiError::unprocessable(
+                "invalid_site",
+                format!("reference_epochs {k}: between 1 and 100"),
+            ));
+        }
+    }
+    if let Some(q) = s.process_noise {
+        if !(q > 0.0 && q.is_finite()) {
+            return Err(ApiError::unprocessable(
+                "invalid_site",
+                format!("process_noise {q}: a finite number > 0"),
+            ));
+        }
+    }
     for (i, rule) in s.alert_rules.iter().flatten().enumerate() {
         let level = rule.get("level").and_then(|v| v.as_str()).unwrap_or("");
         let metric = rule.get("metric").and_then(|v| v.as_str()).unwrap_or("");
@@ -58,6 +75,16 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
             return Err(ApiError::unprocessable(
                 "invalid_site",
                 format!("alert_rules[{i}]: needs level (watch|warning|alarm), metric and a numeric above or below"),
+            ));
+        }
+        // The rule as the engine reads it: source, for_epochs, hysteresis on the right side.
+        let parsed = serde_json::from_value::<AlertRule>(rule.clone())
+            .map_err(|e| e.to_string())
+            .and_then(|r| r.validate().map_err(|e| e.to_string()));
+        if let Err(e) = parsed {
+            return Err(ApiError::unprocessable(
+                "invalid_site",
+                format!("alert_rules[{i}]: {e}"),
             ));
         }
     }

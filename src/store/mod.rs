@@ -5,7 +5,7 @@
 //! write transaction never has to upgrade a read lock ("database is locked"). The SQL avoids
 //! SQLite-only forms where a standard one exists, so a PostgreSQL backend can follow.
 //!
-//! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`displacements`], [`alerts`],
+//! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`groups`], [`displacements`], [`alerts`],
 //! [`webhooks`], [`watch_state`]; [`series`] serves a point's displacement time series fast from
 //! the packed blocks of [`series_blocks`] (layout: [`series_record`]).
 //!
@@ -38,6 +38,7 @@
 pub mod alerts;
 pub mod displacements;
 pub mod epochs;
+pub mod groups;
 pub mod points;
 pub mod series;
 pub mod series_blocks;
@@ -85,6 +86,9 @@ pub enum StoreError {
     /// The data directory cannot be created.
     #[error("data directory: {0}")]
     Io(#[from] std::io::Error),
+    /// A stored value is not one this version knows.
+    #[error("stored value: {0}")]
+    Corrupt(String),
 }
 
 /// Pool sizes and timeouts.

@@ -24,10 +24,20 @@ pub struct NewSite {
     /// Confidence level of the significance tests (default 0.99).
     #[serde(default)]
     pub confidence: Option<f64>,
-    /// Alert rules (`{"level", "metric", "above"|"below", "clear_below"|"clear_above"}`).
+    /// Alert rules (`{"level", "metric", "above"|"below", "clear_below"|"clear_above", "source",
+    /// "for_epochs", "group"}`).
     #[serde(default)]
     #[schema(value_type = Vec<Object>)]
     pub alert_rules: Option<Vec<serde_json::Value>>,
+    /// Epochs averaged into the reference (covariance-weighted, in the stable-point datum), ≥ 1
+    /// (default 1).
+    #[serde(default)]
+    #[schema(minimum = 1, maximum = 100)]
+    pub reference_epochs: Option<i64>,
+    /// Process noise of the points' Kalman filter (white jerk, mm²/day⁵; > 0; default 0.05).
+    #[serde(default)]
+    #[schema(exclusive_minimum = 0.0)]
+    pub process_noise: Option<f64>,
 }
 
 /// A stored site.
@@ -48,6 +58,10 @@ pub struct Site {
     pub alert_rules: Vec<serde_json::Value>,
     /// Explicit reference epoch; `null`: the earliest.
     pub reference_epoch: Option<i64>,
+    /// Epochs averaged into the reference from the reference epoch on.
+    pub reference_epochs: i64,
+    /// Process noise of the points' Kalman filter (mm²/day⁵); `null`: the default.
+    pub process_noise: Option<f64>,
     /// Creation time (RFC 3339).
     pub created_at: String,
 }
@@ -61,6 +75,8 @@ struct SiteRow {
     confidence: f64,
     alert_rules: String,
     reference_epoch: Option<i64>,
+    reference_epochs: i64,
+    process_noise: Option<f64>,
     created_at: String,
 }
 
@@ -75,13 +91,16 @@ impl TryFrom<SiteRow> for Site {
             confidence: r.confidence,
             alert_rules: serde_json::from_str(&r.alert_rules)?,
             reference_epoch: r.reference_epoch,
+            reference_epochs: r.reference_epochs,
+            process_noise: r.process_noise,
             created_at: display_timestamp(&r.created_at),
         })
     }
 }
 
 const COLUMNS: &str =
-    "id, name, model, schedule_hours, confidence, alert_rules, reference_epoch, created_at";
+    "id, name, model, schedule_hours, confidence, alert_rules, reference_epoch, reference_epochs, \
+     process_noise, created_at";
 
 /// Reads one site.
 pub async fn get(db: impl SqliteExecutor<'_>, id: &str) -> Result<Option<Site>, StoreError> {
@@ -156,10 +175,11 @@ async fn write(db: &mut SqliteConnection, site: &NewSite, create: bool) -> Resul
     let name = site.name.clone().unwrap_or_else(|| site.id.clone());
     let model = site.model.clone().unwrap_or_else(|| "orthogonal".into());
     let confidence = site.confidence.unwrap_or(0.99);
+    let reference_epochs = site.reference_epochs.unwrap_or(1);
     if create {
         sqlx::query(
-            "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, created_at) \
-             VALUES (?, ?, ?, ?, ?, ?, ?)",
+            "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, \
+             reference_epochs, process_noise, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
         )
         .bind(&site.id)
         .bind(name)
@@ -167,19 +187,23 @@ async fn write(db: &mut SqliteConnection, site: &NewSite, create: bool) -> Resul
         .bind(site.schedule_hours)
         .bind(confidence)
         .bind(rules)
+        .bind(reference_epochs)
+        .bind(site.process_noise)
         .bind(now())
         .execute(db)
         .await?;
     } else {
         sqlx::query(
-            "UPDATE sites SET name = ?, model = ?, schedule_hours = ?, confidence = ?, alert_rules = ? \
-             WHERE id = ?",
+            "UPDATE sites SET name = ?, model = ?, schedule_hours = ?, confidence = ?, alert_rules = ?, \
+             reference_epochs = ?, process_noise = ? WHERE id = ?",
         )
         .bind(name)
         .bind(model)
         .bind(site.schedule_hours)
         .bind(confidence)
         .bind(rules)
+        .bind(reference_epochs)
+        .bind(site.process_noise)
         .bind(&site.id)
         .execute(db)
         .await?;

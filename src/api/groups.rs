@@ -1,0 +1,159 @@
+//! `PUT /api/v1/sites/{site}/groups/{group}`, `GET /api/v1/sites/{site}/groups[/{group}]`: point
+//! groups declared as rigid blocks. A block's motion is estimated from all its points each epoch;
+//! rules naming the group (and rules without a group) apply to it.
+
+use axum::extract::State;
+use axum::response::IntoResponse;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::error::{ApiError, ApiJson, ApiPath};
+use super::sites::find;
+use super::AppState;
+use crate::analysis::{GroupConfig, GroupKind};
+use crate::photogrammetry::epoch::is_valid_identifier;
+use crate::store::{groups, StoreError};
+
+/// Body of `PUT .../groups/{group}`.
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct GroupBody {
+    /// `block` (the only kind).
+    #[schema(pattern = "^block$")]
+    pub kind: String,
+    /// Direction of interest of the block in the site frame (three finite numbers, not all zero).
+    #[serde(default)]
+    pub direction: Option<[f64; 3]>,
+    /// Member points (identifiers); absent or empty: the points whose `group` names this group.
+    #[serde(default)]
+    pub points: Option<Vec<String>>,
+    /// Process noise of the block's Kalman filter (mm²/day⁵, > 0); absent: the site's.
+    #[serde(default)]
+    #[schema(exclusive_minimum = 0.0)]
+    pub process_noise: Option<f64>,
+}
+
+/// A stored group.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Group {
+    /// Group name.
+    pub name: String,
+    /// `block`.
+    pub kind: String,
+    /// Direction of interest (site frame), when set.
+    pub direction: Option<[f64; 3]>,
+    /// Member points as declared (empty: by the points' `group`).
+    pub points: Vec<String>,
+    /// Process noise of the block's filter (mm²/day⁵), when set.
+    pub process_noise: Option<f64>,
+}
+
+impl From<GroupConfig> for Group {
+    fn from(g: GroupConfig) -> Self {
+        Group {
+            name: g.name,
+            kind: match g.kind {
+                GroupKind::Block => "block".into(),
+            },
+            direction: g.direction,
+            points: g.points,
+            process_noise: g.process_noise,
+        }
+    }
+}
+
+fn invalid(message: String) -> ApiError {
+    ApiError::unprocessable("invalid_group", message)
+}
+
+/// Checks a group body; the error names the field at fault.
+fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
+    if !is_valid_identifier(name) {
+        return Err(invalid(format!(
+            "group '{name}': identifiers must match [A-Za-z0-9._-]{{1,64}}"
+        )));
+    }
+    if body.kind != "block" {
+        return Err(invalid(format!("kind '{}': block", body.kind)));
+    }
+    if let Some(d) = body.direction {
+        if d.iter().any(|v| !v.is_finite()) || d.iter().all(|v| *v == 0.0) {
+            return Err(invalid(
+                "direction: three finite numbers, not all zero".into(),
+            ));
+        }
+    }
+    let points = body.points.clone().unwrap_or_default();
+    if let Some(p) = points.iter().find(|p| !is_valid_identifier(p)) {
+        return Err(invalid(format!(
+            "points: '{p}' is not an identifier ([A-Za-z0-9._-]{{1,64}})"
+        )));
+    }
+    if let Some(q) = body.process_noise {
+        if !(q > 0.0 && q.is_finite()) {
+            return Err(invalid(format!("process_noise {q}: a finite number > 0")));
+        }
+    }
+    Ok(GroupConfig {
+        name: name.to_string(),
+        kind: GroupKind::Block,
+        direction: body.direction,
+        points,
+        process_noise: body.process_noise,
+    })
+}
+
+/// `PUT /api/v1/sites/{site}/groups/{group}`: declares (or replaces) a block group and recomputes
+/// the site's series and alerts in the same transaction.
+#[utoipa::path(put, path = "/api/v1/sites/{site}/groups/{group}", request_body = GroupBody,
+    params(("site" = String, Path), ("group" = String, Path, pattern = "^[A-Za-z0-9._-]{1,64}$")),
+    responses((status = 200, body = Group),
+              (status = 400, description = "not JSON", body = crate::api::schemas::ErrorBody),
+              (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody),
+              (status = 422, description = "invalid group (the field at fault is named)", body = crate::api::schemas::ErrorBody)))]
+pub async fn put(
+    State(state): State<AppState>,
+    ApiPath((site, group)): ApiPath<(String, String)>,
+    ApiJson(body): ApiJson<GroupBody>,
+) -> Result<impl IntoResponse, ApiError> {
+    let s = find(&state, &site).await?;
+    let config = check(&group, &body)?;
+    let mut tx = state.store.begin_write().await?;
+    groups::put(&mut tx, &site, &config).await?;
+    crate::ingest::recompute_displacements(&mut tx, &s).await?;
+    tx.commit().await.map_err(StoreError::from)?;
+    let stored = groups::get(state.store.reader(), &site, &group)
+        .await?
+        .ok_or_else(|| ApiError::internal("group vanished"))?;
+    Ok(axum::Json(Group::from(stored)))
+}
+
+/// `GET /api/v1/sites/{site}/groups`: the site's groups by name.
+#[utoipa::path(get, path = "/api/v1/sites/{site}/groups", params(("site" = String, Path)),
+    responses((status = 200, body = Vec<Group>),
+              (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
+pub async fn list(
+    State(state): State<AppState>,
+    ApiPath(site): ApiPath<String>,
+) -> Result<impl IntoResponse, ApiError> {
+    find(&state, &site).await?;
+    let all = groups::list(state.store.reader(), &site).await?;
+    Ok(axum::Json(
+        all.into_iter().map(Group::from).collect::<Vec<_>>(),
+    ))
+}
+
+/// `GET /api/v1/sites/{site}/groups/{group}`: one group.
+#[utoipa::path(get, path = "/api/v1/sites/{site}/groups/{group}", params(("site" = String, Path), ("group" = String, Path)),
+    responses((status = 200, body = Group),
+              (status = 404, description = "unknown site or group", body = crate::api::schemas::ErrorBody)))]
+pub async fn get_one(
+    State(state): State<AppState>,
+    ApiPath((site, group)): ApiPath<(String, String)>,
+) -> Result<impl IntoResponse, ApiError> {
+    find(&state, &site).await?;
+    let g = groups::get(state.store.reader(), &site, &group)
+        .await?
+        .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no group '{group}'")))?;
+    Ok(axum::Json(Group::from(g)))
+}
