@@ -12,7 +12,8 @@
 //!   `Q = q [[Δt⁵/20, Δt⁴/8, Δt³/6], [Δt⁴/8, Δt³/3, Δt²/2], [Δt³/6, Δt²/2, Δt]]` (eq. 6.2.3-8).
 //!
 //! Measurement: the displacement `z = H x + v`, `v ~ N(0, R)` with R the epoch's 3 × 3
-//! covariance. Update in Joseph form (eq. 5.2.3-18) so the covariance stays symmetric and positive.
+//! covariance. Update `P = P⁻ − K S Kᵀ` (eq. 5.2.3-17, equal to the Joseph form for the optimal
+//! gain), symmetrised.
 //! Smoother: RTS (eq. 8.6.2-1 to -4).
 //!
 //! Initialisation: position from the first measurement with its covariance, velocity 0 ± 10
@@ -23,10 +24,17 @@
 //! Default: constant acceleration, q = 0.05 mm²/day⁵ (see [`KalmanConfig::default`]).
 //! Deterministic: the same input gives bit-identical output (alerts are replayed on recompute).
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::error::AnalysisError;
+
+/// The state is always 9-dimensional, axis-major `[x, vx, ax, y, vy, ay, z, vz, az]`, on the stack.
+/// For [`MotionModel::ConstantVelocity`] the acceleration slots are decoupled (no transition
+/// into velocity, no process noise, not observed): they keep their initial variance and never
+/// touch the position and velocity, which come out exactly as from a 6-state filter.
+type V9 = SVector<f64, 9>;
+type M9 = SMatrix<f64, 9, 9>;
 
 /// σ of the initial velocity per axis, mm/day.
 const INITIAL_SIGMA_VELOCITY: f64 = 10.0;
@@ -110,10 +118,11 @@ pub struct KalmanState {
     pub t_days: f64,
     /// Derivatives per axis (2: position, velocity; 3: and acceleration).
     order: usize,
-    /// State, axis-major: `[x, vx, (ax), y, vy, (ay), z, vz, (az)]` in mm, mm/day, mm/day².
-    x: DVector<f64>,
+    /// State, axis-major: `[x, vx, ax, y, vy, ay, z, vz, az]` in mm, mm/day, mm/day² (the
+    /// acceleration slots are inert for constant velocity).
+    x: V9,
     /// Covariance of the state.
-    p: DMatrix<f64>,
+    p: M9,
 }
 
 /// The state projected onto a direction: displacement, velocity and acceleration along it, with σ.
@@ -135,7 +144,7 @@ pub struct Along {
 
 impl KalmanState {
     fn index(&self, axis: usize, derivative: usize) -> usize {
-        axis * self.order + derivative
+        axis * 3 + derivative
     }
 
     fn block(&self, derivative: usize) -> (Vector3<f64>, Matrix3<f64>) {
@@ -204,47 +213,65 @@ impl KalmanState {
     }
 }
 
-/// Transition and process noise of one axis over `dt` days.
-fn axis_model(order: usize, dt: f64, q: f64) -> (DMatrix<f64>, DMatrix<f64>) {
+/// Transition and process noise of one axis over `dt` days (3 × 3; for constant velocity the
+/// acceleration row and column are inert).
+fn axis_model(order: usize, dt: f64, q: f64) -> (Matrix3<f64>, Matrix3<f64>) {
+    let (dt2, dt3) = (dt * dt, dt * dt * dt);
     match order {
         2 => (
-            DMatrix::from_row_slice(2, 2, &[1.0, dt, 0.0, 1.0]),
-            DMatrix::from_row_slice(2, 2, &[dt.powi(3) / 3.0, dt * dt / 2.0, dt * dt / 2.0, dt])
-                * q,
+            Matrix3::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+            Matrix3::new(dt3 / 3.0, dt2 / 2.0, 0.0, dt2 / 2.0, dt, 0.0, 0.0, 0.0, 0.0) * q,
         ),
-        _ => (
-            DMatrix::from_row_slice(3, 3, &[1.0, dt, dt * dt / 2.0, 0.0, 1.0, dt, 0.0, 0.0, 1.0]),
-            DMatrix::from_row_slice(
-                3,
-                3,
-                &[
-                    dt.powi(5) / 20.0,
-                    dt.powi(4) / 8.0,
-                    dt.powi(3) / 6.0,
-                    dt.powi(4) / 8.0,
-                    dt.powi(3) / 3.0,
-                    dt * dt / 2.0,
-                    dt.powi(3) / 6.0,
-                    dt * dt / 2.0,
+        _ => {
+            let (dt4, dt5) = (dt3 * dt, dt3 * dt2);
+            (
+                Matrix3::new(1.0, dt, dt2 / 2.0, 0.0, 1.0, dt, 0.0, 0.0, 1.0),
+                Matrix3::new(
+                    dt5 / 20.0,
+                    dt4 / 8.0,
+                    dt3 / 6.0,
+                    dt4 / 8.0,
+                    dt3 / 3.0,
+                    dt2 / 2.0,
+                    dt3 / 6.0,
+                    dt2 / 2.0,
                     dt,
-                ],
-            ) * q,
-        ),
+                ) * q,
+            )
+        }
     }
 }
 
-/// The full (3·order)² transition and process noise: the axis model on each axis.
-fn model(order: usize, dt: f64, q: f64) -> (DMatrix<f64>, DMatrix<f64>) {
-    let (fa, qa) = axis_model(order, dt, q);
-    let n = 3 * order;
-    let mut f = DMatrix::zeros(n, n);
-    let mut qm = DMatrix::zeros(n, n);
+/// The full 9 × 9 transition: the axis transition on each axis.
+fn transition(fa: &Matrix3<f64>) -> M9 {
+    let mut f = M9::zeros();
     for a in 0..3 {
-        let o = a * order;
-        f.view_mut((o, o), (order, order)).copy_from(&fa);
-        qm.view_mut((o, o), (order, order)).copy_from(&qa);
+        f.fixed_view_mut::<3, 3>(a * 3, a * 3).copy_from(fa);
     }
-    (f, qm)
+    f
+}
+
+/// The transition over `dt` days and the predicted covariance `F P Fᵀ + Q`, formed block by block
+/// (F and Q are block-diagonal with the same 3 × 3 axis block, so each 3 × 3 block of P is
+/// propagated alone: a third of the work of the full product).
+fn predict_covariance(order: usize, dt: f64, q: f64, p: &M9) -> (M9, M9) {
+    let (fa, qa) = axis_model(order, dt, q);
+    let mut pp = M9::zeros();
+    for a in 0..3 {
+        for b in a..3 {
+            let blk = p.fixed_view::<3, 3>(a * 3, b * 3);
+            let mut out = fa * blk * fa.transpose();
+            if a == b {
+                out += qa;
+            }
+            pp.fixed_view_mut::<3, 3>(a * 3, b * 3).copy_from(&out);
+            if a != b {
+                pp.fixed_view_mut::<3, 3>(b * 3, a * 3)
+                    .copy_from(&out.transpose());
+            }
+        }
+    }
+    (transition(&fa), pp)
 }
 
 fn check(meas: &[Measurement], config: &KalmanConfig) -> Result<(), AnalysisError> {
@@ -273,77 +300,67 @@ fn check(meas: &[Measurement], config: &KalmanConfig) -> Result<(), AnalysisErro
 
 /// One step of the forward pass: the filtered state, the predicted covariance and the transition
 /// that led to it (identity at the first measurement).
-type Step = (KalmanState, DMatrix<f64>, DMatrix<f64>);
+type Step = (KalmanState, M9, M9);
 
 /// Forward pass: the predicted and filtered states at every measurement.
 fn forward(meas: &[Measurement], config: &KalmanConfig) -> Result<Vec<Step>, AnalysisError> {
     check(meas, config)?;
     let order = config.model.order();
-    let n = 3 * order;
     let singular = |k: usize| {
         AnalysisError::InvalidInput(format!(
             "Kalman filter, measurement {k}: innovation covariance singular"
         ))
     };
-    let mut h = DMatrix::zeros(3, n);
-    for a in 0..3 {
-        h[(a, a * order)] = 1.0;
-    }
     let mut out: Vec<Step> = Vec::with_capacity(meas.len());
-    let mut x = DVector::zeros(n);
-    let mut p = DMatrix::zeros(n, n);
+    let mut x = V9::zeros();
+    let mut p = M9::zeros();
     for (k, m) in meas.iter().enumerate() {
-        let r = DMatrix::from_fn(3, 3, |i, j| 0.5 * (m.cov_mm2[i][j] + m.cov_mm2[j][i]));
-        let z = DVector::from_column_slice(&m.d_mm);
-        let (xp, pp, f) = if k == 0 {
+        let r = Matrix3::from_fn(|i, j| 0.5 * (m.cov_mm2[i][j] + m.cov_mm2[j][i]));
+        let z = Vector3::from(m.d_mm);
+        if k == 0 {
             // Initialisation: position from the first measurement.
-            let mut x0 = DVector::zeros(n);
-            let mut p0 = DMatrix::zeros(n, n);
+            x = V9::zeros();
+            p = M9::zeros();
             for a in 0..3 {
-                x0[a * order] = z[a];
+                x[a * 3] = z[a];
                 for b in 0..3 {
-                    p0[(a * order, b * order)] = r[(a, b)];
+                    p[(a * 3, b * 3)] = r[(a, b)];
                 }
-                p0[(a * order + 1, a * order + 1)] = INITIAL_SIGMA_VELOCITY.powi(2);
-                if order == 3 {
-                    p0[(a * order + 2, a * order + 2)] = INITIAL_SIGMA_ACCELERATION.powi(2);
-                }
+                p[(a * 3 + 1, a * 3 + 1)] = INITIAL_SIGMA_VELOCITY.powi(2);
+                // Inert for constant velocity; any positive variance keeps P invertible.
+                p[(a * 3 + 2, a * 3 + 2)] = INITIAL_SIGMA_ACCELERATION.powi(2);
             }
-            x = x0;
-            p = p0;
             out.push((
                 KalmanState {
                     t_days: m.t_days,
                     order,
-                    x: x.clone(),
-                    p: p.clone(),
+                    x,
+                    p,
                 },
-                p.clone(),
-                DMatrix::identity(n, n),
+                p,
+                M9::identity(),
             ));
             continue;
-        } else {
-            let dt = m.t_days - meas[k - 1].t_days;
-            let (f, q) = model(order, dt, config.process_noise);
-            let xp = &f * &x;
-            let pp = &f * &p * f.transpose() + q;
-            (xp, pp, f)
-        };
-        // Update (Joseph form).
-        let s = &h * &pp * h.transpose() + &r;
-        let s_inv = s.clone().cholesky().ok_or_else(|| singular(k))?.inverse();
-        let gain = &pp * h.transpose() * s_inv;
-        let innovation = z - &h * &xp;
-        x = &xp + &gain * innovation;
-        let i_kh = DMatrix::identity(n, n) - &gain * &h;
-        p = &i_kh * &pp * i_kh.transpose() + &gain * r * gain.transpose();
-        p = (&p + p.transpose()) * 0.5;
+        }
+        let dt = m.t_days - meas[k - 1].t_days;
+        let (f, pp) = predict_covariance(order, dt, config.process_noise, &p);
+        let xp = f * x;
+        // Update. With the optimal gain K = P⁻Hᵀ S⁻¹ the Joseph form (eq. 5.2.3-18) equals
+        // P = P⁻ − K S Kᵀ (eq. 5.2.3-17), symmetric by construction; H selects the position slots.
+        let pht = SMatrix::<f64, 9, 3>::from_fn(|i, a| pp[(i, a * 3)]);
+        let s = Matrix3::from_fn(|a, b| pp[(a * 3, b * 3)]) + r;
+        let s_inv = s.cholesky().ok_or_else(|| singular(k))?.inverse();
+        let gain = pht * s_inv;
+        let innovation = z - Vector3::from_fn(|a, _| xp[a * 3]);
+        x = xp + gain * innovation;
+        p = pp - gain * pht.transpose();
+        p = (p + p.transpose()) * 0.5;
         out.push((
             KalmanState {
                 t_days: m.t_days,
                 order,
-                x: x.clone(),
-                p: p.clone(),
+                x,
+                p,
             },
             pp,
             f,
@@ -374,20 +391,20 @@ pub fn smooth(
     for k in (0..n.saturating_sub(1)).rev() {
         let (pred_p, f) = (&fwd[k + 1].1, &fwd[k + 1].2);
         let filt = &fwd[k].0;
-        let pred_x = f * &filt.x;
-        let Some(ch) = pred_p.clone().cholesky() else {
+        let pred_x = f * filt.x;
+        let Some(ch) = pred_p.cholesky() else {
             return Err(AnalysisError::InvalidInput(format!(
                 "Kalman smoother, measurement {}: predicted covariance singular",
                 k + 1
             )));
         };
         // C = P_f Fᵀ P_p⁻¹ (eq. 8.6.2-2)
-        let c = &filt.p * f.transpose() * ch.inverse();
-        let next = out[k + 1].clone();
-        let x = &filt.x + &c * (&next.x - pred_x);
-        let p = &filt.p + &c * (&next.p - pred_p) * c.transpose();
+        let c = filt.p * f.transpose() * ch.inverse();
+        let (next_x, next_p) = (out[k + 1].x, out[k + 1].p);
+        let x = filt.x + c * (next_x - pred_x);
+        let p = filt.p + c * (next_p - pred_p) * c.transpose();
         out[k].x = x;
-        out[k].p = (&p + p.transpose()) * 0.5;
+        out[k].p = (p + p.transpose()) * 0.5;
     }
     Ok(out)
 }

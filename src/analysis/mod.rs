@@ -5,9 +5,13 @@
 //!    S-transformation onto the stable points ([`datum`]), whose congruence is tested and whose moving
 //!    members are excluded ([`congruence`]); every point gets its displacement with covariance and
 //!    significance test ([`displacement`]), velocity and acceleration ([`velocity`]) and, while it
-//!    accelerates, an inverse-velocity time-to-failure forecast ([`failure`]).
+//!    accelerates, an inverse-velocity time-to-failure forecast ([`failure`]); the Kalman filter
+//!    ([`kalman`]) over the point's last epochs gives its filtered displacement, velocity and
+//!    forecast ([`tracking`]); each declared block gets its rigid-body motion ([`block`]) and the
+//!    same filtered kinematics. The reference may be the mean of several epochs ([`reference`](self::reference)).
 //! 2. [`evaluate_alerts`]: the site's rules turn the analysis into alert transitions and events
-//!    ([`alerts`]); [`check_overdue`] watches the campaign schedule; [`acknowledge`] and [`resolve`] are the
+//!    ([`alerts`]): a rule fires when its value exceeds the threshold at the site's one-sided
+//!    confidence, for points and blocks; [`check_overdue`] watches the campaign schedule; [`acknowledge`] and [`resolve`] are the
 //!    user's actions.
 //!
 //! Units are in the names: m for coordinates, mm and mm² for displacements and their covariances, mm/day,

@@ -174,14 +174,41 @@ fn invert(cdf: impl Fn(f64) -> f64, p: f64) -> f64 {
     0.5 * (lo + hi)
 }
 
+thread_local! {
+    /// Quantiles already computed on this thread, by (distribution, p, d1, d2) bits: the analysis
+    /// asks for the same few quantiles for every point of every epoch, and each costs a bisection
+    /// of ~50 CDF evaluations. A cache of pure values: results are identical with or without it.
+    static QUANTILES: std::cell::RefCell<std::collections::HashMap<(u8, u64, u64, u64), f64>> =
+        std::cell::RefCell::new(std::collections::HashMap::new());
+}
+
+/// Entries kept before the cache is cleared (bounds memory when callers vary the arguments).
+const QUANTILE_CACHE_MAX: usize = 4096;
+
+fn cached(kind: u8, p: f64, d1: f64, d2: f64, compute: impl FnOnce() -> f64) -> f64 {
+    let key = (kind, p.to_bits(), d1.to_bits(), d2.to_bits());
+    if let Some(v) = QUANTILES.with(|c| c.borrow().get(&key).copied()) {
+        return v;
+    }
+    let v = compute();
+    QUANTILES.with(|c| {
+        let mut c = c.borrow_mut();
+        if c.len() >= QUANTILE_CACHE_MAX {
+            c.clear();
+        }
+        c.insert(key, v);
+    });
+    v
+}
+
 /// Quantile of χ²(k) at probability p (e.g. `chi2_quantile(0.99, 3.0)` = 11.345).
 pub fn chi2_quantile(p: f64, k: f64) -> f64 {
-    invert(|x| chi2_cdf(x, k), p)
+    cached(0, p, k, 0.0, || invert(|x| chi2_cdf(x, k), p))
 }
 
 /// Quantile of F(d1, d2) at probability p; `d2 = f64::INFINITY` for a known variance factor.
 pub fn f_quantile(p: f64, d1: f64, d2: f64) -> f64 {
-    invert(|x| f_cdf(x, d1, d2), p)
+    cached(1, p, d1, d2, || invert(|x| f_cdf(x, d1, d2), p))
 }
 
 /// Quantile of the standard normal distribution at probability p (one-sided).
