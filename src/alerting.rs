@@ -201,19 +201,8 @@ pub async fn history(
         .await?;
     let mut out: History = HashMap::new();
     for (point,) in names {
-        let mut rows: Vec<Displacement> = sqlx::query_as(
-            "SELECT point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
-             sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, \
-             velocity_mm_per_day, time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2 \
-             FROM displacements WHERE site_id = ? AND point = ? AND observed_at < ? \
-             ORDER BY observed_at DESC LIMIT ?",
-        )
-        .bind(site)
-        .bind(&point)
-        .bind(before)
-        .bind(per_point as i64)
-        .fetch_all(&mut *tx)
-        .await?;
+        let mut rows =
+            crate::store::displacements::recent(&mut *tx, site, &point, before, per_point).await?;
         rows.reverse();
         let records: Vec<DisplacementRecord> =
             rows.iter().filter_map(Displacement::to_record).collect();
@@ -248,6 +237,8 @@ pub async fn analyse_blocking(
 pub struct SeriesAnalysis {
     /// Every displacement record, epoch by epoch in time order.
     pub records: Vec<DisplacementRecord>,
+    /// Every block motion record (`point` names the group), epoch by epoch.
+    pub block_records: Vec<DisplacementRecord>,
     /// The alert state the rules reach over the series, replayed from an empty state.
     pub replayed: AlertState,
     /// Epochs whose analysis failed, with the reason.
@@ -284,6 +275,7 @@ pub fn analyse_series(
                     }
                     out.records.push(r);
                 }
+                out.block_records.extend(a.block_records());
                 let (state, events) =
                     analysis::evaluate_alerts(alerts, &out.replayed, &a, e.observed_at);
                 out.replayed = state;

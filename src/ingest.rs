@@ -19,6 +19,7 @@ use crate::photogrammetry::epoch::CameraInput;
 use crate::photogrammetry::{
     adjust_problem, AdjustError, AdjustOptions, Adjustment, EpochError, EpochInput, Model,
 };
+use crate::store::block_motions;
 use crate::store::displacements::{self, Displacement};
 use crate::store::sites::Site;
 use crate::store::{self, epochs, points, sites, Store, StoreError};
@@ -150,6 +151,7 @@ pub async fn ingest(
     let epoch = epochs::insert(&mut tx, &record).await?;
     let derived = derive(&mut tx, &site, epoch, &observed_at, &adjustment).await?;
     displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
+    block_motions::insert(&mut tx, &site.id, &derived.block_motions).await?;
     tx.commit().await?;
     metrics::counter!("cliffwatch_alerts_raised_total").increment(derived.raised as u64);
     Ok(Ingested {
@@ -186,6 +188,8 @@ async fn check_existing<'c>(
 pub struct Derived {
     /// Displacements of this epoch (empty when the whole site was recomputed instead).
     pub displacements: Vec<Displacement>,
+    /// Motion rows of the site's declared blocks in this epoch (likewise).
+    pub block_motions: Vec<Displacement>,
     /// Alerts raised by this epoch.
     pub raised: usize,
 }
@@ -269,8 +273,8 @@ async fn derive(
         // earliest without a set reference, the reference itself change. Recompute the series.
         let raised = recompute_site(tx, site).await?;
         return Ok(Derived {
-            displacements: vec![],
             raised,
+            ..Derived::default()
         });
     }
     let Some(t) = store::parse_timestamp(observed_at) else {
@@ -310,9 +314,15 @@ async fn derive(
         .iter()
         .map(|r| alerting::to_row(r, analysis.reference_epoch))
         .collect();
+    let block_motions = analysis
+        .block_records()
+        .iter()
+        .map(|r| alerting::to_row(r, analysis.reference_epoch))
+        .collect();
     let raised = alerting::evaluate_and_record(tx, site, &analysis, Utc::now()).await?;
     Ok(Derived {
         displacements,
+        block_motions,
         raised,
     })
 }
@@ -328,8 +338,8 @@ async fn failed(
     tracing::warn!(site = %site.id, epoch, reason, "epoch stored without displacements");
     let raised = alerting::record_analysis_failure(tx, site, epoch, t, reason, Utc::now()).await?;
     Ok(Derived {
-        displacements: vec![],
         raised,
+        ..Derived::default()
     })
 }
 
@@ -358,7 +368,9 @@ pub async fn recompute_site(tx: &mut SqliteConnection, site: &Site) -> Result<us
     let site = sites::get(&mut *tx, &site.id)
         .await?
         .ok_or_else(|| IngestError::UnknownSite(site.id.clone()))?;
+    sites::mark_current(&mut *tx, &site.id).await?;
     displacements::delete_site(tx, &site.id).await?;
+    block_motions::delete_site(tx, &site.id).await?;
     let Some(reference) = reference_epoch(tx, &site).await? else {
         return Ok(0);
     };
@@ -394,6 +406,12 @@ pub async fn recompute_site(tx: &mut SqliteConnection, site: &Site) -> Result<us
         .map(|r| alerting::to_row(r, reference_id))
         .collect();
     displacements::insert(tx, &site.id, &rows).await?;
+    let blocks: Vec<Displacement> = out
+        .block_records
+        .iter()
+        .map(|r| alerting::to_row(r, reference_id))
+        .collect();
+    block_motions::insert(tx, &site.id, &blocks).await?;
     for id in &out.analysed {
         alerting::set_analysis_status(tx, &site.id, *id, None).await?;
     }
@@ -401,6 +419,22 @@ pub async fn recompute_site(tx: &mut SqliteConnection, site: &Site) -> Result<us
         alerting::set_analysis_status(tx, &site.id, *id, Some(reason)).await?;
     }
     Ok(alerting::reconcile_and_record(tx, &site.id, &out.replayed, Utc::now()).await?)
+}
+
+/// Recomputes, once, every site whose stored series an older binary derived
+/// ([`sites::ANALYSIS_VERSION`]: e.g. rows without the filtered values), one write transaction per
+/// site; called at start. Returns how many sites were recomputed.
+pub async fn recompute_outdated(store: &crate::store::Store) -> Result<usize, IngestError> {
+    let ids = sites::outdated(store.reader()).await?;
+    for id in &ids {
+        let mut tx = store.begin_write().await?;
+        if let Some(site) = sites::get(&mut *tx, id).await? {
+            tracing::info!(site = %id, "recomputing the series derived by an older version");
+            recompute_site(&mut tx, &site).await?;
+        }
+        tx.commit().await.map_err(crate::store::StoreError::from)?;
+    }
+    Ok(ids.len())
 }
 
 /// Why a CSV upload cannot be read.

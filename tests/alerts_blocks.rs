@@ -17,6 +17,121 @@ async fn alerts(d: &Daemon, site: &str) -> Vec<Value> {
     a["items"].as_array().unwrap().clone()
 }
 
+/// `a` and `b` have the same structure, strings and nulls, and numbers within 1e-6 (absolute,
+/// or relative for large ones).
+fn assert_close(a: &Value, b: &Value, what: &str) {
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => {
+            let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
+            assert!(
+                (x - y).abs() <= 1e-6 * x.abs().max(y.abs()).max(1.0),
+                "{what}: {x} against {y}"
+            );
+        }
+        (Value::Array(x), Value::Array(y)) => {
+            assert_eq!(x.len(), y.len(), "{what}: {a} against {b}");
+            for (x, y) in x.iter().zip(y) {
+                assert_close(x, y, what);
+            }
+        }
+        (Value::Object(x), Value::Object(y)) => {
+            assert_eq!(
+                x.keys().collect::<Vec<_>>(),
+                y.keys().collect::<Vec<_>>(),
+                "{what}"
+            );
+            for (k, v) in x {
+                assert_close(v, &y[k], &format!("{what}.{k}"));
+            }
+        }
+        _ => assert_eq!(a, b, "{what}"),
+    }
+}
+
+fn num(v: &Value, key: &str) -> f64 {
+    v[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{key} is not a number in {v}"))
+}
+
+/// The block's motion series (JSON and CSV) against its points' series: one row per epoch,
+/// named by the group, the translation close to the points' common displacement and more precise
+/// than any single point's.
+async fn assert_block_motion(d: &Daemon, point_items: &[Value]) {
+    let (s, m) = d.get("/api/v1/sites/cliff/groups/B1/motion").await;
+    assert_eq!(s, 200, "{m}");
+    let rows = m["items"].as_array().unwrap();
+    // no motion is estimated in the reference epoch (zero with σ 0); one row per later epoch
+    assert_eq!(rows.len(), point_items.len() - 1, "{m}");
+    for (r, p) in rows.iter().zip(&point_items[1..]) {
+        assert_eq!(r["point"], "B1");
+        assert_eq!(r["epoch"], p["epoch"]);
+        assert!(
+            (num(r, "d_mm") - num(p, "d_mm")).abs() < 3.0,
+            "{r} against {p}"
+        );
+        assert!(num(r, "sigma_mm") < num(p, "sigma_mm"), "{r} against {p}");
+        assert!(
+            r["f_d_mm"].is_number() && r["sigma_f_velocity_mm_per_day"].is_number(),
+            "{r}"
+        );
+    }
+    let last = rows.last().unwrap();
+    assert!((num(last, "d_mm") - 16.0).abs() < 3.0, "{last}");
+    // the block's direction is -Y: along it the block moved by its |dy|
+    assert!(
+        (num(last, "d_along_mm") + num(last, "dy_mm")).abs() < 1e-9,
+        "{last}"
+    );
+    let csv = d
+        .client
+        .get(d.url("/api/v1/sites/cliff/groups/B1/motion?format=csv"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(csv.status(), 200);
+    let text = csv.text().await.unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), rows.len() + 1, "{text}");
+    assert_eq!(lines[0], cliffwatch::api::points::CSV_HEADER);
+    assert!(
+        lines[1..].iter().all(|l| l.split(',').count() == 29),
+        "{text}"
+    );
+    let (s, _) = d.get("/api/v1/sites/cliff/groups/B9/motion").await;
+    assert_eq!(s, 404);
+    let (s, _) = d
+        .get("/api/v1/sites/cliff/groups/B1/motion?format=xml")
+        .await;
+    assert_eq!(s, 400);
+}
+
+/// Makes the database look like one written before the filtered series existed.
+async fn age_database(path: &std::path::Path) {
+    use sqlx::ConnectOptions;
+    let mut db = sqlx::sqlite::SqliteConnectOptions::new()
+        .filename(path)
+        .connect()
+        .await
+        .unwrap();
+    for sql in [
+        "UPDATE sites SET analysis_version = 0",
+        "UPDATE displacements SET f_dx_mm = NULL, f_dy_mm = NULL, f_dz_mm = NULL, f_d_mm = NULL, \
+         sigma_f_dx_mm = NULL, sigma_f_dy_mm = NULL, sigma_f_dz_mm = NULL, sigma_f_d_mm = NULL, \
+         f_velocity_mm_per_day = NULL, sigma_f_velocity_mm_per_day = NULL, \
+         f_acceleration_mm_per_day2 = NULL, sigma_f_acceleration_mm_per_day2 = NULL",
+        "DELETE FROM block_motions",
+    ] {
+        sqlx::query(sql).execute(&mut db).await.unwrap();
+    }
+    let (n,): (i64,) =
+        sqlx::query_as("SELECT COUNT(*) FROM displacements WHERE f_dx_mm IS NOT NULL")
+            .fetch_one(&mut db)
+            .await
+            .unwrap();
+    assert_eq!(n, 0);
+}
+
 async fn create(d: &Daemon, body: Value) -> (u16, Value) {
     d.send(Method::POST, "/api/v1/sites", Some(&body)).await
 }
@@ -86,7 +201,52 @@ async fn a_declared_block_raises_one_group_alert() {
         ))
         .await;
     assert_eq!(s, 200, "{series}");
-    assert_eq!(series["items"].as_array().unwrap().len(), 3);
+    let items = series["items"].as_array().unwrap().clone();
+    assert_eq!(items.len(), 3);
+    // the reference epoch (zero, σ 0) has no filter state; every later epoch has
+    assert_eq!(num(&items[0], "sigma_mm"), 0.0);
+    assert!(items[0]["f_d_mm"].is_null());
+    for it in &items[1..] {
+        let (d, f, sd) = (num(it, "d_mm"), num(it, "f_d_mm"), num(it, "sigma_mm"));
+        // the filter follows the raw series within its noise (3 epochs, 8 mm a day)
+        assert!((f - d).abs() < 4.0 * sd + 1.0, "{it}");
+        assert!(num(it, "sigma_f_d_mm") > 0.0, "{it}");
+        assert!(it["f_velocity_mm_per_day"].is_number(), "{it}");
+    }
+    assert_block_motion(&d, &items).await;
+    // An older database: rows without the filtered values and no block motions, marked as
+    // derived by an older binary. The next start recomputes them, to the same values.
+    let before_points = d
+        .get(&format!(
+            "/api/v1/sites/cliff/points/{}/displacements",
+            block[0]
+        ))
+        .await
+        .1;
+    let before_motion = d.get("/api/v1/sites/cliff/groups/B1/motion").await.1;
+    d.kill9();
+    age_database(&dir.path().join("data").join("cliffwatch.db")).await;
+    let d = Daemon::start(&dir.path().join("data"), &config).await;
+    let after_points = d
+        .get(&format!(
+            "/api/v1/sites/cliff/points/{}/displacements",
+            block[0]
+        ))
+        .await
+        .1;
+    // the upload path works on the adjustment in memory, the recompute on coordinates read back
+    // from the store: equal to ~1e-9 mm, not bit for bit
+    assert_close(
+        &after_points,
+        &before_points,
+        "point series recomputed at start",
+    );
+    let after_motion = d.get("/api/v1/sites/cliff/groups/B1/motion").await.1;
+    assert_close(
+        &after_motion,
+        &before_motion,
+        "block motion recomputed at start",
+    );
     // Unknown site and bad bodies.
     let (s, _) = d
         .send(

@@ -58,6 +58,23 @@ async fn fill(s: &TestServer, site: &str) {
     .execute(&mut *tx)
     .await
     .unwrap();
+    // the forecast's σ and the filtered values: absent on some rows, the optional ones on others
+    sqlx::query(
+        "UPDATE displacements SET \
+         time_to_failure_sigma_hours = CASE WHEN epoch_id % 7 = 0 THEN 3.5 / epoch_id ELSE NULL END, \
+         f_dx_mm = dx_mm * 0.9, f_dy_mm = -dy_mm, f_dz_mm = 1e-7 * epoch_id, f_d_mm = d_mm * 1.01, \
+         sigma_f_dx_mm = 0.05, sigma_f_dy_mm = 0.06 + epoch_id * 1e-9, sigma_f_dz_mm = 0.17, \
+         sigma_f_d_mm = 0.1, f_velocity_mm_per_day = -0.003 * epoch_id, sigma_f_velocity_mm_per_day = 0.02, \
+         f_acceleration_mm_per_day2 = CASE WHEN epoch_id % 6 = 0 THEN NULL ELSE 1e-4 * epoch_id END, \
+         sigma_f_acceleration_mm_per_day2 = CASE WHEN epoch_id % 6 = 0 THEN NULL ELSE 0.001 END, \
+         f_time_to_failure_hours = CASE WHEN epoch_id % 11 = 0 THEN 96.0 + epoch_id ELSE NULL END, \
+         sigma_f_time_to_failure_hours = CASE WHEN epoch_id % 11 = 0 THEN 7.25 ELSE NULL END \
+         WHERE site_id = ? AND epoch_id % 5 <> 2",
+    )
+    .bind(site)
+    .execute(&mut *tx)
+    .await
+    .unwrap();
     tx.commit().await.unwrap();
 }
 
@@ -137,7 +154,7 @@ async fn assert_served_as_stored(
     let mut n = 0;
     for (line, d) in lines.zip(&want) {
         let f: Vec<&str> = line.split(',').collect();
-        assert_eq!(f.len(), 14, "{line}");
+        assert_eq!(f.len(), 29, "{line}");
         assert_eq!(f[0].parse::<i64>().unwrap(), d.epoch, "{line}");
         assert_eq!(f[1], d.observed_at, "{line}");
         let values = [
@@ -162,6 +179,31 @@ async fn assert_served_as_stored(
         assert_eq!(f[11], d.significant.to_string(), "{line}");
         assert_eq!(field(f[12]), d.velocity_mm_per_day, "{line}");
         assert_eq!(field(f[13]), d.time_to_failure_hours, "{line}");
+        let extra = [
+            d.time_to_failure_sigma_hours,
+            d.f_dx_mm,
+            d.f_dy_mm,
+            d.f_dz_mm,
+            d.f_d_mm,
+            d.sigma_f_dx_mm,
+            d.sigma_f_dy_mm,
+            d.sigma_f_dz_mm,
+            d.sigma_f_d_mm,
+            d.f_velocity_mm_per_day,
+            d.sigma_f_velocity_mm_per_day,
+            d.f_acceleration_mm_per_day2,
+            d.sigma_f_acceleration_mm_per_day2,
+            d.f_time_to_failure_hours,
+            d.sigma_f_time_to_failure_hours,
+        ];
+        for (k, v) in extra.iter().enumerate() {
+            assert_eq!(
+                field(f[14 + k]).map(f64::to_bits),
+                v.map(f64::to_bits),
+                "column {} of {line}",
+                14 + k
+            );
+        }
         n += 1;
     }
     assert_eq!(n, rows);
@@ -299,6 +341,19 @@ fn row(n: i64, point: &str, observed_at: &str) -> Displacement {
         significant: n % 2 == 0,
         velocity_mm_per_day: (n % 4 != 0).then_some(0.01 * n as f64),
         time_to_failure_hours: None,
+        f_dx_mm: (n % 3 == 0).then_some(n as f64 * 1e-3),
+        f_dy_mm: (n % 3 == 0).then_some(-0.5),
+        f_dz_mm: (n % 3 == 0).then_some(0.25),
+        f_d_mm: (n % 3 == 0).then_some(0.6),
+        sigma_f_dx_mm: (n % 3 == 0).then_some(0.05),
+        sigma_f_dy_mm: (n % 3 == 0).then_some(0.06),
+        sigma_f_dz_mm: (n % 3 == 0).then_some(0.07),
+        sigma_f_d_mm: (n % 3 == 0).then_some(0.08),
+        f_velocity_mm_per_day: (n % 3 == 0).then_some(-1e-4 * n as f64),
+        sigma_f_velocity_mm_per_day: (n % 3 == 0).then_some(0.01),
+        f_acceleration_mm_per_day2: (n % 6 == 0).then_some(2e-5),
+        sigma_f_acceleration_mm_per_day2: (n % 6 == 0).then_some(1e-5),
+        ..Default::default()
     }
 }
 
@@ -474,11 +529,34 @@ fn analysis_records_map_to_rows_and_back() {
         significant: true,
         velocity_mm_per_day: None,
         time_to_failure_hours: Some(36.0),
-        time_to_failure_sigma_hours: None,
-        filtered: None,
+        time_to_failure_sigma_hours: Some(4.5),
+        filtered: Some(cliffwatch::analysis::FilteredValues {
+            f_dx_mm: 1.2,
+            f_dy_mm: -0.45,
+            f_dz_mm: 0.01,
+            f_d_mm: 1.28,
+            sigma_f_dx_mm: 0.04,
+            sigma_f_dy_mm: 0.05,
+            sigma_f_dz_mm: 0.06,
+            sigma_f_d_mm: 0.045,
+            f_velocity_mm_per_day: 0.3,
+            sigma_f_velocity_mm_per_day: 0.02,
+            f_acceleration_mm_per_day2: Some(0.01),
+            sigma_f_acceleration_mm_per_day2: Some(0.004),
+            f_time_to_failure_hours: Some(40.0),
+            sigma_f_time_to_failure_hours: Some(6.0),
+        }),
     };
     let row = Displacement::from_record(&record, 3);
     assert_eq!(row.reference_epoch, 3);
     assert_eq!(row.observed_at, "2026-03-01T12:34:56.789012Z");
-    assert_eq!(row.to_record(), Some(record));
+    assert_eq!(row.to_record(), Some(record.clone()));
+    // without the filter's values, none is stored and none comes back
+    let bare = DisplacementRecord {
+        filtered: None,
+        ..record
+    };
+    let row = Displacement::from_record(&bare, 3);
+    assert_eq!(row.f_dx_mm, None);
+    assert_eq!(row.to_record(), Some(bare));
 }

@@ -96,6 +96,15 @@ impl EpochAnalysis {
         self.points.iter().map(|p| p.record.clone()).collect()
     }
 
+    /// The rows of the blocks' motion series (one per block whose motion could be estimated),
+    /// in the form of a point's row: `point` names the group.
+    pub fn block_records(&self) -> Vec<DisplacementRecord> {
+        self.blocks
+            .iter()
+            .filter_map(|b| b.record(self.epoch, self.observed_at))
+            .collect()
+    }
+
     /// The analysis of one point.
     pub fn point(&self, name: &str) -> Option<&PointAnalysis> {
         self.points.iter().find(|p| p.record.point == name)
@@ -385,6 +394,40 @@ fn analyse_block(
         failure,
         filtered,
         filtered_failure,
+    }
+}
+
+impl BlockAnalysis {
+    /// The block's row of the motion series in a point's form (`point` is the group): the
+    /// translation (mm) with its covariance (mm²), its length, the raw velocity (mm/day) and
+    /// forecast (h) of the length, the filtered values. `None` without a motion this epoch.
+    pub fn record(&self, epoch: i64, observed_at: DateTime<Utc>) -> Option<DisplacementRecord> {
+        let m = self.motion.as_ref()?;
+        let (d, sd) = m.length();
+        let c = m.covariance_mm2;
+        let raw = |metric: Metric| self.readings.get(metric, Source::Raw);
+        Some(DisplacementRecord {
+            point: self.group.clone(),
+            epoch,
+            observed_at,
+            dx_mm: m.translation_mm[0],
+            dy_mm: m.translation_mm[1],
+            dz_mm: m.translation_mm[2],
+            d_mm: d,
+            sigma_dx_mm: c[0][0].max(0.0).sqrt(),
+            sigma_dy_mm: c[1][1].max(0.0).sqrt(),
+            sigma_dz_mm: c[2][2].max(0.0).sqrt(),
+            sigma_mm: sd,
+            cov_dxdy_mm2: Some(c[0][1]),
+            cov_dxdz_mm2: Some(c[0][2]),
+            cov_dydz_mm2: Some(c[1][2]),
+            d_along_mm: raw(Metric::DisplacementAlongMm).value,
+            significant: raw(Metric::DisplacementMm).significant,
+            velocity_mm_per_day: raw(Metric::VelocityMmPerDay).value,
+            time_to_failure_hours: self.failure.map(|f| f.time_to_failure_hours),
+            time_to_failure_sigma_hours: self.failure.map(|f| f.sigma_hours),
+            filtered: self.filtered,
+        })
     }
 }
 

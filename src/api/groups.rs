@@ -3,16 +3,21 @@
 //! rules naming the group (and rules without a group) apply to it.
 
 use axum::extract::State;
-use axum::response::IntoResponse;
+use axum::http::header;
+use axum::response::{IntoResponse, Response};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::error::{ApiError, ApiJson, ApiPath};
+use super::epochs::time_bound;
+use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
+use super::list::{encode, PageParams};
+use super::points::SeriesParams;
 use super::sites::find;
 use super::AppState;
 use crate::analysis::{GroupConfig, GroupKind};
 use crate::photogrammetry::epoch::is_valid_identifier;
-use crate::store::{groups, StoreError};
+use crate::store::series::{format_rows, SeriesFormat};
+use crate::store::{block_motions, groups, StoreError};
 
 /// Body of `PUT .../groups/{group}`.
 #[derive(Debug, Clone, Deserialize, ToSchema)]
@@ -156,4 +161,86 @@ pub async fn get_one(
         .await?
         .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no group '{group}'")))?;
     Ok(axum::Json(Group::from(g)))
+}
+
+/// `GET /api/v1/sites/{site}/groups/{group}/motion`: the block's motion series, oldest first, in
+/// the form of a point's series (`point` names the group): the translation of the block with its
+/// covariance, its length, velocity, time to failure and the filtered values.
+#[utoipa::path(get, path = "/api/v1/sites/{site}/groups/{group}/motion",
+    params(("site" = String, Path), ("group" = String, Path), ("from" = Option<String>, Query), ("to" = Option<String>, Query),
+           ("format" = Option<String>, Query, description = "json or csv"), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+    responses((status = 200, description = "the block's motion series, oldest first: a page (JSON) or the whole range (CSV, columns as the point series)", content((crate::api::list::Page<crate::store::displacements::Displacement> = "application/json"), (String = "text/csv"))),
+              (status = 400, description = "bad time bound, format or cursor", body = crate::api::schemas::ErrorBody),
+              (status = 404, description = "unknown site or group", body = crate::api::schemas::ErrorBody)))]
+pub async fn motion(
+    State(state): State<AppState>,
+    ApiPath((site, group)): ApiPath<(String, String)>,
+    ApiQuery(q): ApiQuery<SeriesParams>,
+) -> Result<Response, ApiError> {
+    find(&state, &site).await?;
+    let db = state.store.reader();
+    let g = groups::get(db, &site, &group)
+        .await?
+        .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no group '{group}'")))?;
+    let from = q
+        .from
+        .as_deref()
+        .map(|s| time_bound(s, false))
+        .transpose()?;
+    let to = q.to.as_deref().map(|s| time_bound(s, true)).transpose()?;
+    let format = match q.format.as_deref() {
+        None | Some("json") => SeriesFormat::JsonItems,
+        Some("csv") => SeriesFormat::Csv,
+        Some(other) => {
+            return Err(ApiError::bad_request(format!(
+                "format '{other}': json or csv"
+            )))
+        }
+    };
+    if format == SeriesFormat::Csv {
+        let rows = block_motions::series(
+            db,
+            &site,
+            &group,
+            from.as_deref(),
+            to.as_deref(),
+            None,
+            None,
+        )
+        .await?;
+        let body = format_rows(&rows, format, g.direction, &group);
+        return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], body).into_response());
+    }
+    let page = PageParams {
+        limit: q.limit,
+        cursor: q.cursor,
+    };
+    let after = page.cursor()?;
+    let limit = page.limit();
+    let mut rows = block_motions::series(
+        db,
+        &site,
+        &group,
+        from.as_deref(),
+        to.as_deref(),
+        after.as_deref(),
+        Some(limit + 1),
+    )
+    .await?;
+    let more = rows.len() > limit as usize;
+    rows.truncate(limit as usize);
+    let mut out = b"{\"items\":".to_vec();
+    out.extend_from_slice(&format_rows(&rows, format, g.direction, &group));
+    out.extend_from_slice(b",\"next_cursor\":");
+    // the cursor is the last row's stored time
+    let next = match rows.last().filter(|_| more) {
+        Some(last) => Some(encode(&crate::store::timestamp(
+            crate::store::parse_timestamp(&last.observed_at)
+                .ok_or_else(|| ApiError::internal("stored time does not parse"))?,
+        ))),
+        None => None,
+    };
+    serde_json::to_writer(&mut out, &next).map_err(ApiError::internal)?;
+    out.push(b'}');
+    Ok(([(header::CONTENT_TYPE, "application/json")], out).into_response())
 }

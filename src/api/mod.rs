@@ -71,6 +71,10 @@ pub fn router(state: AppState) -> Router {
             "/api/v1/sites/{site}/groups/{group}",
             put(groups::put).get(groups::get_one),
         )
+        .route(
+            "/api/v1/sites/{site}/groups/{group}/motion",
+            get(groups::motion),
+        )
         .route("/api/v1/sites/{site}/points/{point}", put(points::update))
         .route(
             "/api/v1/sites/{site}/points/{point}/displacements",

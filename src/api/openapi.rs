@@ -12,7 +12,7 @@ use utoipa::OpenApi;
         super::sites::create, super::sites::list, super::sites::get_one, super::sites::set_reference,
         super::epochs::upload, super::epochs::list, super::epochs::get_one,
         super::points::list, super::points::update, super::points::displacements,
-        super::groups::put, super::groups::list, super::groups::get_one,
+        super::groups::put, super::groups::list, super::groups::get_one, super::groups::motion,
         super::alerts::list, super::alerts::acknowledge,
         super::webhooks::create, super::webhooks::list, super::webhooks::delete,
     ),

@@ -170,7 +170,7 @@ pub use crate::store::series::CSV_HEADER;
 #[utoipa::path(get, path = "/api/v1/sites/{site}/points/{point}/displacements",
     params(("site" = String, Path), ("point" = String, Path), ("from" = Option<String>, Query), ("to" = Option<String>, Query),
            ("format" = Option<String>, Query, description = "json or csv"), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
-    responses((status = 200, description = "the time series, oldest first: a page (JSON) or the whole range (CSV, columns as CSV_HEADER)", content((crate::api::list::Page<crate::store::displacements::Displacement> = "application/json"), (String = "text/csv"))), (status = 404, description = "unknown site or point", body = crate::api::schemas::ErrorBody)))]
+    responses((status = 200, description = "the time series, oldest first: a page (JSON) or the whole range (CSV, columns as CSV_HEADER)", content((crate::api::list::Page<crate::store::displacements::Displacement> = "application/json"), (String = "text/csv"))), (status = 400, description = "bad time bound, format or cursor", body = crate::api::schemas::ErrorBody), (status = 404, description = "unknown site or point", body = crate::api::schemas::ErrorBody)))]
 pub async fn displacements(
     State(state): State<AppState>,
     ApiPath((site, point)): ApiPath<(String, String)>,

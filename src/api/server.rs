@@ -55,6 +55,9 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
     };
     let store = Store::open(&config.database_path(), &options).await?;
     apply_configured(&store, &config).await?;
+    crate::ingest::recompute_outdated(&store)
+        .await
+        .map_err(|e| ServeError::Site("(recompute at start)".into(), e.to_string()))?;
     let listener = TcpListener::bind(addr)
         .await
         .map_err(|source| ServeError::Io {

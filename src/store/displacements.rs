@@ -4,11 +4,12 @@ use serde::Serialize;
 use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
 use utoipa::ToSchema;
 
+use super::series_record::{Filtered, Record};
 use super::{display_timestamp, parse_timestamp, timestamp, StoreError};
-use crate::analysis::DisplacementRecord;
+use crate::analysis::{DisplacementRecord, FilteredValues};
 
 /// The displacement of one point in one epoch against the reference epoch. Lengths in mm.
-#[derive(Debug, Clone, PartialEq, Serialize, FromRow, ToSchema)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, FromRow, ToSchema)]
 pub struct Displacement {
     /// Point name.
     pub point: String,
@@ -49,12 +50,43 @@ pub struct Displacement {
     pub velocity_mm_per_day: Option<f64>,
     /// Time to failure in hours (null unless accelerating).
     pub time_to_failure_hours: Option<f64>,
+    /// σ of `time_to_failure_hours` in hours.
+    pub time_to_failure_sigma_hours: Option<f64>,
+    /// Kalman-filtered ΔX in mm (the filter over the epochs up to this one).
+    pub f_dx_mm: Option<f64>,
+    /// Filtered ΔY in mm.
+    pub f_dy_mm: Option<f64>,
+    /// Filtered ΔZ in mm.
+    pub f_dz_mm: Option<f64>,
+    /// 3-D length of the filtered displacement in mm.
+    pub f_d_mm: Option<f64>,
+    /// σ of `f_dx_mm` in mm.
+    pub sigma_f_dx_mm: Option<f64>,
+    /// σ of `f_dy_mm` in mm.
+    pub sigma_f_dy_mm: Option<f64>,
+    /// σ of `f_dz_mm` in mm.
+    pub sigma_f_dz_mm: Option<f64>,
+    /// σ of `f_d_mm` in mm.
+    pub sigma_f_d_mm: Option<f64>,
+    /// Filtered velocity in mm/day, along the direction of interest (else along the filtered displacement).
+    pub f_velocity_mm_per_day: Option<f64>,
+    /// σ of `f_velocity_mm_per_day` in mm/day.
+    pub sigma_f_velocity_mm_per_day: Option<f64>,
+    /// Filtered acceleration along the same direction in mm/day².
+    pub f_acceleration_mm_per_day2: Option<f64>,
+    /// σ of `f_acceleration_mm_per_day2` in mm/day².
+    pub sigma_f_acceleration_mm_per_day2: Option<f64>,
+    /// Time to failure in hours from the filtered analysis (null unless moving and the inverse-velocity law fits).
+    pub f_time_to_failure_hours: Option<f64>,
+    /// σ of `f_time_to_failure_hours` in hours.
+    pub sigma_f_time_to_failure_hours: Option<f64>,
 }
 
 impl Displacement {
     /// The stored row of an analysis record against `reference_epoch` (observed_at in the store's
     /// form): the two types carry the same contract fields; the store adds the reference epoch.
     pub fn from_record(r: &DisplacementRecord, reference_epoch: i64) -> Displacement {
+        let f = r.filtered.as_ref();
         Displacement {
             point: r.point.clone(),
             epoch: r.epoch,
@@ -75,7 +107,86 @@ impl Displacement {
             significant: r.significant,
             velocity_mm_per_day: r.velocity_mm_per_day,
             time_to_failure_hours: r.time_to_failure_hours,
+            time_to_failure_sigma_hours: r.time_to_failure_sigma_hours,
+            f_dx_mm: f.map(|f| f.f_dx_mm),
+            f_dy_mm: f.map(|f| f.f_dy_mm),
+            f_dz_mm: f.map(|f| f.f_dz_mm),
+            f_d_mm: f.map(|f| f.f_d_mm),
+            sigma_f_dx_mm: f.map(|f| f.sigma_f_dx_mm),
+            sigma_f_dy_mm: f.map(|f| f.sigma_f_dy_mm),
+            sigma_f_dz_mm: f.map(|f| f.sigma_f_dz_mm),
+            sigma_f_d_mm: f.map(|f| f.sigma_f_d_mm),
+            f_velocity_mm_per_day: f.map(|f| f.f_velocity_mm_per_day),
+            sigma_f_velocity_mm_per_day: f.map(|f| f.sigma_f_velocity_mm_per_day),
+            f_acceleration_mm_per_day2: f.and_then(|f| f.f_acceleration_mm_per_day2),
+            sigma_f_acceleration_mm_per_day2: f.and_then(|f| f.sigma_f_acceleration_mm_per_day2),
+            f_time_to_failure_hours: f.and_then(|f| f.f_time_to_failure_hours),
+            sigma_f_time_to_failure_hours: f.and_then(|f| f.sigma_f_time_to_failure_hours),
         }
+    }
+
+    /// The row in the packed form of the series ([`super::series_record`]), as stored.
+    pub(super) fn record(&self) -> Record<'_> {
+        Record {
+            epoch: self.epoch,
+            observed_at: self.observed_at.as_bytes(),
+            reference: self.reference_epoch,
+            v: [
+                self.dx_mm,
+                self.dy_mm,
+                self.dz_mm,
+                self.d_mm,
+                self.sigma_dx_mm,
+                self.sigma_dy_mm,
+                self.sigma_dz_mm,
+                self.sigma_mm,
+            ],
+            significant: self.significant,
+            velocity: self.velocity_mm_per_day,
+            ttf: self.time_to_failure_hours,
+            cov: [self.cov_dxdy_mm2, self.cov_dxdz_mm2, self.cov_dydz_mm2],
+            ttf_sigma: self.time_to_failure_sigma_hours,
+            filtered: self.filtered().map(|f| Filtered {
+                v: [
+                    f.f_dx_mm,
+                    f.f_dy_mm,
+                    f.f_dz_mm,
+                    f.f_d_mm,
+                    f.sigma_f_dx_mm,
+                    f.sigma_f_dy_mm,
+                    f.sigma_f_dz_mm,
+                    f.sigma_f_d_mm,
+                    f.f_velocity_mm_per_day,
+                    f.sigma_f_velocity_mm_per_day,
+                ],
+                opt: [
+                    f.f_acceleration_mm_per_day2,
+                    f.sigma_f_acceleration_mm_per_day2,
+                    f.f_time_to_failure_hours,
+                    f.sigma_f_time_to_failure_hours,
+                ],
+            }),
+        }
+    }
+
+    /// The filtered values of the row (`None` unless all the required ones are stored).
+    pub fn filtered(&self) -> Option<FilteredValues> {
+        Some(FilteredValues {
+            f_dx_mm: self.f_dx_mm?,
+            f_dy_mm: self.f_dy_mm?,
+            f_dz_mm: self.f_dz_mm?,
+            f_d_mm: self.f_d_mm?,
+            sigma_f_dx_mm: self.sigma_f_dx_mm?,
+            sigma_f_dy_mm: self.sigma_f_dy_mm?,
+            sigma_f_dz_mm: self.sigma_f_dz_mm?,
+            sigma_f_d_mm: self.sigma_f_d_mm?,
+            f_velocity_mm_per_day: self.f_velocity_mm_per_day?,
+            sigma_f_velocity_mm_per_day: self.sigma_f_velocity_mm_per_day?,
+            f_acceleration_mm_per_day2: self.f_acceleration_mm_per_day2,
+            sigma_f_acceleration_mm_per_day2: self.sigma_f_acceleration_mm_per_day2,
+            f_time_to_failure_hours: self.f_time_to_failure_hours,
+            sigma_f_time_to_failure_hours: self.sigma_f_time_to_failure_hours,
+        })
     }
 
     /// The analysis record of a row read back (`None` when observed_at does not parse).
@@ -99,17 +210,26 @@ impl Displacement {
             significant: self.significant,
             velocity_mm_per_day: self.velocity_mm_per_day,
             time_to_failure_hours: self.time_to_failure_hours,
-            time_to_failure_sigma_hours: None,
-            filtered: None,
+            time_to_failure_sigma_hours: self.time_to_failure_sigma_hours,
+            filtered: self.filtered(),
         })
     }
 }
 
-const COLUMNS: &str = "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+pub(super) const COLUMNS: &str =
+    "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
     sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, velocity_mm_per_day, \
-    time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2";
+    time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2, time_to_failure_sigma_hours, \
+    f_dx_mm, f_dy_mm, f_dz_mm, f_d_mm, sigma_f_dx_mm, sigma_f_dy_mm, sigma_f_dz_mm, sigma_f_d_mm, \
+    f_velocity_mm_per_day, sigma_f_velocity_mm_per_day, f_acceleration_mm_per_day2, \
+    sigma_f_acceleration_mm_per_day2, f_time_to_failure_hours, sigma_f_time_to_failure_hours";
 
-fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
+/// `?` placeholders for every column of [`COLUMNS`] after the site id.
+fn placeholders() -> String {
+    vec!["?"; COLUMNS.split(',').count()].join(", ")
+}
+
+pub(super) fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
     for r in &mut rows {
         r.observed_at = display_timestamp(&r.observed_at);
     }
@@ -123,34 +243,70 @@ pub async fn insert(
     site: &str,
     rows: &[Displacement],
 ) -> Result<(), StoreError> {
-    for d in rows {
-        sqlx::query(&format!(
-            "INSERT INTO displacements (site_id, {COLUMNS}) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
-        ))
-        .bind(site)
-        .bind(&d.point)
-        .bind(d.epoch)
-        .bind(&d.observed_at)
-        .bind(d.reference_epoch)
-        .bind(d.dx_mm)
-        .bind(d.dy_mm)
-        .bind(d.dz_mm)
-        .bind(d.d_mm)
-        .bind(d.sigma_dx_mm)
-        .bind(d.sigma_dy_mm)
-        .bind(d.sigma_dz_mm)
-        .bind(d.sigma_mm)
-        .bind(d.d_along_mm)
-        .bind(d.significant)
-        .bind(d.velocity_mm_per_day)
-        .bind(d.time_to_failure_hours)
-        .bind(d.cov_dxdy_mm2)
-        .bind(d.cov_dxdz_mm2)
-        .bind(d.cov_dydz_mm2)
-        .execute(&mut *db)
-        .await?;
-    }
+    insert_into(db, "displacements", "point", site, rows).await?;
     super::series_blocks::added(db, site, rows).await
+}
+
+/// The column list of `table`, whose name column (`point` in [`COLUMNS`]) is `name_column`.
+pub(super) fn columns_of(name_column: &str) -> String {
+    COLUMNS.replacen("point", name_column, 1)
+}
+
+/// Inserts `rows` into `table` (`displacements`, or a table of the same columns whose name
+/// column is `name_column`).
+pub(super) async fn insert_into(
+    db: &mut SqliteConnection,
+    table: &str,
+    name_column: &str,
+    site: &str,
+    rows: &[Displacement],
+) -> Result<(), StoreError> {
+    let sql = format!(
+        "INSERT INTO {table} (site_id, {}) VALUES (?, {})",
+        columns_of(name_column),
+        placeholders()
+    );
+    for d in rows {
+        sqlx::query(&sql)
+            .bind(site)
+            .bind(&d.point)
+            .bind(d.epoch)
+            .bind(&d.observed_at)
+            .bind(d.reference_epoch)
+            .bind(d.dx_mm)
+            .bind(d.dy_mm)
+            .bind(d.dz_mm)
+            .bind(d.d_mm)
+            .bind(d.sigma_dx_mm)
+            .bind(d.sigma_dy_mm)
+            .bind(d.sigma_dz_mm)
+            .bind(d.sigma_mm)
+            .bind(d.d_along_mm)
+            .bind(d.significant)
+            .bind(d.velocity_mm_per_day)
+            .bind(d.time_to_failure_hours)
+            .bind(d.cov_dxdy_mm2)
+            .bind(d.cov_dxdz_mm2)
+            .bind(d.cov_dydz_mm2)
+            .bind(d.time_to_failure_sigma_hours)
+            .bind(d.f_dx_mm)
+            .bind(d.f_dy_mm)
+            .bind(d.f_dz_mm)
+            .bind(d.f_d_mm)
+            .bind(d.sigma_f_dx_mm)
+            .bind(d.sigma_f_dy_mm)
+            .bind(d.sigma_f_dz_mm)
+            .bind(d.sigma_f_d_mm)
+            .bind(d.f_velocity_mm_per_day)
+            .bind(d.sigma_f_velocity_mm_per_day)
+            .bind(d.f_acceleration_mm_per_day2)
+            .bind(d.sigma_f_acceleration_mm_per_day2)
+            .bind(d.f_time_to_failure_hours)
+            .bind(d.sigma_f_time_to_failure_hours)
+            .execute(&mut *db)
+            .await?;
+    }
+    Ok(())
 }
 
 /// Deletes every displacement of a site (before recomputing against a new reference), with its
@@ -187,6 +343,27 @@ pub async fn series(
     .fetch_all(db)
     .await?;
     Ok(display(rows))
+}
+
+/// The last `n` rows of `point` observed before `before` (store format), newest first, times
+/// in store format (the analysis' history).
+pub async fn recent(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    point: &str,
+    before: &str,
+    n: usize,
+) -> Result<Vec<Displacement>, StoreError> {
+    Ok(sqlx::query_as(&format!(
+        "SELECT {COLUMNS} FROM displacements WHERE site_id = ? AND point = ? AND observed_at < ? \
+         ORDER BY observed_at DESC LIMIT ?"
+    ))
+    .bind(site)
+    .bind(point)
+    .bind(before)
+    .bind(n as i64)
+    .fetch_all(db)
+    .await?)
 }
 
 /// The displacements of one epoch.

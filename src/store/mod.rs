@@ -36,6 +36,7 @@
 //!   table (`benches/service.rs`, `tests/service_series.rs`).
 
 pub mod alerts;
+pub mod block_motions;
 pub mod displacements;
 pub mod epochs;
 pub mod groups;

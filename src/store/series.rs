@@ -20,7 +20,43 @@ use super::sqlite_raw::{self, Param, Row};
 use super::{display_timestamp, StoreError};
 
 /// Columns of the CSV time series (the contract's order).
-pub const CSV_HEADER: &str = "epoch,observed_at,dx_mm,dy_mm,dz_mm,d_mm,sigma_dx_mm,sigma_dy_mm,sigma_dz_mm,sigma_mm,d_along_mm,significant,velocity_mm_per_day,time_to_failure_hours";
+/// The contract's fourteen first, then the forecast's σ and the Kalman filter's values.
+pub const CSV_HEADER: &str = "epoch,observed_at,dx_mm,dy_mm,dz_mm,d_mm,sigma_dx_mm,sigma_dy_mm,sigma_dz_mm,sigma_mm,d_along_mm,significant,velocity_mm_per_day,time_to_failure_hours,time_to_failure_sigma_hours,f_dx_mm,f_dy_mm,f_dz_mm,f_d_mm,sigma_f_dx_mm,sigma_f_dy_mm,sigma_f_dz_mm,sigma_f_d_mm,f_velocity_mm_per_day,sigma_f_velocity_mm_per_day,f_acceleration_mm_per_day2,sigma_f_acceleration_mm_per_day2,f_time_to_failure_hours,sigma_f_time_to_failure_hours";
+
+/// Names of the optional values after `time_to_failure_hours`, in the order of the CSV columns
+/// and of the JSON fields (that of `Displacement`).
+const EXTRA_NAMES: [&str; 15] = [
+    "time_to_failure_sigma_hours",
+    "f_dx_mm",
+    "f_dy_mm",
+    "f_dz_mm",
+    "f_d_mm",
+    "sigma_f_dx_mm",
+    "sigma_f_dy_mm",
+    "sigma_f_dz_mm",
+    "sigma_f_d_mm",
+    "f_velocity_mm_per_day",
+    "sigma_f_velocity_mm_per_day",
+    "f_acceleration_mm_per_day2",
+    "sigma_f_acceleration_mm_per_day2",
+    "f_time_to_failure_hours",
+    "sigma_f_time_to_failure_hours",
+];
+
+/// The values named by [`EXTRA_NAMES`] of a record.
+fn extra_values(r: &Record<'_>) -> [Option<f64>; 15] {
+    let mut out = [None; 15];
+    out[0] = r.ttf_sigma;
+    if let Some(f) = &r.filtered {
+        for (k, v) in f.v.iter().enumerate() {
+            out[1 + k] = Some(*v);
+        }
+        for (k, v) in f.opt.iter().enumerate() {
+            out[11 + k] = *v;
+        }
+    }
+    out
+}
 
 /// What to read: one point, `from ≤ observed_at ≤ to`, after the cursor `after` (store format),
 /// at most `limit` rows.
@@ -68,12 +104,17 @@ pub struct Written {
 /// snapshot). A block row has its last time and data, a tail row its time and values. The union
 /// is merged on the two primary keys (`EXPLAIN QUERY PLAN`: `MERGE (UNION ALL)`, no sort).
 const SQL: &str = "SELECT last_at, data, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
+    NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
     NULL, NULL, NULL, NULL, NULL, NULL, NULL FROM series_blocks \
     WHERE site_id = ? AND point = ? AND last_at >= ? AND last_at > ? AND first_at <= ? \
     UNION ALL \
     SELECT observed_at, NULL, epoch_id, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
     sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, significant, velocity_mm_per_day, \
-    time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2 FROM displacements \
+    time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2, time_to_failure_sigma_hours, \
+    f_dx_mm, f_dy_mm, f_dz_mm, f_d_mm, sigma_f_dx_mm, sigma_f_dy_mm, sigma_f_dz_mm, sigma_f_d_mm, \
+    f_velocity_mm_per_day, sigma_f_velocity_mm_per_day, f_acceleration_mm_per_day2, \
+    sigma_f_acceleration_mm_per_day2, f_time_to_failure_hours, sigma_f_time_to_failure_hours \
+    FROM displacements \
     WHERE site_id = ? AND point = ? \
     AND observed_at > COALESCE((SELECT sealed_until FROM series_seals WHERE site_id = ?), '') \
     AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY 1";
@@ -132,7 +173,7 @@ fn format_batch(
             SeriesFormat::Csv,
             direction,
             "",
-            Vec::with_capacity(rows * 170 + 256),
+            Vec::with_capacity(rows * 300 + 256),
         );
         if header {
             w.start();
@@ -232,10 +273,14 @@ fn each_record(
             }
             return each(&packed);
         }
-        let Some((&series_record::FORMAT, mut rest)) = row.blob(1).split_first() else {
-            failed = Some("unknown block format");
+        let Some((format, mut rest)) = row.blob(1).split_first() else {
+            failed = Some("empty block");
             return false;
         };
+        if !series_record::readable(*format) {
+            failed = Some("unknown block format");
+            return false;
+        }
         while !rest.is_empty() {
             let Some((t, n)) = series_record::peek(rest) else {
                 failed = Some("cut block");
@@ -259,6 +304,28 @@ fn each_record(
         ))),
         None => Ok(()),
     }
+}
+
+/// Formats rows already read (e.g. a block's motion series) as the point series is served:
+/// CSV with its header, or the JSON array of a page's items; `d_along_mm` along `direction`.
+pub fn format_rows(
+    rows: &[super::displacements::Displacement],
+    format: SeriesFormat,
+    direction: Option<[f64; 3]>,
+    name: &str,
+) -> Vec<u8> {
+    let mut w = Writer::new(
+        format,
+        direction,
+        name,
+        Vec::with_capacity(rows.len() * 600 + 256),
+    );
+    w.start();
+    for r in rows {
+        w.row(&r.record());
+    }
+    w.finish();
+    w.out
 }
 
 fn reader_failed(e: tokio::task::JoinError) -> StoreError {
@@ -312,7 +379,7 @@ fn params(q: &SeriesQuery) -> [Param<'_>; 11] {
     ]
 }
 
-/// A tail row of [`SQL`] (columns 0 and 2–17) as a record, borrowed until the next step.
+/// A tail row of [`SQL`] (columns 0 and 2–32) as a record, borrowed until the next step.
 fn tail_record(r: &Row) -> Record<'_> {
     Record {
         epoch: r.int(2),
@@ -323,6 +390,13 @@ fn tail_record(r: &Row) -> Record<'_> {
         velocity: r.opt_double(13),
         ttf: r.opt_double(14),
         cov: std::array::from_fn(|k| r.opt_double(15 + k)),
+        ttf_sigma: r.opt_double(18),
+        filtered: (0..10)
+            .all(|k| !r.is_null(19 + k))
+            .then(|| series_record::Filtered {
+                v: std::array::from_fn(|k| r.double(19 + k)),
+                opt: std::array::from_fn(|k| r.opt_double(29 + k)),
+            }),
     }
 }
 
@@ -461,6 +535,10 @@ impl Writer {
                 self.opt_float(velocity);
                 self.out.push(b',');
                 self.opt_float(ttf);
+                for v in extra_values(r) {
+                    self.out.push(b',');
+                    self.opt_float(v);
+                }
                 self.out.push(b'\n');
             }
             SeriesFormat::JsonItems => {
@@ -502,6 +580,12 @@ impl Writer {
                 self.opt_float(velocity);
                 self.out.extend_from_slice(b",\"time_to_failure_hours\":");
                 self.opt_float(ttf);
+                for (name, v) in EXTRA_NAMES.iter().zip(extra_values(r)) {
+                    self.out.extend_from_slice(b",\"");
+                    self.out.extend_from_slice(name.as_bytes());
+                    self.out.extend_from_slice(b"\":");
+                    self.opt_float(v);
+                }
                 self.out.push(b'}');
             }
         }

@@ -16,10 +16,10 @@
 
 use std::collections::BTreeSet;
 
-use sqlx::{FromRow, SqliteConnection};
+use sqlx::SqliteConnection;
 
-use super::displacements::Displacement;
-use super::series_record::{self, Record};
+use super::displacements::{Displacement, COLUMNS};
+use super::series_record;
 use super::{Store, StoreError};
 
 /// Epochs per block: a block holds one point's rows of this many consecutive epochs of its site
@@ -99,52 +99,6 @@ pub async fn backfill(store: &Store) -> Result<usize, StoreError> {
     Ok(sites.len())
 }
 
-/// A displacement row as stored (the served columns).
-#[derive(FromRow)]
-struct Stored {
-    epoch_id: i64,
-    observed_at: String,
-    reference_epoch: i64,
-    dx_mm: f64,
-    dy_mm: f64,
-    dz_mm: f64,
-    d_mm: f64,
-    sigma_dx_mm: f64,
-    sigma_dy_mm: f64,
-    sigma_dz_mm: f64,
-    sigma_mm: f64,
-    significant: bool,
-    velocity_mm_per_day: Option<f64>,
-    time_to_failure_hours: Option<f64>,
-    cov_dxdy_mm2: Option<f64>,
-    cov_dxdz_mm2: Option<f64>,
-    cov_dydz_mm2: Option<f64>,
-}
-
-impl Stored {
-    fn record(&self) -> Record<'_> {
-        Record {
-            epoch: self.epoch_id,
-            observed_at: self.observed_at.as_bytes(),
-            reference: self.reference_epoch,
-            v: [
-                self.dx_mm,
-                self.dy_mm,
-                self.dz_mm,
-                self.d_mm,
-                self.sigma_dx_mm,
-                self.sigma_dy_mm,
-                self.sigma_dz_mm,
-                self.sigma_mm,
-            ],
-            significant: self.significant,
-            velocity: self.velocity_mm_per_day,
-            ttf: self.time_to_failure_hours,
-            cov: [self.cov_dxdy_mm2, self.cov_dxdz_mm2, self.cov_dydz_mm2],
-        }
-    }
-}
-
 /// Seals the site's epochs after `sealed_until` in groups of [`BLOCK_EPOCHS`]: every point's rows
 /// of each full group become one block; the rest stays tail.
 async fn seal(db: &mut SqliteConnection, site: &str, sealed_until: &str) -> Result<(), StoreError> {
@@ -171,13 +125,11 @@ async fn seal(db: &mut SqliteConnection, site: &str, sealed_until: &str) -> Resu
                 .fetch_all(&mut *db)
                 .await?;
         for point in &points {
-            let rows: Vec<Stored> = sqlx::query_as(
-                "SELECT epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
-                 sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, significant, velocity_mm_per_day, \
-                 time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2 FROM displacements \
+            let rows: Vec<Displacement> = sqlx::query_as(&format!(
+                "SELECT {COLUMNS} FROM displacements \
                  WHERE site_id = ? AND point = ? AND observed_at > ? AND observed_at <= ? \
-                 ORDER BY observed_at",
-            )
+                 ORDER BY observed_at"
+            ))
             .bind(site)
             .bind(point)
             .bind(sealed_until)
@@ -207,7 +159,7 @@ async fn insert_block(
     db: &mut SqliteConnection,
     site: &str,
     point: &str,
-    rows: &[Stored],
+    rows: &[Displacement],
 ) -> Result<(), StoreError> {
     let (Some(first), Some(last)) = (rows.first(), rows.last()) else {
         return Ok(());

@@ -3,16 +3,35 @@
 //! exactly as stored (the time as its stored text, floats as their IEEE bits), nothing derived.
 //!
 //! Layout, little-endian, self-delimiting (no padding):
-//! `flags: u8` (bit 0 significant; bits 1–5 present: velocity, time to failure, cov(dx, dy),
-//! cov(dx, dz), cov(dy, dz)), `len: u8` and the `len` bytes of `observed_at` (store form),
-//! `epoch: i64`, `reference: i64`, 8 × `f64` (dx, dy, dz, d, σdx, σdy, σdz, σd in mm), then one
-//! `f64` per present optional value in that order. A block is [`FORMAT`] followed by records.
+//! `flags: u8` (bit 0 significant; bits 1–6 present: velocity, time to failure, cov(dx, dy),
+//! cov(dx, dz), cov(dy, dz), σ of the time to failure; bit 7 filtered values), `len: u8` and the
+//! `len` bytes of `observed_at` (store form), `epoch: i64`, `reference: i64`, 8 × `f64` (dx, dy,
+//! dz, d, σdx, σdy, σdz, σd in mm), then one `f64` per present optional value in that order; then,
+//! with bit 7, the filtered values ([`Filtered`]): `fflags: u8` (bits 0–3 present: acceleration,
+//! its σ, time to failure, its σ), 10 × `f64` (f_dx, f_dy, f_dz, f_d, their σ, f_velocity and its
+//! σ) and one `f64` per present value. A block is [`FORMAT`] followed by records. Format 1 had no
+//! bits 6 and 7; its records read the same.
 //!
 //! Pure: no I/O. Rows whose stored time is longer than 255 bytes cannot be packed ([`encode`]
 //! says so); the store writes 27.
 
 /// First byte of a packed block: the version of this layout.
-pub const FORMAT: u8 = 1;
+pub const FORMAT: u8 = 2;
+
+/// Whether a block's first byte is a format this reader decodes (1 is 2 without filtered values).
+pub fn readable(format: u8) -> bool {
+    format == 1 || format == FORMAT
+}
+
+/// The Kalman filter's values of a row and the raw forecast's σ (see
+/// [`crate::analysis::FilteredValues`]): mm, mm/day, mm/day², hours.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Filtered {
+    /// f_dx, f_dy, f_dz, f_d, σ of each, f_velocity (mm/day) and its σ.
+    pub v: [f64; 10],
+    /// f_acceleration (mm/day²), its σ, f_time_to_failure (h) and its σ.
+    pub opt: [Option<f64>; 4],
+}
 
 /// One row of the series as stored, the time borrowed from its buffer. Lengths in mm, covariances
 /// in mm², velocity in mm/day, time to failure in hours.
@@ -34,7 +53,13 @@ pub struct Record<'a> {
     pub ttf: Option<f64>,
     /// Covariances of (dx, dy), (dx, dz), (dy, dz) in mm² (NULL: `None`).
     pub cov: [Option<f64>; 3],
+    /// σ of the time to failure in hours (NULL: `None`).
+    pub ttf_sigma: Option<f64>,
+    /// The filtered values (NULL: `None`).
+    pub filtered: Option<Filtered>,
 }
+
+const FILTERED_FLAG: u8 = 0x80;
 
 const FIXED: usize = 2 + 8 + 8 + 8 * 8;
 
@@ -43,14 +68,17 @@ pub fn encode(r: &Record<'_>, out: &mut Vec<u8>) -> bool {
     let Ok(len) = u8::try_from(r.observed_at.len()) else {
         return false;
     };
-    let optional = [r.velocity, r.ttf, r.cov[0], r.cov[1], r.cov[2]];
+    let optional = [r.velocity, r.ttf, r.cov[0], r.cov[1], r.cov[2], r.ttf_sigma];
     let mut flags = u8::from(r.significant);
     for (k, v) in optional.iter().enumerate() {
         if v.is_some() {
             flags |= 2 << k;
         }
     }
-    out.reserve(FIXED + r.observed_at.len() + 40);
+    if r.filtered.is_some() {
+        flags |= FILTERED_FLAG;
+    }
+    out.reserve(FIXED + r.observed_at.len() + 40 + 130);
     out.push(flags);
     out.push(len);
     out.extend_from_slice(r.observed_at);
@@ -62,6 +90,18 @@ pub fn encode(r: &Record<'_>, out: &mut Vec<u8>) -> bool {
     for v in optional.into_iter().flatten() {
         out.extend_from_slice(&v.to_le_bytes());
     }
+    if let Some(f) = &r.filtered {
+        let mut fflags = 0u8;
+        for (k, v) in f.opt.iter().enumerate() {
+            if v.is_some() {
+                fflags |= 1 << k;
+            }
+        }
+        out.push(fflags);
+        for v in f.v.into_iter().chain(f.opt.into_iter().flatten()) {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
     true
 }
 
@@ -70,7 +110,11 @@ pub fn encode(r: &Record<'_>, out: &mut Vec<u8>) -> bool {
 pub fn peek(bytes: &[u8]) -> Option<(&[u8], usize)> {
     let flags = *bytes.first()?;
     let len = *bytes.get(1)? as usize;
-    let total = FIXED + len + 8 * (flags >> 1 & 0x1f).count_ones() as usize;
+    let mut total = FIXED + len + 8 * (flags >> 1 & 0x3f).count_ones() as usize;
+    if flags & FILTERED_FLAG != 0 {
+        let fflags = *bytes.get(total)?;
+        total += 1 + 80 + 8 * (fflags & 0x0f).count_ones() as usize;
+    }
     (bytes.len() >= total).then(|| (&bytes[2..2 + len], total))
 }
 
@@ -96,13 +140,27 @@ pub fn decode(bytes: &[u8]) -> Option<(Record<'_>, usize)> {
     at += 16;
     let v = std::array::from_fn(|k| f64_at(bytes, at + 8 * k));
     at += 64;
-    let mut optional = [None; 5];
+    let mut optional = [None; 6];
     for (k, slot) in optional.iter_mut().enumerate() {
         if flags & (2 << k) != 0 {
             *slot = Some(f64_at(bytes, at));
             at += 8;
         }
     }
+    let filtered = (flags & FILTERED_FLAG != 0).then(|| {
+        let fflags = bytes[at];
+        at += 1;
+        let v = std::array::from_fn(|k| f64_at(bytes, at + 8 * k));
+        at += 80;
+        let mut opt = [None; 4];
+        for (k, slot) in opt.iter_mut().enumerate() {
+            if fflags & (1 << k) != 0 {
+                *slot = Some(f64_at(bytes, at));
+                at += 8;
+            }
+        }
+        Filtered { v, opt }
+    });
     Some((
         Record {
             epoch,
@@ -113,6 +171,8 @@ pub fn decode(bytes: &[u8]) -> Option<(Record<'_>, usize)> {
             velocity: optional[0],
             ttf: optional[1],
             cov: [optional[2], optional[3], optional[4]],
+            ttf_sigma: optional[5],
+            filtered,
         },
         total,
     ))
@@ -144,6 +204,11 @@ mod tests {
                 velocity: Some(-0.0055),
                 ttf: None,
                 cov: [None, Some(-2.1e-3), Some(0.0)],
+                ttf_sigma: None,
+                filtered: Some(Filtered {
+                    v: [1.5, -2.0, 0.25, 2.5, 0.1, 0.2, 0.3, 0.4, 0.05, 0.01],
+                    opt: [Some(0.002), None, Some(96.5), Some(7.0)],
+                }),
             },
             Record {
                 epoch: i64::MAX,
@@ -154,6 +219,8 @@ mod tests {
                 velocity: None,
                 ttf: Some(48.0),
                 cov: [Some(1.0), None, None],
+                ttf_sigma: Some(12.0),
+                filtered: None,
             },
         ];
         let mut out = Vec::new();
@@ -174,6 +241,8 @@ mod tests {
                 a.cov.map(|c| c.map(f64::to_bits)),
                 b.cov.map(|c| c.map(f64::to_bits))
             );
+            assert_eq!(a.ttf_sigma, b.ttf_sigma);
+            assert_eq!(a.filtered, b.filtered);
         }
         // a cut record is not read
         assert_eq!(records(&out[..out.len() - 1]).count(), 1);

@@ -6,6 +6,11 @@ use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
 
+/// The version of the derived series (displacements, filtered values, block motions) this binary
+/// writes. Sites stored by an older one (`sites.analysis_version` below it) are recomputed once at
+/// start ([`crate::ingest::recompute_outdated`]); a new site starts at it.
+pub const ANALYSIS_VERSION: i64 = 1;
+
 /// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -179,7 +184,8 @@ async fn write(db: &mut SqliteConnection, site: &NewSite, create: bool) -> Resul
     if create {
         sqlx::query(
             "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, \
-             reference_epochs, process_noise, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+             reference_epochs, process_noise, created_at, analysis_version) \
+             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
         )
         .bind(&site.id)
         .bind(name)
@@ -190,6 +196,7 @@ async fn write(db: &mut SqliteConnection, site: &NewSite, create: bool) -> Resul
         .bind(reference_epochs)
         .bind(site.process_noise)
         .bind(now())
+        .bind(ANALYSIS_VERSION)
         .execute(db)
         .await?;
     } else {
@@ -219,6 +226,26 @@ pub async fn set_reference(
 ) -> Result<(), StoreError> {
     sqlx::query("UPDATE sites SET reference_epoch = ? WHERE id = ?")
         .bind(epoch)
+        .bind(site)
+        .execute(db)
+        .await?;
+    Ok(())
+}
+
+/// Ids of the sites whose stored series an older binary derived (see [`ANALYSIS_VERSION`]).
+pub async fn outdated(db: impl SqliteExecutor<'_>) -> Result<Vec<String>, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT id FROM sites WHERE analysis_version < ? ORDER BY id")
+            .bind(ANALYSIS_VERSION)
+            .fetch_all(db)
+            .await?,
+    )
+}
+
+/// Marks the site's stored series as derived by this binary ([`ANALYSIS_VERSION`]).
+pub async fn mark_current(db: impl SqliteExecutor<'_>, site: &str) -> Result<(), StoreError> {
+    sqlx::query("UPDATE sites SET analysis_version = ? WHERE id = ?")
+        .bind(ANALYSIS_VERSION)
         .bind(site)
         .execute(db)
         .await?;

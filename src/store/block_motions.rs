@@ -1,0 +1,53 @@
+//! The motion series of declared blocks, one row per block and epoch in the form of a point's
+//! displacement row ([`Displacement`], `point` naming the group): translation in mm with its
+//! covariance in mm², velocity in mm/day, time to failure in hours, the filtered values.
+
+use sqlx::{SqliteConnection, SqliteExecutor};
+
+use super::displacements::{columns_of, display, insert_into, Displacement};
+use super::StoreError;
+
+/// Stores block motion rows (observed_at in store format); inside the epoch's write transaction.
+pub async fn insert(
+    db: &mut SqliteConnection,
+    site: &str,
+    rows: &[Displacement],
+) -> Result<(), StoreError> {
+    insert_into(db, "block_motions", "block", site, rows).await
+}
+
+/// Deletes every block motion of a site (before a recompute).
+pub async fn delete_site(db: &mut SqliteConnection, site: &str) -> Result<(), StoreError> {
+    sqlx::query("DELETE FROM block_motions WHERE site_id = ?")
+        .bind(site)
+        .execute(&mut *db)
+        .await?;
+    Ok(())
+}
+
+/// The motion series of `block`, oldest first, with `from ≤ observed_at ≤ to` and after the
+/// cursor `after` (store format); at most `limit` rows (`None`: all).
+pub async fn series(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    block: &str,
+    from: Option<&str>,
+    to: Option<&str>,
+    after: Option<&str>,
+    limit: Option<i64>,
+) -> Result<Vec<Displacement>, StoreError> {
+    let rows: Vec<Displacement> = sqlx::query_as(&format!(
+        "SELECT {} FROM block_motions WHERE site_id = ? AND block = ? \
+         AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY observed_at LIMIT ?",
+        columns_of("block AS point")
+    ))
+    .bind(site)
+    .bind(block)
+    .bind(from.unwrap_or(""))
+    .bind(to.unwrap_or(super::TEXT_MAX))
+    .bind(after.unwrap_or(""))
+    .bind(limit.unwrap_or(i64::MAX))
+    .fetch_all(db)
+    .await?;
+    Ok(display(rows))
+}
