@@ -76,6 +76,15 @@ fn variants() -> Vec<Variant> {
             rules: contract(json!({"source": "raw"})),
         },
         Variant {
+            name: "either (99 %)",
+            confidence: 0.99,
+            rules: json!([
+                {"level": "watch", "metric": "displacement_mm", "above": 5.0, "clear_below": 4.0, "source": "either"},
+                {"level": "warning", "metric": "displacement_mm", "above": 10.0, "source": "either"},
+                {"level": "alarm", "metric": "time_to_failure_hours", "below": 96.0}
+            ]),
+        },
+        Variant {
             name: "filtered (99 %)",
             confidence: 0.99,
             rules: contract(json!({"source": "filtered"})),
@@ -435,6 +444,29 @@ fn main() {
                 .filter(|((_, l), _)| *l == AlertLevel::Alarm)
                 .map(|(_, t)| *t)
                 .min();
+            if vi == 0 && std::env::var_os("CLIFFWATCH_BENCH_VERBOSE").is_some() {
+                let lead = first.map(|t| (tf - t).num_seconds() as f64 / 3600.0);
+                let mut line = format!("series lead {lead:?}:");
+                for a in p.analyses.iter().rev().take(7).rev() {
+                    let h = (tf - a.observed_at).num_seconds() as f64 / 3600.0;
+                    let best = a
+                        .points
+                        .iter()
+                        .filter_map(|pa| pa.filtered_failure)
+                        .map(|f| (f.time_to_failure_hours, f.sigma_hours))
+                        .min_by(|x, y| (x.0 + 2.33 * x.1).total_cmp(&(y.0 + 2.33 * y.1)));
+                    let blk = a.blocks.first().and_then(|b| b.filtered_failure);
+                    line.push_str(&format!(
+                        " [{h:.0}h pt {} blk {}]",
+                        best.map_or("-".into(), |b| format!("{:.0}±{:.0}", b.0, b.1)),
+                        blk.map_or("-".into(), |b| format!(
+                            "{:.0}±{:.0}",
+                            b.time_to_failure_hours, b.sigma_hours
+                        ))
+                    ));
+                }
+                eprintln!("{line}");
+            }
             if let Some(t) = first {
                 let lead = (tf - t).num_seconds() as f64 / 3600.0;
                 leads.push(lead);

@@ -510,6 +510,61 @@ fn filtered_source_reads_the_filtered_state() {
     assert_eq!(ev[0].alert.value, Some(11.0));
 }
 
+/// Displacement rules read either estimate by default: the raw value raises at once on a step,
+/// the filtered one on a steady creep whose raw epochs are too noisy, and the rule clears only
+/// when both are under the clear threshold.
+#[test]
+fn either_source_fires_on_raw_or_filtered_and_clears_on_both() {
+    use cliffwatch::analysis::{FilteredValues, Metric, Source};
+    use AlertEventType::*;
+    use AlertLevel::*;
+    let watch: AlertRule = serde_json::from_str(
+        r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "clear_below": 4}"#,
+    )
+    .expect("rule");
+    assert_eq!(watch.source(), Source::Either);
+    assert_eq!(Metric::DisplacementMm.default_source(), Source::Either);
+    let cfg = AlertConfig::new("kamo", vec![watch]);
+    let filtered = |d: f64, s: f64| FilteredValues {
+        f_dx_mm: d,
+        f_dy_mm: 0.0,
+        f_dz_mm: 0.0,
+        f_d_mm: d,
+        sigma_f_dx_mm: s,
+        sigma_f_dy_mm: s,
+        sigma_f_dz_mm: s,
+        sigma_f_d_mm: s,
+        f_velocity_mm_per_day: 0.0,
+        sigma_f_velocity_mm_per_day: 0.1,
+        f_acceleration_mm_per_day2: None,
+        sigma_f_acceleration_mm_per_day2: None,
+        f_time_to_failure_hours: None,
+        sigma_f_time_to_failure_hours: None,
+    };
+    // (raw d ± σ, filtered d ± σ) per epoch, and what the watch does.
+    let epochs: [((f64, f64), (f64, f64), Vec<(AlertEventType, AlertLevel)>); 5] = [
+        // neither exceeds at 99 %: 6 − 2.33 < 5 and 5.5 − 2.33·0.4 < 5
+        ((6.0, 1.0), (5.5, 0.4), vec![]),
+        // the filter does: 6.2 − 0.93 > 5, while the raw 6.5 ± 1 does not
+        ((6.5, 1.0), (6.2, 0.4), vec![(Raised, Watch)]),
+        // raw below the clear threshold, filtered not: stays open
+        ((3.5, 1.0), (4.5, 0.4), vec![]),
+        // both below 4: clears
+        ((3.0, 1.0), (3.9, 0.4), vec![(Resolved, Watch)]),
+        // a step: the raw value raises at once though the filter lags
+        ((12.0, 1.0), (6.0, 0.4), vec![(Raised, Watch)]),
+    ];
+    let mut st = AlertState::default();
+    for (k, ((d, s), (fd, fs), want)) in epochs.into_iter().enumerate() {
+        let mut a = analysis_sigma(k as i64 + 2, d, s, true, None, &[]);
+        a.points[0].record.filtered = Some(filtered(fd, fs));
+        let (next, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
+        st = next;
+        let got: Vec<_> = ev.iter().map(|e| (e.event_type, e.alert.level)).collect();
+        assert_eq!(got, want, "epoch {k}");
+    }
+}
+
 /// A rule naming a declared block applies to the block's motion: one alert for the group, with
 /// `point` null, the group and its points; the block's own points are not alerted by it.
 #[test]

@@ -67,11 +67,13 @@ impl Metric {
         }
     }
 
-    /// Where the metric is read by default: the raw series for displacements, the Kalman-filtered
-    /// state for velocity and time to failure (a raw velocity of noisy epochs flickers).
+    /// Where the metric is read by default: either estimate for displacements (the filter sees a
+    /// steady creep over the threshold a few epochs earlier, the raw value a sudden step at once;
+    /// `docs/accuracy.md` measures both), the Kalman-filtered state for velocity and time to
+    /// failure (a raw velocity of noisy epochs flickers).
     pub fn default_source(self) -> Source {
         match self {
-            Metric::DisplacementMm | Metric::DisplacementAlongMm => Source::Raw,
+            Metric::DisplacementMm | Metric::DisplacementAlongMm => Source::Either,
             Metric::VelocityMmPerDay | Metric::TimeToFailureHours => Source::Filtered,
         }
     }
@@ -86,7 +88,8 @@ impl Metric {
     }
 }
 
-/// Which estimate of a metric a rule reads (contract: `"source": "raw" | "filtered"`).
+/// Which estimate of a metric a rule reads (contract: `"source": "raw" | "filtered"`, and
+/// `"either"`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Source {
@@ -95,6 +98,9 @@ pub enum Source {
     Raw,
     /// The Kalman filter's estimate at the epoch (see [`super::kalman`]).
     Filtered,
+    /// Both: the rule triggers when either estimate exceeds the threshold at the confidence, and
+    /// clears when both do.
+    Either,
 }
 
 /// One value of a metric with its σ (unit of the metric) and whether it is significant.
@@ -131,10 +137,10 @@ pub struct Readings {
 }
 
 impl Readings {
-    /// The reading of `metric` from `source`.
+    /// The reading of `metric` from `source` ([`Source::Either`]: the raw one, as shown).
     pub fn get(&self, metric: Metric, source: Source) -> Reading {
         match source {
-            Source::Raw => self.raw[metric.index()],
+            Source::Raw | Source::Either => self.raw[metric.index()],
             Source::Filtered => self.filtered[metric.index()],
         }
     }
@@ -142,7 +148,7 @@ impl Readings {
     /// Sets the reading of `metric` from `source`.
     pub fn set(&mut self, metric: Metric, source: Source, reading: Reading) {
         match source {
-            Source::Raw => self.raw[metric.index()] = reading,
+            Source::Raw | Source::Either => self.raw[metric.index()] = reading,
             Source::Filtered => self.filtered[metric.index()] = reading,
         }
     }
@@ -361,6 +367,39 @@ impl AlertRule {
         }
     }
 
+    /// The reading the rule judges: that of its source; for [`Source::Either`] the raw one if it
+    /// triggers, else the filtered one if it triggers, else the one farther over the threshold's
+    /// side (so the rule clears only when both have).
+    fn reading(&self, readings: &Readings, metric: Metric, z: f64) -> Reading {
+        if self.source() != Source::Either {
+            return readings.get(metric, self.source());
+        }
+        let raw = readings.get(metric, Source::Raw);
+        let filtered = readings.get(metric, Source::Filtered);
+        let fires = |r: &Reading| {
+            (!self.require_significant || r.significant)
+                && r.value.is_some_and(|v| self.triggers(v, r.sigma, z))
+        };
+        if fires(&raw) {
+            return raw;
+        }
+        if fires(&filtered) {
+            return filtered;
+        }
+        match (raw.value, filtered.value) {
+            (Some(a), Some(b)) => {
+                let filtered_worse = if self.below.is_some() { b < a } else { b > a };
+                if filtered_worse {
+                    filtered
+                } else {
+                    raw
+                }
+            }
+            (None, Some(_)) => filtered,
+            _ => raw,
+        }
+    }
+
     /// Whether an active rule clears at this value (with a clear threshold).
     fn clears(&self, v: f64) -> Option<bool> {
         match (self.above, self.below) {
@@ -384,6 +423,7 @@ impl AlertRule {
             let src = match self.source() {
                 Source::Raw => "raw",
                 Source::Filtered => "filtered",
+                Source::Either => "either",
             };
             k.push_str(&format!(":{src}:{}", self.for_epochs.unwrap_or(1)));
         }
@@ -839,7 +879,7 @@ fn evaluate_subject(
         let mut top: Option<&AlertRule> = None;
         let mut shown = s.readings.get(m, m.default_source()).value;
         for r in rules.iter().filter(|r| r.metric == m) {
-            let reading = s.readings.get(m, r.source());
+            let reading = r.reading(&s.readings, m, z);
             let key = format!("{prefix}{}", r.key());
             let mut mem = st.rules.get(&key).copied().unwrap_or_default();
             let ok = !r.require_significant || reading.significant;
