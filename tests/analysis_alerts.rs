@@ -542,7 +542,8 @@ fn either_source_fires_on_raw_or_filtered_and_clears_on_both() {
         sigma_f_time_to_failure_hours: None,
     };
     // (raw d ± σ, filtered d ± σ) per epoch, and what the watch does.
-    let epochs: [((f64, f64), (f64, f64), Vec<(AlertEventType, AlertLevel)>); 5] = [
+    type Epoch = ((f64, f64), (f64, f64), Vec<(AlertEventType, AlertLevel)>);
+    let epochs: [Epoch; 5] = [
         // neither exceeds at 99 %: 6 − 2.33 < 5 and 5.5 − 2.33·0.4 < 5
         ((6.0, 1.0), (5.5, 0.4), vec![]),
         // the filter does: 6.2 − 0.93 > 5, while the raw 6.5 ± 1 does not

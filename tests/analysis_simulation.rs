@@ -171,7 +171,8 @@ fn alerts_escalate_and_failure_forecast_converges() {
                 .map(|x| x.1)
                 .expect("level reached")
         };
-        // Exactly where the estimate first exceeds the threshold at the rules' confidence
+        // Exactly where either estimate (the default source of displacement rules: the raw one
+        // or the Kalman filter's) first exceeds the threshold at the rules' confidence
         // (d − z·σ > threshold, z = 2.326) …
         let z = alerts.z();
         let est = |th: f64| {
@@ -179,7 +180,13 @@ fn alerts_escalate_and_failure_forecast_converges() {
                 .iter()
                 .position(|s| {
                     s.analysis.point("B1").is_some_and(|p| {
-                        p.record.significant && p.record.d_mm - z * p.record.sigma_mm > th
+                        let raw =
+                            p.record.significant && p.record.d_mm - z * p.record.sigma_mm > th;
+                        let filtered = p
+                            .record
+                            .filtered
+                            .is_some_and(|f| f.f_d_mm - z * f.sigma_f_d_mm > th);
+                        raw || filtered
                     })
                 })
                 .map(|k| k + 1)
