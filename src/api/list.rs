@@ -66,11 +66,22 @@ pub fn encode(raw: &str) -> String {
     URL_SAFE_NO_PAD.encode(raw.as_bytes())
 }
 
-/// Decodes a cursor.
+/// The form of a cursor: unpadded base64url (no length of 1 modulo 4).
+pub const CURSOR_PATTERN: &str = "^([A-Za-z0-9_-]{4})*([A-Za-z0-9_-]{2,3})?$";
+
+/// Decodes a cursor: any string of [`CURSOR_PATTERN`] (unused trailing bits allowed; bytes that
+/// are not UTF-8 read lossily, the cursor being only a position in the listing's order); other
+/// strings are a 400.
 pub fn decode(cursor: &str) -> Result<String, ApiError> {
-    URL_SAFE_NO_PAD
+    use base64::engine::{DecodePaddingMode, GeneralPurpose, GeneralPurposeConfig};
+    const LENIENT: GeneralPurpose = GeneralPurpose::new(
+        &base64::alphabet::URL_SAFE,
+        GeneralPurposeConfig::new()
+            .with_decode_allow_trailing_bits(true)
+            .with_decode_padding_mode(DecodePaddingMode::RequireNone),
+    );
+    LENIENT
         .decode(cursor)
-        .ok()
-        .and_then(|b| String::from_utf8(b).ok())
-        .ok_or_else(|| ApiError::bad_request("invalid cursor"))
+        .map(|b| String::from_utf8_lossy(&b).into_owned())
+        .map_err(|_| ApiError::bad_request("invalid cursor"))
 }

@@ -26,7 +26,7 @@ use utoipa::OpenApi;
         super::schemas::ObservationForm, super::schemas::ControlForm, super::schemas::ApproxForm,
         super::schemas::EpochSummary, super::groups::GroupBody, super::groups::Group,
     )),
-    modifiers(&BearerAuth)
+    modifiers(&BearerAuth, &CommonErrors)
 )]
 pub struct ApiDoc;
 
@@ -41,6 +41,77 @@ impl utoipa::Modify for BearerAuth {
             SecurityScheme::Http(HttpBuilder::new().scheme(HttpAuthScheme::Bearer).build()),
         );
     }
+}
+
+/// The answers every handler can give before its own code runs, added where an operation does not
+/// list them: 400 (a query or path value that does not parse, a body that is not JSON, a bad
+/// cursor) on every operation with parameters or a body, 415 (a body that is not
+/// `application/json`), 413 (a body over the size limit) and 422 (JSON not of the schema) on every
+/// operation with a body.
+struct CommonErrors;
+
+impl utoipa::Modify for CommonErrors {
+    fn modify(&self, openapi: &mut utoipa::openapi::OpenApi) {
+        use utoipa::openapi::{ContentBuilder, Ref, ResponseBuilder};
+        let error = |what: &str| {
+            ResponseBuilder::new()
+                .description(what)
+                .content(
+                    "application/json",
+                    ContentBuilder::new()
+                        .schema(Some(Ref::from_schema_name("ErrorBody")))
+                        .build(),
+                )
+                .build()
+        };
+        for item in openapi.paths.paths.values_mut() {
+            for op in [
+                &mut item.get,
+                &mut item.put,
+                &mut item.post,
+                &mut item.delete,
+                &mut item.patch,
+            ]
+            .into_iter()
+            .flatten()
+            {
+                for p in op.parameters.iter_mut().flatten() {
+                    if p.name == "cursor" {
+                        p.schema = Some(cursor_schema());
+                    }
+                }
+                let has_params = op.parameters.as_ref().is_some_and(|p| !p.is_empty());
+                let has_body = op.request_body.is_some();
+                let responses = &mut op.responses.responses;
+                if has_params || has_body {
+                    responses.entry("400".into()).or_insert_with(|| {
+                        error("a path or query value, the body or the cursor does not parse").into()
+                    });
+                }
+                if has_body {
+                    responses.entry("422".into()).or_insert_with(|| {
+                        error("the body is JSON but not of the schema (the field is named)").into()
+                    });
+                    responses
+                        .entry("413".into())
+                        .or_insert_with(|| error("the body is over the size limit").into());
+                    responses
+                        .entry("415".into())
+                        .or_insert_with(|| error("the body is not application/json").into());
+                }
+            }
+        }
+    }
+}
+
+/// The page cursor: unpadded base64url ([`super::list::decode`] reads every string of this form).
+fn cursor_schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+    use utoipa::openapi::schema::{ObjectBuilder, Type};
+    ObjectBuilder::new()
+        .schema_type(Type::String)
+        .pattern(Some(super::list::CURSOR_PATTERN))
+        .description(Some("opaque: the next_cursor of the previous page"))
+        .into()
 }
 
 /// `GET /api/v1/openapi.json`.
