@@ -8,7 +8,6 @@ use axum::response::{IntoResponse, Response};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::epochs::time_bound;
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{encode, PageParams};
 use super::points::SeriesParams;
@@ -182,21 +181,7 @@ pub async fn motion(
     let g = groups::get(db, &site, &group)
         .await?
         .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no group '{group}'")))?;
-    let from = q
-        .from
-        .as_deref()
-        .map(|s| time_bound(s, false))
-        .transpose()?;
-    let to = q.to.as_deref().map(|s| time_bound(s, true)).transpose()?;
-    let format = match q.format.as_deref() {
-        None | Some("json") => SeriesFormat::JsonItems,
-        Some("csv") => SeriesFormat::Csv,
-        Some(other) => {
-            return Err(ApiError::bad_request(format!(
-                "format '{other}': json or csv"
-            )))
-        }
-    };
+    let (from, to, format) = q.range_and_format()?;
     if format == SeriesFormat::Csv {
         let rows = block_motions::series(
             db,

@@ -163,6 +163,34 @@ pub struct SeriesParams {
     pub cursor: Option<String>,
 }
 
+impl SeriesParams {
+    /// The range in store form (`from`, `to`) and the served format; 400 naming the bad value.
+    pub fn range_and_format(
+        &self,
+    ) -> Result<(Option<String>, Option<String>, SeriesFormat), ApiError> {
+        let from = self
+            .from
+            .as_deref()
+            .map(|s| time_bound(s, false))
+            .transpose()?;
+        let to = self
+            .to
+            .as_deref()
+            .map(|s| time_bound(s, true))
+            .transpose()?;
+        let format = match self.format.as_deref() {
+            None | Some("json") => SeriesFormat::JsonItems,
+            Some("csv") => SeriesFormat::Csv,
+            Some(other) => {
+                return Err(ApiError::bad_request(format!(
+                    "format '{other}': json or csv"
+                )))
+            }
+        };
+        Ok((from, to, format))
+    }
+}
+
 /// Columns of the CSV time series.
 pub use crate::store::series::CSV_HEADER;
 
@@ -181,21 +209,8 @@ pub async fn displacements(
     let p = points::get(db, &site, &point)
         .await?
         .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no point '{point}'")))?;
-    let from = q
-        .from
-        .as_deref()
-        .map(|s| time_bound(s, false))
-        .transpose()?;
-    let to = q.to.as_deref().map(|s| time_bound(s, true)).transpose()?;
-    let csv = match q.format.as_deref() {
-        None | Some("json") => false,
-        Some("csv") => true,
-        Some(other) => {
-            return Err(ApiError::bad_request(format!(
-                "format '{other}': json or csv"
-            )))
-        }
-    };
+    let (from, to, format) = q.range_and_format()?;
+    let csv = format == SeriesFormat::Csv;
     let mut query = SeriesQuery {
         site,
         point,

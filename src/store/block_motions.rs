@@ -4,7 +4,7 @@
 
 use sqlx::{SqliteConnection, SqliteExecutor};
 
-use super::displacements::{columns_of, display, insert_into, Displacement};
+use super::displacements::{insert_into, series_of, Displacement};
 use super::StoreError;
 
 /// Stores block motion rows (observed_at in store format); inside the epoch's write transaction.
@@ -36,18 +36,16 @@ pub async fn series(
     after: Option<&str>,
     limit: Option<i64>,
 ) -> Result<Vec<Displacement>, StoreError> {
-    let rows: Vec<Displacement> = sqlx::query_as(&format!(
-        "SELECT {} FROM block_motions WHERE site_id = ? AND block = ? \
-         AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY observed_at LIMIT ?",
-        columns_of("block AS point")
-    ))
-    .bind(site)
-    .bind(block)
-    .bind(from.unwrap_or(""))
-    .bind(to.unwrap_or(super::TEXT_MAX))
-    .bind(after.unwrap_or(""))
-    .bind(limit.unwrap_or(i64::MAX))
-    .fetch_all(db)
-    .await?;
-    Ok(display(rows))
+    series_of(
+        db,
+        "block_motions",
+        "block",
+        site,
+        block,
+        from,
+        to,
+        after,
+        limit,
+    )
+    .await
 }

@@ -229,7 +229,7 @@ fn placeholders() -> String {
     vec!["?"; COLUMNS.split(',').count()].join(", ")
 }
 
-pub(super) fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
+fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
     for r in &mut rows {
         r.observed_at = display_timestamp(&r.observed_at);
     }
@@ -330,12 +330,44 @@ pub async fn series(
     after: Option<&str>,
     limit: Option<i64>,
 ) -> Result<Vec<Displacement>, StoreError> {
+    series_of(
+        db,
+        "displacements",
+        "point",
+        site,
+        point,
+        from,
+        to,
+        after,
+        limit,
+    )
+    .await
+}
+
+/// [`series`] from `table`, whose name column is `name_column`.
+#[allow(clippy::too_many_arguments)]
+pub(super) async fn series_of(
+    db: impl SqliteExecutor<'_>,
+    table: &str,
+    name_column: &str,
+    site: &str,
+    name: &str,
+    from: Option<&str>,
+    to: Option<&str>,
+    after: Option<&str>,
+    limit: Option<i64>,
+) -> Result<Vec<Displacement>, StoreError> {
+    let columns = if name_column == "point" {
+        COLUMNS.to_string()
+    } else {
+        columns_of(&format!("{name_column} AS point"))
+    };
     let rows: Vec<Displacement> = sqlx::query_as(&format!(
-        "SELECT {COLUMNS} FROM displacements WHERE site_id = ? AND point = ? \
+        "SELECT {columns} FROM {table} WHERE site_id = ? AND {name_column} = ? \
          AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY observed_at LIMIT ?"
     ))
     .bind(site)
-    .bind(point)
+    .bind(name)
     .bind(from.unwrap_or(""))
     .bind(to.unwrap_or(super::TEXT_MAX))
     .bind(after.unwrap_or(""))
