@@ -24,7 +24,7 @@ pub struct AlertParams {
 }
 
 /// `GET /api/v1/alerts`: newest first.
-#[utoipa::path(get, path = "/api/v1/alerts", params(("site" = Option<String>, Query), ("state" = Option<String>, Query), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/alerts", params(("site" = Option<String>, Query), ("state" = Option<String>, Query, pattern = "^(open|acknowledged|resolved)$"), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "alerts, newest first", body = crate::api::list::Page<crate::store::alerts::Alert>)))]
 pub async fn list(
     State(state): State<AppState>,

@@ -27,6 +27,7 @@ pub struct GroupBody {
     pub kind: String,
     /// Direction of interest of the block in the site frame (three finite numbers, not all zero).
     #[serde(default)]
+    #[schema(min_items = 3, max_items = 3)]
     pub direction: Option<[f64; 3]>,
     /// Member points (identifiers); absent or empty: the points whose `group` names this group.
     #[serde(default)]

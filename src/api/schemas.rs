@@ -44,6 +44,7 @@ pub struct Status {
 #[derive(Serialize, ToSchema)]
 pub struct UploadForm {
     /// Observation time (RFC 3339), unique within the site.
+    #[schema(format = DateTime)]
     pub observed_at: String,
     /// Free label.
     pub label: Option<String>,

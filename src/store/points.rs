@@ -12,12 +12,14 @@ use super::StoreError;
 pub struct PointSettings {
     /// `stable` or `monitored`.
     #[serde(default)]
+    #[schema(pattern = "^(stable|monitored)$")]
     pub role: Option<String>,
     /// Free group name (e.g. a block of the cliff).
     #[serde(default)]
     pub group: Option<String>,
     /// Direction of interest in the site frame (e.g. the cliff normal); any length but zero.
     #[serde(default)]
+    #[schema(min_items = 3, max_items = 3)]
     pub direction: Option<[f64; 3]>,
 }
 

@@ -16,18 +16,21 @@ pub const ANALYSIS_VERSION: i64 = 1;
 #[serde(deny_unknown_fields)]
 pub struct NewSite {
     /// Identifier, `[A-Za-z0-9._-]{1,64}`.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub id: String,
     /// Display name (default: the id).
     #[serde(default)]
     pub name: Option<String>,
     /// `orthogonal` (default) or `central`.
     #[serde(default)]
+    #[schema(pattern = "^(orthogonal|central)$")]
     pub model: Option<String>,
     /// Expected interval between campaigns in hours.
     #[serde(default)]
     pub schedule_hours: Option<f64>,
     /// Confidence level of the significance tests (default 0.99).
     #[serde(default)]
+    #[schema(exclusive_minimum = 0.5, exclusive_maximum = 1.0)]
     pub confidence: Option<f64>,
     /// Alert rules (`{"level", "metric", "above"|"below", "clear_below"|"clear_above", "source",
     /// "for_epochs", "group"}`).

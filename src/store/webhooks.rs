@@ -41,11 +41,14 @@ pub fn level_rank(level: &str) -> u8 {
 #[serde(deny_unknown_fields)]
 pub struct NewWebhook {
     /// Target URL.
+    #[schema(pattern = "^https?://")]
     pub url: String,
     /// Signing secret `whsec_<base64>`.
+    #[schema(pattern = "^whsec_.{4,}$")]
     pub secret: String,
     /// Lowest level delivered (default `warning`).
     #[serde(default)]
+    #[schema(pattern = "^(watch|warning|alarm)$")]
     pub min_level: Option<String>,
     /// Body format (default `standard`).
     #[serde(default)]
