@@ -70,7 +70,8 @@ fn upload(c: &mut Criterion) {
     let _ = rt.block_on(server.stop());
 }
 
-/// Fills a site with `epochs` hourly epochs × `points` points of displacements, directly in SQL
+/// Fills a site with `epochs` hourly epochs × `points` points of displacements with covariances
+/// and filtered values (as an analysis stores them), directly in SQL
 /// (bench set-up only: no adjustment), then packs the series (`series_blocks::rebuild`).
 async fn fill_history(server: &TestServer, site: &str, epochs: usize, points: usize) {
     server.create_site(site).await;
@@ -92,9 +93,14 @@ async fn fill_history(server: &TestServer, site: &str, epochs: usize, points: us
     .bind(epochs as i64).bind(site).execute(&mut *tx).await.unwrap();
     sqlx::query(
         "INSERT INTO displacements (site_id, epoch_id, point, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
-         sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, velocity_mm_per_day, time_to_failure_hours) \
+         sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, velocity_mm_per_day, time_to_failure_hours, \
+         cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2, f_dx_mm, f_dy_mm, f_dz_mm, f_d_mm, sigma_f_dx_mm, sigma_f_dy_mm, \
+         sigma_f_dz_mm, sigma_f_d_mm, f_velocity_mm_per_day, sigma_f_velocity_mm_per_day, f_acceleration_mm_per_day2, \
+         sigma_f_acceleration_mm_per_day2) \
          SELECT e.site_id, e.id, p.name, e.observed_at, 1, e.id * 0.0001, -e.id * 0.0002, e.id * 0.00005, e.id * 0.000229, \
-         0.11, 0.12, 0.31, 0.2, NULL, e.id > 100, 0.0055, NULL FROM epochs e CROSS JOIN points p \
+         0.11, 0.12, 0.31, 0.2, NULL, e.id > 100, 0.0055, NULL, 0.0012, -0.0031, 0.021, \
+         e.id * 0.0000998, -e.id * 0.0001997, e.id * 0.0000501, e.id * 0.0002287, 0.051, 0.056, 0.143, 0.093, \
+         0.0054, 0.0021, 0.00001 * (e.id % 17), 0.0004 FROM epochs e CROSS JOIN points p \
          WHERE e.site_id = ? AND p.site_id = ?",
     )
     .bind(site).bind(site).execute(&mut *tx).await.unwrap();

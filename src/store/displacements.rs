@@ -51,34 +51,49 @@ pub struct Displacement {
     /// Time to failure in hours (null unless accelerating).
     pub time_to_failure_hours: Option<f64>,
     /// σ of `time_to_failure_hours` in hours.
+    #[sqlx(default)]
     pub time_to_failure_sigma_hours: Option<f64>,
     /// Kalman-filtered ΔX in mm (the filter over the epochs up to this one).
+    #[sqlx(default)]
     pub f_dx_mm: Option<f64>,
     /// Filtered ΔY in mm.
+    #[sqlx(default)]
     pub f_dy_mm: Option<f64>,
     /// Filtered ΔZ in mm.
+    #[sqlx(default)]
     pub f_dz_mm: Option<f64>,
     /// 3-D length of the filtered displacement in mm.
+    #[sqlx(default)]
     pub f_d_mm: Option<f64>,
     /// σ of `f_dx_mm` in mm.
+    #[sqlx(default)]
     pub sigma_f_dx_mm: Option<f64>,
     /// σ of `f_dy_mm` in mm.
+    #[sqlx(default)]
     pub sigma_f_dy_mm: Option<f64>,
     /// σ of `f_dz_mm` in mm.
+    #[sqlx(default)]
     pub sigma_f_dz_mm: Option<f64>,
     /// σ of `f_d_mm` in mm.
+    #[sqlx(default)]
     pub sigma_f_d_mm: Option<f64>,
     /// Filtered velocity in mm/day, along the direction of interest (else along the filtered displacement).
+    #[sqlx(default)]
     pub f_velocity_mm_per_day: Option<f64>,
     /// σ of `f_velocity_mm_per_day` in mm/day.
+    #[sqlx(default)]
     pub sigma_f_velocity_mm_per_day: Option<f64>,
     /// Filtered acceleration along the same direction in mm/day².
+    #[sqlx(default)]
     pub f_acceleration_mm_per_day2: Option<f64>,
     /// σ of `f_acceleration_mm_per_day2` in mm/day².
+    #[sqlx(default)]
     pub sigma_f_acceleration_mm_per_day2: Option<f64>,
     /// Time to failure in hours from the filtered analysis (null unless moving and the inverse-velocity law fits).
+    #[sqlx(default)]
     pub f_time_to_failure_hours: Option<f64>,
     /// σ of `f_time_to_failure_hours` in hours.
+    #[sqlx(default)]
     pub sigma_f_time_to_failure_hours: Option<f64>,
 }
 
@@ -215,6 +230,12 @@ impl Displacement {
         })
     }
 }
+
+/// The columns the analysis reads back as history (the filtered values are recomputed, not read).
+const HISTORY_COLUMNS: &str =
+    "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, \
+    d_mm, sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, \
+    velocity_mm_per_day, time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2";
 
 pub(super) const COLUMNS: &str =
     "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
@@ -378,7 +399,8 @@ pub(super) async fn series_of(
 }
 
 /// The last `n` rows of `point` observed before `before` (store format), newest first, times
-/// in store format (the analysis' history).
+/// in store format (the analysis' history: without the filtered values, which the analysis
+/// recomputes).
 pub async fn recent(
     db: impl SqliteExecutor<'_>,
     site: &str,
@@ -387,8 +409,8 @@ pub async fn recent(
     n: usize,
 ) -> Result<Vec<Displacement>, StoreError> {
     Ok(sqlx::query_as(&format!(
-        "SELECT {COLUMNS} FROM displacements WHERE site_id = ? AND point = ? AND observed_at < ? \
-         ORDER BY observed_at DESC LIMIT ?"
+        "SELECT {HISTORY_COLUMNS} FROM displacements WHERE site_id = ? AND point = ? \
+         AND observed_at < ? ORDER BY observed_at DESC LIMIT ?"
     ))
     .bind(site)
     .bind(point)
