@@ -466,10 +466,30 @@ fn for_epochs_asks_for_consecutive_triggering_epochs() {
     assert!(bad.validate().is_err());
 }
 
+/// A filtered state of `d` mm along X with σ `s` mm on each axis, still.
+fn filtered_along_x(d: f64, s: f64) -> cliffwatch::analysis::FilteredValues {
+    cliffwatch::analysis::FilteredValues {
+        f_dx_mm: d,
+        f_dy_mm: 0.0,
+        f_dz_mm: 0.0,
+        f_d_mm: d,
+        sigma_f_dx_mm: s,
+        sigma_f_dy_mm: s,
+        sigma_f_dz_mm: s,
+        sigma_f_d_mm: s,
+        f_velocity_mm_per_day: 0.0,
+        sigma_f_velocity_mm_per_day: 0.1,
+        f_acceleration_mm_per_day2: None,
+        sigma_f_acceleration_mm_per_day2: None,
+        f_time_to_failure_hours: None,
+        sigma_f_time_to_failure_hours: None,
+    }
+}
+
 /// Rules read the filtered state when they say so (and velocity and time to failure by default).
 #[test]
 fn filtered_source_reads_the_filtered_state() {
-    use cliffwatch::analysis::{FilteredValues, Metric, Source};
+    use cliffwatch::analysis::{Metric, Source};
     let rule: AlertRule = serde_json::from_str(
         r#"{"level": "warning", "metric": "displacement_mm", "above": 10, "source": "filtered"}"#,
     )
@@ -485,22 +505,7 @@ fn filtered_source_reads_the_filtered_state() {
     let mut a = analysis_sigma(2, 12.0, 0.1, true, None, &[]);
     let (_, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
     assert!(ev.is_empty());
-    let filtered = |d: f64| FilteredValues {
-        f_dx_mm: d,
-        f_dy_mm: 0.0,
-        f_dz_mm: 0.0,
-        f_d_mm: d,
-        sigma_f_dx_mm: 0.3,
-        sigma_f_dy_mm: 0.3,
-        sigma_f_dz_mm: 0.3,
-        sigma_f_d_mm: 0.3,
-        f_velocity_mm_per_day: 0.0,
-        sigma_f_velocity_mm_per_day: 0.1,
-        f_acceleration_mm_per_day2: None,
-        sigma_f_acceleration_mm_per_day2: None,
-        f_time_to_failure_hours: None,
-        sigma_f_time_to_failure_hours: None,
-    };
+    let filtered = |d: f64| filtered_along_x(d, 0.3);
     a.points[0].record.filtered = Some(filtered(10.5));
     let (_, ev) = evaluate_alerts(&cfg, &AlertState::default(), &a, a.observed_at);
     assert!(ev.is_empty(), "10.5 − 2.33·0.3 < 10");
@@ -515,7 +520,7 @@ fn filtered_source_reads_the_filtered_state() {
 /// when both are under the clear threshold.
 #[test]
 fn either_source_fires_on_raw_or_filtered_and_clears_on_both() {
-    use cliffwatch::analysis::{FilteredValues, Metric, Source};
+    use cliffwatch::analysis::{Metric, Source};
     use AlertEventType::*;
     use AlertLevel::*;
     let watch: AlertRule = serde_json::from_str(
@@ -525,22 +530,6 @@ fn either_source_fires_on_raw_or_filtered_and_clears_on_both() {
     assert_eq!(watch.source(), Source::Either);
     assert_eq!(Metric::DisplacementMm.default_source(), Source::Either);
     let cfg = AlertConfig::new("kamo", vec![watch]);
-    let filtered = |d: f64, s: f64| FilteredValues {
-        f_dx_mm: d,
-        f_dy_mm: 0.0,
-        f_dz_mm: 0.0,
-        f_d_mm: d,
-        sigma_f_dx_mm: s,
-        sigma_f_dy_mm: s,
-        sigma_f_dz_mm: s,
-        sigma_f_d_mm: s,
-        f_velocity_mm_per_day: 0.0,
-        sigma_f_velocity_mm_per_day: 0.1,
-        f_acceleration_mm_per_day2: None,
-        sigma_f_acceleration_mm_per_day2: None,
-        f_time_to_failure_hours: None,
-        sigma_f_time_to_failure_hours: None,
-    };
     // (raw d ± σ, filtered d ± σ) per epoch, and what the watch does.
     type Epoch = ((f64, f64), (f64, f64), Vec<(AlertEventType, AlertLevel)>);
     let epochs: [Epoch; 5] = [
@@ -558,7 +547,7 @@ fn either_source_fires_on_raw_or_filtered_and_clears_on_both() {
     let mut st = AlertState::default();
     for (k, ((d, s), (fd, fs), want)) in epochs.into_iter().enumerate() {
         let mut a = analysis_sigma(k as i64 + 2, d, s, true, None, &[]);
-        a.points[0].record.filtered = Some(filtered(fd, fs));
+        a.points[0].record.filtered = Some(filtered_along_x(fd, fs));
         let (next, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
         st = next;
         let got: Vec<_> = ev.iter().map(|e| (e.event_type, e.alert.level)).collect();
