@@ -213,9 +213,13 @@ pub async fn history(
     Ok(out)
 }
 
-/// A time-series row of the store from an analysis record (timestamps in the stored form).
-pub fn to_row(r: &DisplacementRecord, reference_epoch: i64) -> Displacement {
-    Displacement::from_record(r, reference_epoch)
+/// The store's time-series rows of analysis records against `reference_epoch` (timestamps in the
+/// stored form).
+pub fn to_rows(records: &[DisplacementRecord], reference_epoch: i64) -> Vec<Displacement> {
+    records
+        .iter()
+        .map(|r| Displacement::from_record(r, reference_epoch))
+        .collect()
 }
 
 /// Runs [`analysis::analyse_epoch`] on a blocking thread.

@@ -309,16 +309,8 @@ async fn derive(
     for w in &analysis.warnings {
         tracing::info!(site = %site.id, epoch, "analysis: {w}");
     }
-    let displacements = analysis
-        .records()
-        .iter()
-        .map(|r| alerting::to_row(r, analysis.reference_epoch))
-        .collect();
-    let block_motions = analysis
-        .block_records()
-        .iter()
-        .map(|r| alerting::to_row(r, analysis.reference_epoch))
-        .collect();
+    let displacements = alerting::to_rows(&analysis.records(), analysis.reference_epoch);
+    let block_motions = alerting::to_rows(&analysis.block_records(), analysis.reference_epoch);
     let raised = alerting::evaluate_and_record(tx, site, &analysis, Utc::now()).await?;
     Ok(Derived {
         displacements,
@@ -400,17 +392,9 @@ pub async fn recompute_site(tx: &mut SqliteConnection, site: &Site) -> Result<us
     )
     .await
     .map_err(|e| IngestError::Task(e.to_string()))?;
-    let rows: Vec<Displacement> = out
-        .records
-        .iter()
-        .map(|r| alerting::to_row(r, reference_id))
-        .collect();
+    let rows = alerting::to_rows(&out.records, reference_id);
     displacements::insert(tx, &site.id, &rows).await?;
-    let blocks: Vec<Displacement> = out
-        .block_records
-        .iter()
-        .map(|r| alerting::to_row(r, reference_id))
-        .collect();
+    let blocks = alerting::to_rows(&out.block_records, reference_id);
     block_motions::insert(tx, &site.id, &blocks).await?;
     for id in &out.analysed {
         alerting::set_analysis_status(tx, &site.id, *id, None).await?;

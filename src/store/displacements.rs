@@ -231,19 +231,27 @@ impl Displacement {
     }
 }
 
-/// The columns the analysis reads back as history (the filtered values are recomputed, not read).
-const HISTORY_COLUMNS: &str =
-    "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, \
-    d_mm, sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, \
-    velocity_mm_per_day, time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2";
+/// The columns of a row the analysis reads back as history (all but the forecast's σ and the
+/// filtered values, which it recomputes).
+macro_rules! history_columns {
+    () => {
+        "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+         sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, \
+         velocity_mm_per_day, time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2"
+    };
+}
 
-pub(super) const COLUMNS: &str =
-    "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
-    sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, velocity_mm_per_day, \
-    time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2, time_to_failure_sigma_hours, \
-    f_dx_mm, f_dy_mm, f_dz_mm, f_d_mm, sigma_f_dx_mm, sigma_f_dy_mm, sigma_f_dz_mm, sigma_f_d_mm, \
-    f_velocity_mm_per_day, sigma_f_velocity_mm_per_day, f_acceleration_mm_per_day2, \
-    sigma_f_acceleration_mm_per_day2, f_time_to_failure_hours, sigma_f_time_to_failure_hours";
+/// The columns the analysis reads back as history.
+const HISTORY_COLUMNS: &str = history_columns!();
+
+/// Every served column of a row.
+pub(super) const COLUMNS: &str = concat!(
+    history_columns!(),
+    ", time_to_failure_sigma_hours, f_dx_mm, f_dy_mm, f_dz_mm, f_d_mm, sigma_f_dx_mm, \
+     sigma_f_dy_mm, sigma_f_dz_mm, sigma_f_d_mm, f_velocity_mm_per_day, \
+     sigma_f_velocity_mm_per_day, f_acceleration_mm_per_day2, sigma_f_acceleration_mm_per_day2, \
+     f_time_to_failure_hours, sigma_f_time_to_failure_hours"
+);
 
 /// `?` placeholders for every column of [`COLUMNS`] after the site id.
 fn placeholders() -> String {
