@@ -18,6 +18,7 @@
 //! - [`store`]: SQLite through sqlx; migrations under `migrations/`.
 //! - [`ingest`]: the one path of an epoch (validate → adjust → analyse → store in one transaction).
 //! - [`api`]: the HTTP API (axum), auth, errors, OpenAPI.
+//! - [`dashboard`]: the HTML pages on the same port (maud templates, embedded uPlot and htmx).
 //! - [`webhooks`]: the outbox worker that signs and delivers alerts.
 //! - [`watch`]: the watched directory.
 
@@ -28,6 +29,7 @@ pub mod alerting;
 pub mod analysis;
 pub mod api;
 pub mod config;
+pub mod dashboard;
 pub mod delivery;
 pub mod detect;
 pub mod ingest;

@@ -90,6 +90,7 @@ pub fn router(state: AppState) -> Router {
             "/api/v1/webhooks/{id}",
             axum::routing::delete(webhooks::delete),
         )
+        .merge(crate::dashboard::routes())
         .fallback(|| async { error::ApiError::not_found("no such endpoint") })
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),

@@ -213,3 +213,61 @@ pub async fn acknowledge(
     .await?;
     Ok(done.rows_affected() == 1)
 }
+
+/// One change of an alert as recorded for the webhooks: `alert.raised`, `alert.escalated`,
+/// `alert.deescalated`, `alert.acknowledged` or `alert.resolved`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AlertEvent {
+    /// The event type.
+    pub event_type: String,
+    /// The alert's id.
+    pub alert_id: String,
+    /// Level after the event.
+    pub level: Option<String>,
+    /// When it happened on the epochs' time axis (store format): the epoch's observation time
+    /// for changes made by an epoch, the wall-clock time of an acknowledgement.
+    pub at: String,
+}
+
+/// The recorded changes of the alerts that concern `point` (as the point of the alert or one of
+/// its points), oldest first.
+pub async fn events_of_point(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    point: &str,
+) -> Result<Vec<AlertEvent>, StoreError> {
+    let rows: Vec<(String, String, Option<String>, String, String)> = sqlx::query_as(
+        "SELECT o.event_type, o.alert_id, o.level, o.payload, o.created_at FROM webhook_outbox o \
+         JOIN alerts a ON a.id = o.alert_id \
+         WHERE a.site_id = ? AND (a.point = ? OR a.points LIKE ? ESCAPE '\\') ORDER BY o.created_at",
+    )
+    .bind(site)
+    .bind(point)
+    .bind(format!(
+        "%\"{}\"%",
+        point
+            .replace('\\', "\\\\")
+            .replace('%', "\\%")
+            .replace('_', "\\_")
+    ))
+    .fetch_all(db)
+    .await?;
+    Ok(rows
+        .into_iter()
+        .map(|(event_type, alert_id, level, payload, created)| {
+            let observed = serde_json::from_str::<serde_json::Value>(&payload)
+                .ok()
+                .and_then(|v| v["data"]["observed_at"].as_str().map(str::to_string));
+            let at = match (event_type.as_str(), observed) {
+                ("alert.acknowledged", _) | (_, None) => created,
+                (_, Some(o)) => o,
+            };
+            AlertEvent {
+                event_type,
+                alert_id,
+                level,
+                at,
+            }
+        })
+        .collect())
+}

@@ -360,3 +360,46 @@ pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<
     }
     Ok(id)
 }
+
+/// One observation of an epoch with its residual, for the residual plot of an image.
+#[derive(Debug, Clone, PartialEq, FromRow)]
+pub struct ObservationResidual {
+    /// Image id.
+    pub image_id: String,
+    /// Point name.
+    pub point: String,
+    /// Image coordinates as uploaded, mm (None when given in pixels).
+    pub x_mm: Option<f64>,
+    /// See `x_mm`.
+    pub y_mm: Option<f64>,
+    /// Image coordinates as uploaded, pixels (None when given in mm).
+    pub col_px: Option<f64>,
+    /// See `col_px`.
+    pub row_px: Option<f64>,
+    /// Residual (observed − computed) in mm.
+    pub vx_mm: Option<f64>,
+    /// See `vx_mm`.
+    pub vy_mm: Option<f64>,
+    /// Normalised residual of data snooping.
+    pub w: Option<f64>,
+    /// Dropped by data snooping.
+    pub dropped: bool,
+}
+
+/// Every observation of an epoch with its image coordinates and residual, image by image in
+/// upload order.
+pub async fn observation_residuals(
+    db: impl SqliteExecutor<'_>,
+    site: &str,
+    id: i64,
+) -> Result<Vec<ObservationResidual>, StoreError> {
+    Ok(sqlx::query_as(
+        "SELECT o.image_id, o.point, o.x_mm, o.y_mm, o.col_px, o.row_px, o.vx_mm, o.vy_mm, o.w, o.dropped \
+         FROM observations o JOIN images i ON i.site_id = o.site_id AND i.epoch_id = o.epoch_id AND i.id = o.image_id \
+         WHERE o.site_id = ? AND o.epoch_id = ? ORDER BY i.seq, o.seq",
+    )
+    .bind(site)
+    .bind(id)
+    .fetch_all(db)
+    .await?)
+}

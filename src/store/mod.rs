@@ -43,6 +43,7 @@ pub mod groups;
 pub mod points;
 pub mod series;
 pub mod series_blocks;
+pub mod series_columns;
 pub mod series_record;
 pub mod sites;
 pub mod sqlite_raw;

@@ -253,7 +253,7 @@ fn run_csv_batched(
 /// Calls `each` with every row of `q` in time order as a packed record
 /// ([`series_record`]): a block's records in the range as they are stored, a tail row packed
 /// first. `each` returns `false` to stop.
-fn each_record(
+pub(super) fn each_record(
     conn: &mut sqlx::pool::PoolConnection<sqlx::Sqlite>,
     q: &SeriesQuery,
     mut each: impl FnMut(&[u8]) -> bool,
@@ -328,7 +328,7 @@ pub fn format_rows(
     w.out
 }
 
-fn reader_failed(e: tokio::task::JoinError) -> StoreError {
+pub(super) fn reader_failed(e: tokio::task::JoinError) -> StoreError {
     StoreError::Sqlite {
         code: 0,
         message: format!("series reader: {e}"),

@@ -1,0 +1,105 @@
+//! Acknowledging an alert from the site page: an htmx form posts `by` and `comment` to
+//! `POST /dashboard/alerts/{id}/ack` (role `upload`, and with a session cookie its CSRF token in
+//! `x-csrf-token`), which acknowledges exactly as the API does and answers the alert's new
+//! table row.
+
+use axum::extract::{Path, State};
+use axum::http::{HeaderMap, StatusCode};
+use axum::response::{Html, IntoResponse, Redirect, Response};
+use axum::{Extension, Form};
+use maud::{html, Markup};
+use serde::Deserialize;
+
+use super::layout::{level_badge, num, seg, Viewer};
+use super::viewer;
+use crate::api::auth::Access;
+use crate::api::AppState;
+use crate::store::alerts::Alert;
+
+/// The acknowledgement form's fields.
+#[derive(Debug, Deserialize)]
+pub struct AckForm {
+    /// Who acknowledges (required, ≤ 200 characters).
+    pub by: String,
+    /// Optional comment (≤ 2000 characters).
+    #[serde(default)]
+    pub comment: Option<String>,
+}
+
+/// One row of the alert table: level, subject, rule, value, epoch, state, and the
+/// acknowledgement form while the alert is open and the viewer may acknowledge.
+pub fn alert_row(a: &Alert, v: &Viewer) -> Markup {
+    let site = seg(&a.site);
+    html! {
+        tr id={ "alert-" (a.id) } {
+            td { (level_badge(Some(&a.level))) }
+            td {
+                @if let Some(p) = &a.point {
+                    a href={ "/sites/" (site) "/points/" (seg(p)) } { (p) }
+                } @else if let Some(g) = &a.group {
+                    "group " (g) " (" (a.points.join(", ")) ")"
+                } @else {
+                    "site"
+                }
+            }
+            td { (a.rule) }
+            td.num { (num(a.value, 2)) " " (a.unit.as_deref().unwrap_or("")) }
+            td { @if let Some(e) = a.epoch { a href={ "/sites/" (site) "/epochs/" (e) } { (a.observed_at.as_deref().unwrap_or("")) } } }
+            td.state {
+                (a.state)
+                @if let Some(by) = &a.acknowledged_by { " by " (by) }
+                @if let Some(c) = &a.ack_comment { ": " q { (c) } }
+            }
+            td {
+                @if a.state == "open" && v.can_acknowledge {
+                    form.ack hx-post={ "/dashboard/alerts/" (a.id) "/ack" } hx-target="closest tr" hx-swap="outerHTML" {
+                        input name="by" placeholder="your name" required maxlength="200";
+                        input name="comment" placeholder="comment" maxlength="2000";
+                        button type="submit" { "acknowledge" }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// `POST /dashboard/alerts/{id}/ack`: acknowledges; answers the new row (htmx) or redirects to
+/// the site page (a plain form post).
+pub async fn acknowledge(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    access: Option<Extension<Access>>,
+    Form(form): Form<AckForm>,
+) -> Response {
+    let by = form.by.trim();
+    if by.is_empty() || by.chars().count() > 200 {
+        return (
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "by: a name of 1 to 200 characters",
+        )
+            .into_response();
+    }
+    let comment = form
+        .comment
+        .as_deref()
+        .map(str::trim)
+        .filter(|c| !c.is_empty());
+    if comment.is_some_and(|c| c.chars().count() > 2000) {
+        return (
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "comment: at most 2000 characters",
+        )
+            .into_response();
+    }
+    match crate::api::alerts::acknowledge_alert(&state, &id, by, comment).await {
+        Ok(alert) => {
+            if headers.contains_key("hx-request") {
+                Html(alert_row(&alert, &viewer(access.as_deref())).into_string()).into_response()
+            } else {
+                Redirect::to(&format!("/sites/{}", seg(&alert.site))).into_response()
+            }
+        }
+        Err(e) => (e.status, e.message).into_response(),
+    }
+}

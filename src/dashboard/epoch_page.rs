@@ -1,0 +1,170 @@
+//! `GET /sites/{site}/epochs/{epoch}`: the adjustment report (σ0, the global test, c ± σ,
+//! iterations, datum, dropped observations with their w) and the image residuals of each image
+//! as a vector plot.
+
+use std::collections::BTreeMap;
+
+use axum::extract::{Path, State};
+use axum::response::Html;
+use axum::Extension;
+use maud::{html, Markup};
+use serde_json::Value;
+
+use super::face_plan::nice_floor;
+use super::layout::{num, page, seg, with_sigma};
+use super::{viewer, PageError};
+use crate::api::auth::Access;
+use crate::api::AppState;
+use crate::store::epochs::{self, ObservationResidual};
+use crate::store::sites;
+
+/// The epoch page.
+pub async fn epoch(
+    State(state): State<AppState>,
+    Path((site_id, epoch)): Path<(String, String)>,
+    access: Option<Extension<Access>>,
+) -> Result<Html<String>, PageError> {
+    let db = state.store.reader();
+    let Some(site) = sites::get(db, &site_id).await? else {
+        return Err(PageError::not_found(format!("no site '{site_id}'")));
+    };
+    let Ok(id) = epoch.parse::<i64>() else {
+        return Err(PageError::not_found(format!("no epoch '{epoch}'")));
+    };
+    let Some((item, report)) = epochs::get(db, &site.id, id).await? else {
+        return Err(PageError::not_found(format!(
+            "no epoch {id} in site '{site_id}'"
+        )));
+    };
+    let obs = epochs::observation_residuals(db, &site.id, id).await?;
+    let mut by_image: BTreeMap<(usize, String), Vec<ObservationResidual>> = BTreeMap::new();
+    let mut order: Vec<String> = vec![];
+    for o in obs {
+        if !order.contains(&o.image_id) {
+            order.push(o.image_id.clone());
+        }
+        let k = order.iter().position(|x| *x == o.image_id).unwrap_or(0);
+        by_image.entry((k, o.image_id.clone())).or_default().push(o);
+    }
+    let f = |k: &str| report.get(k).and_then(Value::as_f64);
+    let dropped = report
+        .get("dropped")
+        .and_then(Value::as_array)
+        .cloned()
+        .unwrap_or_default();
+    let cameras = report
+        .get("cameras")
+        .and_then(Value::as_array)
+        .cloned()
+        .unwrap_or_default();
+    let warnings = report
+        .get("warnings")
+        .and_then(Value::as_array)
+        .cloned()
+        .unwrap_or_default();
+    let text = |v: &Value| match v {
+        Value::String(s) => s.clone(),
+        Value::Null => "–".into(),
+        other => other.to_string(),
+    };
+    let v = viewer(access.as_deref());
+    let s = seg(&site.id);
+    let body = html! {
+        h1 { "Epoch " (item.id) " · " (item.observed_at) }
+        table.report {
+            tr { th { "status" } td { (item.status) } }
+            tr { th { "model" } td { (item.model) } }
+            tr { th { "σ0 (mm)" } td { (num(Some(item.sigma0_mm), 5)) } }
+            tr { th { "variance factor" } td { (num(f("variance_factor"), 3)) } }
+            tr { th { "global test" } td { (report.get("global_test").map(text).unwrap_or_else(|| "–".into())) } }
+            tr { th { "variance model" } td { (report.get("variance_model").map(text).unwrap_or_else(|| "–".into())) } }
+            tr { th { "degrees of freedom" } td { (report.get("dof").map(text).unwrap_or_else(|| "–".into())) } }
+            tr { th { "iterations" } td { (item.iterations) } }
+            tr { th { "datum" } td { (report.get("datum").map(text).unwrap_or_else(|| "–".into())) } }
+            @for c in &cameras {
+                tr { th { "c ± σ (mm), camera " (c.get("id").map(text).unwrap_or_default()) }
+                     td { (with_sigma(c.get("c_mm").and_then(Value::as_f64), c.get("c_sigma_mm").and_then(Value::as_f64), 3)) } }
+            }
+        }
+        @if !warnings.is_empty() {
+            ul.warnings { @for w in &warnings { li { (text(w)) } } }
+        }
+        h2 { "Dropped observations" }
+        @if dropped.is_empty() {
+            p.note { "None: every observation passed data snooping." }
+        } @else {
+            table.dropped {
+                thead { tr { th { "image" } th { "point" } th { "w" } } }
+                tbody { @for d in &dropped {
+                    tr { td { (d.get("image").map(text).unwrap_or_default()) }
+                         td { (d.get("point").map(text).unwrap_or_default()) }
+                         td.num { (num(d.get("w").and_then(Value::as_f64), 2)) } }
+                } }
+            }
+        }
+        h2 { "Image residuals" }
+        div.residuals {
+            @for ((_, image), rows) in &by_image {
+                figure { figcaption { "image " (image) } (residual_plot(rows)) }
+            }
+        }
+    };
+    let crumbs = [
+        (site.name.clone(), format!("/sites/{s}")),
+        (
+            format!("epoch {}", item.id),
+            format!("/sites/{s}/epochs/{}", item.id),
+        ),
+    ];
+    Ok(Html(
+        page(&format!("epoch {}", item.id), &crumbs, &v, body).into_string(),
+    ))
+}
+
+/// The residual vectors of one image drawn at their image positions, exaggerated so the largest
+/// is a tenth of the image's extent; dropped observations in red.
+fn residual_plot(rows: &[ObservationResidual]) -> Markup {
+    let pos = |o: &ObservationResidual| match (o.x_mm, o.y_mm, o.col_px, o.row_px) {
+        (Some(x), Some(y), _, _) => Some((x, y)),
+        (_, _, Some(c), Some(r)) => Some((c, -r)),
+        _ => None,
+    };
+    let pts: Vec<(&ObservationResidual, (f64, f64))> =
+        rows.iter().filter_map(|o| pos(o).map(|p| (o, p))).collect();
+    if pts.is_empty() {
+        return html! { p.note { "no image coordinates" } };
+    }
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for (_, (x, y)) in &pts {
+        x0 = x0.min(*x);
+        x1 = x1.max(*x);
+        y0 = y0.min(*y);
+        y1 = y1.max(*y);
+    }
+    let extent = (x1 - x0).max(y1 - y0).max(1e-9);
+    let (w, h, pad) = (360.0, 260.0, 20.0);
+    let scale = ((w - 2.0 * pad) / (x1 - x0).max(extent * 0.05))
+        .min((h - 2.0 * pad) / (y1 - y0).max(extent * 0.05));
+    let vmax = pts
+        .iter()
+        .map(|(o, _)| o.vx_mm.unwrap_or(0.0).hypot(o.vy_mm.unwrap_or(0.0)))
+        .fold(0.0f64, f64::max);
+    let exaggeration = if vmax > 0.0 {
+        nice_floor(0.1 * extent / vmax)
+    } else {
+        1.0
+    };
+    html! {
+        svg.residual viewBox={ "0 0 " (w) " " (h) } xmlns="http://www.w3.org/2000/svg" {
+            @for (o, (x, y)) in &pts {
+                @let (px, py) = (pad + (x - x0) * scale, h - pad - (y - y0) * scale);
+                @let (dx, dy) = (o.vx_mm.unwrap_or(0.0) * exaggeration * scale, o.vy_mm.unwrap_or(0.0) * exaggeration * scale);
+                circle cx=(format!("{px:.1}")) cy=(format!("{py:.1}")) r="2" { title { (o.point) } }
+                line class={ "res" @if o.dropped { " dropped" } } x1=(format!("{px:.1}")) y1=(format!("{py:.1}")) x2=(format!("{:.1}", px + dx)) y2=(format!("{:.1}", py - dy)) {
+                    title { (o.point) ": " (num(o.vx_mm.map(|v| v * 1000.0), 2)) ", " (num(o.vy_mm.map(|v| v * 1000.0), 2)) " µm, w " (num(o.w, 2)) @if o.dropped { " (dropped)" } }
+                }
+            }
+            text x="4" y=(format!("{:.0}", h - 4.0)) { "residuals × " (exaggeration) }
+        }
+    }
+}

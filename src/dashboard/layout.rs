@@ -1,0 +1,134 @@
+//! The page shell every dashboard page shares, and small formatting helpers. maud escapes every
+//! value put into the HTML; nothing from the database is written unescaped.
+
+use maud::{html, Markup, DOCTYPE};
+
+/// What a page needs from the request: the CSRF token of a cookie session (sent by htmx with
+/// every change), and whether the visitor may acknowledge alerts.
+#[derive(Debug, Clone, Default)]
+pub struct Viewer {
+    /// CSRF token of the session (None: no tokens configured, or a bearer-token client).
+    pub csrf: Option<String>,
+    /// May acknowledge (role `upload` or higher, or no tokens configured).
+    pub can_acknowledge: bool,
+    /// Signed in through the sign-in form (shows "sign out").
+    pub signed_in: bool,
+}
+
+/// The full page: title, breadcrumbs (`(label, href)`; the last one is the page itself), body.
+pub fn page(title: &str, crumbs: &[(String, String)], viewer: &Viewer, body: Markup) -> Markup {
+    let headers = viewer
+        .csrf
+        .as_ref()
+        .map(|t| serde_json::json!({ "x-csrf-token": t }).to_string());
+    html! {
+        (DOCTYPE)
+        html lang="en" {
+            head {
+                meta charset="utf-8";
+                meta name="viewport" content="width=device-width, initial-scale=1";
+                title { (title) " · cliffwatch" }
+                link rel="stylesheet" href="/assets/uPlot.min.css";
+                link rel="stylesheet" href="/assets/dashboard.css";
+                script src="/assets/htmx.min.js" defer {}
+                script src="/assets/uPlot.iife.min.js" defer {}
+                script src="/assets/plots.js" defer {}
+            }
+            body hx-headers=[headers] {
+                header.top {
+                    nav.crumbs {
+                        a href="/" { "cliffwatch" }
+                        @for (label, href) in crumbs {
+                            " / " a href=(href) { (label) }
+                        }
+                    }
+                    @if viewer.signed_in {
+                        form.signout method="post" action="/signout" {
+                            input type="hidden" name="csrf" value=[viewer.csrf.as_deref()];
+                            button type="submit" { "sign out" }
+                        }
+                    }
+                }
+                main { (body) }
+            }
+        }
+    }
+}
+
+/// CSS class of an alert level (`watch`, `warning`, `alarm`; anything else: `ok`).
+pub fn level_class(level: Option<&str>) -> &'static str {
+    match level {
+        Some("alarm") => "alarm",
+        Some("warning") => "warning",
+        Some("watch") => "watch",
+        _ => "ok",
+    }
+}
+
+/// Rank of a level (ok 0 < watch < warning < alarm).
+pub fn level_rank(level: &str) -> u8 {
+    match level {
+        "alarm" => 3,
+        "warning" => 2,
+        "watch" => 1,
+        _ => 0,
+    }
+}
+
+/// A badge with the level's colour and word.
+pub fn level_badge(level: Option<&str>) -> Markup {
+    let class = level_class(level);
+    let word = if class == "ok" { "no alert" } else { class };
+    html! { span class={ "badge " (class) } { (word) } }
+}
+
+/// A number with `digits` decimals, or "–" when missing or not finite.
+pub fn num(v: Option<f64>, digits: usize) -> String {
+    match v {
+        Some(x) if x.is_finite() => format!("{x:.digits$}"),
+        _ => "–".to_string(),
+    }
+}
+
+/// "v ± σ" with `digits` decimals, "–" when the value is missing.
+pub fn with_sigma(v: Option<f64>, sigma: Option<f64>, digits: usize) -> String {
+    match (v, sigma) {
+        (Some(v), Some(s)) if v.is_finite() && s.is_finite() => {
+            format!("{v:.digits$} ± {s:.digits$}")
+        }
+        (v, _) => num(v, digits),
+    }
+}
+
+/// A path segment percent-encoded (site and point names are user input).
+pub fn seg(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for b in s.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
+            out.push(b as char);
+        } else {
+            out.push_str(&format!("%{b:02X}"));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn user_text_is_escaped_and_segments_encoded() {
+        let v = Viewer::default();
+        let p = page(
+            "<b>x</b>",
+            &[("<i>".into(), "/sites/a".into())],
+            &v,
+            html! {},
+        )
+        .into_string();
+        assert!(p.contains("&lt;b&gt;x&lt;/b&gt;") && p.contains("&lt;i&gt;"));
+        assert!(!p.contains("<b>x"));
+        assert_eq!(seg("a b/<c>"), "a%20b%2F%3Cc%3E");
+    }
+}

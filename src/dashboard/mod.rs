@@ -1,0 +1,104 @@
+//! The dashboard: server-rendered pages in the daemon itself, on the API's port, with nothing to
+//! install and no request to any other host.
+//!
+//! Pages link down by plain `<a href>`: sites ([`sites_page`], `/`) → site ([`site_page`],
+//! `/sites/{site}`: face plan, open alerts with acknowledgement, epochs, points) → point
+//! ([`point_page`], `/sites/{site}/points/{point}`: plots of the series with ±2σ bands,
+//! thresholds, alert markers, velocity and inverse velocity) → epoch ([`epoch_page`],
+//! `/sites/{site}/epochs/{epoch}`: the adjustment report and the residuals of each image).
+//!
+//! Plots are drawn in the browser by the vendored uPlot from columnar JSON that
+//! [`plot_data`] downsamples on the server ([`downsample`]), so a 10-year hourly history costs
+//! the browser what a short one does. Templates are maud (checked at compile time, escaping
+//! every value); assets are embedded ([`assets`]). Access follows the API's roles
+//! ([`crate::api::auth`], [`session`], [`sign_in`]); acknowledging needs `upload` and the
+//! session's CSRF token ([`acknowledge`]).
+//!
+//! Pure parts (no I/O): [`face_plan`] (the face's plane), [`downsample`] (which epochs a plot
+//! draws), [`plan_svg`] and [`layout`] (markup).
+
+pub mod acknowledge;
+pub mod assets;
+pub mod downsample;
+pub mod epoch_page;
+pub mod face_plan;
+pub mod layout;
+pub mod plan_svg;
+pub mod plot_data;
+pub mod point_page;
+pub mod session;
+pub mod sign_in;
+pub mod site_page;
+pub mod sites_page;
+
+use axum::http::StatusCode;
+use axum::response::{Html, IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::Router;
+use maud::html;
+
+use crate::api::AppState;
+use crate::store::StoreError;
+
+/// The dashboard's routes (merged into the API's router, behind the same auth).
+pub fn routes() -> Router<AppState> {
+    Router::new()
+        .route("/", get(sites_page::sites))
+        .route("/sites/{site}", get(site_page::site))
+        .route("/sites/{site}/points/{point}", get(point_page::point))
+        .route("/sites/{site}/epochs/{epoch}", get(epoch_page::epoch))
+        .route("/dashboard/plot/{site}/{point}", get(plot_data::plot))
+        .route("/dashboard/alerts/{id}/ack", post(acknowledge::acknowledge))
+        .route("/signin", get(sign_in::form).post(sign_in::sign_in))
+        .route("/signout", post(sign_in::sign_out))
+        .route("/assets/{file}", get(assets::asset))
+}
+
+/// A page that cannot be shown: an HTML page with the status and a plain message.
+#[derive(Debug)]
+pub struct PageError {
+    status: StatusCode,
+    message: String,
+}
+
+impl PageError {
+    /// 404 with `message`.
+    pub fn not_found(message: impl Into<String>) -> Self {
+        PageError {
+            status: StatusCode::NOT_FOUND,
+            message: message.into(),
+        }
+    }
+}
+
+impl From<StoreError> for PageError {
+    fn from(e: StoreError) -> Self {
+        tracing::error!(error = %e, "dashboard: database read failed");
+        PageError {
+            status: StatusCode::INTERNAL_SERVER_ERROR,
+            message: "the database could not be read; see the service log".into(),
+        }
+    }
+}
+
+impl IntoResponse for PageError {
+    fn into_response(self) -> Response {
+        let body = layout::page(
+            self.status.canonical_reason().unwrap_or("error"),
+            &[],
+            &layout::Viewer::default(),
+            html! { h1 { (self.status.as_u16()) " " (self.status.canonical_reason().unwrap_or("")) } p { (self.message) } },
+        );
+        (self.status, Html(body.into_string())).into_response()
+    }
+}
+
+/// The viewer of a request as the auth middleware let it in.
+pub fn viewer(access: Option<&crate::api::auth::Access>) -> layout::Viewer {
+    let a = access.cloned().unwrap_or_default();
+    layout::Viewer {
+        can_acknowledge: a.allows(crate::config::Role::Upload),
+        signed_in: a.cookie,
+        csrf: a.csrf,
+    }
+}

@@ -1,0 +1,147 @@
+//! The face plan drawn as SVG: points in the best-fit plane of the face ([`super::face_plan`]),
+//! coloured by alert level, stable points as triangles, displacement vectors exaggerated, with
+//! the exaggeration and two scale bars (plan metres, displacement millimetres).
+
+use maud::{html, Markup};
+
+use super::face_plan::{nice_floor, FacePlane};
+use super::layout::{level_class, seg};
+
+/// One point to draw.
+#[derive(Debug, Clone)]
+pub struct PlanPoint {
+    /// Name (label and link).
+    pub name: String,
+    /// Latest coordinates, site frame, m.
+    pub xyz: [f64; 3],
+    /// Latest displacement (dx, dy, dz) in mm, when there is one.
+    pub d_mm: Option<[f64; 3]>,
+    /// Highest active alert level of the point.
+    pub level: Option<String>,
+    /// A stable (datum) point.
+    pub stable: bool,
+}
+
+const W: f64 = 900.0;
+const H: f64 = 520.0;
+const PAD: f64 = 48.0;
+
+/// The plan of `site`'s points; a note instead when fewer than three points span a plane.
+pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
+    let xyz: Vec<[f64; 3]> = points.iter().map(|p| p.xyz).collect();
+    let Some(plane) = FacePlane::fit(&xyz) else {
+        return html! { p.note { "The face plan needs at least three points that span a plane." } };
+    };
+    let uv: Vec<[f64; 2]> = xyz.iter().map(|p| plane.project(*p)).collect();
+    let (mut u0, mut u1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for p in &uv {
+        u0 = u0.min(p[0]);
+        u1 = u1.max(p[0]);
+        v0 = v0.min(p[1]);
+        v1 = v1.max(p[1]);
+    }
+    let extent = (u1 - u0).max(v1 - v0).max(1e-3);
+    let scale = ((W - 2.0 * PAD) / (u1 - u0).max(1e-3)).min((H - 2.0 * PAD) / (v1 - v0).max(1e-3));
+    let sx = |u: f64| PAD + (u - u0) * scale;
+    let sy = |v: f64| H - PAD - (v - v0) * scale;
+    // Exaggeration: the largest in-plane displacement drawn as 15 % of the plan's extent.
+    let max_d_m = points
+        .iter()
+        .filter_map(|p| p.d_mm)
+        .map(|d| {
+            let v = plane.project_vector(d);
+            (v[0].hypot(v[1])) / 1000.0
+        })
+        .fold(0.0f64, f64::max);
+    let exaggeration = if max_d_m > 0.0 {
+        nice_floor(0.15 * extent / max_d_m).max(1.0)
+    } else {
+        1.0
+    };
+    let bar_m = nice_floor(extent / 5.0);
+    let bar_px = bar_m * scale;
+    let bar_mm = bar_m * 1000.0 / exaggeration;
+    html! {
+        svg.plan viewBox={ "0 0 " (W) " " (H) } role="img" aria-label="face plan" xmlns="http://www.w3.org/2000/svg" {
+            defs {
+                marker id="arrow" viewBox="0 0 10 10" refX="9" refY="5" markerWidth="6" markerHeight="6" orient="auto-start-reverse" {
+                    path d="M 0 0 L 10 5 L 0 10 z" fill="#333" {}
+                }
+            }
+            @for (p, q) in points.iter().zip(&uv) {
+                @let (x, y) = (sx(q[0]), sy(q[1]));
+                @let class = level_class(p.level.as_deref());
+                a href={ "/sites/" (seg(site)) "/points/" (seg(&p.name)) } {
+                    @if let Some(d) = p.d_mm {
+                        @let v = plane.project_vector(d);
+                        @let (dx, dy) = (v[0] / 1000.0 * exaggeration * scale, v[1] / 1000.0 * exaggeration * scale);
+                        @if dx.hypot(dy) > 1.5 {
+                            line.vector x1=(fmt(x)) y1=(fmt(y)) x2=(fmt(x + dx)) y2=(fmt(y - dy)) marker-end="url(#arrow)" {}
+                        }
+                    }
+                    @if p.stable {
+                        polygon class={ "pt stable " (class) } points={ (fmt(x)) "," (fmt(y - 8.0)) " " (fmt(x - 7.0)) "," (fmt(y + 5.0)) " " (fmt(x + 7.0)) "," (fmt(y + 5.0)) } {
+                            title { (p.name) " (stable)" }
+                        }
+                    } @else {
+                        circle class={ "pt " (class) } cx=(fmt(x)) cy=(fmt(y)) r="6" {
+                            title { (p.name) }
+                        }
+                    }
+                    text.label x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
+                }
+            }
+            g.scale {
+                line x1=(fmt(PAD)) y1=(fmt(H - 14.0)) x2=(fmt(PAD + bar_px)) y2=(fmt(H - 14.0)) {}
+                text x=(fmt(PAD)) y=(fmt(H - 20.0)) {
+                    (short(bar_m)) " m on the face · " (short(bar_mm)) " mm of displacement"
+                }
+                text x=(fmt(W - PAD)) y=(fmt(H - 20.0)) text-anchor="end" {
+                    "vectors × " (short(exaggeration)) " · along the face → · height ↑"
+                }
+            }
+        }
+    }
+}
+
+fn fmt(x: f64) -> String {
+    format!("{x:.1}")
+}
+
+fn short(x: f64) -> String {
+    if x >= 100.0 || x == x.round() {
+        format!("{x:.0}")
+    } else {
+        format!("{}", (x * 1000.0).round() / 1000.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_plan_names_every_point_and_escapes_names() {
+        let pts: Vec<PlanPoint> = (0..6)
+            .map(|i| PlanPoint {
+                name: if i == 0 {
+                    "<script>x</script>".into()
+                } else {
+                    format!("T{i}")
+                },
+                xyz: [i as f64 * 2.0, 100.0, (i % 3) as f64 * 4.0],
+                d_mm: Some([0.0, -3.0 * (i % 2) as f64, 1.0]),
+                level: (i == 2).then(|| "warning".to_string()),
+                stable: i == 5,
+            })
+            .collect();
+        let svg = face_plan("s<1>", &pts).into_string();
+        for i in 1..6 {
+            assert!(svg.contains(&format!(">T{i}</text>")), "T{i}");
+        }
+        assert!(svg.contains("&lt;script&gt;") && !svg.contains("<script>"));
+        assert!(svg.contains("pt warning") && svg.contains("pt stable"));
+        assert!(svg.contains("vectors ×"));
+        assert!(svg.contains("/sites/s%3C1%3E/points/T1"));
+    }
+}

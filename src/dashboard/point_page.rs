@@ -1,0 +1,85 @@
+//! `GET /sites/{site}/points/{point}`: plots against time of dx, dy, dz, the 3-D displacement
+//! and the displacement along the direction of interest, each with its ±2σ band; threshold
+//! lines of the rules that apply and markers where alerts were raised, escalated, acknowledged
+//! and resolved; the velocity and the inverse velocity with its fitted line and the forecast
+//! failure time; the filtered series beside the raw one; CSV download of the same data.
+//!
+//! The page holds the plot containers; `plots.js` draws them with uPlot from
+//! [`super::plot_data`].
+
+use axum::extract::{Path, State};
+use axum::response::Html;
+use axum::Extension;
+use maud::html;
+
+use super::layout::{level_badge, level_rank, num, page, seg, with_sigma};
+use super::{viewer, PageError};
+use crate::api::auth::Access;
+use crate::api::AppState;
+use crate::store::{alerts, displacements, points, sites};
+
+/// The point page.
+pub async fn point(
+    State(state): State<AppState>,
+    Path((site_id, point)): Path<(String, String)>,
+    access: Option<Extension<Access>>,
+) -> Result<Html<String>, PageError> {
+    let db = state.store.reader();
+    let Some(site) = sites::get(db, &site_id).await? else {
+        return Err(PageError::not_found(format!("no site '{site_id}'")));
+    };
+    let Some(p) = points::get(db, &site.id, &point).await? else {
+        return Err(PageError::not_found(format!(
+            "no point '{point}' in site '{site_id}'"
+        )));
+    };
+    let level = alerts::active_levels(db, &site.id)
+        .await?
+        .into_iter()
+        .filter(|(q, _)| *q == p.name)
+        .map(|(_, l)| l)
+        .max_by_key(|l| level_rank(l));
+    let latest = displacements::latest(db, &site.id)
+        .await?
+        .into_iter()
+        .find(|d| d.point == p.name);
+    let (s, n) = (seg(&site.id), seg(&p.name));
+    let data = format!("/dashboard/plot/{s}/{n}");
+    let csv = format!("/api/v1/sites/{s}/points/{n}/displacements?format=csv");
+    let v = viewer(access.as_deref());
+    let body = html! {
+        h1 { (p.name) " " (level_badge(level.as_deref())) }
+        p {
+            (p.role)
+            @if let Some(g) = &p.group { " · group " (g) }
+            @if let Some(d) = p.direction { " · direction [" (num(Some(d[0]), 3)) ", " (num(Some(d[1]), 3)) ", " (num(Some(d[2]), 3)) "]" }
+            " · " a href=(csv) download { "CSV of the series" }
+        }
+        @if let Some(d) = &latest {
+            table.latest {
+                tr { th { "latest epoch" } td { a href={ "/sites/" (s) "/epochs/" (d.epoch) } { (d.observed_at) } } }
+                tr { th { "d (mm)" } td { (with_sigma(Some(d.d_mm), Some(d.sigma_mm), 2)) @if d.significant { " (significant)" } } }
+                tr { th { "filtered d (mm)" } td { (with_sigma(d.f_d_mm, d.sigma_f_d_mm, 2)) } }
+                tr { th { "velocity (mm/day)" } td { (with_sigma(d.f_velocity_mm_per_day, d.sigma_f_velocity_mm_per_day, 3)) } }
+                tr { th { "time to failure (h)" } td { (with_sigma(d.f_time_to_failure_hours, d.sigma_f_time_to_failure_hours, 0)) } }
+            }
+        } @else {
+            p.note { "No displacement yet: the point has no epoch after the reference." }
+        }
+        div.plots data-src=(data) {
+            figure { figcaption { "dx, dy, dz (mm), ±2σ" } div.plot data-panel="xyz" {} }
+            figure { figcaption { "3-D displacement d (mm), raw and filtered, ±2σ" } div.plot data-panel="d" {} }
+            @if p.direction.is_some() {
+                figure { figcaption { "displacement along the direction of interest (mm), ±2σ" } div.plot data-panel="along" {} }
+            }
+            figure { figcaption { "velocity (mm/day), raw and filtered ±2σ" } div.plot data-panel="velocity" {} }
+            figure { figcaption { "inverse velocity (day/mm) with the fitted line" } div.plot data-panel="inverse" {} p.forecast {} }
+        }
+        noscript { p.note { "The plots need JavaScript; the CSV link above has the same data." } }
+    };
+    let crumbs = [
+        (site.name.clone(), format!("/sites/{s}")),
+        (p.name.clone(), format!("/sites/{s}/points/{n}")),
+    ];
+    Ok(Html(page(&p.name, &crumbs, &v, body).into_string()))
+}

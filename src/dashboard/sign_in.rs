@@ -1,0 +1,106 @@
+//! `GET /signin`, `POST /signin`, `POST /signout`: a browser signs in with one of the configured
+//! bearer tokens and gets a session cookie ([`super::session`]: HttpOnly, SameSite=Strict, 12
+//! hours). Without configured tokens everything is open and the form is not needed.
+
+use axum::extract::{Query, State};
+use axum::http::{header, StatusCode};
+use axum::response::{Html, IntoResponse, Redirect, Response};
+use axum::Form;
+use maud::html;
+use serde::Deserialize;
+
+use super::layout::{page, Viewer};
+use super::session;
+use crate::api::AppState;
+
+/// Where to go after signing in.
+#[derive(Debug, Deserialize)]
+pub struct NextParam {
+    /// A path of this site (starting with one `/`); anything else goes to `/`.
+    pub next: Option<String>,
+}
+
+/// The sign-in form's fields.
+#[derive(Debug, Deserialize)]
+pub struct SignInForm {
+    /// A configured bearer token.
+    pub token: String,
+    /// Where to go afterwards.
+    #[serde(default)]
+    pub next: Option<String>,
+}
+
+fn safe_next(next: Option<&str>) -> String {
+    match next {
+        Some(n) if n.starts_with('/') && !n.starts_with("//") && !n.contains('\\') => n.to_string(),
+        _ => "/".to_string(),
+    }
+}
+
+fn form_page(next: &str, failed: bool) -> String {
+    page(
+        "Sign in",
+        &[],
+        &Viewer::default(),
+        html! {
+            h1 { "Sign in" }
+            @if failed { p.error { "That token is not valid." } }
+            form.signin method="post" action="/signin" {
+                label { "Token " input type="password" name="token" autocomplete="current-password" required; }
+                input type="hidden" name="next" value=(next);
+                button type="submit" { "sign in" }
+            }
+        },
+    )
+    .into_string()
+}
+
+/// `GET /signin`.
+pub async fn form(State(state): State<AppState>, Query(q): Query<NextParam>) -> Response {
+    let next = safe_next(q.next.as_deref());
+    if state.config.tokens.is_empty() {
+        return Redirect::to(&next).into_response();
+    }
+    Html(form_page(&next, false)).into_response()
+}
+
+/// `POST /signin`: a valid token sets the session cookie and redirects; another answers 401
+/// with the form again.
+pub async fn sign_in(State(state): State<AppState>, Form(f): Form<SignInForm>) -> Response {
+    let next = safe_next(f.next.as_deref());
+    let known = state
+        .config
+        .tokens
+        .iter()
+        .any(|t| session::constant_time_eq(t.token.as_bytes(), f.token.trim().as_bytes()));
+    if !known {
+        return (StatusCode::UNAUTHORIZED, Html(form_page(&next, true))).into_response();
+    }
+    let value = session::issue(f.token.trim(), chrono::Utc::now().timestamp());
+    let cookie = format!(
+        "{}={value}; Path=/; HttpOnly; SameSite=Strict; Max-Age={}",
+        session::COOKIE,
+        session::LIFETIME_SECS
+    );
+    (
+        StatusCode::SEE_OTHER,
+        [(header::SET_COOKIE, cookie), (header::LOCATION, next)],
+    )
+        .into_response()
+}
+
+/// `POST /signout`: clears the cookie.
+pub async fn sign_out() -> Response {
+    let cookie = format!(
+        "{}=; Path=/; HttpOnly; SameSite=Strict; Max-Age=0",
+        session::COOKIE
+    );
+    (
+        StatusCode::SEE_OTHER,
+        [
+            (header::SET_COOKIE, cookie),
+            (header::LOCATION, "/signin".to_string()),
+        ],
+    )
+        .into_response()
+}

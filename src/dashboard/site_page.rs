@@ -1,0 +1,137 @@
+//! `GET /sites/{site}`: the face plan, the open alerts with acknowledgement, the epochs (time,
+//! σ0, c ± σ, dropped observations) and a table of the points (latest displacement ± σ,
+//! significance, velocity, time to failure).
+
+use std::collections::HashMap;
+
+use axum::extract::{Path, State};
+use axum::response::Html;
+use axum::Extension;
+use maud::html;
+
+use super::acknowledge::alert_row;
+use super::layout::{level_badge, level_rank, num, page, seg, with_sigma};
+use super::plan_svg::{face_plan, PlanPoint};
+use super::{viewer, PageError};
+use crate::api::auth::Access;
+use crate::api::AppState;
+use crate::store::{alerts, displacements, epochs, points, sites};
+
+/// Epochs listed on the site page (newest first).
+const EPOCHS_SHOWN: i64 = 30;
+
+/// The site page.
+pub async fn site(
+    State(state): State<AppState>,
+    Path(site_id): Path<String>,
+    access: Option<Extension<Access>>,
+) -> Result<Html<String>, PageError> {
+    let db = state.store.reader();
+    let Some(site) = sites::get(db, &site_id).await? else {
+        return Err(PageError::not_found(format!("no site '{site_id}'")));
+    };
+    let pts = points::list(db, &site.id, None, 100_000).await?;
+    let coords = points::latest_coordinates(db, &site.id).await?;
+    let latest: HashMap<String, displacements::Displacement> = displacements::latest(db, &site.id)
+        .await?
+        .into_iter()
+        .map(|d| (d.point.clone(), d))
+        .collect();
+    let mut levels: HashMap<String, String> = HashMap::new();
+    for (p, l) in alerts::active_levels(db, &site.id).await? {
+        let e = levels.entry(p).or_default();
+        if level_rank(&l) > level_rank(e) {
+            *e = l;
+        }
+    }
+    let roles: HashMap<&str, &str> = pts
+        .iter()
+        .map(|p| (p.name.as_str(), p.role.as_str()))
+        .collect();
+    let plan: Vec<PlanPoint> = coords
+        .iter()
+        .map(|c| PlanPoint {
+            name: c.point.clone(),
+            xyz: c.xyz,
+            d_mm: latest.get(&c.point).map(|d| [d.dx_mm, d.dy_mm, d.dz_mm]),
+            level: levels.get(&c.point).cloned(),
+            stable: roles.get(c.point.as_str()) == Some(&"stable"),
+        })
+        .collect();
+    let active: Vec<alerts::Alert> = alerts::list(db, Some(&site.id), None, None, 500)
+        .await?
+        .into_iter()
+        .map(|(_, a)| a)
+        .filter(|a| a.state != "resolved")
+        .collect();
+    let mut epoch_rows = vec![];
+    for (_, e) in epochs::list(db, &site.id, None, EPOCHS_SHOWN).await? {
+        let dropped = epochs::get(db, &site.id, e.id)
+            .await?
+            .and_then(|(_, r)| r.get("dropped").and_then(|d| d.as_array()).map(Vec::len));
+        epoch_rows.push((e, dropped));
+    }
+    let v = viewer(access.as_deref());
+    let site_href = format!("/sites/{}", seg(&site.id));
+    let body = html! {
+        h1 { (site.name) " " small { (site.id) } }
+        section {
+            h2 { "Face plan" }
+            (face_plan(&site.id, &plan))
+        }
+        section {
+            h2 { "Open alerts" }
+            @if active.is_empty() {
+                p.note { "No open alert." }
+            } @else {
+                table.alerts {
+                    thead { tr { th { "level" } th { "subject" } th { "rule" } th { "value" } th { "epoch" } th { "state" } th { "acknowledge" } } }
+                    tbody { @for a in &active { (alert_row(a, &v)) } }
+                }
+            }
+        }
+        section {
+            h2 { "Points" }
+            table.points {
+                thead { tr {
+                    th { "point" } th { "role" } th { "state" } th { "d (mm) ± σ" } th { "significant" }
+                    th { "velocity (mm/day)" } th { "time to failure (h)" }
+                } }
+                tbody {
+                    @for p in &pts {
+                        @let d = latest.get(&p.name);
+                        tr {
+                            td { a href={ (site_href) "/points/" (seg(&p.name)) } { (p.name) } }
+                            td { (p.role) @if let Some(g) = &p.group { " · " (g) } }
+                            td { (level_badge(levels.get(&p.name).map(String::as_str))) }
+                            td.num { (with_sigma(d.map(|d| d.d_mm), d.map(|d| d.sigma_mm), 2)) }
+                            td { @if d.is_some_and(|d| d.significant) { "yes" } @else { "no" } }
+                            td.num { (with_sigma(d.and_then(|d| d.f_velocity_mm_per_day.or(d.velocity_mm_per_day)), d.and_then(|d| d.sigma_f_velocity_mm_per_day), 3)) }
+                            td.num { (with_sigma(d.and_then(|d| d.f_time_to_failure_hours), d.and_then(|d| d.sigma_f_time_to_failure_hours), 0)) }
+                        }
+                    }
+                }
+            }
+        }
+        section {
+            h2 { "Epochs" }
+            table.epochs {
+                thead { tr { th { "observed at" } th { "status" } th { "σ0 (mm)" } th { "c ± σ (mm)" } th { "iterations" } th { "dropped" } } }
+                tbody {
+                    @for (e, dropped) in &epoch_rows {
+                        tr {
+                            td { a href={ (site_href) "/epochs/" (e.id) } { (e.observed_at) } }
+                            td { (e.status) }
+                            td.num { (num(Some(e.sigma0_mm), 5)) }
+                            td.num { (with_sigma(e.c_mm, e.c_sigma_mm, 3)) }
+                            td.num { (e.iterations) }
+                            td.num { (dropped.map_or("–".to_string(), |n| n.to_string())) }
+                        }
+                    }
+                }
+            }
+        }
+    };
+    let crumbs = [(site.name.clone(), site_href.clone())];
+    Ok(Html(page(&site.name, &crumbs, &v, body).into_string()))
+}

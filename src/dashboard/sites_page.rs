@@ -1,0 +1,70 @@
+//! `GET /`: every site with its state at a glance: highest open alert level (colour and word),
+//! last epoch and its time with an overdue badge, number of points.
+
+use axum::extract::State;
+use axum::response::Html;
+use axum::Extension;
+use maud::html;
+
+use super::layout::{level_badge, level_rank, page, seg};
+use super::{viewer, PageError};
+use crate::api::auth::Access;
+use crate::api::AppState;
+use crate::store::{alerts, epochs, points, sites};
+
+/// The sites page.
+pub async fn sites(
+    State(state): State<AppState>,
+    access: Option<Extension<Access>>,
+) -> Result<Html<String>, PageError> {
+    let db = state.store.reader();
+    let all = sites::list(db, None, 10_000).await?;
+    let now = chrono::Utc::now();
+    let mut rows = vec![];
+    for s in &all {
+        let open = alerts::list(db, Some(&s.id), None, None, 10_000).await?;
+        let level = open
+            .iter()
+            .filter(|(_, a)| a.state != "resolved")
+            .map(|(_, a)| a.level.as_str())
+            .max_by_key(|l| level_rank(l))
+            .map(str::to_string);
+        let last = epochs::list(db, &s.id, None, 1).await?.into_iter().next();
+        let n_points = points::list(db, &s.id, None, 100_000).await?.len();
+        let overdue = match (&last, s.schedule_hours) {
+            (Some((_, e)), Some(h)) => chrono::DateTime::parse_from_rfc3339(&e.observed_at)
+                .is_ok_and(|t| {
+                    (now - t.with_timezone(&chrono::Utc)).num_seconds() as f64 > h * 3600.0
+                }),
+            _ => false,
+        };
+        rows.push((s, level, last.map(|(_, e)| e), n_points, overdue));
+    }
+    let v = viewer(access.as_deref());
+    let body = html! {
+        h1 { "Sites" }
+        @if rows.is_empty() {
+            p.note { "No site yet. Create one with " code { "POST /api/v1/sites" } "." }
+        } @else {
+            table.sites {
+                thead { tr { th { "site" } th { "state" } th { "last epoch" } th { "points" } } }
+                tbody {
+                    @for (s, level, last, n, overdue) in &rows {
+                        tr {
+                            td { a href={ "/sites/" (seg(&s.id)) } { (s.name) } " " small { (s.id) } }
+                            td { (level_badge(level.as_deref())) }
+                            td {
+                                @if let Some(e) = last {
+                                    a href={ "/sites/" (seg(&s.id)) "/epochs/" (e.id) } { (e.observed_at) }
+                                } @else { "none yet" }
+                                @if *overdue { " " span.badge.overdue { "overdue" } }
+                            }
+                            td.num { (n) }
+                        }
+                    }
+                }
+            }
+        }
+    };
+    Ok(Html(page("Sites", &[], &v, body).into_string()))
+}

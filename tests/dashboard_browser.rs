@@ -1,0 +1,247 @@
+//! The dashboard in a real browser: headless Chromium driven through ChromeDriver (W3C
+//! WebDriver over HTTP). The point page's plots are drawn by the embedded uPlot from the
+//! server's data (canvases exist, no error), and an alert is acknowledged by typing a name and
+//! clicking the button of the site page (htmx), which the API then reports.
+//!
+//! Needs `chromium` and `chromedriver` (Debian's `chromium`, `chromium-driver`; `.ci/run`
+//! installs them). Under `CI=true` their absence fails the test; elsewhere it is skipped with a
+//! message.
+
+mod dashboard_support;
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use dashboard_support::service_support::{free_port, TestServer};
+use dashboard_support::{fill, name, POINTS, SITE};
+use serde_json::{json, Value};
+
+const CHROMIUM: &str = "/usr/bin/chromium";
+const DRIVER: &str = "/usr/bin/chromedriver";
+const ELEMENT: &str = "element-6066-11e4-a52e-4f735466cecf";
+
+struct Driver {
+    child: Child,
+    base: String,
+    session: String,
+    client: reqwest::Client,
+    _profile: tempfile::TempDir,
+}
+
+impl Driver {
+    async fn start() -> Option<Driver> {
+        if !(Path::new(CHROMIUM).exists() && Path::new(DRIVER).exists()) {
+            assert!(
+                std::env::var("CI").as_deref() != Ok("true"),
+                "CI=true: {CHROMIUM} and {DRIVER} are required (apt-get install chromium chromium-driver)"
+            );
+            eprintln!("skipped: {CHROMIUM} or {DRIVER} missing");
+            return None;
+        }
+        let port = free_port();
+        let child = Command::new(DRIVER)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("chromedriver starts");
+        let base = format!("http://127.0.0.1:{port}");
+        let client = reqwest::Client::new();
+        let t0 = Instant::now();
+        loop {
+            if let Ok(r) = client.get(format!("{base}/status")).send().await {
+                if r.status().is_success() {
+                    break;
+                }
+            }
+            assert!(t0.elapsed() < Duration::from_secs(20), "chromedriver ready");
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+        let profile = tempfile::tempdir().unwrap();
+        let caps = json!({"capabilities": {"alwaysMatch": {
+            "browserName": "chrome",
+            "goog:chromeOptions": {"binary": CHROMIUM, "args": [
+                "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                "--disable-dev-shm-usage", "--window-size=1200,1000",
+                format!("--user-data-dir={}", profile.path().display())]}}}});
+        let r: Value = client
+            .post(format!("{base}/session"))
+            .json(&caps)
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        let session = r["value"]["sessionId"]
+            .as_str()
+            .unwrap_or_else(|| panic!("new session: {r}"))
+            .to_string();
+        Some(Driver {
+            child,
+            base,
+            session,
+            client,
+            _profile: profile,
+        })
+    }
+
+    async fn call(&self, method: reqwest::Method, path: &str, body: Value) -> Value {
+        let url = format!("{}/session/{}{}", self.base, self.session, path);
+        let mut req = self.client.request(method, url);
+        if !body.is_null() {
+            req = req.json(&body);
+        }
+        let r: Value = req.send().await.unwrap().json().await.unwrap();
+        assert!(r["value"]["error"].is_null(), "{path}: {r}");
+        r["value"].clone()
+    }
+
+    async fn goto(&self, url: &str) {
+        self.call(reqwest::Method::POST, "/url", json!({"url": url}))
+            .await;
+    }
+
+    async fn script(&self, script: &str) -> Value {
+        self.call(
+            reqwest::Method::POST,
+            "/execute/sync",
+            json!({"script": script, "args": []}),
+        )
+        .await
+    }
+
+    async fn element(&self, css: &str) -> String {
+        let v = self
+            .call(
+                reqwest::Method::POST,
+                "/element",
+                json!({"using": "css selector", "value": css}),
+            )
+            .await;
+        v[ELEMENT].as_str().expect("element").to_string()
+    }
+
+    /// Polls `script` until it returns a truthy value (at most 15 s).
+    async fn wait_for(&self, script: &str) -> Value {
+        let t0 = Instant::now();
+        loop {
+            let v = self.script(script).await;
+            if !(v.is_null() || v == json!(false) || v == json!(0) || v == json!("")) {
+                return v;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(15),
+                "waited for: {script}"
+            );
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    }
+}
+
+impl Drop for Driver {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
+    let Some(driver) = Driver::start().await else {
+        return;
+    };
+    let s = TestServer::start(|_| {}).await;
+    fill(&s, 8, None).await;
+    let moving = name(POINTS - 1);
+
+    // The point page: uPlot draws every panel from the server's data.
+    driver
+        .goto(&s.url(&format!("/sites/{SITE}/points/{moving}")))
+        .await;
+    let drawn = driver
+        .wait_for("return document.querySelector('.plots').getAttribute('data-drawn') || document.querySelector('.plots').getAttribute('data-error')")
+        .await;
+    assert_eq!(drawn, json!("8"), "the 8 epochs of the series drawn");
+    let canvases = driver
+        .script("return document.querySelectorAll('.plots .uplot canvas').length")
+        .await;
+    assert!(canvases.as_u64().unwrap() >= 4, "{canvases} canvases");
+    let forecast = driver
+        .script("return document.querySelector('.forecast').textContent")
+        .await;
+    assert!(
+        forecast.as_str().unwrap().contains("forecast"),
+        "{forecast}"
+    );
+    if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
+        use base64::Engine;
+        let png = driver
+            .call(reqwest::Method::GET, "/screenshot", Value::Null)
+            .await;
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(png.as_str().unwrap())
+            .unwrap();
+        std::fs::write(Path::new(&dir).join("point.png"), bytes).unwrap();
+    }
+
+    // The site page: type a name, click acknowledge; htmx swaps the row.
+    driver.goto(&s.url(&format!("/sites/{SITE}"))).await;
+    let (_, open) = s
+        .get(&format!("/api/v1/alerts?site={SITE}&state=open"))
+        .await;
+    let id = open["items"][0]["id"]
+        .as_str()
+        .expect("an open alert")
+        .to_string();
+    let input = driver
+        .element(&format!("[id=\"alert-{id}\"] input[name=by]"))
+        .await;
+    driver
+        .call(
+            reqwest::Method::POST,
+            &format!("/element/{input}/value"),
+            json!({"text": "Aiko"}),
+        )
+        .await;
+    let button = driver.element(&format!("[id=\"alert-{id}\"] button")).await;
+    driver
+        .call(
+            reqwest::Method::POST,
+            &format!("/element/{button}/click"),
+            json!({}),
+        )
+        .await;
+    driver
+        .wait_for(&format!(
+            "var r = document.getElementById('alert-{id}'); return r && r.textContent.indexOf('acknowledged by Aiko') >= 0"
+        ))
+        .await;
+    let (_, acked) = s
+        .get(&format!("/api/v1/alerts?site={SITE}&state=acknowledged"))
+        .await;
+    assert!(acked["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|a| a["id"] == json!(id) && a["acknowledged_by"] == json!("Aiko")));
+    if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
+        use base64::Engine;
+        let png = driver
+            .call(reqwest::Method::GET, "/screenshot", Value::Null)
+            .await;
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(png.as_str().unwrap())
+            .unwrap();
+        std::fs::write(Path::new(&dir).join("site.png"), bytes).unwrap();
+    }
+    driver
+        .client
+        .delete(format!("{}/session/{}", driver.base, driver.session))
+        .send()
+        .await
+        .ok();
+    s.stop().await;
+}

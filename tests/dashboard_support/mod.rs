@@ -1,0 +1,65 @@
+//! Shared by the dashboard tests: a site with a moving block, filled through the API.
+#![allow(dead_code)]
+
+#[path = "../service_support/mod.rs"]
+pub mod service_support;
+
+use serde_json::json;
+use service_support::{synthetic_epoch, TestServer};
+
+pub const SITE: &str = "kamo";
+pub const NAME: &str = "Kamo <script>alert(1)</script> & cliff";
+pub const STABLE: usize = 8;
+pub const POINTS: usize = 16;
+
+pub fn day(k: usize) -> String {
+    (chrono::DateTime::parse_from_rfc3339("2026-11-01T09:00:00Z").unwrap()
+        + chrono::Duration::days(k as i64))
+    .to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
+}
+
+pub fn name(i: usize) -> String {
+    format!("T{:03}", i + 1)
+}
+
+/// Creates the site with watch and warning rules, marks the stable points, uploads `epochs`
+/// daily epochs with the block moving 2.5 mm a day.
+pub async fn fill(s: &TestServer, epochs: usize, auth: Option<&str>) {
+    let with = |r: reqwest::RequestBuilder| match auth {
+        Some(t) => r.bearer_auth(t),
+        None => r,
+    };
+    let r = with(s.client.post(s.url("/api/v1/sites")))
+        .json(
+            &json!({"id": SITE, "name": NAME, "model": "orthogonal", "alert_rules": [
+            {"level": "watch", "metric": "displacement_mm", "above": 5.0, "clear_below": 4.0},
+            {"level": "warning", "metric": "displacement_mm", "above": 10.0}]}),
+        )
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201);
+    for i in 0..STABLE {
+        let r = with(
+            s.client
+                .put(s.url(&format!("/api/v1/sites/{SITE}/points/{}", name(i)))),
+        )
+        .json(&json!({"role": "stable"}))
+        .send()
+        .await
+        .unwrap();
+        assert_eq!(r.status(), 200);
+    }
+    for k in 0..epochs {
+        let body = synthetic_epoch(4, POINTS, &day(k), 500 + k as u64, 2.5 * k as f64, STABLE);
+        let r = with(
+            s.client
+                .post(s.url(&format!("/api/v1/sites/{SITE}/epochs"))),
+        )
+        .json(&body)
+        .send()
+        .await
+        .unwrap();
+        assert_eq!(r.status(), 201, "epoch {k}");
+    }
+}
