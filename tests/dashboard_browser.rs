@@ -237,6 +237,32 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
             .unwrap();
         std::fs::write(Path::new(&dir).join("site.png"), bytes).unwrap();
     }
+    // The campaign report prints to a PDF of A4 pages.
+    driver.goto(&s.url(&format!("/sites/{SITE}/report"))).await;
+    let pdf = driver
+        .call(
+            reqwest::Method::POST,
+            "/print",
+            json!({"page": {"width": 21.0, "height": 29.7}, "background": true}),
+        )
+        .await;
+    let pdf = {
+        use base64::Engine;
+        base64::engine::general_purpose::STANDARD
+            .decode(pdf.as_str().unwrap())
+            .unwrap()
+    };
+    assert!(pdf.starts_with(b"%PDF"), "a PDF");
+    let text = String::from_utf8_lossy(&pdf);
+    let pages = text.matches("/Type /Page\n").count()
+        + text.matches("/Type /Page/").count()
+        + text.matches("/Type /Page ").count()
+        + text.matches("/Type/Page/").count();
+    assert!(text.contains("595") && text.contains("842"), "A4 media box");
+    if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
+        std::fs::write(Path::new(&dir).join("report.pdf"), &pdf).unwrap();
+        eprintln!("report: {} bytes, {pages} page objects", pdf.len());
+    }
     driver
         .client
         .delete(format!("{}/session/{}", driver.base, driver.session))

@@ -139,6 +139,39 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
         "4 images"
     );
 
+    // Campaign report: plan, a row per point, plots of the moving points, the alert history;
+    // a period that ends before the movement shows no moving point.
+    let (st, report) = html(&s, &format!("/sites/{SITE}/report")).await;
+    assert_eq!(st, 200);
+    assert!(report.contains("<svg class=\"plan\""));
+    assert_eq!(
+        report.matches("<figure class=\"moving\"").count(),
+        POINTS - STABLE
+    );
+    assert!(report.contains("Alert history") && report.contains("badge warning"));
+    for i in 0..POINTS {
+        assert!(
+            report.contains(&format!(">{}</a></td>", name(i))),
+            "{} in the table",
+            name(i)
+        );
+    }
+    let (st, early) = html(
+        &s,
+        &format!("/sites/{SITE}/report?from=2026-11-01&to=2026-11-01"),
+    )
+    .await;
+    assert_eq!(st, 200);
+    assert!(
+        early.contains("No point moved significantly") && early.contains("No alert in the period")
+    );
+    assert_eq!(
+        html(&s, &format!("/sites/{SITE}/report?from=yesterday"))
+            .await
+            .0,
+        400
+    );
+
     // Unknown things are HTML 404 pages; a malformed epoch id too.
     for p in [
         "/sites/nope",

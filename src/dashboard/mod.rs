@@ -5,7 +5,8 @@
 //! `/sites/{site}`: face plan, open alerts with acknowledgement, epochs, points) → point
 //! ([`point_page`], `/sites/{site}/points/{point}`: plots of the series with ±2σ bands,
 //! thresholds, alert markers, velocity and inverse velocity) → epoch ([`epoch_page`],
-//! `/sites/{site}/epochs/{epoch}`: the adjustment report and the residuals of each image).
+//! `/sites/{site}/epochs/{epoch}`: the adjustment report and the residuals of each image); the
+//! campaign report of a period ([`report_page`], `/sites/{site}/report?from=&to=`) prints on A4.
 //!
 //! Plots are drawn in the browser by the vendored uPlot from columnar JSON that
 //! [`plot_data`] downsamples on the server ([`downsample`]), so a 10-year hourly history costs
@@ -15,7 +16,7 @@
 //! session's CSRF token ([`acknowledge`]).
 //!
 //! Pure parts (no I/O): [`face_plan`] (the face's plane), [`downsample`] (which epochs a plot
-//! draws), [`plan_svg`] and [`layout`] (markup).
+//! draws), [`plan_svg`], [`time_plot_svg`] and [`layout`] (markup).
 
 pub mod acknowledge;
 pub mod assets;
@@ -26,10 +27,12 @@ pub mod layout;
 pub mod plan_svg;
 pub mod plot_data;
 pub mod point_page;
+pub mod report_page;
 pub mod session;
 pub mod sign_in;
 pub mod site_page;
 pub mod sites_page;
+pub mod time_plot_svg;
 
 use axum::http::StatusCode;
 use axum::response::{Html, IntoResponse, Response};
@@ -47,6 +50,7 @@ pub fn routes() -> Router<AppState> {
         .route("/sites/{site}", get(site_page::site))
         .route("/sites/{site}/points/{point}", get(point_page::point))
         .route("/sites/{site}/epochs/{epoch}", get(epoch_page::epoch))
+        .route("/sites/{site}/report", get(report_page::report))
         .route("/dashboard/plot/{site}/{point}", get(plot_data::plot))
         .route("/dashboard/alerts/{id}/ack", post(acknowledge::acknowledge))
         .route("/signin", get(sign_in::form).post(sign_in::sign_in))
@@ -62,6 +66,14 @@ pub struct PageError {
 }
 
 impl PageError {
+    /// 400 with `message`.
+    pub fn bad_request(message: impl Into<String>) -> Self {
+        PageError {
+            status: StatusCode::BAD_REQUEST,
+            message: message.into(),
+        }
+    }
+
     /// 404 with `message`.
     pub fn not_found(message: impl Into<String>) -> Self {
         PageError {

@@ -1,6 +1,8 @@
 //! The face plan drawn as SVG: points in the best-fit plane of the face ([`super::face_plan`]),
 //! coloured by alert level, stable points as triangles, displacement vectors exaggerated, with
-//! the exaggeration and two scale bars (plan metres, displacement millimetres).
+//! the exaggeration and two scale bars (plan metres, displacement millimetres). The component
+//! out of the face (along its normal, towards the side the normal points to) is written under
+//! each name as "⊥ ±x.x mm", since a plan cannot draw it.
 
 use maud::{html, Markup};
 
@@ -89,6 +91,12 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
                         }
                     }
                     text.label x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
+                    @if let Some(d) = p.d_mm {
+                        @let n = plane.out_of_plane(d);
+                        @if n.abs() >= 0.05 {
+                            text.normal x=(fmt(x + 9.0)) y=(fmt(y + 12.0)) { "⊥ " (format!("{n:+.1}")) " mm" }
+                        }
+                    }
                 }
             }
             g.scale {
@@ -142,6 +150,11 @@ mod tests {
         assert!(svg.contains("&lt;script&gt;") && !svg.contains("<script>"));
         assert!(svg.contains("pt warning") && svg.contains("pt stable"));
         assert!(svg.contains("vectors ×"));
+        // The face is the plane Y = 100: the 3 mm along −Y of the odd points is out of plane.
+        assert!(
+            svg.contains("⊥ +3.0 mm") || svg.contains("⊥ -3.0 mm"),
+            "{svg}"
+        );
         assert!(svg.contains("/sites/s%3C1%3E/points/T1"));
     }
 }

@@ -75,6 +75,7 @@ pub async fn site(
     let site_href = format!("/sites/{}", seg(&site.id));
     let body = html! {
         h1 { (site.name) " " small { (site.id) } }
+        p { a href={ (site_href) "/report" } { "Campaign report" } " (printable; add " code { "?from=YYYY-MM-DD&to=YYYY-MM-DD" } " for a period)" }
         section {
             h2 { "Face plan" }
             (face_plan(&site.id, &plan))
