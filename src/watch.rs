@@ -1,11 +1,17 @@
 //! The watched directory of the contract: `<watch_dir>/<site>/<epoch>/` holds one image per station
 //! (`<station>.jpg|.png|.tif`) and an `epoch.json` in the upload form; the folder is taken when `READY`
-//! appears. Each image is decoded and searched for targets (in `spawn_blocking`), the targets are
-//! identified ([`crate::detect::identify`]) from the station's seed observations in `epoch.json` (≥ 4)
-//! or from the orientation the watcher kept from the station's previous epoch, and the epoch is ingested
-//! through [`crate::ingest::ingest`] exactly as an upload. The folder then moves to
-//! `<site>/.done/` or, with `error.txt`, to `<site>/.failed/`. A folder whose content hash (sha256 of
-//! its files' names and bytes) is in the database ([`crate::store::watch_state`]) is never ingested
+//! appears. Each image is decoded and searched for targets (in `spawn_blocking`). The targets are
+//! identified: stations with ≥ 4 seed observations in `epoch.json` together, by multi-view matching
+//! that needs the approximations only to name the targets ([`crate::detect::first_epoch`]; a station
+//! seeded alone, or stations that do not share 4 seeded targets, from their own seeds,
+//! [`crate::detect::identify`]); stations without seeds from the orientation the watcher kept from
+//! their previous epoch. The epoch is ingested through [`crate::ingest::ingest`] exactly as an
+//! upload, and the stations' orientations for the next epoch are resected from its adjusted
+//! coordinates. The folder then moves to `<site>/.done/` with `identification.json` (per station:
+//! method, detected, identified, ambiguous, unmatched) or, with `error.txt`, to `<site>/.failed/`;
+//! when too few targets can be named, `error.txt` gives the same counts, the likely cause and what
+//! to add. A folder whose content hash (sha256 of its files' names and bytes, the watcher's own
+//! outputs excluded) is in the database ([`crate::store::watch_state`]) is never ingested
 //! again; the stations' orientations are kept there too, so the state is backed up and restored with
 //! the database. (Files `<site>/.state/ingested` and `<site>/.state/orientations.json` of earlier
 //! versions are still read, never written.) The state is written after the epoch's own transaction:
@@ -20,7 +26,12 @@ use std::time::Duration;
 
 use sha2::{Digest, Sha256};
 
-use crate::detect::identify::{identify, IdentifyError, IdentifyOptions, Prior, Seed};
+use crate::detect::first_epoch::{
+    identify_first_epoch, FirstEpochError, FirstEpochOptions, StationView,
+};
+use crate::detect::identify::{
+    identify, resect_seeds, IdentifyError, IdentifyOptions, Prior, Seed,
+};
 use crate::detect::{detect_bytes, DetectError, DetectOptions};
 use crate::ingest::{ingest, IngestError, Ingested};
 use crate::photogrammetry::epoch::ObservationInput;
@@ -63,6 +74,12 @@ pub enum WatchError {
         /// Cause.
         source: IdentifyError,
     },
+    /// Multi-view identification of a first epoch failed.
+    #[error("identification: {0}")]
+    FirstEpoch(FirstEpochError),
+    /// Too few targets could be named; the message names the stations, the cause and what to add.
+    #[error("{0}")]
+    Unidentified(String),
     /// A station seen for the first time without ≥ 4 seed observations.
     #[error("station {0} has no previous orientation and fewer than 4 seed observations")]
     NoPrior(String),
@@ -83,8 +100,10 @@ pub struct WatchOptions {
     pub rescan: Duration,
     /// Detection options.
     pub detect: DetectOptions,
-    /// Identification options.
+    /// Identification options (a station from its previous orientation, or alone from its seeds).
     pub identify: IdentifyOptions,
+    /// Multi-view identification options (stations of a first epoch, from their seeds).
+    pub first_epoch: FirstEpochOptions,
 }
 
 impl WatchOptions {
@@ -95,6 +114,7 @@ impl WatchOptions {
             rescan: Duration::from_secs(30),
             detect: DetectOptions::default(),
             identify: IdentifyOptions::default(),
+            first_epoch: FirstEpochOptions::default(),
         }
     }
 }
@@ -126,12 +146,20 @@ pub fn ready_folders(dir: &Path) -> Vec<(String, PathBuf)> {
     out
 }
 
-/// sha256 (hex) over the sorted names and bytes of the folder's files (`READY` excluded).
+/// Files the watcher writes into a folder (not part of its content).
+const OUTPUT_FILES: [&str; 3] = ["READY", "error.txt", "identification.json"];
+
+/// sha256 (hex) over the sorted names and bytes of the folder's files (`READY` and the watcher's own
+/// outputs excluded).
 pub fn content_hash(folder: &Path) -> std::io::Result<String> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(folder)?
         .flatten()
         .map(|e| e.path())
-        .filter(|p| p.is_file() && p.file_name().is_some_and(|n| n != "READY"))
+        .filter(|p| {
+            p.is_file()
+                && p.file_name()
+                    .is_some_and(|n| !OUTPUT_FILES.iter().any(|o| n == *o))
+        })
         .collect();
     files.sort();
     let mut h = Sha256::new();
@@ -217,8 +245,180 @@ fn find_image(folder: &Path, station: &str) -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
-/// Detects, identifies and ingests one folder (does not move it). Returns the ingestion and the
-/// orientations found per station.
+/// One station's image after detection.
+struct StationData {
+    station: String,
+    camera: Camera,
+    /// Detected targets: (col, row) px.
+    targets: Vec<(f64, f64)>,
+    /// The same in image mm.
+    blobs: Vec<[f64; 2]>,
+    seeds: Vec<Seed>,
+}
+
+/// A station's named detections: (point, detection index).
+type StationNamed = Vec<(String, usize)>;
+
+/// How a station's targets were named, for the folder's `identification.json` and the log.
+#[derive(Debug, Clone, serde::Serialize)]
+struct StationCounts {
+    station: String,
+    method: &'static str,
+    detected: usize,
+    identified: usize,
+    ambiguous: usize,
+    unmatched: usize,
+}
+
+/// Decodes and searches one station's image (in `spawn_blocking`).
+async fn detect_station(
+    folder: &Path,
+    image: &crate::photogrammetry::epoch::ImageInput,
+    cameras: &[crate::photogrammetry::epoch::CameraInput],
+    opts: &WatchOptions,
+) -> Result<StationData, WatchError> {
+    let station = image.station.clone().unwrap_or_else(|| image.id.clone());
+    let cam_err = |reason: String| WatchError::Camera {
+        station: station.clone(),
+        reason,
+    };
+    let cam_in = cameras
+        .iter()
+        .find(|c| c.id == image.camera)
+        .ok_or_else(|| cam_err(format!("unknown camera {}", image.camera)))?;
+    let camera = Camera::from_input(cam_in).map_err(|e: EpochError| cam_err(e.to_string()))?;
+    let path =
+        find_image(folder, &station).ok_or_else(|| WatchError::MissingImage(station.clone()))?;
+    let bytes = tokio::fs::read(&path).await?;
+    let dopts = opts.detect.clone();
+    let det = tokio::task::spawn_blocking(move || detect_bytes(&bytes, &dopts))
+        .await
+        .map_err(|e| WatchError::Task(e.to_string()))?
+        .map_err(|source| WatchError::Detect {
+            station: station.clone(),
+            source,
+        })?;
+    let mut blobs = Vec::with_capacity(det.targets.len());
+    for t in &det.targets {
+        blobs.push(
+            t.image_mm(&camera)
+                .ok_or_else(|| cam_err("pixel size and image size are needed".into()))?,
+        );
+    }
+    let seeds = image
+        .observations
+        .iter()
+        .filter_map(|o| {
+            let xy = match (o.x_mm, o.y_mm, o.col, o.row) {
+                (Some(x), Some(y), _, _) => Some([x, y]),
+                (_, _, Some(c), Some(r)) => camera.pixel_to_mm(c, r),
+                _ => None,
+            }?;
+            Some(Seed {
+                point: o.point.clone(),
+                xy_mm: xy,
+            })
+        })
+        .collect();
+    Ok(StationData {
+        station,
+        camera,
+        targets: det.targets.iter().map(|t| (t.col, t.row)).collect(),
+        blobs,
+        seeds,
+    })
+}
+
+/// Names the detections of every station: stations with ≥ 4 seeds together by multi-view matching
+/// ([`identify_first_epoch`]) when there are at least 2 of them and they share 4 seeded targets,
+/// otherwise each from its seeds; stations without seeds from their previous orientation. Returns
+/// per station the (point, detection index) pairs and the counts.
+fn name_targets(
+    stations: &[StationData],
+    known: &BTreeMap<String, [f64; 3]>,
+    previous: &BTreeMap<String, ImageOrientation>,
+    opts: &WatchOptions,
+) -> Result<(Vec<StationNamed>, Vec<StationCounts>), WatchError> {
+    let mut names: Vec<StationNamed> = vec![Vec::new(); stations.len()];
+    let mut counts: Vec<Option<StationCounts>> = vec![None; stations.len()];
+    let seeded: Vec<usize> = (0..stations.len())
+        .filter(|&k| stations[k].seeds.len() >= 4)
+        .collect();
+    if seeded.len() >= 2 {
+        let views: Vec<StationView> = seeded
+            .iter()
+            .map(|&k| StationView {
+                station: &stations[k].station,
+                blobs_mm: &stations[k].blobs,
+                seeds: &stations[k].seeds,
+            })
+            .collect();
+        match identify_first_epoch(&views, known, &opts.first_epoch) {
+            Ok(first) => {
+                if let Some(msg) = first.refusal() {
+                    return Err(WatchError::Unidentified(msg));
+                }
+                for (r, &k) in first.stations.iter().zip(&seeded) {
+                    names[k] = r
+                        .matched
+                        .iter()
+                        .map(|m| (m.point.clone(), m.blob))
+                        .collect();
+                    counts[k] = Some(StationCounts {
+                        station: r.station.clone(),
+                        method: "multi-view from seeds",
+                        detected: r.detected,
+                        identified: r.matched.len(),
+                        ambiguous: r.ambiguous_blobs.len(),
+                        unmatched: r.unmatched_blobs.len(),
+                    });
+                }
+            }
+            Err(FirstEpochError::TooFewCommonSeeds { .. }) => {
+                tracing::info!(
+                    "stations seed different targets; each is identified from its own seeds"
+                );
+            }
+            Err(e) => return Err(WatchError::FirstEpoch(e)),
+        }
+    }
+    for (k, s) in stations.iter().enumerate() {
+        if counts[k].is_some() {
+            continue;
+        }
+        let (prior, method) = if s.seeds.len() >= 4 {
+            (Prior::Seeds(&s.seeds), "seeds")
+        } else if let Some(o) = previous.get(&s.station) {
+            (Prior::Orientation(o), "previous orientation")
+        } else {
+            return Err(WatchError::NoPrior(s.station.clone()));
+        };
+        let id = identify(&s.blobs, known, &s.camera, prior, &opts.identify).map_err(|source| {
+            WatchError::Identify {
+                station: s.station.clone(),
+                source,
+            }
+        })?;
+        names[k] = id
+            .matched
+            .iter()
+            .map(|m| (m.point.clone(), m.blob))
+            .collect();
+        counts[k] = Some(StationCounts {
+            station: s.station.clone(),
+            method,
+            detected: s.blobs.len(),
+            identified: id.matched.len(),
+            ambiguous: id.ambiguous_blobs.len(),
+            unmatched: id.unmatched_blobs.len(),
+        });
+    }
+    Ok((names, counts.into_iter().flatten().collect()))
+}
+
+/// Detects, identifies and ingests one folder (does not move it; writes its `identification.json`).
+/// Returns the ingestion and the orientations found per station (resected from the epoch's adjusted
+/// coordinates).
 async fn process(
     store: &Store,
     site: &str,
@@ -244,91 +444,65 @@ async fn process(
     let previous = load_orientations(store, site, site_dir)
         .await
         .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
-    let mut found = BTreeMap::new();
-    for image in &mut input.images {
-        let station = image.station.clone().unwrap_or_else(|| image.id.clone());
-        let cam_err = |reason: String| WatchError::Camera {
-            station: station.clone(),
-            reason,
-        };
-        let cam_in = input
-            .cameras
-            .iter()
-            .find(|c| c.id == image.camera)
-            .ok_or_else(|| cam_err(format!("unknown camera {}", image.camera)))?;
-        let camera = Camera::from_input(cam_in).map_err(|e: EpochError| cam_err(e.to_string()))?;
-        let path = find_image(folder, &station)
-            .ok_or_else(|| WatchError::MissingImage(station.clone()))?;
-        let bytes = tokio::fs::read(&path).await?;
-        let dopts = opts.detect.clone();
-        let det = tokio::task::spawn_blocking(move || detect_bytes(&bytes, &dopts))
-            .await
-            .map_err(|e| WatchError::Task(e.to_string()))?
-            .map_err(|source| WatchError::Detect {
-                station: station.clone(),
-                source,
-            })?;
-        let mut blobs = Vec::with_capacity(det.targets.len());
-        for t in &det.targets {
-            blobs.push(
-                t.image_mm(&camera)
-                    .ok_or_else(|| cam_err("pixel size and image size are needed".into()))?,
-            );
-        }
-        let seeds: Vec<Seed> = image
-            .observations
-            .iter()
-            .filter_map(|o| {
-                let xy = match (o.x_mm, o.y_mm, o.col, o.row) {
-                    (Some(x), Some(y), _, _) => Some([x, y]),
-                    (_, _, Some(c), Some(r)) => camera.pixel_to_mm(c, r),
-                    _ => None,
-                }?;
-                Some(Seed {
-                    point: o.point.clone(),
-                    xy_mm: xy,
-                })
-            })
-            .collect();
-        let prior = if seeds.len() >= 4 {
-            Prior::Seeds(&seeds)
-        } else if let Some(o) = previous.get(&station) {
-            Prior::Orientation(o)
-        } else {
-            return Err(WatchError::NoPrior(station));
-        };
-        let id = identify(&blobs, &known, &camera, prior, &opts.identify).map_err(|source| {
-            WatchError::Identify {
-                station: station.clone(),
-                source,
-            }
-        })?;
+    let mut stations = Vec::with_capacity(input.images.len());
+    for image in &input.images {
+        stations.push(detect_station(folder, image, &input.cameras, opts).await?);
+    }
+    let (names, counts) = name_targets(&stations, &known, &previous, opts)?;
+    for c in &counts {
         tracing::info!(
             site,
-            station,
-            detected = det.targets.len(),
-            identified = id.matched.len(),
-            ambiguous = id.ambiguous_points.len(),
-            missing = id.missing_points.len(),
+            station = c.station,
+            method = c.method,
+            detected = c.detected,
+            identified = c.identified,
+            ambiguous = c.ambiguous,
+            unmatched = c.unmatched,
             "watched image identified"
         );
-        image.observations = id
-            .matched
+    }
+    tokio::fs::write(
+        folder.join("identification.json"),
+        serde_json::to_string_pretty(&counts)?,
+    )
+    .await?;
+    for ((image, s), named) in input.images.iter_mut().zip(&stations).zip(&names) {
+        image.observations = named
             .iter()
-            .map(|m| {
-                let t = &det.targets[m.blob];
-                ObservationInput {
-                    point: m.point.clone(),
-                    x_mm: None,
-                    y_mm: None,
-                    col: Some(t.col),
-                    row: Some(t.row),
-                }
+            .map(|(point, blob)| ObservationInput {
+                point: point.clone(),
+                x_mm: None,
+                y_mm: None,
+                col: Some(s.targets[*blob].0),
+                row: Some(s.targets[*blob].1),
             })
             .collect();
-        found.insert(station, id.orientation);
     }
     let ingested = ingest(store, site, input).await?;
+    // the stations' orientations for the next epoch, from this epoch's adjusted coordinates
+    let adjusted: BTreeMap<String, [f64; 3]> = points::latest_coordinates(store.reader(), site)
+        .await
+        .map_err(|e| WatchError::Io(std::io::Error::other(e)))?
+        .into_iter()
+        .map(|c| (c.point, c.xyz))
+        .collect();
+    let mut found = BTreeMap::new();
+    for (s, named) in stations.iter().zip(&names) {
+        let measured: Vec<Seed> = named
+            .iter()
+            .filter(|(p, _)| adjusted.contains_key(p))
+            .map(|(p, blob)| Seed {
+                point: p.clone(),
+                xy_mm: s.blobs[*blob],
+            })
+            .collect();
+        match resect_seeds(&measured, &adjusted, &s.camera) {
+            Ok((o, _)) => {
+                found.insert(s.station.clone(), o);
+            }
+            Err(e) => tracing::warn!(site, station = s.station, error = %e, "no orientation kept"),
+        }
+    }
     Ok((ingested, found))
 }
 

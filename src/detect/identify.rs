@@ -109,9 +109,9 @@ fn finite2(v: [f64; 2]) -> bool {
     v[0].is_finite() && v[1].is_finite()
 }
 
-/// Orientation from ≥ 4 seeds by resection (coordinates shifted to the seeds' centroid), and the RMS
-/// of the seed residuals in mm.
-fn resect_seeds(
+/// Orientation of a station from ≥ 4 image measurements of known points (`seeds`, image mm) by
+/// resection (coordinates shifted to the points' centroid), and the RMS of the residuals in mm.
+pub fn resect_seeds(
     seeds: &[Seed],
     known: &BTreeMap<String, [f64; 3]>,
     camera: &Camera,

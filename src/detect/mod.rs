@@ -12,7 +12,10 @@ pub mod components;
 pub mod decode;
 pub mod ellipse;
 pub mod error;
+pub mod first_epoch;
 pub mod identify;
+pub mod multiview;
+pub mod naming;
 pub mod target;
 pub mod threshold;
 
