@@ -101,6 +101,17 @@ pub async fn ingest(
     site_id: &str,
     input: EpochInput,
 ) -> Result<Ingested, IngestError> {
+    ingest_with_identification(store, site_id, input, None).await
+}
+
+/// [`ingest`] of an epoch from the watched directory, storing with its report how each station's
+/// targets were identified (`identification`: per station method and counts).
+pub async fn ingest_with_identification(
+    store: &Store,
+    site_id: &str,
+    input: EpochInput,
+    identification: Option<serde_json::Value>,
+) -> Result<Ingested, IngestError> {
     let problem = input.validate()?;
     let site = sites::get(store.reader(), site_id)
         .await?
@@ -147,6 +158,7 @@ pub async fn ingest(
         input: &input,
         adjustment: &adjustment,
         control_points: &control,
+        identification: identification.as_ref(),
     };
     let epoch = epochs::insert(&mut tx, &record).await?;
     let derived = derive(&mut tx, &site, epoch, &observed_at, &adjustment).await?;

@@ -5,9 +5,9 @@
 //! that needs the approximations only to name the targets ([`crate::detect::first_epoch`]; a station
 //! seeded alone, or stations that do not share 4 seeded targets, from their own seeds,
 //! [`crate::detect::identify`]); stations without seeds from the orientation the watcher kept from
-//! their previous epoch. The epoch is ingested through [`crate::ingest::ingest`] exactly as an
-//! upload, and the stations' orientations for the next epoch are resected from its adjusted
-//! coordinates. The folder then moves to `<site>/.done/` with `identification.json` (per station:
+//! their previous epoch. The epoch is ingested exactly as an upload
+//! ([`crate::ingest::ingest_with_identification`]: the counts below are stored with its report),
+//! and the stations' orientations for the next epoch are resected from its adjusted coordinates. The folder then moves to `<site>/.done/` with `identification.json` (per station:
 //! method, detected, identified, ambiguous, unmatched) or, with `error.txt`, to `<site>/.failed/`;
 //! when too few targets can be named, `error.txt` gives the same counts, the likely cause and what
 //! to add. A folder whose content hash (sha256 of its files' names and bytes, the watcher's own
@@ -33,7 +33,7 @@ use crate::detect::identify::{
     identify, resect_seeds, IdentifyError, IdentifyOptions, Prior, Seed,
 };
 use crate::detect::{detect_bytes, DetectError, DetectOptions};
-use crate::ingest::{ingest, IngestError, Ingested};
+use crate::ingest::{ingest_with_identification, IngestError, Ingested};
 use crate::photogrammetry::epoch::ObservationInput;
 use crate::photogrammetry::{Camera, EpochError, EpochInput, ImageOrientation};
 use crate::store::{points, watch_state, Store, StoreError};
@@ -478,7 +478,9 @@ async fn process(
             })
             .collect();
     }
-    let ingested = ingest(store, site, input).await?;
+    let ingested =
+        ingest_with_identification(store, site, input, Some(serde_json::to_value(&counts)?))
+            .await?;
     // the stations' orientations for the next epoch, from this epoch's adjusted coordinates
     let adjusted: BTreeMap<String, [f64; 3]> = points::latest_coordinates(store.reader(), site)
         .await

@@ -281,6 +281,28 @@ async fn first_epochs_from_map_grade_approximations() {
             "seed {seed}: identified per station {counts:?}, σ0 {s_rough:.5} / {s_fine:.5} mm"
         );
         fewest.push(*counts.iter().min().unwrap());
+        if seed == 1 {
+            // the counts are stored with the epoch: API and dashboard show them
+            let (status, e) = server.get("/api/v1/sites/rough1/epochs/1").await;
+            assert_eq!(status, 200);
+            let ident = e["identification"].as_array().expect("identification");
+            assert_eq!(ident.len(), 5, "{ident:?}");
+            assert!(ident.iter().all(|s| s["method"] == "multi-view from seeds"
+                && s["identified"].as_u64().unwrap() as usize >= 26));
+            let page = server
+                .client
+                .get(server.url("/sites/rough1/epochs/1"))
+                .send()
+                .await
+                .unwrap()
+                .text()
+                .await
+                .unwrap();
+            assert!(
+                page.contains("Identification (watched directory)")
+                    && page.contains("multi-view from seeds")
+            );
+        }
         sigma_ratio.push(s_rough / s_fine);
 
         if seed <= 3 {

@@ -195,4 +195,8 @@ pub struct EpochSummary {
     pub displacements: Vec<Displacement>,
     /// Alerts raised by this epoch.
     pub alerts: Vec<Alert>,
+    /// Epochs from the watched directory only: per station, how its targets were identified
+    /// (`station`, `method`, and the counts `detected`, `identified`, `ambiguous`, `unmatched`).
+    #[schema(value_type = Option<Vec<Object>>)]
+    pub identification: Option<Vec<serde_json::Value>>,
 }

@@ -1,6 +1,6 @@
 //! `GET /sites/{site}/epochs/{epoch}`: the adjustment report (σ0, the global test, c ± σ,
-//! iterations, datum, dropped observations with their w) and the image residuals of each image
-//! as a vector plot.
+//! iterations, datum, dropped observations with their w), for watched epochs how each station's
+//! targets were identified, and the image residuals of each image as a vector plot.
 
 use std::collections::BTreeMap;
 
@@ -88,6 +88,19 @@ pub async fn epoch(
         }
         @if !warnings.is_empty() {
             ul.warnings { @for w in &warnings { li { (text(w)) } } }
+        }
+        @if let Some(Value::Array(stations)) = report.get("identification") {
+            h2 { "Identification (watched directory)" }
+            table.identification {
+                thead { tr { th { "station" } th { "method" } th { "detected" } th { "identified" } th { "ambiguous" } th { "unmatched" } } }
+                tbody { @for st in stations {
+                    tr { td { (st.get("station").map(text).unwrap_or_default()) }
+                         td { (st.get("method").map(text).unwrap_or_default()) }
+                         @for k in ["detected", "identified", "ambiguous", "unmatched"] {
+                             td.num { (st.get(k).map(text).unwrap_or_default()) }
+                         } }
+                } }
+            }
         }
         h2 { "Dropped observations" }
         @if dropped.is_empty() {

@@ -26,6 +26,9 @@ pub struct EpochRecord<'a> {
     pub adjustment: &'a Adjustment,
     /// Points seen for the first time get the role `stable` when they are in this set (control).
     pub control_points: &'a [String],
+    /// Watched epochs: per station, how its targets were identified (stored in the report as
+    /// `identification`).
+    pub identification: Option<&'a serde_json::Value>,
 }
 
 /// One line of the epoch list.
@@ -224,6 +227,9 @@ pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<
     let mut report = serde_json::to_value(&adj.report)?;
     if let Some(obj) = report.as_object_mut() {
         obj.remove("residuals");
+        if let Some(id) = rec.identification {
+            obj.insert("identification".into(), id.clone());
+        }
     }
     let first_camera = adj.report.cameras.first();
     let created = now();
