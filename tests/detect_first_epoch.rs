@@ -7,39 +7,17 @@
 //!   axis) and a turn of σ 2° about the vertical, plus σ 0.15 m per point: about ±0.5 m rms;
 //! - *independent*: σ per point alone, with no common part.
 
-use std::collections::BTreeMap;
+mod identify_support;
 
 use cliffwatch::detect::first_epoch::{
     identify_first_epoch, FirstEpoch, FirstEpochError, FirstEpochOptions, StationView,
 };
 use cliffwatch::detect::identify::Seed;
-use cliffwatch::photogrammetry::{Camera, ImageOrientation};
-use cliffwatch::simulate::scenes::{long_range, LongRangeParams, Truth};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal, StandardNormal};
+use rand_distr::{Distribution, Normal};
 
-struct Scene {
-    truth: Truth,
-    cam_true: Camera,
-    cam: Camera,
-}
-
-fn scene(seed: u64) -> Scene {
-    let (epoch, truth) = long_range(&LongRangeParams {
-        seed,
-        ..LongRangeParams::default()
-    })
-    .unwrap();
-    let cam = Camera::from_input(&epoch.cameras[0]).unwrap();
-    let mut cam_true = cam.clone();
-    cam_true.params[0] = truth.c_mm;
-    Scene {
-        truth,
-        cam_true,
-        cam,
-    }
-}
+use identify_support::{approximations, corner_targets, scene, true_orientation, Scene};
 
 /// Per station: (point, mm) of the targets inside the sensor with σ 0.25 px, then `clutter` blobs at
 /// least 1 mm from every target, shuffled together. Returns the blobs and the truth per blob.
@@ -49,14 +27,7 @@ fn station_blobs(
     clutter: usize,
     rng: &mut ChaCha8Rng,
 ) -> (Vec<[f64; 2]>, Vec<Option<String>>) {
-    let t = &s.truth.cameras[station];
-    let o = ImageOrientation {
-        image: station.into(),
-        station: station.into(),
-        camera: s.cam.id.clone(),
-        rotation: t.r,
-        center: t.xo,
-    };
+    let o = true_orientation(s, station);
     let px = s.cam.pixel_size_mm.unwrap();
     let (w, h) = s.cam.size_px.unwrap();
     let (hx, hy) = (0.5 * w as f64 * px, 0.5 * h as f64 * px);
@@ -96,17 +67,7 @@ fn seeds(
 ) -> Vec<Seed> {
     let px = s.cam.pixel_size_mm.unwrap();
     let n = Normal::new(0.0, px).unwrap();
-    let pts = &s.truth.points;
-    let mut chosen: Vec<String> = Vec::new();
-    for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-        let best = pts
-            .iter()
-            .filter(|(n, _)| !chosen.contains(n))
-            .max_by(|a, b| (sx * a.1[0] + sy * a.1[1]).total_cmp(&(sx * b.1[0] + sy * b.1[1])))
-            .unwrap();
-        chosen.push(best.0.clone());
-    }
-    chosen
+    corner_targets(&s.truth)
         .into_iter()
         .filter_map(|p| {
             let j = truth
@@ -116,46 +77,6 @@ fn seeds(
                 point: p,
                 xy_mm: [blobs[j][0] + n.sample(rng), blobs[j][1] + n.sample(rng)],
             })
-        })
-        .collect()
-}
-
-/// Approximations: a common offset (σ `shift` per axis) and turn (σ `turn_deg` about the vertical,
-/// about the face centre), plus σ `each` per point and axis.
-fn approximations(
-    truth: &Truth,
-    shift: f64,
-    turn_deg: f64,
-    each: f64,
-    seed: u64,
-) -> BTreeMap<String, [f64; 3]> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut g = || -> f64 { rng.sample(StandardNormal) };
-    let off = [shift * g(), shift * g(), shift * g()];
-    let (s, c) = (turn_deg * g()).to_radians().sin_cos();
-    let n = truth.points.len() as f64;
-    let mut centre = [0.0; 3];
-    for x in truth.points.values() {
-        for k in 0..3 {
-            centre[k] += x[k] / n;
-        }
-    }
-    truth
-        .points
-        .iter()
-        .map(|(name, x)| {
-            let d = [x[0] - centre[0], x[1] - centre[1], x[2] - centre[2]];
-            // turn about the vertical (Y up in the scene's frame)
-            let r = [c * d[0] + s * d[2], d[1], -s * d[0] + c * d[2]];
-            let e = [each * g(), each * g(), each * g()];
-            (
-                name.clone(),
-                [
-                    centre[0] + r[0] + off[0] + e[0],
-                    centre[1] + r[1] + off[1] + e[1],
-                    centre[2] + r[2] + off[2] + e[2],
-                ],
-            )
         })
         .collect()
 }

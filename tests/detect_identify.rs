@@ -2,51 +2,18 @@
 //! true cameras and perturbed; first epoch from seeds, second epoch (targets moved by a few cm) from
 //! the first epoch's orientations; ambiguity reported, never guessed.
 
+mod identify_support;
+
 use std::collections::BTreeMap;
 
 use cliffwatch::detect::identify::{
     identify, Identification, IdentifyError, IdentifyOptions, Prior, Seed,
 };
-use cliffwatch::photogrammetry::{Camera, ImageOrientation};
-use cliffwatch::simulate::scenes::{long_range, LongRangeParams, Truth};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-struct Scene {
-    truth: Truth,
-    /// Camera with the true c (to render observations).
-    cam_true: Camera,
-    /// Camera as uploaded (c 1 % off).
-    cam: Camera,
-}
-
-fn scene(seed: u64) -> Scene {
-    let (epoch, truth) = long_range(&LongRangeParams {
-        seed,
-        ..LongRangeParams::default()
-    })
-    .unwrap();
-    let cam = Camera::from_input(&epoch.cameras[0]).unwrap();
-    let mut cam_true = cam.clone();
-    cam_true.params[0] = truth.c_mm;
-    Scene {
-        truth,
-        cam_true,
-        cam,
-    }
-}
-
-fn true_orientation(s: &Scene, station: &str) -> ImageOrientation {
-    let t = &s.truth.cameras[station];
-    ImageOrientation {
-        image: station.into(),
-        station: station.into(),
-        camera: s.cam.id.clone(),
-        rotation: t.r,
-        center: t.xo,
-    }
-}
+use identify_support::{scene, true_orientation, Scene};
 
 /// Observations (point, mm) of the points inside the sensor, with noise σ 0.25 px, shuffled.
 fn observe(

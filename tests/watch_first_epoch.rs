@@ -10,6 +10,7 @@
 //! - a second epoch with 6 targets moved by 3 cm, without seeds: every target identified from the
 //!   first epoch's orientations.
 
+mod identify_support;
 mod service_support;
 
 use std::collections::BTreeMap;
@@ -21,6 +22,7 @@ use cliffwatch::simulate::images::{encode_png, random_clutter, render, ImageSpec
 use cliffwatch::simulate::scenes::{long_range, project, LongRangeParams, Truth};
 use cliffwatch::store::epochs;
 use cliffwatch::watch::{scan_once, WatchOptions};
+use identify_support::{approximations, corner_targets};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -136,54 +138,6 @@ fn write_folder(
     )
     .unwrap();
     std::fs::write(folder.join("READY"), "").unwrap();
-}
-
-/// The 4 targets nearest the face's corners (the scene's frame: X along the face, Y up).
-fn corner_targets(truth: &Truth) -> Vec<String> {
-    let mut chosen: Vec<String> = Vec::new();
-    for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-        let best = truth
-            .points
-            .iter()
-            .filter(|(n, _)| !chosen.contains(n))
-            .max_by(|a, b| (sx * a.1[0] + sy * a.1[1]).total_cmp(&(sx * b.1[0] + sy * b.1[1])))
-            .unwrap();
-        chosen.push(best.0.clone());
-    }
-    chosen
-}
-
-/// A common offset (σ `shift`) and turn (σ `turn_deg` about the vertical) plus σ `each` per point.
-fn approximations(
-    truth: &Truth,
-    shift: f64,
-    turn_deg: f64,
-    each: f64,
-    seed: u64,
-) -> BTreeMap<String, [f64; 3]> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut g = || -> f64 { rng.sample(StandardNormal) };
-    let off = [shift * g(), shift * g(), shift * g()];
-    let (s, c) = (turn_deg * g()).to_radians().sin_cos();
-    let n = truth.points.len() as f64;
-    let centre = truth.points.values().fold([0.0; 3], |a, x| {
-        [a[0] + x[0] / n, a[1] + x[1] / n, a[2] + x[2] / n]
-    });
-    truth
-        .points
-        .iter()
-        .map(|(name, x)| {
-            let d = [x[0] - centre[0], x[1] - centre[1], x[2] - centre[2]];
-            let r = [c * d[0] + s * d[2], d[1], -s * d[0] + c * d[2]];
-            let e = [each * g(), each * g(), each * g()];
-            let p = [
-                centre[0] + r[0] + off[0] + e[0],
-                centre[1] + r[1] + off[1] + e[1],
-                centre[2] + r[2] + off[2] + e[2],
-            ];
-            (name.clone(), p)
-        })
-        .collect()
 }
 
 /// The folder went to `.done/`; returns its per-station identified counts.

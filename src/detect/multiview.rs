@@ -329,23 +329,11 @@ pub fn match_tracks(
 
 /// Median distance from each detection to its nearest neighbour in mm (∞ with fewer than 2).
 pub fn median_spacing(blobs: &[[f64; 2]]) -> f64 {
-    let mut d: Vec<f64> = blobs
+    let points: Vec<Vector3<f64>> = blobs
         .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            blobs
-                .iter()
-                .enumerate()
-                .filter(|(j, _)| *j != i)
-                .map(|(_, q)| (p[0] - q[0]).hypot(p[1] - q[1]))
-                .fold(f64::INFINITY, f64::min)
-        })
+        .map(|b| Vector3::new(b[0], b[1], 0.0))
         .collect();
-    if d.len() < 2 {
-        return f64::INFINITY;
-    }
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2]
+    super::naming::median_spacing(&points)
 }
 
 #[cfg(test)]
