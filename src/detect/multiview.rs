@@ -51,9 +51,9 @@ pub fn factorize(views: &[Vec<[f64; 2]>]) -> Option<(Vec<AffineCamera>, Vec<Vect
             w[(2 * i + 1, k)] = p[1] - t[i][1];
         }
     }
-    let svd = w.clone().svd(true, true);
+    let svd = w.svd(true, true);
     let (u, vt) = (svd.u?, svd.v_t?);
-    // singular values sorted descending by nalgebra? Not guaranteed: sort indices.
+    // nalgebra does not promise sorted singular values: order them, largest first
     let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
     order.sort_by(|a, b| svd.singular_values[*b].total_cmp(&svd.singular_values[*a]));
     if order.len() < 3 {

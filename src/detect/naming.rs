@@ -76,13 +76,20 @@ fn fit_affine(pairs: &[(Vector3<f64>, Vector3<f64>)]) -> Option<Matrix3x4<f64>> 
         }
         a[(k, 3)] = 1.0;
     }
+    let sol = least_squares(a, &b, 1e-9)?; // 4 × 3
+    Some(Matrix3x4::from_fn(|r, c| sol[(c, r)]))
+}
+
+/// Least-squares solution X of `a X = b`; None when a singular value of `a` is below `min_ratio` ×
+/// the largest (the points do not span the map's dimensions).
+fn least_squares(a: DMatrix<f64>, b: &DMatrix<f64>, min_ratio: f64) -> Option<DMatrix<f64>> {
     let svd = a.svd(true, true);
     let smax = svd.singular_values.max();
-    if svd.singular_values.min().is_nan() || svd.singular_values.min() <= 1e-9 * smax {
+    let smin = svd.singular_values.min();
+    if smin.is_nan() || smin <= min_ratio * smax {
         return None;
     }
-    let sol = svd.solve(&b, 1e-12 * smax).ok()?; // 4 × 3
-    Some(Matrix3x4::from_fn(|r, c| sol[(c, r)]))
+    svd.solve(b, 1e-12 * smax).ok()
 }
 
 fn apply(map: &Matrix3x4<f64>, x: &Vector3<f64>) -> Vector3<f64> {
@@ -195,12 +202,7 @@ fn first_map_in_plane(
         b[(r, 0)] = a2d[j][0];
         b[(r, 1)] = a2d[j][1];
     }
-    let svd = a.svd(true, true);
-    let smax = svd.singular_values.max();
-    if svd.singular_values.min().is_nan() || svd.singular_values.min() <= 1e-6 * smax {
-        return None;
-    }
-    let m = svd.solve(&b, 1e-12 * smax).ok()?; // 3 × 2
+    let m = least_squares(a, &b, 1e-6)?; // 3 × 2
     let cost: Vec<Vec<f64>> = t2d
         .iter()
         .map(|p| {
