@@ -1,4 +1,5 @@
-//! Rebuilds when a migration changes: `sqlx::migrate!` embeds `migrations/` at compile time.
+//! Rebuilds when a migration changes: `sqlx::migrate!` embeds `migrations/sqlite` and
+//! `migrations/postgres` at compile time.
 fn main() {
     println!("cargo:rerun-if-changed=migrations");
 }

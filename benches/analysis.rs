@@ -1,12 +1,12 @@
 //! Displacement analysis and alert evaluation of a 500-point epoch against a 10-year daily history
 //! (3650 records per point). Target: ≤ 50 ms per epoch. And the pure part of a full-site recompute
-//! (`ingest::recompute_site` → `alerting::analyse_series`): 1000 daily epochs × 30 points analysed
+//! (`service::recompute` → `analysis::analyse_series`): 1000 daily epochs × 30 points analysed
 //! again against the reference with the rules replayed. Figures in `docs/performance.md`.
 
 use chrono::Duration;
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 
-use cliffwatch::alerting::analyse_series;
+use cliffwatch::analysis::analyse_series;
 use cliffwatch::analysis::{
     analyse_epoch, evaluate_alerts, AlertConfig, AlertRule, AlertState, AnalysisConfig,
     DisplacementRecord, History,
@@ -114,8 +114,8 @@ fn bench(c: &mut Criterion) {
     });
 }
 
-/// The analysis part of a full-site recompute: [`cliffwatch::alerting::analyse_series`] (the function
-/// `ingest::recompute_site` runs on a blocking thread) over 1000 daily epochs of 30 points (8
+/// The analysis part of a full-site recompute: [`cliffwatch::analysis::analyse_series`] (the function
+/// `service::recompute::recompute_site` runs on a blocking thread) over 1000 daily epochs of 30 points (8
 /// stable, 6 on a creeping block, 16 others), the contract's four rules replayed.
 fn bench_recompute(c: &mut Criterion) {
     let sc = MonitoringScenario {

@@ -160,7 +160,7 @@ fn series(c: &mut Criterion) {
                     point: "T017".into(),
                     ..Default::default()
                 };
-                let mut rx = cliffwatch::store::series::stream_csv(server.store.reader(), q)
+                let mut rx = cliffwatch::store::series::stream_csv(&server.store, q)
                     .await
                     .unwrap();
                 let mut lines = 0;

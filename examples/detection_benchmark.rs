@@ -32,9 +32,9 @@ use cliffwatch::analysis::{
     AnalysisConfig, EpochAnalysis, EpochCoordinates, GroupConfig, GroupKind, History, PointConfig,
     PointRole,
 };
-use cliffwatch::ingest::joint_covariance_points;
 use cliffwatch::photogrammetry::camera::DEFAULT_SIGMA_MM;
 use cliffwatch::photogrammetry::{adjust_problem, AdjustOptions};
+use cliffwatch::service::ingest::joint_covariance_points;
 use cliffwatch::simulate::monitoring::FailureLaw;
 use cliffwatch::simulate::series::{image_series, ImageSeries, ImageSeriesScenario};
 

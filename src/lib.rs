@@ -15,25 +15,28 @@
 //!
 //! The shell around it:
 //! - [`config`]: layered configuration (file, environment, flags).
-//! - [`store`]: SQLite through sqlx; migrations under `migrations/`.
-//! - [`ingest`]: the one path of an epoch (validate → adjust → analyse → store in one transaction).
-//! - [`api`]: the HTTP API (axum), auth, errors, OpenAPI.
+//! - [`store`]: all SQL (SQLite through sqlx); migrations under `migrations/`.
+//! - [`service`]: the use cases, one file each (ingest an epoch, recompute a site, change its
+//!   settings, acknowledge an alert, the campaign check, the webhook worker); each owns its
+//!   transaction and calls the core and the store.
+//! - [`api`]: the HTTP API (axum) handlers, auth, errors, OpenAPI.
 //! - [`dashboard`]: the HTML pages on the same port (maud templates, embedded uPlot and htmx).
-//! - [`webhooks`]: the outbox worker that signs and delivers alerts.
+//! - [`webhooks`]: signing, bodies, retry policy and one delivery attempt of the alert webhooks.
 //! - [`watch`]: the watched directory.
+//! - [`daemon`] and [`shutdown`]: start and stop every part with one shutdown signal.
 
 // Numerical code indexes several parallel arrays with one loop variable; the lint fights that style.
 #![allow(clippy::needless_range_loop)]
 
-pub mod alerting;
 pub mod analysis;
 pub mod api;
 pub mod config;
+pub mod daemon;
 pub mod dashboard;
-pub mod delivery;
 pub mod detect;
-pub mod ingest;
 pub mod photogrammetry;
+pub mod service;
+pub mod shutdown;
 pub mod simulate;
 pub mod store;
 pub mod watch;

@@ -6,7 +6,7 @@
 //! seeded alone, or stations that do not share 4 seeded targets, from their own seeds,
 //! [`crate::detect::identify`]); stations without seeds from the orientation the watcher kept from
 //! their previous epoch. The epoch is ingested exactly as an upload
-//! ([`crate::ingest::ingest_with_identification`]: the counts below are stored with its report),
+//! ([`crate::service::ingest::ingest_with_identification`]: the counts below are stored with its report),
 //! and the stations' orientations for the next epoch are resected from its adjusted coordinates. The folder then moves to `<site>/.done/` with `identification.json` (per station:
 //! method, detected, identified, ambiguous, unmatched) or, with `error.txt`, to `<site>/.failed/`;
 //! when too few targets can be named, `error.txt` gives the same counts, the likely cause and what
@@ -33,9 +33,11 @@ use crate::detect::identify::{
     identify, resect_seeds, IdentifyError, IdentifyOptions, Prior, Seed,
 };
 use crate::detect::{detect_bytes, DetectError, DetectOptions};
-use crate::ingest::{ingest_with_identification, IngestError, Ingested};
 use crate::photogrammetry::epoch::ObservationInput;
 use crate::photogrammetry::{Camera, EpochError, EpochInput, ImageOrientation};
+use crate::service::ingest::{ingest_with_identification, Ingested};
+use crate::service::ServiceError;
+use crate::shutdown::Shutdown;
 use crate::store::{points, watch_state, Store, StoreError};
 
 /// Why a watched folder failed (written to its `error.txt`).
@@ -85,7 +87,7 @@ pub enum WatchError {
     NoPrior(String),
     /// Ingestion refused the epoch.
     #[error("ingestion: {0}")]
-    Ingest(#[from] IngestError),
+    Ingest(#[from] ServiceError),
     /// The blocking task panicked.
     #[error("detection task failed: {0}")]
     Task(String),
@@ -571,13 +573,9 @@ pub async fn scan_once(store: &Store, opts: &WatchOptions) -> Vec<std::io::Resul
     out
 }
 
-/// Watches `opts.dir` until `shutdown` completes: a scan at start, on every file-system event and
-/// every `opts.rescan`.
-pub async fn run(
-    store: Store,
-    opts: WatchOptions,
-    shutdown: impl std::future::Future<Output = ()>,
-) -> Result<(), WatchError> {
+/// Watches `opts.dir` until shutdown: a scan at start, on every file-system event and every
+/// `opts.rescan`.
+pub async fn run(store: Store, opts: WatchOptions, shutdown: Shutdown) -> Result<(), WatchError> {
     use notify::Watcher;
     let (tx, mut rx) = tokio::sync::mpsc::channel::<()>(16);
     let mut watcher = notify::recommended_watcher(move |_res: notify::Result<notify::Event>| {
@@ -588,10 +586,9 @@ pub async fn run(
         tracing::warn!(error = %e, "file-system events unavailable; rescanning only");
     }
     let mut tick = tokio::time::interval(opts.rescan);
-    tokio::pin!(shutdown);
     loop {
         tokio::select! {
-            _ = &mut shutdown => return Ok(()),
+            _ = shutdown.requested() => return Ok(()),
             _ = tick.tick() => {}
             Some(()) = rx.recv() => {
                 // let the writer finish its burst of events

@@ -312,7 +312,9 @@ async fn endpoints_from_before_the_migration_keep_the_standard_body() {
     let dir = tempfile::tempdir().unwrap();
     let old = dir.path().join("old-migrations");
     std::fs::create_dir(&old).unwrap();
-    let all = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations");
+    let all = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("migrations")
+        .join("sqlite");
     let mut copied = 0;
     for e in std::fs::read_dir(&all).unwrap() {
         let e = e.unwrap();
@@ -370,7 +372,9 @@ async fn endpoints_from_before_the_migration_keep_the_standard_body() {
     assert_eq!(listed.len(), 1);
     assert_eq!(listed[0].format, "standard");
     let mut tx = store.begin_write().await.unwrap();
-    let endpoints = cliffwatch::alerting::endpoints(&mut tx).await.unwrap();
+    let endpoints = cliffwatch::store::webhooks::enabled_endpoints(&mut tx)
+        .await
+        .unwrap();
     assert_eq!(
         endpoints[0].format,
         cliffwatch::webhooks::PayloadFormat::Standard

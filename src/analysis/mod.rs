@@ -13,6 +13,8 @@
 //!    ([`alerts`]): a rule fires when its value exceeds the threshold at the site's one-sided
 //!    confidence, for points and blocks; [`check_overdue`] watches the campaign schedule; [`acknowledge`] and [`resolve`] are the
 //!    user's actions.
+//! 3. [`analyse_series`]: a whole series again against one reference, the rules replayed over it
+//!    ([`series`]), when the reference or the history changes.
 //!
 //! Units are in the names: m for coordinates, mm and mm² for displacements and their covariances, mm/day,
 //! hours. Methods: Caspary 1987 and Niemeier 2008 (S-transformation, congruence test), Chen 1983 (IWST),
@@ -32,6 +34,7 @@ pub mod error;
 pub mod failure;
 pub mod kalman;
 pub mod reference;
+pub mod series;
 pub mod stats;
 pub mod tracking;
 pub mod velocity;
@@ -51,4 +54,5 @@ pub use epoch::{
 };
 pub use error::AnalysisError;
 pub use failure::FailureForecast;
+pub use series::{analyse_series, SeriesAnalysis};
 pub use velocity::Kinematics;

@@ -8,7 +8,8 @@ use utoipa::ToSchema;
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{Page, PageParams};
 use super::AppState;
-use crate::store::{alerts, StoreError};
+use crate::service;
+use crate::store::alerts;
 
 /// Query of the alert list.
 #[derive(Debug, Default, Deserialize)]
@@ -76,37 +77,8 @@ pub async fn acknowledge(
     ApiPath(id): ApiPath<String>,
     ApiJson(body): ApiJson<AckBody>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let alert = acknowledge_alert(&state, &id, &body.by, body.comment.as_deref()).await?;
+    let alert =
+        service::acknowledge::acknowledge(&state.store, &id, &body.by, body.comment.as_deref())
+            .await?;
     Ok(axum::Json(alert))
-}
-
-/// Acknowledges alert `id` for `by` with an optional comment in one write transaction: an open
-/// alert moves to `acknowledged` and queues an `alert.acknowledged` event; a resolved one only
-/// records who acknowledged it. 404 for an unknown id.
-pub async fn acknowledge_alert(
-    state: &AppState,
-    id: &str,
-    by: &str,
-    comment: Option<&str>,
-) -> Result<alerts::Alert, ApiError> {
-    let mut tx = state.store.begin_write().await?;
-    let Some(stored) = alerts::get(&mut *tx, id).await? else {
-        return Err(ApiError::not_found(format!("unknown alert '{id}'")));
-    };
-    let engine = crate::alerting::load_state(&mut tx, &stored.site).await?;
-    match crate::analysis::acknowledge(&engine, id, by, comment, chrono::Utc::now()) {
-        Ok((engine, event)) => {
-            crate::alerting::save_state(&mut tx, &stored.site, &engine).await?;
-            crate::alerting::record_events(&mut tx, &[event]).await?;
-        }
-        // Not open any more (resolved): note who acknowledged it, no event.
-        Err(_) => {
-            alerts::acknowledge(&mut tx, id, by, comment).await?;
-        }
-    }
-    let alert = alerts::get(&mut *tx, id)
-        .await?
-        .ok_or_else(|| ApiError::internal("alert vanished"))?;
-    tx.commit().await.map_err(StoreError::from)?;
-    Ok(alert)
 }

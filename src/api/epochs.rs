@@ -13,9 +13,10 @@ use super::error::{ApiError, ApiPath, ApiQuery};
 use super::list::{Page, PageParams};
 use super::sites::find;
 use super::AppState;
-use crate::ingest::{self, epoch_from_csv};
 use crate::photogrammetry::epoch::CameraInput;
+use crate::photogrammetry::epoch_csv::epoch_from_csv;
 use crate::photogrammetry::EpochInput;
+use crate::service::ingest;
 use crate::store::{alerts, displacements, epochs, parse_timestamp, timestamp, Store, StoreError};
 
 /// Bodies up to this many times the limit are read to the end before answering 413, so the client

@@ -5,7 +5,8 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use serde_json::{json, Value};
 
-use crate::ingest::{CsvError, IngestError};
+use crate::photogrammetry::epoch_csv::CsvError;
+use crate::service::ServiceError;
 use crate::store::StoreError;
 
 /// An error answer: status, stable code, message naming what is at fault, details.
@@ -89,13 +90,15 @@ impl From<StoreError> for ApiError {
     }
 }
 
-impl From<IngestError> for ApiError {
-    fn from(e: IngestError) -> Self {
+impl From<ServiceError> for ApiError {
+    fn from(e: ServiceError) -> Self {
         match e {
-            IngestError::UnknownSite(s) => ApiError::not_found(format!("unknown site '{s}'")),
-            IngestError::Invalid(err) => ApiError::unprocessable("invalid_epoch", err.to_string()),
-            IngestError::Adjust(err) => ApiError::unprocessable("cannot_adjust", err.to_string()),
-            IngestError::Conflict {
+            ServiceError::UnknownSite(_)
+            | ServiceError::UnknownEpoch { .. }
+            | ServiceError::UnknownAlert(_) => ApiError::not_found(e.to_string()),
+            ServiceError::Invalid(err) => ApiError::unprocessable("invalid_epoch", err.to_string()),
+            ServiceError::Adjust(err) => ApiError::unprocessable("cannot_adjust", err.to_string()),
+            ServiceError::Conflict {
                 site,
                 observed_at,
                 epoch,
@@ -105,8 +108,8 @@ impl From<IngestError> for ApiError {
                 format!("site '{site}' has epoch {epoch} at {observed_at} with another body"),
             )
             .with_details(json!({ "epoch": epoch, "observed_at": observed_at })),
-            IngestError::Store(err) => ApiError::internal(err),
-            IngestError::Task(err) => ApiError::internal(err),
+            ServiceError::Store(err) => ApiError::internal(err),
+            ServiceError::Task(err) => ApiError::internal(err),
         }
     }
 }

@@ -16,7 +16,7 @@ use super::AppState;
 use crate::analysis::{GroupConfig, GroupKind};
 use crate::photogrammetry::epoch::is_valid_identifier;
 use crate::store::series::{format_rows, SeriesFormat};
-use crate::store::{block_motions, groups, StoreError};
+use crate::store::{block_motions, groups};
 
 /// Body of `PUT .../groups/{group}`.
 #[derive(Debug, Clone, Deserialize, ToSchema)]
@@ -121,12 +121,9 @@ pub async fn put(
     ApiPath((site, group)): ApiPath<(String, String)>,
     ApiJson(body): ApiJson<GroupBody>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let s = find(&state, &site).await?;
+    find(&state, &site).await?;
     let config = check(&group, &body)?;
-    let mut tx = state.store.begin_write().await?;
-    groups::put(&mut tx, &site, &config).await?;
-    crate::ingest::recompute_displacements(&mut tx, &s).await?;
-    tx.commit().await.map_err(StoreError::from)?;
+    crate::service::site_settings::declare_group(&state.store, &site, &config).await?;
     let stored = groups::get(state.store.reader(), &site, &group)
         .await?
         .ok_or_else(|| ApiError::internal("group vanished"))?;

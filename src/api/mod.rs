@@ -1,8 +1,9 @@
 //! The HTTP API of the contract (`docs/api-contract.md`): axum routes, auth, errors as JSON,
 //! request ids, body limit, timeouts, metrics and the OpenAPI description.
 //!
-//! [`router`] builds the service from an [`AppState`]; [`server`] binds and runs it with graceful
-//! shutdown.
+//! Handlers only: each parses its request, calls a use case of [`crate::service`] or a read of
+//! [`crate::store`], and answers. [`router`] builds the service from an [`AppState`];
+//! [`crate::daemon`] binds and runs it.
 
 pub mod alerts;
 pub mod auth;
@@ -14,7 +15,6 @@ pub mod list;
 pub mod openapi;
 pub mod points;
 pub mod schemas;
-pub mod server;
 pub mod sites;
 pub mod webhooks;
 
@@ -32,8 +32,6 @@ use tower_http::trace::TraceLayer;
 
 use crate::config::Config;
 use crate::store::Store;
-
-pub use server::{serve, Bound, ServeError};
 
 /// What every handler shares. Cheap to clone.
 #[derive(Clone)]

@@ -222,7 +222,7 @@ pub async fn displacements(
     };
     if csv {
         // streamed: the first chunk (or the error that stopped the read) decides the status
-        let mut rx = series::stream_csv(db, query).await?;
+        let mut rx = series::stream_csv(&state.store, query).await?;
         let first = rx
             .recv()
             .await
@@ -241,7 +241,7 @@ pub async fn displacements(
     query.limit = Some(page.limit());
     let mut out = Vec::with_capacity(512 * page.limit() as usize + 64);
     out.extend_from_slice(b"{\"items\":");
-    let written = series::write(db, query, SeriesFormat::JsonItems, out).await?;
+    let written = series::write(&state.store, query, SeriesFormat::JsonItems, out).await?;
     let mut out = written.out;
     out.extend_from_slice(b",\"next_cursor\":");
     let next = written

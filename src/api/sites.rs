@@ -12,7 +12,7 @@ use super::AppState;
 use crate::analysis::AlertRule;
 use crate::photogrammetry::epoch::is_valid_identifier;
 use crate::store::sites::{self, NewSite, Site};
-use crate::store::{epochs, StoreError};
+use crate::store::StoreError;
 
 /// Checks a site definition (identifier, model, confidence, rule levels and metrics).
 pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
@@ -172,17 +172,6 @@ pub async fn set_reference(
     ApiPath(site): ApiPath<String>,
     ApiJson(body): ApiJson<ReferenceBody>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let s = find(&state, &site).await?;
-    let mut tx = state.store.begin_write().await?;
-    if let Some(e) = body.epoch {
-        if epochs::observed_at_raw(&mut *tx, &site, e).await?.is_none() {
-            return Err(ApiError::not_found(format!(
-                "site '{site}' has no epoch {e}"
-            )));
-        }
-    }
-    sites::set_reference(&mut *tx, &site, body.epoch).await?;
-    crate::ingest::recompute_displacements(&mut tx, &s).await?;
-    tx.commit().await.map_err(StoreError::from)?;
+    crate::service::site_settings::set_reference(&state.store, &site, body.epoch).await?;
     Ok(axum::Json(find(&state, &site).await?))
 }

@@ -3,8 +3,9 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use cliffwatch::api::server::{serve, shutdown_signal};
 use cliffwatch::config::{Config, LogFormat, Overrides};
+use cliffwatch::daemon::serve;
+use cliffwatch::shutdown;
 
 /// Arguments of `cliffwatch serve` (environment: `CLIFFWATCH_LISTEN`, `CLIFFWATCH_DATA_DIR`,
 /// `CLIFFWATCH_WATCH_DIR`, and `CLIFFWATCH_<OPTION>` for every option of `config/default.toml`).
@@ -38,7 +39,7 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         .enable_all()
         .build()
         .context("starting the runtime")?;
-    runtime.block_on(serve(config, shutdown_signal()))?;
+    runtime.block_on(serve(config, shutdown::signal()))?;
     Ok(())
 }
 

@@ -92,7 +92,7 @@ pub async fn acknowledge(
         )
             .into_response();
     }
-    match crate::api::alerts::acknowledge_alert(&state, &id, by, comment).await {
+    match crate::service::acknowledge::acknowledge(&state.store, &id, by, comment).await {
         Ok(alert) => {
             if headers.contains_key("hx-request") {
                 Html(alert_row(&alert, &viewer(access.as_deref())).into_string()).into_response()
@@ -100,6 +100,9 @@ pub async fn acknowledge(
                 Redirect::to(&format!("/sites/{}", seg(&alert.site))).into_response()
             }
         }
-        Err(e) => (e.status, e.message).into_response(),
+        Err(e) => {
+            let e = crate::api::error::ApiError::from(e);
+            (e.status, e.message).into_response()
+        }
     }
 }

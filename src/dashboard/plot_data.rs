@@ -48,7 +48,7 @@ pub async fn plot(
         )));
     };
     let c = series_columns::read(
-        db,
+        &state.store,
         SeriesQuery {
             site: site.id.clone(),
             point: p.name.clone(),

@@ -15,7 +15,8 @@ use super::lm::{
     levenberg_marquardt, levenberg_marquardt_normals, levenberg_marquardt_within, LmOutcome, Start,
     ROUND_STEP,
 };
-use super::normals::{Bundle, Normals};
+use super::normal_equations::Normals;
+use super::normals::Bundle;
 use super::orthogonal::OrthoImage;
 use super::precision::Cofactors;
 use super::report::{

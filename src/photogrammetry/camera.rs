@@ -1,7 +1,57 @@
 //! Interior orientation: pixel ↔ mm conversion and Brown distortion corrections (contract conventions).
 
-use super::epoch::CameraInput;
+use serde::{Deserialize, Serialize};
+
 use super::error::EpochError;
+
+/// A camera (interior orientation) of the upload form. Only `c_mm` is required.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CameraInput {
+    /// Camera identifier referenced by images.
+    pub id: String,
+    /// Principal distance c in mm.
+    pub c_mm: f64,
+    /// Estimate c (shorthand for `calibrate: ["c"]`).
+    #[serde(default)]
+    pub calibrate_c: bool,
+    /// Names of the parameters to estimate: any of c, x0, y0, k1, k2, k3, p1, p2.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibrate: Option<Vec<String>>,
+    /// Pixel size in mm (needed for pixel observations).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel_size_mm: Option<f64>,
+    /// Image width in pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_px: Option<u32>,
+    /// Image height in pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height_px: Option<u32>,
+    /// Principal point offset x0 in mm.
+    #[serde(default)]
+    pub x0_mm: f64,
+    /// Principal point offset y0 in mm.
+    #[serde(default)]
+    pub y0_mm: f64,
+    /// Radial distortion k1 (mm⁻²).
+    #[serde(default)]
+    pub k1: f64,
+    /// Radial distortion k2 (mm⁻⁴).
+    #[serde(default)]
+    pub k2: f64,
+    /// Radial distortion k3 (mm⁻⁶).
+    #[serde(default)]
+    pub k3: f64,
+    /// Decentring distortion p1 (mm⁻¹).
+    #[serde(default)]
+    pub p1: f64,
+    /// Decentring distortion p2 (mm⁻¹).
+    #[serde(default)]
+    pub p2: f64,
+    /// A-priori standard deviation of one image coordinate in mm
+    /// (default 0.5 px when the pixel size is known, else 0.002 mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_mm: Option<f64>,
+}
 
 /// Names of the interior parameters, in the order of [`Camera::params`].
 pub const INTERIOR_NAMES: [&str; 8] = ["c", "x0", "y0", "k1", "k2", "k3", "p1", "p2"];

@@ -9,7 +9,7 @@ use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::{Accum, Mat, Par};
 use nalgebra::{Matrix3, Vector3};
 
-use super::normals::{Normals, PARALLEL_MIN_OBSERVATIONS};
+use super::normal_equations::{Normals, PARALLEL_MIN_OBSERVATIONS};
 
 /// Mean share of the camera unknowns that a point couples with, from which the reduction runs as
 /// matrix products (below it the products would multiply mostly zeros).
@@ -92,7 +92,7 @@ pub fn cofactor_product(q: &Mat<f64>, w: &Mat<f64>) -> Mat<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::photogrammetry::normals::Coupling;
+    use crate::photogrammetry::normal_equations::Coupling;
 
     /// The products equal the point-by-point sums they replace.
     #[test]

@@ -1,6 +1,7 @@
 //! Gauss–Newton with Levenberg–Marquardt damping over the bundle's normal equations.
 
-use super::normals::{Bundle, Normals, ReduceBuffers};
+use super::normal_equations::Normals;
+use super::normals::{Bundle, ReduceBuffers};
 
 /// How an iteration ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -85,7 +86,7 @@ const LINEAR_DECREASE: f64 = 0.01;
 /// λ: with (N + G + λD) h = g, it is 2 hᵀg − hᵀNh = hᵀg + hᵀGh + λ hᵀDh.
 fn predicted_decrease(
     b: &Bundle,
-    n: &super::normals::Normals,
+    n: &Normals,
     dc: &[f64],
     dp: &[nalgebra::Vector3<f64>],
     lambda: f64,
@@ -104,12 +105,7 @@ fn predicted_decrease(
 }
 
 /// The largest update measured in units of its a-priori σ, 1/√N_kk.
-fn step_in_sigmas(
-    b: &Bundle,
-    n: &super::normals::Normals,
-    dc: &[f64],
-    dp: &[nalgebra::Vector3<f64>],
-) -> f64 {
+fn step_in_sigmas(b: &Bundle, n: &Normals, dc: &[f64], dp: &[nalgebra::Vector3<f64>]) -> f64 {
     let mut worst: f64 = 0.0;
     for (k, d) in dc.iter().enumerate() {
         worst = worst.max(d.abs() * n.u[(k, k)].max(0.0).sqrt());

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use super::bundle::{residual, residual_jacobian, ImageState, Obs, INTERIOR0, LOCAL, POINT0};
 use super::camera_blocks::CameraBlocks;
 use super::dual::Dual;
+use super::normal_equations::{chunk_len, Coupling, Normals, PARALLEL_MIN_OBSERVATIONS};
 use super::report::Model;
 use super::rotation::perturbed;
 
@@ -42,48 +43,6 @@ pub struct Bundle {
     pub gauge: f64,
     /// A-priori value and σ of interior parameters (weighted pseudo-observations), per camera.
     pub interior_prior: Vec<[Option<(f64, f64)>; 8]>,
-}
-
-/// Coupling W_i of one point with the image/interior unknowns: sparse rows (global column, 1 × 3).
-#[derive(Debug, Clone, Default)]
-pub struct Coupling {
-    /// Global columns.
-    pub cols: Vec<usize>,
-    /// The rows of W_i (∂e/∂camera)ᵀ P (∂e/∂point) for those columns.
-    pub rows: Vec<Vector3<f64>>,
-    /// Whether `cols` ascend (then the Schur complement visits only its lower triangle's pairs).
-    pub sorted: bool,
-    /// End (exclusive) of the run of consecutive global columns that holds each entry of `cols`:
-    /// the Schur complement and the cofactors work run by run.
-    pub run_end: Vec<usize>,
-}
-
-impl Coupling {
-    fn add(&mut self, col: usize, row: Vector3<f64>) {
-        if let Some(k) = self.cols.iter().rposition(|&c| c == col) {
-            self.rows[k] += row;
-        } else {
-            self.cols.push(col);
-            self.rows.push(row);
-        }
-    }
-}
-
-/// Normal equations `[U W; Wᵀ V] [Δc; Δp] = [bc; bp]` (weights 1/σ²) and the weighted square sum.
-#[derive(Debug, Clone)]
-pub struct Normals {
-    /// Image and interior block (dense).
-    pub u: Mat<f64>,
-    /// Right-hand side of the image and interior unknowns.
-    pub bc: Vec<f64>,
-    /// 3 × 3 point blocks.
-    pub v: Vec<Matrix3<f64>>,
-    /// Right-hand sides of the points.
-    pub bp: Vec<Vector3<f64>>,
-    /// Couplings per point.
-    pub w: Vec<Coupling>,
-    /// vᵀPv (dimensionless: residuals over their a-priori σ).
-    pub cost: f64,
 }
 
 /// The reduced system and what back-substitution needs.
@@ -740,17 +699,3 @@ struct ReduceScratch {
 
 /// Observations per chunk of the parallel cost evaluation.
 const COST_CHUNK: usize = 4096;
-
-/// Observations below which the normal equations are built on the calling thread only (the rayon
-/// pool's overhead would exceed the gain).
-pub const PARALLEL_MIN_OBSERVATIONS: usize = 2_000;
-
-/// Points per chunk of parallel work: all of them for small networks, else two chunks per thread
-/// of the rayon pool (each chunk carries a dense matrix of the camera unknowns).
-pub fn chunk_len(points: usize, observations: usize) -> usize {
-    if observations < PARALLEL_MIN_OBSERVATIONS || rayon::current_num_threads() < 2 {
-        points.max(1)
-    } else {
-        points.div_ceil(2 * rayon::current_num_threads()).max(1)
-    }
-}

@@ -7,7 +7,8 @@ use nalgebra::{Matrix2, Matrix3, SMatrix, Vector3};
 
 use super::bundle::{Obs, LOCAL, POINT0};
 use super::dual::Dual;
-use super::normals::{Bundle, Normals, PARALLEL_MIN_OBSERVATIONS};
+use super::normal_equations::{Normals, PARALLEL_MIN_OBSERVATIONS};
+use super::normals::Bundle;
 use rayon::prelude::*;
 
 type G = SMatrix<f64, 3, 7>;

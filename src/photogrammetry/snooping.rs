@@ -6,8 +6,8 @@ use nalgebra::{Matrix2, Vector2, Vector3};
 
 use super::bundle::{residual_value, LOCAL, POINT0};
 use super::dual::Dual;
+use super::normal_equations::PARALLEL_MIN_OBSERVATIONS;
 use super::normals::Bundle;
-use super::normals::PARALLEL_MIN_OBSERVATIONS;
 use super::precision::{Cofactors, ImageBlock};
 use rayon::prelude::*;
 

@@ -1,10 +1,12 @@
 //! Alerts: raised by the alert rules on ingestion, acknowledged through the API.
 
 use serde::Serialize;
-use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
+use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
-use super::{display_timestamp, now, StoreError};
+use chrono::{DateTime, Utc};
+
+use super::{display_timestamp, now, timestamp, StoreError};
 
 /// A stored alert.
 #[derive(Debug, Clone, Serialize, FromRow, ToSchema)]
@@ -55,33 +57,6 @@ pub struct Alert {
     pub ack_comment: Option<String>,
 }
 
-/// An alert to store (computed by the alert rules during ingestion).
-#[derive(Debug, Clone)]
-pub struct NewAlert {
-    /// Identifier (UUID).
-    pub id: String,
-    /// Point (None: site-level).
-    pub point: Option<String>,
-    /// Points concerned.
-    pub points: Vec<String>,
-    /// `watch`, `warning` or `alarm`.
-    pub level: String,
-    /// Metric or kind.
-    pub rule: String,
-    /// Value.
-    pub value: Option<f64>,
-    /// Threshold.
-    pub threshold: Option<f64>,
-    /// Unit.
-    pub unit: Option<String>,
-    /// Epoch id.
-    pub epoch: Option<i64>,
-    /// Observation time (store format).
-    pub observed_at: Option<String>,
-    /// Message.
-    pub message: String,
-}
-
 const COLUMNS: &str =
     "id, site_id, point, group_name, points AS points, level, rule, value, threshold, unit, epoch_id, \
     observed_at, message, state, raised_at, updated_at, acknowledged_by, ack_comment";
@@ -99,7 +74,7 @@ fn finish(mut rows: Vec<Alert>) -> Vec<Alert> {
 /// Alerts newest first, optionally of one site and state; `after` is `(raised_at, id)` of the last
 /// item of the previous page (raised_at in store format).
 pub async fn list(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: Option<&str>,
     state: Option<&str>,
     after: Option<(&str, &str)>,
@@ -107,8 +82,8 @@ pub async fn list(
 ) -> Result<Vec<(String, Alert)>, StoreError> {
     let (t, id) = after.unwrap_or((super::TEXT_MAX, ""));
     let rows: Vec<Alert> = sqlx::query_as(&format!(
-        "SELECT {COLUMNS} FROM alerts WHERE (? IS NULL OR site_id = ?) AND (? IS NULL OR state = ?) \
-         AND (raised_at < ? OR (raised_at = ? AND id < ?)) ORDER BY raised_at DESC, id DESC LIMIT ?"
+        "SELECT {COLUMNS} FROM alerts WHERE ($1 IS NULL OR site_id = $2) AND ($3 IS NULL OR state = $4) \
+         AND (raised_at < $5 OR (raised_at = $6 AND id < $7)) ORDER BY raised_at DESC, id DESC LIMIT $8"
     ))
     .bind(site)
     .bind(site)
@@ -125,8 +100,8 @@ pub async fn list(
 }
 
 /// One alert.
-pub async fn get(db: impl SqliteExecutor<'_>, id: &str) -> Result<Option<Alert>, StoreError> {
-    let row: Option<Alert> = sqlx::query_as(&format!("SELECT {COLUMNS} FROM alerts WHERE id = ?"))
+pub async fn get(db: impl AnyExecutor<'_>, id: &str) -> Result<Option<Alert>, StoreError> {
+    let row: Option<Alert> = sqlx::query_as(&format!("SELECT {COLUMNS} FROM alerts WHERE id = $1"))
         .bind(id)
         .fetch_optional(db)
         .await?;
@@ -135,12 +110,12 @@ pub async fn get(db: impl SqliteExecutor<'_>, id: &str) -> Result<Option<Alert>,
 
 /// The alerts raised by one epoch.
 pub async fn of_epoch(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     epoch: i64,
 ) -> Result<Vec<Alert>, StoreError> {
     let rows: Vec<Alert> = sqlx::query_as(&format!(
-        "SELECT {COLUMNS} FROM alerts WHERE site_id = ? AND epoch_id = ? ORDER BY raised_at, id"
+        "SELECT {COLUMNS} FROM alerts WHERE site_id = $1 AND epoch_id = $2 ORDER BY raised_at, id"
     ))
     .bind(site)
     .bind(epoch)
@@ -151,43 +126,72 @@ pub async fn of_epoch(
 
 /// Open or acknowledged alerts of a site that concern one point: `(point, level)`.
 pub async fn active_levels(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
 ) -> Result<Vec<(String, String)>, StoreError> {
     Ok(sqlx::query_as(
-        "SELECT point, level FROM alerts WHERE site_id = ? AND point IS NOT NULL AND state <> 'resolved'",
+        "SELECT point, level FROM alerts WHERE site_id = $1 AND point IS NOT NULL AND state <> 'resolved'",
     )
     .bind(site)
     .fetch_all(db)
     .await?)
 }
 
-/// Stores new alerts (inside the epoch's write transaction).
-pub async fn insert(
-    db: &mut SqliteConnection,
-    site: &str,
-    alerts: &[NewAlert],
+/// Writes an alert as the alert engine left it after an event: the row is updated to the
+/// alert's snapshot, or inserted when the alert is new. `state` is the row's state after the
+/// event (`open`, `acknowledged` or `resolved`), `updated_at` the event's time.
+pub async fn save(
+    db: &mut AnyConnection,
+    a: &crate::analysis::Alert,
+    state: &str,
+    updated_at: DateTime<Utc>,
 ) -> Result<(), StoreError> {
-    let t = now();
-    for a in alerts {
+    let points = serde_json::to_string(&a.points)?;
+    let updated = sqlx::query(
+        "UPDATE alerts SET level = $1, value = $2, threshold = $3, unit = $4, epoch_id = $5, \
+         observed_at = $6, message = $7, state = $8, points = $9, updated_at = $10, \
+         acknowledged_by = $11, ack_comment = $12 WHERE id = $13",
+    )
+    .bind(a.level.as_str())
+    .bind(a.value)
+    .bind(a.threshold)
+    .bind(&a.unit)
+    .bind(a.epoch)
+    .bind(a.observed_at.map(timestamp))
+    .bind(&a.message)
+    .bind(state)
+    .bind(&points)
+    .bind(timestamp(updated_at))
+    .bind(&a.acknowledged_by)
+    .bind(&a.comment)
+    .bind(&a.id)
+    .execute(&mut *db)
+    .await?;
+    if updated.rows_affected() == 0 {
         sqlx::query(
-            "INSERT INTO alerts (id, site_id, point, points, level, rule, value, threshold, unit, epoch_id, \
-             observed_at, message, state, raised_at, updated_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'open', ?, ?)",
+            "INSERT INTO alerts (id, site_id, point, group_name, points, level, rule, value, \
+             threshold, unit, epoch_id, observed_at, message, state, raised_at, updated_at, \
+             acknowledged_by, ack_comment) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18)",
         )
         .bind(&a.id)
-        .bind(site)
+        .bind(&a.site)
         .bind(&a.point)
-        .bind(serde_json::to_string(&a.points)?)
-        .bind(&a.level)
-        .bind(&a.rule)
+        .bind(&a.group)
+        .bind(&points)
+        .bind(a.level.as_str())
+        .bind(a.rule.as_str())
         .bind(a.value)
         .bind(a.threshold)
         .bind(&a.unit)
         .bind(a.epoch)
-        .bind(&a.observed_at)
+        .bind(a.observed_at.map(timestamp))
         .bind(&a.message)
-        .bind(&t)
-        .bind(&t)
+        .bind(state)
+        .bind(timestamp(a.raised_at))
+        .bind(timestamp(updated_at))
+        .bind(&a.acknowledged_by)
+        .bind(&a.comment)
         .execute(&mut *db)
         .await?;
     }
@@ -196,14 +200,14 @@ pub async fn insert(
 
 /// Acknowledges an alert; `Ok(false)` when it does not exist.
 pub async fn acknowledge(
-    db: &mut SqliteConnection,
+    db: &mut AnyConnection,
     id: &str,
     by: &str,
     comment: Option<&str>,
 ) -> Result<bool, StoreError> {
     let done = sqlx::query(
         "UPDATE alerts SET state = CASE WHEN state = 'resolved' THEN state ELSE 'acknowledged' END, \
-         acknowledged_by = ?, ack_comment = ?, updated_at = ? WHERE id = ?",
+         acknowledged_by = $1, ack_comment = $2, updated_at = $3 WHERE id = $4",
     )
     .bind(by)
     .bind(comment)
@@ -232,14 +236,14 @@ pub struct AlertEvent {
 /// The recorded changes of the alerts that concern `point` (as the point of the alert or one of
 /// its points), oldest first.
 pub async fn events_of_point(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     point: &str,
 ) -> Result<Vec<AlertEvent>, StoreError> {
     let rows: Vec<(String, String, Option<String>, String, String)> = sqlx::query_as(
         "SELECT o.event_type, o.alert_id, o.level, o.payload, o.created_at FROM webhook_outbox o \
          JOIN alerts a ON a.id = o.alert_id \
-         WHERE a.site_id = ? AND (a.point = ? OR a.points LIKE ? ESCAPE '\\') ORDER BY o.created_at",
+         WHERE a.site_id = $1 AND (a.point = $2 OR a.points LIKE $3 ESCAPE '\\') ORDER BY o.created_at",
     )
     .bind(site)
     .bind(point)

@@ -2,14 +2,14 @@
 //! displacement row ([`Displacement`], `point` naming the group): translation in mm with its
 //! covariance in mm², velocity in mm/day, time to failure in hours, the filtered values.
 
-use sqlx::{SqliteConnection, SqliteExecutor};
+use sqlx::{AnyConnection, AnyExecutor};
 
 use super::displacements::{insert_into, series_of, Displacement};
 use super::StoreError;
 
 /// Stores block motion rows (observed_at in store format); inside the epoch's write transaction.
 pub async fn insert(
-    db: &mut SqliteConnection,
+    db: &mut AnyConnection,
     site: &str,
     rows: &[Displacement],
 ) -> Result<(), StoreError> {
@@ -17,8 +17,8 @@ pub async fn insert(
 }
 
 /// Deletes every block motion of a site (before a recompute).
-pub async fn delete_site(db: &mut SqliteConnection, site: &str) -> Result<(), StoreError> {
-    sqlx::query("DELETE FROM block_motions WHERE site_id = ?")
+pub async fn delete_site(db: &mut AnyConnection, site: &str) -> Result<(), StoreError> {
+    sqlx::query("DELETE FROM block_motions WHERE site_id = $1")
         .bind(site)
         .execute(&mut *db)
         .await?;
@@ -28,7 +28,7 @@ pub async fn delete_site(db: &mut SqliteConnection, site: &str) -> Result<(), St
 /// The motion series of `block`, oldest first, with `from ≤ observed_at ≤ to` and after the
 /// cursor `after` (store format); at most `limit` rows (`None`: all).
 pub async fn series(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     block: &str,
     from: Option<&str>,

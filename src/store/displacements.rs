@@ -1,261 +1,18 @@
 //! Displacements of points per epoch against the site's reference epoch (mm).
 
-use serde::Serialize;
-use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
-use utoipa::ToSchema;
+use sqlx::{AnyConnection, AnyExecutor};
 
-use super::series_record::{Filtered, Record};
-use super::{display_timestamp, parse_timestamp, timestamp, StoreError};
-use crate::analysis::{DisplacementRecord, FilteredValues};
+use super::{display_timestamp, StoreError};
 
-/// The displacement of one point in one epoch against the reference epoch. Lengths in mm.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, FromRow, ToSchema)]
-pub struct Displacement {
-    /// Point name.
-    pub point: String,
-    /// Epoch id.
-    #[sqlx(rename = "epoch_id")]
-    pub epoch: i64,
-    /// Observation time of the epoch (RFC 3339).
-    pub observed_at: String,
-    /// The reference epoch's id.
-    pub reference_epoch: i64,
-    /// ΔX in mm.
-    pub dx_mm: f64,
-    /// ΔY in mm.
-    pub dy_mm: f64,
-    /// ΔZ in mm.
-    pub dz_mm: f64,
-    /// 3-D length in mm.
-    pub d_mm: f64,
-    /// σ of ΔX in mm.
-    pub sigma_dx_mm: f64,
-    /// σ of ΔY in mm.
-    pub sigma_dy_mm: f64,
-    /// σ of ΔZ in mm.
-    pub sigma_dz_mm: f64,
-    /// σ of `d_mm` in mm.
-    pub sigma_mm: f64,
-    /// Covariance of ΔX and ΔY in mm² (null for rows stored before schema version 4).
-    pub cov_dxdy_mm2: Option<f64>,
-    /// Covariance of ΔX and ΔZ in mm².
-    pub cov_dxdz_mm2: Option<f64>,
-    /// Covariance of ΔY and ΔZ in mm².
-    pub cov_dydz_mm2: Option<f64>,
-    /// Component along the point's direction of interest in mm (when set).
-    pub d_along_mm: Option<f64>,
-    /// Significant at the site's confidence.
-    pub significant: bool,
-    /// Rate of `d_mm` in mm/day against the previous epoch.
-    pub velocity_mm_per_day: Option<f64>,
-    /// Time to failure in hours (null unless accelerating).
-    pub time_to_failure_hours: Option<f64>,
-    /// σ of `time_to_failure_hours` in hours.
-    #[sqlx(default)]
-    pub time_to_failure_sigma_hours: Option<f64>,
-    /// Kalman-filtered ΔX in mm (the filter over the epochs up to this one).
-    #[sqlx(default)]
-    pub f_dx_mm: Option<f64>,
-    /// Filtered ΔY in mm.
-    #[sqlx(default)]
-    pub f_dy_mm: Option<f64>,
-    /// Filtered ΔZ in mm.
-    #[sqlx(default)]
-    pub f_dz_mm: Option<f64>,
-    /// 3-D length of the filtered displacement in mm.
-    #[sqlx(default)]
-    pub f_d_mm: Option<f64>,
-    /// σ of `f_dx_mm` in mm.
-    #[sqlx(default)]
-    pub sigma_f_dx_mm: Option<f64>,
-    /// σ of `f_dy_mm` in mm.
-    #[sqlx(default)]
-    pub sigma_f_dy_mm: Option<f64>,
-    /// σ of `f_dz_mm` in mm.
-    #[sqlx(default)]
-    pub sigma_f_dz_mm: Option<f64>,
-    /// σ of `f_d_mm` in mm.
-    #[sqlx(default)]
-    pub sigma_f_d_mm: Option<f64>,
-    /// Filtered velocity in mm/day, along the direction of interest (else along the filtered displacement).
-    #[sqlx(default)]
-    pub f_velocity_mm_per_day: Option<f64>,
-    /// σ of `f_velocity_mm_per_day` in mm/day.
-    #[sqlx(default)]
-    pub sigma_f_velocity_mm_per_day: Option<f64>,
-    /// Filtered acceleration along the same direction in mm/day².
-    #[sqlx(default)]
-    pub f_acceleration_mm_per_day2: Option<f64>,
-    /// σ of `f_acceleration_mm_per_day2` in mm/day².
-    #[sqlx(default)]
-    pub sigma_f_acceleration_mm_per_day2: Option<f64>,
-    /// Time to failure in hours from the filtered analysis (null unless moving and the inverse-velocity law fits).
-    #[sqlx(default)]
-    pub f_time_to_failure_hours: Option<f64>,
-    /// σ of `f_time_to_failure_hours` in hours.
-    #[sqlx(default)]
-    pub sigma_f_time_to_failure_hours: Option<f64>,
-}
+pub use super::displacement_row::Displacement;
+use super::displacement_row::{select_list, COLUMNS, HISTORY_COLUMNS};
 
-impl Displacement {
-    /// The stored row of an analysis record against `reference_epoch` (observed_at in the store's
-    /// form): the two types carry the same contract fields; the store adds the reference epoch.
-    pub fn from_record(r: &DisplacementRecord, reference_epoch: i64) -> Displacement {
-        let f = r.filtered.as_ref();
-        Displacement {
-            point: r.point.clone(),
-            epoch: r.epoch,
-            observed_at: timestamp(r.observed_at),
-            reference_epoch,
-            dx_mm: r.dx_mm,
-            dy_mm: r.dy_mm,
-            dz_mm: r.dz_mm,
-            d_mm: r.d_mm,
-            sigma_dx_mm: r.sigma_dx_mm,
-            sigma_dy_mm: r.sigma_dy_mm,
-            sigma_dz_mm: r.sigma_dz_mm,
-            sigma_mm: r.sigma_mm,
-            cov_dxdy_mm2: r.cov_dxdy_mm2,
-            cov_dxdz_mm2: r.cov_dxdz_mm2,
-            cov_dydz_mm2: r.cov_dydz_mm2,
-            d_along_mm: r.d_along_mm,
-            significant: r.significant,
-            velocity_mm_per_day: r.velocity_mm_per_day,
-            time_to_failure_hours: r.time_to_failure_hours,
-            time_to_failure_sigma_hours: r.time_to_failure_sigma_hours,
-            f_dx_mm: f.map(|f| f.f_dx_mm),
-            f_dy_mm: f.map(|f| f.f_dy_mm),
-            f_dz_mm: f.map(|f| f.f_dz_mm),
-            f_d_mm: f.map(|f| f.f_d_mm),
-            sigma_f_dx_mm: f.map(|f| f.sigma_f_dx_mm),
-            sigma_f_dy_mm: f.map(|f| f.sigma_f_dy_mm),
-            sigma_f_dz_mm: f.map(|f| f.sigma_f_dz_mm),
-            sigma_f_d_mm: f.map(|f| f.sigma_f_d_mm),
-            f_velocity_mm_per_day: f.map(|f| f.f_velocity_mm_per_day),
-            sigma_f_velocity_mm_per_day: f.map(|f| f.sigma_f_velocity_mm_per_day),
-            f_acceleration_mm_per_day2: f.and_then(|f| f.f_acceleration_mm_per_day2),
-            sigma_f_acceleration_mm_per_day2: f.and_then(|f| f.sigma_f_acceleration_mm_per_day2),
-            f_time_to_failure_hours: f.and_then(|f| f.f_time_to_failure_hours),
-            sigma_f_time_to_failure_hours: f.and_then(|f| f.sigma_f_time_to_failure_hours),
-        }
-    }
-
-    /// The row in the packed form of the series ([`super::series_record`]), as stored.
-    pub(super) fn record(&self) -> Record<'_> {
-        Record {
-            epoch: self.epoch,
-            observed_at: self.observed_at.as_bytes(),
-            reference: self.reference_epoch,
-            v: [
-                self.dx_mm,
-                self.dy_mm,
-                self.dz_mm,
-                self.d_mm,
-                self.sigma_dx_mm,
-                self.sigma_dy_mm,
-                self.sigma_dz_mm,
-                self.sigma_mm,
-            ],
-            significant: self.significant,
-            velocity: self.velocity_mm_per_day,
-            ttf: self.time_to_failure_hours,
-            cov: [self.cov_dxdy_mm2, self.cov_dxdz_mm2, self.cov_dydz_mm2],
-            ttf_sigma: self.time_to_failure_sigma_hours,
-            filtered: self.filtered().map(|f| Filtered {
-                v: [
-                    f.f_dx_mm,
-                    f.f_dy_mm,
-                    f.f_dz_mm,
-                    f.f_d_mm,
-                    f.sigma_f_dx_mm,
-                    f.sigma_f_dy_mm,
-                    f.sigma_f_dz_mm,
-                    f.sigma_f_d_mm,
-                    f.f_velocity_mm_per_day,
-                    f.sigma_f_velocity_mm_per_day,
-                ],
-                opt: [
-                    f.f_acceleration_mm_per_day2,
-                    f.sigma_f_acceleration_mm_per_day2,
-                    f.f_time_to_failure_hours,
-                    f.sigma_f_time_to_failure_hours,
-                ],
-            }),
-        }
-    }
-
-    /// The filtered values of the row (`None` unless all the required ones are stored).
-    pub fn filtered(&self) -> Option<FilteredValues> {
-        Some(FilteredValues {
-            f_dx_mm: self.f_dx_mm?,
-            f_dy_mm: self.f_dy_mm?,
-            f_dz_mm: self.f_dz_mm?,
-            f_d_mm: self.f_d_mm?,
-            sigma_f_dx_mm: self.sigma_f_dx_mm?,
-            sigma_f_dy_mm: self.sigma_f_dy_mm?,
-            sigma_f_dz_mm: self.sigma_f_dz_mm?,
-            sigma_f_d_mm: self.sigma_f_d_mm?,
-            f_velocity_mm_per_day: self.f_velocity_mm_per_day?,
-            sigma_f_velocity_mm_per_day: self.sigma_f_velocity_mm_per_day?,
-            f_acceleration_mm_per_day2: self.f_acceleration_mm_per_day2,
-            sigma_f_acceleration_mm_per_day2: self.sigma_f_acceleration_mm_per_day2,
-            f_time_to_failure_hours: self.f_time_to_failure_hours,
-            sigma_f_time_to_failure_hours: self.sigma_f_time_to_failure_hours,
-        })
-    }
-
-    /// The analysis record of a row read back (`None` when observed_at does not parse).
-    pub fn to_record(&self) -> Option<DisplacementRecord> {
-        Some(DisplacementRecord {
-            point: self.point.clone(),
-            epoch: self.epoch,
-            observed_at: parse_timestamp(&self.observed_at)?,
-            dx_mm: self.dx_mm,
-            dy_mm: self.dy_mm,
-            dz_mm: self.dz_mm,
-            d_mm: self.d_mm,
-            sigma_dx_mm: self.sigma_dx_mm,
-            sigma_dy_mm: self.sigma_dy_mm,
-            sigma_dz_mm: self.sigma_dz_mm,
-            sigma_mm: self.sigma_mm,
-            cov_dxdy_mm2: self.cov_dxdy_mm2,
-            cov_dxdz_mm2: self.cov_dxdz_mm2,
-            cov_dydz_mm2: self.cov_dydz_mm2,
-            d_along_mm: self.d_along_mm,
-            significant: self.significant,
-            velocity_mm_per_day: self.velocity_mm_per_day,
-            time_to_failure_hours: self.time_to_failure_hours,
-            time_to_failure_sigma_hours: self.time_to_failure_sigma_hours,
-            filtered: self.filtered(),
-        })
-    }
-}
-
-/// The columns of a row the analysis reads back as history (all but the forecast's σ and the
-/// filtered values, which it recomputes).
-macro_rules! history_columns {
-    () => {
-        "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
-         sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, \
-         velocity_mm_per_day, time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2"
-    };
-}
-
-/// The columns the analysis reads back as history.
-const HISTORY_COLUMNS: &str = history_columns!();
-
-/// Every served column of a row.
-pub(super) const COLUMNS: &str = concat!(
-    history_columns!(),
-    ", time_to_failure_sigma_hours, f_dx_mm, f_dy_mm, f_dz_mm, f_d_mm, sigma_f_dx_mm, \
-     sigma_f_dy_mm, sigma_f_dz_mm, sigma_f_d_mm, f_velocity_mm_per_day, \
-     sigma_f_velocity_mm_per_day, f_acceleration_mm_per_day2, sigma_f_acceleration_mm_per_day2, \
-     f_time_to_failure_hours, sigma_f_time_to_failure_hours"
-);
-
-/// `?` placeholders for every column of [`COLUMNS`] after the site id.
+/// Placeholders `$2, $3, …` for every column of [`COLUMNS`] after the site id (`$1`).
 fn placeholders() -> String {
-    vec!["?"; COLUMNS.split(',').count()].join(", ")
+    (0..COLUMNS.split(',').count())
+        .map(|i| format!("${}", i + 2))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
@@ -268,7 +25,7 @@ fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
 /// Stores displacements (observed_at in store format) and keeps the site's packed series
 /// consistent ([`super::series_blocks::added`]). Call inside the epoch's write transaction.
 pub async fn insert(
-    db: &mut SqliteConnection,
+    db: &mut AnyConnection,
     site: &str,
     rows: &[Displacement],
 ) -> Result<(), StoreError> {
@@ -284,14 +41,14 @@ pub(super) fn columns_of(name_column: &str) -> String {
 /// Inserts `rows` into `table` (`displacements`, or a table of the same columns whose name
 /// column is `name_column`).
 pub(super) async fn insert_into(
-    db: &mut SqliteConnection,
+    db: &mut AnyConnection,
     table: &str,
     name_column: &str,
     site: &str,
     rows: &[Displacement],
 ) -> Result<(), StoreError> {
     let sql = format!(
-        "INSERT INTO {table} (site_id, {}) VALUES (?, {})",
+        "INSERT INTO {table} (site_id, {}) VALUES ($1, {})",
         columns_of(name_column),
         placeholders()
     );
@@ -340,8 +97,8 @@ pub(super) async fn insert_into(
 
 /// Deletes every displacement of a site (before recomputing against a new reference), with its
 /// packed series.
-pub async fn delete_site(db: &mut SqliteConnection, site: &str) -> Result<(), StoreError> {
-    sqlx::query("DELETE FROM displacements WHERE site_id = ?")
+pub async fn delete_site(db: &mut AnyConnection, site: &str) -> Result<(), StoreError> {
+    sqlx::query("DELETE FROM displacements WHERE site_id = $1")
         .bind(site)
         .execute(&mut *db)
         .await?;
@@ -351,7 +108,7 @@ pub async fn delete_site(db: &mut SqliteConnection, site: &str) -> Result<(), St
 /// The time series of one point, oldest first, with `from ≤ observed_at ≤ to` and after the
 /// cursor `after` (all in store format); at most `limit` rows (`None`: all).
 pub async fn series(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     point: &str,
     from: Option<&str>,
@@ -376,7 +133,7 @@ pub async fn series(
 /// [`series`] from `table`, whose name column is `name_column`.
 #[allow(clippy::too_many_arguments)]
 pub(super) async fn series_of(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     table: &str,
     name_column: &str,
     site: &str,
@@ -386,14 +143,14 @@ pub(super) async fn series_of(
     after: Option<&str>,
     limit: Option<i64>,
 ) -> Result<Vec<Displacement>, StoreError> {
-    let columns = if name_column == "point" {
-        COLUMNS.to_string()
-    } else {
-        columns_of(&format!("{name_column} AS point"))
-    };
+    let columns = select_list(COLUMNS, "").replacen(
+        "point",
+        &format!("{name_column} AS point"),
+        usize::from(name_column != "point"),
+    );
     let rows: Vec<Displacement> = sqlx::query_as(&format!(
-        "SELECT {columns} FROM {table} WHERE site_id = ? AND {name_column} = ? \
-         AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY observed_at LIMIT ?"
+        "SELECT {columns} FROM {table} WHERE site_id = $1 AND {name_column} = $2 \
+         AND observed_at >= $3 AND observed_at <= $4 AND observed_at > $5 ORDER BY observed_at LIMIT $6"
     ))
     .bind(site)
     .bind(name)
@@ -410,15 +167,16 @@ pub(super) async fn series_of(
 /// in store format (the analysis' history: without the filtered values, which the analysis
 /// recomputes).
 pub async fn recent(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     point: &str,
     before: &str,
     n: usize,
 ) -> Result<Vec<Displacement>, StoreError> {
+    let columns = select_list(HISTORY_COLUMNS, "");
     Ok(sqlx::query_as(&format!(
-        "SELECT {HISTORY_COLUMNS} FROM displacements WHERE site_id = ? AND point = ? \
-         AND observed_at < ? ORDER BY observed_at DESC LIMIT ?"
+        "SELECT {columns} FROM displacements WHERE site_id = $1 AND point = $2 \
+         AND observed_at < $3 ORDER BY observed_at DESC LIMIT $4"
     ))
     .bind(site)
     .bind(point)
@@ -430,12 +188,13 @@ pub async fn recent(
 
 /// The displacements of one epoch.
 pub async fn of_epoch(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     epoch: i64,
 ) -> Result<Vec<Displacement>, StoreError> {
+    let columns = select_list(COLUMNS, "");
     let rows: Vec<Displacement> = sqlx::query_as(&format!(
-        "SELECT {COLUMNS} FROM displacements WHERE site_id = ? AND epoch_id = ? ORDER BY point"
+        "SELECT {columns} FROM displacements WHERE site_id = $1 AND epoch_id = $2 ORDER BY point"
     ))
     .bind(site)
     .bind(epoch)
@@ -445,18 +204,11 @@ pub async fn of_epoch(
 }
 
 /// The latest displacement of every point of the site (one index seek per point).
-pub async fn latest(
-    db: impl SqliteExecutor<'_>,
-    site: &str,
-) -> Result<Vec<Displacement>, StoreError> {
-    let cols = COLUMNS
-        .split(", ")
-        .map(|c| format!("d.{}", c.trim()))
-        .collect::<Vec<_>>()
-        .join(", ");
+pub async fn latest(db: impl AnyExecutor<'_>, site: &str) -> Result<Vec<Displacement>, StoreError> {
+    let cols = select_list(COLUMNS, "d.");
     let rows: Vec<Displacement> = sqlx::query_as(&format!(
         "SELECT {cols} FROM points p CROSS JOIN displacements d \
-         WHERE p.site_id = ? AND d.site_id = p.site_id AND d.point = p.name AND d.observed_at = \
+         WHERE p.site_id = $1 AND d.site_id = p.site_id AND d.point = p.name AND d.observed_at = \
          (SELECT MAX(d2.observed_at) FROM displacements d2 WHERE d2.site_id = p.site_id AND d2.point = p.name)"
     ))
     .bind(site)
@@ -468,13 +220,13 @@ pub async fn latest(
 /// The displacement of `point` in the latest epoch observed before `before` (store format):
 /// `(observed_at, d_mm)`, for the velocity.
 pub async fn previous(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     point: &str,
     before: &str,
 ) -> Result<Option<(String, f64)>, StoreError> {
     Ok(sqlx::query_as(
-        "SELECT observed_at, d_mm FROM displacements WHERE site_id = ? AND point = ? AND observed_at < ? \
+        "SELECT observed_at, d_mm FROM displacements WHERE site_id = $1 AND point = $2 AND observed_at < $3 \
          ORDER BY observed_at DESC LIMIT 1",
     )
     .bind(site)

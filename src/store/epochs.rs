@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use serde::Serialize;
 use serde_json::{Map, Value};
-use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
+use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
@@ -67,31 +67,33 @@ pub struct EpochKey {
 
 /// Finds the epoch of a site with that observation time (store format).
 pub async fn find_by_time(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     observed_at: &str,
 ) -> Result<Option<EpochKey>, StoreError> {
     Ok(
-        sqlx::query_as("SELECT id, body_sha256 FROM epochs WHERE site_id = ? AND observed_at = ?")
-            .bind(site)
-            .bind(observed_at)
-            .fetch_optional(db)
-            .await?,
+        sqlx::query_as(
+            "SELECT id, body_sha256 FROM epochs WHERE site_id = $1 AND observed_at = $2",
+        )
+        .bind(site)
+        .bind(observed_at)
+        .fetch_optional(db)
+        .await?,
     )
 }
 
 /// Lists epochs newest first (by observation time); `before` is the observation time (store
 /// format) of the last item of the previous page.
 pub async fn list(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     before: Option<&str>,
     limit: i64,
 ) -> Result<Vec<(String, EpochListItem)>, StoreError> {
     let rows: Vec<EpochListItem> = sqlx::query_as(
         "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, created_at \
-         FROM epochs WHERE site_id = ? AND (? IS NULL OR observed_at < ?) \
-         ORDER BY observed_at DESC LIMIT ?",
+         FROM epochs WHERE site_id = $1 AND ($2 IS NULL OR observed_at < $3) \
+         ORDER BY observed_at DESC LIMIT $4",
     )
     .bind(site)
     .bind(before)
@@ -111,9 +113,9 @@ pub async fn list(
 }
 
 /// Number of epochs of a site.
-pub async fn count(db: impl SqliteExecutor<'_>, site: &str) -> Result<i64, StoreError> {
+pub async fn count(db: impl AnyExecutor<'_>, site: &str) -> Result<i64, StoreError> {
     Ok(
-        sqlx::query_scalar("SELECT COUNT(*) FROM epochs WHERE site_id = ?")
+        sqlx::query_scalar("SELECT COUNT(*) FROM epochs WHERE site_id = $1")
             .bind(site)
             .fetch_one(db)
             .await?,
@@ -122,7 +124,7 @@ pub async fn count(db: impl SqliteExecutor<'_>, site: &str) -> Result<i64, Store
 
 /// The stored header of one epoch: list fields plus the report (JSON object, without residuals).
 pub async fn get(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     id: i64,
 ) -> Result<Option<(EpochListItem, Map<String, Value>)>, StoreError> {
@@ -134,7 +136,7 @@ pub async fn get(
     }
     let row: Option<Row> = sqlx::query_as(
         "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, created_at, report \
-         FROM epochs WHERE site_id = ? AND id = ?",
+         FROM epochs WHERE site_id = $1 AND id = $2",
     )
     .bind(site)
     .bind(id)
@@ -153,12 +155,12 @@ pub async fn get(
 
 /// Raw observation time (store format) of an epoch.
 pub async fn observed_at_raw(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     id: i64,
 ) -> Result<Option<String>, StoreError> {
     Ok(
-        sqlx::query_scalar("SELECT observed_at FROM epochs WHERE site_id = ? AND id = ?")
+        sqlx::query_scalar("SELECT observed_at FROM epochs WHERE site_id = $1 AND id = $2")
             .bind(site)
             .bind(id)
             .fetch_optional(db)
@@ -168,7 +170,7 @@ pub async fn observed_at_raw(
 
 /// The residuals of every observation of an epoch, in upload order (the report's `residuals`).
 pub async fn residuals(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     id: i64,
 ) -> Result<Vec<Value>, StoreError> {
@@ -179,12 +181,13 @@ pub async fn residuals(
         vx_mm: Option<f64>,
         vy_mm: Option<f64>,
         w: Option<f64>,
+        #[sqlx(try_from = "super::Flag")]
         dropped: bool,
     }
     let rows: Vec<Row> = sqlx::query_as(
-        "SELECT o.image_id, o.point, o.vx_mm, o.vy_mm, o.w, o.dropped FROM observations o \
+        "SELECT o.image_id, o.point, o.vx_mm, o.vy_mm, o.w, CAST(o.dropped AS INTEGER) AS dropped FROM observations o \
          JOIN images i ON i.site_id = o.site_id AND i.epoch_id = o.epoch_id AND i.id = o.image_id \
-         WHERE o.site_id = ? AND o.epoch_id = ? ORDER BY i.seq, o.seq",
+         WHERE o.site_id = $1 AND o.epoch_id = $2 ORDER BY i.seq, o.seq",
     )
     .bind(site)
     .bind(id)
@@ -200,12 +203,9 @@ pub async fn residuals(
 }
 
 /// The cameras (upload form, JSON) of the site as last uploaded: cameras of CSV uploads.
-pub async fn site_cameras(
-    db: impl SqliteExecutor<'_>,
-    site: &str,
-) -> Result<Vec<Value>, StoreError> {
+pub async fn site_cameras(db: impl AnyExecutor<'_>, site: &str) -> Result<Vec<Value>, StoreError> {
     let defs: Vec<String> =
-        sqlx::query_scalar("SELECT definition FROM cameras WHERE site_id = ? ORDER BY id")
+        sqlx::query_scalar("SELECT definition FROM cameras WHERE site_id = $1 ORDER BY id")
             .bind(site)
             .fetch_all(db)
             .await?;
@@ -217,9 +217,9 @@ pub async fn site_cameras(
 /// Stores an epoch with its images, observations, coordinates and joint covariance; returns its
 /// new integer id. Call inside a write transaction; the caller stores the derived rows
 /// (displacements, alerts, outbox) in the same transaction.
-pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<i64, StoreError> {
+pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64, StoreError> {
     let id: i64 =
-        sqlx::query_scalar("SELECT COALESCE(MAX(id), 0) + 1 FROM epochs WHERE site_id = ?")
+        sqlx::query_scalar("SELECT COALESCE(MAX(id), 0) + 1 FROM epochs WHERE site_id = $1")
             .bind(rec.site)
             .fetch_one(&mut *db)
             .await?;
@@ -235,7 +235,7 @@ pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<
     let created = now();
     sqlx::query(
         "INSERT INTO epochs (site_id, id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, \
-         iterations, body_sha256, cameras, report, created_at) VALUES (?, ?, ?, ?, 'adjusted', ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+         iterations, body_sha256, cameras, report, created_at) VALUES ($1, $2, $3, $4, 'adjusted', $5, $6, $7, $8, $9, $10, $11, $12, $13)",
     )
     .bind(rec.site)
     .bind(id)
@@ -255,7 +255,7 @@ pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<
 
     for cam in &rec.input.cameras {
         sqlx::query(
-            "INSERT INTO cameras (site_id, id, definition, updated_at) VALUES (?, ?, ?, ?) \
+            "INSERT INTO cameras (site_id, id, definition, updated_at) VALUES ($1, $2, $3, $4) \
              ON CONFLICT (site_id, id) DO UPDATE SET definition = excluded.definition, updated_at = excluded.updated_at",
         )
         .bind(rec.site)
@@ -275,7 +275,7 @@ pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<
     for (seq, image) in rec.input.images.iter().enumerate() {
         let station = image.station.clone().unwrap_or_else(|| image.id.clone());
         sqlx::query(
-            "INSERT INTO stations (site_id, name, first_epoch) VALUES (?, ?, ?) ON CONFLICT (site_id, name) DO NOTHING",
+            "INSERT INTO stations (site_id, name, first_epoch) VALUES ($1, $2, $3) ON CONFLICT (site_id, name) DO NOTHING",
         )
         .bind(rec.site)
         .bind(&station)
@@ -283,7 +283,7 @@ pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<
         .execute(&mut *db)
         .await?;
         sqlx::query(
-            "INSERT INTO images (site_id, epoch_id, id, camera, station, seq) VALUES (?, ?, ?, ?, ?, ?)",
+            "INSERT INTO images (site_id, epoch_id, id, camera, station, seq) VALUES ($1, $2, $3, $4, $5, $6)",
         )
         .bind(rec.site)
         .bind(id)
@@ -297,7 +297,7 @@ pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<
             let r = residuals.get(&(image.id.as_str(), o.point.as_str()));
             sqlx::query(
                 "INSERT INTO observations (site_id, epoch_id, image_id, point, seq, x_mm, y_mm, col_px, row_px, \
-                 vx_mm, vy_mm, w, dropped) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                 vx_mm, vy_mm, w, dropped) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13)",
             )
             .bind(rec.site)
             .bind(id)
@@ -324,7 +324,7 @@ pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<
             "monitored"
         };
         sqlx::query(
-            "INSERT INTO points (site_id, name, role) VALUES (?, ?, ?) ON CONFLICT (site_id, name) DO NOTHING",
+            "INSERT INTO points (site_id, name, role) VALUES ($1, $2, $3) ON CONFLICT (site_id, name) DO NOTHING",
         )
         .bind(rec.site)
         .bind(&p.name)
@@ -334,7 +334,7 @@ pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<
         let c = &p.covariance_m2;
         sqlx::query(
             "INSERT INTO coordinates (site_id, epoch_id, point, observed_at, x_m, y_m, z_m, \
-             cxx_m2, cxy_m2, cxz_m2, cyy_m2, cyz_m2, czz_m2) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+             cxx_m2, cxy_m2, cxz_m2, cyy_m2, cyz_m2, czz_m2) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13)",
         )
         .bind(rec.site)
         .bind(id)
@@ -355,7 +355,7 @@ pub async fn insert(db: &mut SqliteConnection, rec: &EpochRecord<'_>) -> Result<
 
     if let Some(joint) = &adj.joint_covariance {
         sqlx::query(
-            "INSERT INTO joint_covariances (site_id, epoch_id, points, matrix_m2) VALUES (?, ?, ?, ?)",
+            "INSERT INTO joint_covariances (site_id, epoch_id, points, matrix_m2) VALUES ($1, $2, $3, $4)",
         )
         .bind(rec.site)
         .bind(id)
@@ -389,23 +389,159 @@ pub struct ObservationResidual {
     /// Normalised residual of data snooping.
     pub w: Option<f64>,
     /// Dropped by data snooping.
+    #[sqlx(try_from = "super::Flag")]
     pub dropped: bool,
 }
 
 /// Every observation of an epoch with its image coordinates and residual, image by image in
 /// upload order.
 pub async fn observation_residuals(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     id: i64,
 ) -> Result<Vec<ObservationResidual>, StoreError> {
     Ok(sqlx::query_as(
-        "SELECT o.image_id, o.point, o.x_mm, o.y_mm, o.col_px, o.row_px, o.vx_mm, o.vy_mm, o.w, o.dropped \
+        "SELECT o.image_id, o.point, o.x_mm, o.y_mm, o.col_px, o.row_px, o.vx_mm, o.vy_mm, o.w, CAST(o.dropped AS INTEGER) AS dropped \
          FROM observations o JOIN images i ON i.site_id = o.site_id AND i.epoch_id = o.epoch_id AND i.id = o.image_id \
-         WHERE o.site_id = ? AND o.epoch_id = ? ORDER BY i.seq, o.seq",
+         WHERE o.site_id = $1 AND o.epoch_id = $2 ORDER BY i.seq, o.seq",
     )
     .bind(site)
     .bind(id)
     .fetch_all(db)
     .await?)
+}
+
+/// Id of the site's earliest epoch (by observation time).
+pub async fn earliest(db: impl AnyExecutor<'_>, site: &str) -> Result<Option<i64>, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT id FROM epochs WHERE site_id = $1 ORDER BY observed_at LIMIT 1")
+            .bind(site)
+            .fetch_optional(db)
+            .await?,
+    )
+}
+
+/// Number of the site's epochs observed after `observed_at` (store format).
+pub async fn count_after(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    observed_at: &str,
+) -> Result<i64, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT COUNT(*) FROM epochs WHERE site_id = $1 AND observed_at > $2")
+            .bind(site)
+            .bind(observed_at)
+            .fetch_one(db)
+            .await?,
+    )
+}
+
+/// Ids of the site's epochs in time order.
+pub async fn ids_in_time_order(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+) -> Result<Vec<i64>, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT id FROM epochs WHERE site_id = $1 ORDER BY observed_at")
+            .bind(site)
+            .fetch_all(db)
+            .await?,
+    )
+}
+
+/// Ids of at most `count` epochs from epoch `first` on, in time order (the epochs of a
+/// reference of several epochs).
+pub async fn window_from(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    first: i64,
+    count: i64,
+) -> Result<Vec<i64>, StoreError> {
+    Ok(sqlx::query_scalar(
+        "SELECT id FROM epochs WHERE site_id = $1 AND observed_at >= \
+         (SELECT observed_at FROM epochs WHERE site_id = $2 AND id = $3) ORDER BY observed_at LIMIT $4",
+    )
+    .bind(site)
+    .bind(site)
+    .bind(first)
+    .bind(count)
+    .fetch_all(db)
+    .await?)
+}
+
+/// Observation time (store format) of the site's latest epoch.
+pub async fn last_observed_at(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+) -> Result<Option<String>, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT MAX(observed_at) FROM epochs WHERE site_id = $1")
+            .bind(site)
+            .fetch_one(db)
+            .await?,
+    )
+}
+
+/// Sets the analysis outcome of a stored epoch: status `adjusted` without `analysis_error` in
+/// its report, or `analysis_failed` with the reason in `analysis_error`. Nothing changes for an
+/// unknown epoch, or when the outcome is already the stored one.
+pub async fn set_analysis_outcome(
+    db: &mut AnyConnection,
+    site: &str,
+    epoch: i64,
+    error: Option<&str>,
+) -> Result<(), StoreError> {
+    let report: Option<String> =
+        sqlx::query_scalar("SELECT report FROM epochs WHERE site_id = $1 AND id = $2")
+            .bind(site)
+            .bind(epoch)
+            .fetch_optional(&mut *db)
+            .await?;
+    let mut report: serde_json::Map<String, serde_json::Value> = match report {
+        Some(r) => serde_json::from_str(&r)?,
+        None => return Ok(()),
+    };
+    let status = match error {
+        Some(e) => {
+            report.insert("analysis_error".into(), e.into());
+            "analysis_failed"
+        }
+        None => {
+            if report.remove("analysis_error").is_none() {
+                return Ok(());
+            }
+            "adjusted"
+        }
+    };
+    sqlx::query("UPDATE epochs SET status = $1, report = $2 WHERE site_id = $3 AND id = $4")
+        .bind(status)
+        .bind(serde_json::Value::Object(report).to_string())
+        .bind(site)
+        .bind(epoch)
+        .execute(&mut *db)
+        .await?;
+    Ok(())
+}
+
+/// The joint covariance an epoch's adjustment stored (of all its points, or of its stable
+/// points in large networks), m².
+pub async fn joint_covariance(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    epoch: i64,
+) -> Result<Option<crate::analysis::JointCovarianceM2>, StoreError> {
+    let joint: Option<(String, String)> = sqlx::query_as(
+        "SELECT points, matrix_m2 FROM joint_covariances WHERE site_id = $1 AND epoch_id = $2",
+    )
+    .bind(site)
+    .bind(epoch)
+    .fetch_optional(db)
+    .await?;
+    Ok(match joint {
+        Some((p, m)) => Some(crate::analysis::JointCovarianceM2 {
+            points: serde_json::from_str(&p)?,
+            matrix_m2: serde_json::from_str(&m)?,
+        }),
+        None => None,
+    })
 }

@@ -1,6 +1,6 @@
 //! Point groups declared as rigid blocks (`PUT /api/v1/sites/{site}/groups/{group}`).
 
-use sqlx::{SqliteConnection, SqliteExecutor};
+use sqlx::{AnyConnection, AnyExecutor};
 
 use super::{now, StoreError};
 use crate::analysis::{GroupConfig, GroupKind};
@@ -28,9 +28,9 @@ fn from_row(
 }
 
 /// The groups of a site, by name.
-pub async fn list(db: impl SqliteExecutor<'_>, site: &str) -> Result<Vec<GroupConfig>, StoreError> {
+pub async fn list(db: impl AnyExecutor<'_>, site: &str) -> Result<Vec<GroupConfig>, StoreError> {
     let rows: Vec<Row> = sqlx::query_as(
-        "SELECT name, kind, direction, points, process_noise FROM groups WHERE site_id = ? ORDER BY name",
+        "SELECT name, kind, direction, points, process_noise FROM groups WHERE site_id = $1 ORDER BY name",
     )
     .bind(site)
     .fetch_all(db)
@@ -40,12 +40,12 @@ pub async fn list(db: impl SqliteExecutor<'_>, site: &str) -> Result<Vec<GroupCo
 
 /// One group of a site.
 pub async fn get(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     name: &str,
 ) -> Result<Option<GroupConfig>, StoreError> {
     let row: Option<Row> = sqlx::query_as(
-        "SELECT name, kind, direction, points, process_noise FROM groups WHERE site_id = ? AND name = ?",
+        "SELECT name, kind, direction, points, process_noise FROM groups WHERE site_id = $1 AND name = $2",
     )
     .bind(site)
     .bind(name)
@@ -55,13 +55,13 @@ pub async fn get(
 }
 
 /// Creates or replaces a group.
-pub async fn put(db: &mut SqliteConnection, site: &str, g: &GroupConfig) -> Result<(), StoreError> {
+pub async fn put(db: &mut AnyConnection, site: &str, g: &GroupConfig) -> Result<(), StoreError> {
     let kind = match g.kind {
         GroupKind::Block => "block",
     };
     sqlx::query(
         "INSERT INTO groups (site_id, name, kind, direction, points, process_noise, updated_at) \
-         VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (site_id, name) DO UPDATE SET kind = excluded.kind, \
+         VALUES ($1, $2, $3, $4, $5, $6, $7) ON CONFLICT (site_id, name) DO UPDATE SET kind = excluded.kind, \
          direction = excluded.direction, points = excluded.points, \
          process_noise = excluded.process_noise, updated_at = excluded.updated_at",
     )

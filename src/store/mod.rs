@@ -1,49 +1,47 @@
-//! The database: SQLite through sqlx (WAL, foreign keys, busy timeout), migrations under
-//! `migrations/` embedded and applied at open.
+//! The database: SQLite (the embedded default) or PostgreSQL, the same SQL on both through
+//! sqlx's `Any` driver, each backend's migrations embedded and applied at open
+//! (`migrations/sqlite`, `migrations/postgres`). All of the crate's SQL is here; nothing
+//! outside this module names sqlx.
 //!
-//! Reads go through a pool; writes through a pool of one connection and `BEGIN IMMEDIATE`, so a
-//! write transaction never has to upgrade a read lock ("database is locked"). The SQL avoids
-//! SQLite-only forms where a standard one exists, so a PostgreSQL backend can follow.
+//! Reads go through a pool; writes through a pool of one connection (SQLite: `BEGIN
+//! IMMEDIATE`, so a write transaction never has to upgrade a read lock).
 //!
-//! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`groups`], [`displacements`], [`alerts`],
-//! [`webhooks`], [`watch_state`]; [`series`] serves a point's displacement time series fast from
-//! the packed blocks of [`series_blocks`] (layout: [`series_record`]).
+//! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`groups`],
+//! [`displacements`] (rows: [`displacement_row`]), [`block_motions`], [`alerts`],
+//! [`alert_states`], [`webhooks`], [`outbox`], [`watch_state`]; [`series`] serves a point's
+//! displacement time series fast from the packed blocks of [`series_blocks`] (layout:
+//! [`series_record`]).
 //!
-//! # SQLite-specific constructs (all of them; what a PostgreSQL backend would replace)
-//! - Connection set-up in [`Store::open`] and [`backup_file`]: `SqliteConnectOptions` with WAL,
-//!   `synchronous = NORMAL`, `foreign_keys`, busy timeout, read-only read pool (PostgreSQL: a
-//!   `PgPool`; foreign keys and MVCC readers are built in).
-//! - `BEGIN IMMEDIATE` in [`Store::begin_write`] (PostgreSQL: `BEGIN`; writers do not upgrade locks).
-//! - `VACUUM INTO ?` in [`Store::backup`] and [`backup_file`] (PostgreSQL: `pg_dump`/base backups).
-//! - [`sqlite_raw`]: the SQLite C API under sqlx's connection, used by [`series`] only; the portable
-//!   read of the same rows is [`displacements::series`] (a PostgreSQL backend feeds the series
-//!   writers from its own row loop, e.g. `COPY … TO STDOUT` or a cursor).
-//! - `WITHOUT ROWID` on `displacements` in the first migration (SQLite's clustering clause;
-//!   PostgreSQL: the same primary key, plus `CLUSTER` if wanted). Migrations are SQLite's dialect
-//!   otherwise only in types that PostgreSQL reads the same way (`TEXT`, `BIGINT`,
-//!   `DOUBLE PRECISION`, `BOOLEAN`, `BLOB` — PostgreSQL `BYTEA`); a PostgreSQL backend keeps its
-//!   own migration directory.
-//! - [`series`]' statement merges `series_blocks` and `displacements` with `UNION ALL … ORDER BY
-//!   1` and untyped `NULL` columns (PostgreSQL wants them cast, e.g. `NULL::bytea`). The blocks'
-//!   bytes are the crate's own layout ([`series_record`], little-endian), not SQLite's.
-//! - `?` placeholders in every query (PostgreSQL: `$1`, `$2`, …).
-//! - [`TEXT_MAX`], the open upper bound of text ranges, relies on binary (memcmp) text order,
-//!   SQLite's default collation (PostgreSQL: `COLLATE "C"` on the key columns or no bound).
-//! - Portable and used as is: `ON CONFLICT … DO UPDATE/NOTHING` with `excluded.`, `RETURNING`
-//!   (SQLite ≥ 3.35), `ALTER TABLE … ADD COLUMN`, timestamps as fixed-width RFC 3339 text, JSON
-//!   documents as text.
-//! - Benchmarks and tests only: `strftime`, `printf`, `WITH RECURSIVE` fills and the `dbstat`
-//!   table (`benches/service.rs`, `tests/service_series.rs`).
+//! # What differs between the backends (all of it)
+//! - Connection set-up in [`Store::open`] (SQLite: WAL, `synchronous = NORMAL`, foreign keys,
+//!   busy timeout, a read-only read pool) and [`Store::connect`] (PostgreSQL).
+//! - `BEGIN IMMEDIATE` in [`Store::begin_write`] (PostgreSQL: `BEGIN`).
+//! - Backups: `VACUUM INTO` in [`Store::backup`] and [`backup_file`]; PostgreSQL: `pg_dump`.
+//! - The series read: SQLite's rows through the C API ([`sqlite_raw`]), PostgreSQL's through
+//!   sqlx into packed records ([`series_postgres`]); the same writers format both.
+//! - The migrations: the same schema; PostgreSQL's in one step, with `COLLATE "C"` text (the
+//!   store relies on binary text order: RFC 3339 timestamps, cursors, [`TEXT_MAX`]) and `BYTEA`.
+//! - BOOLEAN columns are selected as `CAST(… AS INTEGER)` ([`Flag`]): the `Any` driver reads no
+//!   SQLite column declared BOOLEAN.
+//!
+//! Portable and used as is: `$1` placeholders, `ON CONFLICT … DO UPDATE/NOTHING` with
+//! `excluded.`, `RETURNING`, timestamps as fixed-width RFC 3339 text, JSON documents as text.
+//! Benchmarks and tests only, SQLite: `strftime`, `printf`, `WITH RECURSIVE` fills and the
+//! `dbstat` table (`benches/service.rs`, `tests/service_series.rs`).
 
+pub mod alert_states;
 pub mod alerts;
 pub mod block_motions;
+pub mod displacement_row;
 pub mod displacements;
 pub mod epochs;
 pub mod groups;
+pub mod outbox;
 pub mod points;
 pub mod series;
 pub mod series_blocks;
 pub mod series_columns;
+pub mod series_postgres;
 pub mod series_record;
 pub mod sites;
 pub mod sqlite_raw;
@@ -55,12 +53,27 @@ use std::str::FromStr;
 use std::time::Duration;
 
 use chrono::{DateTime, SecondsFormat, Utc};
+use sqlx::any::{AnyConnectOptions, AnyPoolOptions};
+use sqlx::pool::PoolConnection;
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
-use sqlx::{Sqlite, SqlitePool, Transaction};
+use sqlx::{Any, AnyConnection, AnyPool, ConnectOptions, Executor, SqlitePool, Transaction};
 use thiserror::Error;
 
-/// The embedded migrations.
-pub static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("./migrations");
+/// The embedded migrations of SQLite (`migrations/sqlite`).
+pub static SQLITE_MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("./migrations/sqlite");
+
+/// The embedded migrations of PostgreSQL (`migrations/postgres`).
+pub static POSTGRES_MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("./migrations/postgres");
+
+/// A database connection, as the store's functions take it: a write transaction
+/// ([`Store::begin_write`]) or a read connection ([`Store::read`]) derefs to one.
+pub type Connection = AnyConnection;
+
+/// A write transaction: commits with `commit()`, rolls back when dropped.
+pub type WriteTransaction = Transaction<'static, Any>;
+
+/// A connection of the read pool, returned to it when dropped.
+pub type ReadConnection = PoolConnection<Any>;
 
 /// A database error.
 #[derive(Debug, Error)]
@@ -91,6 +104,9 @@ pub enum StoreError {
     /// A stored value is not one this version knows.
     #[error("stored value: {0}")]
     Corrupt(String),
+    /// The database URL names no backend this version has.
+    #[error("database URL '{0}': want sqlite://PATH or postgres://…")]
+    Url(String),
 }
 
 /// Pool sizes and timeouts.
@@ -111,54 +127,162 @@ impl Default for StoreOptions {
     }
 }
 
-/// Handle on the database: a read pool and a single write connection. Cheap to clone.
+/// The database behind a [`Store`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Backend {
+    /// One SQLite file (the embedded default).
+    Sqlite,
+    /// A PostgreSQL database.
+    Postgres,
+}
+
+/// Handle on the database: a read pool and a write pool, the same SQL on either backend
+/// (sqlx's `Any` driver), plus the native SQLite pool of the series fast path. Cheap to clone.
 #[derive(Debug, Clone)]
 pub struct Store {
-    read: SqlitePool,
-    write: SqlitePool,
+    backend: Backend,
+    read: AnyPool,
+    write: AnyPool,
+    /// SQLite only: read-only native connections for [`series`] ([`sqlite_raw`]).
+    sqlite_read: Option<SqlitePool>,
+}
+
+/// The settings of every SQLite connection: foreign keys, `synchronous = NORMAL` (with WAL),
+/// the busy timeout.
+fn sqlite_pragmas(
+    conn: &mut AnyConnection,
+    busy_ms: u128,
+) -> futures_core::future::BoxFuture<'_, Result<(), sqlx::Error>> {
+    Box::pin(async move {
+        let sql = format!(
+            "PRAGMA foreign_keys = ON; PRAGMA synchronous = NORMAL; PRAGMA busy_timeout = {busy_ms};"
+        );
+        conn.execute(sql.as_str()).await?;
+        Ok(())
+    })
+}
+
+/// The SQLite file of a `sqlite://PATH` or `sqlite:PATH` URL.
+pub fn sqlite_path(url: &str) -> Option<&Path> {
+    let rest = url.strip_prefix("sqlite:")?;
+    let rest = rest.strip_prefix("//").unwrap_or(rest);
+    Some(Path::new(rest.split('?').next().unwrap_or(rest)))
 }
 
 impl Store {
-    /// Opens (creating when missing) the database file, applies the migrations, packs the series
+    /// Opens the database of `url`: `sqlite://PATH` (the file is created when missing) or
+    /// `postgres://USER@HOST:PORT/DB`; applies that backend's migrations.
+    pub async fn connect(url: &str, options: &StoreOptions) -> Result<Store, StoreError> {
+        if let Some(path) = sqlite_path(url) {
+            return Store::open(path, options).await;
+        }
+        if url.starts_with("postgres://") || url.starts_with("postgresql://") {
+            return Store::open_postgres(url, options).await;
+        }
+        Err(StoreError::Url(url.to_string()))
+    }
+
+    /// Opens (creating when missing) the SQLite file, applies the migrations, packs the series
     /// of sites stored before migration 20261122000700 ([`series_blocks::backfill`]).
     pub async fn open(path: &Path, options: &StoreOptions) -> Result<Store, StoreError> {
+        sqlx::any::install_default_drivers();
         if let Some(dir) = path.parent() {
             if !dir.as_os_str().is_empty() {
                 std::fs::create_dir_all(dir)?;
             }
         }
-        let connect = SqliteConnectOptions::from_str("sqlite:")?
+        let native = SqliteConnectOptions::from_str("sqlite:")?
             .filename(path)
             .create_if_missing(true)
             .journal_mode(SqliteJournalMode::Wal)
             .synchronous(SqliteSynchronous::Normal)
             .foreign_keys(true)
             .busy_timeout(options.busy_timeout);
-        let write = SqlitePoolOptions::new()
+        // Create the file and switch it to WAL once, natively.
+        native.connect().await?;
+        let busy_ms = options.busy_timeout.as_millis();
+        let any = |o: &SqliteConnectOptions| AnyConnectOptions::from_url(&o.to_url_lossy());
+        let write = AnyPoolOptions::new()
+            .max_connections(1)
+            .min_connections(1)
+            .acquire_timeout(Duration::from_secs(600))
+            .after_connect(move |conn, _| sqlite_pragmas(conn, busy_ms))
+            .connect_with(any(&native)?)
+            .await?;
+        SQLITE_MIGRATOR.run(&write).await?;
+        let read = AnyPoolOptions::new()
+            .max_connections(options.read_connections.max(1))
+            .acquire_timeout(Duration::from_secs(60))
+            .after_connect(move |conn, _| sqlite_pragmas(conn, busy_ms))
+            .connect_with(any(&native.clone().read_only(true))?)
+            .await?;
+        let sqlite_read = SqlitePoolOptions::new()
+            .max_connections(options.read_connections.max(1))
+            .acquire_timeout(Duration::from_secs(60))
+            .connect_with(native.read_only(true))
+            .await?;
+        let store = Store {
+            backend: Backend::Sqlite,
+            read,
+            write,
+            sqlite_read: Some(sqlite_read),
+        };
+        series_blocks::backfill(&store).await?;
+        Ok(store)
+    }
+
+    /// Opens a PostgreSQL database and applies its migrations. Writes go through one
+    /// connection, as with SQLite, so a node's write transactions never interleave.
+    async fn open_postgres(url: &str, options: &StoreOptions) -> Result<Store, StoreError> {
+        sqlx::any::install_default_drivers();
+        let connect = AnyConnectOptions::from_str(url)?;
+        let write = AnyPoolOptions::new()
             .max_connections(1)
             .min_connections(1)
             .acquire_timeout(Duration::from_secs(600))
             .connect_with(connect.clone())
             .await?;
-        MIGRATOR.run(&write).await?;
-        let read = SqlitePoolOptions::new()
+        POSTGRES_MIGRATOR.run(&write).await?;
+        let read = AnyPoolOptions::new()
             .max_connections(options.read_connections.max(1))
             .acquire_timeout(Duration::from_secs(60))
-            .connect_with(connect.read_only(true))
+            .connect_with(connect)
             .await?;
-        let store = Store { read, write };
-        series_blocks::backfill(&store).await?;
-        Ok(store)
+        Ok(Store {
+            backend: Backend::Postgres,
+            read,
+            write,
+            sqlite_read: None,
+        })
+    }
+
+    /// Which database this is.
+    pub fn backend(&self) -> Backend {
+        self.backend
     }
 
     /// The read pool.
-    pub fn reader(&self) -> &SqlitePool {
+    pub fn reader(&self) -> &AnyPool {
         &self.read
     }
 
-    /// Opens a write transaction (`BEGIN IMMEDIATE`: takes the write lock at once).
-    pub async fn begin_write(&self) -> Result<Transaction<'static, Sqlite>, StoreError> {
-        Ok(self.write.begin_with("BEGIN IMMEDIATE").await?)
+    /// SQLite only: the native read-only pool of the series fast path.
+    pub fn sqlite_reader(&self) -> Option<&SqlitePool> {
+        self.sqlite_read.as_ref()
+    }
+
+    /// A connection of the read pool, for a use case that reads several times before it writes.
+    pub async fn read(&self) -> Result<ReadConnection, StoreError> {
+        Ok(self.read.acquire().await?)
+    }
+
+    /// Opens a write transaction. SQLite: `BEGIN IMMEDIATE` takes the write lock at once, so a
+    /// write never has to upgrade a read lock ("database is locked").
+    pub async fn begin_write(&self) -> Result<WriteTransaction, StoreError> {
+        Ok(match self.backend {
+            Backend::Sqlite => self.write.begin_with("BEGIN IMMEDIATE").await?,
+            Backend::Postgres => self.write.begin().await?,
+        })
     }
 
     /// Readiness: the database answers and every embedded migration is applied.
@@ -167,23 +291,62 @@ impl Store {
             sqlx::query_scalar("SELECT COUNT(*) FROM _sqlx_migrations WHERE success = TRUE")
                 .fetch_one(&self.read)
                 .await?;
-        Ok(applied as usize >= MIGRATOR.iter().count())
+        let expected = match self.backend {
+            Backend::Sqlite => SQLITE_MIGRATOR.iter().count(),
+            Backend::Postgres => POSTGRES_MIGRATOR.iter().count(),
+        };
+        Ok(applied as usize >= expected)
     }
 
-    /// Writes a consistent copy of the live database to `target` (`VACUUM INTO`), while it serves.
+    /// SQLite: writes a consistent copy of the live database to `target` (`VACUUM INTO`), while
+    /// it serves. PostgreSQL: refused; use `pg_dump` (see the README).
     pub async fn backup(&self, target: &Path) -> Result<(), StoreError> {
+        if self.backend == Backend::Postgres {
+            return Err(StoreError::Url(
+                "backup of PostgreSQL: use pg_dump (README, 'Backups')".into(),
+            ));
+        }
         let target = target.to_string_lossy().to_string();
-        sqlx::query("VACUUM INTO ?")
+        sqlx::query("VACUUM INTO $1")
             .bind(target)
             .execute(&self.read)
             .await?;
         Ok(())
     }
 
-    /// Closes both pools (checkpoints the WAL).
+    /// Closes the pools (SQLite: checkpoints the WAL).
     pub async fn close(&self) {
         self.read.close().await;
         self.write.close().await;
+        if let Some(p) = &self.sqlite_read {
+            p.close().await;
+        }
+    }
+}
+
+/// A BOOLEAN column as the store selects it, `CAST(column AS INTEGER)`: sqlx's `Any` driver
+/// reads no SQLite column declared BOOLEAN, and the cast is the same on both backends.
+pub struct Flag(i64);
+
+impl sqlx::Type<Any> for Flag {
+    fn type_info() -> sqlx::any::AnyTypeInfo {
+        <i64 as sqlx::Type<Any>>::type_info()
+    }
+
+    fn compatible(ty: &sqlx::any::AnyTypeInfo) -> bool {
+        <i64 as sqlx::Type<Any>>::compatible(ty)
+    }
+}
+
+impl<'r> sqlx::Decode<'r, Any> for Flag {
+    fn decode(value: sqlx::any::AnyValueRef<'r>) -> Result<Self, sqlx::error::BoxDynError> {
+        <i64 as sqlx::Decode<'r, Any>>::decode(value).map(Flag)
+    }
+}
+
+impl From<Flag> for bool {
+    fn from(f: Flag) -> bool {
+        f.0 != 0
     }
 }
 
@@ -234,7 +397,7 @@ pub async fn backup_file(
         .busy_timeout(busy_timeout)
         .connect()
         .await?;
-    sqlx::query("VACUUM INTO ?")
+    sqlx::query("VACUUM INTO $1")
         .bind(target.to_string_lossy().to_string())
         .execute(&mut conn)
         .await?;

@@ -1,7 +1,7 @@
 //! Points (role, group, direction of interest) and their adjusted coordinates per epoch.
 
 use serde::{Deserialize, Serialize};
-use sqlx::{FromRow, SqliteExecutor};
+use sqlx::{AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::StoreError;
@@ -63,14 +63,14 @@ impl From<PointRow> for Point {
 
 /// Every point of a site, by name, after `after` (cursor), at most `limit`.
 pub async fn list(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     after: Option<&str>,
     limit: i64,
 ) -> Result<Vec<Point>, StoreError> {
     let rows: Vec<PointRow> = sqlx::query_as(
-        "SELECT name, role, grp, dir_x, dir_y, dir_z FROM points WHERE site_id = ? \
-         AND (? IS NULL OR name > ?) ORDER BY name LIMIT ?",
+        "SELECT name, role, grp, dir_x, dir_y, dir_z FROM points WHERE site_id = $1 \
+         AND ($2 IS NULL OR name > $3) ORDER BY name LIMIT $4",
     )
     .bind(site)
     .bind(after)
@@ -83,12 +83,12 @@ pub async fn list(
 
 /// One point.
 pub async fn get(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     name: &str,
 ) -> Result<Option<Point>, StoreError> {
     let row: Option<PointRow> = sqlx::query_as(
-        "SELECT name, role, grp, dir_x, dir_y, dir_z FROM points WHERE site_id = ? AND name = ?",
+        "SELECT name, role, grp, dir_x, dir_y, dir_z FROM points WHERE site_id = $1 AND name = $2",
     )
     .bind(site)
     .bind(name)
@@ -97,10 +97,20 @@ pub async fn get(
     Ok(row.map(Point::from))
 }
 
+/// Names of every configured point of the site.
+pub async fn names(db: impl AnyExecutor<'_>, site: &str) -> Result<Vec<String>, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT name FROM points WHERE site_id = $1 ORDER BY name")
+            .bind(site)
+            .fetch_all(db)
+            .await?,
+    )
+}
+
 /// Names of the site's stable points.
-pub async fn stable(db: impl SqliteExecutor<'_>, site: &str) -> Result<Vec<String>, StoreError> {
+pub async fn stable(db: impl AnyExecutor<'_>, site: &str) -> Result<Vec<String>, StoreError> {
     Ok(sqlx::query_scalar(
-        "SELECT name FROM points WHERE site_id = ? AND role = 'stable' ORDER BY name",
+        "SELECT name FROM points WHERE site_id = $1 AND role = 'stable' ORDER BY name",
     )
     .bind(site)
     .fetch_all(db)
@@ -109,16 +119,16 @@ pub async fn stable(db: impl SqliteExecutor<'_>, site: &str) -> Result<Vec<Strin
 
 /// Creates the point or changes the given settings (others stay).
 pub async fn upsert(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     name: &str,
     s: &PointSettings,
 ) -> Result<(), StoreError> {
     let d = s.direction;
     sqlx::query(
-        "INSERT INTO points (site_id, name, role, grp, dir_x, dir_y, dir_z) VALUES (?, ?, COALESCE(?, 'monitored'), ?, ?, ?, ?) \
-         ON CONFLICT (site_id, name) DO UPDATE SET role = COALESCE(?, points.role), grp = COALESCE(?, points.grp), \
-         dir_x = COALESCE(?, points.dir_x), dir_y = COALESCE(?, points.dir_y), dir_z = COALESCE(?, points.dir_z)",
+        "INSERT INTO points (site_id, name, role, grp, dir_x, dir_y, dir_z) VALUES ($1, $2, COALESCE($3, 'monitored'), $4, $5, $6, $7) \
+         ON CONFLICT (site_id, name) DO UPDATE SET role = COALESCE($8, points.role), grp = COALESCE($9, points.grp), \
+         dir_x = COALESCE($10, points.dir_x), dir_y = COALESCE($11, points.dir_y), dir_z = COALESCE($12, points.dir_z)",
     )
     .bind(site)
     .bind(name)
@@ -190,12 +200,12 @@ const COORD_COLUMNS: &str = "c.point, c.epoch_id, c.observed_at, c.x_m, c.y_m, c
 /// The latest coordinates (by observation time) of every point of the site. `CROSS JOIN` keeps
 /// the points as the outer loop, so each point costs one index seek however long the history.
 pub async fn latest_coordinates(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
 ) -> Result<Vec<StoredCoordinate>, StoreError> {
     let rows: Vec<CoordRow> = sqlx::query_as(&format!(
         "SELECT {COORD_COLUMNS} FROM points p CROSS JOIN coordinates c \
-         WHERE p.site_id = ? AND c.site_id = p.site_id AND c.point = p.name AND c.observed_at = \
+         WHERE p.site_id = $1 AND c.site_id = p.site_id AND c.point = p.name AND c.observed_at = \
          (SELECT MAX(c2.observed_at) FROM coordinates c2 WHERE c2.site_id = p.site_id AND c2.point = p.name) \
          ORDER BY p.name"
     ))
@@ -207,12 +217,12 @@ pub async fn latest_coordinates(
 
 /// The coordinates of every point of one epoch.
 pub async fn epoch_coordinates(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     epoch: i64,
 ) -> Result<Vec<StoredCoordinate>, StoreError> {
     let rows: Vec<CoordRow> = sqlx::query_as(&format!(
-        "SELECT {COORD_COLUMNS} FROM coordinates c WHERE c.site_id = ? AND c.epoch_id = ? ORDER BY c.point"
+        "SELECT {COORD_COLUMNS} FROM coordinates c WHERE c.site_id = $1 AND c.epoch_id = $2 ORDER BY c.point"
     ))
     .bind(site)
     .bind(epoch)
@@ -223,11 +233,11 @@ pub async fn epoch_coordinates(
 
 /// Every coordinate of the site, oldest epoch first (recomputing displacements).
 pub async fn all_coordinates(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
 ) -> Result<Vec<StoredCoordinate>, StoreError> {
     let rows: Vec<CoordRow> = sqlx::query_as(&format!(
-        "SELECT {COORD_COLUMNS} FROM coordinates c WHERE c.site_id = ? ORDER BY c.observed_at, c.point"
+        "SELECT {COORD_COLUMNS} FROM coordinates c WHERE c.site_id = $1 ORDER BY c.observed_at, c.point"
     ))
     .bind(site)
     .fetch_all(db)

@@ -5,19 +5,21 @@
 //! Ten years of hourly epochs is 87 600 rows a point (`docs/performance.md`, section "Service").
 //! One statement reads the point's packed blocks that overlap the range
 //! ([`super::series_blocks`]: ~128 rows each, decoded by [`super::series_record`]) followed by its
-//! unpacked tail rows, through [`super::sqlite_raw`] (SQLite C API); a PostgreSQL backend would
-//! feed the same writers from its own row loop. [`super::displacements::series`] is the portable
+//! unpacked tail rows, through [`super::sqlite_raw`] (SQLite C API); a PostgreSQL store reads the
+//! same statement through sqlx into packed records first ([`super::series_postgres`]) and feeds
+//! the same writers. [`super::displacements::series`] is the portable
 //! sqlx read of the displacements table, and the reference the tests compare this output with.
 
 use std::io::Write;
 
 use bytes::Bytes;
-use sqlx::SqlitePool;
+use sqlx::pool::PoolConnection;
+use sqlx::Sqlite;
 use tokio::sync::mpsc;
 
 use super::series_record::{self, Record};
 use super::sqlite_raw::{self, Param, Row};
-use super::{display_timestamp, StoreError};
+use super::{display_timestamp, Store, StoreError};
 
 /// Columns of the CSV time series (the contract's order).
 /// The contract's fourteen first, then the forecast's σ and the Kalman filter's values.
@@ -103,10 +105,11 @@ pub struct Written {
 /// The blocks overlapping the range, then the tail rows in it, in time order (one statement: one
 /// snapshot). A block row has its last time and data, a tail row its time and values. The union
 /// is merged on the two primary keys (`EXPLAIN QUERY PLAN`: `MERGE (UNION ALL)`, no sort).
-const SQL: &str = "SELECT last_at, data, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
+pub(super) const SQL: &str =
+    "SELECT last_at, data, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
     NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
     NULL, NULL, NULL, NULL, NULL, NULL, NULL FROM series_blocks \
-    WHERE site_id = ? AND point = ? AND last_at >= ? AND last_at > ? AND first_at <= ? \
+    WHERE site_id = $1 AND point = $2 AND last_at >= $3 AND last_at > $4 AND first_at <= $5 \
     UNION ALL \
     SELECT observed_at, NULL, epoch_id, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
     sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, significant, velocity_mm_per_day, \
@@ -115,20 +118,40 @@ const SQL: &str = "SELECT last_at, data, NULL, NULL, NULL, NULL, NULL, NULL, NUL
     f_velocity_mm_per_day, sigma_f_velocity_mm_per_day, f_acceleration_mm_per_day2, \
     sigma_f_acceleration_mm_per_day2, f_time_to_failure_hours, sigma_f_time_to_failure_hours \
     FROM displacements \
-    WHERE site_id = ? AND point = ? \
-    AND observed_at > COALESCE((SELECT sealed_until FROM series_seals WHERE site_id = ?), '') \
-    AND observed_at >= ? AND observed_at <= ? AND observed_at > ? ORDER BY 1";
+    WHERE site_id = $6 AND point = $7 \
+    AND observed_at > COALESCE((SELECT sealed_until FROM series_seals WHERE site_id = $8), '') \
+    AND observed_at >= $9 AND observed_at <= $10 AND observed_at > $11 ORDER BY 1";
+
+/// Where the rows of a series come from.
+pub(super) enum Source {
+    /// SQLite: a native read connection for [`sqlite_raw`].
+    Sqlite(PoolConnection<Sqlite>),
+    /// PostgreSQL: the rows already read, as packed records ([`super::series_postgres`]).
+    Packed(Vec<u8>),
+}
+
+impl Source {
+    /// The source of `q` in `store`.
+    pub(super) async fn of(store: &Store, q: &SeriesQuery) -> Result<Source, StoreError> {
+        Ok(match store.sqlite_reader() {
+            Some(pool) => Source::Sqlite(pool.acquire().await?),
+            None => {
+                Source::Packed(super::series_postgres::packed_records(store.reader(), q).await?)
+            }
+        })
+    }
+}
 
 /// Reads the series of `q` and appends it to `out` in `format` (oldest first), on a blocking
-/// thread with one connection of `pool`.
+/// thread.
 pub async fn write(
-    pool: &SqlitePool,
+    store: &Store,
     q: SeriesQuery,
     format: SeriesFormat,
     out: Vec<u8>,
 ) -> Result<Written, StoreError> {
-    let mut conn = pool.acquire().await?;
-    tokio::task::spawn_blocking(move || run(&mut conn, &q, format, out))
+    let mut source = Source::of(store, &q).await?;
+    tokio::task::spawn_blocking(move || run(&mut source, &q, format, out))
         .await
         .map_err(reader_failed)?
 }
@@ -143,13 +166,13 @@ pub const BATCH_ROWS: usize = 8192;
 /// rows) or the error that stopped the read before any row; a later error ends the stream with
 /// it. Dropping the receiver stops the read.
 pub async fn stream_csv(
-    pool: &SqlitePool,
+    store: &Store,
     q: SeriesQuery,
 ) -> Result<mpsc::Receiver<Result<Bytes, StoreError>>, StoreError> {
-    let mut conn = pool.acquire().await?;
+    let mut source = Source::of(store, &q).await?;
     let (tx, rx) = mpsc::channel(4);
     tokio::task::spawn_blocking(move || {
-        if let Err(e) = run_csv_batched(&mut conn, &q, &tx) {
+        if let Err(e) = run_csv_batched(&mut source, &q, &tx) {
             let _ = tx.blocking_send(Err(e));
         }
     });
@@ -206,7 +229,7 @@ fn send_ready(
 }
 
 fn run_csv_batched(
-    conn: &mut sqlx::pool::PoolConnection<sqlx::Sqlite>,
+    source: &mut Source,
     q: &SeriesQuery,
     tx: &mpsc::Sender<Result<Bytes, StoreError>>,
 ) -> Result<(), StoreError> {
@@ -216,7 +239,7 @@ fn run_csv_batched(
     let mut in_batch = 0usize;
     let mut rows = 0usize;
     let mut open = true;
-    each_record(conn, q, |record| {
+    each_record(source, q, |record| {
         if rows == limit {
             return false;
         }
@@ -251,10 +274,32 @@ fn run_csv_batched(
 }
 
 /// Calls `each` with every row of `q` in time order as a packed record
-/// ([`series_record`]): a block's records in the range as they are stored, a tail row packed
-/// first. `each` returns `false` to stop.
+/// ([`series_record`]). `each` returns `false` to stop.
 pub(super) fn each_record(
-    conn: &mut sqlx::pool::PoolConnection<sqlx::Sqlite>,
+    source: &mut Source,
+    q: &SeriesQuery,
+    mut each: impl FnMut(&[u8]) -> bool,
+) -> Result<(), StoreError> {
+    match source {
+        Source::Sqlite(conn) => each_sqlite_record(conn, q, each),
+        Source::Packed(bytes) => {
+            let mut rest = &bytes[..];
+            while let Some((_, n)) = series_record::peek(rest) {
+                let (record, later) = rest.split_at(n);
+                rest = later;
+                if !each(record) {
+                    break;
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
+/// [`each_record`] of SQLite: a block's records in the range as they are stored, a tail row
+/// packed first.
+fn each_sqlite_record(
+    conn: &mut PoolConnection<Sqlite>,
     q: &SeriesQuery,
     mut each: impl FnMut(&[u8]) -> bool,
 ) -> Result<(), StoreError> {
@@ -337,7 +382,7 @@ pub(super) fn reader_failed(e: tokio::task::JoinError) -> StoreError {
 
 /// The read: rows of `q` through one writer into `out`, on the calling thread.
 fn run(
-    conn: &mut sqlx::pool::PoolConnection<sqlx::Sqlite>,
+    source: &mut Source,
     q: &SeriesQuery,
     format: SeriesFormat,
     out: Vec<u8>,
@@ -347,7 +392,7 @@ fn run(
     let mut last = Vec::new();
     let limit = q.limit.map_or(usize::MAX, |l| l.max(0) as usize);
     let mut more = false;
-    each_record(conn, q, |record| {
+    each_record(source, q, |record| {
         if w.rows == limit {
             more = true;
             return false;

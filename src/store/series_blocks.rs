@@ -16,9 +16,9 @@
 
 use std::collections::BTreeSet;
 
-use sqlx::SqliteConnection;
+use sqlx::AnyConnection;
 
-use super::displacements::{Displacement, COLUMNS};
+use super::displacement_row::{select_list, Displacement, COLUMNS};
 use super::series_record;
 use super::{Store, StoreError};
 
@@ -30,7 +30,7 @@ pub const BLOCK_EPOCHS: usize = 128;
 /// transaction): counts the new epochs, seals the next blocks when [`BLOCK_EPOCHS`] epochs are
 /// pending, and re-packs the site when a row is older than its sealed part.
 pub async fn added(
-    db: &mut SqliteConnection,
+    db: &mut AnyConnection,
     site: &str,
     rows: &[Displacement],
 ) -> Result<(), StoreError> {
@@ -39,7 +39,7 @@ pub async fn added(
         return Ok(());
     };
     let (sealed_until, pending): (String, i64) = sqlx::query_as(
-        "INSERT INTO series_seals (site_id, sealed_until, pending) VALUES (?, '', ?) \
+        "INSERT INTO series_seals (site_id, sealed_until, pending) VALUES ($1, '', $2) \
          ON CONFLICT (site_id) DO UPDATE SET pending = series_seals.pending + excluded.pending \
          RETURNING sealed_until, pending",
     )
@@ -57,12 +57,12 @@ pub async fn added(
 }
 
 /// Removes the blocks of `site` (with its displacements; same transaction).
-pub async fn delete_site(db: &mut SqliteConnection, site: &str) -> Result<(), StoreError> {
-    sqlx::query("DELETE FROM series_blocks WHERE site_id = ?")
+pub async fn delete_site(db: &mut AnyConnection, site: &str) -> Result<(), StoreError> {
+    sqlx::query("DELETE FROM series_blocks WHERE site_id = $1")
         .bind(site)
         .execute(&mut *db)
         .await?;
-    sqlx::query("DELETE FROM series_seals WHERE site_id = ?")
+    sqlx::query("DELETE FROM series_seals WHERE site_id = $1")
         .bind(site)
         .execute(&mut *db)
         .await?;
@@ -72,9 +72,9 @@ pub async fn delete_site(db: &mut SqliteConnection, site: &str) -> Result<(), St
 /// Packs the whole series of `site` anew from its displacements (inside a write transaction):
 /// after an insert into its sealed past, at [`backfill`], or after rows were written by other
 /// means (benchmarks, tests).
-pub async fn rebuild(db: &mut SqliteConnection, site: &str) -> Result<(), StoreError> {
+pub async fn rebuild(db: &mut AnyConnection, site: &str) -> Result<(), StoreError> {
     delete_site(db, site).await?;
-    sqlx::query("INSERT INTO series_seals (site_id, sealed_until, pending) VALUES (?, '', 0)")
+    sqlx::query("INSERT INTO series_seals (site_id, sealed_until, pending) VALUES ($1, '', 0)")
         .bind(site)
         .execute(&mut *db)
         .await?;
@@ -101,9 +101,9 @@ pub async fn backfill(store: &Store) -> Result<usize, StoreError> {
 
 /// Seals the site's epochs after `sealed_until` in groups of [`BLOCK_EPOCHS`]: every point's rows
 /// of each full group become one block; the rest stays tail.
-async fn seal(db: &mut SqliteConnection, site: &str, sealed_until: &str) -> Result<(), StoreError> {
+async fn seal(db: &mut AnyConnection, site: &str, sealed_until: &str) -> Result<(), StoreError> {
     let times: Vec<String> = sqlx::query_scalar(
-        "SELECT observed_at FROM epochs WHERE site_id = ? AND observed_at > ? ORDER BY observed_at",
+        "SELECT observed_at FROM epochs WHERE site_id = $1 AND observed_at > $2 ORDER BY observed_at",
     )
     .bind(site)
     .bind(sealed_until)
@@ -120,14 +120,15 @@ async fn seal(db: &mut SqliteConnection, site: &str, sealed_until: &str) -> Resu
     if let Some(until) = cuts.last() {
         // the series endpoint serves the points of the points table only
         let points: Vec<String> =
-            sqlx::query_scalar("SELECT name FROM points WHERE site_id = ? ORDER BY name")
+            sqlx::query_scalar("SELECT name FROM points WHERE site_id = $1 ORDER BY name")
                 .bind(site)
                 .fetch_all(&mut *db)
                 .await?;
         for point in &points {
+            let columns = select_list(COLUMNS, "");
             let rows: Vec<Displacement> = sqlx::query_as(&format!(
-                "SELECT {COLUMNS} FROM displacements \
-                 WHERE site_id = ? AND point = ? AND observed_at > ? AND observed_at <= ? \
+                "SELECT {columns} FROM displacements \
+                 WHERE site_id = $1 AND point = $2 AND observed_at > $3 AND observed_at <= $4 \
                  ORDER BY observed_at"
             ))
             .bind(site)
@@ -146,7 +147,7 @@ async fn seal(db: &mut SqliteConnection, site: &str, sealed_until: &str) -> Resu
         }
     }
     let until = cuts.last().copied().unwrap_or(sealed_until);
-    sqlx::query("UPDATE series_seals SET sealed_until = ?, pending = ? WHERE site_id = ?")
+    sqlx::query("UPDATE series_seals SET sealed_until = $1, pending = $2 WHERE site_id = $3")
         .bind(until)
         .bind((times.len() - full) as i64)
         .bind(site)
@@ -156,7 +157,7 @@ async fn seal(db: &mut SqliteConnection, site: &str, sealed_until: &str) -> Resu
 }
 
 async fn insert_block(
-    db: &mut SqliteConnection,
+    db: &mut AnyConnection,
     site: &str,
     point: &str,
     rows: &[Displacement],
@@ -175,7 +176,7 @@ async fn insert_block(
     }
     sqlx::query(
         "INSERT INTO series_blocks (site_id, point, last_at, first_at, n_rows, data) \
-         VALUES (?, ?, ?, ?, ?, ?)",
+         VALUES ($1, $2, $3, $4, $5, $6)",
     )
     .bind(site)
     .bind(point)

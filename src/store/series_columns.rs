@@ -2,11 +2,9 @@
 //! same fast path as the served series ([`super::series`]): the dashboard's plots downsample it
 //! on the server.
 
-use sqlx::SqlitePool;
-
-use super::series::{each_record, SeriesQuery};
+use super::series::{each_record, SeriesQuery, Source};
 use super::series_record;
-use super::StoreError;
+use super::{Store, StoreError};
 
 /// The series, oldest first; NaN where a value is missing. Lengths in mm, velocities in mm/day,
 /// times to failure in hours, times in seconds since 1970 (UTC).
@@ -75,13 +73,13 @@ pub fn unix_seconds(stored: &[u8]) -> f64 {
 }
 
 /// Reads the whole series of `q` (its range and direction; no limit) as columns, on a blocking
-/// thread with one connection of `pool`.
-pub async fn read(pool: &SqlitePool, q: SeriesQuery) -> Result<SeriesColumns, StoreError> {
-    let mut conn = pool.acquire().await?;
+/// thread.
+pub async fn read(store: &Store, q: SeriesQuery) -> Result<SeriesColumns, StoreError> {
+    let mut source = Source::of(store, &q).await?;
     tokio::task::spawn_blocking(move || {
         let mut c = SeriesColumns::default();
         let nan = f64::NAN;
-        each_record(&mut conn, &q, |bytes| {
+        each_record(&mut source, &q, |bytes| {
             let Some((r, _)) = series_record::decode(bytes) else {
                 return false;
             };

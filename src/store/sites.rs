@@ -1,14 +1,14 @@
 //! Sites: a monitored cliff with its model, schedule, confidence and alert rules.
 
 use serde::{Deserialize, Serialize};
-use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
+use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
 
 /// The version of the derived series (displacements, filtered values, block motions) this binary
 /// writes. Sites stored by an older one (`sites.analysis_version` below it) are recomputed once at
-/// start ([`crate::ingest::recompute_outdated`]); a new site starts at it.
+/// start ([`crate::service::recompute::recompute_outdated`]); a new site starts at it.
 pub const ANALYSIS_VERSION: i64 = 1;
 
 /// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
@@ -111,52 +111,51 @@ const COLUMNS: &str =
      process_noise, created_at";
 
 /// Reads one site.
-pub async fn get(db: impl SqliteExecutor<'_>, id: &str) -> Result<Option<Site>, StoreError> {
-    let row: Option<SiteRow> = sqlx::query_as(&format!("SELECT {COLUMNS} FROM sites WHERE id = ?"))
-        .bind(id)
-        .fetch_optional(db)
-        .await?;
+pub async fn get(db: impl AnyExecutor<'_>, id: &str) -> Result<Option<Site>, StoreError> {
+    let row: Option<SiteRow> =
+        sqlx::query_as(&format!("SELECT {COLUMNS} FROM sites WHERE id = $1"))
+            .bind(id)
+            .fetch_optional(db)
+            .await?;
     row.map(Site::try_from).transpose()
 }
 
 /// Lists sites newest first; `after` is the `(created_at, id)` cursor of the previous page.
 pub async fn list(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     after: Option<(&str, &str)>,
     limit: i64,
 ) -> Result<Vec<Site>, StoreError> {
     let rows: Vec<SiteRow> = match after {
         None => {
             sqlx::query_as(&format!(
-                "SELECT {COLUMNS} FROM sites ORDER BY created_at DESC, id DESC LIMIT ?"
+                "SELECT {COLUMNS} FROM sites ORDER BY created_at DESC, id DESC LIMIT $1"
             ))
             .bind(limit)
             .fetch_all(db)
             .await?
         }
-        Some((t, id)) => {
-            sqlx::query_as(&format!(
-                "SELECT {COLUMNS} FROM sites WHERE created_at < ? OR (created_at = ? AND id < ?) \
-                 ORDER BY created_at DESC, id DESC LIMIT ?"
-            ))
-            .bind(t)
-            .bind(t)
-            .bind(id)
-            .bind(limit)
-            .fetch_all(db)
-            .await?
-        }
+        Some((t, id)) => sqlx::query_as(&format!(
+            "SELECT {COLUMNS} FROM sites WHERE created_at < $1 OR (created_at = $2 AND id < $3) \
+                 ORDER BY created_at DESC, id DESC LIMIT $4"
+        ))
+        .bind(t)
+        .bind(t)
+        .bind(id)
+        .bind(limit)
+        .fetch_all(db)
+        .await?,
     };
     rows.into_iter().map(Site::try_from).collect()
 }
 
 /// Raw `created_at` of a site (for cursors).
 pub async fn created_at_raw(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     id: &str,
 ) -> Result<Option<String>, StoreError> {
     Ok(
-        sqlx::query_scalar("SELECT created_at FROM sites WHERE id = ?")
+        sqlx::query_scalar("SELECT created_at FROM sites WHERE id = $1")
             .bind(id)
             .fetch_optional(db)
             .await?,
@@ -164,7 +163,7 @@ pub async fn created_at_raw(
 }
 
 /// Creates a site; `Ok(false)` when the id exists already.
-pub async fn insert(db: &mut SqliteConnection, site: &NewSite) -> Result<bool, StoreError> {
+pub async fn insert(db: &mut AnyConnection, site: &NewSite) -> Result<bool, StoreError> {
     if get(&mut *db, &site.id).await?.is_some() {
         return Ok(false);
     }
@@ -173,12 +172,12 @@ pub async fn insert(db: &mut SqliteConnection, site: &NewSite) -> Result<bool, S
 }
 
 /// Creates a site or replaces its settings (configuration file).
-pub async fn upsert(db: &mut SqliteConnection, site: &NewSite) -> Result<(), StoreError> {
+pub async fn upsert(db: &mut AnyConnection, site: &NewSite) -> Result<(), StoreError> {
     let exists = get(&mut *db, &site.id).await?.is_some();
     write(db, site, !exists).await
 }
 
-async fn write(db: &mut SqliteConnection, site: &NewSite, create: bool) -> Result<(), StoreError> {
+async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(), StoreError> {
     let rules = serde_json::to_string(&site.alert_rules.clone().unwrap_or_default())?;
     let name = site.name.clone().unwrap_or_else(|| site.id.clone());
     let model = site.model.clone().unwrap_or_else(|| "orthogonal".into());
@@ -188,7 +187,7 @@ async fn write(db: &mut SqliteConnection, site: &NewSite, create: bool) -> Resul
         sqlx::query(
             "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, \
              reference_epochs, process_noise, created_at, analysis_version) \
-             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10)",
         )
         .bind(&site.id)
         .bind(name)
@@ -204,8 +203,8 @@ async fn write(db: &mut SqliteConnection, site: &NewSite, create: bool) -> Resul
         .await?;
     } else {
         sqlx::query(
-            "UPDATE sites SET name = ?, model = ?, schedule_hours = ?, confidence = ?, alert_rules = ?, \
-             reference_epochs = ?, process_noise = ? WHERE id = ?",
+            "UPDATE sites SET name = $1, model = $2, schedule_hours = $3, confidence = $4, alert_rules = $5, \
+             reference_epochs = $6, process_noise = $7 WHERE id = $8",
         )
         .bind(name)
         .bind(model)
@@ -223,11 +222,11 @@ async fn write(db: &mut SqliteConnection, site: &NewSite, create: bool) -> Resul
 
 /// Sets (or clears) the explicit reference epoch.
 pub async fn set_reference(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     epoch: Option<i64>,
 ) -> Result<(), StoreError> {
-    sqlx::query("UPDATE sites SET reference_epoch = ? WHERE id = ?")
+    sqlx::query("UPDATE sites SET reference_epoch = $1 WHERE id = $2")
         .bind(epoch)
         .bind(site)
         .execute(db)
@@ -236,9 +235,9 @@ pub async fn set_reference(
 }
 
 /// Ids of the sites whose stored series an older binary derived (see [`ANALYSIS_VERSION`]).
-pub async fn outdated(db: impl SqliteExecutor<'_>) -> Result<Vec<String>, StoreError> {
+pub async fn outdated(db: impl AnyExecutor<'_>) -> Result<Vec<String>, StoreError> {
     Ok(
-        sqlx::query_scalar("SELECT id FROM sites WHERE analysis_version < ? ORDER BY id")
+        sqlx::query_scalar("SELECT id FROM sites WHERE analysis_version < $1 ORDER BY id")
             .bind(ANALYSIS_VERSION)
             .fetch_all(db)
             .await?,
@@ -246,11 +245,20 @@ pub async fn outdated(db: impl SqliteExecutor<'_>) -> Result<Vec<String>, StoreE
 }
 
 /// Marks the site's stored series as derived by this binary ([`ANALYSIS_VERSION`]).
-pub async fn mark_current(db: impl SqliteExecutor<'_>, site: &str) -> Result<(), StoreError> {
-    sqlx::query("UPDATE sites SET analysis_version = ? WHERE id = ?")
+pub async fn mark_current(db: impl AnyExecutor<'_>, site: &str) -> Result<(), StoreError> {
+    sqlx::query("UPDATE sites SET analysis_version = $1 WHERE id = $2")
         .bind(ANALYSIS_VERSION)
         .bind(site)
         .execute(db)
         .await?;
     Ok(())
+}
+
+/// Ids of the sites with a campaign schedule (`schedule_hours` set).
+pub async fn scheduled(db: impl AnyExecutor<'_>) -> Result<Vec<String>, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT id FROM sites WHERE schedule_hours IS NOT NULL ORDER BY id")
+            .fetch_all(db)
+            .await?,
+    )
 }

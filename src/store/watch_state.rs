@@ -3,18 +3,18 @@
 
 use std::collections::BTreeMap;
 
-use sqlx::{SqliteConnection, SqliteExecutor};
+use sqlx::{AnyConnection, AnyExecutor};
 
 use super::{now, StoreError};
 use crate::photogrammetry::ImageOrientation;
 
 /// The stored orientation of every station of a site, by station (image and station fields empty).
 pub async fn orientations(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
 ) -> Result<BTreeMap<String, ImageOrientation>, StoreError> {
     let rows: Vec<(String, String, String, String)> = sqlx::query_as(
-        "SELECT station, camera, rotation, center FROM watch_orientations WHERE site_id = ? \
+        "SELECT station, camera, rotation, center FROM watch_orientations WHERE site_id = $1 \
          ORDER BY station",
     )
     .bind(site)
@@ -38,7 +38,7 @@ pub async fn orientations(
 
 /// Stores (replaces) the orientation of `station` found with epoch `epoch`.
 pub async fn set_orientation(
-    db: &mut SqliteConnection,
+    db: &mut AnyConnection,
     site: &str,
     station: &str,
     o: &ImageOrientation,
@@ -46,7 +46,7 @@ pub async fn set_orientation(
 ) -> Result<(), StoreError> {
     sqlx::query(
         "INSERT INTO watch_orientations (site_id, station, camera, rotation, center, epoch_id, updated_at) \
-         VALUES (?, ?, ?, ?, ?, ?, ?) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7) \
          ON CONFLICT (site_id, station) DO UPDATE SET camera = excluded.camera, \
          rotation = excluded.rotation, center = excluded.center, epoch_id = excluded.epoch_id, \
          updated_at = excluded.updated_at",
@@ -65,12 +65,12 @@ pub async fn set_orientation(
 
 /// The epoch a folder with content hash `hash` became, if it was taken before.
 pub async fn folder_epoch(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     site: &str,
     hash: &str,
 ) -> Result<Option<i64>, StoreError> {
     Ok(
-        sqlx::query_scalar("SELECT epoch_id FROM watch_folders WHERE site_id = ? AND hash = ?")
+        sqlx::query_scalar("SELECT epoch_id FROM watch_folders WHERE site_id = $1 AND hash = $2")
             .bind(site)
             .bind(hash)
             .fetch_optional(db)
@@ -80,13 +80,13 @@ pub async fn folder_epoch(
 
 /// Records that the folder with content hash `hash` became epoch `epoch` (idempotent).
 pub async fn record_folder(
-    db: &mut SqliteConnection,
+    db: &mut AnyConnection,
     site: &str,
     hash: &str,
     epoch: i64,
 ) -> Result<(), StoreError> {
     sqlx::query(
-        "INSERT INTO watch_folders (site_id, hash, epoch_id, taken_at) VALUES (?, ?, ?, ?) \
+        "INSERT INTO watch_folders (site_id, hash, epoch_id, taken_at) VALUES ($1, $2, $3, $4) \
          ON CONFLICT (site_id, hash) DO NOTHING",
     )
     .bind(site)

@@ -1,11 +1,9 @@
-//! Webhook endpoints and the outbox: one row per event (its id is the `webhook-id` of every
-//! retry, its payload the contract body) and one delivery row per (event, endpoint) holding the
-//! body of the endpoint's format when that is not the contract's, written in the transaction that
-//! made the event (`crate::alerting::record_events`). The delivery worker (`crate::delivery`)
-//! reads the due deliveries.
+//! Webhook endpoints: registered through the API or the configuration file, with their level
+//! filter and body format; disabled after a 410 Gone. The messages and deliveries are in
+//! [`super::outbox`].
 
 use serde::{Deserialize, Serialize};
-use sqlx::{FromRow, SqliteConnection, SqliteExecutor};
+use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::openapi::schema::{Object, ObjectBuilder, Type};
 use utoipa::ToSchema;
 
@@ -75,7 +73,7 @@ pub struct Webhook {
 }
 
 /// Every endpoint, newest first.
-pub async fn list(db: impl SqliteExecutor<'_>) -> Result<Vec<Webhook>, StoreError> {
+pub async fn list(db: impl AnyExecutor<'_>) -> Result<Vec<Webhook>, StoreError> {
     let mut rows: Vec<Webhook> = sqlx::query_as(
         "SELECT id, url, min_level, format, source, created_at FROM webhooks \
          ORDER BY created_at DESC, id DESC",
@@ -90,14 +88,14 @@ pub async fn list(db: impl SqliteExecutor<'_>) -> Result<Vec<Webhook>, StoreErro
 
 /// Adds an endpoint; returns its id.
 pub async fn insert(
-    db: impl SqliteExecutor<'_>,
+    db: impl AnyExecutor<'_>,
     hook: &NewWebhook,
     source: &str,
 ) -> Result<String, StoreError> {
     let id = uuid::Uuid::new_v4().to_string();
     sqlx::query(
         "INSERT INTO webhooks (id, url, secret, min_level, format, source, created_at) \
-         VALUES (?, ?, ?, ?, ?, ?, ?)",
+         VALUES ($1, $2, $3, $4, $5, $6, $7)",
     )
     .bind(&id)
     .bind(&hook.url)
@@ -114,7 +112,7 @@ pub async fn insert(
 /// Replaces the endpoints that came from the configuration file: a stored one whose URL, secret,
 /// level and format are all still configured stays (with its id and pending deliveries).
 pub async fn replace_configured(
-    db: &mut SqliteConnection,
+    db: &mut AnyConnection,
     hooks: &[NewWebhook],
 ) -> Result<(), StoreError> {
     // (id, url, secret, min_level, format)
@@ -144,12 +142,12 @@ pub async fn replace_configured(
 }
 
 /// Deletes an endpoint (its pending deliveries are dropped); `Ok(false)` when unknown.
-pub async fn delete(db: &mut SqliteConnection, id: &str) -> Result<bool, StoreError> {
-    sqlx::query("DELETE FROM webhook_deliveries WHERE webhook_id = ? AND state = 'pending'")
+pub async fn delete(db: &mut AnyConnection, id: &str) -> Result<bool, StoreError> {
+    sqlx::query("DELETE FROM webhook_deliveries WHERE webhook_id = $1 AND state = 'pending'")
         .bind(id)
         .execute(&mut *db)
         .await?;
-    let done = sqlx::query("DELETE FROM webhooks WHERE id = ?")
+    let done = sqlx::query("DELETE FROM webhooks WHERE id = $1")
         .bind(id)
         .execute(&mut *db)
         .await?;
@@ -157,10 +155,40 @@ pub async fn delete(db: &mut SqliteConnection, id: &str) -> Result<bool, StoreEr
 }
 
 /// Number of pending deliveries (the `/metrics` queue depth).
-pub async fn pending(db: impl SqliteExecutor<'_>) -> Result<i64, StoreError> {
+pub async fn pending(db: impl AnyExecutor<'_>) -> Result<i64, StoreError> {
     Ok(
         sqlx::query_scalar("SELECT COUNT(*) FROM webhook_deliveries WHERE state = 'pending'")
             .fetch_one(db)
             .await?,
     )
+}
+
+/// The enabled endpoints with their level filter and body format, as the alert events need
+/// them (a format this version does not know, impossible under the schema's CHECK, falls back
+/// to the contract body with a warning).
+pub async fn enabled_endpoints(
+    db: &mut AnyConnection,
+) -> Result<Vec<crate::webhooks::WebhookEndpoint>, StoreError> {
+    let rows: Vec<(String, String, String, String, String)> = sqlx::query_as(
+        "SELECT id, url, secret, min_level, format FROM webhooks WHERE enabled = TRUE",
+    )
+    .fetch_all(&mut *db)
+    .await?;
+    Ok(rows
+        .into_iter()
+        .map(|(id, url, secret, min, format)| {
+            let format = PayloadFormat::from_name(&format).unwrap_or_else(|| {
+                tracing::warn!(webhook = %id, format = %format, "unknown body format: contract body");
+                PayloadFormat::Standard
+            });
+            crate::webhooks::WebhookEndpoint {
+                id,
+                url,
+                secret,
+                min_level: serde_json::from_value(serde_json::Value::String(min)).ok(),
+                format,
+                enabled: true,
+            }
+        })
+        .collect())
 }

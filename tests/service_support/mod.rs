@@ -4,8 +4,8 @@
 
 use std::path::PathBuf;
 
-use cliffwatch::api::server::bind;
 use cliffwatch::config::Config;
+use cliffwatch::daemon::bind;
 use cliffwatch::store::Store;
 use serde_json::{json, Value};
 

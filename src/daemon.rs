@@ -1,6 +1,10 @@
-//! Binding and running the server with graceful shutdown: on the shutdown signal the listener
-//! stops accepting, in-flight requests (uploads included) finish within the grace period, the
-//! database is closed.
+//! The daemon: opens the database, applies the configuration, and runs its parts under one
+//! shutdown signal ([`crate::shutdown`]): the HTTP server ([`crate::api`] and the dashboard), the
+//! watched directory ([`crate::watch`]), the webhook delivery worker
+//! ([`service::webhook_delivery`]) and the campaign check ([`service::overdue`]).
+//!
+//! On shutdown the listener stops accepting, in-flight requests (uploads included) finish within
+//! the grace period, the background parts stop, and the database is closed.
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -10,8 +14,10 @@ use std::time::Duration;
 use thiserror::Error;
 use tokio::net::TcpListener;
 
-use super::{health, router, AppState};
+use crate::api::{health, router, AppState};
 use crate::config::{Config, ConfigError};
+use crate::service;
+use crate::shutdown;
 use crate::store::webhooks::NewWebhook;
 use crate::store::{self, Store, StoreError, StoreOptions};
 
@@ -55,7 +61,7 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
     };
     let store = Store::open(&config.database_path(), &options).await?;
     apply_configured(&store, &config).await?;
-    crate::ingest::recompute_outdated(&store)
+    service::recompute::recompute_outdated(&store)
         .await
         .map_err(|e| ServeError::Site("(recompute at start)".into(), e.to_string()))?;
     let listener = TcpListener::bind(addr)
@@ -83,7 +89,8 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
 async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeError> {
     let mut tx = store.begin_write().await?;
     for site in &config.sites {
-        super::sites::check_site(site).map_err(|e| ServeError::Site(site.id.clone(), e.message))?;
+        crate::api::sites::check_site(site)
+            .map_err(|e| ServeError::Site(site.id.clone(), e.message))?;
         let before = store::sites::get(&mut *tx, &site.id).await?;
         store::sites::upsert(&mut tx, site).await?;
         // Settings the analysis depends on changed: the series is recomputed (like a new
@@ -92,7 +99,7 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
             if (b.reference_epochs, b.process_noise, b.confidence)
                 != (a.reference_epochs, a.process_noise, a.confidence)
             {
-                crate::ingest::recompute_displacements(&mut tx, &a)
+                service::recompute::recompute_site(&mut tx, &a)
                     .await
                     .map_err(|e| ServeError::Site(site.id.clone(), e.to_string()))?;
             }
@@ -109,7 +116,7 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
         })
         .collect();
     for h in &hooks {
-        super::webhooks::check_webhook(h)
+        crate::api::webhooks::check_webhook(h)
             .map_err(|e| ServeError::Site(h.url.clone(), e.message))?;
     }
     store::webhooks::replace_configured(&mut tx, &hooks).await?;
@@ -141,80 +148,63 @@ impl Bound {
         } = self;
         let grace = Duration::from_secs(state.config.shutdown_grace_secs);
         let store = state.store.clone();
-        let (tx, rx) = tokio::sync::watch::channel(false);
+        let (trigger, stop) = shutdown::channel();
         tokio::spawn(async move {
             shutdown.await;
-            let _ = tx.send(true);
+            trigger.trigger();
         });
+        let mut parts = Vec::new();
         if let Some(dir) = &state.config.watch_dir {
             tracing::info!(watch_dir = %dir.display(), "watching directory");
-            let mut stop = rx.clone();
             let opts = crate::watch::WatchOptions::new(dir.clone());
-            let watch_store = store.clone();
-            tokio::spawn(async move {
-                let stopped = async move {
-                    let _ = stop.wait_for(|v| *v).await;
-                };
-                if let Err(e) = crate::watch::run(watch_store, opts, stopped).await {
+            let (store, stop) = (store.clone(), stop.clone());
+            parts.push(tokio::spawn(async move {
+                if let Err(e) = crate::watch::run(store, opts, stop).await {
                     tracing::error!(error = %e, "watched directory stopped");
                 }
-            });
+            }));
         }
-        let worker = tokio::spawn(crate::delivery::run(
+        parts.push(tokio::spawn(service::webhook_delivery::run(
             store.clone(),
-            crate::delivery::WorkerConfig::from_config(&state.config),
-            rx.clone(),
-        ));
-        let mut stop = rx.clone();
-        let mut deadline = rx;
-        let graceful = async move {
-            let _ = stop.wait_for(|v| *v).await;
-            tracing::info!("shutting down: finishing in-flight requests");
+            service::webhook_delivery::WorkerConfig::from_config(&state.config),
+            stop.clone(),
+        )));
+        parts.push(tokio::spawn(service::overdue::run(
+            store.clone(),
+            Duration::from_secs(state.config.overdue_check_secs.max(1)),
+            stop.clone(),
+        )));
+        let graceful = {
+            let stop = stop.clone();
+            async move {
+                stop.requested().await;
+                tracing::info!("shutting down: finishing in-flight requests");
+            }
         };
         tracing::info!(%addr, "listening");
         let server = axum::serve(listener, router(state)).with_graceful_shutdown(graceful);
-        let overdue = async move {
-            let _ = deadline.wait_for(|v| *v).await;
+        let grace_over = async move {
+            stop.requested().await;
             tokio::time::sleep(grace).await;
         };
         tokio::select! {
             r = server => r.map_err(|source| ServeError::Io { addr: addr.to_string(), source })?,
-            _ = overdue => tracing::warn!("grace period over: dropping the remaining connections"),
+            _ = grace_over => tracing::warn!("grace period over: dropping the remaining connections"),
         }
-        // The worker sees the same shutdown flag; an attempt in flight is at most repeated later.
-        let _ = tokio::time::timeout(Duration::from_secs(15), worker).await;
+        // The parts see the same signal; a webhook attempt in flight is at most repeated later.
+        for part in parts {
+            let _ = tokio::time::timeout(Duration::from_secs(15), part).await;
+        }
         store.close().await;
         tracing::info!("stopped");
         Ok(())
     }
 }
 
-/// Binds and serves until `shutdown` completes.
+/// Binds and serves until `shutdown` completes (e.g. [`shutdown::signal`]).
 pub async fn serve(
     config: Config,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), ServeError> {
     bind(config).await?.run(shutdown).await
-}
-
-/// Completes on ctrl-c or SIGTERM.
-pub async fn shutdown_signal() {
-    let ctrl_c = async {
-        let _ = tokio::signal::ctrl_c().await;
-    };
-    #[cfg(unix)]
-    let term = async {
-        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-            Ok(mut s) => {
-                s.recv().await;
-            }
-            Err(_) => std::future::pending::<()>().await,
-        }
-    };
-    #[cfg(not(unix))]
-    let term = std::future::pending::<()>();
-    tokio::select! {
-        _ = ctrl_c => {},
-        _ = term => {},
-    }
 }

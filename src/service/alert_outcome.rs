@@ -1,0 +1,126 @@
+//! The alert side of a use case, inside its transaction: load the site's alert state, let the
+//! pure rules of [`crate::analysis`] decide, save the state, and write each event's alert row,
+//! outbox message and one pending delivery per endpoint that takes it.
+
+use chrono::{DateTime, Utc};
+
+use crate::analysis::{self, AlertEvent, AlertEventType, AlertState, AlertStatus, EpochAnalysis};
+use crate::store::sites::Site;
+use crate::store::{self, alert_states, alerts, epochs, outbox, webhooks, Connection, StoreError};
+use crate::webhooks::{accepts, message_id, render, PayloadFormat, WebhookPayload};
+
+use super::analysis_inputs::alert_config;
+
+/// The alert row's state after an event.
+fn state_name(event: &AlertEvent) -> &'static str {
+    if event.event_type == AlertEventType::Resolved {
+        return "resolved";
+    }
+    match event.alert.status {
+        AlertStatus::Open => "open",
+        AlertStatus::Acknowledged => "acknowledged",
+        AlertStatus::Resolved => "resolved",
+    }
+}
+
+/// Writes the outcome of alert events: the alert row of each (inserted or updated to the event's
+/// snapshot), one outbox message per event (id = [`message_id`], the `webhook-id` of every
+/// retry; payload the contract body) and one pending delivery per endpoint that [`accepts`] it,
+/// holding the body in the endpoint's format when that is not the contract's ([`render`]), so
+/// that every retry sends the same bytes. Returns how many alerts were raised.
+pub async fn record_events(
+    tx: &mut Connection,
+    events: &[AlertEvent],
+) -> Result<usize, StoreError> {
+    if events.is_empty() {
+        return Ok(0);
+    }
+    let hooks = webhooks::enabled_endpoints(&mut *tx).await?;
+    let now = store::now();
+    let mut raised = 0;
+    for e in events {
+        if e.event_type == AlertEventType::Raised {
+            raised += 1;
+        }
+        alerts::save(&mut *tx, &e.alert, state_name(e), e.timestamp).await?;
+        let id = message_id(e);
+        if outbox::contains(&mut *tx, &id).await? {
+            continue;
+        }
+        let body = serde_json::to_string(&WebhookPayload::from_event(e))?;
+        let message = outbox::OutboxMessage {
+            id: &id,
+            event_type: e.event_type.as_str(),
+            alert_id: &e.alert.id,
+            level: e.alert.level.as_str(),
+            payload: &body,
+            created_at: &now,
+        };
+        outbox::insert(&mut *tx, &message).await?;
+        for h in hooks.iter().filter(|h| accepts(h, e)) {
+            let own_body = match h.format {
+                PayloadFormat::Standard => None,
+                _ => Some(render(e, h, "")?),
+            };
+            outbox::queue_delivery(&mut *tx, &id, &h.id, &now, own_body.as_deref()).await?;
+        }
+    }
+    Ok(raised)
+}
+
+/// Saves the site's new alert state and records the events that led to it. Returns how many
+/// alerts were raised.
+pub async fn save_and_record(
+    tx: &mut Connection,
+    site: &str,
+    state: &AlertState,
+    events: &[AlertEvent],
+) -> Result<usize, StoreError> {
+    alert_states::save(&mut *tx, site, state).await?;
+    record_events(tx, events).await
+}
+
+/// Evaluates a site's rules against one epoch's analysis and records the outcome (state, alerts,
+/// outbox). Returns how many alerts were raised.
+pub async fn evaluate(
+    tx: &mut Connection,
+    site: &Site,
+    analysis: &EpochAnalysis,
+    now: DateTime<Utc>,
+) -> Result<usize, StoreError> {
+    let state = alert_states::load(&mut *tx, &site.id).await?;
+    let (state, events) = analysis::evaluate_alerts(&alert_config(site), &state, analysis, now);
+    save_and_record(tx, &site.id, &state, &events).await
+}
+
+/// Makes a failed analysis visible: the epoch's status becomes `analysis_failed` with the reason
+/// in its report, and the site-level `analysis_failed` alert is raised (or kept up to date).
+/// Returns how many alerts were raised.
+pub async fn analysis_failed(
+    tx: &mut Connection,
+    site: &Site,
+    epoch: i64,
+    observed_at: DateTime<Utc>,
+    reason: &str,
+    now: DateTime<Utc>,
+) -> Result<usize, StoreError> {
+    epochs::set_analysis_outcome(&mut *tx, &site.id, epoch, Some(reason)).await?;
+    let state = alert_states::load(&mut *tx, &site.id).await?;
+    let (state, events) =
+        analysis::analysis_failed(&alert_config(site), &state, epoch, observed_at, reason, now);
+    save_and_record(tx, &site.id, &state, &events).await
+}
+
+/// Brings the stored alert state of a site to the state replayed over a recomputed series
+/// ([`analysis::reconcile`]: only net changes are announced) and records the events. Returns
+/// how many alerts were raised.
+pub async fn reconcile(
+    tx: &mut Connection,
+    site: &str,
+    replayed: &AlertState,
+    now: DateTime<Utc>,
+) -> Result<usize, StoreError> {
+    let current = alert_states::load(&mut *tx, site).await?;
+    let (state, events) = analysis::reconcile(&current, replayed, now);
+    save_and_record(tx, site, &state, &events).await
+}

@@ -1,0 +1,54 @@
+//! Why a use case did not happen. Each variant names the item at fault; the API maps them to
+//! statuses (`api::error`), the watched directory writes them to the folder's `error.txt`.
+
+use thiserror::Error;
+
+use crate::photogrammetry::{AdjustError, EpochError};
+use crate::store::StoreError;
+
+/// Why a use case failed; nothing of it was stored.
+#[derive(Debug, Error)]
+pub enum ServiceError {
+    /// The site does not exist (uploads do not create sites).
+    #[error("unknown site '{0}'")]
+    UnknownSite(String),
+    /// The site has no epoch with that id.
+    #[error("site '{site}' has no epoch {epoch}")]
+    UnknownEpoch {
+        /// Site id.
+        site: String,
+        /// The epoch id asked for.
+        epoch: i64,
+    },
+    /// No alert has that id.
+    #[error("unknown alert '{0}'")]
+    UnknownAlert(String),
+    /// The upload is not a valid epoch (names the field, image or point).
+    #[error(transparent)]
+    Invalid(#[from] EpochError),
+    /// The epoch cannot be adjusted (names the image or point).
+    #[error(transparent)]
+    Adjust(#[from] AdjustError),
+    /// Another body was stored for this `observed_at`.
+    #[error("epoch {epoch} of site '{site}' has observed_at {observed_at} with another body")]
+    Conflict {
+        /// Site id.
+        site: String,
+        /// Observation time.
+        observed_at: String,
+        /// The stored epoch's id.
+        epoch: i64,
+    },
+    /// The database failed.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// A computation task panicked or was cancelled.
+    #[error("computation task failed: {0}")]
+    Task(String),
+}
+
+impl From<tokio::task::JoinError> for ServiceError {
+    fn from(e: tokio::task::JoinError) -> Self {
+        ServiceError::Task(e.to_string())
+    }
+}

@@ -1,0 +1,265 @@
+//! Ingestion of one epoch, the one path used by the HTTP API and the watched directory:
+//! validate → (site history as start values) → adjust in `spawn_blocking` → store the epoch and
+//! everything derived from it (coordinates, displacements, alerts, outbox) in **one** write
+//! transaction, or nothing.
+//!
+//! Idempotency: the sha256 of [`EpochInput::canonical_json`] is stored with the epoch; the same body
+//! again returns the stored epoch, another body for the same `observed_at` is a conflict.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use chrono::Utc;
+use sha2::{Digest, Sha256};
+
+use crate::analysis::{self, EpochCoordinates};
+use crate::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochInput, Model};
+use crate::store::block_motions;
+use crate::store::displacements::{self, Displacement};
+use crate::store::sites::Site;
+use crate::store::{self, epochs, points, sites, Connection, Store};
+
+use super::alert_outcome;
+use super::analysis_inputs::{
+    history, point_configs, reference_coordinates, reference_epoch, reference_window,
+    site_analysis_config, to_rows,
+};
+use super::{recompute, ServiceError};
+
+/// The outcome of a successful ingestion.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Ingested {
+    /// Site id.
+    pub site: String,
+    /// The epoch's integer id.
+    pub epoch: i64,
+    /// True when this call stored it; false when the same body was stored before.
+    pub created: bool,
+}
+
+/// sha256 (hex) of the canonical JSON of an upload.
+pub fn body_hash(input: &EpochInput) -> String {
+    hex::encode(Sha256::digest(input.canonical_json().as_bytes()))
+}
+
+/// Networks up to this many points store the joint covariance of all of them; larger ones that of
+/// their stable points only (the matrix grows with the square of the points: 28 points make
+/// 84 × 84 values, about 150 kB of JSON per epoch).
+pub const JOINT_COVARIANCE_ALL_POINTS_MAX: usize = 40;
+
+/// The points whose joint covariance an epoch stores: every point of a network of up to
+/// [`JOINT_COVARIANCE_ALL_POINTS_MAX`] points, else the stable ones. The displacement analysis
+/// propagates the stable-point datum with the cross-covariances between each point and the datum
+/// points; without them the depth σ of displacements came out 8 % optimistic in the calibration
+/// test (`tests/adjust_calibration.rs`).
+pub fn joint_covariance_points(points: &[String], stable: Vec<String>) -> Vec<String> {
+    if points.len() <= JOINT_COVARIANCE_ALL_POINTS_MAX {
+        points.to_vec()
+    } else {
+        stable
+    }
+}
+
+/// Ingests one epoch of the upload form into a site.
+pub async fn ingest(
+    store: &Store,
+    site_id: &str,
+    input: EpochInput,
+) -> Result<Ingested, ServiceError> {
+    ingest_with_identification(store, site_id, input, None).await
+}
+
+/// [`ingest`] of an epoch from the watched directory, storing with its report how each station's
+/// targets were identified (`identification`: per station method and counts).
+pub async fn ingest_with_identification(
+    store: &Store,
+    site_id: &str,
+    input: EpochInput,
+    identification: Option<serde_json::Value>,
+) -> Result<Ingested, ServiceError> {
+    let problem = input.validate()?;
+    let site = sites::get(store.reader(), site_id)
+        .await?
+        .ok_or_else(|| ServiceError::UnknownSite(site_id.to_string()))?;
+    let observed_at = store::timestamp(problem.observed_at);
+    let hash = body_hash(&input);
+    if let Some(done) =
+        check_existing(&mut *store.read().await?, &site.id, &observed_at, &hash).await?
+    {
+        return Ok(done);
+    }
+
+    let prior: BTreeMap<String, [f64; 3]> = points::latest_coordinates(store.reader(), &site.id)
+        .await?
+        .into_iter()
+        .map(|c| (c.point, c.xyz))
+        .collect();
+    let options = AdjustOptions {
+        model: site.model.parse().unwrap_or(Model::Orthogonal),
+        prior,
+        joint_covariance_of: joint_covariance_points(
+            &problem.points,
+            points::stable(store.reader(), &site.id).await?,
+        ),
+        ..AdjustOptions::default()
+    };
+    let started = Instant::now();
+    let adjustment =
+        tokio::task::spawn_blocking(move || adjust_problem(&problem, &options)).await?;
+    metrics::histogram!("cliffwatch_adjustment_seconds").record(started.elapsed().as_secs_f64());
+    let outcome = if adjustment.is_ok() { "ok" } else { "failed" };
+    metrics::counter!("cliffwatch_adjustments_total", "outcome" => outcome).increment(1);
+    let adjustment = adjustment?;
+
+    let mut tx = store.begin_write().await?;
+    // Another upload of the same observed_at may have committed while this one adjusted.
+    if let Some(done) = check_existing(&mut tx, &site.id, &observed_at, &hash).await? {
+        return Ok(done);
+    }
+    let control: Vec<String> = input.control.iter().map(|c| c.point.clone()).collect();
+    let record = epochs::EpochRecord {
+        site: &site.id,
+        observed_at: &observed_at,
+        body_sha256: &hash,
+        input: &input,
+        adjustment: &adjustment,
+        control_points: &control,
+        identification: identification.as_ref(),
+    };
+    let epoch = epochs::insert(&mut tx, &record).await?;
+    let derived = derive(&mut tx, &site, epoch, &observed_at, &adjustment).await?;
+    displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
+    block_motions::insert(&mut tx, &site.id, &derived.block_motions).await?;
+    tx.commit().await.map_err(store::StoreError::from)?;
+    metrics::counter!("cliffwatch_alerts_raised_total").increment(derived.raised as u64);
+    Ok(Ingested {
+        site: site.id,
+        epoch,
+        created: true,
+    })
+}
+
+async fn check_existing(
+    db: &mut Connection,
+    site: &str,
+    observed_at: &str,
+    hash: &str,
+) -> Result<Option<Ingested>, ServiceError> {
+    match epochs::find_by_time(db, site, observed_at).await? {
+        None => Ok(None),
+        Some(k) if k.body_sha256 == hash => Ok(Some(Ingested {
+            site: site.to_string(),
+            epoch: k.id,
+            created: false,
+        })),
+        Some(k) => Err(ServiceError::Conflict {
+            site: site.to_string(),
+            observed_at: store::display_timestamp(observed_at),
+            epoch: k.id,
+        }),
+    }
+}
+
+/// What an epoch makes besides its own rows: its displacements and how many alerts it raised
+/// (alert rows and outbox rows are already written).
+#[derive(Debug, Default)]
+pub struct Derived {
+    /// Displacements of this epoch (empty when the whole site was recomputed instead).
+    pub displacements: Vec<Displacement>,
+    /// Motion rows of the site's declared blocks in this epoch (likewise).
+    pub block_motions: Vec<Displacement>,
+    /// Alerts raised by this epoch.
+    pub raised: usize,
+}
+
+/// THE seam of the displacement analysis and the alert rules: runs inside the epoch's write
+/// transaction (history read from `tx` is consistent with what is written).
+///
+/// Loads the reference epoch's coordinates (with the stable points' joint covariance), the point
+/// configurations and the history the windows need, runs [`crate::analysis::analyse_epoch`] on a
+/// blocking thread, then evaluates the site's alert rules and writes the alert state, the alerts and
+/// the webhook outbox. An epoch whose analysis fails (e.g. too few points in common with the
+/// reference) is stored without displacements, with status `analysis_failed`, the reason in its
+/// report (`analysis_error`) and a site-level `analysis_failed` alert for the staff.
+async fn derive(
+    tx: &mut Connection,
+    site: &Site,
+    epoch: i64,
+    observed_at: &str,
+    adjustment: &Adjustment,
+) -> Result<Derived, ServiceError> {
+    let later = epochs::count_after(&mut *tx, &site.id, observed_at).await?;
+    let reference = reference_epoch(tx, site).await?.unwrap_or(epoch);
+    // An epoch inside a reference of several epochs changes the reference itself.
+    let in_reference = site.reference_epochs > 1
+        && reference != epoch
+        && reference_window(tx, site, reference)
+            .await?
+            .contains(&epoch);
+    if later > 0 || in_reference {
+        // Out of order: later epochs' histories (velocities, forecasts) and, when this epoch is the
+        // earliest without a set reference, the reference itself change. Recompute the series.
+        let raised = recompute::recompute_site(tx, site).await?;
+        return Ok(Derived {
+            raised,
+            ..Derived::default()
+        });
+    }
+    let Some(t) = store::parse_timestamp(observed_at) else {
+        return Ok(Derived::default());
+    };
+    let current = EpochCoordinates::from_adjustment(epoch, t, adjustment);
+    let config = site_analysis_config(tx, site).await?;
+    let points = point_configs(tx, &site.id).await?;
+    let reference = if reference == epoch {
+        current.clone()
+    } else {
+        match reference_coordinates(tx, site, reference, &points, &config).await? {
+            Some(r) => r,
+            None => {
+                let reason = format!("the reference epoch {reference} has no coordinates");
+                return failed(tx, site, epoch, t, &reason).await;
+            }
+        }
+    };
+    let reference_id = reference.epoch;
+    let history = history(tx, &site.id, observed_at, config.history_epochs()).await?;
+    let analysis = tokio::task::spawn_blocking(move || {
+        analysis::analyse_epoch(&reference, &current, &points, &history, &config)
+    })
+    .await?;
+    let analysis = match analysis {
+        Ok(a) => a,
+        Err(e) => {
+            let reason = format!("analysis against reference epoch {reference_id}: {e}");
+            return failed(tx, site, epoch, t, &reason).await;
+        }
+    };
+    for w in &analysis.warnings {
+        tracing::info!(site = %site.id, epoch, "analysis: {w}");
+    }
+    let displacements = to_rows(&analysis.records(), analysis.reference_epoch);
+    let block_motions = to_rows(&analysis.block_records(), analysis.reference_epoch);
+    let raised = alert_outcome::evaluate(tx, site, &analysis, Utc::now()).await?;
+    Ok(Derived {
+        displacements,
+        block_motions,
+        raised,
+    })
+}
+
+/// Stores an epoch's failed analysis (see [`alert_outcome::analysis_failed`]) and logs it.
+async fn failed(
+    tx: &mut Connection,
+    site: &Site,
+    epoch: i64,
+    t: chrono::DateTime<Utc>,
+    reason: &str,
+) -> Result<Derived, ServiceError> {
+    tracing::warn!(site = %site.id, epoch, reason, "epoch stored without displacements");
+    let raised = alert_outcome::analysis_failed(tx, site, epoch, t, reason, Utc::now()).await?;
+    Ok(Derived {
+        raised,
+        ..Derived::default()
+    })
+}

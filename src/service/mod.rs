@@ -1,0 +1,27 @@
+//! The use cases, one file each. Each owns its transaction, calls the pure core
+//! ([`crate::photogrammetry`], [`crate::analysis`]) on blocking threads and the store
+//! ([`crate::store`]) for every read and write; the API handlers, the watched directory and the
+//! daemon call them.
+//!
+//! - [`ingest`]: an epoch in (upload or watched directory): adjust, analyse, alert, one
+//!   transaction.
+//! - [`recompute`]: a site's derived series again after its history changed.
+//! - [`site_settings`]: reference epoch and block groups, with the recompute they cause.
+//! - [`acknowledge`]: staff acknowledge an alert.
+//! - [`overdue`]: the campaign schedule check.
+//! - [`webhook_delivery`]: the outbox worker.
+//!
+//! Shared steps: [`analysis_inputs`] loads what the analysis needs, [`alert_outcome`] writes
+//! what the alert rules decide (state, alerts, outbox).
+
+pub mod acknowledge;
+pub mod alert_outcome;
+pub mod analysis_inputs;
+pub mod error;
+pub mod ingest;
+pub mod overdue;
+pub mod recompute;
+pub mod site_settings;
+pub mod webhook_delivery;
+
+pub use error::ServiceError;

@@ -1,0 +1,52 @@
+//! The campaign schedule: a site with `schedule_hours` whose last epoch is older than that gets
+//! a `campaign_overdue` alert (resolved by the next epoch). Checked periodically by the daemon.
+
+use std::time::Duration;
+
+use chrono::{DateTime, Utc};
+
+use crate::analysis;
+use crate::shutdown::Shutdown;
+use crate::store::{self, alert_states, epochs, sites, Store, StoreError};
+
+use super::alert_outcome::save_and_record;
+use super::analysis_inputs::alert_config;
+
+/// Checks every site with a schedule at `now`, one write transaction per site that changes.
+/// Returns how many alerts were raised.
+pub async fn check_all(store: &Store, now: DateTime<Utc>) -> Result<usize, StoreError> {
+    let mut raised = 0;
+    for id in sites::scheduled(store.reader()).await? {
+        let mut tx = store.begin_write().await?;
+        let Some(site) = sites::get(&mut *tx, &id).await? else {
+            continue;
+        };
+        let last = epochs::last_observed_at(&mut *tx, &id).await?;
+        let last = last.as_deref().and_then(store::parse_timestamp);
+        let state = alert_states::load(&mut tx, &id).await?;
+        let (state, events) = analysis::check_overdue(&alert_config(&site), &state, last, now);
+        if events.is_empty() {
+            continue;
+        }
+        raised += save_and_record(&mut tx, &id, &state, &events).await?;
+        tx.commit().await?;
+    }
+    Ok(raised)
+}
+
+/// Runs [`check_all`] every `every` until shutdown.
+pub async fn run(store: Store, every: Duration, shutdown: Shutdown) {
+    loop {
+        match check_all(&store, Utc::now()).await {
+            Ok(n) if n > 0 => {
+                metrics::counter!("cliffwatch_alerts_raised_total").increment(n as u64)
+            }
+            Ok(_) => {}
+            Err(e) => tracing::warn!(error = %e, "campaign schedule check failed"),
+        }
+        if shutdown.sleep(every).await {
+            break;
+        }
+    }
+    tracing::info!("campaign schedule check stopped");
+}

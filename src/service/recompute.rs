@@ -1,0 +1,83 @@
+//! Recomputing a site's derived series after a change of its history: a new reference, an epoch
+//! that arrived out of order, changed analysis settings or groups, or a series derived by an
+//! older version. Runs inside the caller's write transaction, so the change and everything
+//! derived from it commit together.
+
+use chrono::Utc;
+
+use crate::analysis::analyse_series;
+use crate::store::sites::Site;
+use crate::store::{block_motions, displacements, epochs, sites, Connection, Store, StoreError};
+
+use super::alert_outcome;
+use super::analysis_inputs::{
+    alert_config, epoch_coordinates, point_configs, reference_coordinates, reference_epoch,
+    site_analysis_config, to_rows,
+};
+use super::ServiceError;
+
+/// Recomputes the derived series of a site:
+/// 1. every displacement against the current reference, epoch by epoch in time order, each with
+///    the history recomputed before it (velocities, forecasts), and the declared blocks' motions
+///    ([`analyse_series`], on a blocking thread);
+/// 2. each epoch's analysis status (`adjusted` / `analysis_failed` with the reason);
+/// 3. the alert state: the rules are replayed over the recomputed series and the stored state is
+///    brought to the result by [`alert_outcome::reconcile`], which announces only the net
+///    change now (raised, escalated, de-escalated, resolved) and never re-sends transitions staff
+///    already received; open alerts keep their id and acknowledgement.
+///
+/// Returns how many alerts were raised.
+pub async fn recompute_site(tx: &mut Connection, site: &Site) -> Result<usize, ServiceError> {
+    let site = sites::get(&mut *tx, &site.id)
+        .await?
+        .ok_or_else(|| ServiceError::UnknownSite(site.id.clone()))?;
+    sites::mark_current(&mut *tx, &site.id).await?;
+    displacements::delete_site(tx, &site.id).await?;
+    block_motions::delete_site(tx, &site.id).await?;
+    let Some(reference) = reference_epoch(tx, &site).await? else {
+        return Ok(0);
+    };
+    let config = site_analysis_config(tx, &site).await?;
+    let points = point_configs(tx, &site.id).await?;
+    let Some(reference) = reference_coordinates(tx, &site, reference, &points, &config).await?
+    else {
+        return Ok(0);
+    };
+    let mut series = Vec::new();
+    for id in epochs::ids_in_time_order(&mut *tx, &site.id).await? {
+        if let Some(e) = epoch_coordinates(tx, &site.id, id).await? {
+            series.push(e);
+        }
+    }
+    let reference_id = reference.epoch;
+    let alerts = alert_config(&site);
+    let out = tokio::task::spawn_blocking(move || {
+        analyse_series(&reference, &series, &points, &config, &alerts)
+    })
+    .await?;
+    displacements::insert(tx, &site.id, &to_rows(&out.records, reference_id)).await?;
+    block_motions::insert(tx, &site.id, &to_rows(&out.block_records, reference_id)).await?;
+    for id in &out.analysed {
+        epochs::set_analysis_outcome(tx, &site.id, *id, None).await?;
+    }
+    for (id, reason) in &out.failures {
+        epochs::set_analysis_outcome(tx, &site.id, *id, Some(reason)).await?;
+    }
+    Ok(alert_outcome::reconcile(tx, &site.id, &out.replayed, Utc::now()).await?)
+}
+
+/// Recomputes, once, every site whose stored series an older binary derived
+/// ([`sites::ANALYSIS_VERSION`]: e.g. rows without the filtered values), one write transaction per
+/// site; called at start. Returns how many sites were recomputed.
+pub async fn recompute_outdated(store: &Store) -> Result<usize, ServiceError> {
+    let ids = sites::outdated(store.reader()).await?;
+    for id in &ids {
+        let mut tx = store.begin_write().await?;
+        if let Some(site) = sites::get(&mut *tx, id).await? {
+            tracing::info!(site = %id, "recomputing the series derived by an older version");
+            recompute_site(&mut tx, &site).await?;
+        }
+        tx.commit().await.map_err(StoreError::from)?;
+    }
+    Ok(ids.len())
+}

@@ -1,0 +1,170 @@
+//! The webhook delivery worker: delivers the outbox's due messages until shutdown. All of its
+//! state lives in the database (`webhook_deliveries`), so a restart resumes where the last run
+//! stopped; a crash between a POST and its bookkeeping sends that message again with the same
+//! `webhook-id` (at least once). Each delivery sends the body stored with it (the endpoint's
+//! format, rendered when the event was written) or else the outbox's contract body, the same
+//! bytes on every retry, signed with the endpoint's secret.
+
+use std::time::Duration;
+
+use chrono::{DateTime, Utc};
+
+use crate::shutdown::Shutdown;
+use crate::store::outbox::{self, Attempt, DueDelivery};
+use crate::store::{self, Store, StoreError};
+use crate::webhooks::{deliver, next_retry, DeliveryOutcome, RetryPolicy};
+
+/// Deliveries looked at per pass.
+const PASS_LIMIT: i64 = 100;
+
+/// Settings of the worker.
+#[derive(Debug, Clone)]
+pub struct WorkerConfig {
+    /// How often due deliveries are looked for.
+    pub poll: Duration,
+    /// Time limit of one POST.
+    pub timeout: Duration,
+    /// Backoff of retries.
+    pub retry: RetryPolicy,
+}
+
+impl WorkerConfig {
+    /// From the service configuration.
+    pub fn from_config(c: &crate::config::Config) -> Self {
+        WorkerConfig {
+            poll: Duration::from_millis(c.webhook_poll_ms.max(10)),
+            timeout: Duration::from_secs(c.webhook_timeout_secs.max(1)),
+            retry: c.webhook_retry.clone(),
+        }
+    }
+}
+
+/// Runs until shutdown: delivers due webhook messages every `poll`.
+pub async fn run(store: Store, config: WorkerConfig, shutdown: Shutdown) {
+    let client = match reqwest::Client::builder().timeout(config.timeout).build() {
+        Ok(c) => c,
+        Err(e) => {
+            tracing::error!(error = %e, "webhook client: worker not started");
+            return;
+        }
+    };
+    while !shutdown.is_requested() {
+        if let Err(e) = deliver_due(&store, &client, &config.retry, &shutdown).await {
+            tracing::warn!(error = %e, "webhook delivery pass failed");
+        }
+        if let Ok(n) = store::webhooks::pending(store.reader()).await {
+            metrics::gauge!("cliffwatch_webhook_queue_depth").set(n as f64);
+        }
+        if shutdown.sleep(config.poll).await {
+            break;
+        }
+    }
+    tracing::info!("webhook worker stopped");
+}
+
+/// One pass: every delivery due now, oldest first. Returns how many attempts were made.
+pub async fn deliver_due(
+    store: &Store,
+    client: &reqwest::Client,
+    policy: &RetryPolicy,
+    shutdown: &Shutdown,
+) -> Result<usize, StoreError> {
+    let due = outbox::due(store.reader(), &store::now(), PASS_LIMIT).await?;
+    let mut n = 0;
+    let mut gone: Vec<String> = Vec::new();
+    for d in due {
+        if shutdown.is_requested() {
+            break;
+        }
+        // An endpoint disabled by a 410 earlier in this pass gets nothing more.
+        if gone.contains(&d.webhook_id) {
+            continue;
+        }
+        let t = Utc::now();
+        let outcome = deliver(
+            client,
+            &d.url,
+            &d.secret,
+            &d.outbox_id,
+            d.payload.as_bytes(),
+            t,
+        )
+        .await;
+        record(store, &d, &outcome, policy, t).await?;
+        if outcome == DeliveryOutcome::Gone {
+            gone.push(d.webhook_id.clone());
+        }
+        n += 1;
+    }
+    Ok(n)
+}
+
+/// The stored outcome of attempt number `attempts` made at `t`.
+fn attempt(
+    outcome: &DeliveryOutcome,
+    policy: &RetryPolicy,
+    attempts: i64,
+    t: DateTime<Utc>,
+) -> Attempt {
+    let now = store::timestamp(t);
+    let finished = |state, status: Option<u16>, error: Option<String>| Attempt {
+        state,
+        attempts,
+        next_attempt_at: now.clone(),
+        status: status.map(i64::from),
+        error,
+        delivered_at: None,
+    };
+    match outcome {
+        DeliveryOutcome::Delivered { status } => Attempt {
+            delivered_at: Some(now.clone()),
+            ..finished("delivered", Some(*status), None)
+        },
+        DeliveryOutcome::Retry {
+            status,
+            retry_after,
+            reason,
+        } => {
+            let made = u32::try_from(attempts).unwrap_or(u32::MAX);
+            match next_retry(policy, made, *retry_after, &mut rand::thread_rng()) {
+                Some(delay) => {
+                    let at =
+                        t + chrono::Duration::from_std(delay).unwrap_or(chrono::Duration::hours(1));
+                    Attempt {
+                        next_attempt_at: store::timestamp(at),
+                        ..finished("pending", *status, Some(reason.clone()))
+                    }
+                }
+                None => finished("failed", *status, Some(reason.clone())),
+            }
+        }
+        DeliveryOutcome::Gone => finished("failed", Some(410), Some("endpoint gone (410)".into())),
+        DeliveryOutcome::Failed { status, reason } => {
+            finished("failed", *status, Some(reason.clone()))
+        }
+    }
+}
+
+async fn record(
+    store: &Store,
+    d: &DueDelivery,
+    outcome: &DeliveryOutcome,
+    policy: &RetryPolicy,
+    t: DateTime<Utc>,
+) -> Result<(), StoreError> {
+    let a = attempt(outcome, policy, d.attempts + 1, t);
+    let label = match outcome {
+        DeliveryOutcome::Delivered { .. } => "ok",
+        DeliveryOutcome::Retry { .. } => "retry",
+        DeliveryOutcome::Gone | DeliveryOutcome::Failed { .. } => "failed",
+    };
+    metrics::counter!("cliffwatch_webhook_deliveries_total", "outcome" => label).increment(1);
+    let mut tx = store.begin_write().await?;
+    if *outcome == DeliveryOutcome::Gone {
+        tracing::warn!(webhook = %d.webhook_id, url = %d.url, "410 Gone: endpoint disabled");
+        outbox::endpoint_gone(&mut tx, &d.webhook_id).await?;
+    }
+    outbox::record_attempt(&mut tx, &d.outbox_id, &d.webhook_id, &a).await?;
+    tx.commit().await?;
+    Ok(())
+}

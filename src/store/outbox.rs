@@ -1,0 +1,168 @@
+//! The webhook outbox: one message per alert event (`webhook_outbox`, its id the `webhook-id`
+//! of every retry) and one delivery per endpoint that takes it (`webhook_deliveries`, with its
+//! attempts, next attempt and outcome). Written in the transaction of the event; the delivery
+//! worker reads what is due and records each attempt in its own transaction.
+
+use sqlx::{AnyConnection, AnyExecutor, FromRow};
+
+use super::StoreError;
+
+/// One outbox message.
+#[derive(Debug, Clone)]
+pub struct OutboxMessage<'a> {
+    /// Message id (`webhook-id`), derived from the event.
+    pub id: &'a str,
+    /// `alert.raised`, `alert.escalated`, …
+    pub event_type: &'a str,
+    /// The alert's id.
+    pub alert_id: &'a str,
+    /// The alert's level after the event.
+    pub level: &'a str,
+    /// The contract body (JSON).
+    pub payload: &'a str,
+    /// When it was written (store timestamp).
+    pub created_at: &'a str,
+}
+
+/// True when message `id` is in the outbox already (an event written twice is sent once).
+pub async fn contains(db: &mut AnyConnection, id: &str) -> Result<bool, StoreError> {
+    let found: Option<String> = sqlx::query_scalar("SELECT id FROM webhook_outbox WHERE id = $1")
+        .bind(id)
+        .fetch_optional(&mut *db)
+        .await?;
+    Ok(found.is_some())
+}
+
+/// Adds a message to the outbox.
+pub async fn insert(db: &mut AnyConnection, m: &OutboxMessage<'_>) -> Result<(), StoreError> {
+    sqlx::query(
+        "INSERT INTO webhook_outbox (id, event_type, alert_id, level, payload, created_at) \
+         VALUES ($1, $2, $3, $4, $5, $6)",
+    )
+    .bind(m.id)
+    .bind(m.event_type)
+    .bind(m.alert_id)
+    .bind(m.level)
+    .bind(m.payload)
+    .bind(m.created_at)
+    .execute(&mut *db)
+    .await?;
+    Ok(())
+}
+
+/// Queues message `outbox_id` for endpoint `webhook_id`, due at `at` (store timestamp), with
+/// the endpoint's own body when it is not the contract's (`None`: the outbox's body).
+pub async fn queue_delivery(
+    db: &mut AnyConnection,
+    outbox_id: &str,
+    webhook_id: &str,
+    at: &str,
+    payload: Option<&str>,
+) -> Result<(), StoreError> {
+    sqlx::query(
+        "INSERT INTO webhook_deliveries (outbox_id, webhook_id, state, next_attempt_at, payload) \
+         VALUES ($1, $2, 'pending', $3, $4)",
+    )
+    .bind(outbox_id)
+    .bind(webhook_id)
+    .bind(at)
+    .bind(payload)
+    .execute(&mut *db)
+    .await?;
+    Ok(())
+}
+
+/// A delivery that is due, with what its POST needs.
+#[derive(Debug, Clone, FromRow)]
+pub struct DueDelivery {
+    /// The message id (`webhook-id`).
+    pub outbox_id: String,
+    /// The endpoint's id.
+    pub webhook_id: String,
+    /// Attempts made so far.
+    pub attempts: i64,
+    /// The body to send: the endpoint's own, else the contract body.
+    pub payload: String,
+    /// The endpoint's URL.
+    pub url: String,
+    /// The endpoint's signing secret.
+    pub secret: String,
+}
+
+/// At most `limit` pending deliveries due at `now` (store timestamp) to enabled endpoints,
+/// the longest due first.
+pub async fn due(
+    db: impl AnyExecutor<'_>,
+    now: &str,
+    limit: i64,
+) -> Result<Vec<DueDelivery>, StoreError> {
+    Ok(sqlx::query_as(
+        "SELECT d.outbox_id, d.webhook_id, d.attempts, COALESCE(d.payload, o.payload) AS payload, \
+         w.url, w.secret \
+         FROM webhook_deliveries d JOIN webhook_outbox o ON o.id = d.outbox_id \
+         JOIN webhooks w ON w.id = d.webhook_id \
+         WHERE d.state = 'pending' AND d.next_attempt_at <= $1 AND w.enabled = TRUE \
+         ORDER BY d.next_attempt_at, o.created_at, d.outbox_id LIMIT $2",
+    )
+    .bind(now)
+    .bind(limit)
+    .fetch_all(db)
+    .await?)
+}
+
+/// The outcome of one delivery attempt as stored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Attempt {
+    /// `pending` (to be retried), `delivered` or `failed`.
+    pub state: &'static str,
+    /// Attempts made, this one included.
+    pub attempts: i64,
+    /// When to try next (store timestamp; the attempt's time when no retry follows).
+    pub next_attempt_at: String,
+    /// HTTP status of the answer, if one came.
+    pub status: Option<i64>,
+    /// Why it did not succeed.
+    pub error: Option<String>,
+    /// When it was delivered.
+    pub delivered_at: Option<String>,
+}
+
+/// Records an attempt at delivering `outbox_id` to `webhook_id`.
+pub async fn record_attempt(
+    db: &mut AnyConnection,
+    outbox_id: &str,
+    webhook_id: &str,
+    a: &Attempt,
+) -> Result<(), StoreError> {
+    sqlx::query(
+        "UPDATE webhook_deliveries SET state = $1, attempts = $2, next_attempt_at = $3, \
+         last_status = $4, last_error = $5, delivered_at = $6 WHERE outbox_id = $7 AND webhook_id = $8",
+    )
+    .bind(a.state)
+    .bind(a.attempts)
+    .bind(&a.next_attempt_at)
+    .bind(a.status)
+    .bind(&a.error)
+    .bind(&a.delivered_at)
+    .bind(outbox_id)
+    .bind(webhook_id)
+    .execute(&mut *db)
+    .await?;
+    Ok(())
+}
+
+/// An endpoint answered 410 Gone: it is disabled and its pending deliveries fail.
+pub async fn endpoint_gone(db: &mut AnyConnection, webhook_id: &str) -> Result<(), StoreError> {
+    sqlx::query("UPDATE webhooks SET enabled = FALSE WHERE id = $1")
+        .bind(webhook_id)
+        .execute(&mut *db)
+        .await?;
+    sqlx::query(
+        "UPDATE webhook_deliveries SET state = 'failed', last_error = 'endpoint gone (410)' \
+         WHERE webhook_id = $1 AND state = 'pending'",
+    )
+    .bind(webhook_id)
+    .execute(&mut *db)
+    .await?;
+    Ok(())
+}

@@ -1,0 +1,94 @@
+//! The series read of a PostgreSQL store: the same statement as SQLite's fast path
+//! ([`super::series`]: the point's packed blocks that overlap the range, then its unpacked tail
+//! rows; ~128 rows per block, so a 10-year hourly series is ~700 rows) through sqlx, into one buffer of packed records ([`super::series_record`])
+//! that the series writers then format on a blocking thread as they do SQLite's rows.
+
+use sqlx::{AnyPool, Row};
+
+use super::series::{SeriesQuery, SQL};
+use super::series_record::{self, Filtered, Record};
+use super::StoreError;
+
+/// Every row of `q` in time order as packed records, one after the other (no limit: the
+/// writers stop at theirs).
+pub async fn packed_records(pool: &AnyPool, q: &SeriesQuery) -> Result<Vec<u8>, StoreError> {
+    let from = q.from.as_deref().unwrap_or("");
+    let to = q.to.as_deref().unwrap_or(super::TEXT_MAX);
+    let after = q.after.as_deref().unwrap_or("");
+    let rows = sqlx::query(SQL)
+        .bind(&q.site)
+        .bind(&q.point)
+        .bind(from)
+        .bind(after)
+        .bind(to)
+        .bind(&q.site)
+        .bind(&q.point)
+        .bind(&q.site)
+        .bind(from)
+        .bind(to)
+        .bind(after)
+        .fetch_all(pool)
+        .await?;
+    let mut out = Vec::new();
+    let cut = |what: &str| StoreError::Block(format!("series of {}/{}: {what}", q.site, q.point));
+    for row in rows {
+        let block: Option<Vec<u8>> = row.try_get(1)?;
+        let Some(block) = block else {
+            let t: String = row.try_get(0)?;
+            let d = |k: usize| row.try_get::<f64, _>(k);
+            let o = |k: usize| row.try_get::<Option<f64>, _>(k);
+            let filtered: [Option<f64>; 10] = [
+                o(19)?,
+                o(20)?,
+                o(21)?,
+                o(22)?,
+                o(23)?,
+                o(24)?,
+                o(25)?,
+                o(26)?,
+                o(27)?,
+                o(28)?,
+            ];
+            let opt = [o(29)?, o(30)?, o(31)?, o(32)?];
+            let record = Record {
+                epoch: row.try_get(2)?,
+                observed_at: t.as_bytes(),
+                reference: row.try_get(3)?,
+                v: [d(4)?, d(5)?, d(6)?, d(7)?, d(8)?, d(9)?, d(10)?, d(11)?],
+                significant: row.try_get(12)?,
+                velocity: o(13)?,
+                ttf: o(14)?,
+                cov: [o(15)?, o(16)?, o(17)?],
+                ttf_sigma: o(18)?,
+                filtered: filtered.iter().all(Option::is_some).then(|| Filtered {
+                    v: filtered.map(Option::unwrap_or_default),
+                    opt,
+                }),
+            };
+            if !series_record::encode(&record, &mut out) {
+                return Err(cut("observed_at too long"));
+            }
+            continue;
+        };
+        let Some((format, mut rest)) = block.split_first() else {
+            return Err(cut("empty block"));
+        };
+        if !series_record::readable(*format) {
+            return Err(cut("unknown block format"));
+        }
+        while !rest.is_empty() {
+            let Some((t, n)) = series_record::peek(rest) else {
+                return Err(cut("cut block"));
+            };
+            let (record, later) = rest.split_at(n);
+            rest = later;
+            if t > to.as_bytes() {
+                return Ok(out); // rows are in time order: none later is in the range
+            }
+            if t >= from.as_bytes() && t > after.as_bytes() {
+                out.extend_from_slice(record);
+            }
+        }
+    }
+    Ok(out)
+}
