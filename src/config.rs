@@ -24,6 +24,10 @@ pub struct Config {
     pub listen: String,
     /// Directory of the database.
     pub data_dir: PathBuf,
+    /// Database URL: `sqlite://PATH` or `postgres://USER:PASSWORD@HOST:PORT/DB`; `None`: the
+    /// SQLite file `cliffwatch.db` in `data_dir`.
+    #[serde(default)]
+    pub database_url: Option<String>,
     /// Watched directory; `None`: no watching.
     #[serde(default)]
     pub watch_dir: Option<PathBuf>,
@@ -136,6 +140,9 @@ pub struct Overrides {
     /// `--watch-dir`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub watch_dir: Option<PathBuf>,
+    /// `--database-url`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub database_url: Option<String>,
 }
 
 /// The configuration cannot be loaded or is inconsistent.
@@ -196,9 +203,17 @@ impl Config {
             .map_err(|_| ConfigError::BadListen(self.listen.clone()))
     }
 
-    /// Path of the SQLite database file.
+    /// Path of the default SQLite database file (in `data_dir`).
     pub fn database_path(&self) -> PathBuf {
         self.data_dir.join(DATABASE_FILE)
+    }
+
+    /// The database URL in force: `database_url`, else `sqlite://<data_dir>/cliffwatch.db`.
+    pub fn database_url(&self) -> String {
+        match &self.database_url {
+            Some(url) => url.clone(),
+            None => format!("sqlite://{}", self.database_path().display()),
+        }
     }
 
     /// Checks what does not depend on the network: the listen address parses, tokens are sane,

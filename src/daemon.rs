@@ -59,7 +59,9 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
         read_connections: config.read_connections,
         busy_timeout: Duration::from_millis(config.busy_timeout_ms),
     };
-    let store = Store::open(&config.database_path(), &options).await?;
+    let url = config.database_url();
+    let store = Store::connect(&url, &options).await?;
+    tracing::info!(database = %store::redacted_url(&url), backend = ?store.backend(), "database open");
     apply_configured(&store, &config).await?;
     service::recompute::recompute_outdated(&store)
         .await

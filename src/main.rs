@@ -1,4 +1,4 @@
-//! The `cliffwatch` command line: `serve`, `adjust`, `simulate`, `backup`.
+//! The `cliffwatch` command line: `serve`, `adjust`, `simulate`, `backup`, `migrate-store`.
 
 mod cli;
 
@@ -22,6 +22,8 @@ enum Command {
     Simulate(cli::simulate::SimulateArgs),
     /// Take a consistent online copy of the database.
     Backup(cli::backup::BackupArgs),
+    /// Copy a whole installation into an empty store (SQLite <-> PostgreSQL), offline.
+    MigrateStore(cli::migrate_store::MigrateStoreArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -30,5 +32,6 @@ fn main() -> anyhow::Result<()> {
         Command::Adjust(args) => cli::adjust::run(args),
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Backup(args) => cli::backup::run(args),
+        Command::MigrateStore(args) => cli::migrate_store::run(args),
     }
 }

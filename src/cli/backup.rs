@@ -1,5 +1,6 @@
-//! `cliffwatch backup FILE [--config FILE] [--data-dir DIR]`: a consistent online copy of the
-//! database (`VACUUM INTO`), safe while the server runs.
+//! `cliffwatch backup FILE [--config FILE] [--data-dir DIR] [--database-url URL]`: a consistent
+//! online copy of a SQLite database (`VACUUM INTO`), safe while the server runs. A PostgreSQL
+//! database is backed up with PostgreSQL's own tools; the command says how.
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -18,17 +19,30 @@ pub struct BackupArgs {
     /// Data directory of the database (default: from the configuration, ./data).
     #[arg(long)]
     pub data_dir: Option<PathBuf>,
+    /// Database URL (default: from the configuration; SQLite in the data directory).
+    #[arg(long)]
+    pub database_url: Option<String>,
 }
+
+/// How a PostgreSQL store is backed up (printed by `cliffwatch backup`, in the README).
+pub const PG_DUMP_RECIPE: &str = "a PostgreSQL store is backed up with PostgreSQL's tools, e.g. \
+`pg_dump --format=custom --file=cliffwatch.dump \"$DATABASE_URL\"` (restore: `pg_restore --dbname=URL \
+cliffwatch.dump`), or the managed service's snapshots; `cliffwatch migrate-store` copies it to a \
+SQLite file";
 
 /// Runs `cliffwatch backup`.
 pub fn run(args: BackupArgs) -> anyhow::Result<()> {
     let overrides = Overrides {
         data_dir: args.data_dir,
+        database_url: args.database_url,
         ..Overrides::default()
     };
     let config =
         Config::load(args.config.as_deref(), &overrides).context("loading the configuration")?;
-    let source = config.database_path();
+    let url = config.database_url();
+    let Some(source) = cliffwatch::store::sqlite_path(&url).map(PathBuf::from) else {
+        anyhow::bail!("{PG_DUMP_RECIPE}");
+    };
     anyhow::ensure!(source.exists(), "no database at {}", source.display());
     anyhow::ensure!(
         !args.file.exists(),

@@ -2,5 +2,6 @@
 
 pub mod adjust;
 pub mod backup;
+pub mod migrate_store;
 pub mod serve;
 pub mod simulate;

@@ -8,7 +8,7 @@ use cliffwatch::daemon::serve;
 use cliffwatch::shutdown;
 
 /// Arguments of `cliffwatch serve` (environment: `CLIFFWATCH_LISTEN`, `CLIFFWATCH_DATA_DIR`,
-/// `CLIFFWATCH_WATCH_DIR`, and `CLIFFWATCH_<OPTION>` for every option of `config/default.toml`).
+/// `CLIFFWATCH_WATCH_DIR`, `CLIFFWATCH_DATABASE_URL`, and `CLIFFWATCH_<OPTION>` for every option of `config/default.toml`).
 #[derive(clap::Args)]
 pub struct ServeArgs {
     /// Configuration file (TOML), layered over the embedded defaults.
@@ -23,6 +23,10 @@ pub struct ServeArgs {
     /// Watched directory of image epochs (default: none).
     #[arg(long)]
     pub watch_dir: Option<PathBuf>,
+    /// Database URL: sqlite://PATH or postgres://USER:PASSWORD@HOST:PORT/DB (default: SQLite
+    /// file cliffwatch.db in the data directory).
+    #[arg(long)]
+    pub database_url: Option<String>,
 }
 
 /// Runs `cliffwatch serve` until SIGTERM or ctrl-c.
@@ -31,6 +35,7 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         listen: args.listen,
         data_dir: args.data_dir,
         watch_dir: args.watch_dir,
+        database_url: args.database_url,
     };
     let config =
         Config::load(args.config.as_deref(), &overrides).context("loading the configuration")?;

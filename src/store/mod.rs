@@ -32,6 +32,7 @@
 pub mod alert_states;
 pub mod alerts;
 pub mod block_motions;
+pub mod copy;
 pub mod displacement_row;
 pub mod displacements;
 pub mod epochs;
@@ -162,6 +163,17 @@ fn sqlite_pragmas(
     })
 }
 
+/// `url` without its password, for logs.
+pub fn redacted_url(url: &str) -> String {
+    match url::Url::parse(url) {
+        Ok(mut u) if u.password().is_some() => {
+            let _ = u.set_password(Some("***"));
+            u.to_string()
+        }
+        _ => url.to_string(),
+    }
+}
+
 /// The SQLite file of a `sqlite://PATH` or `sqlite:PATH` URL.
 pub fn sqlite_path(url: &str) -> Option<&Path> {
     let rest = url.strip_prefix("sqlite:")?;
@@ -235,7 +247,20 @@ impl Store {
     /// connection, as with SQLite, so a node's write transactions never interleave.
     async fn open_postgres(url: &str, options: &StoreOptions) -> Result<Store, StoreError> {
         sqlx::any::install_default_drivers();
-        let connect = AnyConnectOptions::from_str(url)?;
+        // No cached prepared statements: sqlx 0.8.6's Any driver sends a NULL f64 as a float4
+        // parameter, and a statement prepared with it then refuses the 8 bytes of the next
+        // non-NULL f64 ("incorrect binary data format"). Unnamed statements take each
+        // execution's own parameter types.
+        let mut parsed = url::Url::parse(url).map_err(|_| StoreError::Url(redacted_url(url)))?;
+        if !parsed
+            .query_pairs()
+            .any(|(k, _)| k == "statement-cache-capacity")
+        {
+            parsed
+                .query_pairs_mut()
+                .append_pair("statement-cache-capacity", "0");
+        }
+        let connect = AnyConnectOptions::from_url(&parsed)?;
         let write = AnyPoolOptions::new()
             .max_connections(1)
             .min_connections(1)

@@ -135,16 +135,18 @@ pub async fn list(
             .fetch_all(db)
             .await?
         }
-        Some((t, id)) => sqlx::query_as(&format!(
+        Some((t, id)) => {
+            sqlx::query_as(&format!(
             "SELECT {COLUMNS} FROM sites WHERE created_at < $1 OR (created_at = $2 AND id < $3) \
                  ORDER BY created_at DESC, id DESC LIMIT $4"
         ))
-        .bind(t)
-        .bind(t)
-        .bind(id)
-        .bind(limit)
-        .fetch_all(db)
-        .await?,
+            .bind(t)
+            .bind(t)
+            .bind(id)
+            .bind(limit)
+            .fetch_all(db)
+            .await?
+        }
     };
     rows.into_iter().map(Site::try_from).collect()
 }
