@@ -4,9 +4,13 @@
 //! - `series_87600/*`: the displacement time series of one point of a site with 87 600 epochs
 //!   (10 years hourly) × 30 points: as CSV (whole series, streamed), the CSV's store part alone
 //!   (read and format, no HTTP), one JSON page of 1000, and every JSON page following the cursor;
+//! - `series_87600_postgres/csv_all_store_only`: the same store part on PostgreSQL (a throwaway
+//!   cluster, `tests/pg_support`);
 //! - the database size per 10 000 epochs of 30 points (printed, from `CLIFFWATCH_BENCH_SIZE_EPOCHS`
 //!   real uploads, default 500, scaled linearly).
 
+#[path = "../tests/pg_support/mod.rs"]
+mod pg_support;
 #[path = "../tests/service_support/mod.rs"]
 mod service_support;
 
@@ -111,6 +115,77 @@ async fn fill_history(server: &TestServer, site: &str, epochs: usize, points: us
     tx.commit().await.unwrap();
 }
 
+/// [`fill_history`] on PostgreSQL (`generate_series`, `to_char`).
+async fn fill_history_postgres(server: &TestServer, site: &str, epochs: usize, points: usize) {
+    server.create_site(site).await;
+    let mut tx = server.store.begin_write().await.unwrap();
+    sqlx::query(
+        "INSERT INTO points (site_id, name, role) \
+         SELECT $1, 'T' || lpad(n::text, 3, '0'), 'monitored' FROM generate_series(1, $2) n",
+    )
+    .bind(site)
+    .bind(points as i64)
+    .execute(&mut *tx)
+    .await
+    .unwrap();
+    sqlx::query(
+        "INSERT INTO epochs (site_id, id, observed_at, status, model, sigma0_mm, iterations, body_sha256, cameras, report, created_at) \
+         SELECT $1, n, to_char(timestamp '2015-01-01' + n * interval '1 hour', 'YYYY-MM-DD\"T\"HH24:MI:SS.US\"Z\"'), \
+         'adjusted', 'orthogonal', 0.001, 5, lpad(n::text, 64, '0'), '[]', '{}', '2026-01-01T00:00:00.000000Z' \
+         FROM generate_series(1, $2) n",
+    )
+    .bind(site).bind(epochs as i64).execute(&mut *tx).await.unwrap();
+    sqlx::query(
+        "INSERT INTO displacements (site_id, epoch_id, point, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+         sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, d_along_mm, significant, velocity_mm_per_day, time_to_failure_hours, \
+         cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2, f_dx_mm, f_dy_mm, f_dz_mm, f_d_mm, sigma_f_dx_mm, sigma_f_dy_mm, \
+         sigma_f_dz_mm, sigma_f_d_mm, f_velocity_mm_per_day, sigma_f_velocity_mm_per_day, f_acceleration_mm_per_day2, \
+         sigma_f_acceleration_mm_per_day2) \
+         SELECT e.site_id, e.id, p.name, e.observed_at, 1, e.id * 0.0001, -e.id * 0.0002, e.id * 0.00005, e.id * 0.000229, \
+         0.11, 0.12, 0.31, 0.2, NULL, e.id > 100, 0.0055, NULL, 0.0012, -0.0031, 0.021, \
+         e.id * 0.0000998, -e.id * 0.0001997, e.id * 0.0000501, e.id * 0.0002287, 0.051, 0.056, 0.143, 0.093, \
+         0.0054, 0.0021, 0.00001 * (e.id % 17), 0.0004 FROM epochs e CROSS JOIN points p \
+         WHERE e.site_id = $1 AND p.site_id = $2",
+    )
+    .bind(site).bind(site).execute(&mut *tx).await.unwrap();
+    cliffwatch::store::series_blocks::rebuild(&mut tx, site)
+        .await
+        .unwrap();
+    tx.commit().await.unwrap();
+}
+
+/// The store part of the whole CSV series of `long`/T017 (read, format, collect the chunks).
+async fn csv_store_only(server: &TestServer) {
+    let q = cliffwatch::store::series::SeriesQuery {
+        site: "long".into(),
+        point: "T017".into(),
+        ..Default::default()
+    };
+    let mut rx = cliffwatch::store::series::stream_csv(&server.store, q)
+        .await
+        .unwrap();
+    let mut lines = 0;
+    while let Some(chunk) = rx.recv().await {
+        lines += chunk.unwrap().iter().filter(|&&c| c == b'\n').count();
+    }
+    assert_eq!(lines, 87_601);
+}
+
+fn series_postgres(c: &mut Criterion) {
+    let rt = runtime();
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("bench");
+    let server = rt.block_on(TestServer::start(move |c| c.database_url = Some(url)));
+    rt.block_on(fill_history_postgres(&server, "long", 87_600, 30));
+    let mut g = c.benchmark_group("service/series_87600_postgres");
+    g.sample_size(20).measurement_time(Duration::from_secs(10));
+    g.bench_function("csv_all_store_only", |b| {
+        b.iter(|| rt.block_on(csv_store_only(&server)))
+    });
+    g.finish();
+    let _ = rt.block_on(server.stop());
+}
+
 fn series(c: &mut Criterion) {
     let rt = runtime();
     let server = rt.block_on(TestServer::start(|_| {}));
@@ -153,23 +228,7 @@ fn series(c: &mut Criterion) {
     });
     // the store's part of the CSV alone (no HTTP): read, format in batches, collect the chunks
     g.bench_function("csv_all_store_only", |b| {
-        b.iter(|| {
-            rt.block_on(async {
-                let q = cliffwatch::store::series::SeriesQuery {
-                    site: "long".into(),
-                    point: "T017".into(),
-                    ..Default::default()
-                };
-                let mut rx = cliffwatch::store::series::stream_csv(&server.store, q)
-                    .await
-                    .unwrap();
-                let mut lines = 0;
-                while let Some(chunk) = rx.recv().await {
-                    lines += chunk.unwrap().iter().filter(|&&c| c == b'\n').count();
-                }
-                assert_eq!(lines, 87_601);
-            })
-        })
+        b.iter(|| rt.block_on(csv_store_only(&server)))
     });
     // the whole series as JSON: every page of 1000 (the contract's largest), following the cursor
     let first = server.url("/api/v1/sites/long/points/T017/displacements?limit=1000");
@@ -257,5 +316,5 @@ fn database_size(_c: &mut Criterion) {
     );
 }
 
-criterion_group!(benches, upload, series, database_size);
+criterion_group!(benches, upload, series, series_postgres, database_size);
 criterion_main!(benches);

@@ -1,15 +1,16 @@
 //! The same daemon on PostgreSQL: a throwaway cluster (`pg_support`) serves a monitoring series
 //! (stable points, a declared block moving to alarm, an epoch out of order, a reference change,
 //! an acknowledgement), and every API answer is compared with the same scenario on SQLite. The
-//! data must survive a restart on the same database.
+//! data must survive a restart on the same database, move between the backends with
+//! `migrate-store`, and two daemons must share one database.
 
+mod alerts_support;
 mod pg_support;
-mod service_support;
 
 use std::collections::BTreeMap;
 
+use alerts_support::service_support::{synthetic_epoch, TestServer};
 use serde_json::{json, Value};
-use service_support::{synthetic_epoch, TestServer};
 
 const SITE: &str = "cliff";
 /// Targets of the scene; the first `STABLE` never move, the others are block B1.
@@ -347,4 +348,136 @@ async fn migrate_store_moves_an_installation_both_ways() {
     for (path, want) in &expected {
         assert_same(&format!("{path} back on SQLite"), &got[path], want);
     }
+}
+
+/// Two daemons on one PostgreSQL database, as behind a load balancer: uploads go to either,
+/// the same epoch to both at once is stored once, both serve the same answers, and every alert
+/// message reaches the webhook exactly once although both delivery workers run.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn two_nodes_share_one_database() {
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("nodes");
+    let receiver = alerts_support::Receiver::start(3).await;
+    let node = |url: String| {
+        TestServer::start(move |c| {
+            c.database_url = Some(url);
+            c.webhook_poll_ms = 20;
+            c.webhook_timeout_secs = 2;
+        })
+    };
+    let a = node(url.clone()).await;
+    let b = node(url.clone()).await;
+    let (st, w) = send(
+        &a,
+        reqwest::Method::POST,
+        "/api/v1/webhooks",
+        json!({"url": receiver.url, "secret": alerts_support::SECRET, "min_level": "watch"}),
+    )
+    .await;
+    assert_eq!(st, 201, "{w}");
+    let rules = json!([
+        {"level": "watch", "metric": "displacement_mm", "above": 5.0, "clear_below": 4.0},
+        {"level": "warning", "metric": "displacement_mm", "above": 10.0},
+        {"level": "alarm", "metric": "displacement_mm", "above": 20.0}]);
+    let (st, b0) = send(
+        &b,
+        reqwest::Method::POST,
+        "/api/v1/sites",
+        json!({"id": SITE, "name": "Cliff", "alert_rules": rules}),
+    )
+    .await;
+    assert_eq!(st, 201, "{b0}");
+    for i in 0..STABLE {
+        let path = format!("/api/v1/sites/{SITE}/points/{}", name(i));
+        let node = if i % 2 == 0 { &a } else { &b };
+        let (st, r) = send(node, reqwest::Method::PUT, &path, json!({"role": "stable"})).await;
+        assert_eq!(st, 200, "{r}");
+    }
+    let block: Vec<String> = (STABLE..POINTS).map(name).collect();
+    let (st, g) = send(
+        &b,
+        reqwest::Method::PUT,
+        &format!("/api/v1/sites/{SITE}/groups/B1"),
+        json!({"kind": "block", "direction": [0.0, -1.0, 0.0], "points": block}),
+    )
+    .await;
+    assert_eq!(st, 200, "{g}");
+    let epoch = |k: usize| {
+        synthetic_epoch(
+            4,
+            POINTS,
+            &day(k),
+            700 + k as u64,
+            STEP_MM * k as f64,
+            STABLE,
+        )
+    };
+    // The reference first, then two epochs at a time, one to each node.
+    assert_eq!(a.upload(SITE, &epoch(0)).await.0, 201);
+    for k in (1..EPOCHS - 2).step_by(2) {
+        let (ea, eb) = (epoch(k), epoch(k + 1));
+        let ((sa, ba), (sb, bb)) = tokio::join!(a.upload(SITE, &ea), b.upload(SITE, &eb));
+        assert_eq!((sa, sb), (201, 201), "{} {}", ba["error"], bb["error"]);
+    }
+    assert_eq!(b.upload(SITE, &epoch(EPOCHS - 2)).await.0, 201);
+    // A new epoch to both nodes at once: stored once, the other answer is the stored epoch.
+    let last = epoch(EPOCHS - 1);
+    let ((s1, e1), (s2, e2)) = tokio::join!(a.upload(SITE, &last), b.upload(SITE, &last));
+    let mut statuses = [s1, s2];
+    statuses.sort();
+    assert_eq!(statuses, [200, 201], "{} {}", e1["error"], e2["error"]);
+    assert_eq!(e1["epoch"], e2["epoch"]);
+
+    let (_, epochs) = a
+        .get(&format!("/api/v1/sites/{SITE}/epochs?limit=100"))
+        .await;
+    assert_eq!(epochs["items"].as_array().unwrap().len(), EPOCHS);
+    let (from_a, from_b) = (answers(&a).await, answers(&b).await);
+    for (path, want) in &from_a {
+        assert_same(&format!("{path} from the second node"), &from_b[path], want);
+    }
+    assert!(
+        from_a["alerts"].contains("\"alarm\""),
+        "{}",
+        from_a["alerts"]
+    );
+
+    // Every message delivered, each exactly once, through the receiver's first 503s.
+    let pending = || async {
+        let n: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM webhook_deliveries WHERE state = 'pending'")
+                .fetch_one(a.store.reader())
+                .await
+                .unwrap();
+        n
+    };
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while pending().await > 0 {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "deliveries still pending"
+        );
+        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+    }
+    let messages: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM webhook_outbox")
+        .fetch_one(a.store.reader())
+        .await
+        .unwrap();
+    assert!(messages >= 8, "only {messages} messages");
+    let log = receiver.log.lock().unwrap().clone();
+    let mut accepted: BTreeMap<String, usize> = BTreeMap::new();
+    for r in log.iter().filter(|r| r.accepted) {
+        *accepted.entry(r.id.clone()).or_default() += 1;
+    }
+    assert_eq!(accepted.len() as i64, messages);
+    let twice: Vec<_> = accepted.iter().filter(|(_, n)| **n > 1).collect();
+    assert!(twice.is_empty(), "delivered more than once: {twice:?}");
+    assert_eq!(
+        receiver
+            .bad_signatures
+            .load(std::sync::atomic::Ordering::SeqCst),
+        0
+    );
+    a.stop().await;
+    b.stop().await;
 }

@@ -24,6 +24,7 @@ pub mod downsample;
 pub mod epoch_page;
 pub mod face_plan;
 pub mod layout;
+pub mod natural_order;
 pub mod plan_svg;
 pub mod plot_data;
 pub mod point_page;

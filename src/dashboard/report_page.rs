@@ -63,13 +63,14 @@ pub async fn report(
     .collect();
     let pts = points::list(db, &site.id, None, 100_000).await?;
     let last = in_period.first();
-    let (disp, coords) = match last {
+    let (mut disp, coords) = match last {
         Some(e) => (
             displacements::of_epoch(db, &site.id, e.id).await?,
             points::epoch_coordinates(db, &site.id, e.id).await?,
         ),
         None => (vec![], vec![]),
     };
+    disp.sort_by(|a, b| super::natural_order::natural_cmp(&a.point, &b.point));
     let role = |name: &str| pts.iter().find(|p| p.name == name).map(|p| p.role.as_str());
     let plan: Vec<PlanPoint> = coords
         .iter()

@@ -30,7 +30,8 @@ pub async fn site(
     let Some(site) = sites::get(db, &site_id).await? else {
         return Err(PageError::not_found(format!("no site '{site_id}'")));
     };
-    let pts = points::list(db, &site.id, None, 100_000).await?;
+    let mut pts = points::list(db, &site.id, None, 100_000).await?;
+    pts.sort_by(|a, b| super::natural_order::natural_cmp(&a.name, &b.name));
     let coords = points::latest_coordinates(db, &site.id).await?;
     let latest: HashMap<String, displacements::Displacement> = displacements::latest(db, &site.id)
         .await?

@@ -14,8 +14,12 @@ use crate::store::outbox::{self, Attempt, DueDelivery};
 use crate::store::{self, Store, StoreError};
 use crate::webhooks::{deliver, next_retry, DeliveryOutcome, RetryPolicy};
 
-/// Deliveries looked at per pass.
-const PASS_LIMIT: i64 = 100;
+/// Deliveries claimed at a time: a node that dies holding them leaves them for at most
+/// `CLAIM × timeout` (plus a margin) before another node, or this one restarted, retries them.
+const CLAIM: i64 = 4;
+
+/// Deliveries sent per pass at most.
+const PASS_LIMIT: usize = 100;
 
 /// Settings of the worker.
 #[derive(Debug, Clone)]
@@ -49,7 +53,7 @@ pub async fn run(store: Store, config: WorkerConfig, shutdown: Shutdown) {
         }
     };
     while !shutdown.is_requested() {
-        if let Err(e) = deliver_due(&store, &client, &config.retry, &shutdown).await {
+        if let Err(e) = deliver_due(&store, &client, &config, &shutdown).await {
             tracing::warn!(error = %e, "webhook delivery pass failed");
         }
         if let Ok(n) = store::webhooks::pending(store.reader()).await {
@@ -62,41 +66,74 @@ pub async fn run(store: Store, config: WorkerConfig, shutdown: Shutdown) {
     tracing::info!("webhook worker stopped");
 }
 
-/// One pass: every delivery due now, oldest first. Returns how many attempts were made.
+/// Claims up to [`CLAIM`] due deliveries for this node (see [`outbox::claim_due`]): several
+/// nodes on one database never send the same message at the same time.
+async fn claim(store: &Store, timeout: Duration) -> Result<Vec<DueDelivery>, StoreError> {
+    let now = Utc::now();
+    let lease = chrono::Duration::from_std(timeout * CLAIM as u32 + Duration::from_secs(5))
+        .unwrap_or(chrono::Duration::minutes(5));
+    let mut tx = store.begin_write().await?;
+    let due = outbox::claim_due(
+        &mut tx,
+        &store::timestamp(now),
+        &store::timestamp(now + lease),
+        CLAIM,
+    )
+    .await?;
+    tx.commit().await?;
+    Ok(due)
+}
+
+/// One pass: the deliveries due now, oldest first, claimed a few at a time. Returns how many
+/// attempts were made.
 pub async fn deliver_due(
     store: &Store,
     client: &reqwest::Client,
-    policy: &RetryPolicy,
+    config: &WorkerConfig,
     shutdown: &Shutdown,
 ) -> Result<usize, StoreError> {
-    let due = outbox::due(store.reader(), &store::now(), PASS_LIMIT).await?;
     let mut n = 0;
     let mut gone: Vec<String> = Vec::new();
-    for d in due {
-        if shutdown.is_requested() {
+    while n < PASS_LIMIT && !shutdown.is_requested() {
+        let batch = claim(store, config.timeout).await?;
+        if batch.is_empty() {
             break;
         }
-        // An endpoint disabled by a 410 earlier in this pass gets nothing more.
-        if gone.contains(&d.webhook_id) {
-            continue;
+        for d in batch {
+            deliver_one(store, client, &config.retry, &d, &mut gone).await?;
+            n += 1;
         }
-        let t = Utc::now();
-        let outcome = deliver(
-            client,
-            &d.url,
-            &d.secret,
-            &d.outbox_id,
-            d.payload.as_bytes(),
-            t,
-        )
-        .await;
-        record(store, &d, &outcome, policy, t).await?;
-        if outcome == DeliveryOutcome::Gone {
-            gone.push(d.webhook_id.clone());
-        }
-        n += 1;
     }
     Ok(n)
+}
+
+/// Sends one claimed delivery and records the outcome; an endpoint disabled by a 410 earlier in
+/// the pass (`gone`) gets nothing more.
+async fn deliver_one(
+    store: &Store,
+    client: &reqwest::Client,
+    policy: &RetryPolicy,
+    d: &DueDelivery,
+    gone: &mut Vec<String>,
+) -> Result<(), StoreError> {
+    if gone.contains(&d.webhook_id) {
+        return Ok(());
+    }
+    let t = Utc::now();
+    let outcome = deliver(
+        client,
+        &d.url,
+        &d.secret,
+        &d.outbox_id,
+        d.payload.as_bytes(),
+        t,
+    )
+    .await;
+    record(store, d, &outcome, policy, t).await?;
+    if outcome == DeliveryOutcome::Gone {
+        gone.push(d.webhook_id.clone());
+    }
+    Ok(())
 }
 
 /// The stored outcome of attempt number `attempts` made at `t`.

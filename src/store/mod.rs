@@ -3,8 +3,9 @@
 //! (`migrations/sqlite`, `migrations/postgres`). All of the crate's SQL is here; nothing
 //! outside this module names sqlx.
 //!
-//! Reads go through a pool; writes through a pool of one connection (SQLite: `BEGIN
-//! IMMEDIATE`, so a write transaction never has to upgrade a read lock).
+//! Reads go through a pool; writes through a pool of one connection, one write transaction at a
+//! time ([`Store::begin_write`]: SQLite's `BEGIN IMMEDIATE`, PostgreSQL's advisory lock, which
+//! also serializes the writers of several nodes on one database).
 //!
 //! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`groups`],
 //! [`displacements`] (rows: [`displacement_row`]), [`block_motions`], [`alerts`],
@@ -15,7 +16,8 @@
 //! # What differs between the backends (all of it)
 //! - Connection set-up in [`Store::open`] (SQLite: WAL, `synchronous = NORMAL`, foreign keys,
 //!   busy timeout, a read-only read pool) and [`Store::connect`] (PostgreSQL).
-//! - `BEGIN IMMEDIATE` in [`Store::begin_write`] (PostgreSQL: `BEGIN`).
+//! - `BEGIN IMMEDIATE` in [`Store::begin_write`] (PostgreSQL: `BEGIN` and
+//!   `pg_advisory_xact_lock`).
 //! - Backups: `VACUUM INTO` in [`Store::backup`] and [`backup_file`]; PostgreSQL: `pg_dump`.
 //! - The series read: SQLite's rows through the C API ([`sqlite_raw`]), PostgreSQL's through
 //!   sqlx into packed records ([`series_postgres`]); the same writers format both.
@@ -127,6 +129,9 @@ impl Default for StoreOptions {
         }
     }
 }
+
+/// The PostgreSQL advisory lock key of the writers ("cliffwat" in ASCII).
+pub const WRITE_LOCK_KEY: i64 = 0x636c_6966_6677_6174;
 
 /// The database behind a [`Store`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -301,12 +306,23 @@ impl Store {
         Ok(self.read.acquire().await?)
     }
 
-    /// Opens a write transaction. SQLite: `BEGIN IMMEDIATE` takes the write lock at once, so a
-    /// write never has to upgrade a read lock ("database is locked").
+    /// Opens a write transaction; write transactions never run side by side. SQLite: `BEGIN
+    /// IMMEDIATE` takes the write lock at once, so a write never has to upgrade a read lock
+    /// ("database is locked"). PostgreSQL: a transaction-scoped advisory lock
+    /// ([`WRITE_LOCK_KEY`]) does the same for every node on the database, so the use cases'
+    /// read-then-write steps (idempotency check, epoch ids, alert state, delivery claims) see
+    /// no other writer, as on SQLite.
     pub async fn begin_write(&self) -> Result<WriteTransaction, StoreError> {
         Ok(match self.backend {
             Backend::Sqlite => self.write.begin_with("BEGIN IMMEDIATE").await?,
-            Backend::Postgres => self.write.begin().await?,
+            Backend::Postgres => {
+                let mut tx = self.write.begin().await?;
+                sqlx::query("SELECT pg_advisory_xact_lock($1)")
+                    .bind(WRITE_LOCK_KEY)
+                    .execute(&mut *tx)
+                    .await?;
+                tx
+            }
         })
     }
 

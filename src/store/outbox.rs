@@ -110,6 +110,31 @@ pub async fn due(
     .await?)
 }
 
+/// Claims at most `limit` deliveries due at `now` for this node: their next attempt moves to
+/// `lease_until` (store timestamps), so no other node (or pass) picks them while this one sends
+/// them; recording the attempt sets the real next attempt. A node that dies holding a claim
+/// leaves it to be retried when the lease ends (at least once). Call in a write transaction.
+pub async fn claim_due(
+    db: &mut AnyConnection,
+    now: &str,
+    lease_until: &str,
+    limit: i64,
+) -> Result<Vec<DueDelivery>, StoreError> {
+    let due = due(&mut *db, now, limit).await?;
+    for d in &due {
+        sqlx::query(
+            "UPDATE webhook_deliveries SET next_attempt_at = $1 \
+             WHERE outbox_id = $2 AND webhook_id = $3 AND state = 'pending'",
+        )
+        .bind(lease_until)
+        .bind(&d.outbox_id)
+        .bind(&d.webhook_id)
+        .execute(&mut *db)
+        .await?;
+    }
+    Ok(due)
+}
+
 /// The outcome of one delivery attempt as stored.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Attempt {

@@ -5,7 +5,7 @@
 #![allow(dead_code)]
 
 #[path = "../service_support/mod.rs"]
-mod service_support;
+pub mod service_support;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
