@@ -92,6 +92,13 @@ pub async fn deliver_due(
     config: &WorkerConfig,
     shutdown: &Shutdown,
 ) -> Result<usize, StoreError> {
+    // Nothing due (the usual case): no write transaction.
+    if outbox::due(store.reader(), &store::now(), 1)
+        .await?
+        .is_empty()
+    {
+        return Ok(0);
+    }
     let mut n = 0;
     let mut gone: Vec<String> = Vec::new();
     while n < PASS_LIMIT && !shutdown.is_requested() {

@@ -7,14 +7,6 @@ use super::{display_timestamp, StoreError};
 pub use super::displacement_row::Displacement;
 use super::displacement_row::{select_list, COLUMNS, HISTORY_COLUMNS};
 
-/// Placeholders `$2, $3, …` for every column of [`COLUMNS`] after the site id (`$1`).
-fn placeholders() -> String {
-    (0..COLUMNS.split(',').count())
-        .map(|i| format!("${}", i + 2))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
 fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
     for r in &mut rows {
         r.observed_at = display_timestamp(&r.observed_at);
@@ -47,50 +39,53 @@ pub(super) async fn insert_into(
     site: &str,
     rows: &[Displacement],
 ) -> Result<(), StoreError> {
-    let sql = format!(
-        "INSERT INTO {table} (site_id, {}) VALUES ($1, {})",
-        columns_of(name_column),
-        placeholders()
-    );
-    for d in rows {
-        sqlx::query(&sql)
-            .bind(site)
-            .bind(&d.point)
-            .bind(d.epoch)
-            .bind(&d.observed_at)
-            .bind(d.reference_epoch)
-            .bind(d.dx_mm)
-            .bind(d.dy_mm)
-            .bind(d.dz_mm)
-            .bind(d.d_mm)
-            .bind(d.sigma_dx_mm)
-            .bind(d.sigma_dy_mm)
-            .bind(d.sigma_dz_mm)
-            .bind(d.sigma_mm)
-            .bind(d.d_along_mm)
-            .bind(d.significant)
-            .bind(d.velocity_mm_per_day)
-            .bind(d.time_to_failure_hours)
-            .bind(d.cov_dxdy_mm2)
-            .bind(d.cov_dxdz_mm2)
-            .bind(d.cov_dydz_mm2)
-            .bind(d.time_to_failure_sigma_hours)
-            .bind(d.f_dx_mm)
-            .bind(d.f_dy_mm)
-            .bind(d.f_dz_mm)
-            .bind(d.f_d_mm)
-            .bind(d.sigma_f_dx_mm)
-            .bind(d.sigma_f_dy_mm)
-            .bind(d.sigma_f_dz_mm)
-            .bind(d.sigma_f_d_mm)
-            .bind(d.f_velocity_mm_per_day)
-            .bind(d.sigma_f_velocity_mm_per_day)
-            .bind(d.f_acceleration_mm_per_day2)
-            .bind(d.sigma_f_acceleration_mm_per_day2)
-            .bind(d.f_time_to_failure_hours)
-            .bind(d.sigma_f_time_to_failure_hours)
-            .execute(&mut *db)
-            .await?;
+    let cols = COLUMNS.split(',').count() + 1;
+    for chunk in rows.chunks(super::rows_per_insert(cols)) {
+        let sql = format!(
+            "INSERT INTO {table} (site_id, {}) VALUES {}",
+            columns_of(name_column),
+            super::values_list(chunk.len(), cols)
+        );
+        let mut q = sqlx::query(&sql);
+        for d in chunk {
+            q = q
+                .bind(site)
+                .bind(&d.point)
+                .bind(d.epoch)
+                .bind(&d.observed_at)
+                .bind(d.reference_epoch)
+                .bind(d.dx_mm)
+                .bind(d.dy_mm)
+                .bind(d.dz_mm)
+                .bind(d.d_mm)
+                .bind(d.sigma_dx_mm)
+                .bind(d.sigma_dy_mm)
+                .bind(d.sigma_dz_mm)
+                .bind(d.sigma_mm)
+                .bind(d.d_along_mm)
+                .bind(d.significant)
+                .bind(d.velocity_mm_per_day)
+                .bind(d.time_to_failure_hours)
+                .bind(d.cov_dxdy_mm2)
+                .bind(d.cov_dxdz_mm2)
+                .bind(d.cov_dydz_mm2)
+                .bind(d.time_to_failure_sigma_hours)
+                .bind(d.f_dx_mm)
+                .bind(d.f_dy_mm)
+                .bind(d.f_dz_mm)
+                .bind(d.f_d_mm)
+                .bind(d.sigma_f_dx_mm)
+                .bind(d.sigma_f_dy_mm)
+                .bind(d.sigma_f_dz_mm)
+                .bind(d.sigma_f_d_mm)
+                .bind(d.f_velocity_mm_per_day)
+                .bind(d.sigma_f_velocity_mm_per_day)
+                .bind(d.f_acceleration_mm_per_day2)
+                .bind(d.sigma_f_acceleration_mm_per_day2)
+                .bind(d.f_time_to_failure_hours)
+                .bind(d.sigma_f_time_to_failure_hours);
+        }
+        q.execute(&mut *db).await?;
     }
     Ok(())
 }

@@ -293,64 +293,75 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
         .bind(seq as i64)
         .execute(&mut *db)
         .await?;
-        for (oseq, o) in image.observations.iter().enumerate() {
-            let r = residuals.get(&(image.id.as_str(), o.point.as_str()));
-            sqlx::query(
-                "INSERT INTO observations (site_id, epoch_id, image_id, point, seq, x_mm, y_mm, col_px, row_px, \
-                 vx_mm, vy_mm, w, dropped) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13)",
-            )
-            .bind(rec.site)
-            .bind(id)
-            .bind(&image.id)
-            .bind(&o.point)
-            .bind(oseq as i64)
-            .bind(o.x_mm)
-            .bind(o.y_mm)
-            .bind(o.col)
-            .bind(o.row)
-            .bind(r.map(|r| r.vx_mm))
-            .bind(r.map(|r| r.vy_mm))
-            .bind(r.map(|r| r.w))
-            .bind(r.is_some_and(|r| r.dropped))
-            .execute(&mut *db)
-            .await?;
+        let observations: Vec<(usize, &crate::photogrammetry::epoch::ObservationInput)> =
+            image.observations.iter().enumerate().collect();
+        for chunk in observations.chunks(super::rows_per_insert(13)) {
+            let sql = format!(
+                "INSERT INTO observations (site_id, epoch_id, image_id, point, seq, x_mm, y_mm, \
+                 col_px, row_px, vx_mm, vy_mm, w, dropped) VALUES {}",
+                super::values_list(chunk.len(), 13)
+            );
+            let mut q = sqlx::query(&sql);
+            for (oseq, o) in chunk {
+                let r = residuals.get(&(image.id.as_str(), o.point.as_str()));
+                q = q
+                    .bind(rec.site)
+                    .bind(id)
+                    .bind(&image.id)
+                    .bind(&o.point)
+                    .bind(*oseq as i64)
+                    .bind(o.x_mm)
+                    .bind(o.y_mm)
+                    .bind(o.col)
+                    .bind(o.row)
+                    .bind(r.map(|r| r.vx_mm))
+                    .bind(r.map(|r| r.vy_mm))
+                    .bind(r.map(|r| r.w))
+                    .bind(r.is_some_and(|r| r.dropped));
+            }
+            q.execute(&mut *db).await?;
         }
     }
 
-    for p in &adj.points {
-        let role = if rec.control_points.contains(&p.name) {
-            "stable"
-        } else {
-            "monitored"
-        };
-        sqlx::query(
-            "INSERT INTO points (site_id, name, role) VALUES ($1, $2, $3) ON CONFLICT (site_id, name) DO NOTHING",
-        )
-        .bind(rec.site)
-        .bind(&p.name)
-        .bind(role)
-        .execute(&mut *db)
-        .await?;
-        let c = &p.covariance_m2;
-        sqlx::query(
+    for chunk in adj.points.chunks(super::rows_per_insert(13)) {
+        let sql = format!(
+            "INSERT INTO points (site_id, name, role) VALUES {} ON CONFLICT (site_id, name) DO NOTHING",
+            super::values_list(chunk.len(), 3)
+        );
+        let mut q = sqlx::query(&sql);
+        for p in chunk {
+            let role = if rec.control_points.contains(&p.name) {
+                "stable"
+            } else {
+                "monitored"
+            };
+            q = q.bind(rec.site).bind(&p.name).bind(role);
+        }
+        q.execute(&mut *db).await?;
+        let sql = format!(
             "INSERT INTO coordinates (site_id, epoch_id, point, observed_at, x_m, y_m, z_m, \
-             cxx_m2, cxy_m2, cxz_m2, cyy_m2, cyz_m2, czz_m2) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13)",
-        )
-        .bind(rec.site)
-        .bind(id)
-        .bind(&p.name)
-        .bind(rec.observed_at)
-        .bind(p.xyz[0])
-        .bind(p.xyz[1])
-        .bind(p.xyz[2])
-        .bind(c[0][0])
-        .bind(c[0][1])
-        .bind(c[0][2])
-        .bind(c[1][1])
-        .bind(c[1][2])
-        .bind(c[2][2])
-        .execute(&mut *db)
-        .await?;
+             cxx_m2, cxy_m2, cxz_m2, cyy_m2, cyz_m2, czz_m2) VALUES {}",
+            super::values_list(chunk.len(), 13)
+        );
+        let mut q = sqlx::query(&sql);
+        for p in chunk {
+            let c = &p.covariance_m2;
+            q = q
+                .bind(rec.site)
+                .bind(id)
+                .bind(&p.name)
+                .bind(rec.observed_at)
+                .bind(p.xyz[0])
+                .bind(p.xyz[1])
+                .bind(p.xyz[2])
+                .bind(c[0][0])
+                .bind(c[0][1])
+                .bind(c[0][2])
+                .bind(c[1][1])
+                .bind(c[1][2])
+                .bind(c[2][2]);
+        }
+        q.execute(&mut *db).await?;
     }
 
     if let Some(joint) = &adj.joint_covariance {

@@ -391,6 +391,30 @@ impl From<Flag> for bool {
     }
 }
 
+/// Placeholders of a multi-row `VALUES` list: `rows` groups of `cols`, numbered from `$1`.
+pub(crate) fn values_list(rows: usize, cols: usize) -> String {
+    let mut out = String::with_capacity(rows * cols * 5);
+    for r in 0..rows {
+        out.push_str(if r == 0 { "(" } else { ", (" });
+        for c in 0..cols {
+            if c > 0 {
+                out.push_str(", ");
+            }
+            out.push('$');
+            out.push_str(&(r * cols + c + 1).to_string());
+        }
+        out.push(')');
+    }
+    out
+}
+
+/// Rows per multi-row `INSERT` of `cols` columns: at most 30 000 parameters per statement, below
+/// SQLite's limit (32 766) and PostgreSQL's (65 535). One statement per batch instead of one per
+/// row is what keeps an upload's ~200 rows cheap.
+pub(crate) fn rows_per_insert(cols: usize) -> usize {
+    (30_000 / cols.max(1)).max(1)
+}
+
 /// Above every stored text key under binary text order: the open upper bound of range queries.
 pub const TEXT_MAX: &str = "\u{10FFFF}";
 
