@@ -413,7 +413,8 @@ fn run(
     })
 }
 
-fn params(q: &SeriesQuery) -> [Param<'_>; 11] {
+/// The parameters of [`SQL`] for `q`, in order (both backends bind these).
+pub(super) fn params(q: &SeriesQuery) -> [Param<'_>; 11] {
     let from = Param::Text(q.from.as_deref().unwrap_or(""));
     let to = Param::Text(q.to.as_deref().unwrap_or(super::TEXT_MAX));
     let after = Param::Text(q.after.as_deref().unwrap_or(""));

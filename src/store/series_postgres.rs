@@ -5,8 +5,9 @@
 
 use sqlx::{AnyPool, Row};
 
-use super::series::{SeriesQuery, SQL};
+use super::series::{params, SeriesQuery, SQL};
 use super::series_record::{self, Filtered, Record};
+use super::sqlite_raw::Param;
 use super::StoreError;
 
 /// Every row of `q` in time order as packed records, one after the other (no limit: the
@@ -15,20 +16,14 @@ pub async fn packed_records(pool: &AnyPool, q: &SeriesQuery) -> Result<Vec<u8>, 
     let from = q.from.as_deref().unwrap_or("");
     let to = q.to.as_deref().unwrap_or(super::TEXT_MAX);
     let after = q.after.as_deref().unwrap_or("");
-    let rows = sqlx::query(SQL)
-        .bind(&q.site)
-        .bind(&q.point)
-        .bind(from)
-        .bind(after)
-        .bind(to)
-        .bind(&q.site)
-        .bind(&q.point)
-        .bind(&q.site)
-        .bind(from)
-        .bind(to)
-        .bind(after)
-        .fetch_all(pool)
-        .await?;
+    let mut query = sqlx::query(SQL);
+    for p in params(q) {
+        query = match p {
+            Param::Text(t) => query.bind(t),
+            Param::Int(i) => query.bind(i),
+        };
+    }
+    let rows = query.fetch_all(pool).await?;
     let mut out = Vec::new();
     let cut = |what: &str| StoreError::Block(format!("series of {}/{}: {what}", q.site, q.point));
     for row in rows {
