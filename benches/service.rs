@@ -1,6 +1,9 @@
 //! Service benchmarks (figures in `docs/performance.md`, section "Service"):
-//! - `upload_5x28`: upload of a 5-image × 28-point epoch, end to end over HTTP (parse, validate,
-//!   adjust, store in one transaction, answer the summary);
+//! - `upload_5x28` (`_postgres`): upload of a 5-image × 28-point epoch, end to end over HTTP
+//!   (parse, validate, adjust, store in one transaction, answer the summary), on SQLite and on
+//!   PostgreSQL (a throwaway cluster, `tests/pg_support`);
+//! - `uploads_30/*`: 30 such uploads by 6 concurrent clients to 6 sites, over 1 node (SQLite,
+//!   PostgreSQL) or 2 and 3 nodes on one PostgreSQL database: uploads per second;
 //! - `series_87600/*`: the displacement time series of one point of a site with 87 600 epochs
 //!   (10 years hourly) × 30 points: as CSV (whole series, streamed), the CSV's store part alone
 //!   (read and format, no HTTP), one JSON page of 1000, and every JSON page following the cursor;
@@ -35,12 +38,19 @@ fn observed_at(k: usize) -> String {
 }
 
 fn upload(c: &mut Criterion) {
+    upload_on(c, "service/upload_5x28", None);
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("upload");
+    upload_on(c, "service/upload_5x28_postgres", Some(url));
+}
+
+fn upload_on(c: &mut Criterion, name: &str, database_url: Option<String>) {
     let rt = runtime();
-    let server = rt.block_on(TestServer::start(|_| {}));
+    let server = rt.block_on(TestServer::start(move |c| c.database_url = database_url));
     rt.block_on(server.create_site("bench"));
     let url = server.url("/api/v1/sites/bench/epochs");
     let k = Cell::new(0usize);
-    c.bench_function("service/upload_5x28", |b| {
+    c.bench_function(name, |b| {
         b.iter_batched(
             || {
                 k.set(k.get() + 1);
@@ -72,6 +82,69 @@ fn upload(c: &mut Criterion) {
         )
     });
     let _ = rt.block_on(server.stop());
+}
+
+/// Sites and concurrent clients of the throughput benchmark; each iteration uploads
+/// `THROUGHPUT_SITES × THROUGHPUT_ROUNDS` new 5 × 28 epochs.
+const THROUGHPUT_SITES: usize = 6;
+const THROUGHPUT_ROUNDS: usize = 5;
+
+/// Uploads per second: 6 clients, one per site, each uploading 5 epochs in a row, spread over 1,
+/// 2 or 3 nodes (in this process, so on this machine's 2 cores) on one database.
+fn throughput(c: &mut Criterion) {
+    let cluster = pg_support::PgCluster::start();
+    let mut g = c.benchmark_group("service/uploads_30");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    let cases: Vec<(&str, usize, Option<String>)> = vec![
+        ("sqlite_1_node", 1, None),
+        ("postgres_1_node", 1, Some(cluster.create_database("t1"))),
+        ("postgres_2_nodes", 2, Some(cluster.create_database("t2"))),
+        ("postgres_3_nodes", 3, Some(cluster.create_database("t3"))),
+    ];
+    for (name, nodes, url) in cases {
+        let rt = runtime();
+        let servers: Vec<TestServer> = (0..nodes)
+            .map(|_| {
+                let url = url.clone();
+                rt.block_on(TestServer::start(move |c| c.database_url = url))
+            })
+            .collect();
+        for s in 0..THROUGHPUT_SITES {
+            rt.block_on(servers[0].create_site(&format!("t{s}")));
+        }
+        let next = Cell::new(0usize);
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let round = next.get();
+                next.set(round + THROUGHPUT_ROUNDS);
+                rt.block_on(async {
+                    let mut tasks = Vec::new();
+                    for s in 0..THROUGHPUT_SITES {
+                        let server = &servers[s % nodes];
+                        let (client, url) = (
+                            server.client.clone(),
+                            server.url(&format!("/api/v1/sites/t{s}/epochs")),
+                        );
+                        tasks.push(tokio::spawn(async move {
+                            for k in round..round + THROUGHPUT_ROUNDS {
+                                let body =
+                                    synthetic_epoch(5, 28, &observed_at(k), k as u64, 0.0, 28);
+                                let r = client.post(&url).json(&body).send().await.unwrap();
+                                assert_eq!(r.status(), 201);
+                            }
+                        }));
+                    }
+                    for t in tasks {
+                        t.await.unwrap();
+                    }
+                })
+            })
+        });
+        for s in servers {
+            let _ = rt.block_on(s.stop());
+        }
+    }
+    g.finish();
 }
 
 /// Fills a site with `epochs` hourly epochs × `points` points of displacements with covariances
@@ -314,7 +387,60 @@ fn database_size(_c: &mut Criterion) {
         per_10k / 1048576.0,
         per_10k / 10_000.0 / 1000.0
     );
+    database_size_postgres(n);
 }
 
-criterion_group!(benches, upload, series, series_postgres, database_size);
+/// [`database_size`] on PostgreSQL: bytes per epoch of every table with its indexes and TOAST
+/// (`pg_total_relation_size`), after `VACUUM ANALYZE`.
+fn database_size_postgres(n: usize) {
+    let rt = runtime();
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("size");
+    let server = rt.block_on(TestServer::start(move |c| c.database_url = Some(url)));
+    rt.block_on(async {
+        server.create_site("size").await;
+        for k in 0..n {
+            let (status, _) = server
+                .upload(
+                    "size",
+                    &synthetic_epoch(5, 30, &observed_at(k), k as u64, 0.0, 30),
+                )
+                .await;
+            assert_eq!(status, 201);
+        }
+        sqlx::query("VACUUM ANALYZE")
+            .execute(server.store.reader())
+            .await
+            .unwrap();
+        let tables: Vec<(String, i64)> = sqlx::query_as(
+            "SELECT relname::text, pg_total_relation_size(relid) FROM pg_catalog.pg_statio_user_tables \
+             ORDER BY 2 DESC LIMIT 16",
+        )
+        .fetch_all(server.store.reader())
+        .await
+        .unwrap();
+        let mut total = 0;
+        for (name, bytes) in tables {
+            total += bytes;
+            println!(
+                "service/database_size_postgres: {name}: {:.1} kB per epoch",
+                bytes as f64 / n as f64 / 1000.0
+            );
+        }
+        println!(
+            "service/database_size_postgres: {n} epochs of 5 images x 30 points: {:.1} kB per epoch",
+            total as f64 / n as f64 / 1000.0
+        );
+    });
+    let _ = rt.block_on(server.stop());
+}
+
+criterion_group!(
+    benches,
+    upload,
+    throughput,
+    series,
+    series_postgres,
+    database_size
+);
 criterion_main!(benches);

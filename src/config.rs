@@ -43,6 +43,12 @@ pub struct Config {
     pub read_connections: u32,
     /// SQLite busy timeout in milliseconds.
     pub busy_timeout_ms: u64,
+    /// PostgreSQL: connections of the write pool (sites written at once by this node).
+    #[serde(default = "default_write_connections")]
+    pub database_write_connections: u32,
+    /// The node's name: label `node` of every `/metrics` series; `None`: host name and port.
+    #[serde(default)]
+    pub node_name: Option<String>,
     /// Bearer tokens; empty: no authentication, loopback only.
     #[serde(default)]
     pub tokens: Vec<TokenConfig>,
@@ -67,6 +73,9 @@ pub struct Config {
     pub overdue_check_secs: u64,
 }
 
+fn default_write_connections() -> u32 {
+    4
+}
 fn default_webhook_poll_ms() -> u64 {
     1000
 }
@@ -214,6 +223,20 @@ impl Config {
             Some(url) => url.clone(),
             None => format!("sqlite://{}", self.database_path().display()),
         }
+    }
+
+    /// The node's name (`node_name`, else `<host name>:<port>`): label `node` in `/metrics`.
+    pub fn node_name(&self, port: u16) -> String {
+        if let Some(name) = &self.node_name {
+            return name.clone();
+        }
+        let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .ok()
+            .or_else(|| std::env::var("HOSTNAME").ok())
+            .map(|h| h.trim().to_string())
+            .filter(|h| !h.is_empty())
+            .unwrap_or_else(|| "cliffwatch".into());
+        format!("{host}:{port}")
     }
 
     /// Checks what does not depend on the network: the listen address parses, tokens are sane,

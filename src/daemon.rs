@@ -58,6 +58,7 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
     let options = StoreOptions {
         read_connections: config.read_connections,
         busy_timeout: Duration::from_millis(config.busy_timeout_ms),
+        write_connections: config.database_write_connections,
     };
     let url = config.database_url();
     let store = Store::connect(&url, &options).await?;
@@ -76,10 +77,11 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
         addr: addr.to_string(),
         source,
     })?;
+    let metrics = health::metrics_handle(&config.node_name(addr.port()));
     let state = AppState {
         store,
         config: Arc::new(config),
-        metrics: health::metrics_handle(),
+        metrics,
     };
     Ok(Bound {
         listener,

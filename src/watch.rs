@@ -555,7 +555,7 @@ async fn save_state(
     epoch: i64,
     found: &BTreeMap<String, ImageOrientation>,
 ) -> Result<(), StoreError> {
-    let mut tx = store.begin_write().await?;
+    let mut tx = store.begin_write_site(site).await?;
     for (station, o) in found {
         watch_state::set_orientation(&mut tx, site, station, o, epoch).await?;
     }
@@ -564,11 +564,25 @@ async fn save_state(
     Ok(())
 }
 
-/// Takes every ready folder once (sequentially).
+/// Takes every ready folder once (sequentially). Several nodes may watch one shared directory:
+/// each folder is claimed ([`Store::try_job_lock`] on its site and name) and held until it has
+/// moved to `.done/` or `.failed/`; a folder another node holds, or has already moved, is left.
 pub async fn scan_once(store: &Store, opts: &WatchOptions) -> Vec<std::io::Result<PathBuf>> {
     let mut out = Vec::new();
     for (site, folder) in ready_folders(&opts.dir) {
-        out.push(take_folder(store, &site, &folder, opts).await);
+        let name = folder.file_name().unwrap_or_default().to_string_lossy();
+        let claim = match store.try_job_lock(&format!("watch {site}/{name}")).await {
+            Ok(Some(claim)) => claim,
+            Ok(None) => continue,
+            Err(e) => {
+                out.push(Err(std::io::Error::other(e)));
+                continue;
+            }
+        };
+        if folder.is_dir() {
+            out.push(take_folder(store, &site, &folder, opts).await);
+        }
+        drop(claim);
     }
     out
 }

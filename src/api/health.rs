@@ -10,12 +10,15 @@ use metrics_exporter_prometheus::{PrometheusBuilder, PrometheusHandle};
 use super::error::ApiError;
 use super::AppState;
 
-/// The process-wide Prometheus recorder (installed once, shared by every server of the process).
-pub fn metrics_handle() -> PrometheusHandle {
+/// The process-wide Prometheus recorder (installed once, shared by every server of the process),
+/// every series labelled `node` with the name the first server of the process gives.
+pub fn metrics_handle(node: &str) -> PrometheusHandle {
     static HANDLE: OnceLock<PrometheusHandle> = OnceLock::new();
     HANDLE
         .get_or_init(|| {
-            let recorder = PrometheusBuilder::new().build_recorder();
+            let recorder = PrometheusBuilder::new()
+                .add_global_label("node", node)
+                .build_recorder();
             let handle = recorder.handle();
             // Another recorder may be installed already (tests): then ours only renders nothing.
             let _ = metrics::set_global_recorder(recorder);

@@ -141,7 +141,7 @@ pub async fn update(
             ));
         }
     }
-    let mut tx = state.store.begin_write().await?;
+    let mut tx = state.store.begin_write_site(&site).await?;
     points::upsert(&mut *tx, &site, &point, &settings).await?;
     tx.commit().await.map_err(crate::store::StoreError::from)?;
     let stored = points::get(state.store.reader(), &site, &point).await?;

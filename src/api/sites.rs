@@ -99,7 +99,7 @@ pub async fn create(
     ApiJson(site): ApiJson<NewSite>,
 ) -> Result<impl IntoResponse, ApiError> {
     check_site(&site)?;
-    let mut tx = state.store.begin_write().await?;
+    let mut tx = state.store.begin_write_site(&site.id).await?;
     if !sites::insert(&mut tx, &site).await? {
         return Err(ApiError::new(
             StatusCode::CONFLICT,

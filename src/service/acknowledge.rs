@@ -17,7 +17,11 @@ pub async fn acknowledge(
     by: &str,
     comment: Option<&str>,
 ) -> Result<alerts::Alert, ServiceError> {
-    let mut tx = store.begin_write().await?;
+    // The alert's site decides the write lock; the alert is read again inside the transaction.
+    let Some(site) = alerts::get(store.reader(), id).await?.map(|a| a.site) else {
+        return Err(ServiceError::UnknownAlert(id.to_string()));
+    };
+    let mut tx = store.begin_write_site(&site).await?;
     let Some(stored) = alerts::get(&mut *tx, id).await? else {
         return Err(ServiceError::UnknownAlert(id.to_string()));
     };

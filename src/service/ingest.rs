@@ -111,7 +111,7 @@ pub async fn ingest_with_identification(
     metrics::counter!("cliffwatch_adjustments_total", "outcome" => outcome).increment(1);
     let adjustment = adjustment?;
 
-    let mut tx = store.begin_write().await?;
+    let mut tx = store.begin_write_site(&site.id).await?;
     // Another upload of the same observed_at may have committed while this one adjusted.
     if let Some(done) = check_existing(&mut tx, &site.id, &observed_at, &hash).await? {
         return Ok(done);

@@ -17,7 +17,7 @@ use super::analysis_inputs::alert_config;
 pub async fn check_all(store: &Store, now: DateTime<Utc>) -> Result<usize, StoreError> {
     let mut raised = 0;
     for id in sites::scheduled(store.reader()).await? {
-        let mut tx = store.begin_write().await?;
+        let mut tx = store.begin_write_site(&id).await?;
         let Some(site) = sites::get(&mut *tx, &id).await? else {
             continue;
         };
@@ -34,10 +34,11 @@ pub async fn check_all(store: &Store, now: DateTime<Utc>) -> Result<usize, Store
     Ok(raised)
 }
 
-/// Runs [`check_all`] every `every` until shutdown.
+/// Runs [`check_all`] every `every` until shutdown; with several nodes on one database, one
+/// node at a time ([`Store::try_job_lock`]), the others skip the pass.
 pub async fn run(store: Store, every: Duration, shutdown: Shutdown) {
     loop {
-        match check_all(&store, Utc::now()).await {
+        match check_once(&store).await {
             Ok(n) if n > 0 => {
                 metrics::counter!("cliffwatch_alerts_raised_total").increment(n as u64)
             }
@@ -49,4 +50,11 @@ pub async fn run(store: Store, every: Duration, shutdown: Shutdown) {
         }
     }
     tracing::info!("campaign schedule check stopped");
+}
+
+async fn check_once(store: &Store) -> Result<usize, StoreError> {
+    match store.try_job_lock("campaign schedule").await? {
+        Some(_held) => check_all(store, Utc::now()).await,
+        None => Ok(0),
+    }
 }

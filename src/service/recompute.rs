@@ -72,7 +72,7 @@ pub async fn recompute_site(tx: &mut Connection, site: &Site) -> Result<usize, S
 pub async fn recompute_outdated(store: &Store) -> Result<usize, ServiceError> {
     let ids = sites::outdated(store.reader()).await?;
     for id in &ids {
-        let mut tx = store.begin_write().await?;
+        let mut tx = store.begin_write_site(id).await?;
         if let Some(site) = sites::get(&mut *tx, id).await? {
             tracing::info!(site = %id, "recomputing the series derived by an older version");
             recompute_site(&mut tx, &site).await?;

@@ -14,7 +14,7 @@ pub async fn set_reference(
     site: &str,
     epoch: Option<i64>,
 ) -> Result<(), ServiceError> {
-    let mut tx = store.begin_write().await?;
+    let mut tx = store.begin_write_site(site).await?;
     let s = sites::get(&mut *tx, site)
         .await?
         .ok_or_else(|| ServiceError::UnknownSite(site.to_string()))?;
@@ -38,7 +38,7 @@ pub async fn declare_group(
     site: &str,
     group: &GroupConfig,
 ) -> Result<(), ServiceError> {
-    let mut tx = store.begin_write().await?;
+    let mut tx = store.begin_write_site(site).await?;
     let s = sites::get(&mut *tx, site)
         .await?
         .ok_or_else(|| ServiceError::UnknownSite(site.to_string()))?;

@@ -72,7 +72,7 @@ async fn claim(store: &Store, timeout: Duration) -> Result<Vec<DueDelivery>, Sto
     let now = Utc::now();
     let lease = chrono::Duration::from_std(timeout * CLAIM as u32 + Duration::from_secs(5))
         .unwrap_or(chrono::Duration::minutes(5));
-    let mut tx = store.begin_write().await?;
+    let mut tx = store.begin_write_rows().await?;
     let due = outbox::claim_due(
         &mut tx,
         &store::timestamp(now),
@@ -203,7 +203,7 @@ async fn record(
         DeliveryOutcome::Gone | DeliveryOutcome::Failed { .. } => "failed",
     };
     metrics::counter!("cliffwatch_webhook_deliveries_total", "outcome" => label).increment(1);
-    let mut tx = store.begin_write().await?;
+    let mut tx = store.begin_write_rows().await?;
     if *outcome == DeliveryOutcome::Gone {
         tracing::warn!(webhook = %d.webhook_id, url = %d.url, "410 Gone: endpoint disabled");
         outbox::endpoint_gone(&mut tx, &d.webhook_id).await?;

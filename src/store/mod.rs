@@ -3,9 +3,11 @@
 //! (`migrations/sqlite`, `migrations/postgres`). All of the crate's SQL is here; nothing
 //! outside this module names sqlx.
 //!
-//! Reads go through a pool; writes through a pool of one connection, one write transaction at a
-//! time ([`Store::begin_write`]: SQLite's `BEGIN IMMEDIATE`, PostgreSQL's advisory lock, which
-//! also serializes the writers of several nodes on one database).
+//! Reads go through a pool, writes through a write pool. SQLite: one connection, one write
+//! transaction at a time (`BEGIN IMMEDIATE`). PostgreSQL, where several nodes share the
+//! database: advisory locks serialize each site's writers across nodes
+//! ([`Store::begin_write_site`]), let different sites write in parallel, and give cluster-wide
+//! jobs to one node at a time ([`Store::try_job_lock`]).
 //!
 //! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`groups`],
 //! [`displacements`] (rows: [`displacement_row`]), [`block_motions`], [`alerts`],
@@ -16,8 +18,8 @@
 //! # What differs between the backends (all of it)
 //! - Connection set-up in [`Store::open`] (SQLite: WAL, `synchronous = NORMAL`, foreign keys,
 //!   busy timeout, a read-only read pool) and [`Store::connect`] (PostgreSQL).
-//! - `BEGIN IMMEDIATE` in [`Store::begin_write`] (PostgreSQL: `BEGIN` and
-//!   `pg_advisory_xact_lock`).
+//! - `BEGIN IMMEDIATE` in [`Store::begin_write`] and its siblings (PostgreSQL: `BEGIN` and
+//!   advisory locks); [`outbox::claim_due`]'s `FOR UPDATE SKIP LOCKED`.
 //! - Backups: `VACUUM INTO` in [`Store::backup`] and [`backup_file`]; PostgreSQL: `pg_dump`.
 //! - The series read: SQLite's rows through the C API ([`sqlite_raw`]), PostgreSQL's through
 //!   sqlx into packed records ([`series_postgres`]); the same writers format both.
@@ -75,6 +77,12 @@ pub type Connection = AnyConnection;
 /// A write transaction: commits with `commit()`, rolls back when dropped.
 pub type WriteTransaction = Transaction<'static, Any>;
 
+/// Held while this node runs a cluster-wide job ([`Store::try_job_lock`]); dropping it ends
+/// the job's lock (PostgreSQL: its transaction rolls back).
+pub struct JobLock {
+    _tx: Option<Transaction<'static, Any>>,
+}
+
 /// A connection of the read pool, returned to it when dropped.
 pub type ReadConnection = PoolConnection<Any>;
 
@@ -119,6 +127,9 @@ pub struct StoreOptions {
     pub read_connections: u32,
     /// SQLite busy timeout.
     pub busy_timeout: Duration,
+    /// PostgreSQL: connections of the write pool, i.e. write transactions of different sites this
+    /// node runs at once (SQLite has one writer).
+    pub write_connections: u32,
 }
 
 impl Default for StoreOptions {
@@ -126,12 +137,21 @@ impl Default for StoreOptions {
         StoreOptions {
             read_connections: 8,
             busy_timeout: Duration::from_secs(10),
+            write_connections: 4,
         }
     }
 }
 
-/// The PostgreSQL advisory lock key of the writers ("cliffwat" in ASCII).
+/// The PostgreSQL advisory lock key of the writers ("cliffwat" in ASCII): taken exclusively by
+/// a write transaction that may touch any site, shared by one that touches one site.
 pub const WRITE_LOCK_KEY: i64 = 0x636c_6966_6677_6174;
+
+/// The first key of PostgreSQL's two-key advisory locks of one site's writers (the second is
+/// `hashtext(site)`; two sites with the same hash only wait for each other).
+pub const SITE_LOCK_SPACE: i32 = 0x636c_6966;
+
+/// The first key of the two-key advisory locks of cluster-wide jobs ([`Store::try_job_lock`]).
+pub const JOB_LOCK_SPACE: i32 = 0x6a6f_6273;
 
 /// The database behind a [`Store`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -248,26 +268,18 @@ impl Store {
         Ok(store)
     }
 
-    /// Opens a PostgreSQL database and applies its migrations. Writes go through one
-    /// connection, as with SQLite, so a node's write transactions never interleave.
+    /// Opens a PostgreSQL database and applies its migrations. Writes go through a pool of
+    /// [`StoreOptions::write_connections`]; the advisory locks of [`Store::begin_write_site`]
+    /// decide which of them may run side by side.
     async fn open_postgres(url: &str, options: &StoreOptions) -> Result<Store, StoreError> {
         sqlx::any::install_default_drivers();
-        // No cached prepared statements: sqlx 0.8.6's Any driver sends a NULL f64 as a float4
-        // parameter, and a statement prepared with it then refuses the 8 bytes of the next
-        // non-NULL f64 ("incorrect binary data format"). Unnamed statements take each
-        // execution's own parameter types.
-        let mut parsed = url::Url::parse(url).map_err(|_| StoreError::Url(redacted_url(url)))?;
-        if !parsed
-            .query_pairs()
-            .any(|(k, _)| k == "statement-cache-capacity")
-        {
-            parsed
-                .query_pairs_mut()
-                .append_pair("statement-cache-capacity", "0");
-        }
+        // Prepared statements are cached per connection; that needs the patched sqlx-core
+        // (vendor/README.md: 0.8.6 sent a NULL f64 as float4, which a cached statement then
+        // kept).
+        let parsed = url::Url::parse(url).map_err(|_| StoreError::Url(redacted_url(url)))?;
         let connect = AnyConnectOptions::from_url(&parsed)?;
         let write = AnyPoolOptions::new()
-            .max_connections(1)
+            .max_connections(options.write_connections.max(1))
             .min_connections(1)
             .acquire_timeout(Duration::from_secs(600))
             .connect_with(connect.clone())
@@ -306,24 +318,87 @@ impl Store {
         Ok(self.read.acquire().await?)
     }
 
-    /// Opens a write transaction; write transactions never run side by side. SQLite: `BEGIN
+    /// Opens a write transaction that may touch any site; it runs alone. SQLite: `BEGIN
     /// IMMEDIATE` takes the write lock at once, so a write never has to upgrade a read lock
-    /// ("database is locked"). PostgreSQL: a transaction-scoped advisory lock
-    /// ([`WRITE_LOCK_KEY`]) does the same for every node on the database, so the use cases'
-    /// read-then-write steps (idempotency check, epoch ids, alert state, delivery claims) see
-    /// no other writer, as on SQLite.
+    /// ("database is locked"). PostgreSQL: the advisory lock [`WRITE_LOCK_KEY`], taken
+    /// exclusively, does the same for every node on the database, so a read-then-write step
+    /// sees no other writer, as on SQLite.
     pub async fn begin_write(&self) -> Result<WriteTransaction, StoreError> {
+        self.begin_scoped(None).await
+    }
+
+    /// Opens a write transaction that touches only `site`'s rows (and appends webhook
+    /// messages). SQLite: as [`Store::begin_write`]. PostgreSQL: [`WRITE_LOCK_KEY`] shared and
+    /// the site's own advisory lock ([`SITE_LOCK_SPACE`]) exclusive, so one site's writes are
+    /// serialized across nodes (its epochs analysed in `observed_at` order, as on one node)
+    /// while different sites' writes proceed in parallel.
+    pub async fn begin_write_site(&self, site: &str) -> Result<WriteTransaction, StoreError> {
+        self.begin_scoped(Some(site)).await
+    }
+
+    async fn begin_scoped(&self, site: Option<&str>) -> Result<WriteTransaction, StoreError> {
         Ok(match self.backend {
             Backend::Sqlite => self.write.begin_with("BEGIN IMMEDIATE").await?,
             Backend::Postgres => {
                 let mut tx = self.write.begin().await?;
-                sqlx::query("SELECT pg_advisory_xact_lock($1)")
+                match site {
+                    None => {
+                        sqlx::query("SELECT pg_advisory_xact_lock($1)")
+                            .bind(WRITE_LOCK_KEY)
+                            .execute(&mut *tx)
+                            .await?;
+                    }
+                    Some(site) => {
+                        // Always the shared key first, then the site's: one order, no deadlock.
+                        sqlx::query("SELECT pg_advisory_xact_lock_shared($1)")
+                            .bind(WRITE_LOCK_KEY)
+                            .execute(&mut *tx)
+                            .await?;
+                        sqlx::query("SELECT pg_advisory_xact_lock($1, hashtext($2))")
+                            .bind(SITE_LOCK_SPACE)
+                            .bind(site)
+                            .execute(&mut *tx)
+                            .await?;
+                    }
+                }
+                tx
+            }
+        })
+    }
+
+    /// Opens a write transaction for rows a statement claims itself (`FOR UPDATE SKIP LOCKED`:
+    /// the webhook deliveries). SQLite: as [`Store::begin_write`]. PostgreSQL: only
+    /// [`WRITE_LOCK_KEY`] shared, so claims of several nodes and sites' writes run side by side.
+    pub async fn begin_write_rows(&self) -> Result<WriteTransaction, StoreError> {
+        Ok(match self.backend {
+            Backend::Sqlite => self.write.begin_with("BEGIN IMMEDIATE").await?,
+            Backend::Postgres => {
+                let mut tx = self.write.begin().await?;
+                sqlx::query("SELECT pg_advisory_xact_lock_shared($1)")
                     .bind(WRITE_LOCK_KEY)
                     .execute(&mut *tx)
                     .await?;
                 tx
             }
         })
+    }
+
+    /// A cluster-wide job (`name`: the overdue check, a watched folder) runs on one node at a
+    /// time: PostgreSQL: `Some` while this node holds the job's advisory lock, `None` when another
+    /// node holds it (the caller skips this pass). The lock lives in a transaction of its own
+    /// connection and ends when the guard is dropped or the node dies. SQLite (one node):
+    /// always `Some`.
+    pub async fn try_job_lock(&self, name: &str) -> Result<Option<JobLock>, StoreError> {
+        if self.backend == Backend::Sqlite {
+            return Ok(Some(JobLock { _tx: None }));
+        }
+        let mut tx = self.read.begin().await?;
+        let held: bool = sqlx::query_scalar("SELECT pg_try_advisory_xact_lock($1, hashtext($2))")
+            .bind(JOB_LOCK_SPACE)
+            .bind(name)
+            .fetch_one(&mut *tx)
+            .await?;
+        Ok(held.then_some(JobLock { _tx: Some(tx) }))
     }
 
     /// Readiness: the database answers and every embedded migration is applied.

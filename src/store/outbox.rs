@@ -89,6 +89,15 @@ pub struct DueDelivery {
     pub secret: String,
 }
 
+/// The deliveries due at `$1`, oldest first, at most `$2`.
+const DUE: &str =
+    "SELECT d.outbox_id, d.webhook_id, d.attempts, COALESCE(d.payload, o.payload) AS payload, \
+     w.url, w.secret \
+     FROM webhook_deliveries d JOIN webhook_outbox o ON o.id = d.outbox_id \
+     JOIN webhooks w ON w.id = d.webhook_id \
+     WHERE d.state = 'pending' AND d.next_attempt_at <= $1 AND w.enabled = TRUE \
+     ORDER BY d.next_attempt_at, o.created_at, d.outbox_id LIMIT $2";
+
 /// At most `limit` pending deliveries due at `now` (store timestamp) to enabled endpoints,
 /// the longest due first.
 pub async fn due(
@@ -96,31 +105,34 @@ pub async fn due(
     now: &str,
     limit: i64,
 ) -> Result<Vec<DueDelivery>, StoreError> {
-    Ok(sqlx::query_as(
-        "SELECT d.outbox_id, d.webhook_id, d.attempts, COALESCE(d.payload, o.payload) AS payload, \
-         w.url, w.secret \
-         FROM webhook_deliveries d JOIN webhook_outbox o ON o.id = d.outbox_id \
-         JOIN webhooks w ON w.id = d.webhook_id \
-         WHERE d.state = 'pending' AND d.next_attempt_at <= $1 AND w.enabled = TRUE \
-         ORDER BY d.next_attempt_at, o.created_at, d.outbox_id LIMIT $2",
-    )
-    .bind(now)
-    .bind(limit)
-    .fetch_all(db)
-    .await?)
+    Ok(sqlx::query_as(DUE)
+        .bind(now)
+        .bind(limit)
+        .fetch_all(db)
+        .await?)
 }
 
 /// Claims at most `limit` deliveries due at `now` for this node: their next attempt moves to
 /// `lease_until` (store timestamps), so no other node (or pass) picks them while this one sends
 /// them; recording the attempt sets the real next attempt. A node that dies holding a claim
-/// leaves it to be retried when the lease ends (at least once). Call in a write transaction.
+/// leaves it to be retried when the lease ends (at least once). PostgreSQL: the rows are read
+/// `FOR UPDATE SKIP LOCKED`, so nodes claiming at once get different rows. Call in a write
+/// transaction ([`crate::store::Store::begin_write_rows`]).
 pub async fn claim_due(
     db: &mut AnyConnection,
     now: &str,
     lease_until: &str,
     limit: i64,
 ) -> Result<Vec<DueDelivery>, StoreError> {
-    let due = due(&mut *db, now, limit).await?;
+    let due: Vec<DueDelivery> = if db.backend_name() == "PostgreSQL" {
+        sqlx::query_as(&format!("{DUE} FOR UPDATE OF d SKIP LOCKED"))
+            .bind(now)
+            .bind(limit)
+            .fetch_all(&mut *db)
+            .await?
+    } else {
+        due(&mut *db, now, limit).await?
+    };
     for d in &due {
         sqlx::query(
             "UPDATE webhook_deliveries SET next_attempt_at = $1 \

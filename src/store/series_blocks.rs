@@ -92,7 +92,7 @@ pub async fn backfill(store: &Store) -> Result<usize, StoreError> {
     .fetch_all(store.reader())
     .await?;
     for site in &sites {
-        let mut tx = store.begin_write().await?;
+        let mut tx = store.begin_write_site(site).await?;
         rebuild(&mut tx, site).await?;
         tx.commit().await?;
     }
