@@ -34,6 +34,7 @@ pub mod config;
 pub mod daemon;
 pub mod dashboard;
 pub mod detect;
+pub mod json_integer;
 pub mod photogrammetry;
 pub mod service;
 pub mod shutdown;

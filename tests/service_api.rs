@@ -422,6 +422,18 @@ async fn health_metrics_openapi_and_request_ids() {
 async fn csv_upload_uses_the_site_cameras() {
     let s = TestServer::start(|_| {}).await;
     s.create_site("csv").await;
+    // Before any JSON epoch the site has no cameras: a state conflict, not a bad body.
+    let r = s
+        .client
+        .post(s.url("/api/v1/sites/csv/epochs?observed_at=2000-03-18T00:00:00Z"))
+        .header("content-type", "text/csv")
+        .body("image,point,x_mm,y_mm\n")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 409);
+    let e: Value = r.json().await.unwrap();
+    assert_eq!(e["error"]["code"], "no_cameras");
     let first = paper(PAPER[6]);
     assert_eq!(s.upload("csv", &first).await.0, 201);
     let second = paper(PAPER[7]);
@@ -605,5 +617,76 @@ async fn openapi_describes_every_contract_endpoint_with_schemas() {
             }
         }
     }
+    s.stop().await;
+}
+
+/// What the OpenAPI document promises of bodies: an object (an array is refused although serde
+/// would read a struct from one), integers also written as integral floats, bounds that hold
+/// after parsing.
+#[tokio::test]
+async fn bodies_are_objects_integers_may_be_integral_floats() {
+    let s = TestServer::start(|_| {}).await;
+    s.create_site("b").await;
+    assert_eq!(s.upload("b", &paper(PAPER[6])).await.0, 201);
+    let send = |method: reqwest::Method, path: &str, body: Value| {
+        s.client.request(method, s.url(path)).json(&body).send()
+    };
+    let status = |r: reqwest::Response| r.status().as_u16();
+    let put = reqwest::Method::PUT;
+    let post = reqwest::Method::POST;
+    let r = send(put.clone(), "/api/v1/sites/b/points/1", json!([null, null]));
+    assert_eq!(status(r.await.unwrap()), 422);
+    let r = send(
+        put.clone(),
+        "/api/v1/sites/b/points/1",
+        json!({"role": "stable"}),
+    );
+    assert_eq!(status(r.await.unwrap()), 200);
+    let r = send(
+        put.clone(),
+        "/api/v1/sites/b/reference",
+        json!({"epoch": 1.0}),
+    );
+    assert_eq!(status(r.await.unwrap()), 200);
+    let r = send(
+        put.clone(),
+        "/api/v1/sites/b/reference",
+        json!({"epoch": 1.5}),
+    );
+    assert_eq!(status(r.await.unwrap()), 422);
+    let r = send(
+        put.clone(),
+        "/api/v1/sites/b/reference",
+        json!({"epoch": 99.0}),
+    );
+    assert_eq!(status(r.await.unwrap()), 404);
+    let rule = |for_epochs: Value| {
+        json!({"id": "r", "alert_rules": [{"level": "watch", "metric": "displacement_mm",
+               "above": 5.0, "for_epochs": for_epochs}]})
+    };
+    for (body, want) in [
+        (rule(json!(2.0)), 201),
+        (rule(json!(0)), 422),
+        (rule(json!(1001)), 422),
+        (json!({"id": "h", "schedule_hours": -1.0}), 422),
+        (json!({"id": "h", "schedule_hours": 24}), 201),
+        (json!({"id": "c", "confidence": 0.999}), 201),
+    ] {
+        let r = send(post.clone(), "/api/v1/sites", body.clone())
+            .await
+            .unwrap();
+        assert_eq!(status(r), want, "{body}");
+    }
+    // 0.99999999999999999 is below 1 as written but reads as 1.0: refused, as the document's
+    // maximum (0.999999) says.
+    let r = s
+        .client
+        .post(s.url("/api/v1/sites"))
+        .header("content-type", "application/json")
+        .body(r#"{"id": "d", "confidence": 0.99999999999999999}"#)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(status(r), 422);
     s.stop().await;
 }

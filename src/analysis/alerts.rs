@@ -21,7 +21,19 @@ use super::error::AnalysisError;
 use super::stats::normal_quantile;
 
 /// Alert level; ordered `watch` < `warning` < `alarm`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    PartialOrd,
+    Ord,
+    Hash,
+    Serialize,
+    Deserialize,
+    utoipa::ToSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum AlertLevel {
     /// Lowest level.
@@ -44,7 +56,7 @@ impl AlertLevel {
 }
 
 /// A point metric rules can threshold.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Metric {
     /// 3-D displacement `d_mm`, mm.
@@ -90,7 +102,7 @@ impl Metric {
 
 /// Which estimate of a metric a rule reads (contract: `"source": "raw" | "filtered"`, and
 /// `"either"`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Source {
     /// The epoch's own value (displacement against the reference; velocity and time to failure
@@ -277,8 +289,11 @@ fn yes() -> bool {
     true
 }
 
+/// Largest `for_epochs` and `quiet_epochs` of a rule.
+pub const MAX_EPOCHS: u32 = 1000;
+
 /// One alert rule (contract JSON, plus optional fields).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct AlertRule {
     /// Level raised when the rule triggers.
     pub level: AlertLevel,
@@ -305,13 +320,23 @@ pub struct AlertRule {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub source: Option<Source>,
     /// Consecutive triggering epochs needed before the rule becomes active (default 1).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::json_integer::optional_u32"
+    )]
+    #[schema(minimum = 1, maximum = 1000)]
     pub for_epochs: Option<u32>,
     /// Only significant values trigger (default true).
     #[serde(default = "yes")]
     pub require_significant: bool,
     /// Without a clear threshold: epochs without triggering before the rule clears (default: the config's).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::json_integer::optional_u32"
+    )]
+    #[schema(maximum = 1000)]
     pub quiet_epochs: Option<u32>,
 }
 
@@ -338,8 +363,14 @@ impl AlertRule {
             }
             _ => return bad("exactly one finite `above` or `below` is needed"),
         }
-        if self.for_epochs == Some(0) {
-            return bad("for_epochs must be ≥ 1");
+        if self
+            .for_epochs
+            .is_some_and(|n| !(1..=MAX_EPOCHS).contains(&n))
+        {
+            return bad("for_epochs must be 1 to 1000");
+        }
+        if self.quiet_epochs.is_some_and(|n| n > MAX_EPOCHS) {
+            return bad("quiet_epochs must be at most 1000");
         }
         Ok(())
     }

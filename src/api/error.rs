@@ -118,7 +118,8 @@ impl From<CsvError> for ApiError {
     fn from(e: CsvError) -> Self {
         match e {
             CsvError::Malformed { .. } => ApiError::bad_request(e.to_string()),
-            CsvError::NoCameras => ApiError::unprocessable("no_cameras", e.to_string()),
+            // The site's state, not the body, is at fault: a JSON epoch must come first.
+            CsvError::NoCameras => ApiError::new(StatusCode::CONFLICT, "no_cameras", e.to_string()),
         }
     }
 }
@@ -159,10 +160,66 @@ impl From<PathRejection> for ApiError {
     }
 }
 
-/// `Json` whose rejections answer in the contract's error shape.
-#[derive(Debug, axum::extract::FromRequest)]
-#[from_request(via(axum::Json), rejection(ApiError))]
+/// A JSON object body whose rejections answer in the contract's error shape: 415 when the body
+/// is not `application/json` (or `+json`), 413 over the size limit, 400 when it is not JSON, 422
+/// when it is JSON but not an object of the schema (an array is refused, although serde would read
+/// a struct from one).
+#[derive(Debug)]
 pub struct ApiJson<T>(pub T);
+
+impl<T, S> axum::extract::FromRequest<S> for ApiJson<T>
+where
+    T: serde::de::DeserializeOwned,
+    S: Send + Sync,
+{
+    type Rejection = ApiError;
+
+    async fn from_request(req: axum::extract::Request, state: &S) -> Result<Self, ApiError> {
+        let json = req
+            .headers()
+            .get(axum::http::header::CONTENT_TYPE)
+            .and_then(|v| v.to_str().ok())
+            .map(|v| {
+                v.split(';')
+                    .next()
+                    .unwrap_or("")
+                    .trim()
+                    .to_ascii_lowercase()
+            })
+            .is_some_and(|m| {
+                m == "application/json" || (m.starts_with("application/") && m.ends_with("+json"))
+            });
+        if !json {
+            return Err(ApiError::new(
+                StatusCode::UNSUPPORTED_MEDIA_TYPE,
+                "unsupported_media_type",
+                "Expected request with `Content-Type: application/json`",
+            ));
+        }
+        let bytes = axum::body::Bytes::from_request(req, state)
+            .await
+            .map_err(|e| {
+                if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+                    ApiError::new(
+                        StatusCode::PAYLOAD_TOO_LARGE,
+                        "payload_too_large",
+                        e.body_text(),
+                    )
+                } else {
+                    ApiError::bad_request(e.body_text())
+                }
+            })?;
+        let first = bytes.iter().find(|b| !b.is_ascii_whitespace());
+        if first != Some(&b'{') && serde_json::from_slice::<serde::de::IgnoredAny>(&bytes).is_ok() {
+            return Err(ApiError::unprocessable(
+                "invalid_body",
+                "the body must be a JSON object",
+            ));
+        }
+        let axum::Json(value) = axum::Json::<T>::from_bytes(&bytes)?;
+        Ok(ApiJson(value))
+    }
+}
 
 /// `Query` whose rejections answer in the contract's error shape.
 #[derive(Debug, axum::extract::FromRequestParts)]

@@ -25,6 +25,8 @@ use utoipa::OpenApi;
         super::schemas::UploadForm, super::schemas::CameraForm, super::schemas::ImageForm,
         super::schemas::ObservationForm, super::schemas::ControlForm, super::schemas::ApproxForm,
         super::schemas::EpochSummary, super::groups::GroupBody, super::groups::Group,
+        crate::analysis::alerts::AlertRule, crate::analysis::alerts::AlertLevel,
+        crate::analysis::alerts::Metric, crate::analysis::alerts::Source,
     )),
     modifiers(&BearerAuth, &CommonErrors)
 )]
@@ -76,8 +78,12 @@ impl utoipa::Modify for CommonErrors {
             .flatten()
             {
                 for p in op.parameters.iter_mut().flatten() {
-                    if p.name == "cursor" {
-                        p.schema = Some(cursor_schema());
+                    match p.name.as_str() {
+                        "cursor" => p.schema = Some(cursor_schema()),
+                        "from" | "to" => p.schema = Some(time_bound_schema()),
+                        "observed_at" => p.schema = Some(date_time_schema()),
+                        "format" => p.schema = Some(series_format_schema()),
+                        _ => {}
                     }
                 }
                 let has_params = op.parameters.as_ref().is_some_and(|p| !p.is_empty());
@@ -114,7 +120,73 @@ fn cursor_schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
         .into()
 }
 
+/// A series' time bound: an RFC 3339 time or a date (`from`: its start, `to`: its end).
+fn time_bound_schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+    use utoipa::openapi::schema::{AnyOfBuilder, KnownFormat, ObjectBuilder, SchemaFormat, Type};
+    let with = |f: KnownFormat| {
+        ObjectBuilder::new()
+            .schema_type(Type::String)
+            .format(Some(SchemaFormat::KnownFormat(f)))
+    };
+    AnyOfBuilder::new()
+        .item(with(KnownFormat::Date))
+        .item(with(KnownFormat::DateTime))
+        .description(Some("an RFC 3339 time or a date (UTC)"))
+        .into()
+}
+
+/// An RFC 3339 time.
+fn date_time_schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+    use utoipa::openapi::schema::{KnownFormat, ObjectBuilder, SchemaFormat, Type};
+    ObjectBuilder::new()
+        .schema_type(Type::String)
+        .format(Some(SchemaFormat::KnownFormat(KnownFormat::DateTime)))
+        .description(Some(
+            "RFC 3339 time of the epoch (CSV uploads only, required there)",
+        ))
+        .into()
+}
+
+/// `json` (default) or `csv`.
+fn series_format_schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+    use utoipa::openapi::schema::{ObjectBuilder, Type};
+    ObjectBuilder::new()
+        .schema_type(Type::String)
+        .enum_values(Some(["json", "csv"]))
+        .description(Some("json (default) or csv"))
+        .into()
+}
+
+/// The served document: [`ApiDoc`] with the constraints utoipa's derive cannot state.
+pub fn document() -> serde_json::Value {
+    let mut doc = serde_json::to_value(ApiDoc::openapi()).unwrap_or_default();
+    let schemas = &mut doc["components"]["schemas"];
+    // A rule has exactly one numeric threshold: `above` or `below` (AlertRule::validate).
+    if let Some(rule) = schemas.get_mut("AlertRule") {
+        let only =
+            |k: &str| serde_json::json!({"required": [k], "properties": {k: {"type": "number"}}});
+        rule["oneOf"] = serde_json::json!([only("above"), only("below")]);
+    }
+    // Members of a group are point identifiers.
+    if let Some(items) = schemas
+        .get_mut("GroupBody")
+        .and_then(|s| s["properties"]["points"].get_mut("items"))
+    {
+        items["pattern"] = serde_json::json!("^[A-Za-z0-9._-]{1,64}$");
+    }
+    // A direction of interest is three numbers, not all zero.
+    for (schema, field) in [("GroupBody", "direction"), ("PointSettings", "direction")] {
+        if let Some(d) = schemas
+            .get_mut(schema)
+            .and_then(|s| s["properties"].get_mut(field))
+        {
+            d["not"] = serde_json::json!({"type": "array", "items": {"const": 0}});
+        }
+    }
+    doc
+}
+
 /// `GET /api/v1/openapi.json`.
 pub async fn openapi_json() -> impl IntoResponse {
-    axum::Json(ApiDoc::openapi())
+    axum::Json(document())
 }

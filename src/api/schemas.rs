@@ -49,8 +49,10 @@ pub struct UploadForm {
     /// Free label.
     pub label: Option<String>,
     /// Cameras (only `c_mm` required).
+    #[schema(min_items = 1)]
     pub cameras: Vec<CameraForm>,
     /// Images with their target observations.
+    #[schema(min_items = 1)]
     pub images: Vec<ImageForm>,
     /// Points of known coordinates (weighted by `sigma_m`).
     pub control: Option<Vec<ControlForm>>,
@@ -62,6 +64,7 @@ pub struct UploadForm {
 #[derive(Serialize, ToSchema)]
 pub struct CameraForm {
     /// Camera id.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub id: String,
     /// Principal distance in mm.
     pub c_mm: f64,
@@ -97,8 +100,10 @@ pub struct CameraForm {
 #[derive(Serialize, ToSchema)]
 pub struct ImageForm {
     /// Image id.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub id: String,
     /// Camera id.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub camera: String,
     /// Station name.
     pub station: Option<String>,
@@ -110,6 +115,7 @@ pub struct ImageForm {
 #[derive(Serialize, ToSchema)]
 pub struct ObservationForm {
     /// Point name.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub point: String,
     /// x in mm (right).
     pub x_mm: Option<f64>,
@@ -125,6 +131,7 @@ pub struct ObservationForm {
 #[derive(Serialize, ToSchema)]
 pub struct ControlForm {
     /// Point name.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub point: String,
     /// X in m.
     #[serde(rename = "X")]
@@ -143,6 +150,7 @@ pub struct ControlForm {
 #[derive(Serialize, ToSchema)]
 pub struct ApproxForm {
     /// Point name.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub point: String,
     /// X in m.
     #[serde(rename = "X")]

@@ -14,6 +14,12 @@ use crate::photogrammetry::epoch::is_valid_identifier;
 use crate::store::sites::{self, NewSite, Site};
 use crate::store::StoreError;
 
+/// Bounds of a site's `confidence`: the open interval (0.5, 1) as numbers that stay inside it
+/// once parsed (a JSON 0.99999999999999999 reads as 1.0).
+pub const MIN_CONFIDENCE: f64 = 0.500_001;
+/// See [`MIN_CONFIDENCE`].
+pub const MAX_CONFIDENCE: f64 = 0.999_999;
+
 /// Checks a site definition (identifier, model, confidence, rule levels and metrics).
 pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
     if !is_valid_identifier(&s.id) {
@@ -34,10 +40,10 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
         }
     }
     if let Some(c) = s.confidence {
-        if !(c > 0.5 && c < 1.0) {
+        if !(MIN_CONFIDENCE..=MAX_CONFIDENCE).contains(&c) {
             return Err(ApiError::unprocessable(
                 "invalid_site",
-                format!("confidence {c}: between 0.5 and 1"),
+                format!("confidence {c}: between 0.5 and 1 ({MIN_CONFIDENCE} to {MAX_CONFIDENCE})"),
             ));
         }
     }
@@ -46,6 +52,14 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
             return Err(ApiError::unprocessable(
                 "invalid_site",
                 format!("reference_epochs {k}: between 1 and 100"),
+            ));
+        }
+    }
+    if let Some(h) = s.schedule_hours {
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(ApiError::unprocessable(
+                "invalid_site",
+                format!("schedule_hours {h}: a finite number of hours > 0"),
             ));
         }
     }
@@ -161,6 +175,7 @@ pub async fn find(state: &AppState, site: &str) -> Result<Site, ApiError> {
 #[derive(Debug, Deserialize, ToSchema)]
 pub struct ReferenceBody {
     /// The reference epoch's integer id; null: back to the earliest.
+    #[serde(default, deserialize_with = "crate::json_integer::optional_i64")]
     pub epoch: Option<i64>,
 }
 

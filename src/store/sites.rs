@@ -25,21 +25,22 @@ pub struct NewSite {
     #[serde(default)]
     #[schema(pattern = "^(orthogonal|central)$")]
     pub model: Option<String>,
-    /// Expected interval between campaigns in hours.
+    /// Expected interval between campaigns in hours (> 0).
     #[serde(default)]
+    #[schema(exclusive_minimum = 0.0)]
     pub schedule_hours: Option<f64>,
-    /// Confidence level of the significance tests (default 0.99).
+    /// Confidence level of the significance tests, one-sided (default 0.99; 0.500001 to 0.999999).
     #[serde(default)]
-    #[schema(exclusive_minimum = 0.5, exclusive_maximum = 1.0)]
+    #[schema(minimum = 0.500_001, maximum = 0.999_999)]
     pub confidence: Option<f64>,
     /// Alert rules (`{"level", "metric", "above"|"below", "clear_below"|"clear_above", "source",
     /// "for_epochs", "group"}`).
     #[serde(default)]
-    #[schema(value_type = Vec<Object>)]
+    #[schema(value_type = Option<Vec<crate::analysis::alerts::AlertRule>>)]
     pub alert_rules: Option<Vec<serde_json::Value>>,
     /// Epochs averaged into the reference (covariance-weighted, in the stable-point datum), ≥ 1
     /// (default 1).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "crate::json_integer::optional_i64")]
     #[schema(minimum = 1, maximum = 100)]
     pub reference_epochs: Option<i64>,
     /// Process noise of the points' Kalman filter (white jerk, mm²/day⁵; > 0; default 0.05).
