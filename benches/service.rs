@@ -349,15 +349,7 @@ fn database_size(_c: &mut Criterion) {
     let base = rt.block_on(async {
         server.create_site("size").await;
         let base = std::fs::metadata(&path).unwrap().len();
-        for k in 0..n {
-            let (status, _) = server
-                .upload(
-                    "size",
-                    &synthetic_epoch(5, 30, &observed_at(k), k as u64, 0.0, 30),
-                )
-                .await;
-            assert_eq!(status, 201);
-        }
+        upload_size_epochs(&server, n).await;
         // where the bytes are (SQLite's dbstat table: pages per table and index)
         let tables: Vec<(String, i64)> = sqlx::query_as(
             "SELECT name, SUM(pgsize) FROM dbstat GROUP BY name ORDER BY 2 DESC LIMIT 16",
@@ -390,6 +382,14 @@ fn database_size(_c: &mut Criterion) {
     database_size_postgres(n);
 }
 
+/// Uploads `n` real 5 × 30 epochs to site `size`.
+async fn upload_size_epochs(server: &TestServer, n: usize) {
+    for k in 0..n {
+        let epoch = synthetic_epoch(5, 30, &observed_at(k), k as u64, 0.0, 30);
+        assert_eq!(server.upload("size", &epoch).await.0, 201);
+    }
+}
+
 /// [`database_size`] on PostgreSQL: bytes per epoch of every table with its indexes and TOAST
 /// (`pg_total_relation_size`), after `VACUUM ANALYZE`.
 fn database_size_postgres(n: usize) {
@@ -399,15 +399,7 @@ fn database_size_postgres(n: usize) {
     let server = rt.block_on(TestServer::start(move |c| c.database_url = Some(url)));
     rt.block_on(async {
         server.create_site("size").await;
-        for k in 0..n {
-            let (status, _) = server
-                .upload(
-                    "size",
-                    &synthetic_epoch(5, 30, &observed_at(k), k as u64, 0.0, 30),
-                )
-                .await;
-            assert_eq!(status, 201);
-        }
+        upload_size_epochs(&server, n).await;
         sqlx::query("VACUUM ANALYZE")
             .execute(server.store.reader())
             .await
