@@ -71,6 +71,16 @@ pub struct Config {
     /// How often sites with `schedule_hours` are checked for an overdue campaign, in seconds.
     #[serde(default = "default_overdue_check_secs")]
     pub overdue_check_secs: u64,
+    /// The CAP feed's `sender` (no spaces, commas, `<` or `&`), e.g. `cliffwatch@agency.example`.
+    #[serde(default = "default_cap_sender")]
+    pub cap_sender: String,
+    /// The CAP feed's `status`: `Actual` (default), `Exercise`, `System`, `Test` or `Draft`.
+    #[serde(default = "default_cap_status")]
+    pub cap_status: String,
+    /// The address people reach the dashboard at, e.g. `https://cliffwatch.agency.example`
+    /// (absolute links in the CAP messages and feed); `None`: links relative to the server.
+    #[serde(default)]
+    pub public_url: Option<String>,
 }
 
 fn default_write_connections() -> u32 {
@@ -85,6 +95,15 @@ fn default_webhook_timeout_secs() -> u64 {
 fn default_overdue_check_secs() -> u64 {
     300
 }
+fn default_cap_sender() -> String {
+    "cliffwatch@localhost".into()
+}
+fn default_cap_status() -> String {
+    "Actual".into()
+}
+
+/// The CAP statuses `cap_status` may take.
+pub const CAP_STATUSES: [&str; 5] = ["Actual", "Exercise", "System", "Test", "Draft"];
 
 /// Log output format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -171,6 +190,9 @@ pub enum ConfigError {
     /// A token appears twice or is empty.
     #[error("tokens must be non-empty and distinct")]
     BadTokens,
+    /// An option has a value it cannot take; the message names it.
+    #[error("configuration: {0}")]
+    Invalid(String),
 }
 
 impl Config {
@@ -254,6 +276,33 @@ impl Config {
         if self.tokens.is_empty() && !addr.ip().is_loopback() {
             return Err(ConfigError::OpenWithoutTokens(addr));
         }
+        if self.cap_sender.is_empty()
+            || self
+                .cap_sender
+                .chars()
+                .any(|c| c.is_whitespace() || c == ',' || c == '<' || c == '&')
+        {
+            return Err(ConfigError::Invalid(format!(
+                "cap_sender '{}': not empty, without spaces, commas, '<' or '&'",
+                self.cap_sender
+            )));
+        }
+        if !CAP_STATUSES.contains(&self.cap_status.as_str()) {
+            return Err(ConfigError::Invalid(format!(
+                "cap_status '{}': one of {}",
+                self.cap_status,
+                CAP_STATUSES.join(", ")
+            )));
+        }
+        if let Some(u) = &self.public_url {
+            if !(u.starts_with("http://") || u.starts_with("https://"))
+                || u.contains(char::is_whitespace)
+            {
+                return Err(ConfigError::Invalid(format!(
+                    "public_url '{u}': an absolute http(s) URL"
+                )));
+            }
+        }
         Ok(())
     }
 }
@@ -280,6 +329,22 @@ mod tests {
             Config::load(None, &o),
             Err(ConfigError::OpenWithoutTokens(_))
         ));
+    }
+
+    #[test]
+    fn cap_sender_status_and_public_url_are_checked() {
+        let mut c = Config::load(None, &Overrides::default()).unwrap();
+        assert_eq!(c.cap_status, "Actual");
+        c.cap_sender = "cliff watch".into();
+        assert!(matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("cap_sender")));
+        c.cap_sender = "cliffwatch@agency.example".into();
+        c.cap_status = "Live".into();
+        assert!(matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("cap_status")));
+        c.cap_status = "Test".into();
+        c.public_url = Some("cliffwatch.example".into());
+        assert!(matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("public_url")));
+        c.public_url = Some("https://cliffwatch.example".into());
+        assert!(c.check().is_ok());
     }
 
     #[test]

@@ -21,6 +21,7 @@
 //!   transaction and calls the core and the store.
 //! - [`api`]: the HTTP API (axum) handlers, auth, errors, OpenAPI.
 //! - [`dashboard`]: the HTML pages on the same port (maud templates, embedded uPlot and htmx).
+//! - [`cap`]: the public-warning feed, alerts as CAP 1.2 messages and an Atom feed of them.
 //! - [`webhooks`]: signing, bodies, retry policy and one delivery attempt of the alert webhooks.
 //! - [`watch`]: the watched directory.
 //! - [`daemon`] and [`shutdown`]: start and stop every part with one shutdown signal.
@@ -30,6 +31,7 @@
 
 pub mod analysis;
 pub mod api;
+pub mod cap;
 pub mod config;
 pub mod daemon;
 pub mod dashboard;

@@ -7,6 +7,7 @@
 
 pub mod alerts;
 pub mod auth;
+pub mod cap;
 pub mod epochs;
 pub mod error;
 pub mod groups;
@@ -79,6 +80,8 @@ pub fn router(state: AppState) -> Router {
             get(points::displacements),
         )
         .route("/api/v1/alerts", get(alerts::list))
+        .route("/api/v1/cap/feed.atom", get(cap::feed))
+        .route("/api/v1/cap/alerts/{file}", get(cap::message))
         .route("/api/v1/alerts/{id}/ack", post(alerts::acknowledge))
         .route(
             "/api/v1/webhooks",

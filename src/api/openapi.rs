@@ -13,7 +13,7 @@ use utoipa::OpenApi;
         super::epochs::upload, super::epochs::list, super::epochs::get_one,
         super::points::list, super::points::update, super::points::displacements,
         super::groups::put, super::groups::list, super::groups::get_one, super::groups::motion,
-        super::alerts::list, super::alerts::acknowledge,
+        super::alerts::list, super::alerts::acknowledge, super::cap::feed, super::cap::message,
         super::webhooks::create, super::webhooks::list, super::webhooks::delete,
     ),
     components(schemas(
@@ -27,6 +27,7 @@ use utoipa::OpenApi;
         super::schemas::EpochSummary, super::groups::GroupBody, super::groups::Group,
         crate::analysis::alerts::AlertRule, crate::analysis::alerts::AlertLevel,
         crate::analysis::alerts::Metric, crate::analysis::alerts::Source,
+        crate::cap::SiteArea, crate::cap::Circle,
     )),
     modifiers(&BearerAuth, &CommonErrors)
 )]
@@ -173,6 +174,29 @@ pub fn document() -> serde_json::Value {
         .and_then(|s| s["properties"]["points"].get_mut("items"))
     {
         items["pattern"] = serde_json::json!("^[A-Za-z0-9._-]{1,64}$");
+    }
+    // A warning area: a [latitude, longitude] pair in range, a description not only blanks.
+    if let Some(area) = schemas.get_mut("SiteArea") {
+        area["properties"]["polygon"]["items"] = serde_json::json!({
+            "type": "array", "minItems": 2, "maxItems": 2,
+            "prefixItems": [
+                {"type": "number", "minimum": -90, "maximum": 90},
+                {"type": "number", "minimum": -180, "maximum": 180}
+            ]
+        });
+        area["properties"]["description"]["pattern"] = serde_json::json!("\\S");
+    }
+    // A site's time zone is an IANA name the server knows.
+    if let Some(zone) = schemas
+        .get_mut("NewSite")
+        .and_then(|s| s["properties"].get_mut("time_zone"))
+    {
+        let mut names: Vec<serde_json::Value> = chrono_tz::TZ_VARIANTS
+            .iter()
+            .map(|z| serde_json::json!(z.name()))
+            .collect();
+        names.push(serde_json::Value::Null);
+        zone["enum"] = serde_json::Value::Array(names);
     }
     // A direction of interest is three numbers, not all zero.
     for (schema, field) in [("GroupBody", "direction"), ("PointSettings", "direction")] {

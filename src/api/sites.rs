@@ -71,6 +71,20 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
             ));
         }
     }
+    if let Some(tz) = &s.time_zone {
+        if tz.parse::<chrono_tz::Tz>().is_err() {
+            return Err(ApiError::unprocessable(
+                "invalid_site",
+                format!(
+                    "time_zone '{tz}': an IANA time zone name such as Asia/Tokyo or Europe/Zurich"
+                ),
+            ));
+        }
+    }
+    if let Some(area) = &s.area {
+        area.validate()
+            .map_err(|e| ApiError::unprocessable("invalid_site", e))?;
+    }
     for (i, rule) in s.alert_rules.iter().flatten().enumerate() {
         let level = rule.get("level").and_then(|v| v.as_str()).unwrap_or("");
         let metric = rule.get("metric").and_then(|v| v.as_str()).unwrap_or("");

@@ -11,6 +11,7 @@ use maud::{html, Markup};
 use serde::Deserialize;
 
 use super::layout::{level_badge, num, seg, Viewer};
+use super::local_time::when;
 use super::viewer;
 use crate::api::auth::Access;
 use crate::api::AppState;
@@ -28,7 +29,7 @@ pub struct AckForm {
 
 /// One row of the alert table: level, subject, rule, value, epoch, state, and the
 /// acknowledgement form while the alert is open and the viewer may acknowledge.
-pub fn alert_row(a: &Alert, v: &Viewer) -> Markup {
+pub fn alert_row(a: &Alert, v: &Viewer, time_zone: Option<&str>) -> Markup {
     let site = seg(&a.site);
     html! {
         tr id={ "alert-" (a.id) } {
@@ -44,7 +45,7 @@ pub fn alert_row(a: &Alert, v: &Viewer) -> Markup {
             }
             td { (a.rule) }
             td.num { (num(a.value, 2)) " " (a.unit.as_deref().unwrap_or("")) }
-            td { @if let Some(e) = a.epoch { a href={ "/sites/" (site) "/epochs/" (e) } { (a.observed_at.as_deref().unwrap_or("")) } } }
+            td { @if let Some(e) = a.epoch { a href={ "/sites/" (site) "/epochs/" (e) } { (when(a.observed_at.as_deref().unwrap_or(""), time_zone)) } } }
             td.state {
                 (a.state)
                 @if let Some(by) = &a.acknowledged_by { " by " (by) }
@@ -95,7 +96,13 @@ pub async fn acknowledge(
     match crate::service::acknowledge::acknowledge(&state.store, &id, by, comment).await {
         Ok(alert) => {
             if headers.contains_key("hx-request") {
-                Html(alert_row(&alert, &viewer(access.as_deref())).into_string()).into_response()
+                let zone = crate::store::sites::get(state.store.reader(), &alert.site)
+                    .await
+                    .ok()
+                    .flatten()
+                    .and_then(|s| s.time_zone);
+                Html(alert_row(&alert, &viewer(access.as_deref()), zone.as_deref()).into_string())
+                    .into_response()
             } else {
                 Redirect::to(&format!("/sites/{}", seg(&alert.site))).into_response()
             }

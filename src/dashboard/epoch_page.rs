@@ -12,6 +12,7 @@ use serde_json::Value;
 
 use super::face_plan::nice_floor;
 use super::layout::{num, page, seg, with_sigma};
+use super::local_time::when;
 use super::{viewer, PageError};
 use crate::api::auth::Access;
 use crate::api::AppState;
@@ -70,7 +71,7 @@ pub async fn epoch(
     let v = viewer(access.as_deref());
     let s = seg(&site.id);
     let body = html! {
-        h1 { "Epoch " (item.id) " · " (item.observed_at) }
+        h1 { "Epoch " (item.id) " · " (when(&item.observed_at, site.time_zone.as_deref())) }
         table.report {
             tr { th { "status" } td { (item.status) } }
             tr { th { "model" } td { (item.model) } }

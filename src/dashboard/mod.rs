@@ -16,7 +16,7 @@
 //! session's CSRF token ([`acknowledge`]).
 //!
 //! Pure parts (no I/O): [`face_plan`] (the face's plane), [`downsample`] (which epochs a plot
-//! draws), [`plan_svg`], [`time_plot_svg`] and [`layout`] (markup).
+//! draws), [`plan_svg`], [`time_plot_svg`], [`local_time`] and [`layout`] (markup).
 
 pub mod acknowledge;
 pub mod assets;
@@ -24,6 +24,7 @@ pub mod downsample;
 pub mod epoch_page;
 pub mod face_plan;
 pub mod layout;
+pub mod local_time;
 pub mod natural_order;
 pub mod plan_svg;
 pub mod plot_data;

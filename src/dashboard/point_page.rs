@@ -13,6 +13,7 @@ use axum::Extension;
 use maud::html;
 
 use super::layout::{level_badge, level_rank, num, page, seg, with_sigma};
+use super::local_time::when;
 use super::{viewer, PageError};
 use crate::api::auth::Access;
 use crate::api::AppState;
@@ -57,7 +58,7 @@ pub async fn point(
         }
         @if let Some(d) = &latest {
             table.latest {
-                tr { th { "latest epoch" } td { a href={ "/sites/" (s) "/epochs/" (d.epoch) } { (d.observed_at) } } }
+                tr { th { "latest epoch" } td { a href={ "/sites/" (s) "/epochs/" (d.epoch) } { (when(&d.observed_at, site.time_zone.as_deref())) } } }
                 tr { th { "d (mm)" } td { (with_sigma(Some(d.d_mm), Some(d.sigma_mm), 2)) @if d.significant { " (significant)" } } }
                 tr { th { "filtered d (mm)" } td { (with_sigma(d.f_d_mm, d.sigma_f_d_mm, 2)) } }
                 tr { th { "velocity (mm/day)" } td { (with_sigma(d.f_velocity_mm_per_day, d.sigma_f_velocity_mm_per_day, 3)) } }

@@ -11,6 +11,7 @@ use maud::html;
 use serde::Deserialize;
 
 use super::layout::{level_badge, num, page, seg, with_sigma};
+use super::local_time::when;
 use super::plan_svg::{face_plan, PlanPoint};
 use super::time_plot_svg::time_plot;
 use super::{viewer, PageError};
@@ -181,7 +182,7 @@ pub async fn report(
                 table.epochs {
                     thead { tr { th { "observed at" } th { "status" } th { "σ0 (mm)" } th { "c ± σ (mm)" } } }
                     tbody { @for e in in_period.iter().rev() {
-                        tr { td { (e.observed_at) } td { (e.status) } td.num { (num(Some(e.sigma0_mm), 5)) } td.num { (with_sigma(e.c_mm, e.c_sigma_mm, 3)) } }
+                        tr { td { (when(&e.observed_at, site.time_zone.as_deref())) } td { (e.status) } td.num { (num(Some(e.sigma0_mm), 5)) } td.num { (with_sigma(e.c_mm, e.c_sigma_mm, 3)) } }
                     } }
                 }
             }
@@ -197,7 +198,7 @@ pub async fn report(
                                 td { (a.point.clone().or(a.group.clone()).unwrap_or_else(|| "site".into())) }
                                 td { (a.rule) }
                                 td.num { (num(a.value, 2)) " " (a.unit.as_deref().unwrap_or("")) }
-                                td { (a.observed_at.as_deref().unwrap_or("")) }
+                                td { (when(a.observed_at.as_deref().unwrap_or(""), site.time_zone.as_deref())) }
                                 td { (a.state) @if let Some(by) = &a.acknowledged_by { " by " (by) } }
                             }
                         } }

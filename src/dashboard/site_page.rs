@@ -11,6 +11,7 @@ use maud::html;
 
 use super::acknowledge::alert_row;
 use super::layout::{level_badge, level_rank, num, page, seg, with_sigma};
+use super::local_time::when;
 use super::plan_svg::{face_plan, PlanPoint};
 use super::{viewer, PageError};
 use crate::api::auth::Access;
@@ -76,7 +77,11 @@ pub async fn site(
     let site_href = format!("/sites/{}", seg(&site.id));
     let body = html! {
         h1 { (site.name) " " small { (site.id) } }
-        p { a href={ (site_href) "/report" } { "Campaign report" } " (printable; add " code { "?from=YYYY-MM-DD&to=YYYY-MM-DD" } " for a period)" }
+        p {
+            a href={ (site_href) "/report" } { "Campaign report" } " (printable; add " code { "?from=YYYY-MM-DD&to=YYYY-MM-DD" } " for a period) · "
+            a href={ "/api/v1/cap/feed.atom?site=" (seg(&site.id)) } { "public-warning feed (CAP 1.2, Atom)" }
+            @if let Some(z) = &site.time_zone { " · times in UTC and " (z) }
+        }
         section {
             h2 { "Face plan" }
             (face_plan(&site.id, &plan))
@@ -88,7 +93,7 @@ pub async fn site(
             } @else {
                 table.alerts {
                     thead { tr { th { "level" } th { "subject" } th { "rule" } th { "value" } th { "epoch" } th { "state" } th { "acknowledge" } } }
-                    tbody { @for a in &active { (alert_row(a, &v)) } }
+                    tbody { @for a in &active { (alert_row(a, &v, site.time_zone.as_deref())) } }
                 }
             }
         }
@@ -122,7 +127,7 @@ pub async fn site(
                 tbody {
                     @for (e, dropped) in &epoch_rows {
                         tr {
-                            td { a href={ (site_href) "/epochs/" (e.id) } { (e.observed_at) } }
+                            td { a href={ (site_href) "/epochs/" (e.id) } { (when(&e.observed_at, site.time_zone.as_deref())) } }
                             td { (e.status) }
                             td.num { (num(Some(e.sigma0_mm), 5)) }
                             td.num { (with_sigma(e.c_mm, e.c_sigma_mm, 3)) }

@@ -7,6 +7,7 @@ use axum::Extension;
 use maud::html;
 
 use super::layout::{level_badge, level_rank, page, seg};
+use super::local_time::when;
 use super::{viewer, PageError};
 use crate::api::auth::Access;
 use crate::api::AppState;
@@ -55,7 +56,7 @@ pub async fn sites(
                             td { (level_badge(level.as_deref())) }
                             td {
                                 @if let Some(e) = last {
-                                    a href={ "/sites/" (seg(&s.id)) "/epochs/" (e.id) } { (e.observed_at) }
+                                    a href={ "/sites/" (seg(&s.id)) "/epochs/" (e.id) } { (when(&e.observed_at, s.time_zone.as_deref())) }
                                 } @else { "none yet" }
                                 @if *overdue { " " span.badge.overdue { "overdue" } }
                             }

@@ -275,3 +275,66 @@ pub async fn events_of_point(
         })
         .collect())
 }
+
+/// The recorded changes of one alert (its outbox events) as the CAP feed reads them, oldest
+/// first: type, level after, and when each was recorded (UTC). Events recorded in one
+/// transaction share the recording time and are ordered by the time of their epoch.
+pub async fn changes_of(
+    db: impl AnyExecutor<'_>,
+    alert_id: &str,
+) -> Result<Vec<crate::cap::Change>, StoreError> {
+    let rows: Vec<(String, Option<String>, String, String)> = sqlx::query_as(
+        "SELECT event_type, level, payload, created_at FROM webhook_outbox WHERE alert_id = $1",
+    )
+    .bind(alert_id)
+    .fetch_all(db)
+    .await?;
+    let mut changes: Vec<(String, String, crate::cap::Change)> = rows
+        .into_iter()
+        .filter_map(|(event_type, level, payload, created)| {
+            let at = super::parse_timestamp(&created)?;
+            let body = serde_json::from_str::<serde_json::Value>(&payload).unwrap_or_default();
+            let event_time = body["timestamp"].as_str().unwrap_or_default().to_string();
+            let data = &body["data"];
+            let snapshot = crate::cap::Snapshot {
+                value: data["value"].as_f64(),
+                threshold: data["threshold"].as_f64(),
+                unit: data["unit"].as_str().map(str::to_string),
+                observed_at: data["observed_at"].as_str().map(str::to_string),
+                message: data["message"].as_str().unwrap_or_default().to_string(),
+            };
+            Some((
+                created,
+                event_time,
+                crate::cap::Change {
+                    event_type,
+                    level,
+                    at,
+                    snapshot,
+                },
+            ))
+        })
+        .collect();
+    changes.sort_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
+    Ok(changes.into_iter().map(|(_, _, c)| c).collect())
+}
+
+/// The alerts that ever reached `warning` or `alarm` (those the CAP feed carries), of one site
+/// or of all, most recently changed first.
+pub async fn ever_public(
+    db: impl AnyExecutor<'_>,
+    site: Option<&str>,
+    limit: i64,
+) -> Result<Vec<Alert>, StoreError> {
+    let rows: Vec<Alert> = sqlx::query_as(&format!(
+        "SELECT {COLUMNS} FROM alerts a WHERE ($1 IS NULL OR site_id = $2) AND EXISTS \
+         (SELECT 1 FROM webhook_outbox o WHERE o.alert_id = a.id AND o.level IN ('warning', 'alarm')) \
+         ORDER BY updated_at DESC, id DESC LIMIT $3"
+    ))
+    .bind(site)
+    .bind(site)
+    .bind(limit)
+    .fetch_all(db)
+    .await?;
+    Ok(finish(rows))
+}

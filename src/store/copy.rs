@@ -77,6 +77,8 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("reference_epochs", I),
             ("process_noise", F),
             ("analysis_version", I),
+            ("time_zone", T),
+            ("area", T),
         ],
     ),
     (

@@ -47,6 +47,14 @@ pub struct NewSite {
     #[serde(default)]
     #[schema(exclusive_minimum = 0.0)]
     pub process_noise: Option<f64>,
+    /// The site's IANA time zone, e.g. `Asia/Tokyo`: the dashboard shows times in UTC and in it
+    /// (default: UTC only).
+    #[serde(default)]
+    #[schema(max_length = 64, example = "Asia/Tokyo")]
+    pub time_zone: Option<String>,
+    /// Where the site's warnings apply (the area of its CAP messages; default: the site's name).
+    #[serde(default)]
+    pub area: Option<crate::cap::SiteArea>,
 }
 
 /// A stored site.
@@ -71,6 +79,10 @@ pub struct Site {
     pub reference_epochs: i64,
     /// Process noise of the points' Kalman filter (mm²/day⁵); `null`: the default.
     pub process_noise: Option<f64>,
+    /// IANA time zone; `null`: UTC only.
+    pub time_zone: Option<String>,
+    /// Where the site's warnings apply; `null`: not configured.
+    pub area: Option<crate::cap::SiteArea>,
     /// Creation time (RFC 3339).
     pub created_at: String,
 }
@@ -86,6 +98,8 @@ struct SiteRow {
     reference_epoch: Option<i64>,
     reference_epochs: i64,
     process_noise: Option<f64>,
+    time_zone: Option<String>,
+    area: Option<String>,
     created_at: String,
 }
 
@@ -102,6 +116,8 @@ impl TryFrom<SiteRow> for Site {
             reference_epoch: r.reference_epoch,
             reference_epochs: r.reference_epochs,
             process_noise: r.process_noise,
+            time_zone: r.time_zone,
+            area: r.area.as_deref().map(serde_json::from_str).transpose()?,
             created_at: display_timestamp(&r.created_at),
         })
     }
@@ -109,7 +125,7 @@ impl TryFrom<SiteRow> for Site {
 
 const COLUMNS: &str =
     "id, name, model, schedule_hours, confidence, alert_rules, reference_epoch, reference_epochs, \
-     process_noise, created_at";
+     process_noise, time_zone, area, created_at";
 
 /// Reads one site.
 pub async fn get(db: impl AnyExecutor<'_>, id: &str) -> Result<Option<Site>, StoreError> {
@@ -186,11 +202,12 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
     let model = site.model.clone().unwrap_or_else(|| "orthogonal".into());
     let confidence = site.confidence.unwrap_or(0.99);
     let reference_epochs = site.reference_epochs.unwrap_or(1);
+    let area = site.area.as_ref().map(serde_json::to_string).transpose()?;
     if create {
         sqlx::query(
             "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, \
-             reference_epochs, process_noise, created_at, analysis_version) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10)",
+             reference_epochs, process_noise, time_zone, area, created_at, analysis_version) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
         )
         .bind(&site.id)
         .bind(name)
@@ -200,6 +217,8 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(rules)
         .bind(reference_epochs)
         .bind(site.process_noise)
+        .bind(site.time_zone.as_deref())
+        .bind(area.as_deref())
         .bind(now())
         .bind(ANALYSIS_VERSION)
         .execute(db)
@@ -207,7 +226,7 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
     } else {
         sqlx::query(
             "UPDATE sites SET name = $1, model = $2, schedule_hours = $3, confidence = $4, alert_rules = $5, \
-             reference_epochs = $6, process_noise = $7 WHERE id = $8",
+             reference_epochs = $6, process_noise = $7, time_zone = $8, area = $9 WHERE id = $10",
         )
         .bind(name)
         .bind(model)
@@ -216,6 +235,8 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(rules)
         .bind(reference_epochs)
         .bind(site.process_noise)
+        .bind(site.time_zone.as_deref())
+        .bind(area.as_deref())
         .bind(&site.id)
         .execute(db)
         .await?;

@@ -1,0 +1,481 @@
+//! One alert as a CAP 1.2 message (OASIS Common Alerting Protocol, `urn:oasis:names:tc:emergency:cap:1.2`).
+
+use chrono::{DateTime, Duration, Utc};
+
+use super::area::SiteArea;
+use super::xml::{cap_time, escape};
+
+/// CAP `msgType` of a message in an alert's thread.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MsgType {
+    /// The alert became public (raised at, or escalated to, warning or alarm).
+    Alert,
+    /// Its public level changed.
+    Update,
+    /// It was resolved or fell back below warning.
+    Cancel,
+}
+
+impl MsgType {
+    /// The CAP name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MsgType::Alert => "Alert",
+            MsgType::Update => "Update",
+            MsgType::Cancel => "Cancel",
+        }
+    }
+}
+
+/// What an alert said at one change: the measured value against the rule's threshold at an
+/// epoch, and its message (the outbox event's `data`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Snapshot {
+    /// The value that triggered (or cleared) the rule, in `unit`.
+    pub value: Option<f64>,
+    /// The rule's threshold, in `unit`.
+    pub threshold: Option<f64>,
+    /// `mm`, `mm/day` or `h`.
+    pub unit: Option<String>,
+    /// The epoch's observation time (RFC 3339).
+    pub observed_at: Option<String>,
+    /// The alert's message then.
+    pub message: String,
+}
+
+/// A recorded change of an alert (an outbox event): its contract type (`alert.raised`, …), the
+/// level after it, when it was recorded (UTC), and the alert as it was then.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Change {
+    /// `alert.raised`, `alert.escalated`, `alert.deescalated`, `alert.acknowledged` or
+    /// `alert.resolved`.
+    pub event_type: String,
+    /// `watch`, `warning` or `alarm` after the change.
+    pub level: Option<String>,
+    /// When the change was recorded.
+    pub at: DateTime<Utc>,
+    /// The alert as the change left it.
+    pub snapshot: Snapshot,
+}
+
+/// One CAP message of an alert's thread.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CapStep {
+    /// 1, 2, …: the message's place in the thread (its identifier is `<alert id>.<seq>`).
+    pub seq: usize,
+    /// Alert, Update or Cancel.
+    pub msg_type: MsgType,
+    /// The public level the message announces (for a Cancel: the level it withdraws).
+    pub level: String,
+    /// Why a Cancel was sent: `resolved` or `below_warning`; empty otherwise.
+    pub reason: &'static str,
+    /// When it was sent (the change's time).
+    pub sent: DateTime<Utc>,
+    /// The alert as the change left it.
+    pub snapshot: Snapshot,
+}
+
+fn is_public(level: Option<&str>) -> bool {
+    matches!(level, Some("warning") | Some("alarm"))
+}
+
+/// The CAP thread of an alert from its changes, oldest first: a change that makes it public is
+/// an Alert, a change of its public level an Update, its resolution or fall to `watch` a
+/// Cancel; acknowledgements and changes below warning send nothing.
+pub fn steps(changes: &[Change]) -> Vec<CapStep> {
+    let mut out: Vec<CapStep> = Vec::new();
+    let mut public: Option<String> = None;
+    for c in changes {
+        if c.event_type == "alert.acknowledged" {
+            continue;
+        }
+        let resolved = c.event_type == "alert.resolved";
+        let now_public = !resolved && is_public(c.level.as_deref());
+        let step = match (&public, now_public) {
+            (None, true) => Some((MsgType::Alert, c.level.clone().unwrap_or_default(), "")),
+            (Some(before), true) if c.level.as_deref() != Some(before.as_str()) => {
+                Some((MsgType::Update, c.level.clone().unwrap_or_default(), ""))
+            }
+            (Some(before), false) => Some((
+                MsgType::Cancel,
+                before.clone(),
+                if resolved {
+                    "resolved"
+                } else {
+                    "below_warning"
+                },
+            )),
+            _ => None,
+        };
+        if let Some((msg_type, level, reason)) = step {
+            out.push(CapStep {
+                seq: out.len() + 1,
+                msg_type,
+                level,
+                reason,
+                sent: c.at,
+                snapshot: c.snapshot.clone(),
+            });
+        }
+        public = now_public.then(|| c.level.clone().unwrap_or_default());
+    }
+    out
+}
+
+/// The alert a thread is about: its id, site, point or block group, and rule's metric.
+#[derive(Debug, Clone, Copy)]
+pub struct Subject<'a> {
+    /// The alert's id.
+    pub id: &'a str,
+    /// Site id.
+    pub site: &'a str,
+    /// The point of a point alert.
+    pub point: Option<&'a str>,
+    /// The block group of a group alert.
+    pub group: Option<&'a str>,
+    /// The rule's metric, e.g. `displacement_mm` or `time_to_failure_hours`.
+    pub rule: &'a str,
+}
+
+impl<'a> From<&'a crate::store::alerts::Alert> for Subject<'a> {
+    fn from(a: &'a crate::store::alerts::Alert) -> Self {
+        Subject {
+            id: &a.id,
+            site: &a.site,
+            point: a.point.as_deref(),
+            group: a.group.as_deref(),
+            rule: &a.rule,
+        }
+    }
+}
+
+/// What a message needs besides the alert: who sends it, in which status, the site, and where
+/// a person can see more.
+#[derive(Debug, Clone)]
+pub struct CapContext<'a> {
+    /// CAP `sender` (no spaces, commas, `<` or `&`), e.g. `cliffwatch@agency.example`.
+    pub sender: &'a str,
+    /// CAP `status`: `Actual`, `Exercise`, `System`, `Test` or `Draft`.
+    pub status: &'a str,
+    /// The site's display name.
+    pub site_name: &'a str,
+    /// The site's warning area, when configured.
+    pub area: Option<&'a SiteArea>,
+    /// The dashboard page of the site (absolute URL), when a public URL is configured.
+    pub web: Option<String>,
+}
+
+/// The identifier of message `seq` of an alert.
+pub fn identifier(alert_id: &str, seq: usize) -> String {
+    format!("{alert_id}.{seq}")
+}
+
+/// Urgency, severity, certainty and response of a level, and of a Cancel.
+fn grading(step: &CapStep) -> (&'static str, &'static str, &'static str, &'static str) {
+    match (step.msg_type, step.level.as_str()) {
+        (MsgType::Cancel, _) => ("Past", "Minor", "Unlikely", "AllClear"),
+        (_, "alarm") => ("Immediate", "Severe", "Likely", "Avoid"),
+        _ => ("Expected", "Moderate", "Possible", "Monitor"),
+    }
+}
+
+fn subject(alert: &Subject<'_>) -> String {
+    match (alert.point, alert.group) {
+        (Some(p), _) => format!("point {p}"),
+        (None, Some(g)) => format!("block {g}"),
+        _ => "the site".into(),
+    }
+}
+
+fn level_word(level: &str) -> &'static str {
+    match level {
+        "alarm" => "Alarm",
+        "warning" => "Warning",
+        _ => "Watch",
+    }
+}
+
+fn number(v: f64) -> String {
+    let r = (v * 1000.0).round() / 1000.0;
+    format!("{r}")
+}
+
+/// The headline of a message, e.g. `Alarm: rock slope movement at Kamo cliff (point 12)`.
+pub fn headline(alert: &Subject<'_>, site_name: &str, step: &CapStep) -> String {
+    let word = level_word(&step.level);
+    match step.msg_type {
+        MsgType::Cancel => format!(
+            "{word} withdrawn: rock slope movement at {site_name} ({})",
+            subject(alert)
+        ),
+        _ => format!(
+            "{word}: rock slope movement at {site_name} ({})",
+            subject(alert)
+        ),
+    }
+}
+
+/// The forecast failure time of a time-to-failure alert (CAP `onset`): the epoch's time plus
+/// the forecast hours.
+fn onset(alert: &Subject<'_>, now: &Snapshot) -> Option<DateTime<Utc>> {
+    if alert.rule != "time_to_failure_hours" {
+        return None;
+    }
+    let hours = now
+        .value
+        .filter(|h| h.is_finite() && *h >= 0.0 && *h < 1e6)?;
+    let observed = DateTime::parse_from_rfc3339(now.observed_at.as_deref()?).ok()?;
+    Some(observed.with_timezone(&Utc) + Duration::seconds((hours * 3600.0).round() as i64))
+}
+
+/// Message `step` of the alert's thread `thread` as a CAP 1.2 document; the earlier messages
+/// are its `references`, the alert id its `incidents`.
+pub fn cap_message(
+    alert: &Subject<'_>,
+    ctx: &CapContext<'_>,
+    thread: &[CapStep],
+    step: &CapStep,
+) -> String {
+    let (urgency, severity, certainty, response) = grading(step);
+    let headline = headline(alert, ctx.site_name, step);
+    let now = &step.snapshot;
+    let mut description = now.message.clone();
+    if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
+        description.push_str(&format!("\nMeasured {} {unit}", number(v)));
+        if let Some(t) = now.threshold {
+            description.push_str(&format!(" (threshold {} {unit})", number(t)));
+        }
+        if let Some(o) = &now.observed_at {
+            description.push_str(&format!(" at the campaign of {o}"));
+        }
+        description.push('.');
+    }
+    let instruction = match (step.msg_type, step.reason, step.level.as_str()) {
+        (MsgType::Cancel, "resolved", _) => {
+            "The measured movement is back within the thresholds; the warning is withdrawn.".to_string()
+        }
+        (MsgType::Cancel, _, _) => {
+            "The level fell below warning; the site stays under watch and the warning is withdrawn.".to_string()
+        }
+        (_, _, "alarm") => {
+            "Keep out of the warning area until the all-clear. Follow the instructions of the authorities.".to_string()
+        }
+        _ => "Movement beyond the warning threshold was measured. Expect closures of the warning area and follow local instructions.".to_string(),
+    };
+    let references: Vec<String> = thread
+        .iter()
+        .filter(|s| s.seq < step.seq)
+        .map(|s| {
+            format!(
+                "{},{},{}",
+                ctx.sender,
+                identifier(alert.id, s.seq),
+                cap_time(s.sent)
+            )
+        })
+        .collect();
+
+    let mut x = String::with_capacity(4096);
+    let mut el = |name: &str, value: &str| {
+        x.push_str(&format!("<{name}>{}</{name}>\n", escape(value)));
+    };
+    el("identifier", &identifier(alert.id, step.seq));
+    el("sender", ctx.sender);
+    el("sent", &cap_time(step.sent));
+    el("status", ctx.status);
+    el("msgType", step.msg_type.as_str());
+    el("source", "cliffwatch photogrammetric monitoring");
+    el("scope", "Public");
+    if !references.is_empty() {
+        el("references", &references.join(" "));
+    }
+    el("incidents", alert.id);
+    let header = std::mem::take(&mut x);
+
+    let mut info = String::with_capacity(2048);
+    let mut el = |name: &str, value: &str| {
+        info.push_str(&format!("    <{name}>{}</{name}>\n", escape(value)));
+    };
+    el("language", "en-US");
+    el("category", "Geo");
+    el("event", "Rock slope movement");
+    el("responseType", response);
+    el("urgency", urgency);
+    el("severity", severity);
+    el("certainty", certainty);
+    el("effective", &cap_time(step.sent));
+    if step.msg_type != MsgType::Cancel {
+        if let Some(t) = onset(alert, now) {
+            el("onset", &cap_time(t));
+        }
+    }
+    el("senderName", &format!("cliffwatch: {}", ctx.site_name));
+    el("headline", &headline);
+    el("description", &description);
+    el("instruction", &instruction);
+    if let Some(web) = &ctx.web {
+        el("web", web);
+    }
+    let mut parameter = |name: &str, value: &str| {
+        info.push_str(&format!(
+            "    <parameter>\n      <valueName>{}</valueName>\n      <value>{}</value>\n    </parameter>\n",
+            escape(name),
+            escape(value)
+        ));
+    };
+    parameter("cliffwatch:site", alert.site);
+    if let Some(p) = alert.point {
+        parameter("cliffwatch:point", p);
+    }
+    if let Some(g) = alert.group {
+        parameter("cliffwatch:group", g);
+    }
+    parameter("cliffwatch:level", &step.level);
+    parameter("cliffwatch:rule", alert.rule);
+    if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
+        parameter("cliffwatch:value", &format!("{} {unit}", number(v)));
+    }
+    info.push_str("    <area>\n");
+    let area_desc = ctx
+        .area
+        .map_or_else(|| ctx.site_name.to_string(), |a| a.description.clone());
+    info.push_str(&format!(
+        "      <areaDesc>{}</areaDesc>\n",
+        escape(&area_desc)
+    ));
+    if let Some(p) = ctx.area.and_then(SiteArea::cap_polygon) {
+        info.push_str(&format!("      <polygon>{p}</polygon>\n"));
+    }
+    if let Some(c) = ctx.area.and_then(SiteArea::cap_circle) {
+        info.push_str(&format!("      <circle>{c}</circle>\n"));
+    }
+    info.push_str("    </area>\n");
+
+    let mut doc = String::with_capacity(header.len() + info.len() + 200);
+    doc.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    doc.push_str("<alert xmlns=\"urn:oasis:names:tc:emergency:cap:1.2\">\n");
+    for line in header.lines() {
+        doc.push_str("  ");
+        doc.push_str(line);
+        doc.push('\n');
+    }
+    doc.push_str("  <info>\n");
+    doc.push_str(&info);
+    doc.push_str("  </info>\n</alert>\n");
+    doc
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn change(kind: &str, level: &str, minute: i64) -> Change {
+        Change {
+            event_type: kind.into(),
+            level: Some(level.into()),
+            at: DateTime::parse_from_rfc3339("2026-11-25T00:00:00Z")
+                .unwrap()
+                .with_timezone(&Utc)
+                + Duration::minutes(minute),
+            snapshot: Snapshot::default(),
+        }
+    }
+
+    fn kinds(s: &[CapStep]) -> Vec<(MsgType, &str)> {
+        s.iter().map(|s| (s.msg_type, s.level.as_str())).collect()
+    }
+
+    #[test]
+    fn a_thread_goes_public_updates_and_cancels() {
+        let s = steps(&[
+            change("alert.raised", "watch", 0),
+            change("alert.escalated", "warning", 1),
+            change("alert.acknowledged", "warning", 2),
+            change("alert.escalated", "alarm", 3),
+            change("alert.deescalated", "warning", 4),
+            change("alert.resolved", "warning", 5),
+        ]);
+        assert_eq!(
+            kinds(&s),
+            vec![
+                (MsgType::Alert, "warning"),
+                (MsgType::Update, "alarm"),
+                (MsgType::Update, "warning"),
+                (MsgType::Cancel, "warning"),
+            ]
+        );
+        assert_eq!(
+            s.iter().map(|s| s.seq).collect::<Vec<_>>(),
+            vec![1, 2, 3, 4]
+        );
+        assert_eq!(s[3].reason, "resolved");
+    }
+
+    #[test]
+    fn a_time_to_failure_alarm_carries_the_forecast_as_onset() {
+        let mut raised = change("alert.raised", "alarm", 0);
+        raised.snapshot = Snapshot {
+            value: Some(48.0),
+            threshold: Some(96.0),
+            unit: Some("h".into()),
+            observed_at: Some("2026-11-20T06:00:00Z".into()),
+            message: "kamo/P7: time to failure 48 h".into(),
+        };
+        let thread = steps(&[raised]);
+        let subject = Subject {
+            id: "kamo:P7:time_to_failure_hours:3",
+            site: "kamo",
+            point: Some("P7"),
+            group: None,
+            rule: "time_to_failure_hours",
+        };
+        let ctx = CapContext {
+            sender: "cliffwatch@agency.example",
+            status: "Test",
+            site_name: "Kamo",
+            area: None,
+            web: None,
+        };
+        let xml = cap_message(&subject, &ctx, &thread, &thread[0]);
+        assert!(
+            xml.contains("<onset>2026-11-22T06:00:00+00:00</onset>"),
+            "{xml}"
+        );
+        assert!(xml.contains("<msgType>Alert</msgType>") && xml.contains("<status>Test</status>"));
+        assert!(
+            xml.contains("<severity>Severe</severity>")
+                && xml.contains("<urgency>Immediate</urgency>")
+        );
+        assert!(
+            xml.contains("<areaDesc>Kamo</areaDesc>"),
+            "the site's name without an area"
+        );
+        assert!(
+            !xml.contains("<references>"),
+            "the first message references nothing"
+        );
+    }
+
+    #[test]
+    fn watch_only_alerts_send_nothing_and_a_fall_to_watch_cancels() {
+        assert!(steps(&[
+            change("alert.raised", "watch", 0),
+            change("alert.resolved", "watch", 1)
+        ])
+        .is_empty());
+        let s = steps(&[
+            change("alert.raised", "alarm", 0),
+            change("alert.deescalated", "watch", 1),
+            change("alert.escalated", "warning", 2),
+        ]);
+        assert_eq!(
+            kinds(&s),
+            vec![
+                (MsgType::Alert, "alarm"),
+                (MsgType::Cancel, "alarm"),
+                (MsgType::Alert, "warning"),
+            ]
+        );
+        assert_eq!(s[1].reason, "below_warning");
+    }
+}
