@@ -9,6 +9,9 @@
 //!   (read and format, no HTTP), one JSON page of 1000, and every JSON page following the cursor;
 //! - `series_87600_postgres/csv_all_store_only`: the same store part on PostgreSQL (a throwaway
 //!   cluster, `tests/pg_support`);
+//! - `dashboard/*`: server time of the site page (30 points) and of the point page's plot data
+//!   (downsampled to 800 px) on a site of 87 600 epochs and on one of 40, and the weight of each
+//!   page with its embedded assets, gzip (printed);
 //! - the database size per 10 000 epochs of 30 points (printed, from `CLIFFWATCH_BENCH_SIZE_EPOCHS`
 //!   real uploads, default 500, scaled linearly).
 
@@ -335,6 +338,74 @@ fn series(c: &mut Criterion) {
     let _ = rt.block_on(server.stop());
 }
 
+/// gzip size of `bytes` (default level), in bytes.
+fn gzip_len(bytes: &[u8]) -> usize {
+    use std::io::Write;
+    let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(bytes).unwrap();
+    e.finish().unwrap().len()
+}
+
+fn dashboard(c: &mut Criterion) {
+    let rt = runtime();
+    let server = rt.block_on(TestServer::start(|_| {}));
+    rt.block_on(fill_history(&server, "long", 87_600, 30));
+    rt.block_on(fill_history(&server, "short", 40, 30));
+    let get = |path: &str| {
+        let url = server.url(path);
+        rt.block_on(async {
+            let r = server.client.get(&url).send().await.unwrap();
+            assert_eq!(r.status(), 200, "{url}");
+            r.bytes().await.unwrap()
+        })
+    };
+    let mut g = c.benchmark_group("dashboard");
+    g.sample_size(20).measurement_time(Duration::from_secs(8));
+    for (name, path) in [
+        ("site_page_30_points/87600_epochs", "/sites/long"),
+        ("site_page_30_points/40_epochs", "/sites/short"),
+        (
+            "plot_data_800px/87600_epochs",
+            "/dashboard/plot/long/T017?width=800",
+        ),
+        (
+            "plot_data_800px/40_epochs",
+            "/dashboard/plot/short/T017?width=800",
+        ),
+        ("point_page/87600_epochs", "/sites/long/points/T017"),
+    ] {
+        g.bench_function(name, |b| b.iter(|| get(path)));
+    }
+    g.finish();
+    // Page weight: the HTML and every embedded asset it links, each gzip-compressed.
+    for path in [
+        "/",
+        "/sites/long",
+        "/sites/long/points/T017",
+        "/sites/long/epochs/1",
+        "/sites/short/report",
+    ] {
+        let html = get(path);
+        let text = String::from_utf8_lossy(&html).to_string();
+        let mut assets: Vec<String> = text
+            .split(['"', '\''])
+            .filter(|s| s.starts_with("/assets/"))
+            .map(str::to_string)
+            .collect();
+        assets.sort();
+        assets.dedup();
+        let asset_bytes: usize = assets.iter().map(|a| gzip_len(&get(a))).sum();
+        println!(
+            "page weight {path}: html {} B gzip, assets {} ({} B gzip), total {:.1} kB gzip",
+            gzip_len(&html),
+            assets.len(),
+            asset_bytes,
+            (gzip_len(&html) + asset_bytes) as f64 / 1000.0
+        );
+    }
+    let _ = rt.block_on(server.stop());
+}
+
 fn database_size(_c: &mut Criterion) {
     let n: usize = std::env::var("CLIFFWATCH_BENCH_SIZE_EPOCHS")
         .ok()
@@ -433,6 +504,7 @@ criterion_group!(
     throughput,
     series,
     series_postgres,
+    dashboard,
     database_size
 );
 criterion_main!(benches);

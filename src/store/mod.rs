@@ -324,7 +324,7 @@ impl Store {
     /// exclusively, does the same for every node on the database, so a read-then-write step
     /// sees no other writer, as on SQLite.
     pub async fn begin_write(&self) -> Result<WriteTransaction, StoreError> {
-        self.begin_scoped(None).await
+        self.begin_scoped(LockScope::All).await
     }
 
     /// Opens a write transaction that touches only `site`'s rows (and appends webhook
@@ -333,54 +333,38 @@ impl Store {
     /// serialized across nodes (its epochs analysed in `observed_at` order, as on one node)
     /// while different sites' writes proceed in parallel.
     pub async fn begin_write_site(&self, site: &str) -> Result<WriteTransaction, StoreError> {
-        self.begin_scoped(Some(site)).await
-    }
-
-    async fn begin_scoped(&self, site: Option<&str>) -> Result<WriteTransaction, StoreError> {
-        Ok(match self.backend {
-            Backend::Sqlite => self.write.begin_with("BEGIN IMMEDIATE").await?,
-            Backend::Postgres => {
-                let mut tx = self.write.begin().await?;
-                match site {
-                    None => {
-                        sqlx::query("SELECT pg_advisory_xact_lock($1)")
-                            .bind(WRITE_LOCK_KEY)
-                            .execute(&mut *tx)
-                            .await?;
-                    }
-                    Some(site) => {
-                        // Always the shared key first, then the site's: one order, no deadlock.
-                        sqlx::query("SELECT pg_advisory_xact_lock_shared($1)")
-                            .bind(WRITE_LOCK_KEY)
-                            .execute(&mut *tx)
-                            .await?;
-                        sqlx::query("SELECT pg_advisory_xact_lock($1, hashtext($2))")
-                            .bind(SITE_LOCK_SPACE)
-                            .bind(site)
-                            .execute(&mut *tx)
-                            .await?;
-                    }
-                }
-                tx
-            }
-        })
+        self.begin_scoped(LockScope::Site(site)).await
     }
 
     /// Opens a write transaction for rows a statement claims itself (`FOR UPDATE SKIP LOCKED`:
     /// the webhook deliveries). SQLite: as [`Store::begin_write`]. PostgreSQL: only
     /// [`WRITE_LOCK_KEY`] shared, so claims of several nodes and sites' writes run side by side.
     pub async fn begin_write_rows(&self) -> Result<WriteTransaction, StoreError> {
-        Ok(match self.backend {
-            Backend::Sqlite => self.write.begin_with("BEGIN IMMEDIATE").await?,
-            Backend::Postgres => {
-                let mut tx = self.write.begin().await?;
-                sqlx::query("SELECT pg_advisory_xact_lock_shared($1)")
-                    .bind(WRITE_LOCK_KEY)
-                    .execute(&mut *tx)
-                    .await?;
-                tx
-            }
-        })
+        self.begin_scoped(LockScope::Rows).await
+    }
+
+    async fn begin_scoped(&self, scope: LockScope<'_>) -> Result<WriteTransaction, StoreError> {
+        if self.backend == Backend::Sqlite {
+            return Ok(self.write.begin_with("BEGIN IMMEDIATE").await?);
+        }
+        let mut tx = self.write.begin().await?;
+        let global = match scope {
+            LockScope::All => "SELECT pg_advisory_xact_lock($1)",
+            LockScope::Site(_) | LockScope::Rows => "SELECT pg_advisory_xact_lock_shared($1)",
+        };
+        // Always the global key first, then the site's: one order, no deadlock.
+        sqlx::query(global)
+            .bind(WRITE_LOCK_KEY)
+            .execute(&mut *tx)
+            .await?;
+        if let LockScope::Site(site) = scope {
+            sqlx::query("SELECT pg_advisory_xact_lock($1, hashtext($2))")
+                .bind(SITE_LOCK_SPACE)
+                .bind(site)
+                .execute(&mut *tx)
+                .await?;
+        }
+        Ok(tx)
     }
 
     /// A cluster-wide job (`name`: the overdue check, a watched folder) runs on one node at a
@@ -492,6 +476,17 @@ pub(crate) fn rows_per_insert(cols: usize) -> usize {
 
 /// Above every stored text key under binary text order: the open upper bound of range queries.
 pub const TEXT_MAX: &str = "\u{10FFFF}";
+
+/// What a PostgreSQL write transaction locks (SQLite has one writer and ignores it).
+#[derive(Debug, Clone, Copy)]
+enum LockScope<'a> {
+    /// [`WRITE_LOCK_KEY`] exclusive: the transaction may touch any site and runs alone.
+    All,
+    /// [`WRITE_LOCK_KEY`] shared and the site's key exclusive.
+    Site(&'a str),
+    /// [`WRITE_LOCK_KEY`] shared only: the statements lock their rows themselves.
+    Rows,
+}
 
 /// Formats a time the way the store keeps it: RFC 3339, UTC, microseconds (sorts as text).
 pub fn timestamp(t: DateTime<Utc>) -> String {

@@ -89,14 +89,24 @@ pub struct DueDelivery {
     pub secret: String,
 }
 
-/// The deliveries due at `$1`, oldest first, at most `$2`.
-const DUE: &str =
-    "SELECT d.outbox_id, d.webhook_id, d.attempts, COALESCE(d.payload, o.payload) AS payload, \
+/// The deliveries due at `$1`, oldest first, at most `$2` (a macro, so that [`DUE`] and
+/// [`CLAIM_DUE`] are both constants).
+macro_rules! due_sql {
+    () => {
+        "SELECT d.outbox_id, d.webhook_id, d.attempts, COALESCE(d.payload, o.payload) AS payload, \
      w.url, w.secret \
      FROM webhook_deliveries d JOIN webhook_outbox o ON o.id = d.outbox_id \
      JOIN webhooks w ON w.id = d.webhook_id \
      WHERE d.state = 'pending' AND d.next_attempt_at <= $1 AND w.enabled = TRUE \
-     ORDER BY d.next_attempt_at, o.created_at, d.outbox_id LIMIT $2";
+     ORDER BY d.next_attempt_at, o.created_at, d.outbox_id LIMIT $2"
+    };
+}
+
+/// The deliveries due at `$1`, oldest first, at most `$2`.
+const DUE: &str = due_sql!();
+
+/// [`DUE`], the rows locked for this transaction and skipped by others (PostgreSQL).
+const CLAIM_DUE: &str = concat!(due_sql!(), " FOR UPDATE OF d SKIP LOCKED");
 
 /// At most `limit` pending deliveries due at `now` (store timestamp) to enabled endpoints,
 /// the longest due first.
@@ -125,7 +135,7 @@ pub async fn claim_due(
     limit: i64,
 ) -> Result<Vec<DueDelivery>, StoreError> {
     let due: Vec<DueDelivery> = if db.backend_name() == "PostgreSQL" {
-        sqlx::query_as(&format!("{DUE} FOR UPDATE OF d SKIP LOCKED"))
+        sqlx::query_as(CLAIM_DUE)
             .bind(now)
             .bind(limit)
             .fetch_all(&mut *db)
