@@ -165,6 +165,14 @@ pub struct CapContext<'a> {
     pub web: Option<String>,
 }
 
+/// Appends `<name>value</name>` (value escaped) on its own line, indented `depth` levels.
+fn element(doc: &mut String, depth: usize, name: &str, value: &str) {
+    for _ in 0..depth {
+        doc.push_str("  ");
+    }
+    doc.push_str(&format!("<{name}>{}</{name}>\n", escape(value)));
+}
+
 /// The identifier of message `seq` of an alert.
 pub fn identifier(alert_id: &str, seq: usize) -> String {
     format!("{alert_id}.{seq}")
@@ -275,92 +283,75 @@ pub fn cap_message(
         })
         .collect();
 
-    let mut x = String::with_capacity(4096);
-    let mut el = |name: &str, value: &str| {
-        x.push_str(&format!("<{name}>{}</{name}>\n", escape(value)));
-    };
-    el("identifier", &identifier(alert.id, step.seq));
-    el("sender", ctx.sender);
-    el("sent", &cap_time(step.sent));
-    el("status", ctx.status);
-    el("msgType", step.msg_type.as_str());
-    el("source", "cliffwatch photogrammetric monitoring");
-    el("scope", "Public");
-    if !references.is_empty() {
-        el("references", &references.join(" "));
-    }
-    el("incidents", alert.id);
-    let header = std::mem::take(&mut x);
-
-    let mut info = String::with_capacity(2048);
-    let mut el = |name: &str, value: &str| {
-        info.push_str(&format!("    <{name}>{}</{name}>\n", escape(value)));
-    };
-    el("language", "en-US");
-    el("category", "Geo");
-    el("event", "Rock slope movement");
-    el("responseType", response);
-    el("urgency", urgency);
-    el("severity", severity);
-    el("certainty", certainty);
-    el("effective", &cap_time(step.sent));
-    if step.msg_type != MsgType::Cancel {
-        if let Some(t) = onset(alert, now) {
-            el("onset", &cap_time(t));
-        }
-    }
-    el("senderName", &format!("cliffwatch: {}", ctx.site_name));
-    el("headline", &headline);
-    el("description", &description);
-    el("instruction", &instruction);
-    if let Some(web) = &ctx.web {
-        el("web", web);
-    }
-    let mut parameter = |name: &str, value: &str| {
-        info.push_str(&format!(
-            "    <parameter>\n      <valueName>{}</valueName>\n      <value>{}</value>\n    </parameter>\n",
-            escape(name),
-            escape(value)
-        ));
-    };
-    parameter("cliffwatch:site", alert.site);
-    if let Some(p) = alert.point {
-        parameter("cliffwatch:point", p);
-    }
-    if let Some(g) = alert.group {
-        parameter("cliffwatch:group", g);
-    }
-    parameter("cliffwatch:level", &step.level);
-    parameter("cliffwatch:rule", alert.rule);
-    if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
-        parameter("cliffwatch:value", &format!("{} {unit}", number(v)));
-    }
-    info.push_str("    <area>\n");
-    let area_desc = ctx
-        .area
-        .map_or_else(|| ctx.site_name.to_string(), |a| a.description.clone());
-    info.push_str(&format!(
-        "      <areaDesc>{}</areaDesc>\n",
-        escape(&area_desc)
-    ));
-    if let Some(p) = ctx.area.and_then(SiteArea::cap_polygon) {
-        info.push_str(&format!("      <polygon>{p}</polygon>\n"));
-    }
-    if let Some(c) = ctx.area.and_then(SiteArea::cap_circle) {
-        info.push_str(&format!("      <circle>{c}</circle>\n"));
-    }
-    info.push_str("    </area>\n");
-
-    let mut doc = String::with_capacity(header.len() + info.len() + 200);
+    let mut doc = String::with_capacity(4096);
     doc.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
     doc.push_str("<alert xmlns=\"urn:oasis:names:tc:emergency:cap:1.2\">\n");
-    for line in header.lines() {
-        doc.push_str("  ");
-        doc.push_str(line);
-        doc.push('\n');
+    let d = &mut doc;
+    element(d, 1, "identifier", &identifier(alert.id, step.seq));
+    element(d, 1, "sender", ctx.sender);
+    element(d, 1, "sent", &cap_time(step.sent));
+    element(d, 1, "status", ctx.status);
+    element(d, 1, "msgType", step.msg_type.as_str());
+    element(d, 1, "source", "cliffwatch photogrammetric monitoring");
+    element(d, 1, "scope", "Public");
+    if !references.is_empty() {
+        element(d, 1, "references", &references.join(" "));
     }
-    doc.push_str("  <info>\n");
-    doc.push_str(&info);
+    element(d, 1, "incidents", alert.id);
+    d.push_str("  <info>\n");
+    element(d, 2, "language", "en-US");
+    element(d, 2, "category", "Geo");
+    element(d, 2, "event", "Rock slope movement");
+    element(d, 2, "responseType", response);
+    element(d, 2, "urgency", urgency);
+    element(d, 2, "severity", severity);
+    element(d, 2, "certainty", certainty);
+    element(d, 2, "effective", &cap_time(step.sent));
+    if step.msg_type != MsgType::Cancel {
+        if let Some(t) = onset(alert, now) {
+            element(d, 2, "onset", &cap_time(t));
+        }
+    }
+    element(
+        d,
+        2,
+        "senderName",
+        &format!("cliffwatch: {}", ctx.site_name),
+    );
+    element(d, 2, "headline", &headline);
+    element(d, 2, "description", &description);
+    element(d, 2, "instruction", &instruction);
+    if let Some(web) = &ctx.web {
+        element(d, 2, "web", web);
+    }
+    let mut parameters: Vec<(&str, String)> = vec![("cliffwatch:site", alert.site.into())];
+    if let Some(p) = alert.point {
+        parameters.push(("cliffwatch:point", p.into()));
+    }
+    if let Some(g) = alert.group {
+        parameters.push(("cliffwatch:group", g.into()));
+    }
+    parameters.push(("cliffwatch:level", step.level.clone()));
+    parameters.push(("cliffwatch:rule", alert.rule.into()));
+    if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
+        parameters.push(("cliffwatch:value", format!("{} {unit}", number(v))));
+    }
+    for (name, value) in &parameters {
+        d.push_str("    <parameter>\n");
+        element(d, 3, "valueName", name);
+        element(d, 3, "value", value);
+        d.push_str("    </parameter>\n");
+    }
+    d.push_str("    <area>\n");
+    let area_desc = ctx.area.map_or(ctx.site_name, |a| a.description.as_str());
+    element(d, 3, "areaDesc", area_desc);
+    if let Some(p) = ctx.area.and_then(SiteArea::cap_polygon) {
+        element(d, 3, "polygon", &p);
+    }
+    if let Some(c) = ctx.area.and_then(SiteArea::cap_circle) {
+        element(d, 3, "circle", &c);
+    }
+    d.push_str("    </area>\n");
     doc.push_str("  </info>\n</alert>\n");
     doc
 }
