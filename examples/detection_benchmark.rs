@@ -337,6 +337,55 @@ fn median(v: &mut [f64]) -> f64 {
     }
 }
 
+/// The filtered forecasts' σ against the truth, by true time to failure: rms of error/σ, how
+/// often the truth lies inside the 90 % interval, and below the alarm's bound f + z σ (z of 99 %).
+fn print_calibration(cal: &[(f64, cliffwatch::analysis::FailureForecast)]) {
+    println!("\nFiltered time-to-failure forecasts of the failing series (points and blocks, default settings):\n");
+    println!("| true time to failure | forecasts | rms of error/σ | truth in the 90 % interval | truth ≤ forecast + 2.33 σ |");
+    println!("|---|---|---|---|---|");
+    for (lo, hi) in [
+        (0.0, 48.0),
+        (48.0, 96.0),
+        (96.0, 144.0),
+        (144.0, f64::INFINITY),
+    ] {
+        let rows: Vec<_> = cal.iter().filter(|(h, _)| (lo..hi).contains(h)).collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let n = rows.len() as f64;
+        let rms = (rows
+            .iter()
+            .map(|(h, f)| ((f.time_to_failure_hours - h) / f.sigma_hours).powi(2))
+            .sum::<f64>()
+            / n)
+            .sqrt();
+        let inside = rows
+            .iter()
+            .filter(|(h, f)| {
+                f.lower_hours.is_some_and(|l| l <= *h) && f.upper_hours.is_some_and(|u| *h <= u)
+            })
+            .count() as f64
+            / n;
+        let below = rows
+            .iter()
+            .filter(|(h, f)| *h <= f.time_to_failure_hours + 2.326 * f.sigma_hours)
+            .count() as f64
+            / n;
+        let range = if hi.is_finite() {
+            format!("{lo:.0}–{hi:.0} h")
+        } else {
+            format!("> {lo:.0} h")
+        };
+        println!(
+            "| {range} | {} | {rms:.2} | {:.0} % | {:.1} % |",
+            rows.len(),
+            100.0 * inside,
+            100.0 * below
+        );
+    }
+}
+
 fn main() {
     let n: usize = std::env::args()
         .nth(1)
@@ -371,6 +420,7 @@ fn main() {
     println!("| setting | false watch / warning / alarm per 1000 still subject-epochs | watch delay median / max (missed) | warning delay median / max (missed) | TTF error 96 h before, median abs (h) | TTF error 24 h before, median abs (h) | alarm lead median (min–max) h | alarm 24–120 h before | alarm > 8 days early |");
     println!("|---|---|---|---|---|---|---|---|---|");
     let mut goals = vec![];
+    let mut calibration = vec![];
     for (vi, v) in variants().iter().enumerate() {
         let mut false_counts = [0usize; 3];
         let mut still_epochs = 0usize;
@@ -436,6 +486,21 @@ fn main() {
                             }
                         }
                     }
+                }
+            }
+            // Every filtered forecast before the failure, for the calibration of its σ.
+            if vi == 0 {
+                for a in &p.analyses {
+                    let true_h = (tf - a.observed_at).num_seconds() as f64 / 3600.0;
+                    if true_h <= 0.0 {
+                        continue;
+                    }
+                    let fs = a
+                        .points
+                        .iter()
+                        .filter_map(|pa| pa.filtered_failure)
+                        .chain(a.blocks.iter().filter_map(|b| b.filtered_failure));
+                    calibration.extend(fs.map(|f| (true_h, f)));
                 }
             }
             // The first alarm of the series (any point or the block).
@@ -536,6 +601,7 @@ fn main() {
             ));
         }
     }
+    print_calibration(&calibration);
     println!("\nGoals at the default settings:");
     for g in goals {
         println!("{g}");

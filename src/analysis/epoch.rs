@@ -218,6 +218,11 @@ pub struct FailureConfig {
     /// ([`ForecastMethod::Displacement`]): short enough that the creep before the acceleration
     /// does not pull the failure time late (12 epochs measured best on the detection benchmark).
     pub law_window: Window,
+    /// Epochs whose displacements enter the test for an onset of acceleration
+    /// ([`super::onset`], creep then the law, against a straight line) that must pass before the
+    /// law is fitted ([`ForecastMethod::Displacement`]): long, so the creep before the onset pins
+    /// the line (40 epochs measured best on the detection benchmark; capped by `filter_epochs`).
+    pub acceleration_window: Window,
 }
 
 impl Default for FailureConfig {
@@ -229,6 +234,7 @@ impl Default for FailureConfig {
             min_r2: 0.5,
             method: ForecastMethod::Displacement,
             law_window: Window::Epochs(12),
+            acceleration_window: Window::Epochs(40),
         }
     }
 }
@@ -300,6 +306,7 @@ impl AnalysisConfig {
             self.velocity_window,
             self.failure.window,
             self.failure.law_window,
+            self.failure.acceleration_window,
         ] {
             match w {
                 Window::Epochs(n) if n < 2 => {
@@ -358,6 +365,7 @@ impl AnalysisConfig {
         n(self.velocity_window)
             .max(n(self.failure.window) + self.failure.smoothing_epochs)
             .max(n(self.failure.law_window))
+            .max(n(self.failure.acceleration_window))
             .max(self.filter_epochs)
     }
 }

@@ -196,7 +196,7 @@ fn log_fit(t: &[f64], d: &[f64], w: &[f64], tf: f64) -> Option<(f64, f64, f64)> 
 }
 
 /// Weighted straight line `d = a + B x`: (χ², a, B).
-fn line_fit(x: &[f64], d: &[f64], w: &[f64]) -> Option<(f64, f64, f64)> {
+pub(super) fn line_fit(x: &[f64], d: &[f64], w: &[f64]) -> Option<(f64, f64, f64)> {
     let sw: f64 = w.iter().sum();
     let xm = x.iter().zip(w).map(|(x, w)| w * x).sum::<f64>() / sw;
     let dm = d.iter().zip(w).map(|(d, w)| w * d).sum::<f64>() / sw;
@@ -221,23 +221,44 @@ fn line_fit(x: &[f64], d: &[f64], w: &[f64]) -> Option<(f64, f64, f64)> {
     Some((chi2, a, b))
 }
 
+/// The inverse-velocity law fitted to the displacements, and how much better it fits than a
+/// straight line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LawFit {
+    /// The forecast of the fit.
+    pub forecast: FailureForecast,
+    /// χ² of the straight line minus χ² of the law (≥ 0 up to rounding; dimensionless).
+    pub gain_over_line: f64,
+}
+
 /// Forecast from the displacements themselves (the inverse-velocity law integrated, Fukuzono
-/// 1985; Voight 1988): with `v = B/(t_f − t)` the displacement along the direction of motion is
-/// `d(t) = a − B ln(t_f − t)`. `t_days` ≤ 0 relative to the current epoch (oldest first, the
-/// window of `config.failure`), `d_mm` along the direction of motion with σ `sigma_mm`.
-///
-/// For each trial failure time the model is linear in (a, B), so t_f is found by minimising the
-/// weighted χ² over t_f (a log-spaced scan from 1 hour to 1000 days, then golden-section
-/// refinement). The fit does not differentiate noisy data, so it neither lags nor needs smoothing.
-/// Its σ comes from the χ² profile (Δχ² = 1, scaled by the variance factor when that exceeds 1),
-/// the 90 % interval from Δχ² = 2.71. Refused (None) while the data do not show the law: fewer
-/// than 5 epochs, B not positive, or the law not significantly better than a straight line
-/// (constant velocity; Δχ² < 10.83, 99.9 % with one degree of freedom).
+/// 1985; Voight 1988), refused unless the law fits the window significantly better than a
+/// straight line (constant velocity; Δχ² > 10.83, 99.9 % with one degree of freedom). See
+/// [`fit_law_to_displacements`] for the fit.
 pub fn forecast_from_displacements(
     t_days: &[f64],
     d_mm: &[f64],
     sigma_mm: &[f64],
 ) -> Option<FailureForecast> {
+    fit_law_to_displacements(t_days, d_mm, sigma_mm)
+        .filter(|f| f.gain_over_line > LAW_AGAINST_LINE)
+        .map(|f| f.forecast)
+}
+
+/// The inverse-velocity law integrated and fitted to the displacements: with `v = B/(t_f − t)`
+/// the displacement along the direction of motion is `d(t) = a − B ln(t_f − t)`. `t_days` ≤ 0
+/// relative to the current epoch (oldest first), `d_mm` along the direction of motion with σ
+/// `sigma_mm`.
+///
+/// For each trial failure time the model is linear in (a, B), so t_f is found by minimising the
+/// weighted χ² over t_f (a log-spaced scan from 1 hour to 1000 days, then golden-section
+/// refinement). The fit does not differentiate noisy data, so it neither lags nor needs smoothing.
+/// Its σ comes from the χ² profile (Δχ² = 1, scaled by the variance factor when that exceeds 1),
+/// the 90 % interval from Δχ² = 2.71. None for fewer than 5 epochs, B not positive, a line that
+/// does not advance, or a failure time beyond the scan. Whether the law is shown at all is the
+/// caller's test: [`LawFit::gain_over_line`] here, or the onset of acceleration over a longer
+/// window ([`super::onset`]).
+pub fn fit_law_to_displacements(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) -> Option<LawFit> {
     let mut t = vec![];
     let mut d = vec![];
     let mut w = vec![];
@@ -284,9 +305,6 @@ pub fn forecast_from_displacements(
     if !(slope > 0.0) || !(v_line > 0.0) || tf >= grid[grid.len() - 1] * 0.999 {
         return None;
     }
-    if !(chi2_line - chi2 > LAW_AGAINST_LINE) {
-        return None;
-    }
     let factor = (chi2 / (n - 3) as f64).max(1.0);
     // Profile interval: where χ² rises by Δ·factor on either side of the minimum.
     let bound = |delta: f64, up: bool| -> f64 {
@@ -328,5 +346,8 @@ pub fn forecast_from_displacements(
         lower_hours: Some(hours(i_lo).max(0.0)),
         upper_hours: Some(hours(i_hi)),
     };
-    (out.time_to_failure_hours.is_finite() && out.sigma_hours.is_finite()).then_some(out)
+    (out.time_to_failure_hours.is_finite() && out.sigma_hours.is_finite()).then_some(LawFit {
+        forecast: out,
+        gain_over_line: chi2_line - chi2,
+    })
 }

@@ -33,6 +33,7 @@ pub mod epoch;
 pub mod error;
 pub mod failure;
 pub mod kalman;
+pub mod onset;
 pub mod reference;
 pub mod series;
 pub mod stats;

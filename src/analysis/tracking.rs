@@ -1,7 +1,7 @@
 //! Filtered kinematics of one subject (a point or a block) at the current epoch: the Kalman filter
 //! ([`super::kalman`]) over the subject's displacement series up to the current epoch, and the
-//! inverse-velocity forecast ([`super::failure::forecast_from_velocities`]) over the smoothed
-//! velocities of the failure window.
+//! inverse-velocity forecast once the series shows an onset of acceleration ([`super::onset`],
+//! [`super::failure`]).
 //!
 //! The filter runs again over the last [`AnalysisConfig::filter_epochs`] epochs at every analysis
 //! (no filter state is stored): a recompute or a replay gives bit-identical values, and the
@@ -13,8 +13,9 @@ use nalgebra::{Matrix3, Vector3};
 use super::displacement::FilteredValues;
 use super::epoch::AnalysisConfig;
 use super::epoch::ForecastMethod;
-use super::failure::{forecast_from_displacements, forecast_from_velocities, FailureForecast};
+use super::failure::{fit_law_to_displacements, forecast_from_velocities, FailureForecast};
 use super::kalman::{filter, smooth, KalmanConfig, Measurement};
+use super::onset::accelerating;
 use super::stats::normal_quantile;
 use super::velocity::{window_slice, Sample};
 
@@ -111,9 +112,11 @@ pub fn track(
     })
 }
 
-/// The inverse-velocity forecast over the failure window: by default the law integrated and
-/// fitted to the displacements along `u` ([`forecast_from_displacements`]); with
-/// [`FailureConfig::method`] `smoothed_velocity`, Fukuzono's line through the inverse of the
+/// The inverse-velocity forecast: by default, once the displacements along `u` show an onset of
+/// acceleration over [`super::epoch::FailureConfig::acceleration_window`] ([`accelerating`]), the law
+/// integrated and fitted to the last [`super::epoch::FailureConfig::law_window`] epochs
+/// ([`fit_law_to_displacements`]); with
+/// [`super::epoch::FailureConfig::method`] `smoothed_velocity`, Fukuzono's line through the inverse of the
 /// smoothed velocities ([`forecast_from_velocities`]).
 fn forecast_smoothed(
     meas: &[Measurement],
@@ -132,16 +135,21 @@ fn forecast_smoothed(
         .collect();
     match config.failure.method {
         ForecastMethod::Displacement => {
-            let n = window_slice(&times, config.failure.law_window).len();
-            let win = &meas[meas.len() - n..];
-            let (mut t, mut d, mut s) = (vec![], vec![], vec![]);
-            for m in win {
-                let c = Matrix3::from(m.cov_mm2);
-                t.push(m.t_days);
-                d.push(u.dot(&Vector3::from(m.d_mm)));
-                s.push((u.transpose() * c * u)[(0, 0)].max(0.0).sqrt());
-            }
-            forecast_from_displacements(&t, &d, &s)
+            // The displacements along u of the last n epochs, with their σ.
+            let along = |n: usize| {
+                let mut out = (vec![], vec![], vec![]);
+                for m in &meas[meas.len() - n..] {
+                    let c = Matrix3::from(m.cov_mm2);
+                    out.0.push(m.t_days);
+                    out.1.push(u.dot(&Vector3::from(m.d_mm)));
+                    out.2.push((u.transpose() * c * u)[(0, 0)].max(0.0).sqrt());
+                }
+                out
+            };
+            let (t, d, s) = along(window_slice(&times, config.failure.acceleration_window).len());
+            accelerating(&t, &d, &s)?;
+            let (t, d, s) = along(window_slice(&times, config.failure.law_window).len());
+            fit_law_to_displacements(&t, &d, &s).map(|f| f.forecast)
         }
         ForecastMethod::SmoothedVelocity => {
             let n = window_slice(&times, config.failure.window).len();
