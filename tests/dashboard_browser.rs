@@ -1,7 +1,8 @@
 //! The dashboard in a real browser: headless Chromium driven through ChromeDriver (W3C
 //! WebDriver over HTTP). The point page's plots are drawn by the embedded uPlot from the
 //! server's data (canvases exist, no error), and an alert is acknowledged by typing a name and
-//! clicking the button of the site page (htmx), which the API then reports.
+//! clicking the button of the site page (htmx), which the API then reports. At a phone's width
+//! (360 CSS px) no page scrolls sideways and the face plan's names stay readable.
 //!
 //! Needs `chromium` and `chromedriver` (Debian's `chromium`, `chromium-driver`; `.ci/run`
 //! installs them). Under `CI=true` their absence fails the test; elsewhere it is skipped with a
@@ -262,6 +263,69 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
     if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
         std::fs::write(Path::new(&dir).join("report.pdf"), &pdf).unwrap();
         eprintln!("report: {} bytes, {pages} page objects", pdf.len());
+    }
+    // A phone, 360 CSS px wide: no page scrolls sideways, the plots fit, and the face plan's
+    // names are drawn at a readable size.
+    driver
+        .call(
+            reqwest::Method::POST,
+            "/goog/cdp/execute",
+            json!({"cmd": "Emulation.setDeviceMetricsOverride", "params": {
+                "width": 360, "height": 740, "deviceScaleFactor": 2, "mobile": true}}),
+        )
+        .await;
+    let (_, epochs) = s.get(&format!("/api/v1/sites/{SITE}/epochs")).await;
+    let epoch = epochs["items"][0]["id"].as_i64().expect("an epoch id");
+    for (k, path) in [
+        "/".to_string(),
+        format!("/sites/{SITE}"),
+        format!("/sites/{SITE}/points/{moving}"),
+        format!("/sites/{SITE}/epochs/{epoch}"),
+        format!("/sites/{SITE}/report"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        driver.goto(&s.url(&path)).await;
+        if path.contains("/points/") {
+            driver
+                .wait_for("return document.querySelector('.plots').getAttribute('data-drawn')")
+                .await;
+        }
+        let width = driver
+            .script("return [window.innerWidth, document.documentElement.scrollWidth]")
+            .await;
+        let (inner, scroll) = (width[0].as_f64().unwrap(), width[1].as_f64().unwrap());
+        if inner != 360.0 {
+            let wide = driver
+                .script("var out = []; document.querySelectorAll('body *').forEach(function (e) { var r = e.getBoundingClientRect(); if (r.right > 361 && out.length < 16) out.push(e.tagName + '.' + e.className + ' ' + Math.round(r.width)); }); return out")
+                .await;
+            panic!("{path}: layout viewport {width} wider than 360 px; wide elements: {wide}");
+        }
+        assert!(
+            scroll <= inner,
+            "{path} scrolls sideways at 360 px: {width}"
+        );
+        if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
+            use base64::Engine;
+            let png = driver
+                .call(reqwest::Method::GET, "/screenshot", Value::Null)
+                .await;
+            let bytes = base64::engine::general_purpose::STANDARD
+                .decode(png.as_str().unwrap())
+                .unwrap();
+            std::fs::write(Path::new(&dir).join(format!("phone-{k}.png")), bytes).unwrap();
+        }
+        if path == format!("/sites/{SITE}") {
+            let label = driver
+                .script("var r = document.querySelector('svg.plan text.label').getBoundingClientRect(); return [r.height, document.querySelector('svg.plan').getBoundingClientRect().width]")
+                .await;
+            assert!(
+                label[0].as_f64().unwrap() >= 9.0,
+                "plan label height {label} (CSS px) at 360 px"
+            );
+            assert!(label[1].as_f64().unwrap() >= 300.0, "plan width {label}");
+        }
     }
     driver
         .client

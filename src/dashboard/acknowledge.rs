@@ -45,7 +45,7 @@ pub fn alert_row(a: &Alert, v: &Viewer, time_zone: Option<&str>) -> Markup {
             }
             td { (a.rule) }
             td.num { (num(a.value, 2)) " " (a.unit.as_deref().unwrap_or("")) }
-            td { @if let Some(e) = a.epoch { a href={ "/sites/" (site) "/epochs/" (e) } { (when(a.observed_at.as_deref().unwrap_or(""), time_zone)) } } }
+            td.wide { @if let Some(e) = a.epoch { a href={ "/sites/" (site) "/epochs/" (e) } { (when(a.observed_at.as_deref().unwrap_or(""), time_zone)) } } }
             td.state {
                 (a.state)
                 @if let Some(by) = &a.acknowledged_by { " by " (by) }

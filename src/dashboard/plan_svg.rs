@@ -28,7 +28,8 @@ const W: f64 = 900.0;
 const H: f64 = 520.0;
 const PAD: f64 = 48.0;
 
-/// The plan of `site`'s points; a note instead when fewer than three points span a plane.
+/// The plan of `site`'s points with its legend (a figure; the legend is HTML so it wraps on a
+/// phone); a note instead when fewer than three points span a plane.
 pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
     let xyz: Vec<[f64; 3]> = points.iter().map(|p| p.xyz).collect();
     let Some(plane) = FacePlane::fit(&xyz) else {
@@ -64,49 +65,52 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
     let bar_px = bar_m * scale;
     let bar_mm = bar_m * 1000.0 / exaggeration;
     html! {
-        svg.plan viewBox={ "0 0 " (W) " " (H) } role="img" aria-label="face plan" xmlns="http://www.w3.org/2000/svg" {
-            defs {
-                marker id="arrow" viewBox="0 0 10 10" refX="9" refY="5" markerWidth="6" markerHeight="6" orient="auto-start-reverse" {
-                    path d="M 0 0 L 10 5 L 0 10 z" fill="#333" {}
+        figure.plan {
+            svg.plan viewBox={ "0 0 " (W) " " (H) } role="img" aria-label="face plan" xmlns="http://www.w3.org/2000/svg" {
+                defs {
+                    marker id="arrow" viewBox="0 0 10 10" refX="9" refY="5" markerWidth="6" markerHeight="6" orient="auto-start-reverse" {
+                        path d="M 0 0 L 10 5 L 0 10 z" fill="#333" {}
+                    }
+                }
+                @for (p, q) in points.iter().zip(&uv) {
+                    @let (x, y) = (sx(q[0]), sy(q[1]));
+                    @let class = level_class(p.level.as_deref());
+                    a href={ "/sites/" (seg(site)) "/points/" (seg(&p.name)) } {
+                        @if let Some(d) = p.d_mm {
+                            @let v = plane.project_vector(d);
+                            @let (dx, dy) = (v[0] / 1000.0 * exaggeration * scale, v[1] / 1000.0 * exaggeration * scale);
+                            @if dx.hypot(dy) > 1.5 {
+                                line.vector x1=(fmt(x)) y1=(fmt(y)) x2=(fmt(x + dx)) y2=(fmt(y - dy)) marker-end="url(#arrow)" {}
+                            }
+                        }
+                        @if p.stable {
+                            polygon class={ "pt stable " (class) } points={ (fmt(x)) "," (fmt(y - 8.0)) " " (fmt(x - 7.0)) "," (fmt(y + 5.0)) " " (fmt(x + 7.0)) "," (fmt(y + 5.0)) } {
+                                title { (p.name) " (stable)" }
+                            }
+                        } @else {
+                            circle class={ "pt " (class) } cx=(fmt(x)) cy=(fmt(y)) r="6" {
+                                title { (p.name) }
+                            }
+                        }
+                        text.label x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
+                        @if let Some(d) = p.d_mm {
+                            @let n = plane.out_of_plane(d);
+                            @if n.abs() >= 0.05 {
+                                text.normal x=(fmt(x + 9.0)) y=(fmt(y + 12.0)) { "⊥ " (format!("{n:+.1}")) " mm" }
+                            }
+                        }
+                    }
+                }
+                g.scale {
+                    line x1=(fmt(PAD)) y1=(fmt(H - 14.0)) x2=(fmt(PAD + bar_px)) y2=(fmt(H - 14.0)) {}
+                    text x=(fmt(PAD)) y=(fmt(H - 22.0)) {
+                        (short(bar_m)) " m · " (short(bar_mm)) " mm"
+                    }
                 }
             }
-            @for (p, q) in points.iter().zip(&uv) {
-                @let (x, y) = (sx(q[0]), sy(q[1]));
-                @let class = level_class(p.level.as_deref());
-                a href={ "/sites/" (seg(site)) "/points/" (seg(&p.name)) } {
-                    @if let Some(d) = p.d_mm {
-                        @let v = plane.project_vector(d);
-                        @let (dx, dy) = (v[0] / 1000.0 * exaggeration * scale, v[1] / 1000.0 * exaggeration * scale);
-                        @if dx.hypot(dy) > 1.5 {
-                            line.vector x1=(fmt(x)) y1=(fmt(y)) x2=(fmt(x + dx)) y2=(fmt(y - dy)) marker-end="url(#arrow)" {}
-                        }
-                    }
-                    @if p.stable {
-                        polygon class={ "pt stable " (class) } points={ (fmt(x)) "," (fmt(y - 8.0)) " " (fmt(x - 7.0)) "," (fmt(y + 5.0)) " " (fmt(x + 7.0)) "," (fmt(y + 5.0)) } {
-                            title { (p.name) " (stable)" }
-                        }
-                    } @else {
-                        circle class={ "pt " (class) } cx=(fmt(x)) cy=(fmt(y)) r="6" {
-                            title { (p.name) }
-                        }
-                    }
-                    text.label x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
-                    @if let Some(d) = p.d_mm {
-                        @let n = plane.out_of_plane(d);
-                        @if n.abs() >= 0.05 {
-                            text.normal x=(fmt(x + 9.0)) y=(fmt(y + 12.0)) { "⊥ " (format!("{n:+.1}")) " mm" }
-                        }
-                    }
-                }
-            }
-            g.scale {
-                line x1=(fmt(PAD)) y1=(fmt(H - 14.0)) x2=(fmt(PAD + bar_px)) y2=(fmt(H - 14.0)) {}
-                text x=(fmt(PAD)) y=(fmt(H - 20.0)) {
-                    (short(bar_m)) " m on the face · " (short(bar_mm)) " mm of displacement"
-                }
-                text x=(fmt(W - PAD)) y=(fmt(H - 20.0)) text-anchor="end" {
-                    "vectors × " (short(exaggeration)) " · along the face → · height ↑"
-                }
+            figcaption.legend {
+                "Scale bar: " (short(bar_m)) " m on the face, " (short(bar_mm)) " mm of displacement; vectors × "
+                (short(exaggeration)) ". Along the face →, height ↑; ⊥: displacement out of the face (mm)."
             }
         }
     }

@@ -92,7 +92,7 @@ pub async fn site(
                 p.note { "No open alert." }
             } @else {
                 table.alerts {
-                    thead { tr { th { "level" } th { "subject" } th { "rule" } th { "value" } th { "epoch" } th { "state" } th { "acknowledge" } } }
+                    thead { tr { th { "level" } th { "subject" } th { "rule" } th { "value" } th.wide { "epoch" } th { "state" } th { "acknowledge" } } }
                     tbody { @for a in &active { (alert_row(a, &v, site.time_zone.as_deref())) } }
                 }
             }
@@ -101,7 +101,7 @@ pub async fn site(
             h2 { "Points" }
             table.points {
                 thead { tr {
-                    th { "point" } th { "role" } th { "state" } th { "d (mm) ± σ" } th { "significant" }
+                    th { "point" } th.wide { "role" } th { "state" } th { "d (mm) ± σ" } th.wide { "significant" }
                     th { "velocity (mm/day)" } th { "time to failure (h)" }
                 } }
                 tbody {
@@ -109,10 +109,10 @@ pub async fn site(
                         @let d = latest.get(&p.name);
                         tr {
                             td { a href={ (site_href) "/points/" (seg(&p.name)) } { (p.name) } }
-                            td { (p.role) @if let Some(g) = &p.group { " · " (g) } }
+                            td.wide { (p.role) @if let Some(g) = &p.group { " · " (g) } }
                             td { (level_badge(levels.get(&p.name).map(String::as_str))) }
                             td.num { (with_sigma(d.map(|d| d.d_mm), d.map(|d| d.sigma_mm), 2)) }
-                            td { @if d.is_some_and(|d| d.significant) { "yes" } @else { "no" } }
+                            td.wide { @if d.is_some_and(|d| d.significant) { "yes" } @else { "no" } }
                             td.num { (with_sigma(d.and_then(|d| d.f_velocity_mm_per_day.or(d.velocity_mm_per_day)), d.and_then(|d| d.sigma_f_velocity_mm_per_day), 3)) }
                             td.num { (with_sigma(d.and_then(|d| d.f_time_to_failure_hours), d.and_then(|d| d.sigma_f_time_to_failure_hours), 0)) }
                         }
@@ -123,16 +123,16 @@ pub async fn site(
         section {
             h2 { "Epochs" }
             table.epochs {
-                thead { tr { th { "observed at" } th { "status" } th { "σ0 (mm)" } th { "c ± σ (mm)" } th { "iterations" } th { "dropped" } } }
+                thead { tr { th { "observed at" } th { "status" } th.wide { "σ0 (mm)" } th { "c ± σ (mm)" } th.wide { "iterations" } th.wide { "dropped" } } }
                 tbody {
                     @for (e, dropped) in &epoch_rows {
                         tr {
                             td { a href={ (site_href) "/epochs/" (e.id) } { (when(&e.observed_at, site.time_zone.as_deref())) } }
                             td { (e.status) }
-                            td.num { (num(Some(e.sigma0_mm), 5)) }
+                            td.num.wide { (num(Some(e.sigma0_mm), 5)) }
                             td.num { (with_sigma(e.c_mm, e.c_sigma_mm, 3)) }
-                            td.num { (e.iterations) }
-                            td.num { (dropped.map_or("–".to_string(), |n| n.to_string())) }
+                            td.num.wide { (e.iterations) }
+                            td.num.wide { (dropped.map_or("–".to_string(), |n| n.to_string())) }
                         }
                     }
                 }

@@ -65,7 +65,7 @@
   }
   function draw(el, t, series, events) {
     var opts = {
-      width: Math.max(320, el.clientWidth || 800),
+      width: Math.max(240, el.clientWidth || 800),
       height: 240,
       scales: { x: { time: true } },
       series: [{}].concat(series.map(function (s) {
