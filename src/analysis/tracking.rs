@@ -112,12 +112,11 @@ pub fn track(
     })
 }
 
-/// The inverse-velocity forecast: by default, once the displacements along `u` show an onset of
-/// acceleration over [`super::epoch::FailureConfig::acceleration_window`] ([`accelerating`]), the law
-/// integrated and fitted to the last [`super::epoch::FailureConfig::law_window`] epochs
-/// ([`fit_law_to_displacements`]); with
-/// [`super::epoch::FailureConfig::method`] `smoothed_velocity`, Fukuzono's line through the inverse of the
-/// smoothed velocities ([`forecast_from_velocities`]).
+/// The inverse-velocity forecast. By default, once the displacements along `u` show an onset
+/// of acceleration over `FailureConfig::acceleration_window` ([`accelerating`]), the law
+/// integrated and fitted to the last `FailureConfig::law_window` epochs
+/// ([`fit_law_to_displacements`]); with `FailureConfig::method` `smoothed_velocity`, Fukuzono's
+/// line through the inverse of the smoothed velocities ([`forecast_from_velocities`]).
 fn forecast_smoothed(
     meas: &[Measurement],
     kc: &KalmanConfig,
