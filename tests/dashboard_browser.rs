@@ -125,6 +125,20 @@ impl Driver {
         v[ELEMENT].as_str().expect("element").to_string()
     }
 
+    /// Saves a PNG of the viewport as `name` in `$CLIFFWATCH_SCREENSHOTS`, when that is set.
+    async fn screenshot(&self, name: impl AsRef<Path>) {
+        if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
+            use base64::Engine;
+            let png = self
+                .call(reqwest::Method::GET, "/screenshot", Value::Null)
+                .await;
+            let bytes = base64::engine::general_purpose::STANDARD
+                .decode(png.as_str().unwrap())
+                .unwrap();
+            std::fs::write(Path::new(&dir).join(name), bytes).unwrap();
+        }
+    }
+
     /// Polls `script` until it returns a truthy value (at most 15 s).
     async fn wait_for(&self, script: &str) -> Value {
         let t0 = Instant::now();
@@ -177,16 +191,7 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
         forecast.as_str().unwrap().contains("forecast"),
         "{forecast}"
     );
-    if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
-        use base64::Engine;
-        let png = driver
-            .call(reqwest::Method::GET, "/screenshot", Value::Null)
-            .await;
-        let bytes = base64::engine::general_purpose::STANDARD
-            .decode(png.as_str().unwrap())
-            .unwrap();
-        std::fs::write(Path::new(&dir).join("point.png"), bytes).unwrap();
-    }
+    driver.screenshot("point.png").await;
 
     // The site page: type a name, click acknowledge; htmx swaps the row.
     driver.goto(&s.url(&format!("/sites/{SITE}"))).await;
@@ -228,16 +233,7 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
         .unwrap()
         .iter()
         .any(|a| a["id"] == json!(id) && a["acknowledged_by"] == json!("Aiko")));
-    if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
-        use base64::Engine;
-        let png = driver
-            .call(reqwest::Method::GET, "/screenshot", Value::Null)
-            .await;
-        let bytes = base64::engine::general_purpose::STANDARD
-            .decode(png.as_str().unwrap())
-            .unwrap();
-        std::fs::write(Path::new(&dir).join("site.png"), bytes).unwrap();
-    }
+    driver.screenshot("site.png").await;
     // The campaign report prints to a PDF of A4 pages.
     driver.goto(&s.url(&format!("/sites/{SITE}/report"))).await;
     let pdf = driver
@@ -306,16 +302,7 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
             scroll <= inner,
             "{path} scrolls sideways at 360 px: {width}"
         );
-        if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
-            use base64::Engine;
-            let png = driver
-                .call(reqwest::Method::GET, "/screenshot", Value::Null)
-                .await;
-            let bytes = base64::engine::general_purpose::STANDARD
-                .decode(png.as_str().unwrap())
-                .unwrap();
-            std::fs::write(Path::new(&dir).join(format!("phone-{k}.png")), bytes).unwrap();
-        }
+        driver.screenshot(format!("phone-{k}.png")).await;
         if path == format!("/sites/{SITE}") {
             let label = driver
                 .script("var r = document.querySelector('svg.plan text.label').getBoundingClientRect(); return [r.height, document.querySelector('svg.plan').getBoundingClientRect().width]")
