@@ -7,8 +7,11 @@
 //! [`crate::detect::identify`]); stations without seeds from the orientation the watcher kept from
 //! their previous epoch. The epoch is ingested exactly as an upload
 //! ([`crate::service::ingest::ingest_with_identification`]: the counts below are stored with its report),
-//! and the stations' orientations for the next epoch are resected from its adjusted coordinates. The folder then moves to `<site>/.done/` with `identification.json` (per station:
-//! method, detected, identified, ambiguous, unmatched) or, with `error.txt`, to `<site>/.failed/`;
+//! and the stations' orientations for the next epoch are resected from its adjusted coordinates.
+//! The folder then moves to `<site>/.done/` with `identification.json` (per station: method,
+//! detected, identified, ambiguous, unmatched, where the image is kept and every detection with its
+//! name, which the report keeps too, so the dashboard can draw them over the image) or, with
+//! `error.txt`, to `<site>/.failed/`;
 //! when too few targets can be named, `error.txt` gives the same counts, the likely cause and what
 //! to add. A folder whose content hash (sha256 of its files' names and bytes, the watcher's own
 //! outputs excluded) is in the database ([`crate::store::watch_state`]) is never ingested
@@ -221,10 +224,10 @@ impl StoredOrientation {
 }
 
 /// Moves `folder` into `<site>/<sub>/`, with a numeric suffix when the name is taken.
-fn move_to(folder: &Path, sub: &str) -> std::io::Result<PathBuf> {
+/// Where `folder` would move in `<site>/<sub>/`: its own name, or `<name>.<k>` when that is taken.
+fn free_destination(folder: &Path, sub: &str) -> PathBuf {
     let site_dir = folder.parent().unwrap_or(Path::new("."));
     let dest_dir = site_dir.join(sub);
-    std::fs::create_dir_all(&dest_dir)?;
     let name = folder
         .file_name()
         .unwrap_or_default()
@@ -236,8 +239,31 @@ fn move_to(folder: &Path, sub: &str) -> std::io::Result<PathBuf> {
         dest = dest_dir.join(format!("{name}.{k}"));
         k += 1;
     }
+    dest
+}
+
+/// Moves `folder` to `dest` (a [`free_destination`]), or to the next free name when `dest` was taken
+/// in the meantime.
+fn move_folder(folder: &Path, dest: PathBuf) -> std::io::Result<PathBuf> {
+    let sub = dest
+        .parent()
+        .and_then(Path::file_name)
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let dest = if dest.exists() {
+        free_destination(folder, &sub)
+    } else {
+        dest
+    };
+    if let Some(dir) = dest.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
     std::fs::rename(folder, &dest)?;
     Ok(dest)
+}
+
+fn move_to(folder: &Path, sub: &str) -> std::io::Result<PathBuf> {
+    move_folder(folder, free_destination(folder, sub))
 }
 
 fn find_image(folder: &Path, station: &str) -> Option<PathBuf> {
@@ -251,8 +277,14 @@ fn find_image(folder: &Path, station: &str) -> Option<PathBuf> {
 struct StationData {
     station: String,
     camera: Camera,
+    /// The image's file name in the folder.
+    image_file: String,
+    /// Image size in px.
+    size: (u32, u32),
     /// Detected targets: (col, row) px.
     targets: Vec<(f64, f64)>,
+    /// Diameters of the detected targets in px.
+    diameters: Vec<f64>,
     /// The same in image mm.
     blobs: Vec<[f64; 2]>,
     seeds: Vec<Seed>,
@@ -261,7 +293,8 @@ struct StationData {
 /// A station's named detections: (point, detection index).
 type StationNamed = Vec<(String, usize)>;
 
-/// How a station's targets were named, for the folder's `identification.json` and the log.
+/// How a station's targets were named, for the folder's `identification.json`, the epoch's report
+/// (the dashboard draws `targets` over the image) and the log.
 #[derive(Debug, Clone, serde::Serialize)]
 struct StationCounts {
     station: String,
@@ -270,6 +303,82 @@ struct StationCounts {
     identified: usize,
     ambiguous: usize,
     unmatched: usize,
+    /// The folder after ingestion, relative to the site's directory (`.done/<epoch folder>`).
+    folder: String,
+    /// The image's file name in that folder.
+    image: String,
+    /// Image width in px.
+    width_px: u32,
+    /// Image height in px.
+    height_px: u32,
+    /// Every detected target.
+    targets: Vec<DetectedTarget>,
+}
+
+/// One detected target of a station's image, as the report keeps it.
+#[derive(Debug, Clone, serde::Serialize)]
+struct DetectedTarget {
+    /// Centre column in px (0.01 px).
+    col: f64,
+    /// Centre row in px (0.01 px).
+    row: f64,
+    /// Equivalent diameter in px (0.1 px).
+    diameter_px: f64,
+    /// The point it was named, when identified.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    point: Option<String>,
+    /// `identified`, `ambiguous` or `unmatched`.
+    status: &'static str,
+}
+
+impl StationCounts {
+    /// The counts and targets of station `s` from its named detections and the indices of the
+    /// ambiguous and unmatched ones.
+    fn new(
+        s: &StationData,
+        method: &'static str,
+        named: &StationNamed,
+        ambiguous: &[usize],
+        unmatched: &[usize],
+    ) -> Self {
+        let round = |v: f64, k: f64| (v * k).round() / k;
+        let targets = s
+            .targets
+            .iter()
+            .zip(&s.diameters)
+            .enumerate()
+            .map(|(i, (&(col, row), &d))| {
+                let point = named.iter().find(|(_, b)| *b == i).map(|(p, _)| p.clone());
+                let status = if point.is_some() {
+                    "identified"
+                } else if ambiguous.contains(&i) {
+                    "ambiguous"
+                } else {
+                    "unmatched"
+                };
+                DetectedTarget {
+                    col: round(col, 100.0),
+                    row: round(row, 100.0),
+                    diameter_px: round(d, 10.0),
+                    point,
+                    status,
+                }
+            })
+            .collect();
+        StationCounts {
+            station: s.station.clone(),
+            method,
+            detected: s.blobs.len(),
+            identified: named.len(),
+            ambiguous: ambiguous.len(),
+            unmatched: unmatched.len(),
+            folder: String::new(),
+            image: s.image_file.clone(),
+            width_px: s.size.0,
+            height_px: s.size.1,
+            targets,
+        }
+    }
 }
 
 /// Decodes and searches one station's image (in `spawn_blocking`).
@@ -325,7 +434,14 @@ async fn detect_station(
     Ok(StationData {
         station,
         camera,
+        image_file: path
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned(),
+        size: (det.width, det.height),
         targets: det.targets.iter().map(|t| (t.col, t.row)).collect(),
+        diameters: det.targets.iter().map(|t| t.diameter_px).collect(),
         blobs,
         seeds,
     })
@@ -366,14 +482,13 @@ fn name_targets(
                         .iter()
                         .map(|m| (m.point.clone(), m.blob))
                         .collect();
-                    counts[k] = Some(StationCounts {
-                        station: r.station.clone(),
-                        method: "multi-view from seeds",
-                        detected: r.detected,
-                        identified: r.matched.len(),
-                        ambiguous: r.ambiguous_blobs.len(),
-                        unmatched: r.unmatched_blobs.len(),
-                    });
+                    counts[k] = Some(StationCounts::new(
+                        &stations[k],
+                        "multi-view from seeds",
+                        &names[k],
+                        &r.ambiguous_blobs,
+                        &r.unmatched_blobs,
+                    ));
                 }
             }
             Err(FirstEpochError::TooFewCommonSeeds { .. }) => {
@@ -406,25 +521,26 @@ fn name_targets(
             .iter()
             .map(|m| (m.point.clone(), m.blob))
             .collect();
-        counts[k] = Some(StationCounts {
-            station: s.station.clone(),
+        counts[k] = Some(StationCounts::new(
+            s,
             method,
-            detected: s.blobs.len(),
-            identified: id.matched.len(),
-            ambiguous: id.ambiguous_blobs.len(),
-            unmatched: id.unmatched_blobs.len(),
-        });
+            &names[k],
+            &id.ambiguous_blobs,
+            &id.unmatched_blobs,
+        ));
     }
     Ok((names, counts.into_iter().flatten().collect()))
 }
 
 /// Detects, identifies and ingests one folder (does not move it; writes its `identification.json`).
-/// Returns the ingestion and the orientations found per station (resected from the epoch's adjusted
-/// coordinates).
+/// `done` is where the folder will move, relative to the site's directory (kept in the report so the
+/// dashboard finds the images). Returns the ingestion and the orientations found per station
+/// (resected from the epoch's adjusted coordinates).
 async fn process(
     store: &Store,
     site: &str,
     folder: &Path,
+    done: &str,
     opts: &WatchOptions,
 ) -> Result<(Ingested, BTreeMap<String, ImageOrientation>), WatchError> {
     let site_dir = folder.parent().unwrap_or(Path::new("."));
@@ -450,7 +566,10 @@ async fn process(
     for image in &input.images {
         stations.push(detect_station(folder, image, &input.cameras, opts).await?);
     }
-    let (names, counts) = name_targets(&stations, &known, &previous, opts)?;
+    let (names, mut counts) = name_targets(&stations, &known, &previous, opts)?;
+    for c in &mut counts {
+        c.folder = done.to_string();
+    }
     for c in &counts {
         tracing::info!(
             site,
@@ -532,12 +651,17 @@ pub async fn take_folder(
         tracing::warn!(site, folder = %folder.display(), "already ingested; not again");
         return move_to(folder, ".done");
     }
-    match process(store, site, folder, opts).await {
+    let done = free_destination(folder, ".done");
+    let done_rel = format!(
+        ".done/{}",
+        done.file_name().unwrap_or_default().to_string_lossy()
+    );
+    match process(store, site, folder, &done_rel, opts).await {
         Ok((ing, found)) => {
             save_state(store, site, &hash, ing.epoch, &found)
                 .await
                 .map_err(std::io::Error::other)?;
-            move_to(folder, ".done")
+            move_folder(folder, done)
         }
         Err(e) => {
             tracing::warn!(site, folder = %folder.display(), error = %e, "watched folder failed");

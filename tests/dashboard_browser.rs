@@ -2,18 +2,22 @@
 //! WebDriver over HTTP). The point page's plots are drawn by the embedded uPlot from the
 //! server's data (canvases exist, no error), and an alert is acknowledged by typing a name and
 //! clicking the button of the site page (htmx), which the API then reports. At a phone's width
-//! (360 CSS px) no page scrolls sideways and the face plan's names stay readable.
+//! (360 CSS px) no page scrolls sideways and the face plan's names stay readable. An epoch taken
+//! from the watched directory shows each station's image with the detected targets drawn where
+//! the picture has them.
 //!
 //! Needs `chromium` and `chromedriver` (Debian's `chromium`, `chromium-driver`; `.ci/run`
 //! installs them). Under `CI=true` their absence fails the test; elsewhere it is skipped with a
 //! message.
 
 mod dashboard_support;
+mod watch_support;
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use cliffwatch::simulate::scenes::{long_range, LongRangeParams};
 use dashboard_support::service_support::{free_port, TestServer};
 use dashboard_support::{fill, name, POINTS, SITE};
 use serde_json::{json, Value};
@@ -314,6 +318,115 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
             assert!(label[1].as_f64().unwrap() >= 300.0, "plan width {label}");
         }
     }
+    driver
+        .client
+        .delete(format!("{}/session/{}", driver.base, driver.session))
+        .send()
+        .await
+        .ok();
+    s.stop().await;
+}
+
+/// A watched epoch's page: the preview loads, the SVG of detections lies exactly over it, every
+/// circle sits on a bright target of the picture itself, and the page fits a phone.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn watched_epoch_images_line_up_in_chromium() {
+    let Some(driver) = Driver::start().await else {
+        return;
+    };
+    let watch = tempfile::tempdir().unwrap();
+    let site = watch.path().join("kamo");
+    std::fs::create_dir_all(&site).unwrap();
+    let dir = watch.path().to_path_buf();
+    let s = TestServer::start(move |c| c.watch_dir = Some(dir)).await;
+    let r = s
+        .client
+        .post(s.url("/api/v1/sites"))
+        .json(&json!({"id": "kamo", "name": "Kamo", "model": "orthogonal"}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201);
+    let (epoch, _) = long_range(&LongRangeParams {
+        width_px: 1080,
+        height_px: 720,
+        pixel_size_mm: 0.021,
+        noise_px: 0.0,
+        approx_sigma_m: 0.01,
+        ..LongRangeParams::default()
+    })
+    .unwrap();
+    watch_support::write_epoch(&site, &epoch, "e1", "2026-11-20T09:00:00Z", true, 1);
+    let t0 = Instant::now();
+    let id = loop {
+        let (_, list) = s.get("/api/v1/sites/kamo/epochs").await;
+        if let Some(id) = list["items"][0]["id"].as_i64() {
+            break id;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(180),
+            "no epoch from the watched folder: {:?}",
+            std::fs::read_to_string(site.join(".failed/e1/error.txt"))
+        );
+        tokio::time::sleep(Duration::from_millis(250)).await;
+    };
+    driver
+        .goto(&s.url(&format!("/sites/kamo/epochs/{id}")))
+        .await;
+    let size = driver
+        .wait_for("var i = document.querySelector('.overlay img'); return i && i.complete && i.naturalWidth ? [i.naturalWidth, i.naturalHeight] : null")
+        .await;
+    assert_eq!(size, json!([1080, 720]), "preview loaded at full size");
+    // the SVG covers the picture exactly; every circle's centre on the screen is its pixel's
+    let fit = driver
+        .script(
+            "var f = document.querySelector('.station-image'), img = f.querySelector('img'), svg = f.querySelector('svg');
+             var a = img.getBoundingClientRect(), b = svg.getBoundingClientRect();
+             var c = document.createElement('canvas'); c.width = img.naturalWidth; c.height = img.naturalHeight;
+             var g = c.getContext('2d'); g.drawImage(img, 0, 0);
+             var px = g.getImageData(0, 0, c.width, c.height).data;
+             var level = function (x, y) { return px[4 * (Math.round(y) * c.width + Math.round(x))]; };
+             var off = 0, on = 0, beside = 0, n = 0;
+             f.querySelectorAll('circle.target').forEach(function (e) {
+               var r = e.getBoundingClientRect(), x = e.cx.baseVal.value, y = e.cy.baseVal.value;
+               var sx = a.left + x / img.naturalWidth * a.width, sy = a.top + y / img.naturalHeight * a.height;
+               off = Math.max(off, Math.hypot(r.left + r.width / 2 - sx, r.top + r.height / 2 - sy));
+               on += level(x, y); beside += level(Math.min(x + 12, c.width - 1), y); n++;
+             });
+             return [Math.abs(a.left - b.left) + Math.abs(a.top - b.top) + Math.abs(a.width - b.width) + Math.abs(a.height - b.height), off, on / n, beside / n, n, a.width];",
+        )
+        .await;
+    let v = |k: usize| fit[k].as_f64().unwrap();
+    assert!(v(0) < 1.0, "SVG and picture boxes differ by {} px", v(0));
+    assert!(v(1) < 1.0, "a circle {} CSS px off its pixel", v(1));
+    assert!(v(4) >= 26.0, "{} circles", v(4));
+    assert!(
+        v(2) > v(3) + 40.0,
+        "picture under the circles {} vs beside them {}",
+        v(2),
+        v(3)
+    );
+    assert!(v(5) > 600.0, "picture drawn {} px wide", v(5));
+    driver.screenshot("epoch-images.png").await;
+
+    driver
+        .call(
+            reqwest::Method::POST,
+            "/goog/cdp/execute",
+            json!({"cmd": "Emulation.setDeviceMetricsOverride", "params": {
+                "width": 360, "height": 740, "deviceScaleFactor": 2, "mobile": true}}),
+        )
+        .await;
+    driver
+        .goto(&s.url(&format!("/sites/kamo/epochs/{id}")))
+        .await;
+    let width = driver
+        .script("return [window.innerWidth, document.documentElement.scrollWidth, document.querySelector('.overlay').getBoundingClientRect().width]")
+        .await;
+    assert_eq!(width[0], json!(360), "{width}");
+    assert!(width[1].as_f64().unwrap() <= 360.0, "{width}");
+    assert!(width[2].as_f64().unwrap() >= 300.0, "{width}");
+    driver.screenshot("phone-epoch-images.png").await;
     driver
         .client
         .delete(format!("{}/session/{}", driver.base, driver.session))

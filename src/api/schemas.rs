@@ -204,7 +204,11 @@ pub struct EpochSummary {
     /// Alerts raised by this epoch.
     pub alerts: Vec<Alert>,
     /// Epochs from the watched directory only: per station, how its targets were identified
-    /// (`station`, `method`, and the counts `detected`, `identified`, `ambiguous`, `unmatched`).
+    /// (`station`, `method`, and the counts `detected`, `identified`, `ambiguous`, `unmatched`),
+    /// where its image is kept (`folder` relative to the site's watched directory, `image`,
+    /// `width_px`, `height_px`) and every detected target (`targets`: `col`, `row` and
+    /// `diameter_px` in px, `point` when identified, `status` `identified` | `ambiguous` |
+    /// `unmatched`).
     #[schema(value_type = Option<Vec<Object>>)]
     pub identification: Option<Vec<serde_json::Value>>,
 }

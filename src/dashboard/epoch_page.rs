@@ -1,6 +1,7 @@
 //! `GET /sites/{site}/epochs/{epoch}`: the adjustment report (σ0, the global test, c ± σ,
 //! iterations, datum, dropped observations with their w), for watched epochs how each station's
-//! targets were identified, and the image residuals of each image as a vector plot.
+//! targets were identified with its image and the detections drawn over it
+//! ([`super::epoch_images`]), and the image residuals of each image as a vector plot.
 
 use std::collections::BTreeMap;
 
@@ -10,6 +11,7 @@ use axum::Extension;
 use maud::{html, Markup};
 use serde_json::Value;
 
+use super::epoch_images::{self, station_figure};
 use super::face_plan::nice_floor;
 use super::layout::{num, page, seg, with_sigma};
 use super::local_time::when;
@@ -68,6 +70,13 @@ pub async fn epoch(
         Value::Null => "–".into(),
         other => other.to_string(),
     };
+    let images: Vec<_> = epoch_images::stations(&report)
+        .into_iter()
+        .map(|st| {
+            let there = epoch_images::available(&state, &site.id, &st);
+            (st, there)
+        })
+        .collect();
     let v = viewer(access.as_deref());
     let s = seg(&site.id);
     let body = html! {
@@ -101,6 +110,11 @@ pub async fn epoch(
                              td.num { (st.get(k).map(text).unwrap_or_default()) }
                          } }
                 } }
+            }
+            @if !images.is_empty() {
+                div.station-images {
+                    @for (st, there) in &images { (station_figure(&site.id, item.id, st, *there)) }
+                }
             }
         }
         h2 { "Dropped observations" }

@@ -5,7 +5,8 @@
 //! `/sites/{site}`: face plan, open alerts with acknowledgement, epochs, points) → point
 //! ([`point_page`], `/sites/{site}/points/{point}`: plots of the series with ±2σ bands,
 //! thresholds, alert markers, velocity and inverse velocity) → epoch ([`epoch_page`],
-//! `/sites/{site}/epochs/{epoch}`: the adjustment report and the residuals of each image); the
+//! `/sites/{site}/epochs/{epoch}`: the adjustment report and the residuals of each image, and for
+//! a watched epoch its images with the detected targets drawn over them, [`epoch_images`]); the
 //! campaign report of a period ([`report_page`], `/sites/{site}/report?from=&to=`) prints on A4.
 //!
 //! Plots are drawn in the browser by the vendored uPlot from columnar JSON that
@@ -16,13 +17,15 @@
 //! session's CSRF token ([`acknowledge`]).
 //!
 //! Pure parts (no I/O): [`face_plan`] (the face's plane), [`downsample`] (which epochs a plot
-//! draws), [`plan_svg`], [`time_plot_svg`], [`local_time`] and [`layout`] (markup).
+//! draws), [`image_preview`] (a station image made small), [`plan_svg`], [`time_plot_svg`], [`local_time`] and [`layout`] (markup).
 
 pub mod acknowledge;
 pub mod assets;
 pub mod downsample;
+pub mod epoch_images;
 pub mod epoch_page;
 pub mod face_plan;
+pub mod image_preview;
 pub mod layout;
 pub mod local_time;
 pub mod natural_order;
@@ -52,6 +55,10 @@ pub fn routes() -> Router<AppState> {
         .route("/sites/{site}", get(site_page::site))
         .route("/sites/{site}/points/{point}", get(point_page::point))
         .route("/sites/{site}/epochs/{epoch}", get(epoch_page::epoch))
+        .route(
+            "/sites/{site}/epochs/{epoch}/images/{station}",
+            get(epoch_images::image),
+        )
         .route("/sites/{site}/report", get(report_page::report))
         .route("/dashboard/plot/{site}/{point}", get(plot_data::plot))
         .route("/dashboard/alerts/{id}/ack", post(acknowledge::acknowledge))
@@ -81,6 +88,16 @@ impl PageError {
         PageError {
             status: StatusCode::NOT_FOUND,
             message: message.into(),
+        }
+    }
+
+    /// 500 with `message` (also logged).
+    pub fn internal(message: impl Into<String>) -> Self {
+        let message = message.into();
+        tracing::error!(error = %message, "dashboard");
+        PageError {
+            status: StatusCode::INTERNAL_SERVER_ERROR,
+            message,
         }
     }
 }

@@ -1,0 +1,152 @@
+//! A downscaled, contrast-stretched JPEG of a station's image for the epoch page (pure: bytes in,
+//! bytes out). The image is averaged over k × k pixel boxes, k the smallest integer that brings the
+//! longer side to at most `max_side` px, and its grey levels are stretched linearly from the 0.5 %
+//! quantile to the brightest level (targets cover far less than 0.1 % of a frame, so any lower
+//! upper quantile would be background), so a dark telephoto frame stays readable.
+
+use image::codecs::jpeg::JpegEncoder;
+use image::ExtendedColorType;
+
+use crate::detect::decode::{decode_with_limit, GreyImage};
+use crate::detect::DetectError;
+
+/// Longest side of a preview in px.
+pub const PREVIEW_MAX_SIDE: u32 = 1280;
+
+/// Largest image a preview is made of, in pixels (the detector's own limit).
+const MAX_PIXELS: u64 = crate::detect::decode::DEFAULT_MAX_PIXELS;
+
+/// A preview: JPEG bytes, its size in px and the box size k (1 preview px = k image px).
+#[derive(Debug, Clone)]
+pub struct Preview {
+    /// JPEG bytes (grey, quality 85).
+    pub jpeg: Vec<u8>,
+    /// Width in px.
+    pub width: u32,
+    /// Height in px.
+    pub height: u32,
+    /// Image px per preview px.
+    pub factor: u32,
+}
+
+/// Why no preview could be made.
+#[derive(Debug, thiserror::Error)]
+pub enum PreviewError {
+    /// The bytes are not an image the detector reads.
+    #[error("the image cannot be decoded: {0}")]
+    Decode(#[from] DetectError),
+    /// JPEG encoding failed.
+    #[error("the preview cannot be encoded: {0}")]
+    Encode(String),
+}
+
+/// The preview of JPEG/PNG/TIFF `bytes` (8- or 16-bit, grey or colour), longer side ≤ `max_side` px.
+pub fn preview(bytes: &[u8], max_side: u32) -> Result<Preview, PreviewError> {
+    let img = decode_with_limit(bytes, MAX_PIXELS)?;
+    let (small, width, height, factor) = box_downscale(&img, max_side.max(1));
+    let (lo, hi) = quantiles(&small, 0.005, 1.0);
+    let span = (hi - lo).max(1.0);
+    let grey: Vec<u8> = small
+        .iter()
+        .map(|&v| (((v - lo) / span) * 255.0).clamp(0.0, 255.0).round() as u8)
+        .collect();
+    let mut jpeg = Vec::new();
+    JpegEncoder::new_with_quality(&mut jpeg, 85)
+        .encode(&grey, width, height, ExtendedColorType::L8)
+        .map_err(|e| PreviewError::Encode(e.to_string()))?;
+    Ok(Preview {
+        jpeg,
+        width,
+        height,
+        factor,
+    })
+}
+
+/// Box-averages `img` by the smallest integer k with max(w, h) / k ≤ `max_side` (the last partial
+/// box of a row or column averages what it holds). Returns the levels, width, height and k.
+fn box_downscale(img: &GreyImage, max_side: u32) -> (Vec<f64>, u32, u32, u32) {
+    let (w, h) = (img.width(), img.height());
+    let k = w.max(h).div_ceil(max_side).max(1);
+    let (sw, sh) = (w.div_ceil(k), h.div_ceil(k));
+    let mut sum = vec![0.0f64; (sw * sh) as usize];
+    let mut count = vec![0u32; (sw * sh) as usize];
+    let data = img.data();
+    for row in 0..h {
+        let base = (row / k * sw) as usize;
+        let line = &data[(row * w) as usize..((row + 1) * w) as usize];
+        for (col, &v) in line.iter().enumerate() {
+            let i = base + col / k as usize;
+            sum[i] += v as f64;
+            count[i] += 1;
+        }
+    }
+    let levels = sum
+        .iter()
+        .zip(&count)
+        .map(|(s, &n)| s / n.max(1) as f64)
+        .collect();
+    (levels, sw, sh, k)
+}
+
+/// The `lo` and `hi` quantiles (fractions) of `v`.
+fn quantiles(v: &[f64], lo: f64, hi: f64) -> (f64, f64) {
+    if v.is_empty() {
+        return (0.0, 1.0);
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let at = |q: f64| s[((s.len() - 1) as f64 * q).round() as usize];
+    (at(lo), at(hi))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
+
+    /// A 2160 × 1440 frame with one bright target: the preview is 1080 × 720 (k = 2), a JPEG, and
+    /// the target's box is the brightest part of it, where the image has it.
+    #[test]
+    fn preview_keeps_the_target_where_it_is() {
+        let mut spec = ImageSpec::new(2160, 1440, 8);
+        spec.targets = vec![TargetTruth {
+            col: 1500.0,
+            row: 300.0,
+            semi_major_px: 6.0,
+            semi_minor_px: 6.0,
+            angle_rad: 0.0,
+            contrast: 120.0,
+        }];
+        let img = render(&spec, 7).unwrap().image;
+        let p = preview(&encode_png(&img).unwrap(), PREVIEW_MAX_SIDE).unwrap();
+        assert_eq!((p.width, p.height, p.factor), (1080, 720, 2));
+        assert_eq!(&p.jpeg[..2], &[0xFF, 0xD8], "JPEG start of image");
+        let back = image::load_from_memory(&p.jpeg).unwrap().to_luma8();
+        assert_eq!(back.dimensions(), (1080, 720));
+        // the centroid of the bright preview pixels is the target's centre halved
+        let (mut n, mut sx, mut sy) = (0.0, 0.0, 0.0);
+        for (x, y, px) in back.enumerate_pixels() {
+            if px.0[0] > 200 {
+                (n, sx, sy) = (n + 1.0, sx + x as f64, sy + y as f64);
+            }
+        }
+        assert!((4.0..=60.0).contains(&n), "{n} bright preview px");
+        let (dx, dy) = (sx / n - 749.75, sy / n - 149.75);
+        assert!(
+            dx.hypot(dy) <= 0.5,
+            "bright preview px centred at ({dx}, {dy}) off"
+        );
+    }
+
+    /// Small images are not enlarged; garbage is an error, not a panic.
+    #[test]
+    fn small_images_stay_and_garbage_is_refused() {
+        let img = render(&ImageSpec::new(300, 200, 8), 1).unwrap().image;
+        let p = preview(&encode_png(&img).unwrap(), PREVIEW_MAX_SIDE).unwrap();
+        assert_eq!((p.width, p.height, p.factor), (300, 200, 1));
+        assert!(matches!(
+            preview(b"not an image", PREVIEW_MAX_SIDE),
+            Err(PreviewError::Decode(_))
+        ));
+    }
+}
