@@ -1,7 +1,8 @@
 //! The dashboard in a real browser: headless Chromium driven through ChromeDriver (W3C
 //! WebDriver over HTTP). The point page's plots are drawn by the embedded uPlot from the
 //! server's data (canvases exist, no error), and an alert is acknowledged by typing a name and
-//! clicking the button of the site page (htmx), which the API then reports. At a phone's width
+//! clicking the button of the site page (htmx), which the API then reports; the alert filter
+//! swaps the alert section to the acknowledged ones. At a phone's width
 //! (360 CSS px) no page scrolls sideways and the face plan's names stay readable. An epoch taken
 //! from the watched directory shows each station's image with the detected targets drawn where
 //! the picture has them.
@@ -238,6 +239,27 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
         .iter()
         .any(|a| a["id"] == json!(id) && a["acknowledged_by"] == json!("Aiko")));
     driver.screenshot("site.png").await;
+    // The alert filter: choosing a state swaps the alert section (htmx) and the address keeps it.
+    driver
+        .script("var s = document.querySelector('form.filters select[name=state]'); s.value = 'acknowledged'; s.dispatchEvent(new Event('change', {bubbles: true})); return true")
+        .await;
+    let rows = driver
+        .wait_for("return location.search.indexOf('state=acknowledged') >= 0 && document.querySelector('#alerts h2').textContent == 'Acknowledged alerts' ? Array.from(document.querySelectorAll('#alerts tr[id^=alert-]')).map(function (r) { return r.id; }) : null")
+        .await;
+    let want: Vec<Value> = acked["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| json!(format!("alert-{}", a["id"].as_str().unwrap())))
+        .collect();
+    assert_eq!(rows, json!(want), "acknowledged alerts after the filter");
+    assert_eq!(
+        driver
+            .script("return document.querySelectorAll('section#alerts').length + document.querySelectorAll('form.filters').length")
+            .await,
+        json!(2),
+        "the section was swapped, not nested"
+    );
     // The campaign report prints to a PDF of A4 pages.
     driver.goto(&s.url(&format!("/sites/{SITE}/report"))).await;
     let pdf = driver

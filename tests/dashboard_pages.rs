@@ -71,6 +71,65 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
     assert!(epoch_links.len() >= 8, "{epoch_links:?}");
     assert!(site.contains("hx-post=\"/dashboard/alerts/"), "ack forms");
 
+    // The alert filter: the rows shown are the API's alerts of that level and state.
+    let (_, api_alerts) = s
+        .get(&format!("/api/v1/alerts?site={SITE}&limit=500"))
+        .await;
+    let api_alerts = api_alerts["items"].as_array().unwrap().clone();
+    let rank = |l: &str| ["watch", "warning", "alarm"].iter().position(|k| *k == l);
+    for (query, want) in [
+        (
+            "",
+            Box::new(|a: &Value| a["state"] != "resolved") as Box<dyn Fn(&Value) -> bool>,
+        ),
+        (
+            "?level=warning",
+            Box::new(|a: &Value| {
+                a["state"] != "resolved" && rank(a["level"].as_str().unwrap()) >= rank("warning")
+            }),
+        ),
+        ("?state=all&level=watch", Box::new(|_: &Value| true)),
+        ("?state=all&level=alarm", Box::new(|_: &Value| false)),
+        (
+            "?state=resolved",
+            Box::new(|a: &Value| a["state"] == "resolved"),
+        ),
+        (
+            &*format!("?state=all&subject={}", name(POINTS - 1).to_lowercase()),
+            Box::new(|a: &Value| a["point"] == json!(name(POINTS - 1))),
+        ),
+    ] {
+        let (st, page) = html(&s, &format!("/sites/{SITE}{query}")).await;
+        assert_eq!(st, 200, "{query}: {page}");
+        let mut shown: Vec<String> = page
+            .split("<tr id=\"alert-")
+            .skip(1)
+            .map(|r| r.split('"').next().unwrap().to_string())
+            .collect();
+        let mut expected: Vec<String> = api_alerts
+            .iter()
+            .filter(|a| want(a))
+            .map(|a| a["id"].as_str().unwrap().to_string())
+            .collect();
+        shown.sort();
+        expected.sort();
+        assert_eq!(shown, expected, "alerts shown for '{query}'");
+    }
+    // the fill raises warnings and no alarm, so the alarm filter must empty the table
+    assert!(
+        api_alerts.iter().any(|a| a["level"] == "warning")
+            && !api_alerts.iter().any(|a| a["level"] == "alarm"),
+        "{api_alerts:?}"
+    );
+    for (query, named) in [
+        ("?level=severe", "level 'severe'"),
+        ("?state=closed", "state 'closed'"),
+    ] {
+        let (st, page) = html(&s, &format!("/sites/{SITE}{query}")).await;
+        assert_eq!(st, 400, "{query}");
+        assert!(page.contains(named), "{page}");
+    }
+
     // Point: the plots' data source and the CSV of the same series.
     let moving = name(POINTS - 1);
     let (st, point) = html(&s, &format!("/sites/{SITE}/points/{moving}")).await;

@@ -20,6 +20,7 @@
 //! draws), [`image_preview`] (a station image made small), [`plan_svg`], [`time_plot_svg`], [`local_time`] and [`layout`] (markup).
 
 pub mod acknowledge;
+pub mod alert_filter;
 pub mod assets;
 pub mod downsample;
 pub mod epoch_images;

@@ -1,15 +1,18 @@
-//! `GET /sites/{site}`: the face plan, the open alerts with acknowledgement, the epochs (time,
-//! σ0, c ± σ, dropped observations) and a table of the points (latest displacement ± σ,
-//! significance, velocity, time to failure).
+//! `GET /sites/{site}`: the face plan, the alerts with acknowledgement (open ones by default;
+//! filtered by level, state and subject, [`super::alert_filter`]), the epochs (time, σ0, c ± σ,
+//! dropped observations) and a table of the points (latest displacement ± σ, significance,
+//! velocity, time to failure).
 
 use std::collections::HashMap;
 
-use axum::extract::{Path, State};
+use axum::extract::rejection::QueryRejection;
+use axum::extract::{Path, Query, State};
 use axum::response::Html;
 use axum::Extension;
 use maud::html;
 
 use super::acknowledge::alert_row;
+use super::alert_filter::{AlertFilter, AlertQuery};
 use super::layout::{level_badge, level_rank, num, page, seg, with_sigma};
 use super::local_time::when;
 use super::plan_svg::{face_plan, PlanPoint};
@@ -21,12 +24,18 @@ use crate::store::{alerts, displacements, epochs, points, sites};
 /// Epochs listed on the site page (newest first).
 const EPOCHS_SHOWN: i64 = 30;
 
+/// Alerts read for the alert table (newest first), before the filter.
+const ALERTS_READ: i64 = 500;
+
 /// The site page.
 pub async fn site(
     State(state): State<AppState>,
     Path(site_id): Path<String>,
+    query: Result<Query<AlertQuery>, QueryRejection>,
     access: Option<Extension<Access>>,
 ) -> Result<Html<String>, PageError> {
+    let query = query.map_err(|e| PageError::bad_request(e.body_text()))?;
+    let filter = AlertFilter::parse(&query.0).map_err(PageError::bad_request)?;
     let db = state.store.reader();
     let Some(site) = sites::get(db, &site_id).await? else {
         return Err(PageError::not_found(format!("no site '{site_id}'")));
@@ -60,11 +69,12 @@ pub async fn site(
             stable: roles.get(c.point.as_str()) == Some(&"stable"),
         })
         .collect();
-    let active: Vec<alerts::Alert> = alerts::list(db, Some(&site.id), None, None, 500)
-        .await?
+    let read = alerts::list(db, Some(&site.id), filter.store_state(), None, ALERTS_READ).await?;
+    let truncated = read.len() as i64 == ALERTS_READ;
+    let shown: Vec<alerts::Alert> = read
         .into_iter()
         .map(|(_, a)| a)
-        .filter(|a| a.state != "resolved")
+        .filter(|a| filter.matches(a))
         .collect();
     let mut epoch_rows = vec![];
     for (_, e) in epochs::list(db, &site.id, None, EPOCHS_SHOWN).await? {
@@ -86,15 +96,17 @@ pub async fn site(
             h2 { "Face plan" }
             (face_plan(&site.id, &plan))
         }
-        section {
-            h2 { "Open alerts" }
-            @if active.is_empty() {
-                p.note { "No open alert." }
+        section #alerts {
+            h2 { (filter.heading()) }
+            (filter.form(&site_href))
+            @if shown.is_empty() {
+                p.note { "No alert matches." }
             } @else {
                 table.alerts {
                     thead { tr { th { "level" } th { "subject" } th { "rule" } th { "value" } th.wide { "epoch" } th { "state" } th { "acknowledge" } } }
-                    tbody { @for a in &active { (alert_row(a, &v, site.time_zone.as_deref())) } }
+                    tbody { @for a in &shown { (alert_row(a, &v, site.time_zone.as_deref())) } }
                 }
+                @if truncated { p.note { "Only the newest " (ALERTS_READ) " alerts of this state were searched." } }
             }
         }
         section {

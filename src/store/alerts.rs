@@ -9,7 +9,7 @@ use chrono::{DateTime, Utc};
 use super::{display_timestamp, now, timestamp, StoreError};
 
 /// A stored alert.
-#[derive(Debug, Clone, Serialize, FromRow, ToSchema)]
+#[derive(Debug, Clone, Default, Serialize, FromRow, ToSchema)]
 pub struct Alert {
     /// Identifier (UUID).
     pub id: String,

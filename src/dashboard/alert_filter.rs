@@ -1,0 +1,222 @@
+//! The alert filter of the site page: `?level=` (at least `watch` | `warning` | `alarm`),
+//! `?state=` (`active`, the default: open or acknowledged; `open`; `acknowledged`; `resolved`;
+//! `all`) and `?subject=` (part of a point's or group's name, any case). The form works as a plain
+//! GET without script; with htmx a change swaps only the alert section and pushes the URL.
+
+use maud::{html, Markup};
+use serde::Deserialize;
+
+use super::layout::level_rank;
+use crate::store::alerts::Alert;
+
+/// The query of the site page, as sent.
+#[derive(Debug, Default, Clone, Deserialize)]
+pub struct AlertQuery {
+    /// Lowest level shown.
+    #[serde(default)]
+    pub level: Option<String>,
+    /// Which states are shown.
+    #[serde(default)]
+    pub state: Option<String>,
+    /// Part of the subject's name.
+    #[serde(default)]
+    pub subject: Option<String>,
+}
+
+/// States a filter may ask for; `active` is open or acknowledged.
+const STATES: [&str; 5] = ["active", "open", "acknowledged", "resolved", "all"];
+/// Levels a filter may ask for (at least this one).
+const LEVELS: [&str; 3] = ["watch", "warning", "alarm"];
+
+/// A checked filter.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AlertFilter {
+    /// Lowest level shown (`None`: every level).
+    pub level: Option<&'static str>,
+    /// `active`, `open`, `acknowledged`, `resolved` or `all`.
+    pub state: &'static str,
+    /// Lower-case part of the subject's name (empty: any).
+    pub subject: String,
+}
+
+impl AlertFilter {
+    /// Checks the query; the message names the parameter at fault and what it may be.
+    pub fn parse(q: &AlertQuery) -> Result<AlertFilter, String> {
+        let level = match q.level.as_deref().filter(|s| !s.is_empty()) {
+            None => None,
+            Some(l) => Some(
+                *LEVELS
+                    .iter()
+                    .find(|k| **k == l)
+                    .ok_or_else(|| format!("level '{l}' is not one of watch, warning, alarm"))?,
+            ),
+        };
+        let state = match q.state.as_deref().filter(|s| !s.is_empty()) {
+            None => "active",
+            Some(s) => STATES.iter().find(|k| **k == s).ok_or_else(|| {
+                format!("state '{s}' is not one of active, open, acknowledged, resolved, all")
+            })?,
+        };
+        let subject = q.subject.as_deref().unwrap_or("").trim().to_lowercase();
+        if subject.chars().count() > 200 {
+            return Err("subject is longer than 200 characters".into());
+        }
+        Ok(AlertFilter {
+            level,
+            state,
+            subject,
+        })
+    }
+
+    /// The state the store can select by (`None`: all states, filtered here).
+    pub fn store_state(&self) -> Option<&'static str> {
+        match self.state {
+            "open" | "acknowledged" | "resolved" => Some(self.state),
+            _ => None,
+        }
+    }
+
+    /// Whether alert `a` is shown.
+    pub fn matches(&self, a: &Alert) -> bool {
+        let state = match self.state {
+            "active" => a.state != "resolved",
+            "all" => true,
+            s => a.state == s,
+        };
+        let level = self
+            .level
+            .is_none_or(|l| level_rank(&a.level) >= level_rank(l));
+        let subject = self.subject.is_empty()
+            || [a.point.as_deref(), a.group.as_deref()]
+                .into_iter()
+                .flatten()
+                .any(|n| n.to_lowercase().contains(&self.subject));
+        state && level && subject
+    }
+
+    /// The section's heading.
+    pub fn heading(&self) -> &'static str {
+        match self.state {
+            "active" => "Open alerts",
+            "open" => "Alerts not acknowledged",
+            "acknowledged" => "Acknowledged alerts",
+            "resolved" => "Resolved alerts",
+            _ => "Alerts",
+        }
+    }
+
+    /// The filter form: a GET to `action` (the site page); htmx swaps `#alerts` on any change.
+    pub fn form(&self, action: &str) -> Markup {
+        html! {
+            form.filters method="get" action=(action) hx-get=(action) hx-select="#alerts"
+                hx-target="#alerts" hx-swap="outerHTML" hx-push-url="true" hx-trigger="change, submit" {
+                label { "level ≥ "
+                    select name="level" {
+                        option value="" selected[self.level.is_none()] { "any" }
+                        @for l in LEVELS { option value=(l) selected[self.level == Some(l)] { (l) } }
+                    }
+                }
+                " "
+                label { "state "
+                    select name="state" {
+                        @for s in STATES { option value=(s) selected[self.state == s] { (s) } }
+                    }
+                }
+                " "
+                label { "subject "
+                    input type="search" name="subject" value=(self.subject) maxlength="200" placeholder="point or group";
+                }
+                " "
+                button type="submit" { "filter" }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn q(level: Option<&str>, state: Option<&str>, subject: Option<&str>) -> AlertQuery {
+        AlertQuery {
+            level: level.map(str::to_string),
+            state: state.map(str::to_string),
+            subject: subject.map(str::to_string),
+        }
+    }
+
+    fn alert(level: &str, state: &str, point: Option<&str>, group: Option<&str>) -> Alert {
+        Alert {
+            level: level.into(),
+            state: state.into(),
+            point: point.map(str::to_string),
+            group: group.map(str::to_string),
+            ..Alert::default()
+        }
+    }
+
+    /// Unknown values are refused with the parameter named; empty ones mean "any".
+    #[test]
+    fn bad_parameters_are_named() {
+        let e = AlertFilter::parse(&q(Some("severe"), None, None)).unwrap_err();
+        assert!(e.starts_with("level 'severe'"), "{e}");
+        let e = AlertFilter::parse(&q(None, Some("closed"), None)).unwrap_err();
+        assert!(e.starts_with("state 'closed'"), "{e}");
+        let long = "x".repeat(201);
+        assert!(AlertFilter::parse(&q(None, None, Some(&long))).is_err());
+        let f = AlertFilter::parse(&q(Some(""), Some(""), Some("  "))).unwrap();
+        assert_eq!(
+            f,
+            AlertFilter {
+                level: None,
+                state: "active",
+                subject: String::new()
+            }
+        );
+    }
+
+    /// Level is "at least", state `active` leaves resolved ones out, subject matches point or
+    /// group names in any case.
+    #[test]
+    fn filters_select_what_they_say() {
+        let alerts = [
+            alert("watch", "open", Some("P7"), None),
+            alert("warning", "acknowledged", Some("P12"), None),
+            alert("alarm", "resolved", None, Some("Block-B1")),
+            alert("alarm", "open", Some("P1"), None),
+        ];
+        let shown = |l, s, sub| {
+            let f = AlertFilter::parse(&q(l, s, sub)).unwrap();
+            alerts
+                .iter()
+                .enumerate()
+                .filter(|(_, a)| f.matches(a))
+                .map(|(k, _)| k)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(shown(None, None, None), vec![0, 1, 3]);
+        assert_eq!(shown(Some("warning"), None, None), vec![1, 3]);
+        assert_eq!(shown(Some("alarm"), Some("all"), None), vec![2, 3]);
+        assert_eq!(shown(None, Some("resolved"), None), vec![2]);
+        assert_eq!(shown(None, Some("open"), None), vec![0, 3]);
+        assert_eq!(shown(None, Some("all"), Some("b1")), vec![2]);
+        assert_eq!(shown(None, None, Some("p1")), vec![1, 3]);
+    }
+
+    /// The form keeps the chosen values and swaps only the alert section.
+    #[test]
+    fn form_keeps_the_choice() {
+        let f = AlertFilter::parse(&q(Some("warning"), Some("resolved"), Some("<b>"))).unwrap();
+        let html = f.form("/sites/s").into_string();
+        assert!(
+            html.contains("<option value=\"warning\" selected>"),
+            "{html}"
+        );
+        assert!(
+            html.contains("<option value=\"resolved\" selected>"),
+            "{html}"
+        );
+        assert!(html.contains("value=\"&lt;b&gt;\""), "{html}");
+        assert!(html.contains("hx-select=\"#alerts\""), "{html}");
+    }
+}
