@@ -245,6 +245,48 @@ pub fn forecast_from_displacements(
         .map(|f| f.forecast)
 }
 
+/// First failure time the scans consider, in days after the last sample (1 hour).
+const SCAN_START_DAYS: f64 = 1.0 / 24.0;
+/// Last failure time the scans consider, in days after the last sample.
+const SCAN_END_DAYS: f64 = 1000.0;
+
+/// The failure time, in days after the last sample, that minimises `chi2`: a scan of `nodes + 1`
+/// log-spaced values from [`SCAN_START_DAYS`] to [`SCAN_END_DAYS`], then `iterations`
+/// golden-section steps in ln t_f between the best node's neighbours. None when no node gives a
+/// finite χ². Shared by the law's fit and the onset test ([`super::onset`]).
+pub(super) fn min_over_failure_time(
+    nodes: usize,
+    iterations: usize,
+    mut chi2: impl FnMut(f64) -> f64,
+) -> Option<f64> {
+    let ratio = SCAN_END_DAYS / SCAN_START_DAYS;
+    let grid: Vec<f64> = (0..=nodes)
+        .map(|k| SCAN_START_DAYS * ratio.powf(k as f64 / nodes as f64))
+        .collect();
+    let (kbest, best) = grid
+        .iter()
+        .enumerate()
+        .map(|(k, &g)| (k, chi2(g)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    if !best.is_finite() {
+        return None;
+    }
+    let (mut lo, mut hi) = (
+        grid[kbest.saturating_sub(1)].ln(),
+        grid[(kbest + 1).min(nodes)].ln(),
+    );
+    let g = 0.618_033_988_75;
+    for _ in 0..iterations {
+        let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+        if chi2(m1.exp()) < chi2(m2.exp()) {
+            hi = m2;
+        } else {
+            lo = m1;
+        }
+    }
+    Some((0.5 * (lo + hi)).exp())
+}
+
 /// The inverse-velocity law integrated and fitted to the displacements: with `v = B/(t_f − t)`
 /// the displacement along the direction of motion is `d(t) = a − B ln(t_f − t)`. `t_days` ≤ 0
 /// relative to the current epoch (oldest first), `d_mm` along the direction of motion with σ
@@ -275,34 +317,11 @@ pub fn fit_law_to_displacements(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) 
     }
     let t_last = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let (chi2_line, _, v_line) = line_fit(&t, &d, &w)?;
-    // Scan t_f (days after the last sample) log-spaced from 1 h to 1000 days.
     let chi = |tf: f64| log_fit(&t, &d, &w, t_last + tf).map_or(f64::INFINITY, |f| f.0);
-    let grid: Vec<f64> = (0..=120)
-        .map(|k| (1.0f64 / 24.0) * (24_000.0f64).powf(k as f64 / 120.0))
-        .collect();
-    let (kbest, _) = grid
-        .iter()
-        .enumerate()
-        .map(|(k, &g)| (k, chi(g)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?;
-    // Golden-section refinement between the neighbours (in log t_f).
-    let (mut lo, mut hi) = (
-        grid[kbest.saturating_sub(1)].ln(),
-        grid[(kbest + 1).min(grid.len() - 1)].ln(),
-    );
-    let g = 0.618_033_988_75;
-    for _ in 0..60 {
-        let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        if chi(m1.exp()) < chi(m2.exp()) {
-            hi = m2;
-        } else {
-            lo = m1;
-        }
-    }
-    let tf = (0.5 * (lo + hi)).exp();
+    let tf = min_over_failure_time(120, 60, chi)?;
     let (chi2, _, slope) = log_fit(&t, &d, &w, t_last + tf)?;
     // d = a − B ln(t_f − t) is fitted as d = a + B x with x = −ln(t_f − t): B = slope > 0.
-    if !(slope > 0.0) || !(v_line > 0.0) || tf >= grid[grid.len() - 1] * 0.999 {
+    if !(slope > 0.0) || !(v_line > 0.0) || tf >= SCAN_END_DAYS * 0.999 {
         return None;
     }
     let factor = (chi2 / (n - 3) as f64).max(1.0);

@@ -20,7 +20,7 @@
 //! [`ONSET_AGAINST_LINE`]. Over a long window the creep before the onset pins the line, so the
 //! acceleration shows days earlier than in a short window fitted with the law alone.
 
-use super::failure::line_fit;
+use super::failure::{line_fit, min_over_failure_time};
 
 /// Δχ² by which the model must beat the straight line (χ²(2) at 99.9 %). The scan over the
 /// onset and the failure time could make a false pass likelier than 0.1 %; the unit test
@@ -64,29 +64,8 @@ pub fn fit_onset(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) -> Option<Onset
     let mut best = |tf_after: f64| scratch.best_onset(&t, &d, &w, t_last + tf_after);
     // Failure time: log-spaced scan from 1 hour to 1000 days after the last epoch (steps of
     // 18 %), then golden-section refinement of the profile between the best node's neighbours.
-    let grid: Vec<f64> = (0..=60)
-        .map(|k| (1.0f64 / 24.0) * (24_000.0f64).powf(k as f64 / 60.0))
-        .collect();
     let chi = |f: Option<(f64, f64, f64)>| f.map_or(f64::INFINITY, |f| f.0);
-    let (kbest, _) = grid
-        .iter()
-        .enumerate()
-        .map(|(k, &g)| (k, chi(best(g))))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?;
-    let (mut lo, mut hi) = (
-        grid[kbest.saturating_sub(1)].ln(),
-        grid[(kbest + 1).min(grid.len() - 1)].ln(),
-    );
-    let g = 0.618_033_988_75;
-    for _ in 0..30 {
-        let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        if chi(best(m1.exp())) < chi(best(m2.exp())) {
-            hi = m2;
-        } else {
-            lo = m1;
-        }
-    }
-    let tf = (0.5 * (lo + hi)).exp();
+    let tf = min_over_failure_time(60, 30, |tf| chi(best(tf)))?;
     let (chi2, creep, onset) = best(tf)?;
     Some(Onset {
         gain_over_line: chi2_line - chi2,

@@ -146,13 +146,12 @@ mod tests {
     }
 
     fn alert(level: &str, state: &str, point: Option<&str>, group: Option<&str>) -> Alert {
-        Alert {
-            level: level.into(),
-            state: state.into(),
-            point: point.map(str::to_string),
-            group: group.map(str::to_string),
-            ..Alert::default()
-        }
+        let mut a = Alert::default();
+        a.level = level.into();
+        a.state = state.into();
+        a.point = point.map(str::to_string);
+        a.group = group.map(str::to_string);
+        a
     }
 
     /// Unknown values are refused with the parameter named; empty ones mean "any".
