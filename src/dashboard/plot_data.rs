@@ -1,6 +1,7 @@
 //! `GET /dashboard/plot/{site}/{point}?width=N`: a point's series as columnar JSON for the
-//! plots, downsampled on the server to the plot's width ([`super::downsample`]: min/max per
-//! bucket of dx, dy, dz and d; the first, the last and every alert epoch kept), with the
+//! plots, downsampled on the server to the plot's width while it is read
+//! ([`super::downsample::PlotPicker`]: min/max per bucket of dx, dy, dz and d; the first, the
+//! last and every alert epoch kept; the series is never held whole), with the
 //! thresholds of the rules that apply, the alert events, the inverse-velocity line and the
 //! forecast failure time.
 //!
@@ -14,11 +15,13 @@ use axum::Json;
 use serde::Deserialize;
 use serde_json::{json, Value};
 
-use super::downsample::plot_indices;
+use std::collections::{HashSet, VecDeque};
+
+use super::downsample::PlotPicker;
 use crate::api::error::ApiError;
 use crate::api::AppState;
 use crate::store::series::SeriesQuery;
-use crate::store::series_columns::{self, unix_seconds, SeriesColumns};
+use crate::store::series_columns::{self, unix_seconds, SeriesColumns, SeriesRow};
 use crate::store::{alerts, points, sites};
 
 /// Query of the plot data.
@@ -47,38 +50,53 @@ pub async fn plot(
             "unknown point '{point}' of site '{site_id}'"
         )));
     };
-    let c = series_columns::read(
-        &state.store,
-        SeriesQuery {
-            site: site.id.clone(),
-            point: p.name.clone(),
-            direction: p.direction,
-            ..SeriesQuery::default()
-        },
-    )
-    .await?;
     let concerns = |a: &alerts::Alert| {
         a.point.as_deref() == Some(p.name.as_str()) || a.points.contains(&p.name)
     };
-    let alert_epochs: Vec<i64> = alerts::list(db, Some(&site.id), None, None, 100_000)
+    let alert_epochs: HashSet<i64> = alerts::list(db, Some(&site.id), None, None, 100_000)
         .await?
         .into_iter()
         .filter(|(_, a)| concerns(a))
         .filter_map(|(_, a)| a.epoch)
         .collect();
-    let keep: Vec<usize> = c
-        .epoch
-        .iter()
-        .enumerate()
-        .filter(|(_, e)| alert_epochs.contains(e))
-        .map(|(i, _)| i)
-        .collect();
-    let idx = plot_indices(
-        c.t.len(),
-        &[&c.d[0], &c.d[1], &c.d[2], &c.d[3]],
-        &keep,
-        width,
-    );
+    let direction = p.direction;
+    let query = SeriesQuery {
+        site: site.id.clone(),
+        point: p.name.clone(),
+        direction,
+        ..SeriesQuery::default()
+    };
+    // One pass over the series: the picker keeps the rows drawn, `tail` the last epochs for the
+    // inverse-velocity line and the forecast.
+    let (picker, tail) = series_columns::fold(
+        &state.store,
+        query,
+        move |n| {
+            (
+                PlotPicker::new(n, 4, width),
+                VecDeque::with_capacity(LINE_EPOCHS),
+            )
+        },
+        move |(picker, tail), r| {
+            let row = SeriesRow::of(r, direction);
+            picker.push(&row.d, alert_epochs.contains(&row.epoch), row);
+            if tail.len() == LINE_EPOCHS {
+                tail.pop_front();
+            }
+            tail.push_back(row);
+            true
+        },
+    )
+    .await?;
+    let total = picker.fed();
+    let mut drawn = SeriesColumns::default();
+    for (_, row) in picker.finish() {
+        drawn.push(&row);
+    }
+    let mut last = SeriesColumns::default();
+    for row in &tail {
+        last.push(row);
+    }
     let events: Vec<Value> = alerts::events_of_point(db, &site.id, &p.name)
         .await?
         .into_iter()
@@ -94,21 +112,21 @@ pub async fn plot(
         })
         .map(|r| json!({"metric": r["metric"], "level": r["level"], "above": r["above"], "below": r["below"]}))
         .collect();
-    let mut out = columns(&c, &idx);
-    out["total"] = json!(c.t.len());
+    let mut out = columns(&drawn);
+    out["total"] = json!(total);
     out["thresholds"] = json!(thresholds);
     out["events"] = json!(events);
-    out["inverse_line"] = inverse_line(&c).map_or(Value::Null, |l| json!(l));
-    out["forecast"] = forecast(&c);
+    out["inverse_line"] = inverse_line(&last).map_or(Value::Null, |l| json!(l));
+    out["forecast"] = forecast(&last);
     Ok(Json(out).into_response())
 }
 
-/// The chosen rows of every column as a JSON object of arrays (NaN as null).
-fn columns(c: &SeriesColumns, idx: &[usize]) -> Value {
-    let pick = |v: &[f64]| -> Value { idx.iter().map(|&i| finite(v[i])).collect() };
+/// Every row of `c` as a JSON object of arrays (NaN as null).
+fn columns(c: &SeriesColumns) -> Value {
+    let pick = |v: &[f64]| -> Value { v.iter().map(|&x| finite(x)).collect() };
     json!({
         "t": pick(&c.t),
-        "epoch": idx.iter().map(|&i| c.epoch[i]).collect::<Vec<_>>(),
+        "epoch": c.epoch,
         "dx": pick(&c.d[0]), "dy": pick(&c.d[1]), "dz": pick(&c.d[2]), "d": pick(&c.d[3]),
         "sdx": pick(&c.sigma[0]), "sdy": pick(&c.sigma[1]), "sdz": pick(&c.sigma[2]), "sd": pick(&c.sigma[3]),
         "along": pick(&c.along),

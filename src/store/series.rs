@@ -296,6 +296,36 @@ pub(super) fn each_record(
     }
 }
 
+/// The number of records of the whole series of `q.site`/`q.point` (its range is not applied):
+/// the packed blocks' row counts and the tail rows.
+const COUNT_SQL: &str = "SELECT COALESCE((SELECT SUM(n_rows) FROM series_blocks WHERE site_id = $1 AND point = $2), 0) \
+    + (SELECT COUNT(*) FROM displacements WHERE site_id = $3 AND point = $4 \
+    AND observed_at > COALESCE((SELECT sealed_until FROM series_seals WHERE site_id = $5), ''))";
+
+/// How many records the whole series of `q` holds (without its range), read before the
+/// records themselves: rows written in between may add a few.
+pub(super) fn count_records(source: &mut Source, q: &SeriesQuery) -> Result<usize, StoreError> {
+    match source {
+        Source::Sqlite(conn) => {
+            let (site, point) = (Param::Text(&q.site), Param::Text(&q.point));
+            let mut n = 0;
+            sqlite_raw::query(conn, COUNT_SQL, &[site, point, site, point, site], |row| {
+                n = usize::try_from(row.int(0)).unwrap_or(0);
+                false
+            })?;
+            Ok(n)
+        }
+        Source::Packed(bytes) => {
+            let (mut rest, mut n) = (&bytes[..], 0);
+            while let Some((_, len)) = series_record::peek(rest) {
+                rest = &rest[len..];
+                n += 1;
+            }
+            Ok(n)
+        }
+    }
+}
+
 /// [`each_record`] of SQLite: a block's records in the range as they are stored, a tail row
 /// packed first.
 fn each_sqlite_record(

@@ -2,8 +2,8 @@
 //! same fast path as the served series ([`super::series`]): the dashboard's plots downsample it
 //! on the server.
 
-use super::series::{each_record, SeriesQuery, Source};
-use super::series_record;
+use super::series::{count_records, each_record, SeriesQuery, Source};
+use super::series_record::{self, Record};
 use super::{Store, StoreError};
 
 /// The series, oldest first; NaN where a value is missing. Lengths in mm, velocities in mm/day,
@@ -72,39 +72,120 @@ pub fn unix_seconds(stored: &[u8]) -> f64 {
     (days * 86_400 + hh * 3600 + mm * 60 + ss) as f64 + frac
 }
 
+/// One record's values, in the units of [`SeriesColumns`] (NaN where missing).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SeriesRow {
+    /// Epoch id.
+    pub epoch: i64,
+    /// Observation time, seconds since 1970 (UTC).
+    pub t: f64,
+    /// dx, dy, dz, d in mm.
+    pub d: [f64; 4],
+    /// σ of dx, dy, dz, d in mm.
+    pub sigma: [f64; 4],
+    /// Displacement along the direction of interest, mm.
+    pub along: f64,
+    /// Rate of d, mm/day.
+    pub velocity: f64,
+    /// Raw time to failure, h.
+    pub ttf: f64,
+    /// Filtered dx, dy, dz, d in mm.
+    pub f_d: [f64; 4],
+    /// σ of the filtered dx, dy, dz, d in mm.
+    pub sigma_f_d: [f64; 4],
+    /// Filtered velocity (mm/day) and its σ.
+    pub f_velocity: [f64; 2],
+    /// Filtered time to failure (h) and its σ.
+    pub f_ttf: [f64; 2],
+}
+
+impl SeriesRow {
+    /// The values of record `r`; `along` with the point's `direction`.
+    pub fn of(r: &Record<'_>, direction: Option<[f64; 3]>) -> SeriesRow {
+        let nan = f64::NAN;
+        let f = r.filtered;
+        SeriesRow {
+            epoch: r.epoch,
+            t: unix_seconds(r.observed_at),
+            d: [r.v[0], r.v[1], r.v[2], r.v[3]],
+            sigma: [r.v[4], r.v[5], r.v[6], r.v[7]],
+            along: super::series::along([r.v[0], r.v[1], r.v[2]], direction).unwrap_or(nan),
+            velocity: r.velocity.unwrap_or(nan),
+            ttf: r.ttf.unwrap_or(nan),
+            f_d: std::array::from_fn(|k| f.map_or(nan, |f| f.v[k])),
+            sigma_f_d: std::array::from_fn(|k| f.map_or(nan, |f| f.v[4 + k])),
+            f_velocity: [f.map_or(nan, |f| f.v[8]), f.map_or(nan, |f| f.v[9])],
+            f_ttf: [
+                f.and_then(|f| f.opt[2]).unwrap_or(nan),
+                f.and_then(|f| f.opt[3]).unwrap_or(nan),
+            ],
+        }
+    }
+}
+
+impl SeriesColumns {
+    /// Appends one row.
+    pub fn push(&mut self, r: &SeriesRow) {
+        self.epoch.push(r.epoch);
+        self.t.push(r.t);
+        for k in 0..4 {
+            self.d[k].push(r.d[k]);
+            self.sigma[k].push(r.sigma[k]);
+            self.f_d[k].push(r.f_d[k]);
+            self.sigma_f_d[k].push(r.sigma_f_d[k]);
+        }
+        self.along.push(r.along);
+        self.velocity.push(r.velocity);
+        self.ttf.push(r.ttf);
+        for k in 0..2 {
+            self.f_velocity[k].push(r.f_velocity[k]);
+            self.f_ttf[k].push(r.f_ttf[k]);
+        }
+    }
+}
+
 /// Reads the whole series of `q` (its range and direction; no limit) as columns, on a blocking
 /// thread.
 pub async fn read(store: &Store, q: SeriesQuery) -> Result<SeriesColumns, StoreError> {
+    let direction = q.direction;
+    fold(
+        store,
+        q,
+        |_| SeriesColumns::default(),
+        move |c, r| {
+            c.push(&SeriesRow::of(r, direction));
+            true
+        },
+    )
+    .await
+}
+
+/// Streams the series of `q` through a state of the caller's, on a blocking thread: `start`
+/// gets the number of records (of the whole series, read just before; rows written meanwhile may
+/// add a few) and makes the state, `each` is called with every record in time order and returns
+/// `false` to stop. Hands the state back. Nothing but the state is kept, so a long series costs
+/// no memory of its length.
+pub async fn fold<T, S, E>(
+    store: &Store,
+    q: SeriesQuery,
+    start: S,
+    mut each: E,
+) -> Result<T, StoreError>
+where
+    T: Send + 'static,
+    S: FnOnce(usize) -> T + Send + 'static,
+    E: FnMut(&mut T, &Record<'_>) -> bool + Send + 'static,
+{
     let mut source = Source::of(store, &q).await?;
     tokio::task::spawn_blocking(move || {
-        let mut c = SeriesColumns::default();
-        let nan = f64::NAN;
+        let mut state = start(count_records(&mut source, &q)?);
         each_record(&mut source, &q, |bytes| {
-            let Some((r, _)) = series_record::decode(bytes) else {
-                return false;
-            };
-            c.epoch.push(r.epoch);
-            c.t.push(unix_seconds(r.observed_at));
-            for k in 0..4 {
-                c.d[k].push(r.v[k]);
-                c.sigma[k].push(r.v[4 + k]);
+            match series_record::decode(bytes) {
+                Some((r, _)) => each(&mut state, &r),
+                None => false,
             }
-            c.along
-                .push(super::series::along([r.v[0], r.v[1], r.v[2]], q.direction).unwrap_or(nan));
-            c.velocity.push(r.velocity.unwrap_or(nan));
-            c.ttf.push(r.ttf.unwrap_or(nan));
-            let f = r.filtered;
-            for k in 0..4 {
-                c.f_d[k].push(f.map_or(nan, |f| f.v[k]));
-                c.sigma_f_d[k].push(f.map_or(nan, |f| f.v[4 + k]));
-            }
-            c.f_velocity[0].push(f.map_or(nan, |f| f.v[8]));
-            c.f_velocity[1].push(f.map_or(nan, |f| f.v[9]));
-            c.f_ttf[0].push(f.and_then(|f| f.opt[2]).unwrap_or(nan));
-            c.f_ttf[1].push(f.and_then(|f| f.opt[3]).unwrap_or(nan));
-            true
         })?;
-        Ok(c)
+        Ok(state)
     })
     .await
     .map_err(super::series::reader_failed)?
