@@ -98,7 +98,8 @@ async fn set_up_site(client: &Client, base: &str, site: &str) {
 }
 
 /// Every displacement series of a site (each point's and the block's), rows without epoch ids
-/// (ids follow arrival order, which differs between runs; `observed_at` identifies the row).
+/// (ids follow arrival order, which differs between runs; `observed_at` identifies the row), and
+/// each point's plot data.
 async fn series(client: &Client, base: &str, site: &str) -> BTreeMap<String, Value> {
     let mut out = BTreeMap::new();
     let mut paths: Vec<String> = (0..POINTS)
@@ -122,6 +123,18 @@ async fn series(client: &Client, base: &str, site: &str) -> BTreeMap<String, Val
             row.remove("reference_epoch");
         }
         out.insert(path, b["items"].take());
+    }
+    // the dashboard's plot data of every point (read through the same series path), without
+    // epoch ids and alert events (ids and wall-clock times)
+    for i in 0..POINTS {
+        let path = format!("/dashboard/plot/{site}/{}?width=100", name(i));
+        let (st, mut b) = send(client, base, Method::GET, &path, None).await.unwrap();
+        assert_eq!(st, 200, "{path}: {b}");
+        let plot = b.as_object_mut().unwrap();
+        assert!(plot["total"].as_u64().unwrap() > 0, "{path}: {b}");
+        plot.remove("epoch");
+        plot.remove("events");
+        out.insert(path, b);
     }
     out
 }
@@ -274,7 +287,11 @@ async fn twenty_uploaders_three_nodes_five_sites() {
         for (path, rows) in &want {
             // Points have a row at the reference epoch too, the block's motion starts after it.
             let n = EPOCHS - usize::from(path.ends_with("/motion"));
-            assert_eq!(rows.as_array().unwrap().len(), n, "{path}");
+            let n_rows = match rows {
+                Value::Array(a) => a.len(),
+                plot => plot["t"].as_array().unwrap().len(),
+            };
+            assert_eq!(n_rows, n, "{path}");
         }
         let first = series(&client, &bases[0], &site).await;
         for (n, base) in bases.iter().enumerate() {
