@@ -1,6 +1,7 @@
 //! Benchmark of target detection: a 6000 × 4000 8-bit JPEG (quality 90) with 100 targets of about
 //! 10 px, rendered by `simulate::images` (contrast-to-noise 50, blur 0.7 px, gradient, a few glints) and
-//! encoded in memory. Times `detect_bytes` (decode included) and prints the median of each stage.
+//! encoded in memory. Times `detect_bytes` (decode included) and prints the median of each stage,
+//! and the dashboard's preview of the same image.
 //!
 //! `cargo bench --bench detect`.
 
@@ -50,6 +51,19 @@ fn bench(c: &mut Criterion) {
             let d = detect_bytes(&jpeg, &opts).expect("detects");
             stages.push(d.timings);
             d.targets.len()
+        })
+    });
+    // The epoch page's preview of the same image (decode, box average to ≤ 1280 px, stretch,
+    // JPEG), made on request by the dashboard.
+    group.bench_function("6000x4000 JPEG preview for the epoch page", |b| {
+        b.iter(|| {
+            cliffwatch::dashboard::image_preview::preview(
+                &jpeg,
+                cliffwatch::dashboard::image_preview::PREVIEW_MAX_SIDE,
+            )
+            .expect("preview")
+            .jpeg
+            .len()
         })
     });
     group.finish();

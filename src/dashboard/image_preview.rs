@@ -44,7 +44,7 @@ pub enum PreviewError {
 pub fn preview(bytes: &[u8], max_side: u32) -> Result<Preview, PreviewError> {
     let img = decode_with_limit(bytes, MAX_PIXELS)?;
     let (small, width, height, factor) = box_downscale(&img, max_side.max(1));
-    let (lo, hi) = quantiles(&small, 0.005, 1.0);
+    let (lo, hi) = stretch_range(&small, 0.005);
     let span = (hi - lo).max(1.0);
     let grey: Vec<u8> = small
         .iter()
@@ -68,35 +68,33 @@ fn box_downscale(img: &GreyImage, max_side: u32) -> (Vec<f64>, u32, u32, u32) {
     let (w, h) = (img.width(), img.height());
     let k = w.max(h).div_ceil(max_side).max(1);
     let (sw, sh) = (w.div_ceil(k), h.div_ceil(k));
-    let mut sum = vec![0.0f64; (sw * sh) as usize];
+    let mut sum = vec![0u64; (sw * sh) as usize];
     let mut count = vec![0u32; (sw * sh) as usize];
-    let data = img.data();
-    for row in 0..h {
-        let base = (row / k * sw) as usize;
-        let line = &data[(row * w) as usize..((row + 1) * w) as usize];
-        for (col, &v) in line.iter().enumerate() {
-            let i = base + col / k as usize;
-            sum[i] += v as f64;
-            count[i] += 1;
+    for (row, line) in img.data().chunks_exact(w as usize).enumerate() {
+        let base = row / k as usize * sw as usize;
+        for (j, chunk) in line.chunks(k as usize).enumerate() {
+            sum[base + j] += chunk.iter().map(|&v| u64::from(v)).sum::<u64>();
+            count[base + j] += chunk.len() as u32;
         }
     }
     let levels = sum
         .iter()
         .zip(&count)
-        .map(|(s, &n)| s / n.max(1) as f64)
+        .map(|(&s, &n)| s as f64 / n.max(1) as f64)
         .collect();
     (levels, sw, sh, k)
 }
 
-/// The `lo` and `hi` quantiles (fractions) of `v`.
-fn quantiles(v: &[f64], lo: f64, hi: f64) -> (f64, f64) {
+/// The `lo` quantile (a fraction) and the maximum of `v`, in linear time.
+fn stretch_range(v: &[f64], lo: f64) -> (f64, f64) {
     if v.is_empty() {
         return (0.0, 1.0);
     }
     let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let at = |q: f64| s[((s.len() - 1) as f64 * q).round() as usize];
-    (at(lo), at(hi))
+    let k = ((s.len() - 1) as f64 * lo).round() as usize;
+    let (_, low, _) = s.select_nth_unstable_by(k, f64::total_cmp);
+    let low = *low;
+    (low, v.iter().copied().fold(f64::NEG_INFINITY, f64::max))
 }
 
 #[cfg(test)]
