@@ -18,7 +18,6 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use cliffwatch::simulate::scenes::{long_range, LongRangeParams};
 use dashboard_support::service_support::{free_port, TestServer};
 use dashboard_support::{fill, name, POINTS, SITE};
 use serde_json::{json, Value};
@@ -142,6 +141,26 @@ impl Driver {
                 .unwrap();
             std::fs::write(Path::new(&dir).join(name), bytes).unwrap();
         }
+    }
+
+    /// Lays pages out as a phone does: 360 × 740 CSS px, device scale 2, mobile.
+    async fn emulate_phone(&self) {
+        self.call(
+            reqwest::Method::POST,
+            "/goog/cdp/execute",
+            json!({"cmd": "Emulation.setDeviceMetricsOverride", "params": {
+                "width": 360, "height": 740, "deviceScaleFactor": 2, "mobile": true}}),
+        )
+        .await;
+    }
+
+    /// Ends the WebDriver session (the browser closes).
+    async fn quit(&self) {
+        self.client
+            .delete(format!("{}/session/{}", self.base, self.session))
+            .send()
+            .await
+            .ok();
     }
 
     /// Polls `script` until it returns a truthy value (at most 15 s).
@@ -288,14 +307,7 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
     }
     // A phone, 360 CSS px wide: no page scrolls sideways, the plots fit, and the face plan's
     // names are drawn at a readable size.
-    driver
-        .call(
-            reqwest::Method::POST,
-            "/goog/cdp/execute",
-            json!({"cmd": "Emulation.setDeviceMetricsOverride", "params": {
-                "width": 360, "height": 740, "deviceScaleFactor": 2, "mobile": true}}),
-        )
-        .await;
+    driver.emulate_phone().await;
     let (_, epochs) = s.get(&format!("/api/v1/sites/{SITE}/epochs")).await;
     let epoch = epochs["items"][0]["id"].as_i64().expect("an epoch id");
     for (k, path) in [
@@ -340,12 +352,7 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
             assert!(label[1].as_f64().unwrap() >= 300.0, "plan width {label}");
         }
     }
-    driver
-        .client
-        .delete(format!("{}/session/{}", driver.base, driver.session))
-        .send()
-        .await
-        .ok();
+    driver.quit().await;
     s.stop().await;
 }
 
@@ -369,15 +376,7 @@ async fn watched_epoch_images_line_up_in_chromium() {
         .await
         .unwrap();
     assert_eq!(r.status(), 201);
-    let (epoch, _) = long_range(&LongRangeParams {
-        width_px: 1080,
-        height_px: 720,
-        pixel_size_mm: 0.021,
-        noise_px: 0.0,
-        approx_sigma_m: 0.01,
-        ..LongRangeParams::default()
-    })
-    .unwrap();
+    let epoch = watch_support::small_scene();
     watch_support::write_epoch(&site, &epoch, "e1", "2026-11-20T09:00:00Z", true, 1);
     let t0 = Instant::now();
     let id = loop {
@@ -431,14 +430,7 @@ async fn watched_epoch_images_line_up_in_chromium() {
     assert!(v(5) > 600.0, "picture drawn {} px wide", v(5));
     driver.screenshot("epoch-images.png").await;
 
-    driver
-        .call(
-            reqwest::Method::POST,
-            "/goog/cdp/execute",
-            json!({"cmd": "Emulation.setDeviceMetricsOverride", "params": {
-                "width": 360, "height": 740, "deviceScaleFactor": 2, "mobile": true}}),
-        )
-        .await;
+    driver.emulate_phone().await;
     driver
         .goto(&s.url(&format!("/sites/kamo/epochs/{id}")))
         .await;
@@ -449,11 +441,6 @@ async fn watched_epoch_images_line_up_in_chromium() {
     assert!(width[1].as_f64().unwrap() <= 360.0, "{width}");
     assert!(width[2].as_f64().unwrap() >= 300.0, "{width}");
     driver.screenshot("phone-epoch-images.png").await;
-    driver
-        .client
-        .delete(format!("{}/session/{}", driver.base, driver.session))
-        .send()
-        .await
-        .ok();
+    driver.quit().await;
     s.stop().await;
 }

@@ -4,13 +4,13 @@
 //! (content hashes in the database); a broken folder goes to `.failed/` with `error.txt`.
 
 mod service_support;
+mod watch_support;
 
 use std::path::Path;
 
 use cliffwatch::photogrammetry::epoch::ObservationInput;
 use cliffwatch::photogrammetry::EpochInput;
 use cliffwatch::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
-use cliffwatch::simulate::scenes::{long_range, LongRangeParams};
 use cliffwatch::watch::{scan_once, WatchOptions};
 use service_support::TestServer;
 
@@ -91,17 +91,7 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     server.create_site("kamo").await;
     let watch = tempfile::tempdir().unwrap();
     let site = watch.path().join("kamo");
-    let (epoch, _truth) = long_range(&LongRangeParams {
-        width_px: 1080,
-        height_px: 720,
-        pixel_size_mm: 0.021,
-        noise_px: 0.0,
-        // the site's coordinates are known to 1 cm (earlier epochs); ±0.5 m would leave every
-        // target ambiguous, as it should
-        approx_sigma_m: 0.01,
-        ..LongRangeParams::default()
-    })
-    .unwrap();
+    let epoch = watch_support::small_scene();
     let opts = WatchOptions::new(watch.path().to_path_buf());
 
     write_epoch(&site, &epoch, "e1", "2026-11-20T09:00:00Z", true, 1);

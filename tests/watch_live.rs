@@ -10,7 +10,6 @@ mod watch_support;
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use cliffwatch::simulate::scenes::{long_range, LongRangeParams};
 use service_support::TestServer;
 use watch_support::write_epoch;
 
@@ -22,15 +21,7 @@ async fn running_server_takes_a_ready_folder() {
     let dir = watch.path().to_path_buf();
     let server = TestServer::start(move |c| c.watch_dir = Some(dir)).await;
     server.create_site("kamo").await;
-    let (epoch, _) = long_range(&LongRangeParams {
-        width_px: 1080,
-        height_px: 720,
-        pixel_size_mm: 0.021,
-        noise_px: 0.0,
-        approx_sigma_m: 0.01,
-        ..LongRangeParams::default()
-    })
-    .unwrap();
+    let epoch = watch_support::small_scene();
     // written while the server runs; READY last
     let (_, truth) = write_epoch(&site, &epoch, "e1", "2026-11-20T09:00:00Z", true, 1);
 

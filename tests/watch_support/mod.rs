@@ -8,6 +8,23 @@ use std::path::{Path, PathBuf};
 use cliffwatch::photogrammetry::epoch::ObservationInput;
 use cliffwatch::photogrammetry::EpochInput;
 use cliffwatch::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
+use cliffwatch::simulate::scenes::{long_range, LongRangeParams};
+
+/// The long-range scene at 1080 × 720 px (21 µm pixels), without image noise, its approximations
+/// known to 1 cm (a site with earlier epochs; ±0.5 m would leave every target ambiguous, as it
+/// should): what the watched-directory tests render.
+pub fn small_scene() -> EpochInput {
+    long_range(&LongRangeParams {
+        width_px: 1080,
+        height_px: 720,
+        pixel_size_mm: 0.021,
+        noise_px: 0.0,
+        approx_sigma_m: 0.01,
+        ..LongRangeParams::default()
+    })
+    .unwrap()
+    .0
+}
 
 /// Target diameter of the rendered images in px.
 pub const TARGET_PX: f64 = 8.0;
