@@ -223,7 +223,6 @@ impl StoredOrientation {
     }
 }
 
-/// Moves `folder` into `<site>/<sub>/`, with a numeric suffix when the name is taken.
 /// Where `folder` would move in `<site>/<sub>/`: its own name, or `<name>.<k>` when that is taken.
 fn free_destination(folder: &Path, sub: &str) -> PathBuf {
     let site_dir = folder.parent().unwrap_or(Path::new("."));
@@ -262,6 +261,7 @@ fn move_folder(folder: &Path, dest: PathBuf) -> std::io::Result<PathBuf> {
     Ok(dest)
 }
 
+/// Moves `folder` into `<site>/<sub>/`, with a numeric suffix when the name is taken.
 fn move_to(folder: &Path, sub: &str) -> std::io::Result<PathBuf> {
     move_folder(folder, free_destination(folder, sub))
 }

@@ -9,13 +9,13 @@
 //! `along`, `velocity`, `f_dx`, `f_dy`, `f_dz`, `f_d`, `sf_d`, `f_velocity`, `sf_velocity`
 //! (mm, mm/day; `null` where missing). `total` is the series' length before downsampling.
 
+use std::collections::{HashSet, VecDeque};
+
 use axum::extract::{Path, Query, State};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use serde::Deserialize;
 use serde_json::{json, Value};
-
-use std::collections::{HashSet, VecDeque};
 
 use super::downsample::PlotPicker;
 use crate::api::error::ApiError;
