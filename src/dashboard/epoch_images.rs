@@ -20,7 +20,6 @@ use super::image_preview::{preview, PREVIEW_MAX_SIDE};
 use super::layout::seg;
 use super::PageError;
 use crate::api::AppState;
-use crate::store::{epochs, sites};
 
 /// One station of a watched epoch as its report keeps it.
 #[derive(Debug, Clone, PartialEq)]
@@ -169,18 +168,8 @@ pub async fn image(
     State(state): State<AppState>,
     Path((site_id, epoch, station)): Path<(String, String, String)>,
 ) -> Result<Response, PageError> {
-    let db = state.store.reader();
-    let Some(site) = sites::get(db, &site_id).await? else {
-        return Err(PageError::not_found(format!("no site '{site_id}'")));
-    };
-    let Ok(id) = epoch.parse::<i64>() else {
-        return Err(PageError::not_found(format!("no epoch '{epoch}'")));
-    };
-    let Some((_, report)) = epochs::get(db, &site.id, id).await? else {
-        return Err(PageError::not_found(format!(
-            "no epoch {id} in site '{site_id}'"
-        )));
-    };
+    let (site, id, _, report) =
+        super::epoch_page::load(state.store.reader(), &site_id, &epoch).await?;
     let Some(st) = stations(&report).into_iter().find(|s| s.station == station) else {
         return Err(PageError::not_found(format!(
             "epoch {id} has no image of station '{station}' from the watched directory"

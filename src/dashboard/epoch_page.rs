@@ -9,7 +9,7 @@ use axum::extract::{Path, State};
 use axum::response::Html;
 use axum::Extension;
 use maud::{html, Markup};
-use serde_json::Value;
+use serde_json::{Map, Value};
 
 use super::epoch_images::{self, station_figure};
 use super::face_plan::nice_floor;
@@ -18,17 +18,17 @@ use super::local_time::when;
 use super::{viewer, PageError};
 use crate::api::auth::Access;
 use crate::api::AppState;
-use crate::store::epochs::{self, ObservationResidual};
+use crate::store::epochs::{self, EpochListItem, ObservationResidual};
 use crate::store::sites;
 
-/// The epoch page.
-pub async fn epoch(
-    State(state): State<AppState>,
-    Path((site_id, epoch)): Path<(String, String)>,
-    access: Option<Extension<Access>>,
-) -> Result<Html<String>, PageError> {
-    let db = state.store.reader();
-    let Some(site) = sites::get(db, &site_id).await? else {
+/// The site `site_id` and its epoch `epoch` (id as in the URL) with the epoch's list item and
+/// report; 404 naming what is missing.
+pub(super) async fn load(
+    db: &sqlx::AnyPool,
+    site_id: &str,
+    epoch: &str,
+) -> Result<(sites::Site, i64, EpochListItem, Map<String, Value>), PageError> {
+    let Some(site) = sites::get(db, site_id).await? else {
         return Err(PageError::not_found(format!("no site '{site_id}'")));
     };
     let Ok(id) = epoch.parse::<i64>() else {
@@ -39,6 +39,17 @@ pub async fn epoch(
             "no epoch {id} in site '{site_id}'"
         )));
     };
+    Ok((site, id, item, report))
+}
+
+/// The epoch page.
+pub async fn epoch(
+    State(state): State<AppState>,
+    Path((site_id, epoch)): Path<(String, String)>,
+    access: Option<Extension<Access>>,
+) -> Result<Html<String>, PageError> {
+    let db = state.store.reader();
+    let (site, id, item, report) = load(db, &site_id, &epoch).await?;
     let obs = epochs::observation_residuals(db, &site.id, id).await?;
     let mut by_image: BTreeMap<(usize, String), Vec<ObservationResidual>> = BTreeMap::new();
     let mut order: Vec<String> = vec![];
