@@ -33,6 +33,7 @@ pub mod analysis;
 pub mod api;
 pub mod cap;
 pub mod config;
+pub mod contract_names;
 pub mod daemon;
 pub mod dashboard;
 pub mod detect;

@@ -20,11 +20,12 @@ use super::displacement::PointAnalysis;
 use super::error::AnalysisError;
 use super::stats::normal_quantile;
 
-/// Alert level; ordered `watch` < `warning` < `alarm`.
+/// Alert level; ordered `watch` < `warning` < `alarm` (the default is the lowest).
 #[derive(
     Debug,
     Clone,
     Copy,
+    Default,
     PartialEq,
     Eq,
     PartialOrd,
@@ -37,6 +38,7 @@ use super::stats::normal_quantile;
 #[serde(rename_all = "snake_case")]
 pub enum AlertLevel {
     /// Lowest level.
+    #[default]
     Watch,
     /// Middle level.
     Warning,
@@ -44,16 +46,11 @@ pub enum AlertLevel {
     Alarm,
 }
 
-impl AlertLevel {
-    /// Contract name.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            AlertLevel::Watch => "watch",
-            AlertLevel::Warning => "warning",
-            AlertLevel::Alarm => "alarm",
-        }
-    }
-}
+crate::contract_names!(AlertLevel, "alert level" {
+    Watch => "watch",
+    Warning => "warning",
+    Alarm => "alarm",
+});
 
 /// A point metric rules can threshold.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
@@ -550,16 +547,23 @@ impl AlertConfig {
 }
 
 /// Lifecycle of an alert.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum AlertStatus {
     /// Open, not acknowledged.
+    #[default]
     Open,
     /// Open and acknowledged.
     Acknowledged,
     /// Resolved (no longer in the state).
     Resolved,
 }
+
+crate::contract_names!(AlertStatus, "alert state" {
+    Open => "open",
+    Acknowledged => "acknowledged",
+    Resolved => "resolved",
+});
 
 /// One alert (stored; its snapshot travels in every event).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -675,18 +679,13 @@ pub enum AlertEventType {
     Resolved,
 }
 
-impl AlertEventType {
-    /// Contract name, e.g. `alert.raised`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            AlertEventType::Raised => "alert.raised",
-            AlertEventType::Escalated => "alert.escalated",
-            AlertEventType::Deescalated => "alert.deescalated",
-            AlertEventType::Acknowledged => "alert.acknowledged",
-            AlertEventType::Resolved => "alert.resolved",
-        }
-    }
-}
+crate::contract_names!(AlertEventType, "alert event type" {
+    Raised => "alert.raised",
+    Escalated => "alert.escalated",
+    Deescalated => "alert.deescalated",
+    Acknowledged => "alert.acknowledged",
+    Resolved => "alert.resolved",
+});
 
 /// One event for the outbox: its type, when, and the alert after the change.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

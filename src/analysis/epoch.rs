@@ -74,7 +74,7 @@ impl EpochCoordinates {
 }
 
 /// Role of a point (contract: `stable` or `monitored`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum PointRole {
     /// Assumed not to move: defines the datum, checked by the congruence test.
@@ -83,6 +83,11 @@ pub enum PointRole {
     #[default]
     Monitored,
 }
+
+crate::contract_names!(PointRole, "point role" {
+    Stable => "stable",
+    Monitored => "monitored",
+});
 
 /// Per-point configuration set through `PUT .../points/{point}`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

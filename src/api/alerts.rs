@@ -8,6 +8,7 @@ use utoipa::ToSchema;
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{Page, PageParams};
 use super::AppState;
+use crate::analysis::AlertStatus;
 use crate::service;
 use crate::store::alerts;
 
@@ -31,13 +32,12 @@ pub async fn list(
     State(state): State<AppState>,
     ApiQuery(q): ApiQuery<AlertParams>,
 ) -> Result<impl IntoResponse, ApiError> {
-    if let Some(s) = &q.state {
-        if !["open", "acknowledged", "resolved"].contains(&s.as_str()) {
-            return Err(ApiError::bad_request(format!(
-                "state '{s}': open, acknowledged or resolved"
-            )));
-        }
-    }
+    let wanted = match &q.state {
+        None => None,
+        Some(s) => Some(s.parse::<AlertStatus>().map_err(|_| {
+            ApiError::bad_request(format!("state '{s}': open, acknowledged or resolved"))
+        })?),
+    };
     let page = PageParams {
         limit: q.limit,
         cursor: q.cursor,
@@ -47,7 +47,7 @@ pub async fn list(
     let rows = alerts::list(
         state.store.reader(),
         q.site.as_deref(),
-        q.state.as_deref(),
+        wanted,
         after,
         page.limit() + 1,
     )

@@ -168,7 +168,7 @@ pub async fn feed(
             ),
             updated: step.sent,
             href: link(&state, &format!("/api/v1/cap/alerts/{}.xml", alert.id)),
-            level: step.level.clone(),
+            level: step.level,
         });
     }
     entries.sort_by(|a, b| b.updated.cmp(&a.updated).then(b.id.cmp(&a.id)));

@@ -17,11 +17,11 @@ use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{encode, Page, PageParams};
 use super::sites::find;
 use super::AppState;
+use crate::analysis::{AlertLevel, PointRole};
 use crate::photogrammetry::epoch::is_valid_identifier;
 use crate::store::displacements::{self, Displacement};
 use crate::store::points::{self, PointSettings};
 use crate::store::series::{self, SeriesFormat, SeriesQuery};
-use crate::store::webhooks::level_rank;
 use crate::store::{alerts, display_timestamp};
 
 /// One line of the point list.
@@ -29,8 +29,8 @@ use crate::store::{alerts, display_timestamp};
 pub struct PointItem {
     /// Point name.
     pub point: String,
-    /// `stable` or `monitored`.
-    pub role: String,
+    /// Its role.
+    pub role: PointRole,
     /// Group name.
     pub group: Option<String>,
     /// Direction of interest, site frame.
@@ -41,7 +41,7 @@ pub struct PointItem {
     /// Latest displacement.
     pub displacement: Option<Displacement>,
     /// Highest level of its open or acknowledged alerts.
-    pub alert_level: Option<String>,
+    pub alert_level: Option<AlertLevel>,
 }
 
 /// `GET /api/v1/sites/{site}/points`: every point (by name) with its latest state.
@@ -67,12 +67,10 @@ pub async fn list(
         .into_iter()
         .map(|d| (d.point.clone(), d))
         .collect();
-    let mut levels: HashMap<String, String> = HashMap::new();
+    let mut levels: HashMap<String, AlertLevel> = HashMap::new();
     for (point, level) in alerts::active_levels(db, &site).await? {
-        let e = levels.entry(point).or_default();
-        if level_rank(&level) > level_rank(e) {
-            *e = level;
-        }
+        let e = levels.entry(point).or_insert(level);
+        *e = (*e).max(level);
     }
     let items: Vec<PointItem> = page
         .items

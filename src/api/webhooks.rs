@@ -7,7 +7,8 @@ use axum::response::IntoResponse;
 use super::error::{ApiError, ApiJson, ApiPath};
 use super::list::Page;
 use super::AppState;
-use crate::store::webhooks::{self, level_rank, NewWebhook};
+use crate::analysis::AlertLevel;
+use crate::store::webhooks::{self, NewWebhook};
 use crate::store::StoreError;
 
 /// Checks a webhook endpoint: http(s) URL, `whsec_` secret, known level.
@@ -24,7 +25,10 @@ pub fn check_webhook(h: &NewWebhook) -> Result<(), ApiError> {
             "secret: whsec_<base64>",
         ));
     }
-    if h.min_level.as_deref().is_some_and(|l| level_rank(l) == 0) {
+    if h.min_level
+        .as_deref()
+        .is_some_and(|l| l.parse::<AlertLevel>().is_err())
+    {
         return Err(ApiError::unprocessable(
             "invalid_webhook",
             "min_level: watch, warning or alarm",

@@ -18,7 +18,7 @@ pub struct FeedEntry {
     /// Where the CAP message is served (`…/api/v1/cap/alerts/<id>.xml`).
     pub href: String,
     /// The public level of the latest message (`warning` or `alarm`), an Atom category.
-    pub level: String,
+    pub level: crate::analysis::AlertLevel,
 }
 
 /// The feed document. `id` is the feed's IRI, `self_href` where it is served; `updated` is
@@ -52,7 +52,7 @@ pub fn atom_feed(
             atom_time(e.updated)
         ));
         x.push_str(&format!("    <summary>{}</summary>\n", escape(&e.summary)));
-        x.push_str(&format!("    <category term=\"{}\"/>\n", escape(&e.level)));
+        x.push_str(&format!("    <category term=\"{}\"/>\n", e.level));
         x.push_str(&format!(
             "    <link rel=\"alternate\" type=\"application/cap+xml\" href=\"{}\"/>\n",
             escape(&e.href)

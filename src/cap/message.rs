@@ -4,6 +4,7 @@ use chrono::{DateTime, Duration, Utc};
 
 use super::area::SiteArea;
 use super::xml::{cap_time, escape};
+use crate::analysis::{AlertEventType, AlertLevel};
 
 /// CAP `msgType` of a message in an alert's thread.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -47,11 +48,10 @@ pub struct Snapshot {
 /// level after it, when it was recorded (UTC), and the alert as it was then.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Change {
-    /// `alert.raised`, `alert.escalated`, `alert.deescalated`, `alert.acknowledged` or
-    /// `alert.resolved`.
-    pub event_type: String,
-    /// `watch`, `warning` or `alarm` after the change.
-    pub level: Option<String>,
+    /// What changed.
+    pub event_type: AlertEventType,
+    /// The level after the change.
+    pub level: Option<AlertLevel>,
     /// When the change was recorded.
     pub at: DateTime<Utc>,
     /// The alert as the change left it.
@@ -66,7 +66,7 @@ pub struct CapStep {
     /// Alert, Update or Cancel.
     pub msg_type: MsgType,
     /// The public level the message announces (for a Cancel: the level it withdraws).
-    pub level: String,
+    pub level: AlertLevel,
     /// Why a Cancel was sent: `resolved` or `below_warning`; empty otherwise.
     pub reason: &'static str,
     /// When it was sent (the change's time).
@@ -75,8 +75,9 @@ pub struct CapStep {
     pub snapshot: Snapshot,
 }
 
-fn is_public(level: Option<&str>) -> bool {
-    matches!(level, Some("warning") | Some("alarm"))
+/// A level the public is told about: warning or alarm.
+fn public_level(level: Option<AlertLevel>) -> Option<AlertLevel> {
+    level.filter(|l| *l >= AlertLevel::Warning)
 }
 
 /// The CAP thread of an alert from its changes, oldest first: a change that makes it public is
@@ -84,21 +85,23 @@ fn is_public(level: Option<&str>) -> bool {
 /// Cancel; acknowledgements and changes below warning send nothing.
 pub fn steps(changes: &[Change]) -> Vec<CapStep> {
     let mut out: Vec<CapStep> = Vec::new();
-    let mut public: Option<String> = None;
+    let mut public: Option<AlertLevel> = None;
     for c in changes {
-        if c.event_type == "alert.acknowledged" {
+        if c.event_type == AlertEventType::Acknowledged {
             continue;
         }
-        let resolved = c.event_type == "alert.resolved";
-        let now_public = !resolved && is_public(c.level.as_deref());
-        let step = match (&public, now_public) {
-            (None, true) => Some((MsgType::Alert, c.level.clone().unwrap_or_default(), "")),
-            (Some(before), true) if c.level.as_deref() != Some(before.as_str()) => {
-                Some((MsgType::Update, c.level.clone().unwrap_or_default(), ""))
-            }
-            (Some(before), false) => Some((
+        let resolved = c.event_type == AlertEventType::Resolved;
+        let now_public = if resolved {
+            None
+        } else {
+            public_level(c.level)
+        };
+        let step = match (public, now_public) {
+            (None, Some(now)) => Some((MsgType::Alert, now, "")),
+            (Some(before), Some(now)) if now != before => Some((MsgType::Update, now, "")),
+            (Some(before), None) => Some((
                 MsgType::Cancel,
-                before.clone(),
+                before,
                 if resolved {
                     "resolved"
                 } else {
@@ -117,7 +120,7 @@ pub fn steps(changes: &[Change]) -> Vec<CapStep> {
                 snapshot: c.snapshot.clone(),
             });
         }
-        public = now_public.then(|| c.level.clone().unwrap_or_default());
+        public = now_public;
     }
     out
 }
@@ -180,9 +183,9 @@ pub fn identifier(alert_id: &str, seq: usize) -> String {
 
 /// Urgency, severity, certainty and response of a level, and of a Cancel.
 fn grading(step: &CapStep) -> (&'static str, &'static str, &'static str, &'static str) {
-    match (step.msg_type, step.level.as_str()) {
+    match (step.msg_type, step.level) {
         (MsgType::Cancel, _) => ("Past", "Minor", "Unlikely", "AllClear"),
-        (_, "alarm") => ("Immediate", "Severe", "Likely", "Avoid"),
+        (_, AlertLevel::Alarm) => ("Immediate", "Severe", "Likely", "Avoid"),
         _ => ("Expected", "Moderate", "Possible", "Monitor"),
     }
 }
@@ -195,11 +198,11 @@ fn subject(alert: &Subject<'_>) -> String {
     }
 }
 
-fn level_word(level: &str) -> &'static str {
+fn level_word(level: AlertLevel) -> &'static str {
     match level {
-        "alarm" => "Alarm",
-        "warning" => "Warning",
-        _ => "Watch",
+        AlertLevel::Alarm => "Alarm",
+        AlertLevel::Warning => "Warning",
+        AlertLevel::Watch => "Watch",
     }
 }
 
@@ -210,7 +213,7 @@ fn number(v: f64) -> String {
 
 /// The headline of a message, e.g. `Alarm: rock slope movement at Kamo cliff (point 12)`.
 pub fn headline(alert: &Subject<'_>, site_name: &str, step: &CapStep) -> String {
-    let word = level_word(&step.level);
+    let word = level_word(step.level);
     match step.msg_type {
         MsgType::Cancel => format!(
             "{word} withdrawn: rock slope movement at {site_name} ({})",
@@ -258,14 +261,14 @@ pub fn cap_message(
         }
         description.push('.');
     }
-    let instruction = match (step.msg_type, step.reason, step.level.as_str()) {
+    let instruction = match (step.msg_type, step.reason, step.level) {
         (MsgType::Cancel, "resolved", _) => {
             "The measured movement is back within the thresholds; the warning is withdrawn.".to_string()
         }
         (MsgType::Cancel, _, _) => {
             "The level fell below warning; the site stays under watch and the warning is withdrawn.".to_string()
         }
-        (_, _, "alarm") => {
+        (_, _, AlertLevel::Alarm) => {
             "Keep out of the warning area until the all-clear. Follow the instructions of the authorities.".to_string()
         }
         _ => "Movement beyond the warning threshold was measured. Expect closures of the warning area and follow local instructions.".to_string(),
@@ -331,7 +334,7 @@ pub fn cap_message(
     if let Some(g) = alert.group {
         parameters.push(("cliffwatch:group", g.into()));
     }
-    parameters.push(("cliffwatch:level", step.level.clone()));
+    parameters.push(("cliffwatch:level", step.level.to_string()));
     parameters.push(("cliffwatch:rule", alert.rule.into()));
     if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
         parameters.push(("cliffwatch:value", format!("{} {unit}", number(v))));
@@ -362,8 +365,8 @@ mod tests {
 
     fn change(kind: &str, level: &str, minute: i64) -> Change {
         Change {
-            event_type: kind.into(),
-            level: Some(level.into()),
+            event_type: kind.parse().unwrap(),
+            level: Some(level.parse().unwrap()),
             at: DateTime::parse_from_rfc3339("2026-11-25T00:00:00Z")
                 .unwrap()
                 .with_timezone(&Utc)

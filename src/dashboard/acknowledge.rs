@@ -13,6 +13,7 @@ use serde::Deserialize;
 use super::layout::{level_badge, num, seg, Viewer};
 use super::local_time::when;
 use super::viewer;
+use crate::analysis::AlertStatus;
 use crate::api::auth::Access;
 use crate::api::AppState;
 use crate::store::alerts::Alert;
@@ -33,7 +34,7 @@ pub fn alert_row(a: &Alert, v: &Viewer, time_zone: Option<&str>) -> Markup {
     let site = seg(&a.site);
     html! {
         tr id={ "alert-" (a.id) } {
-            td { (level_badge(Some(&a.level))) }
+            td { (level_badge(Some(a.level))) }
             td {
                 @if let Some(p) = &a.point {
                     a href={ "/sites/" (site) "/points/" (seg(p)) } { (p) }
@@ -52,7 +53,7 @@ pub fn alert_row(a: &Alert, v: &Viewer, time_zone: Option<&str>) -> Markup {
                 @if let Some(c) = &a.ack_comment { ": " q { (c) } }
             }
             td {
-                @if a.state == "open" && v.can_acknowledge {
+                @if a.state == AlertStatus::Open && v.can_acknowledge {
                     form.ack hx-post={ "/dashboard/alerts/" (a.id) "/ack" } hx-target="closest tr" hx-swap="outerHTML" {
                         input name="by" placeholder="your name" required maxlength="200";
                         input name="comment" placeholder="comment" maxlength="2000";

@@ -6,7 +6,7 @@
 use maud::{html, Markup};
 use serde::Deserialize;
 
-use super::layout::level_rank;
+use crate::analysis::{AlertLevel, AlertStatus};
 use crate::store::alerts::Alert;
 
 /// The query of the site page, as sent.
@@ -25,14 +25,12 @@ pub struct AlertQuery {
 
 /// States a filter may ask for; `active` is open or acknowledged.
 const STATES: [&str; 5] = ["active", "open", "acknowledged", "resolved", "all"];
-/// Levels a filter may ask for (at least this one).
-const LEVELS: [&str; 3] = ["watch", "warning", "alarm"];
 
 /// A checked filter.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct AlertFilter {
     /// Lowest level shown (`None`: every level).
-    pub level: Option<&'static str>,
+    pub level: Option<AlertLevel>,
     /// `active`, `open`, `acknowledged`, `resolved` or `all`.
     pub state: &'static str,
     /// Lower-case part of the subject's name (empty: any).
@@ -45,10 +43,8 @@ impl AlertFilter {
         let level = match q.level.as_deref().filter(|s| !s.is_empty()) {
             None => None,
             Some(l) => Some(
-                *LEVELS
-                    .iter()
-                    .find(|k| **k == l)
-                    .ok_or_else(|| format!("level '{l}' is not one of watch, warning, alarm"))?,
+                l.parse::<AlertLevel>()
+                    .map_err(|_| format!("level '{l}' is not one of watch, warning, alarm"))?,
             ),
         };
         let state = match q.state.as_deref().filter(|s| !s.is_empty()) {
@@ -69,23 +65,18 @@ impl AlertFilter {
     }
 
     /// The state the store can select by (`None`: all states, filtered here).
-    pub fn store_state(&self) -> Option<&'static str> {
-        match self.state {
-            "open" | "acknowledged" | "resolved" => Some(self.state),
-            _ => None,
-        }
+    pub fn store_state(&self) -> Option<AlertStatus> {
+        self.state.parse().ok()
     }
 
     /// Whether alert `a` is shown.
     pub fn matches(&self, a: &Alert) -> bool {
         let state = match self.state {
-            "active" => a.state != "resolved",
+            "active" => a.state != AlertStatus::Resolved,
             "all" => true,
-            s => a.state == s,
+            s => a.state.as_str() == s,
         };
-        let level = self
-            .level
-            .is_none_or(|l| level_rank(&a.level) >= level_rank(l));
+        let level = self.level.is_none_or(|l| a.level >= l);
         let subject = self.subject.is_empty()
             || [a.point.as_deref(), a.group.as_deref()]
                 .into_iter()
@@ -113,7 +104,7 @@ impl AlertFilter {
                 label { "level ≥ "
                     select name="level" {
                         option value="" selected[self.level.is_none()] { "any" }
-                        @for l in LEVELS { option value=(l) selected[self.level == Some(l)] { (l) } }
+                        @for l in AlertLevel::ALL { option value=(l) selected[self.level == Some(*l)] { (l) } }
                     }
                 }
                 " "
@@ -147,8 +138,8 @@ mod tests {
 
     fn alert(level: &str, state: &str, point: Option<&str>, group: Option<&str>) -> Alert {
         let mut a = Alert::default();
-        a.level = level.into();
-        a.state = state.into();
+        a.level = level.parse().unwrap();
+        a.state = state.parse().unwrap();
         a.point = point.map(str::to_string);
         a.group = group.map(str::to_string);
         a

@@ -3,6 +3,8 @@
 
 use maud::{html, Markup, DOCTYPE};
 
+use crate::analysis::AlertLevel;
+
 /// What a page needs from the request: the CSRF token of a cookie session (sent by htmx with
 /// every change), and whether the visitor may acknowledge alerts.
 #[derive(Debug, Clone, Default)]
@@ -55,28 +57,13 @@ pub fn page(title: &str, crumbs: &[(String, String)], viewer: &Viewer, body: Mar
     }
 }
 
-/// CSS class of an alert level (`watch`, `warning`, `alarm`; anything else: `ok`).
-pub fn level_class(level: Option<&str>) -> &'static str {
-    match level {
-        Some("alarm") => "alarm",
-        Some("warning") => "warning",
-        Some("watch") => "watch",
-        _ => "ok",
-    }
-}
-
-/// Rank of a level (ok 0 < watch < warning < alarm).
-pub fn level_rank(level: &str) -> u8 {
-    match level {
-        "alarm" => 3,
-        "warning" => 2,
-        "watch" => 1,
-        _ => 0,
-    }
+/// CSS class of an alert level (its name; no level: `ok`).
+pub fn level_class(level: Option<AlertLevel>) -> &'static str {
+    level.map_or("ok", AlertLevel::as_str)
 }
 
 /// A badge with the level's colour and word.
-pub fn level_badge(level: Option<&str>) -> Markup {
+pub fn level_badge(level: Option<AlertLevel>) -> Markup {
     let class = level_class(level);
     let word = if class == "ok" { "no alert" } else { class };
     html! { span class={ "badge " (class) } { (word) } }

@@ -8,6 +8,7 @@ use maud::{html, Markup};
 
 use super::face_plan::{nice_floor, FacePlane};
 use super::layout::{level_class, seg};
+use crate::analysis::AlertLevel;
 
 /// One point to draw.
 #[derive(Debug, Clone)]
@@ -19,7 +20,7 @@ pub struct PlanPoint {
     /// Latest displacement (dx, dy, dz) in mm, when there is one.
     pub d_mm: Option<[f64; 3]>,
     /// Highest active alert level of the point.
-    pub level: Option<String>,
+    pub level: Option<AlertLevel>,
     /// A stable (datum) point.
     pub stable: bool,
 }
@@ -74,7 +75,7 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
                 }
                 @for (p, q) in points.iter().zip(&uv) {
                     @let (x, y) = (sx(q[0]), sy(q[1]));
-                    @let class = level_class(p.level.as_deref());
+                    @let class = level_class(p.level);
                     a href={ "/sites/" (seg(site)) "/points/" (seg(&p.name)) } {
                         @if let Some(d) = p.d_mm {
                             @let v = plane.project_vector(d);
@@ -143,7 +144,7 @@ mod tests {
                 },
                 xyz: [i as f64 * 2.0, 100.0, (i % 3) as f64 * 4.0],
                 d_mm: Some([0.0, -3.0 * (i % 2) as f64, 1.0]),
-                level: (i == 2).then(|| "warning".to_string()),
+                level: (i == 2).then_some(AlertLevel::Warning),
                 stable: i == 5,
             })
             .collect();

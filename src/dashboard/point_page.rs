@@ -12,7 +12,7 @@ use axum::response::Html;
 use axum::Extension;
 use maud::html;
 
-use super::layout::{level_badge, level_rank, num, page, seg, with_sigma};
+use super::layout::{level_badge, num, page, seg, with_sigma};
 use super::local_time::when;
 use super::{viewer, PageError};
 use crate::api::auth::Access;
@@ -39,7 +39,7 @@ pub async fn point(
         .into_iter()
         .filter(|(q, _)| *q == p.name)
         .map(|(_, l)| l)
-        .max_by_key(|l| level_rank(l));
+        .max();
     let latest = displacements::latest(db, &site.id)
         .await?
         .into_iter()
@@ -49,7 +49,7 @@ pub async fn point(
     let csv = format!("/api/v1/sites/{s}/points/{n}/displacements?format=csv");
     let v = viewer(access.as_deref());
     let body = html! {
-        h1 { (p.name) " " (level_badge(level.as_deref())) }
+        h1 { (p.name) " " (level_badge(level)) }
         p {
             (p.role)
             @if let Some(g) = &p.group { " · group " (g) }

@@ -15,6 +15,7 @@ use super::local_time::when;
 use super::plan_svg::{face_plan, PlanPoint};
 use super::time_plot_svg::time_plot;
 use super::{viewer, PageError};
+use crate::analysis::{AlertLevel, PointRole};
 use crate::api::auth::Access;
 use crate::api::AppState;
 use crate::store::series_columns::unix_seconds;
@@ -72,7 +73,7 @@ pub async fn report(
         None => (vec![], vec![]),
     };
     disp.sort_by(|a, b| super::natural_order::natural_cmp(&a.point, &b.point));
-    let role = |name: &str| pts.iter().find(|p| p.name == name).map(|p| p.role.as_str());
+    let role = |name: &str| pts.iter().find(|p| p.name == name).map(|p| p.role);
     let plan: Vec<PlanPoint> = coords
         .iter()
         .map(|c| PlanPoint {
@@ -83,20 +84,20 @@ pub async fn report(
                 .find(|d| d.point == c.point)
                 .map(|d| [d.dx_mm, d.dy_mm, d.dz_mm]),
             level: None,
-            stable: role(&c.point) == Some("stable"),
+            stable: role(&c.point) == Some(PointRole::Stable),
         })
         .collect();
     let mut moving: Vec<&displacements::Displacement> = disp
         .iter()
-        .filter(|d| d.significant && role(&d.point) != Some("stable"))
+        .filter(|d| d.significant && role(&d.point) != Some(PointRole::Stable))
         .collect();
     moving.sort_by(|a, b| b.d_mm.total_cmp(&a.d_mm));
     moving.truncate(PLOTS);
-    let thresholds: Vec<(f64, String)> = site
+    let thresholds: Vec<(f64, AlertLevel)> = site
         .alert_rules
         .iter()
         .filter(|r| r["metric"] == "displacement_mm" && r["group"].is_null())
-        .filter_map(|r| Some((r["above"].as_f64()?, r["level"].as_str()?.to_string())))
+        .filter_map(|r| Some((r["above"].as_f64()?, r["level"].as_str()?.parse().ok()?)))
         .collect();
     let mut plots = vec![];
     for d in &moving {
@@ -158,7 +159,7 @@ pub async fn report(
                     tbody { @for d in &disp {
                         tr {
                             td { a href={ "/sites/" (s) "/points/" (seg(&d.point)) } { (d.point) } }
-                            td { (role(&d.point).unwrap_or("")) }
+                            td { (role(&d.point).map_or("", PointRole::as_str)) }
                             td.num { (num(Some(d.dx_mm), 2)) }
                             td.num { (num(Some(d.dy_mm), 2)) }
                             td.num { (num(Some(d.dz_mm), 2)) }
@@ -194,7 +195,7 @@ pub async fn report(
                         thead { tr { th { "level" } th { "subject" } th { "rule" } th { "value" } th { "epoch" } th { "state" } } }
                         tbody { @for a in &history {
                             tr {
-                                td { (level_badge(Some(&a.level))) }
+                                td { (level_badge(Some(a.level))) }
                                 td { (a.point.clone().or(a.group.clone()).unwrap_or_else(|| "site".into())) }
                                 td { (a.rule) }
                                 td.num { (num(a.value, 2)) " " (a.unit.as_deref().unwrap_or("")) }

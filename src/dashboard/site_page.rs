@@ -13,10 +13,11 @@ use maud::html;
 
 use super::acknowledge::alert_row;
 use super::alert_filter::{AlertFilter, AlertQuery};
-use super::layout::{level_badge, level_rank, num, page, seg, with_sigma};
+use super::layout::{level_badge, num, page, seg, with_sigma};
 use super::local_time::when;
 use super::plan_svg::{face_plan, PlanPoint};
 use super::{viewer, PageError};
+use crate::analysis::{AlertLevel, PointRole};
 use crate::api::auth::Access;
 use crate::api::AppState;
 use crate::store::{alerts, displacements, epochs, points, sites};
@@ -48,25 +49,20 @@ pub async fn site(
         .into_iter()
         .map(|d| (d.point.clone(), d))
         .collect();
-    let mut levels: HashMap<String, String> = HashMap::new();
+    let mut levels: HashMap<String, AlertLevel> = HashMap::new();
     for (p, l) in alerts::active_levels(db, &site.id).await? {
-        let e = levels.entry(p).or_default();
-        if level_rank(&l) > level_rank(e) {
-            *e = l;
-        }
+        let e = levels.entry(p).or_insert(l);
+        *e = (*e).max(l);
     }
-    let roles: HashMap<&str, &str> = pts
-        .iter()
-        .map(|p| (p.name.as_str(), p.role.as_str()))
-        .collect();
+    let roles: HashMap<&str, PointRole> = pts.iter().map(|p| (p.name.as_str(), p.role)).collect();
     let plan: Vec<PlanPoint> = coords
         .iter()
         .map(|c| PlanPoint {
             name: c.point.clone(),
             xyz: c.xyz,
             d_mm: latest.get(&c.point).map(|d| [d.dx_mm, d.dy_mm, d.dz_mm]),
-            level: levels.get(&c.point).cloned(),
-            stable: roles.get(c.point.as_str()) == Some(&"stable"),
+            level: levels.get(&c.point).copied(),
+            stable: roles.get(c.point.as_str()) == Some(&PointRole::Stable),
         })
         .collect();
     let read = alerts::list(db, Some(&site.id), filter.store_state(), None, ALERTS_READ).await?;
@@ -122,7 +118,7 @@ pub async fn site(
                         tr {
                             td { a href={ (site_href) "/points/" (seg(&p.name)) } { (p.name) } }
                             td.wide { (p.role) @if let Some(g) = &p.group { " · " (g) } }
-                            td { (level_badge(levels.get(&p.name).map(String::as_str))) }
+                            td { (level_badge(levels.get(&p.name).copied())) }
                             td.num { (with_sigma(d.map(|d| d.d_mm), d.map(|d| d.sigma_mm), 2)) }
                             td.wide { @if d.is_some_and(|d| d.significant) { "yes" } @else { "no" } }
                             td.num { (with_sigma(d.and_then(|d| d.f_velocity_mm_per_day.or(d.velocity_mm_per_day)), d.and_then(|d| d.sigma_f_velocity_mm_per_day), 3)) }

@@ -6,9 +6,10 @@ use axum::response::Html;
 use axum::Extension;
 use maud::html;
 
-use super::layout::{level_badge, level_rank, page, seg};
+use super::layout::{level_badge, page, seg};
 use super::local_time::when;
 use super::{viewer, PageError};
+use crate::analysis::AlertStatus;
 use crate::api::auth::Access;
 use crate::api::AppState;
 use crate::store::{alerts, epochs, points, sites};
@@ -26,10 +27,9 @@ pub async fn sites(
         let open = alerts::list(db, Some(&s.id), None, None, 10_000).await?;
         let level = open
             .iter()
-            .filter(|(_, a)| a.state != "resolved")
-            .map(|(_, a)| a.level.as_str())
-            .max_by_key(|l| level_rank(l))
-            .map(str::to_string);
+            .filter(|(_, a)| a.state != AlertStatus::Resolved)
+            .map(|(_, a)| a.level)
+            .max();
         let last = epochs::list(db, &s.id, None, 1).await?.into_iter().next();
         let n_points = points::list(db, &s.id, None, 100_000).await?.len();
         let overdue = match (&last, s.schedule_hours) {
@@ -53,7 +53,7 @@ pub async fn sites(
                     @for (s, level, last, n, overdue) in &rows {
                         tr {
                             td { a href={ "/sites/" (seg(&s.id)) } { (s.name) } " " small { (s.id) } }
-                            td { (level_badge(level.as_deref())) }
+                            td { (level_badge(*level)) }
                             td {
                                 @if let Some(e) = last {
                                     a href={ "/sites/" (seg(&s.id)) "/epochs/" (e.id) } { (when(&e.observed_at, s.time_zone.as_deref())) }

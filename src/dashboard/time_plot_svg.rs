@@ -4,6 +4,7 @@
 use maud::{html, Markup};
 
 use super::layout::level_class;
+use crate::analysis::AlertLevel;
 
 const W: f64 = 640.0;
 const H: f64 = 200.0;
@@ -17,7 +18,7 @@ pub fn time_plot(
     t: &[f64],
     v: &[f64],
     sigma: &[f64],
-    thresholds: &[(f64, String)],
+    thresholds: &[(f64, AlertLevel)],
     unit: &str,
 ) -> Markup {
     let pts: Vec<(f64, f64, f64)> = t
@@ -84,7 +85,7 @@ pub fn time_plot(
             path.band d=(band) {}
             path.value d=(path(0.0)) {}
             @for (v, level) in thresholds {
-                line class={ "threshold " (level_class(Some(level))) } x1=(LEFT) x2=(W - 8.0) y1=(format!("{:.1}", y(*v))) y2=(format!("{:.1}", y(*v))) {}
+                line class={ "threshold " (level_class(Some(*level))) } x1=(LEFT) x2=(W - 8.0) y1=(format!("{:.1}", y(*v))) y2=(format!("{:.1}", y(*v))) {}
             }
             line.axis x1=(LEFT) x2=(LEFT) y1=(TOP) y2=(H - BOTTOM) {}
             line.axis x1=(LEFT) x2=(W - 8.0) y1=(H - BOTTOM) y2=(H - BOTTOM) {}
@@ -106,7 +107,7 @@ mod tests {
         let t: Vec<f64> = (0..10).map(|k| 1.7e9 + k as f64 * 86_400.0).collect();
         let v: Vec<f64> = (0..10).map(|k| k as f64).collect();
         let s = vec![0.5; 10];
-        let svg = time_plot(&t, &v, &s, &[(5.0, "watch".into())], "mm").into_string();
+        let svg = time_plot(&t, &v, &s, &[(5.0, AlertLevel::Watch)], "mm").into_string();
         assert!(svg.contains("class=\"band\"") && svg.contains("class=\"value\""));
         assert!(svg.contains("threshold watch"));
         assert!(svg.matches('L').count() >= 9, "{svg}");

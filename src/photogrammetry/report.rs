@@ -16,7 +16,9 @@ pub enum VarianceModel {
 }
 
 /// Which projection model an adjustment uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default, utoipa::ToSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Model {
     /// Ono & Hattori's orthogonal projection model (eqs 5, 9–14) with self-calibrated c.
@@ -26,26 +28,10 @@ pub enum Model {
     Central,
 }
 
-impl Model {
-    /// The contract's name of the model.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Model::Orthogonal => "orthogonal",
-            Model::Central => "central",
-        }
-    }
-}
-
-impl std::str::FromStr for Model {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "orthogonal" => Ok(Model::Orthogonal),
-            "central" => Ok(Model::Central),
-            other => Err(format!("unknown model '{other}' (orthogonal or central)")),
-        }
-    }
-}
+crate::contract_names!(Model, "model" {
+    Orthogonal => "orthogonal",
+    Central => "central",
+});
 
 /// Adjusted interior orientation of one camera.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

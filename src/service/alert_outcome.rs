@@ -12,15 +12,11 @@ use crate::webhooks::{accepts, message_id, render, PayloadFormat, WebhookPayload
 use super::analysis_inputs::alert_config;
 
 /// The alert row's state after an event.
-fn state_name(event: &AlertEvent) -> &'static str {
+fn state_after(event: &AlertEvent) -> AlertStatus {
     if event.event_type == AlertEventType::Resolved {
-        return "resolved";
+        return AlertStatus::Resolved;
     }
-    match event.alert.status {
-        AlertStatus::Open => "open",
-        AlertStatus::Acknowledged => "acknowledged",
-        AlertStatus::Resolved => "resolved",
-    }
+    event.alert.status
 }
 
 /// Writes the outcome of alert events: the alert row of each (inserted or updated to the event's
@@ -42,7 +38,7 @@ pub async fn record_events(
         if e.event_type == AlertEventType::Raised {
             raised += 1;
         }
-        alerts::save(&mut *tx, &e.alert, state_name(e), e.timestamp).await?;
+        alerts::save(&mut *tx, &e.alert, state_after(e), e.timestamp).await?;
         let id = message_id(e);
         if outbox::contains(&mut *tx, &id).await? {
             continue;

@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use crate::analysis::{
     self, AlertConfig, AlertRule, AnalysisConfig, AnalysisError, DisplacementRecord,
-    EpochCoordinates, History, PointConfig, PointCoordinates, PointRole,
+    EpochCoordinates, History, PointConfig, PointCoordinates,
 };
 use crate::store::displacements::{self, Displacement};
 use crate::store::sites::Site;
@@ -69,11 +69,7 @@ pub async fn point_configs(
         .into_iter()
         .map(|p| PointConfig {
             name: p.name,
-            role: if p.role == "stable" {
-                PointRole::Stable
-            } else {
-                PointRole::Monitored
-            },
+            role: p.role,
             group: p.group,
             direction: p.direction,
         })

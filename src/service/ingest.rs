@@ -13,7 +13,7 @@ use chrono::Utc;
 use sha2::{Digest, Sha256};
 
 use crate::analysis::{self, EpochCoordinates};
-use crate::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochInput, Model};
+use crate::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochInput};
 use crate::store::block_motions;
 use crate::store::displacements::{self, Displacement};
 use crate::store::sites::Site;
@@ -95,7 +95,7 @@ pub async fn ingest_with_identification(
         .map(|c| (c.point, c.xyz))
         .collect();
     let options = AdjustOptions {
-        model: site.model.parse().unwrap_or(Model::Orthogonal),
+        model: site.model,
         prior,
         joint_covariance_of: joint_covariance_points(
             &problem.points,

@@ -7,6 +7,7 @@ use utoipa::ToSchema;
 use chrono::{DateTime, Utc};
 
 use super::{display_timestamp, now, timestamp, StoreError};
+use crate::analysis::{AlertEventType, AlertLevel, AlertStatus};
 
 /// A stored alert.
 #[derive(Debug, Clone, Default, Serialize, FromRow, ToSchema)]
@@ -28,8 +29,9 @@ pub struct Alert {
     #[serde(skip)]
     #[sqlx(rename = "points")]
     points_json: String,
-    /// `watch`, `warning` or `alarm`.
-    pub level: String,
+    /// Its level.
+    #[sqlx(try_from = "String")]
+    pub level: AlertLevel,
     /// Metric of the rule or a site-level kind.
     pub rule: String,
     /// Value that triggered it.
@@ -45,8 +47,9 @@ pub struct Alert {
     pub observed_at: Option<String>,
     /// Human-readable message.
     pub message: String,
-    /// `open`, `acknowledged` or `resolved`.
-    pub state: String,
+    /// Where it is in its lifecycle.
+    #[sqlx(try_from = "String")]
+    pub state: AlertStatus,
     /// When it was raised.
     pub raised_at: String,
     /// Last change.
@@ -76,11 +79,12 @@ fn finish(mut rows: Vec<Alert>) -> Vec<Alert> {
 pub async fn list(
     db: impl AnyExecutor<'_>,
     site: Option<&str>,
-    state: Option<&str>,
+    state: Option<AlertStatus>,
     after: Option<(&str, &str)>,
     limit: i64,
 ) -> Result<Vec<(String, Alert)>, StoreError> {
     let (t, id) = after.unwrap_or((super::TEXT_MAX, ""));
+    let state = state.map(AlertStatus::as_str);
     let rows: Vec<Alert> = sqlx::query_as(&format!(
         "SELECT {COLUMNS} FROM alerts WHERE ($1 IS NULL OR site_id = $2) AND ($3 IS NULL OR state = $4) \
          AND (raised_at < $5 OR (raised_at = $6 AND id < $7)) ORDER BY raised_at DESC, id DESC LIMIT $8"
@@ -128,13 +132,16 @@ pub async fn of_epoch(
 pub async fn active_levels(
     db: impl AnyExecutor<'_>,
     site: &str,
-) -> Result<Vec<(String, String)>, StoreError> {
-    Ok(sqlx::query_as(
+) -> Result<Vec<(String, AlertLevel)>, StoreError> {
+    let rows: Vec<(String, String)> = sqlx::query_as(
         "SELECT point, level FROM alerts WHERE site_id = $1 AND point IS NOT NULL AND state <> 'resolved'",
     )
     .bind(site)
     .fetch_all(db)
-    .await?)
+    .await?;
+    rows.into_iter()
+        .map(|(point, level)| Ok((point, level.parse()?)))
+        .collect()
 }
 
 /// Writes an alert as the alert engine left it after an event: the row is updated to the
@@ -143,7 +150,7 @@ pub async fn active_levels(
 pub async fn save(
     db: &mut AnyConnection,
     a: &crate::analysis::Alert,
-    state: &str,
+    state: AlertStatus,
     updated_at: DateTime<Utc>,
 ) -> Result<(), StoreError> {
     let points = serde_json::to_string(&a.points)?;
@@ -159,7 +166,7 @@ pub async fn save(
     .bind(a.epoch)
     .bind(a.observed_at.map(timestamp))
     .bind(&a.message)
-    .bind(state)
+    .bind(state.as_str())
     .bind(&points)
     .bind(timestamp(updated_at))
     .bind(&a.acknowledged_by)
@@ -187,7 +194,7 @@ pub async fn save(
         .bind(a.epoch)
         .bind(a.observed_at.map(timestamp))
         .bind(&a.message)
-        .bind(state)
+        .bind(state.as_str())
         .bind(timestamp(a.raised_at))
         .bind(timestamp(updated_at))
         .bind(&a.acknowledged_by)
@@ -223,11 +230,11 @@ pub async fn acknowledge(
 #[derive(Debug, Clone, PartialEq)]
 pub struct AlertEvent {
     /// The event type.
-    pub event_type: String,
+    pub event_type: AlertEventType,
     /// The alert's id.
     pub alert_id: String,
     /// Level after the event.
-    pub level: Option<String>,
+    pub level: Option<AlertLevel>,
     /// When it happened on the epochs' time axis (store format): the epoch's observation time
     /// for changes made by an epoch, the wall-clock time of an acknowledgement.
     pub at: String,
@@ -256,24 +263,24 @@ pub async fn events_of_point(
     ))
     .fetch_all(db)
     .await?;
-    Ok(rows
-        .into_iter()
+    rows.into_iter()
         .map(|(event_type, alert_id, level, payload, created)| {
+            let event_type: AlertEventType = event_type.parse()?;
             let observed = serde_json::from_str::<serde_json::Value>(&payload)
                 .ok()
                 .and_then(|v| v["data"]["observed_at"].as_str().map(str::to_string));
-            let at = match (event_type.as_str(), observed) {
-                ("alert.acknowledged", _) | (_, None) => created,
+            let at = match (event_type, observed) {
+                (AlertEventType::Acknowledged, _) | (_, None) => created,
                 (_, Some(o)) => o,
             };
-            AlertEvent {
+            Ok(AlertEvent {
                 event_type,
                 alert_id,
-                level,
+                level: level.as_deref().map(str::parse).transpose()?,
                 at,
-            }
+            })
         })
-        .collect())
+        .collect()
 }
 
 /// The recorded changes of one alert (its outbox events) as the CAP feed reads them, oldest
@@ -289,32 +296,32 @@ pub async fn changes_of(
     .bind(alert_id)
     .fetch_all(db)
     .await?;
-    let mut changes: Vec<(String, String, crate::cap::Change)> = rows
-        .into_iter()
-        .filter_map(|(event_type, level, payload, created)| {
-            let at = super::parse_timestamp(&created)?;
-            let body = serde_json::from_str::<serde_json::Value>(&payload).unwrap_or_default();
-            let event_time = body["timestamp"].as_str().unwrap_or_default().to_string();
-            let data = &body["data"];
-            let snapshot = crate::cap::Snapshot {
-                value: data["value"].as_f64(),
-                threshold: data["threshold"].as_f64(),
-                unit: data["unit"].as_str().map(str::to_string),
-                observed_at: data["observed_at"].as_str().map(str::to_string),
-                message: data["message"].as_str().unwrap_or_default().to_string(),
-            };
-            Some((
-                created,
-                event_time,
-                crate::cap::Change {
-                    event_type,
-                    level,
-                    at,
-                    snapshot,
-                },
-            ))
-        })
-        .collect();
+    let mut changes: Vec<(String, String, crate::cap::Change)> = Vec::with_capacity(rows.len());
+    for (event_type, level, payload, created) in rows {
+        let Some(at) = super::parse_timestamp(&created) else {
+            continue;
+        };
+        let body = serde_json::from_str::<serde_json::Value>(&payload).unwrap_or_default();
+        let event_time = body["timestamp"].as_str().unwrap_or_default().to_string();
+        let data = &body["data"];
+        let snapshot = crate::cap::Snapshot {
+            value: data["value"].as_f64(),
+            threshold: data["threshold"].as_f64(),
+            unit: data["unit"].as_str().map(str::to_string),
+            observed_at: data["observed_at"].as_str().map(str::to_string),
+            message: data["message"].as_str().unwrap_or_default().to_string(),
+        };
+        changes.push((
+            created,
+            event_time,
+            crate::cap::Change {
+                event_type: event_type.parse()?,
+                level: level.as_deref().map(str::parse).transpose()?,
+                at,
+                snapshot,
+            },
+        ));
+    }
     changes.sort_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
     Ok(changes.into_iter().map(|(_, _, c)| c).collect())
 }

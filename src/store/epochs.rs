@@ -9,7 +9,7 @@ use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
-use crate::photogrammetry::{Adjustment, EpochInput};
+use crate::photogrammetry::{Adjustment, EpochInput, Model};
 
 /// What ingestion hands to [`insert`]: the parsed upload and its adjustment.
 #[derive(Debug)]
@@ -31,6 +31,22 @@ pub struct EpochRecord<'a> {
     pub identification: Option<&'a serde_json::Value>,
 }
 
+/// What became of a stored epoch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum EpochStatus {
+    /// Adjusted, and its displacements analysed.
+    Adjusted,
+    /// Adjusted, but the displacement analysis failed (the reason is the report's
+    /// `analysis_error`).
+    AnalysisFailed,
+}
+
+crate::contract_names!(EpochStatus, "epoch status" {
+    Adjusted => "adjusted",
+    AnalysisFailed => "analysis_failed",
+});
+
 /// One line of the epoch list.
 #[derive(Debug, Clone, Serialize, FromRow, ToSchema)]
 pub struct EpochListItem {
@@ -40,10 +56,12 @@ pub struct EpochListItem {
     pub observed_at: String,
     /// Label of the upload.
     pub label: Option<String>,
-    /// `adjusted`.
-    pub status: String,
+    /// What became of it.
+    #[sqlx(try_from = "String")]
+    pub status: EpochStatus,
     /// Projection model.
-    pub model: String,
+    #[sqlx(try_from = "String")]
+    pub model: Model,
     /// A-posteriori σ0 in image mm.
     pub sigma0_mm: f64,
     /// Principal distance of the first camera in mm.
@@ -515,17 +533,17 @@ pub async fn set_analysis_outcome(
     let status = match error {
         Some(e) => {
             report.insert("analysis_error".into(), e.into());
-            "analysis_failed"
+            EpochStatus::AnalysisFailed
         }
         None => {
             if report.remove("analysis_error").is_none() {
                 return Ok(());
             }
-            "adjusted"
+            EpochStatus::Adjusted
         }
     };
     sqlx::query("UPDATE epochs SET status = $1, report = $2 WHERE site_id = $3 AND id = $4")
-        .bind(status)
+        .bind(status.as_str())
         .bind(serde_json::Value::Object(report).to_string())
         .bind(site)
         .bind(epoch)

@@ -5,6 +5,7 @@ use sqlx::{AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::StoreError;
+use crate::analysis::PointRole;
 
 /// Settings of a point (`PUT /api/v1/sites/{site}/points/{point}`).
 #[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
@@ -28,8 +29,8 @@ pub struct PointSettings {
 pub struct Point {
     /// Point name.
     pub name: String,
-    /// `stable` or `monitored`.
-    pub role: String,
+    /// Its role.
+    pub role: PointRole,
     /// Group name.
     pub group: Option<String>,
     /// Direction of interest, site frame.
@@ -46,18 +47,19 @@ struct PointRow {
     dir_z: Option<f64>,
 }
 
-impl From<PointRow> for Point {
-    fn from(r: PointRow) -> Point {
+impl TryFrom<PointRow> for Point {
+    type Error = StoreError;
+    fn try_from(r: PointRow) -> Result<Point, StoreError> {
         let direction = match (r.dir_x, r.dir_y, r.dir_z) {
             (Some(x), Some(y), Some(z)) => Some([x, y, z]),
             _ => None,
         };
-        Point {
+        Ok(Point {
             name: r.name,
-            role: r.role,
+            role: r.role.parse()?,
             group: r.grp,
             direction,
-        }
+        })
     }
 }
 
@@ -78,7 +80,7 @@ pub async fn list(
     .bind(limit)
     .fetch_all(db)
     .await?;
-    Ok(rows.into_iter().map(Point::from).collect())
+    rows.into_iter().map(Point::try_from).collect()
 }
 
 /// One point.
@@ -94,7 +96,7 @@ pub async fn get(
     .bind(name)
     .fetch_optional(db)
     .await?;
-    Ok(row.map(Point::from))
+    row.map(Point::try_from).transpose()
 }
 
 /// Names of every configured point of the site.

@@ -5,6 +5,7 @@ use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
+use crate::photogrammetry::Model;
 
 /// The version of the derived series (displacements, filtered values, block motions) this binary
 /// writes. Sites stored by an older one (`sites.analysis_version` below it) are recomputed once at
@@ -65,7 +66,7 @@ pub struct Site {
     /// Display name.
     pub name: String,
     /// Projection model.
-    pub model: String,
+    pub model: Model,
     /// Expected interval between campaigns in hours.
     pub schedule_hours: Option<f64>,
     /// Confidence level of the significance tests.
@@ -109,7 +110,7 @@ impl TryFrom<SiteRow> for Site {
         Ok(Site {
             id: r.id,
             name: r.name,
-            model: r.model,
+            model: r.model.parse()?,
             schedule_hours: r.schedule_hours,
             confidence: r.confidence,
             alert_rules: serde_json::from_str(&r.alert_rules)?,

@@ -8,6 +8,7 @@ use utoipa::openapi::schema::{Object, ObjectBuilder, Type};
 use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
+use crate::analysis::AlertLevel;
 use crate::webhooks::PayloadFormat;
 
 /// OpenAPI schema of a `format` field: a string, one of [`PayloadFormat`]'s names.
@@ -22,16 +23,6 @@ fn format_schema() -> Object {
              `POST /api/v2/alerts`, a JSON array of alerts). Every format is signed the same way.",
         ))
         .build()
-}
-
-/// Rank of an alert level (`watch` < `warning` < `alarm`); unknown levels rank 0.
-pub fn level_rank(level: &str) -> u8 {
-    match level {
-        "watch" => 1,
-        "warning" => 2,
-        "alarm" => 3,
-        _ => 0,
-    }
 }
 
 /// A webhook endpoint as created (`POST /api/v1/webhooks`).
@@ -62,7 +53,8 @@ pub struct Webhook {
     /// Target URL.
     pub url: String,
     /// Lowest level delivered.
-    pub min_level: String,
+    #[sqlx(try_from = "String")]
+    pub min_level: AlertLevel,
     /// Body format ([`PayloadFormat`]'s name).
     #[schema(schema_with = format_schema)]
     pub format: String,
@@ -185,7 +177,7 @@ pub async fn enabled_endpoints(
                 id,
                 url,
                 secret,
-                min_level: serde_json::from_value(serde_json::Value::String(min)).ok(),
+                min_level: min.parse().ok(),
                 format,
                 enabled: true,
             }
