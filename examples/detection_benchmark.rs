@@ -32,7 +32,7 @@ use cliffwatch::analysis::{
     AnalysisConfig, EpochAnalysis, EpochCoordinates, GroupConfig, GroupKind, History, PointConfig,
     PointRole,
 };
-use cliffwatch::photogrammetry::camera::DEFAULT_SIGMA_MM;
+use cliffwatch::photogrammetry::model::camera::DEFAULT_SIGMA_MM;
 use cliffwatch::photogrammetry::{adjust_problem, AdjustOptions};
 use cliffwatch::service::ingest::joint_covariance_points;
 use cliffwatch::simulate::monitoring::FailureLaw;

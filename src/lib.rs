@@ -8,10 +8,13 @@
 //! ## Module map
 //! The pure core (no I/O, no async, no database):
 //! - [`photogrammetry`]: the upload form, start values, the orthogonal and central bundle adjustments,
-//!   datum, precision, blunder detection, the adjustment report.
+//!   datum, precision, blunder detection, the adjustment report; one sub-module per step (`input`,
+//!   `start`, `model`, `solve`, `statistics`, `adjust`).
 //! - [`detect`]: images → circular targets with sub-pixel centres → identified observations.
 //! - [`analysis`]: stable-point datum, congruence test, displacements, velocity, time-to-failure, alert rules.
 //! - [`simulate`]: scenes with truth for tests and benchmarks.
+//! - [`contract_names`]: the names of the domain's enums (levels, states, roles, models) in the API,
+//!   the webhooks and the database, one table each.
 //!
 //! The shell around it:
 //! - [`config`]: layered configuration (file, environment, flags).

@@ -36,7 +36,7 @@ use crate::detect::identify::{
     identify, resect_seeds, IdentifyError, IdentifyOptions, Prior, Seed,
 };
 use crate::detect::{detect_bytes, DetectError, DetectOptions};
-use crate::photogrammetry::epoch::ObservationInput;
+use crate::photogrammetry::input::epoch::ObservationInput;
 use crate::photogrammetry::{Camera, EpochError, EpochInput, ImageOrientation};
 use crate::service::ingest::{ingest_with_identification, Ingested};
 use crate::service::ServiceError;
@@ -384,8 +384,8 @@ impl StationCounts {
 /// Decodes and searches one station's image (in `spawn_blocking`).
 async fn detect_station(
     folder: &Path,
-    image: &crate::photogrammetry::epoch::ImageInput,
-    cameras: &[crate::photogrammetry::epoch::CameraInput],
+    image: &crate::photogrammetry::input::epoch::ImageInput,
+    cameras: &[crate::photogrammetry::input::epoch::CameraInput],
     opts: &WatchOptions,
 ) -> Result<StationData, WatchError> {
     let station = image.station.clone().unwrap_or_else(|| image.id.clone());

@@ -20,7 +20,7 @@ use chrono::{DateTime, Utc};
 use cliffwatch::analysis::{
     analyse_epoch, AnalysisConfig, EpochCoordinates, History, PointConfig, PointRole,
 };
-use cliffwatch::photogrammetry::report::VarianceModel;
+use cliffwatch::photogrammetry::adjust::report::VarianceModel;
 use cliffwatch::photogrammetry::{adjust, AdjustOptions, Adjustment, JointCovariance};
 use cliffwatch::simulate::monitoring::FailureLaw;
 use cliffwatch::simulate::scenes::Truth;

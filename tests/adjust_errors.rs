@@ -21,15 +21,15 @@ fn fewer_than_four_known_points_names_the_image() {
         .retain(|o| ["1", "2", "3"].contains(&o.point.as_str()));
     for (k, name) in ["N1", "N2", "N3", "N4", "N5"].iter().enumerate() {
         for im in 0..3 {
-            e.images[im]
-                .observations
-                .push(cliffwatch::photogrammetry::epoch::ObservationInput {
+            e.images[im].observations.push(
+                cliffwatch::photogrammetry::input::epoch::ObservationInput {
                     point: name.to_string(),
                     x_mm: Some(k as f64 * 0.7 - 1.0 + im as f64 * 0.1),
                     y_mm: Some(1.3 - k as f64 * 0.4),
                     col: None,
                     row: None,
-                });
+                },
+            );
         }
     }
     match run(&e) {
@@ -46,7 +46,7 @@ fn point_in_one_image_only_names_the_point() {
     let mut e = base();
     e.images[0]
         .observations
-        .push(cliffwatch::photogrammetry::epoch::ObservationInput {
+        .push(cliffwatch::photogrammetry::input::epoch::ObservationInput {
             point: "LONER".into(),
             x_mm: Some(1.0),
             y_mm: Some(2.0),

@@ -8,7 +8,7 @@ mod watch_support;
 
 use std::path::Path;
 
-use cliffwatch::photogrammetry::epoch::ObservationInput;
+use cliffwatch::photogrammetry::input::epoch::ObservationInput;
 use cliffwatch::photogrammetry::EpochInput;
 use cliffwatch::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
 use cliffwatch::watch::{scan_once, WatchOptions};

@@ -16,7 +16,7 @@ mod service_support;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use cliffwatch::photogrammetry::epoch::{ApproxInput, ObservationInput};
+use cliffwatch::photogrammetry::input::epoch::{ApproxInput, ObservationInput};
 use cliffwatch::photogrammetry::EpochInput;
 use cliffwatch::simulate::images::{encode_png, random_clutter, render, ImageSpec, TargetTruth};
 use cliffwatch::simulate::scenes::{long_range, project, LongRangeParams, Truth};

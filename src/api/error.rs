@@ -5,7 +5,7 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use serde_json::{json, Value};
 
-use crate::photogrammetry::epoch_csv::CsvError;
+use crate::photogrammetry::input::epoch_csv::CsvError;
 use crate::service::ServiceError;
 use crate::store::StoreError;
 

@@ -14,7 +14,7 @@ use super::points::SeriesParams;
 use super::sites::find;
 use super::AppState;
 use crate::analysis::{GroupConfig, GroupKind};
-use crate::photogrammetry::epoch::is_valid_identifier;
+use crate::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::series::{format_rows, SeriesFormat};
 use crate::store::{block_motions, groups};
 

@@ -18,7 +18,7 @@ use super::list::{encode, Page, PageParams};
 use super::sites::find;
 use super::AppState;
 use crate::analysis::{AlertLevel, PointRole};
-use crate::photogrammetry::epoch::is_valid_identifier;
+use crate::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::displacements::{self, Displacement};
 use crate::store::points::{self, PointSettings};
 use crate::store::series::{self, SeriesFormat, SeriesQuery};

@@ -10,7 +10,7 @@ use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{Page, PageParams};
 use super::AppState;
 use crate::analysis::AlertRule;
-use crate::photogrammetry::epoch::is_valid_identifier;
+use crate::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::sites::{self, NewSite, Site};
 use crate::store::StoreError;
 

@@ -9,8 +9,8 @@
 //! guessed. After a first pass, a 2-D similarity from the unique matches to the detections absorbs a
 //! small re-pointing of the station, and the matching is repeated.
 
-use crate::photogrammetry::camera::brown_correct;
-use crate::photogrammetry::start::{resect_image, StartImage};
+use crate::photogrammetry::model::camera::brown_correct;
+use crate::photogrammetry::start::start_values::{resect_image, StartImage};
 use crate::photogrammetry::{Camera, ImageOrientation};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;

@@ -1,42 +1,31 @@
 //! The photogrammetric core: pure functions, no I/O, no async.
 //!
-//! The path of an epoch through it: [`epoch`] validates the upload form, [`start`] finds start values
-//! from four known points per image ([`affine`] resection, perspective refinement, ray intersection),
-//! [`adjust`] runs the bundle adjustment in the [`frame`] working frame with the [`orthogonal`] or
-//! [`central`] model ([`bundle`] observation equations, [`normals`] with the Schur complement, [`lm`]
-//! iteration), [`precision`] inverts it, [`snooping`] drops blunders, and [`report`] holds the
-//! contract's report. [`quality`] computes the paper's quality indexes against truth.
+//! The path of an epoch through it, one sub-module per step:
+//! - [`input`]: the upload form, checked, becomes the problem to solve;
+//! - [`start`]: start values from four known points per image (affine resection, perspective
+//!   refinement, ray intersection);
+//! - [`model`]: the [`model::orthogonal`] and [`model::central`] projection models, the working
+//!   [`model::frame`], and the observation equations of the [`model::bundle`];
+//! - [`solve`]: normal equations with the Schur complement and Levenberg–Marquardt;
+//! - [`statistics`]: precision, data snooping, and the paper's quality indexes;
+//! - [`adjust`]: the adjustment as a whole ([`adjust::adjuster`]), its options and result, and the
+//!   contract's report.
 
 pub mod adjust;
-pub mod affine;
-pub mod bundle;
-pub mod camera;
-pub mod camera_blocks;
-pub mod central;
-pub mod dense;
-pub mod dense_schur;
-pub mod dual;
-pub mod epoch;
-pub mod epoch_csv;
 pub mod error;
-pub mod frame;
-pub mod lm;
-pub mod normal_equations;
-pub mod normals;
-pub mod orthogonal;
-pub mod precision;
-pub mod quality;
-pub mod report;
-pub mod result;
-pub mod rotation;
-pub mod snooping;
+pub mod input;
+pub mod model;
+pub mod solve;
 pub mod start;
+pub mod statistics;
 #[cfg(test)]
 mod test_support;
 
-pub use adjust::{adjust, adjust_problem};
-pub use camera::Camera;
-pub use epoch::{EpochInput, EpochProblem, PriorCoordinates};
+pub use adjust::adjuster::{adjust, adjust_problem};
+pub use adjust::options::AdjustOptions;
+pub use adjust::report::AdjustmentReport;
+pub use adjust::result::{AdjustedPoint, Adjustment, ImageOrientation, JointCovariance};
 pub use error::{AdjustError, EpochError};
-pub use report::{AdjustmentReport, Model};
-pub use result::{AdjustOptions, AdjustedPoint, Adjustment, ImageOrientation, JointCovariance};
+pub use input::epoch::{EpochInput, EpochProblem, PriorCoordinates};
+pub use model::camera::Camera;
+pub use model::Model;

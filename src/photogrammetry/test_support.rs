@@ -2,11 +2,10 @@
 
 use nalgebra::Vector3;
 
-use super::bundle::{ImageState, Obs};
-use super::normals::Bundle;
-use super::orthogonal::OrthoImage;
-use super::report::Model;
-use super::rotation::rodrigues;
+use crate::photogrammetry::model::bundle::{Bundle, ImageState, Obs};
+use crate::photogrammetry::model::orthogonal::OrthoImage;
+use crate::photogrammetry::model::rotation::rodrigues;
+use crate::photogrammetry::model::Model;
 
 /// A small orthogonal-model bundle: `nimg` images around the Z axis looking at `np` points, c
 /// free, point p in the `per_point` images from p mod `nimg` on, one observation inactive.

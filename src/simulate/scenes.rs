@@ -27,12 +27,12 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::photogrammetry::camera::brown_distort;
-use crate::photogrammetry::epoch::{
+use crate::photogrammetry::adjust::result::AdjustedPoint;
+use crate::photogrammetry::input::epoch::{
     ApproxInput, CameraInput, ControlInput, EpochInput, ImageInput, ObservationInput,
 };
-use crate::photogrammetry::quality::{index3_rmse_mm, index4_rmse_mm, QualityError};
-use crate::photogrammetry::result::AdjustedPoint;
+use crate::photogrammetry::model::camera::brown_distort;
+use crate::photogrammetry::statistics::quality::{index3_rmse_mm, index4_rmse_mm, QualityError};
 
 /// The true scene behind a simulated epoch (form of `shared/data/*.truth.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use super::monitoring::FailureLaw;
 use super::scenes::{long_range, project, LongRangeParams, SceneError};
-use crate::photogrammetry::epoch::{EpochInput, ObservationInput};
+use crate::photogrammetry::input::epoch::{EpochInput, ObservationInput};
 
 /// Parameters of [`image_series`].
 #[derive(Debug, Clone, PartialEq)]

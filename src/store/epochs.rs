@@ -311,8 +311,10 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
         .bind(seq as i64)
         .execute(&mut *db)
         .await?;
-        let observations: Vec<(usize, &crate::photogrammetry::epoch::ObservationInput)> =
-            image.observations.iter().enumerate().collect();
+        let observations: Vec<(
+            usize,
+            &crate::photogrammetry::input::epoch::ObservationInput,
+        )> = image.observations.iter().enumerate().collect();
         for chunk in observations.chunks(super::rows_per_insert(13)) {
             let sql = format!(
                 "INSERT INTO observations (site_id, epoch_id, image_id, point, seq, x_mm, y_mm, \

@@ -1,7 +1,7 @@
 //! Helpers shared by the `adjust_*` integration tests.
 #![allow(dead_code)]
 
-use cliffwatch::photogrammetry::quality::fit_similarity;
+use cliffwatch::photogrammetry::statistics::quality::fit_similarity;
 use cliffwatch::photogrammetry::{AdjustOptions, Adjustment, EpochInput, Model};
 use cliffwatch::simulate::scenes::Truth;
 

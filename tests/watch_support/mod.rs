@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use cliffwatch::photogrammetry::epoch::ObservationInput;
+use cliffwatch::photogrammetry::input::epoch::ObservationInput;
 use cliffwatch::photogrammetry::EpochInput;
 use cliffwatch::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
 use cliffwatch::simulate::scenes::{long_range, LongRangeParams};

@@ -5,9 +5,41 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::camera::brown_correct;
 use super::dual::{Dual, Scalar};
-use super::report::Model;
 use super::rotation::perturbed;
-use super::{central, orthogonal};
+use crate::photogrammetry::model::Model;
+use crate::photogrammetry::model::{central, orthogonal};
+
+/// The adjustment's unknowns and observations in the working frame.
+#[derive(Debug, Clone)]
+pub struct Bundle {
+    /// Projection model.
+    pub model: Model,
+    /// Zbar of the orthogonal model (m, working frame; 0 at the centroid of the start points).
+    pub zbar: f64,
+    /// Exterior unknowns per image.
+    pub images: Vec<ImageState>,
+    /// Camera index per image.
+    pub image_camera: Vec<usize>,
+    /// Interior parameters per camera `[c, x0, y0, k1, k2, k3, p1, p2]`.
+    pub interior: Vec<[f64; 8]>,
+    /// Which interior parameters are unknowns, per camera.
+    pub free: Vec<[bool; 8]>,
+    /// A-priori σ of an image coordinate per camera (mm).
+    pub sigma: Vec<f64>,
+    /// Point coordinates (m, working frame).
+    pub points: Vec<Vector3<f64>>,
+    /// Observations.
+    pub obs: Vec<Obs>,
+    /// Observation indices per point.
+    pub point_obs: Vec<Vec<usize>>,
+    /// Control coordinates (m, working frame) and σ (m) per point, as weighted observations.
+    pub control: Vec<Option<(Vector3<f64>, f64)>>,
+    /// Weight of the tiny prior on point increments that fixes the free network's datum defect during
+    /// the iteration (0 when control points fix the datum).
+    pub gauge: f64,
+    /// A-priori value and σ of interior parameters (weighted pseudo-observations), per camera.
+    pub interior_prior: Vec<[Option<(f64, f64)>; 8]>,
+}
 
 /// Local Jacobian columns of one observation: 0..6 image, 6..14 interior parameter k, 14..17 point.
 pub const LOCAL: usize = 17;

@@ -175,8 +175,8 @@ pub fn project_jacobian(
 
 #[cfg(test)]
 mod tests {
+    use super::super::rotation::{perturbed, rodrigues};
     use super::*;
-    use crate::photogrammetry::rotation::{perturbed, rodrigues};
 
     /// The closed form reproduces collinearity (eq 2) to rounding, as the spec page states.
     #[test]
@@ -205,7 +205,7 @@ mod tests {
     /// The hand-derived Jacobian equals the dual-number derivatives of the same model.
     #[test]
     fn hand_jacobian_equals_dual_numbers() {
-        use crate::photogrammetry::dual::Dual;
+        use super::super::dual::Dual;
         for (i, omega) in [[0.05, -0.3, 0.02], [1.2, 0.4, -2.0], [-0.01, 0.02, 3.0]]
             .iter()
             .enumerate()

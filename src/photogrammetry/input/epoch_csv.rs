@@ -3,7 +3,7 @@
 
 use thiserror::Error;
 
-use crate::photogrammetry::epoch::CameraInput;
+use super::epoch::CameraInput;
 use crate::photogrammetry::EpochInput;
 
 /// Why a CSV upload cannot be read.
@@ -29,7 +29,7 @@ pub fn epoch_from_csv(
     observed_at: &str,
     cameras: Vec<CameraInput>,
 ) -> Result<EpochInput, CsvError> {
-    use crate::photogrammetry::epoch::{ImageInput, ObservationInput};
+    use super::epoch::{ImageInput, ObservationInput};
     let camera = cameras.first().ok_or(CsvError::NoCameras)?.id.clone();
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)

@@ -1,7 +1,8 @@
 //! Gauss–Newton with Levenberg–Marquardt damping over the bundle's normal equations.
 
 use super::normal_equations::Normals;
-use super::normals::{Bundle, ReduceBuffers};
+use super::normals::ReduceBuffers;
+use crate::photogrammetry::model::bundle::Bundle;
 
 /// How an iteration ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -267,7 +268,7 @@ fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::photogrammetry::bundle::residual_value;
+    use crate::photogrammetry::model::bundle::residual_value;
     use crate::photogrammetry::test_support::bundle;
     use nalgebra::Vector3;
 

@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::photogrammetry::model::Model;
+
 /// The variance behind the data snooping's test statistics.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -14,24 +16,6 @@ pub enum VarianceModel {
     /// global test rejected the a-priori σ, either way).
     APosteriori,
 }
-
-/// Which projection model an adjustment uses.
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default, utoipa::ToSchema,
-)]
-#[serde(rename_all = "lowercase")]
-pub enum Model {
-    /// Ono & Hattori's orthogonal projection model (eqs 5, 9–14) with self-calibrated c.
-    #[default]
-    Orthogonal,
-    /// Collinearity (central perspective) with selectable self-calibration.
-    Central,
-}
-
-crate::contract_names!(Model, "model" {
-    Orthogonal => "orthogonal",
-    Central => "central",
-});
 
 /// Adjusted interior orientation of one camera.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

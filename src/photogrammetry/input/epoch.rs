@@ -8,9 +8,9 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use chrono::{DateTime, Utc};
 use serde::{Deserialize, Serialize};
 
-use super::camera::Camera;
-pub use super::camera::CameraInput;
-use super::error::EpochError;
+use crate::photogrammetry::error::EpochError;
+use crate::photogrammetry::model::camera::Camera;
+pub use crate::photogrammetry::model::camera::CameraInput;
 
 /// One campaign at one site as uploaded (JSON form of the contract).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -38,7 +38,7 @@ pub struct DenseCouplings {
 }
 
 /// Builds W and W V⁻¹ from the couplings and the point inverses `vinv`, and subtracts
-/// `W V⁻¹ b_p` from `rhs` (the reduction of [`super::normals::Bundle::reduce`] for dense couplings).
+/// `W V⁻¹ b_p` from `rhs` (the reduction of [`Bundle::reduce`](crate::photogrammetry::model::bundle::Bundle::reduce) for dense couplings).
 pub fn couplings(n: &Normals, vinv: &[Matrix3<f64>], rhs: &mut [f64]) -> DenseCouplings {
     let nc = n.bc.len();
     let np = n.w.len();
@@ -91,8 +91,8 @@ pub fn cofactor_product(q: &Mat<f64>, w: &Mat<f64>) -> Mat<f64> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::normal_equations::Coupling;
     use super::*;
-    use crate::photogrammetry::normal_equations::Coupling;
 
     /// The products equal the point-by-point sums they replace.
     #[test]

@@ -5,440 +5,38 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::bundle::{residual_value, ImageState, Obs};
-use super::camera::{brown_correct, INTERIOR_NAMES};
-use super::central::CentralImage;
-use super::epoch::{EpochInput, EpochProblem};
-use super::error::AdjustError;
-use super::frame::{similarity_fit, WorkingFrame};
-use super::lm::{
-    levenberg_marquardt, levenberg_marquardt_normals, levenberg_marquardt_within, LmOutcome, Start,
-    ROUND_STEP,
-};
-use super::normal_equations::Normals;
-use super::normals::Bundle;
-use super::orthogonal::OrthoImage;
-use super::precision::Cofactors;
+use super::options::AdjustOptions;
 use super::report::{
-    AdjustmentReport, CalibratedParameter, CameraReport, DroppedObservation, ImageReport, Model,
+    AdjustmentReport, CalibratedParameter, CameraReport, DroppedObservation, ImageReport,
     PointReport, ResidualReport, VarianceModel,
 };
-use super::result::{AdjustOptions, AdjustedPoint, Adjustment, ImageOrientation, JointCovariance};
-use super::snooping::{normalized_residual, ActiveCounts, LinearSnooping};
-use super::start::{start_values, StartImage};
+use super::result::{AdjustedPoint, Adjustment, ImageOrientation, JointCovariance};
+use super::robust::{affine_stage, choose_mirrors, first_stage};
+use crate::photogrammetry::error::AdjustError;
+use crate::photogrammetry::input::epoch::{EpochInput, EpochProblem};
+use crate::photogrammetry::model::bundle::{residual_value, Bundle, ImageState, Obs};
+use crate::photogrammetry::model::camera::{brown_correct, INTERIOR_NAMES};
+use crate::photogrammetry::model::central::CentralImage;
+use crate::photogrammetry::model::frame::{similarity_fit, WorkingFrame};
+use crate::photogrammetry::model::orthogonal::OrthoImage;
+use crate::photogrammetry::model::Model;
+use crate::photogrammetry::solve::lm::{
+    levenberg_marquardt, levenberg_marquardt_normals, LmOutcome, Start,
+};
+use crate::photogrammetry::solve::normal_equations::Normals;
+use crate::photogrammetry::start::start_values::{start_values, StartImage};
+use crate::photogrammetry::statistics::global_test::{chi2_upper, variance_model, GLOBAL_TEST_Z};
+use crate::photogrammetry::statistics::precision::Cofactors;
+use crate::photogrammetry::statistics::snooping::{
+    normalized_residual, ActiveCounts, LinearSnooping,
+};
 
 /// Relative weight of the prior on point increments that holds the free network's datum during the
 /// iteration (a fraction of the mean point block diagonal).
 const GAUGE: f64 = 1e-9;
 
-/// Standard normal quantile of the global test on the variance factor (99.9 %).
-const GLOBAL_TEST_Z: f64 = 3.09;
-
-/// Upper quantile of χ²(ν) for the standard normal quantile z (Wilson–Hilferty).
-fn chi2_upper(nu: f64, z: f64) -> f64 {
-    let a = 2.0 / (9.0 * nu);
-    nu * (1.0 - a + z * a.sqrt()).powi(3)
-}
-
-/// Lower quantile of χ²(ν) for the standard normal quantile z (Wilson–Hilferty).
-fn chi2_lower(nu: f64, z: f64) -> f64 {
-    chi2_upper(nu, -z)
-}
-
-/// Critical value of Pope's τ statistic with `r` degrees of freedom at the level whose normal
-/// critical value is `z`: τ = t √r / √(r − 1 + t²) with t the Student quantile of r − 1 degrees of
-/// freedom (Pope 1976, eq 17), t from z by the Cornish–Fisher expansion.
-fn tau_critical(z: f64, r: f64) -> f64 {
-    let nu = (r - 1.0).max(1.0);
-    let (z3, z5) = (z.powi(3), z.powi(5));
-    let t = z + (z3 + z) / (4.0 * nu) + (5.0 * z5 + 16.0 * z3 + 3.0 * z) / (96.0 * nu * nu);
-    let tau = t * (r / (r - 1.0 + t * t)).sqrt();
-    // τ is bounded by √r; with almost no redundancy the test degenerates to that bound.
-    tau.min(r.sqrt())
-}
-
-/// Variance factor beyond which the snooping keeps the a-priori σ although the global test rejects
-/// it: an a-priori σ off by more than a factor 2 is taken for a wrong basin or many gross errors,
-/// which the capped snooping and the retry from the affine bundle must see, not for a misstated σ.
-const MAX_TAU_VARIANCE_FACTOR: f64 = 4.0;
-
-/// The snooping's variance model for the bundle's current solution: a-priori when the global test
-/// (two-sided, 99.9 %) accepts the variance factor or it exceeds [`MAX_TAU_VARIANCE_FACTOR`], else
-/// Pope's τ test with σ̂0. Returns the model and
-/// the factor √(variance factor) · τ_crit / `critical_w` by which the critical |w| (formed with the
-/// a-priori σ) is widened, and √(variance factor) by which reported w are divided.
-fn variance_model(b: &Bundle, dof: i64, critical_w: f64) -> (VarianceModel, f64, f64) {
-    let r = dof.max(2) as f64;
-    let vf = b.cost() / r;
-    let upper = chi2_upper(r, GLOBAL_TEST_Z) / r;
-    let lower = chi2_lower(r, GLOBAL_TEST_Z) / r;
-    if (lower..=upper).contains(&vf) || !(vf > 0.0 && vf <= MAX_TAU_VARIANCE_FACTOR) {
-        (VarianceModel::APriori, 1.0, 1.0)
-    } else {
-        let s = vf.sqrt();
-        (
-            VarianceModel::APosteriori,
-            s * tau_critical(critical_w, r) / critical_w,
-            s,
-        )
-    }
-}
-
 /// σ of the prior on a self-calibrated c, relative to its given value.
 const C_PRIOR_RELATIVE: f64 = 0.1;
-
-/// Robust residual scale (in a-priori σ) above which stage 1 is taken to sit in a wrong basin.
-const RESCUE_SCALE: f64 = 3.0;
-
-/// Largest epoch (images) for which the leave-one-image-out rescue is tried.
-const RESCUE_MAX_IMAGES: usize = 12;
-
-/// Leave-one-image-out rescue of a stage 1 that failed (a gross error in one image's start, e.g.
-/// swapped labels, can put the whole network in a wrong basin): adjusts without each image in turn,
-/// keeps the best fit, re-resects the left-out image robustly on the adjusted points (its gross errors
-/// are set aside as suspects) and puts it back.
-fn rescue(bundle: &mut Bundle, initial: &Bundle) {
-    let nimg = bundle.images.len();
-    if !(4..=RESCUE_MAX_IMAGES).contains(&nimg) {
-        return;
-    }
-    let mut best: Option<(f64, usize, Bundle)> = None;
-    for j in 0..nimg {
-        let mut trial = initial.clone();
-        for o in trial.obs.iter_mut() {
-            if o.image == j {
-                o.active = false;
-            }
-        }
-        if (0..trial.points.len()).any(|p| {
-            trial.point_obs[p]
-                .iter()
-                .filter(|&&k| trial.obs[k].active)
-                .count()
-                < 2
-        }) {
-            continue;
-        }
-        levenberg_marquardt(&mut trial, 4 * ROBUST_ITERATIONS);
-        let s = residual_scale(&trial, &residual_norms(&trial));
-        if best.as_ref().is_none_or(|b| s < b.0) {
-            best = Some((s, j, trial));
-        }
-    }
-    let Some((s, j, mut trial)) = best else {
-        return;
-    };
-    if s > RESCUE_SCALE {
-        return;
-    }
-    // Put the image back with its start orientation; the reweighted rounds now have four good images
-    // holding the points and pull it in while its gross errors get low weights.
-    for o in trial.obs.iter_mut() {
-        if o.image == j {
-            o.active = true;
-        }
-    }
-    robust_rounds(&mut trial, ROBUST_ITERATIONS, ROBUST_ROUNDS);
-    *bundle = trial;
-}
-
-/// The first stage from the start values: reweighted rounds (and the leave-one-image-out rescue when
-/// they end in a poor fit) followed by the screening of gross residuals; then plain
-/// Levenberg–Marquardt. The stage is robust whether or not data snooping follows: without snooping,
-/// the observations set aside here are taken back before the final adjustment.
-/// `converged` is the outcome of an adjustment that already converged at the bundle's state (the
-/// mirror choice's); when the robust stage leaves that state as it is, it is not repeated. Without
-/// `max_iterations` the final Levenberg–Marquardt is left to the next stage (the outcome returned is
-/// then that of the state reached, marked not converged).
-fn first_stage(
-    bundle: &mut Bundle,
-    max_iterations: Option<usize>,
-    converged: Option<LmOutcome>,
-) -> LmOutcome {
-    let initial = bundle.clone();
-    let mut unchanged = converged.is_some();
-    unchanged &= !robust_rounds(bundle, ROBUST_ITERATIONS, ROBUST_ROUNDS);
-    if residual_scale(bundle, &residual_norms(bundle)) > RESCUE_SCALE {
-        rescue(bundle, &initial);
-        unchanged = false;
-    }
-    unchanged &= screen(bundle) == 0;
-    unchanged &= !repair_images(bundle);
-    match (converged, max_iterations) {
-        (Some(outcome), _) if unchanged => outcome,
-        (_, Some(max)) => levenberg_marquardt(bundle, max),
-        (_, None) => LmOutcome {
-            iterations: 0,
-            converged: false,
-            cost: bundle.cost(),
-        },
-    }
-}
-
-/// Share of an image's observations set aside beyond which its orientation is taken to be wrong (a
-/// wrong mirror root of a flat face) rather than its observations.
-const REPAIR_SHARE: f64 = 0.3;
-
-/// Re-resects images that lost more than [`REPAIR_SHARE`] of their observations to the screening on
-/// the adjusted points, which are now accurate enough for the perspective to pick the right mirror
-/// root, and takes their observations back (the snooping judges them again).
-/// Returns whether the bundle changed.
-fn repair_images(bundle: &mut Bundle) -> bool {
-    let before = bundle.clone();
-    let active = |b: &Bundle| b.obs.iter().filter(|o| o.active).count();
-    let counts = ActiveCounts::of(bundle);
-    let mut totals = vec![0usize; bundle.images.len()];
-    for o in &bundle.obs {
-        totals[o.image] += 1;
-    }
-    let mut repaired = false;
-    for j in 0..bundle.images.len() {
-        let lost = totals[j] - counts.per_image[j];
-        if (lost as f64) <= REPAIR_SHARE * totals[j] as f64 {
-            continue;
-        }
-        let cam = bundle.image_camera[j];
-        let image = StartImage {
-            id: String::new(),
-            c: bundle.interior[cam][0],
-            observations: bundle
-                .obs
-                .iter()
-                .filter(|o| o.image == j)
-                .map(|o| (o.point, brown_correct(o.meas, &bundle.interior[cam])))
-                .collect(),
-        };
-        let known: Vec<Option<Vector3<f64>>> = bundle.points.iter().map(|p| Some(*p)).collect();
-        let Ok(res) = super::start::resect_image(&image, &known) else {
-            continue;
-        };
-        let o = OrthoImage::from_center(res.rotation, res.center, image.c, bundle.zbar);
-        bundle.images[j] = ImageState {
-            rotation: res.rotation,
-            p: [o.m, o.a4, o.a8],
-        };
-        for (k, o) in bundle.obs.iter_mut().filter(|o| o.image == j).enumerate() {
-            o.active = !res.removed.contains(&k);
-        }
-        repaired = true;
-    }
-    if repaired {
-        levenberg_marquardt(bundle, 4 * ROBUST_ITERATIONS);
-        screen(bundle);
-        // Kept only if it gave observations back and fits at the noise level (a resection spoilt by
-        // gross errors would not).
-        let scale = residual_scale(bundle, &residual_norms(bundle));
-        if active(bundle) <= active(&before) || scale > 1.5 {
-            *bundle = before;
-            return false;
-        }
-    }
-    repaired
-}
-
-/// Factor on c that turns the closed-form model into the scaled orthographic (affine) projection of
-/// eq (5): with H → ∞, K → 1 and u → 1, so x = x_a.
-const AFFINE_C_FACTOR: f64 = 1e4;
-
-/// Reweighted rounds of the affine stage.
-const AFFINE_ROUNDS: usize = 4;
-
-/// Stage 0, the fallback start: the bundle of the pure affine model (eq 5 with constraints 10–11).
-/// Its basin differs from the perspective one, and in the orthogonal parametrization its solution
-/// (m, A4, A8, R, points) is directly a start of the perspective adjustment. Reweighted so that gross
-/// errors cannot steer it.
-fn affine_stage(bundle: &mut Bundle) {
-    let c: Vec<f64> = bundle.interior.iter().map(|i| i[0]).collect();
-    for i in bundle.interior.iter_mut() {
-        i[0] *= AFFINE_C_FACTOR;
-    }
-    robust_rounds(bundle, ROBUST_ITERATIONS, AFFINE_ROUNDS);
-    for (i, c) in bundle.interior.iter_mut().zip(c) {
-        i[0] = c;
-    }
-}
-
-/// Reweighted rounds of the first perspective stage at most.
-const ROBUST_ROUNDS: usize = 12;
-
-/// Robust residual scale (a-priori σ) below which the start roots are kept without trying mirrors.
-const MIRROR_ACCEPT_SCALE: f64 = 1.5;
-
-/// Up to this many images with a mirror candidate, every combination is tried; beyond, greedy passes.
-const EXHAUSTIVE_MIRRORS: usize = 6;
-
-/// Planar point sets give two mirror orientations per image that the perspective of a single image may
-/// not tell apart at long range; keep, image by image, the one with which the whole network fits
-/// better ("the one consistent with the other images").
-/// Returns the outcome of the adjustment that kept the start roots, when it did.
-fn choose_mirrors(bundle: &mut Bundle, mirrors: &[Option<ImageState>]) -> Option<LmOutcome> {
-    if mirrors.iter().all(Option::is_none) {
-        return None;
-    }
-    // Compared by the robust residual scale, so that a gross error in one image cannot decide.
-    let fit = |b: &Bundle| {
-        let mut t = b.clone();
-        levenberg_marquardt(&mut t, 2 * ROBUST_ITERATIONS);
-        residual_scale(&t, &residual_norms(&t))
-    };
-    let with_mirror: Vec<usize> = (0..mirrors.len())
-        .filter(|&j| mirrors[j].is_some())
-        .collect();
-    // The start roots already fit at the noise level (robustly and by the plain RMS): every
-    // alternative would fit worse.
-    let mut base = bundle.clone();
-    let (outcome, _) =
-        levenberg_marquardt_normals(&mut base, 2 * ROBUST_ITERATIONS, Start::Adaptive);
-    let norms = residual_norms(&base);
-    if outcome.converged
-        && residual_scale(&base, &norms) < MIRROR_ACCEPT_SCALE
-        && rms_scale(&base, &norms) < MIRROR_ACCEPT_SCALE
-    {
-        *bundle = base;
-        return Some(outcome);
-    }
-    if with_mirror.len() <= EXHAUSTIVE_MIRRORS {
-        // Every combination (2^k small networks).
-        let base = bundle.clone();
-        let mut best = (f64::INFINITY, base.clone());
-        for mask in 0u32..(1 << with_mirror.len()) {
-            let mut trial = base.clone();
-            for (bit, &j) in with_mirror.iter().enumerate() {
-                if mask & (1 << bit) != 0 {
-                    trial.images[j] = mirrors[j].expect("has a mirror");
-                }
-            }
-            let cost = fit(&trial);
-            if cost < best.0 {
-                best = (cost, trial);
-            }
-        }
-        *bundle = best.1;
-        return None;
-    }
-    let mut best = fit(bundle);
-    let mut current: Vec<ImageState> = bundle.images.clone();
-    let mut alternative: Vec<Option<ImageState>> = mirrors.to_vec();
-    for _pass in 0..3 {
-        let mut changed = false;
-        for j in 0..alternative.len() {
-            let Some(m) = alternative[j] else { continue };
-            let mut trial = bundle.clone();
-            trial.images[j] = m;
-            let cost = fit(&trial);
-            if cost < best {
-                best = cost;
-                alternative[j] = Some(current[j]);
-                current[j] = m;
-                *bundle = trial;
-                changed = true;
-            }
-        }
-        if !changed {
-            break;
-        }
-    }
-    None
-}
-
-/// Iterations per round of the reweighted first stage.
-const ROBUST_ITERATIONS: usize = 10;
-
-/// Multiple of the robust residual scale beyond which an observation is set aside after the first stage.
-const SCREEN_FACTOR: f64 = 6.0;
-
-/// Screens the residuals of the first stage: observations whose residual exceeds `SCREEN_FACTOR` robust
-/// σ (and 3 a-priori σ) are set aside, largest first, keeping every point in ≥ 2 images and every image
-/// with ≥ 4 observations. Returns how many were set aside.
-fn residual_norms(bundle: &Bundle) -> Vec<f64> {
-    bundle
-        .obs
-        .iter()
-        .map(|o| {
-            if !o.active {
-                return 0.0;
-            }
-            let cam = bundle.image_camera[o.image];
-            let e = residual_value(
-                bundle.model,
-                &bundle.images[o.image],
-                &bundle.interior[cam],
-                &bundle.points[o.point],
-                o.meas,
-                bundle.zbar,
-            );
-            (e[0] * e[0] + e[1] * e[1]).sqrt() / bundle.sigma[cam]
-        })
-        .collect()
-}
-
-/// Robust scale of the active residual norms, in a-priori σ of one coordinate.
-fn residual_scale(bundle: &Bundle, norms: &[f64]) -> f64 {
-    let active: Vec<f64> = norms
-        .iter()
-        .zip(&bundle.obs)
-        .filter(|(_, o)| o.active)
-        .map(|(n, _)| *n)
-        .collect();
-    super::start::robust_scale(&active) / std::f64::consts::SQRT_2
-}
-
-/// Root mean square of the active residual norms, in a-priori σ of one coordinate.
-fn rms_scale(bundle: &Bundle, norms: &[f64]) -> f64 {
-    let (n, sum) = norms
-        .iter()
-        .zip(&bundle.obs)
-        .filter(|(_, o)| o.active)
-        .fold((0usize, 0.0), |(n, s), (r, _)| (n + 1, s + r * r));
-    (sum / (2 * n.max(1)) as f64).sqrt()
-}
-
-/// Iteratively reweighted least squares with Cauchy weights `1/(1 + (r/(3s))²)`, a few rounds, so
-/// that gross errors (a mislabeled target) cannot drag the solution into a wrong basin before the
-/// screening. Leaves the weights at 1. Returns whether it adjusted (not when the residuals are at
-/// the noise level already).
-fn robust_rounds(bundle: &mut Bundle, iterations: usize, rounds: usize) -> bool {
-    let mut adjusted = false;
-    for _ in 0..rounds {
-        let norms = residual_norms(bundle);
-        let s = residual_scale(bundle, &norms).max(1.0);
-        // At the noise level already, also by the plain RMS (no gross error hides in the fit).
-        if s < 1.5 && (adjusted || rms_scale(bundle, &norms) < 1.5) {
-            break;
-        }
-        adjusted = true;
-        for (o, r) in bundle.obs.iter_mut().zip(&norms) {
-            o.weight = 1.0 / (1.0 + (r / (3.0 * s)).powi(2));
-        }
-        levenberg_marquardt_within(bundle, iterations, ROUND_STEP);
-    }
-    for o in bundle.obs.iter_mut() {
-        o.weight = 1.0;
-    }
-    adjusted
-}
-
-fn screen(bundle: &mut Bundle) -> usize {
-    let norms = residual_norms(bundle);
-    let scale = residual_scale(bundle, &norms);
-    let limit = (SCREEN_FACTOR * scale).max(3.0);
-    let mut order: Vec<usize> = (0..norms.len()).filter(|&k| norms[k] > limit).collect();
-    order.sort_by(|&a, &b| norms[b].total_cmp(&norms[a]));
-    let cap = bundle.obs.len() / 5;
-    let mut n = 0;
-    let mut counts = ActiveCounts::of(bundle);
-    for k in order {
-        if n >= cap {
-            break;
-        }
-        if counts.droppable(bundle, k) {
-            counts.drop(bundle, k);
-            bundle.obs[k].active = false;
-            n += 1;
-        }
-    }
-    n
-}
 
 /// Validates and adjusts an epoch of the upload form.
 pub fn adjust(input: &EpochInput, options: &AdjustOptions) -> Result<Adjustment, AdjustError> {
@@ -473,15 +71,46 @@ fn check_geometry(problem: &EpochProblem) -> Result<(), AdjustError> {
     Ok(())
 }
 
-/// Adjusts a validated epoch.
-pub fn adjust_problem(
+/// An adjustment ready to run: the stage-1 bundle in the working frame (interior held), the
+/// mirror-image alternatives of the start, which interior parameters become unknowns later, and
+/// the datum.
+struct Prepared {
+    frame: WorkingFrame,
+    bundle: Bundle,
+    mirrors: Vec<Option<ImageState>>,
+    free: Vec<[bool; 8]>,
+    start_points: Vec<Vector3<f64>>,
+    datum: Datum,
+    /// Control coordinates observed (3 per control point when control fixes the datum).
+    control_eq: usize,
+    warnings: Vec<String>,
+}
+
+impl Prepared {
+    /// Degrees of freedom of `b`: active observations, control and prior pseudo-observations,
+    /// less the unknowns, plus the datum defect of a free network.
+    fn dof(&self, b: &Bundle) -> i64 {
+        let active = b.obs.iter().filter(|o| o.active).count();
+        let defect = if self.datum == Datum::Free { 7 } else { 0 };
+        2 * active as i64 + self.control_eq as i64 + b.prior_count() as i64
+            - (b.camera_unknowns() + 3 * b.points.len()) as i64
+            + defect
+    }
+}
+
+/// Known coordinates per point, centred on their centroid `origin` (m, site frame).
+struct KnownPoints {
+    centred: Vec<Option<Vector3<f64>>>,
+    origin: Vector3<f64>,
+}
+
+/// The known coordinates of the points: approximations or control, else the site's earlier
+/// epochs.
+fn known_points(
     problem: &EpochProblem,
     options: &AdjustOptions,
-) -> Result<Adjustment, AdjustError> {
-    check_geometry(problem)?;
-    let np = problem.points.len();
-    // Known coordinates: control, approx, then the site's earlier epochs.
-    let known_site: Vec<Option<Vector3<f64>>> = (0..np)
+) -> Result<KnownPoints, AdjustError> {
+    let known_site: Vec<Option<Vector3<f64>>> = (0..problem.points.len())
         .map(|p| {
             problem.approx[p]
                 .or_else(|| options.prior.get(&problem.points[p]).copied())
@@ -490,16 +119,74 @@ pub fn adjust_problem(
         .collect();
     let known_list: Vec<Vector3<f64>> = known_site.iter().flatten().copied().collect();
     if known_list.is_empty() {
-        let image = &problem.images[0];
         return Err(AdjustError::TooFewKnownPoints {
-            image: image.id.clone(),
+            image: problem.images[0].id.clone(),
             known: 0,
         });
     }
     let origin = known_list.iter().fold(Vector3::zeros(), |a, b| a + b) / known_list.len() as f64;
-    let known: Vec<Option<Vector3<f64>>> =
-        known_site.iter().map(|k| k.map(|k| k - origin)).collect();
+    let centred = known_site.iter().map(|k| k.map(|k| k - origin)).collect();
+    Ok(KnownPoints { centred, origin })
+}
 
+/// The interior parameters each camera estimates (only c with the orthogonal model); none with
+/// fewer than three images, which cannot determine them (with a warning).
+fn interior_unknowns(
+    problem: &EpochProblem,
+    options: &AdjustOptions,
+    warnings: &mut Vec<String>,
+) -> Vec<[bool; 8]> {
+    let nimg = problem.images.len();
+    let free: Vec<[bool; 8]> = problem
+        .cameras
+        .iter()
+        .map(|c| {
+            let f = c.calibrate;
+            if options.model == Model::Orthogonal {
+                [f[0], false, false, false, false, false, false, false]
+            } else {
+                f
+            }
+        })
+        .collect();
+    if nimg >= 3 {
+        return free;
+    }
+    warnings.push(format!(
+        "only {nimg} images: the depth of the free network is weakly determined"
+    ));
+    if free.iter().flatten().any(|&f| f) {
+        warnings.push(
+            "two images cannot determine the interior orientation: c and the other interior parameters are held at their given values"
+                .into(),
+        );
+    }
+    vec![[false; 8]; free.len()]
+}
+
+/// Control points fix the datum when there are at least three; fewer are used as approximations
+/// of a free network (with a warning). Returns the datum and the number of control points.
+fn choose_datum(problem: &EpochProblem, warnings: &mut Vec<String>) -> (Datum, usize) {
+    let control_count = problem.control.iter().flatten().count();
+    if control_count >= 3 {
+        return (Datum::Control, control_count);
+    }
+    if control_count > 0 {
+        warnings.push(format!(
+            "{control_count} control point(s) are too few to fix the datum: free network, control used as approximations"
+        ));
+    }
+    (Datum::Free, control_count)
+}
+
+/// Start values from the known points, the working frame (Z along the mean viewing axis, origin
+/// at the centroid of all start points) and the stage-1 bundle in it.
+fn prepare(problem: &EpochProblem, options: &AdjustOptions) -> Result<Prepared, AdjustError> {
+    let np = problem.points.len();
+    let KnownPoints {
+        centred: known,
+        origin,
+    } = known_points(problem, options)?;
     let start_images: Vec<StartImage> = problem
         .images
         .iter()
@@ -518,7 +205,6 @@ pub fn adjust_problem(
         .collect();
     let start = start_values(&start_images, &known)?;
 
-    // Working frame: Z along the mean viewing axis, origin at the centroid of all start points.
     let r1s: Vec<Vector3<f64>> = start
         .rotations
         .iter()
@@ -534,42 +220,9 @@ pub fn adjust_problem(
     let to_w = |x_centred: &Vector3<f64>| frame.to_working(x_centred + origin);
 
     let mut warnings = Vec::new();
-    let nimg = problem.images.len();
-    let mut free: Vec<[bool; 8]> = problem
-        .cameras
-        .iter()
-        .map(|c| {
-            let mut f = c.calibrate;
-            if options.model == Model::Orthogonal {
-                f = [f[0], false, false, false, false, false, false, false];
-            }
-            f
-        })
-        .collect();
-    if nimg < 3 {
-        warnings.push(format!(
-            "only {nimg} images: the depth of the free network is weakly determined"
-        ));
-        if free.iter().flatten().any(|&f| f) {
-            warnings.push(
-                "two images cannot determine the interior orientation: c and the other interior parameters are held at their given values"
-                    .into(),
-            );
-            free = vec![[false; 8]; free.len()];
-        }
-    }
+    let free = interior_unknowns(problem, options, &mut warnings);
+    let (datum, control_count) = choose_datum(problem, &mut warnings);
     let start_points: Vec<Vector3<f64>> = start.points.iter().map(to_w).collect();
-    let control_count = problem.control.iter().flatten().count();
-    let datum = if control_count >= 3 {
-        Datum::Control
-    } else {
-        Datum::Free
-    };
-    if control_count > 0 && datum == Datum::Free {
-        warnings.push(format!(
-            "{control_count} control point(s) are too few to fix the datum: free network, control used as approximations"
-        ));
-    }
     let zbar = 0.0;
     let state = |j: usize, r: &Matrix3<f64>, xo: &Vector3<f64>| -> ImageState {
         let c = problem.cameras[problem.images[j].camera].c();
@@ -580,6 +233,7 @@ pub fn adjust_problem(
             p: [o.m, o.a4, o.a8],
         }
     };
+    let nimg = problem.images.len();
     let images: Vec<ImageState> = (0..nimg)
         .map(|j| state(j, &start.rotations[j], &start.centers[j]))
         .collect();
@@ -638,44 +292,56 @@ pub fn adjust_problem(
         let mean = bundle.point_block_trace() / (3 * np) as f64;
         bundle.gauge = GAUGE * mean.max(1e-300);
     }
-    let unknowns = bundle.camera_unknowns() + 3 * np;
-    let defect = if datum == Datum::Free { 7 } else { 0 };
-    let control_eq = if datum == Datum::Control {
-        3 * control_count
-    } else {
-        0
-    };
+    Ok(Prepared {
+        frame,
+        bundle,
+        mirrors,
+        free,
+        start_points,
+        datum,
+        control_eq: if datum == Datum::Control {
+            3 * control_count
+        } else {
+            0
+        },
+        warnings,
+    })
+}
 
-    let dof_of = |b: &Bundle| {
-        let active = b.obs.iter().filter(|o| o.active).count();
-        2 * active as i64 + control_eq as i64 + b.prior_count() as i64
-            - (b.camera_unknowns() + 3 * np) as i64
-            + defect
-    };
+/// Solves the prepared adjustment; when the solution looks like a wrong basin (no convergence, or
+/// too many outliers with a failed global test), tries again from the affine bundle (orthogonal
+/// model) and keeps the better. A wrong basin either way is refused as inconsistent.
+fn solve_or_retry(
+    problem: &EpochProblem,
+    options: &AdjustOptions,
+    prepared: &Prepared,
+) -> Result<Solved, AdjustError> {
+    let dof_of = |b: &Bundle| prepared.dof(b);
     let global_test_fails = |x: &Solved| {
         let dof = dof_of(&x.bundle).max(1) as f64;
         x.outcome.cost / dof > chi2_upper(dof, GLOBAL_TEST_Z) / dof
     };
     let failed = |x: &Solved| !x.outcome.converged || (x.too_many_outliers && global_test_fails(x));
-    let mut solved = solve(
-        problem,
-        options,
-        bundle.clone(),
-        &mirrors,
-        &free,
-        zbar,
-        datum,
-        false,
-        &dof_of,
-    )?;
+    let run = |affine_first: bool| {
+        solve(
+            problem,
+            options,
+            prepared.bundle.clone(),
+            &prepared.mirrors,
+            &prepared.free,
+            prepared.bundle.zbar,
+            prepared.datum,
+            affine_first,
+            &dof_of,
+        )
+    };
+    let mut solved = run(false)?;
     // Without snooping, a failed global test may be a wrong basin as well as gross errors kept: worth
     // the second try, though not a reason to refuse the result (it carries the test's warning).
     let suspect = |x: &Solved| failed(x) || (!options.snooping && global_test_fails(x));
     if suspect(&solved) && options.model == Model::Orthogonal {
         // A wrong basin (many blunders and a failed global test): try again from the affine bundle.
-        if let Ok(second) = solve(
-            problem, options, bundle, &mirrors, &free, zbar, datum, true, &dof_of,
-        ) {
+        if let Ok(second) = run(true) {
             let vf = |x: &Solved| x.outcome.cost / dof_of(&x.bundle).max(1) as f64;
             if !suspect(&second) || (second.outcome.converged && vf(&second) < vf(&solved)) {
                 solved = second;
@@ -692,6 +358,35 @@ pub fn adjust_problem(
             outliers: solved.outliers,
         });
     }
+    Ok(solved)
+}
+
+/// Adjusts a validated epoch: start values, the working frame, the solution (with a retry from
+/// the affine bundle when it lands in a wrong basin), then datum, precision and the report.
+pub fn adjust_problem(
+    problem: &EpochProblem,
+    options: &AdjustOptions,
+) -> Result<Adjustment, AdjustError> {
+    check_geometry(problem)?;
+    let prepared = prepare(problem, options)?;
+    let solved = solve_or_retry(problem, options, &prepared)?;
+    let dof = prepared.dof(&solved.bundle);
+    if dof <= 0 {
+        let b = &solved.bundle;
+        let active = b.obs.iter().filter(|o| o.active).count();
+        let defect = if prepared.datum == Datum::Free { 7 } else { 0 };
+        return Err(AdjustError::TooFewObservations {
+            observations: 2 * active + prepared.control_eq,
+            unknowns: b.camera_unknowns() + 3 * b.points.len() - defect,
+        });
+    }
+    let Prepared {
+        frame,
+        datum,
+        mut warnings,
+        start_points,
+        ..
+    } = prepared;
     let Solved {
         bundle,
         outcome,
@@ -703,18 +398,6 @@ pub fn adjust_problem(
         ..
     } = solved;
     warnings.extend(more);
-    let active = bundle.obs.iter().filter(|o| o.active).count();
-    let unknowns_now = bundle.camera_unknowns() + 3 * np;
-    let dof = 2 * active as i64 + control_eq as i64 + bundle.prior_count() as i64
-        - unknowns_now as i64
-        + defect;
-    let _ = unknowns;
-    if dof <= 0 {
-        return Err(AdjustError::TooFewObservations {
-            observations: 2 * active + control_eq,
-            unknowns: unknowns_now - defect as usize,
-        });
-    }
     finish(
         problem,
         options,
@@ -1287,37 +970,4 @@ fn finish(
         cameras,
         joint_covariance,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Pope's τ critical value against the Student-t table: t(0.9995; 99) = 3.392 gives
-    /// τ = 3.392 √(100 / (99 + 3.392²)) = 3.227 for r = 100; it tends to z for large r and never
-    /// exceeds √r.
-    #[test]
-    fn tau_critical_matches_the_table() {
-        assert!((tau_critical(3.2905, 100.0) - 3.227).abs() < 0.01);
-        assert!((tau_critical(3.2905, 1e6) - 3.2905).abs() < 1e-3);
-        assert!(tau_critical(3.2905, 3.0) <= 3f64.sqrt());
-        assert!(tau_critical(3.2905, 170.0) < 3.2905);
-    }
-
-    /// The global test's two bounds bracket 1 and tighten with the redundancy.
-    #[test]
-    fn global_test_bounds_bracket_one() {
-        for r in [20.0, 170.0, 2000.0] {
-            let (lo, hi) = (
-                chi2_lower(r, GLOBAL_TEST_Z) / r,
-                chi2_upper(r, GLOBAL_TEST_Z) / r,
-            );
-            assert!(lo < 1.0 && hi > 1.0 && lo > 0.0, "r = {r}: {lo} {hi}");
-        }
-        let w170 =
-            chi2_upper(170.0, GLOBAL_TEST_Z) / 170.0 - chi2_lower(170.0, GLOBAL_TEST_Z) / 170.0;
-        let w2000 =
-            chi2_upper(2000.0, GLOBAL_TEST_Z) / 2000.0 - chi2_lower(2000.0, GLOBAL_TEST_Z) / 2000.0;
-        assert!(w2000 < w170);
-    }
 }

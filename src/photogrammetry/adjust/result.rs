@@ -2,46 +2,8 @@
 //! exterior orientations (for target identification) and the joint covariance of chosen points
 //! (for the displacement analysis).
 
-use super::camera::{brown_distort, Camera};
-use super::epoch::PriorCoordinates;
-use super::report::{AdjustmentReport, Model};
-
-/// Options of one adjustment.
-#[derive(Debug, Clone)]
-pub struct AdjustOptions {
-    /// Projection model.
-    pub model: Model,
-    /// Coordinates (m, site frame) of points from earlier epochs: start values where the epoch has no
-    /// `approx`/`control` for a point.
-    pub prior: PriorCoordinates,
-    /// Points whose joint 3n × 3n covariance is wanted (e.g. the site's stable points).
-    pub joint_covariance_of: Vec<String>,
-    /// Run data snooping (Baarda, |w| > `critical_w`, one observation at a time). Without it every
-    /// observation is kept; those beyond `critical_w` are named in a warning, and a solution that
-    /// fails the global test with more than a tenth of them is refused as inconsistent, as with it.
-    pub snooping: bool,
-    /// Critical value of the normalized residual w.
-    pub critical_w: f64,
-    /// Iteration limit of one Levenberg–Marquardt run.
-    pub max_iterations: usize,
-    /// With the central model: adjust the orthogonal model first and start collinearity from its
-    /// solution (default). Off, collinearity starts from the start values directly (model comparisons).
-    pub central_from_orthogonal: bool,
-}
-
-impl Default for AdjustOptions {
-    fn default() -> Self {
-        AdjustOptions {
-            model: Model::Orthogonal,
-            prior: PriorCoordinates::new(),
-            joint_covariance_of: Vec::new(),
-            snooping: true,
-            critical_w: 3.29,
-            max_iterations: 100,
-            central_from_orthogonal: true,
-        }
-    }
-}
+use super::report::AdjustmentReport;
+use crate::photogrammetry::model::camera::{brown_distort, Camera};
 
 /// One adjusted point: coordinates in m (site frame) and covariance in m² (σ0²·Qxx).
 #[derive(Debug, Clone, PartialEq)]
@@ -123,7 +85,7 @@ pub struct Adjustment {
     pub orientations: Vec<ImageOrientation>,
     /// Cameras with their adjusted interior parameters.
     pub cameras: Vec<Camera>,
-    /// The joint covariance of [`AdjustOptions::joint_covariance_of`] (points that exist in the epoch).
+    /// The joint covariance of [`AdjustOptions::joint_covariance_of`](crate::photogrammetry::AdjustOptions::joint_covariance_of) (points that exist in the epoch).
     pub joint_covariance: Option<JointCovariance>,
 }
 

@@ -6,44 +6,13 @@ use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use super::bundle::{residual, residual_jacobian, ImageState, Obs, INTERIOR0, LOCAL, POINT0};
 use super::camera_blocks::CameraBlocks;
-use super::dual::Dual;
 use super::normal_equations::{chunk_len, Coupling, Normals, PARALLEL_MIN_OBSERVATIONS};
-use super::report::Model;
-use super::rotation::perturbed;
-
-/// The adjustment's unknowns and observations in the working frame.
-#[derive(Debug, Clone)]
-pub struct Bundle {
-    /// Projection model.
-    pub model: Model,
-    /// Zbar of the orthogonal model (m, working frame; 0 at the centroid of the start points).
-    pub zbar: f64,
-    /// Exterior unknowns per image.
-    pub images: Vec<ImageState>,
-    /// Camera index per image.
-    pub image_camera: Vec<usize>,
-    /// Interior parameters per camera `[c, x0, y0, k1, k2, k3, p1, p2]`.
-    pub interior: Vec<[f64; 8]>,
-    /// Which interior parameters are unknowns, per camera.
-    pub free: Vec<[bool; 8]>,
-    /// A-priori σ of an image coordinate per camera (mm).
-    pub sigma: Vec<f64>,
-    /// Point coordinates (m, working frame).
-    pub points: Vec<Vector3<f64>>,
-    /// Observations.
-    pub obs: Vec<Obs>,
-    /// Observation indices per point.
-    pub point_obs: Vec<Vec<usize>>,
-    /// Control coordinates (m, working frame) and σ (m) per point, as weighted observations.
-    pub control: Vec<Option<(Vector3<f64>, f64)>>,
-    /// Weight of the tiny prior on point increments that fixes the free network's datum defect during
-    /// the iteration (0 when control points fix the datum).
-    pub gauge: f64,
-    /// A-priori value and σ of interior parameters (weighted pseudo-observations), per camera.
-    pub interior_prior: Vec<[Option<(f64, f64)>; 8]>,
-}
+use crate::photogrammetry::model::bundle::{
+    residual, residual_jacobian, Bundle, Obs, INTERIOR0, LOCAL, POINT0,
+};
+use crate::photogrammetry::model::dual::Dual;
+use crate::photogrammetry::model::rotation::perturbed;
 
 /// The reduced system and what back-substitution needs.
 pub struct Reduced {
@@ -580,7 +549,10 @@ impl Bundle {
     pub fn apply(&mut self, dc: &[f64], dp: &[Vector3<f64>]) {
         for (j, im) in self.images.iter_mut().enumerate() {
             let d = &dc[6 * j..6 * j + 6];
-            im.rotation = super::rotation::update(&im.rotation, Vector3::new(d[0], d[1], d[2]));
+            im.rotation = crate::photogrammetry::model::rotation::update(
+                &im.rotation,
+                Vector3::new(d[0], d[1], d[2]),
+            );
             for k in 0..3 {
                 im.p[k] += d[3 + k];
             }

@@ -6,9 +6,9 @@
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
 use super::affine::{is_planar, resect, resect_planar, tilt_significance, ConstrainedAffine};
-use super::error::AdjustError;
-use super::orthogonal::{project, project_jacobian};
-use super::rotation::{perturbed, update};
+use crate::photogrammetry::error::AdjustError;
+use crate::photogrammetry::model::orthogonal::{project, project_jacobian};
+use crate::photogrammetry::model::rotation::{perturbed, update};
 
 /// Below this ratio of smallest to largest principal spread the known points count as planar.
 pub const PLANAR_RATIO: f64 = 0.03;
@@ -119,7 +119,7 @@ fn refine_image(
             break;
         }
     }
-    let img = super::orthogonal::OrthoImage {
+    let img = crate::photogrammetry::model::orthogonal::OrthoImage {
         rotation: rot,
         m,
         a4,
@@ -226,7 +226,7 @@ fn mirror_fit(
     }
     let sol = nm.try_inverse()? * b;
     let cand = ConstrainedAffine {
-        rotation: super::rotation::from_rows(r1, r2),
+        rotation: crate::photogrammetry::model::rotation::from_rows(r1, r2),
         m: sol[0],
         a4: sol[1],
         a8: sol[2],

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::error::EpochError;
+use crate::photogrammetry::error::EpochError;
 
 /// A camera (interior orientation) of the upload form. Only `c_mm` is required.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -8,7 +8,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use super::rotation::{from_rows, orthonormal_rows};
+use crate::photogrammetry::model::rotation::{from_rows, orthonormal_rows};
 
 /// An affine camera `x = a·X + a4`, `y = b·X + a8` (mm; X in m).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -237,7 +237,7 @@ pub fn intersect(cams: &[(AffineImage, [f64; 2])]) -> Option<Vector3<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::photogrammetry::rotation::rodrigues;
+    use crate::photogrammetry::model::rotation::rodrigues;
 
     fn cloud(planar: bool) -> Vec<Vector3<f64>> {
         (0..8)

@@ -5,10 +5,9 @@
 use faer::Mat;
 use nalgebra::{Matrix2, Matrix3, SMatrix, Vector3};
 
-use super::bundle::{Obs, LOCAL, POINT0};
-use super::dual::Dual;
-use super::normal_equations::{Normals, PARALLEL_MIN_OBSERVATIONS};
-use super::normals::Bundle;
+use crate::photogrammetry::model::bundle::{Bundle, Obs, LOCAL, POINT0};
+use crate::photogrammetry::model::dual::Dual;
+use crate::photogrammetry::solve::normal_equations::{Normals, PARALLEL_MIN_OBSERVATIONS};
 use rayon::prelude::*;
 
 type G = SMatrix<f64, 3, 7>;
@@ -52,7 +51,9 @@ impl Cofactors {
         let reduced = b.reduce(&normals, 0.0)?;
         let nc = reduced.rhs.len();
         let qcc = if nc > 0 {
-            super::dense::inverse(&super::dense::cholesky(&reduced.s)?)
+            crate::photogrammetry::solve::dense::inverse(
+                &crate::photogrammetry::solve::dense::cholesky(&reduced.s)?,
+            )
         } else {
             Mat::zeros(0, 0)
         };
@@ -65,7 +66,7 @@ impl Cofactors {
             datum: None,
         };
         let blocks: Vec<(Matrix3<f64>, Vec<Vector3<f64>>)> = if let Some(d) = &reduced.dense {
-            let qw = super::dense_schur::cofactor_product(&cof.qcc, &d.w);
+            let qw = crate::photogrammetry::solve::dense_schur::cofactor_product(&cof.qcc, &d.w);
             (0..b.points.len())
                 .map(|i| cof.diagonal_block_from(i, &qw))
                 .collect()
@@ -223,7 +224,7 @@ impl Cofactors {
     }
 
     /// [`Cofactors::diagonal_block`] from `Q W` of all points (see
-    /// [`super::dense_schur::cofactor_product`]).
+    /// [`crate::photogrammetry::solve::dense_schur::cofactor_product`]).
     fn diagonal_block_from(
         &self,
         i: usize,
@@ -519,7 +520,7 @@ mod tests {
             let b = bundle(nimg, np, per_point);
             let n = b.normals();
             assert_eq!(
-                crate::photogrammetry::dense_schur::is_dense(&n, b.obs.len()),
+                crate::photogrammetry::solve::dense_schur::is_dense(&n, b.obs.len()),
                 per_point == nimg
             );
             let nc = n.bc.len();

@@ -4,11 +4,10 @@
 
 use nalgebra::{Matrix2, Vector2, Vector3};
 
-use super::bundle::{residual_value, LOCAL, POINT0};
-use super::dual::Dual;
-use super::normal_equations::PARALLEL_MIN_OBSERVATIONS;
-use super::normals::Bundle;
 use super::precision::{Cofactors, ImageBlock};
+use crate::photogrammetry::model::bundle::{residual_value, Bundle, Obs, LOCAL, POINT0};
+use crate::photogrammetry::model::dual::Dual;
+use crate::photogrammetry::solve::normal_equations::PARALLEL_MIN_OBSERVATIONS;
 use rayon::prelude::*;
 
 /// Normalized residuals (w_x, w_y) of an active observation, `w = v / √q_vv` per coordinate. For an
@@ -202,7 +201,7 @@ impl LinearSnooping {
     /// critical value of |w| (see [`TRACK_SHARE`]).
     pub fn new(b: &Bundle, q: &Cofactors, critical_w: f64) -> Self {
         let parallel = b.obs.len() >= PARALLEL_MIN_OBSERVATIONS;
-        let jacobian = |o: &super::bundle::Obs| b.jacobian(o);
+        let jacobian = |o: &Obs| b.jacobian(o);
         let jac: Vec<[Dual<LOCAL>; 2]> = if parallel {
             b.obs.par_iter().map(jacobian).collect()
         } else {

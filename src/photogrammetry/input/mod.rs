@@ -1,0 +1,5 @@
+//! The upload form of an epoch: [`epoch`] checks it and builds the problem the adjustment solves;
+//! [`epoch_csv`] reads the same from CSV.
+
+pub mod epoch;
+pub mod epoch_csv;

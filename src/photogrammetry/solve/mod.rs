@@ -1,0 +1,11 @@
+//! Solving the normal equations: [`normals`] forms them and reduces them by the Schur complement
+//! over the 3 × 3 point blocks ([`normal_equations`] holds them, [`camera_blocks`] the interior
+//! blocks, [`dense`] and [`dense_schur`] the dense kernels), and [`lm`] iterates
+//! Levenberg–Marquardt on them.
+
+pub mod camera_blocks;
+pub mod dense;
+pub mod dense_schur;
+pub mod lm;
+pub mod normal_equations;
+pub mod normals;

@@ -1,0 +1,8 @@
+//! What the adjustment says about itself: [`precision`] (cofactors of points and images from the
+//! reduced system), [`snooping`] (normalised residuals and blunder detection), and [`quality`]
+//! (the paper's quality indexes against truth).
+
+pub mod global_test;
+pub mod precision;
+pub mod quality;
+pub mod snooping;
