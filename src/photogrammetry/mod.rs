@@ -10,12 +10,15 @@
 //! - [`statistics`]: precision, data snooping, and the paper's quality indexes;
 //! - [`adjust`]: the adjustment as a whole ([`adjust::adjuster`]), its options and result, and the
 //!   contract's report.
+//!
+//! The solver, the bundle's internals, precision and snooping are crate-private: callers use
+//! [`adjust`] / [`adjust_problem`] and the types re-exported here.
 
 pub mod adjust;
 pub mod error;
 pub mod input;
 pub mod model;
-pub mod solve;
+pub(crate) mod solve;
 pub mod start;
 pub mod statistics;
 #[cfg(test)]

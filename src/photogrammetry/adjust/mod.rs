@@ -6,4 +6,4 @@ pub mod adjuster;
 pub mod options;
 pub mod report;
 pub mod result;
-pub mod robust;
+pub(crate) mod robust;

@@ -3,10 +3,10 @@
 //! (collinearity), the [`frame`] the adjustment works in, and [`bundle`]: the unknowns of an epoch
 //! and the observation equations of one image point, with exact Jacobians by [`dual`] numbers.
 
-pub mod bundle;
+pub(crate) mod bundle;
 pub mod camera;
 pub mod central;
-pub mod dual;
+pub(crate) mod dual;
 pub mod frame;
 pub mod orthogonal;
 pub mod rotation;

@@ -26,8 +26,6 @@ pub struct CameraBlocks {
     interior_at: Vec<usize>,
     /// Right-hand side b_c (all camera unknowns).
     pub bc: Vec<f64>,
-    /// Weighted square sum of the observations added.
-    pub cost: f64,
 }
 
 impl CameraBlocks {
@@ -53,7 +51,6 @@ impl CameraBlocks {
             interior: vec![0.0; total],
             interior_at,
             bc: vec![0.0; nc],
-            cost: 0.0,
         }
     }
 
@@ -112,7 +109,6 @@ impl CameraBlocks {
         for (x, y) in self.bc.iter_mut().zip(&other.bc) {
             *x += y;
         }
-        self.cost += other.cost;
         self
     }
 

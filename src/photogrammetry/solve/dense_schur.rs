@@ -124,7 +124,6 @@ mod tests {
             v: vec![Matrix3::identity(); np],
             bp,
             w,
-            cost: 0.0,
         };
         let mut rhs = vec![0.0; nc];
         let d = couplings(&n, &vinv, &mut rhs);

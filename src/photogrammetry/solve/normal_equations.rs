@@ -43,8 +43,6 @@ pub struct Normals {
     pub bp: Vec<Vector3<f64>>,
     /// Couplings per point.
     pub w: Vec<Coupling>,
-    /// vᵀPv (dimensionless: residuals over their a-priori σ).
-    pub cost: f64,
 }
 
 /// Observations below which the normal equations are built on the calling thread only (the rayon

@@ -162,7 +162,6 @@ impl Bundle {
             v: Vec::new(),
             bp: Vec::new(),
             w: Vec::new(),
-            cost: 0.0,
         };
         self.normals_into(&mut n);
         n
@@ -211,30 +210,22 @@ impl Bundle {
         };
         let mut u = std::mem::replace(&mut n.u, Mat::zeros(0, 0));
         blocks.write(&mut u, &self.image_camera, &interior_cols);
-        let (mut bc, mut cost) = (blocks.bc, blocks.cost);
+        let mut bc = blocks.bc;
         for (cam, cols) in self.interior_columns().iter().enumerate() {
             for k in 0..8 {
                 if let (Some(g), Some((v, s))) = (cols[k], self.interior_prior[cam][k]) {
                     let p = 1.0 / (s * s);
                     let e = self.interior[cam][k] - v;
-                    cost += p * e * e;
                     u[(g, g)] += p;
                     bc[g] -= p * e;
                 }
             }
         }
-        *n = Normals {
-            u,
-            bc,
-            v,
-            bp,
-            w,
-            cost,
-        };
+        *n = Normals { u, bc, v, bp, w };
     }
 
     /// The share of point `i` in the normal equations: its block `v`, right-hand side `bp` and
-    /// coupling `w`, and its observations' terms added to the blocks of U, b_c and the cost in `acc`;
+    /// coupling `w`, and its observations' terms added to the blocks of U and b_c in `acc`;
     /// `interior` is scratch for its interior couplings.
     #[allow(clippy::too_many_arguments)]
     fn point_normals(
@@ -304,7 +295,6 @@ impl Bundle {
         if let Some((xc, s)) = self.control[i] {
             let p = 1.0 / (s * s);
             let e = self.points[i] - xc;
-            acc.cost += p * e.norm_squared();
             *v += p * Matrix3::identity();
             *bp -= p * e;
         }
@@ -606,7 +596,6 @@ fn observation_terms<const N: usize>(
     let mut jte = [0.0f64; N];
     for fk in f {
         let e = fk.v;
-        acc.cost += p * e * e;
         let jp = Vector3::new(fk.d[POINT0], fk.d[POINT0 + 1], fk.d[POINT0 + 2]);
         *v += p * jp * jp.transpose();
         *bp -= p * e * jp;

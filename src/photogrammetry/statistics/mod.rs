@@ -2,7 +2,7 @@
 //! reduced system), [`snooping`] (normalised residuals and blunder detection), and [`quality`]
 //! (the paper's quality indexes against truth).
 
-pub mod global_test;
-pub mod precision;
+pub(crate) mod global_test;
+pub(crate) mod precision;
 pub mod quality;
-pub mod snooping;
+pub(crate) mod snooping;

@@ -39,14 +39,9 @@ pub struct Cofactors {
 }
 
 impl Cofactors {
-    /// Inverts the normal equations at the bundle's state. `free_network` applies the S-transform to
-    /// the inner constraints (about the centroid of the points) to every point cofactor block.
-    pub fn new(b: &Bundle, free_network: bool) -> Option<Self> {
-        Self::from_normals(b, b.normals(), free_network)
-    }
-
-    /// As [`Cofactors::new`] from normal equations already built (those of the last, negligible step
-    /// of the adjustment).
+    /// Inverts normal equations already built at the bundle's state (those of the last, negligible
+    /// step of the adjustment). `free_network` applies the S-transform to the inner constraints
+    /// (about the centroid of the points) to every point cofactor block.
     pub fn from_normals(b: &Bundle, normals: Normals, free_network: bool) -> Option<Self> {
         let reduced = b.reduce(&normals, 0.0)?;
         let nc = reduced.rhs.len();
@@ -333,46 +328,6 @@ impl Cofactors {
         } else {
             (0..n.v.len()).into_par_iter().map(point).collect()
         }
-    }
-
-    /// `N⁻¹ [bc; bp]` through the Schur complement (raw cofactors, before any datum projection):
-    /// (camera unknowns, points).
-    pub fn solve(&self, bc: &[f64], bp: &[Vector3<f64>]) -> (Vec<f64>, Vec<Vector3<f64>>) {
-        let n = &self.normals;
-        let nc = self.qcc.nrows();
-        // Reduced right-hand side b_c − Σ W V⁻¹ b_p.
-        let mut rhs = bc.to_vec();
-        for (i, w) in n.w.iter().enumerate() {
-            if bp[i] == Vector3::zeros() {
-                continue;
-            }
-            let vb = self.vinv[i] * bp[i];
-            for (a, &ca) in w.cols.iter().enumerate() {
-                rhs[ca] -= w.rows[a].dot(&vb);
-            }
-        }
-        let mut dc = vec![0.0; nc];
-        for (s, &r) in rhs.iter().enumerate() {
-            if r != 0.0 {
-                for (d, q) in dc.iter_mut().zip(self.qcc.col_as_slice(s)) {
-                    *d += q * r;
-                }
-            }
-        }
-        let point = |i: usize| {
-            let w = &n.w[i];
-            let mut b = bp[i];
-            for (a, &ca) in w.cols.iter().enumerate() {
-                b -= w.rows[a] * dc[ca];
-            }
-            self.vinv[i] * b
-        };
-        let dp = if n.v.len() < PARALLEL_MIN_OBSERVATIONS / 10 {
-            (0..n.v.len()).map(point).collect()
-        } else {
-            (0..n.v.len()).into_par_iter().map(point).collect()
-        };
-        (dc, dp)
     }
 
     /// Cofactor of interior parameter at global column `col`.
