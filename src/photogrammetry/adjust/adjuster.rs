@@ -14,7 +14,7 @@ use super::result::{AdjustedPoint, Adjustment, ImageOrientation, JointCovariance
 use super::robust::{affine_stage, choose_mirrors, first_stage};
 use crate::photogrammetry::error::AdjustError;
 use crate::photogrammetry::input::epoch::{EpochInput, EpochProblem};
-use crate::photogrammetry::model::bundle::{residual_value, Bundle, ImageState, Obs};
+use crate::photogrammetry::model::bundle::{Bundle, ImageState, Obs};
 use crate::photogrammetry::model::camera::{brown_correct, INTERIOR_NAMES};
 use crate::photogrammetry::model::central::CentralImage;
 use crate::photogrammetry::model::frame::{similarity_fit, WorkingFrame};
@@ -905,15 +905,7 @@ fn finish(
     let mut residuals = Vec::with_capacity(bundle.obs.len());
     let mut sums = vec![(0usize, 0.0f64); problem.images.len()];
     for (k, o) in bundle.obs.iter().enumerate() {
-        let cam = bundle.image_camera[o.image];
-        let e = residual_value(
-            bundle.model,
-            &bundle.images[o.image],
-            &bundle.interior[cam],
-            &bundle.points[o.point],
-            o.meas,
-            bundle.zbar,
-        );
+        let e = bundle.residual_of(o);
         let w = w[k];
         if o.active {
             sums[o.image].0 += 1;

@@ -5,7 +5,7 @@
 
 use nalgebra::Vector3;
 
-use crate::photogrammetry::model::bundle::{residual_value, Bundle, ImageState};
+use crate::photogrammetry::model::bundle::{Bundle, ImageState};
 use crate::photogrammetry::model::camera::brown_correct;
 use crate::photogrammetry::model::orthogonal::OrthoImage;
 use crate::photogrammetry::solve::lm::{
@@ -290,14 +290,7 @@ fn residual_norms(bundle: &Bundle) -> Vec<f64> {
                 return 0.0;
             }
             let cam = bundle.image_camera[o.image];
-            let e = residual_value(
-                bundle.model,
-                &bundle.images[o.image],
-                &bundle.interior[cam],
-                &bundle.points[o.point],
-                o.meas,
-                bundle.zbar,
-            );
+            let e = bundle.residual_of(o);
             (e[0] * e[0] + e[1] * e[1]).sqrt() / bundle.sigma[cam]
         })
         .collect()

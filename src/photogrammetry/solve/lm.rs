@@ -268,7 +268,6 @@ fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::photogrammetry::model::bundle::residual_value;
     use crate::photogrammetry::test_support::bundle;
     use nalgebra::Vector3;
 
@@ -281,14 +280,7 @@ mod tests {
             let mut b = bundle(nimg, np, per_point);
             for k in 0..b.obs.len() {
                 let o = b.obs[k];
-                let e = residual_value(
-                    b.model,
-                    &b.images[o.image],
-                    &b.interior[0],
-                    &b.points[o.point],
-                    o.meas,
-                    b.zbar,
-                );
+                let e = b.residual_of(&o);
                 b.obs[k].meas = [o.meas[0] - e[0], o.meas[1] - e[1]];
             }
             for (i, p) in b.points.iter_mut().enumerate() {

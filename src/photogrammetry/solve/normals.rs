@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use super::camera_blocks::CameraBlocks;
 use super::normal_equations::{chunk_len, Coupling, Normals, PARALLEL_MIN_OBSERVATIONS};
 use crate::photogrammetry::model::bundle::{
-    residual, residual_jacobian, Bundle, Obs, INTERIOR0, LOCAL, POINT0,
+    residual, residual_jacobian, residual_value, Bundle, Obs, INTERIOR0, LOCAL, POINT0,
 };
 use crate::photogrammetry::model::dual::Dual;
 use crate::photogrammetry::model::rotation::perturbed;
@@ -124,6 +124,18 @@ impl Bundle {
             .zip(&self.free)
             .map(|(p, f)| (0..8).filter(|&k| f[k] && p[k].is_some()).count())
             .sum()
+    }
+
+    /// Residual (mm) of observation `o` at the current state (see [`residual_value`]).
+    pub fn residual_of(&self, o: &Obs) -> [f64; 2] {
+        residual_value(
+            self.model,
+            &self.images[o.image],
+            &self.interior[self.image_camera[o.image]],
+            &self.points[o.point],
+            o.meas,
+            self.zbar,
+        )
     }
 
     /// Residual (mm) and Jacobian of observation `o` at the current state (see [`residual_jacobian`]).

@@ -5,7 +5,7 @@
 use nalgebra::{Matrix2, Vector2, Vector3};
 
 use super::precision::{Cofactors, ImageBlock};
-use crate::photogrammetry::model::bundle::{residual_value, Bundle, Obs, LOCAL, POINT0};
+use crate::photogrammetry::model::bundle::{Bundle, Obs, LOCAL, POINT0};
 use crate::photogrammetry::model::dual::Dual;
 use crate::photogrammetry::solve::normal_equations::PARALLEL_MIN_OBSERVATIONS;
 use rayon::prelude::*;
@@ -18,15 +18,7 @@ use rayon::prelude::*;
 /// critical value has that w once active (`e_k / √M_kk` would not, where x and y correlate).
 pub fn normalized_residual(b: &Bundle, q: &Cofactors, o_index: usize) -> [f64; 2] {
     let o = &b.obs[o_index];
-    let cam = b.image_camera[o.image];
-    let e = residual_value(
-        b.model,
-        &b.images[o.image],
-        &b.interior[cam],
-        &b.points[o.point],
-        o.meas,
-        b.zbar,
-    );
+    let e = b.residual_of(o);
     normalized(b, q, o_index, e)
 }
 
