@@ -376,6 +376,27 @@ fn dashboard(c: &mut Criterion) {
     ] {
         g.bench_function(name, |b| b.iter(|| get(path)));
     }
+    // The store part of the long plot: the read of the blocks' extremes, each record decoded.
+    let query = cliffwatch::store::series::SeriesQuery {
+        site: "long".into(),
+        point: "T017".into(),
+        extremes_above: Some(200 * cliffwatch::store::series_blocks::BLOCK_EPOCHS),
+        ..Default::default()
+    };
+    g.bench_function("plot_read_store_only/87600_epochs", |b| {
+        b.iter(|| {
+            rt.block_on(cliffwatch::store::series_columns::fold(
+                &server.store,
+                query.clone(),
+                |_| 0usize,
+                |n, r| {
+                    *n += r.v.len();
+                    true
+                },
+            ))
+            .unwrap()
+        })
+    });
     g.finish();
     // Page weight: the HTML and every embedded asset it links, each gzip-compressed.
     for path in [

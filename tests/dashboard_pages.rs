@@ -4,6 +4,7 @@
 //! site page, assets, and the sign-in with session cookie and CSRF token when tokens are set.
 
 mod dashboard_support;
+mod plot_support;
 
 use cliffwatch::config::{Role, TokenConfig};
 use dashboard_support::service_support::TestServer;
@@ -524,5 +525,13 @@ async fn with_tokens_pages_need_a_session_and_changes_a_csrf_token() {
         .await
         .unwrap();
     assert_eq!(r.status(), 303);
+    s.stop().await;
+}
+
+/// A long history plotted from SQLite: see [`plot_support::long_history_plot`].
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn long_history_plot_reads_block_extremes_and_keeps_the_envelope() {
+    let s = TestServer::start(|_| {}).await;
+    plot_support::long_history_plot(&s.store, &s.url("")).await;
     s.stop().await;
 }

@@ -6,6 +6,7 @@
 
 mod alerts_support;
 mod pg_support;
+mod plot_support;
 
 use std::collections::BTreeMap;
 
@@ -480,4 +481,16 @@ async fn two_nodes_share_one_database() {
     );
     a.stop().await;
     b.stop().await;
+}
+
+/// The plot of a long history from PostgreSQL reads the blocks' extremes as SQLite does
+/// ([`plot_support::long_history_plot`]).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn long_history_plot_on_postgres() {
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("plot");
+    let pg = TestServer::start(move |c| c.database_url = Some(url)).await;
+    assert_eq!(pg.store.backend(), cliffwatch::store::Backend::Postgres);
+    plot_support::long_history_plot(&pg.store, &pg.url("")).await;
+    pg.stop().await;
 }

@@ -217,6 +217,7 @@ pub async fn displacements(
         after: None,
         limit: None,
         direction: p.direction,
+        extremes_above: None,
     };
     if csv {
         // streamed: the first chunk (or the error that stopped the read) decides the status

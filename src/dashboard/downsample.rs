@@ -11,17 +11,23 @@
 //! at a time, keeping only the rows it may still draw, so a 10-year hourly series is never held
 //! in memory (allocating and touching tens of megabytes cost more than reading the series).
 
+/// Buckets of a plot `width` pixels wide: each keeps up to two epochs per column, so about four
+/// pixels per bucket.
+pub fn bucket_count(width: usize) -> usize {
+    (width.max(8) / 4).max(1)
+}
+
 /// Indices (ascending, without repeats) of the epochs a plot `width` pixels wide draws.
 ///
 /// `columns`: the values per epoch whose extremes must survive (each as long as the series; NaN
 /// for a missing value). `keep`: indices that must be kept whatever they hold (alert epochs);
 /// indices out of range are ignored. With `n ≤ 2 × width` every index is returned.
 pub fn plot_indices(n: usize, columns: &[&[f64]], keep: &[usize], width: usize) -> Vec<usize> {
+    let buckets = bucket_count(width);
     let width = width.max(8);
     if n <= 2 * width {
         return (0..n).collect();
     }
-    let buckets = (width / 4).max(1);
     let mut out = Vec::with_capacity(2 * width + keep.len() + 2);
     out.push(0);
     out.push(n - 1);
@@ -81,8 +87,8 @@ pub struct PlotPicker<R> {
 impl<R: Clone> PlotPicker<R> {
     /// A picker for a series of `n` epochs with `columns` values each, drawn `width` px wide.
     pub fn new(n: usize, columns: usize, width: usize) -> Self {
+        let buckets = bucket_count(width);
         let width = width.max(8);
-        let buckets = (width / 4).max(1);
         PlotPicker {
             n,
             buckets,

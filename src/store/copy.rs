@@ -203,6 +203,7 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("last_at", T),
             ("first_at", T),
             ("n_rows", I),
+            ("extremes", X),
             ("data", X),
         ],
     ),

@@ -78,6 +78,10 @@ pub struct SeriesQuery {
     pub limit: Option<i64>,
     /// The point's direction of interest (site frame, any length): gives `d_along_mm`.
     pub direction: Option<[f64; 3]>,
+    /// Read each packed block's extremes instead of all its rows ([`EXTREMES_SQL`]) when the
+    /// whole series holds more than this many records: for a plot whose buckets span a block or
+    /// more ([`series_columns::fold`](super::series_columns::fold)). `None`: every row.
+    pub extremes_above: Option<usize>,
 }
 
 /// The served form.
@@ -102,32 +106,57 @@ pub struct Written {
     pub more: bool,
 }
 
-/// The blocks overlapping the range, then the tail rows in it, in time order (one statement: one
-/// snapshot). A block row has its last time and data, a tail row its time and values. The union
-/// is merged on the two primary keys (`EXPLAIN QUERY PLAN`: `MERGE (UNION ALL)`, no sort).
-pub(super) const SQL: &str =
-    "SELECT last_at, data, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
-    NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
-    NULL, NULL, NULL, NULL, NULL, NULL, NULL FROM series_blocks \
-    WHERE site_id = $1 AND point = $2 AND last_at >= $3 AND last_at > $4 AND first_at <= $5 \
-    UNION ALL \
-    SELECT observed_at, NULL, epoch_id, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
-    sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, significant, velocity_mm_per_day, \
-    time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2, time_to_failure_sigma_hours, \
-    f_dx_mm, f_dy_mm, f_dz_mm, f_d_mm, sigma_f_dx_mm, sigma_f_dy_mm, sigma_f_dz_mm, sigma_f_d_mm, \
-    f_velocity_mm_per_day, sigma_f_velocity_mm_per_day, f_acceleration_mm_per_day2, \
-    sigma_f_acceleration_mm_per_day2, f_time_to_failure_hours, sigma_f_time_to_failure_hours \
-    FROM displacements \
-    WHERE site_id = $6 AND point = $7 \
-    AND observed_at > COALESCE((SELECT sealed_until FROM series_seals WHERE site_id = $8), '') \
-    AND observed_at >= $9 AND observed_at <= $10 AND observed_at > $11 ORDER BY 1";
+/// [`SQL`] with the blocks' column chosen: the blocks overlapping the range, then the tail rows
+/// in it, in time order (one statement: one snapshot). A block row has its last time and
+/// `$block`, a tail row its time and values. The union is merged on the two primary keys
+/// (`EXPLAIN QUERY PLAN`: `MERGE (UNION ALL)`, no sort).
+macro_rules! series_sql {
+    ($block:literal) => {
+        concat!(
+            "SELECT last_at, ",
+            $block,
+            ", NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
+            NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
+            NULL, NULL, NULL, NULL, NULL, NULL, NULL FROM series_blocks \
+            WHERE site_id = $1 AND point = $2 AND last_at >= $3 AND last_at > $4 AND first_at <= $5 \
+            UNION ALL \
+            SELECT observed_at, NULL, epoch_id, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
+            sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, significant, velocity_mm_per_day, \
+            time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2, time_to_failure_sigma_hours, \
+            f_dx_mm, f_dy_mm, f_dz_mm, f_d_mm, sigma_f_dx_mm, sigma_f_dy_mm, sigma_f_dz_mm, sigma_f_d_mm, \
+            f_velocity_mm_per_day, sigma_f_velocity_mm_per_day, f_acceleration_mm_per_day2, \
+            sigma_f_acceleration_mm_per_day2, f_time_to_failure_hours, sigma_f_time_to_failure_hours \
+            FROM displacements \
+            WHERE site_id = $6 AND point = $7 \
+            AND observed_at > COALESCE((SELECT sealed_until FROM series_seals WHERE site_id = $8), '') \
+            AND observed_at >= $9 AND observed_at <= $10 AND observed_at > $11 ORDER BY 1"
+        )
+    };
+}
+
+/// Every row of the series: each block's packed rows, then the tail rows.
+pub(super) const SQL: &str = series_sql!("data");
+
+/// The series as a coarse plot reads it: each block's extremes
+/// ([`series_record::extremes`]) but the point's last block whole, then the tail rows, so the
+/// last epochs are all there.
+pub(super) const EXTREMES_SQL: &str = series_sql!(
+    "CASE WHEN last_at = (SELECT MAX(b.last_at) FROM series_blocks b \
+     WHERE b.site_id = $1 AND b.point = $2) THEN data ELSE extremes END"
+);
 
 /// Where the rows of a series come from.
 pub(super) enum Source {
     /// SQLite: a native read connection for [`sqlite_raw`].
     Sqlite(PoolConnection<Sqlite>),
-    /// PostgreSQL: the rows already read, as packed records ([`super::series_postgres`]).
-    Packed(Vec<u8>),
+    /// PostgreSQL: the rows already read, as packed records ([`super::series_postgres`]), and
+    /// the whole series' record count when it was read first (for [`SeriesQuery::extremes_above`]).
+    Packed {
+        /// The records, one after the other.
+        bytes: Vec<u8>,
+        /// [`COUNT_SQL`]'s answer, when asked.
+        whole: Option<usize>,
+    },
 }
 
 impl Source {
@@ -136,10 +165,23 @@ impl Source {
         Ok(match store.sqlite_reader() {
             Some(pool) => Source::Sqlite(pool.acquire().await?),
             None => {
-                Source::Packed(super::series_postgres::packed_records(store.reader(), q).await?)
+                let pool = store.reader();
+                let whole = match q.extremes_above {
+                    Some(_) => Some(super::series_postgres::count(pool, q).await?),
+                    None => None,
+                };
+                let extremes = reads_extremes(q, whole.unwrap_or(0));
+                let bytes = super::series_postgres::packed_records(pool, q, extremes).await?;
+                Source::Packed { bytes, whole }
             }
         })
     }
+}
+
+/// Whether a read of `q`, whose whole series holds `records` records, takes the blocks'
+/// extremes ([`SeriesQuery::extremes_above`]).
+pub(super) fn reads_extremes(q: &SeriesQuery, records: usize) -> bool {
+    q.extremes_above.is_some_and(|m| records > m)
 }
 
 /// Reads the series of `q` and appends it to `out` in `format` (oldest first), on a blocking
@@ -239,7 +281,7 @@ fn run_csv_batched(
     let mut in_batch = 0usize;
     let mut rows = 0usize;
     let mut open = true;
-    each_record(source, q, |record| {
+    each_record(source, q, false, |record| {
         if rows == limit {
             return false;
         }
@@ -275,14 +317,18 @@ fn run_csv_batched(
 
 /// Calls `each` with every row of `q` in time order as a packed record
 /// ([`series_record`]). `each` returns `false` to stop.
+///
+/// `extremes`: read each block's extremes ([`EXTREMES_SQL`]; a PostgreSQL source was read so
+/// by [`Source::of`]).
 pub(super) fn each_record(
     source: &mut Source,
     q: &SeriesQuery,
+    extremes: bool,
     mut each: impl FnMut(&[u8]) -> bool,
 ) -> Result<(), StoreError> {
     match source {
-        Source::Sqlite(conn) => each_sqlite_record(conn, q, each),
-        Source::Packed(bytes) => {
+        Source::Sqlite(conn) => each_sqlite_record(conn, q, extremes, each),
+        Source::Packed { bytes, .. } => {
             let mut rest = &bytes[..];
             while let Some((_, n)) = series_record::peek(rest) {
                 let (record, later) = rest.split_at(n);
@@ -298,9 +344,10 @@ pub(super) fn each_record(
 
 /// The number of records of the whole series of `q.site`/`q.point` (its range is not applied):
 /// the packed blocks' row counts and the tail rows.
-const COUNT_SQL: &str = "SELECT COALESCE((SELECT SUM(n_rows) FROM series_blocks WHERE site_id = $1 AND point = $2), 0) \
+/// (PostgreSQL's SUM of a BIGINT is a NUMERIC: cast back.)
+pub(super) const COUNT_SQL: &str = "SELECT CAST(COALESCE((SELECT SUM(n_rows) FROM series_blocks WHERE site_id = $1 AND point = $2), 0) \
     + (SELECT COUNT(*) FROM displacements WHERE site_id = $3 AND point = $4 \
-    AND observed_at > COALESCE((SELECT sealed_until FROM series_seals WHERE site_id = $5), ''))";
+    AND observed_at > COALESCE((SELECT sealed_until FROM series_seals WHERE site_id = $5), '')) AS BIGINT)";
 
 /// How many records the whole series of `q` holds (without its range), read before the
 /// records themselves: rows written in between may add a few.
@@ -315,7 +362,8 @@ pub(super) fn count_records(source: &mut Source, q: &SeriesQuery) -> Result<usiz
             })?;
             Ok(n)
         }
-        Source::Packed(bytes) => {
+        Source::Packed { whole: Some(n), .. } => Ok(*n),
+        Source::Packed { bytes, whole: None } => {
             let (mut rest, mut n) = (&bytes[..], 0);
             while let Some((_, len)) = series_record::peek(rest) {
                 rest = &rest[len..];
@@ -331,6 +379,7 @@ pub(super) fn count_records(source: &mut Source, q: &SeriesQuery) -> Result<usiz
 fn each_sqlite_record(
     conn: &mut PoolConnection<Sqlite>,
     q: &SeriesQuery,
+    extremes: bool,
     mut each: impl FnMut(&[u8]) -> bool,
 ) -> Result<(), StoreError> {
     let from = q.from.as_deref().unwrap_or("").as_bytes();
@@ -338,7 +387,8 @@ fn each_sqlite_record(
     let after = q.after.as_deref().unwrap_or("").as_bytes();
     let mut packed = Vec::with_capacity(256);
     let mut failed = None;
-    sqlite_raw::query(conn, SQL, &params(q), |row| {
+    let sql = if extremes { EXTREMES_SQL } else { SQL };
+    sqlite_raw::query(conn, sql, &params(q), |row| {
         if row.is_null(1) {
             // a tail row, in the range (the SQL's condition)
             packed.clear();
@@ -422,7 +472,7 @@ fn run(
     let mut last = Vec::new();
     let limit = q.limit.map_or(usize::MAX, |l| l.max(0) as usize);
     let mut more = false;
-    each_record(source, q, |record| {
+    each_record(source, q, false, |record| {
         if w.rows == limit {
             more = true;
             return false;

@@ -8,11 +8,14 @@
 //! [`super::series_record`]'s layout; later rows (the tail, fewer than [`BLOCK_EPOCHS`] epochs
 //! after a seal) are read as rows. A site without a `series_seals` row is all tail: correct,
 //! only slower. Blocks are packed from the rows as the table returns them, so the served values
-//! are the table's, bit for bit.
+//! are the table's, bit for bit. Each block also keeps its extremes
+//! ([`series_record::extremes`], migration 20261125001300), which a plot whose buckets span a
+//! block reads instead of the block's rows.
 //!
 //! Write paths: [`added`] after every insert of displacements ([`super::displacements::insert`]),
 //! [`delete_site`] with [`super::displacements::delete_site`], [`backfill`] at open for databases
-//! that had displacements before the migration.
+//! that had displacements before the migrations (20261125001300 drops the blocks without
+//! extremes, so they are packed again).
 
 use std::collections::BTreeSet;
 
@@ -174,9 +177,11 @@ async fn insert_block(
             )));
         }
     }
+    let extremes = series_record::extremes(&data)
+        .ok_or_else(|| StoreError::Block(format!("block of {site}/{point} unreadable")))?;
     sqlx::query(
-        "INSERT INTO series_blocks (site_id, point, last_at, first_at, n_rows, data) \
-         VALUES ($1, $2, $3, $4, $5, $6)",
+        "INSERT INTO series_blocks (site_id, point, last_at, first_at, n_rows, data, extremes) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7)",
     )
     .bind(site)
     .bind(point)
@@ -184,6 +189,7 @@ async fn insert_block(
     .bind(&first.observed_at)
     .bind(rows.len() as i64)
     .bind(data)
+    .bind(extremes)
     .execute(&mut *db)
     .await?;
     Ok(())

@@ -2,7 +2,8 @@
 //! same fast path as the served series ([`super::series`]): the dashboard's plots downsample it
 //! on the server.
 
-use super::series::{count_records, each_record, SeriesQuery, Source};
+use super::displacement_row::{select_list, Displacement, COLUMNS};
+use super::series::{count_records, each_record, reads_extremes, SeriesQuery, Source};
 use super::series_record::{self, Record};
 use super::{Store, StoreError};
 
@@ -151,7 +152,7 @@ pub async fn read(store: &Store, q: SeriesQuery) -> Result<SeriesColumns, StoreE
     fold(
         store,
         q,
-        |_| SeriesColumns::default(),
+        |_: SeriesSize| SeriesColumns::default(),
         move |c, r| {
             c.push(&SeriesRow::of(r, direction));
             true
@@ -160,11 +161,22 @@ pub async fn read(store: &Store, q: SeriesQuery) -> Result<SeriesColumns, StoreE
     .await
 }
 
+/// The size of a series [`fold`] reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SeriesSize {
+    /// Records of the whole series, counted just before the read (rows written meanwhile may
+    /// add a few).
+    pub records: usize,
+    /// The read gives each packed block's extremes, not all its rows
+    /// ([`SeriesQuery::extremes_above`]): the first and last rows, and the minimum and maximum of
+    /// dx, dy, dz and d, of every block but the last; the last block and the tail whole.
+    pub extremes: bool,
+}
+
 /// Streams the series of `q` through a state of the caller's, on a blocking thread: `start`
-/// gets the number of records (of the whole series, read just before; rows written meanwhile may
-/// add a few) and makes the state, `each` is called with every record in time order and returns
-/// `false` to stop. Hands the state back. Nothing but the state is kept, so a long series costs
-/// no memory of its length.
+/// gets the series' size and makes the state, `each` is called with every record read in time
+/// order and returns `false` to stop. Hands the state back. Nothing but the state is kept, so a
+/// long series costs no memory of its length.
 pub async fn fold<T, S, E>(
     store: &Store,
     q: SeriesQuery,
@@ -173,22 +185,54 @@ pub async fn fold<T, S, E>(
 ) -> Result<T, StoreError>
 where
     T: Send + 'static,
-    S: FnOnce(usize) -> T + Send + 'static,
+    S: FnOnce(SeriesSize) -> T + Send + 'static,
     E: FnMut(&mut T, &Record<'_>) -> bool + Send + 'static,
 {
     let mut source = Source::of(store, &q).await?;
     tokio::task::spawn_blocking(move || {
-        let mut state = start(count_records(&mut source, &q)?);
-        each_record(&mut source, &q, |bytes| {
-            match series_record::decode(bytes) {
+        let records = count_records(&mut source, &q)?;
+        let extremes = reads_extremes(&q, records);
+        let mut state = start(SeriesSize { records, extremes });
+        each_record(
+            &mut source,
+            &q,
+            extremes,
+            |bytes| match series_record::decode(bytes) {
                 Some((r, _)) => each(&mut state, &r),
                 None => false,
-            }
-        })?;
+            },
+        )?;
         Ok(state)
     })
     .await
     .map_err(super::series::reader_failed)?
+}
+
+/// The rows of `site`/`point` at the epochs `epochs` (ids; those without a row are left out), in
+/// time order: the alert epochs a read of the blocks' extremes may not hold.
+pub async fn rows_at_epochs(
+    store: &Store,
+    site: &str,
+    point: &str,
+    epochs: &[i64],
+    direction: Option<[f64; 3]>,
+) -> Result<Vec<SeriesRow>, StoreError> {
+    let columns = select_list(COLUMNS, "");
+    let sql = format!(
+        "SELECT {columns} FROM displacements WHERE site_id = $1 AND epoch_id = $2 AND point = $3"
+    );
+    let mut out = Vec::with_capacity(epochs.len());
+    for &epoch in epochs {
+        let row: Option<Displacement> = sqlx::query_as(&sql)
+            .bind(site)
+            .bind(epoch)
+            .bind(point)
+            .fetch_optional(store.reader())
+            .await?;
+        out.extend(row.map(|r| SeriesRow::of(&r.record(), direction)));
+    }
+    out.sort_by(|a, b| a.t.total_cmp(&b.t));
+    Ok(out)
 }
 
 #[cfg(test)]

@@ -5,18 +5,36 @@
 
 use sqlx::{AnyPool, Row};
 
-use super::series::{params, SeriesQuery, SQL};
+use super::series::{params, SeriesQuery, COUNT_SQL, EXTREMES_SQL, SQL};
 use super::series_record::{self, Filtered, Record};
 use super::sqlite_raw::Param;
 use super::StoreError;
 
+/// How many records the whole series of `q.site`/`q.point` holds (its range is not applied).
+pub async fn count(pool: &AnyPool, q: &SeriesQuery) -> Result<usize, StoreError> {
+    let n: i64 = sqlx::query_scalar(COUNT_SQL)
+        .bind(&q.site)
+        .bind(&q.point)
+        .bind(&q.site)
+        .bind(&q.point)
+        .bind(&q.site)
+        .fetch_one(pool)
+        .await?;
+    Ok(usize::try_from(n).unwrap_or(0))
+}
+
 /// Every row of `q` in time order as packed records, one after the other (no limit: the
-/// writers stop at theirs).
-pub async fn packed_records(pool: &AnyPool, q: &SeriesQuery) -> Result<Vec<u8>, StoreError> {
+/// writers stop at theirs); with `extremes`, each block's extremes but the last block's
+/// ([`EXTREMES_SQL`]).
+pub async fn packed_records(
+    pool: &AnyPool,
+    q: &SeriesQuery,
+    extremes: bool,
+) -> Result<Vec<u8>, StoreError> {
     let from = q.from.as_deref().unwrap_or("");
     let to = q.to.as_deref().unwrap_or(super::TEXT_MAX);
     let after = q.after.as_deref().unwrap_or("");
-    let mut query = sqlx::query(SQL);
+    let mut query = sqlx::query(if extremes { EXTREMES_SQL } else { SQL });
     for p in params(q) {
         query = match p {
             Param::Text(t) => query.bind(t),

@@ -188,6 +188,51 @@ pub fn records(mut bytes: &[u8]) -> impl Iterator<Item = Record<'_>> {
     })
 }
 
+/// The records of a block (`block`: [`FORMAT`] and its records) a coarse plot must keep, as a
+/// block of the same layout: the first, the last, and those where dx, dy, dz and d (mm) take
+/// their minimum and maximum (NaN ignored), each once, in order. At most 10 of the block's
+/// records; a plot whose buckets span a block or more reads these instead of the block
+/// ([`super::series`]). `None` when the block is not readable.
+pub fn extremes(block: &[u8]) -> Option<Vec<u8>> {
+    let (&format, body) = block.split_first()?;
+    if !readable(format) {
+        return None;
+    }
+    // (start, end) of each record and, per column, the record index of its min and max
+    let mut spans = Vec::new();
+    let mut best: [[Option<(usize, f64)>; 2]; 4] = [[None; 2]; 4];
+    let mut at = 0;
+    while at < body.len() {
+        let (r, n) = decode(&body[at..])?;
+        let i = spans.len();
+        for (k, e) in best.iter_mut().enumerate() {
+            let v = r.v[k];
+            if !v.is_finite() {
+                continue;
+            }
+            if e[0].is_none_or(|m| v < m.1) {
+                e[0] = Some((i, v));
+            }
+            if e[1].is_none_or(|m| v > m.1) {
+                e[1] = Some((i, v));
+            }
+        }
+        spans.push((at, at + n));
+        at += n;
+    }
+    let mut keep: Vec<usize> = best.iter().flatten().flatten().map(|m| m.0).collect();
+    keep.extend([0, spans.len().saturating_sub(1)]);
+    keep.sort_unstable();
+    keep.dedup();
+    let mut out = vec![format];
+    for i in keep {
+        if let Some(&(a, b)) = spans.get(i) {
+            out.extend_from_slice(&body[a..b]);
+        }
+    }
+    Some(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -252,5 +297,69 @@ mod tests {
             ..rows[0]
         };
         assert!(!encode(&r, &mut Vec::new()));
+    }
+
+    /// A block's extremes: the first, the last and the min/max rows of dx, dy, dz, d, once
+    /// each and in order, bit for bit.
+    #[test]
+    fn extremes_keep_ends_and_each_columns_min_and_max() {
+        let times: Vec<String> = (0..128)
+            .map(|k| format!("2026-01-01T00:00:{:02}.{k:06}Z", k % 60))
+            .collect();
+        let mut block = vec![FORMAT];
+        for (k, t) in times.iter().enumerate() {
+            let x = k as f64;
+            let v = [
+                (x * 0.3).sin(),
+                if k == 77 { f64::NAN } else { -(x - 50.0).abs() },
+                x * 0.01,
+                if k == 90 { 9.0 } else { (x * 0.7).cos() },
+                0.1,
+                0.1,
+                0.1,
+                0.1,
+            ];
+            let r = Record {
+                epoch: k as i64,
+                observed_at: t.as_bytes(),
+                reference: 1,
+                v,
+                significant: false,
+                velocity: None,
+                ttf: None,
+                cov: [None; 3],
+                ttf_sigma: None,
+                filtered: None,
+            };
+            assert!(encode(&r, &mut block));
+        }
+        let all: Vec<Record> = records(&block[1..]).collect();
+        let ext = extremes(&block).expect("readable");
+        assert_eq!(ext[0], FORMAT);
+        let kept: Vec<Record> = records(&ext[1..]).collect();
+        let epochs: Vec<i64> = kept.iter().map(|r| r.epoch).collect();
+        assert!(epochs.windows(2).all(|w| w[0] < w[1]), "{epochs:?}");
+        assert!(kept.len() <= 10);
+        assert_eq!((epochs[0], *epochs.last().unwrap()), (0, 127));
+        assert!(epochs.contains(&90) && epochs.contains(&50));
+        for k in 0..4 {
+            let col = |rs: &[Record]| -> (f64, f64) {
+                rs.iter()
+                    .map(|r| r.v[k])
+                    .filter(|v| v.is_finite())
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                        (a.min(v), b.max(v))
+                    })
+            };
+            assert_eq!(col(&kept), col(&all), "column {k}");
+        }
+        for r in &kept {
+            assert_eq!(
+                r.v.map(f64::to_bits),
+                all[r.epoch as usize].v.map(f64::to_bits)
+            );
+        }
+        assert!(extremes(&[9]).is_none());
+        assert_eq!(extremes(&[FORMAT]), Some(vec![FORMAT]));
     }
 }
