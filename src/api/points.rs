@@ -67,11 +67,7 @@ pub async fn list(
         .into_iter()
         .map(|d| (d.point.clone(), d))
         .collect();
-    let mut levels: HashMap<String, AlertLevel> = HashMap::new();
-    for (point, level) in alerts::active_levels(db, &site).await? {
-        let e = levels.entry(point).or_insert(level);
-        *e = (*e).max(level);
-    }
+    let mut levels = alerts::active_levels(db, &site).await?;
     let items: Vec<PointItem> = page
         .items
         .into_iter()

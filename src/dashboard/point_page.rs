@@ -36,10 +36,8 @@ pub async fn point(
     };
     let level = alerts::active_levels(db, &site.id)
         .await?
-        .into_iter()
-        .filter(|(q, _)| *q == p.name)
-        .map(|(_, l)| l)
-        .max();
+        .get(&p.name)
+        .copied();
     let latest = displacements::latest(db, &site.id)
         .await?
         .into_iter()

@@ -17,7 +17,7 @@ use super::layout::{level_badge, num, page, seg, with_sigma};
 use super::local_time::when;
 use super::plan_svg::{face_plan, PlanPoint};
 use super::{viewer, PageError};
-use crate::analysis::{AlertLevel, PointRole};
+use crate::analysis::PointRole;
 use crate::api::auth::Access;
 use crate::api::AppState;
 use crate::store::{alerts, displacements, epochs, points, sites};
@@ -49,11 +49,7 @@ pub async fn site(
         .into_iter()
         .map(|d| (d.point.clone(), d))
         .collect();
-    let mut levels: HashMap<String, AlertLevel> = HashMap::new();
-    for (p, l) in alerts::active_levels(db, &site.id).await? {
-        let e = levels.entry(p).or_insert(l);
-        *e = (*e).max(l);
-    }
+    let levels = alerts::active_levels(db, &site.id).await?;
     let roles: HashMap<&str, PointRole> = pts.iter().map(|p| (p.name.as_str(), p.role)).collect();
     let plan: Vec<PlanPoint> = coords
         .iter()

@@ -1,5 +1,7 @@
 //! Alerts: raised by the alert rules on ingestion, acknowledged through the API.
 
+use std::collections::HashMap;
+
 use serde::Serialize;
 use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
@@ -128,20 +130,25 @@ pub async fn of_epoch(
     Ok(finish(rows))
 }
 
-/// Open or acknowledged alerts of a site that concern one point: `(point, level)`.
+/// The highest level of each point's open or acknowledged alerts (alerts that concern one point);
+/// points without one are absent.
 pub async fn active_levels(
     db: impl AnyExecutor<'_>,
     site: &str,
-) -> Result<Vec<(String, AlertLevel)>, StoreError> {
+) -> Result<HashMap<String, AlertLevel>, StoreError> {
     let rows: Vec<(String, String)> = sqlx::query_as(
         "SELECT point, level FROM alerts WHERE site_id = $1 AND point IS NOT NULL AND state <> 'resolved'",
     )
     .bind(site)
     .fetch_all(db)
     .await?;
-    rows.into_iter()
-        .map(|(point, level)| Ok((point, level.parse()?)))
-        .collect()
+    let mut highest = HashMap::new();
+    for (point, level) in rows {
+        let level: AlertLevel = level.parse()?;
+        let e = highest.entry(point).or_insert(level);
+        *e = (*e).max(level);
+    }
+    Ok(highest)
 }
 
 /// Writes an alert as the alert engine left it after an event: the row is updated to the
