@@ -123,12 +123,18 @@ struct Drawn {
     total: usize,
 }
 
-/// The state of one read: the picker fed every row read, or, when the read gives the blocks'
-/// extremes, those rows to pick from at the end; and the last [`LINE_EPOCHS`] rows.
+/// What a read keeps of the rows it is given.
+enum Picking {
+    /// Every row of the series: fed to the picker as it is read.
+    Rows(Box<PlotPicker<SeriesRow>>),
+    /// The blocks' extremes (and the last block and tail whole): picked from at the end.
+    Extremes(Vec<SeriesRow>),
+}
+
+/// The state of one read: the rows kept so far, and the last [`LINE_EPOCHS`] rows.
 struct Reading {
     size: SeriesSize,
-    picker: PlotPicker<SeriesRow>,
-    extremes: Vec<SeriesRow>,
+    picking: Picking,
     tail: VecDeque<SeriesRow>,
 }
 
@@ -145,18 +151,20 @@ async fn read_drawn(
     let reading = series_columns::fold(
         store,
         query,
-        move |size| Reading {
+        move |size: SeriesSize| Reading {
             size,
-            picker: PlotPicker::new(size.records, 4, width),
-            extremes: Vec::new(),
+            picking: if size.extremes {
+                Picking::Extremes(Vec::new())
+            } else {
+                Picking::Rows(Box::new(PlotPicker::new(size.records, 4, width)))
+            },
             tail: VecDeque::with_capacity(LINE_EPOCHS),
         },
         move |s, r| {
             let row = SeriesRow::of(r, direction);
-            if s.size.extremes {
-                s.extremes.push(row);
-            } else {
-                s.picker.push(&row.d, flagged.contains(&row.epoch), row);
+            match &mut s.picking {
+                Picking::Rows(picker) => picker.push(&row.d, flagged.contains(&row.epoch), row),
+                Picking::Extremes(rows) => rows.push(row),
             }
             if s.tail.len() == LINE_EPOCHS {
                 s.tail.pop_front();
@@ -168,15 +176,17 @@ async fn read_drawn(
     .await?;
     let Reading {
         size,
-        picker,
-        extremes,
+        picking,
         tail,
     } = reading;
-    if !size.extremes {
-        let total = picker.fed();
-        let rows = picker.finish().into_iter().map(|(_, r)| r).collect();
-        return Ok((Drawn { rows, total }, tail));
-    }
+    let extremes = match picking {
+        Picking::Rows(picker) => {
+            let total = picker.fed();
+            let rows = picker.finish().into_iter().map(|(_, r)| r).collect();
+            return Ok((Drawn { rows, total }, tail));
+        }
+        Picking::Extremes(rows) => rows,
+    };
     let mut picker = PlotPicker::new(extremes.len(), 4, width);
     for row in extremes {
         picker.push(&row.d, alert_epochs.contains(&row.epoch), row);
@@ -203,7 +213,7 @@ async fn read_drawn(
 }
 
 /// Every row of `c` as the opening of a JSON object of arrays (NaN as null; numbers as
-/// serde_json writes them), without the closing brace: `{"t":[…],"epoch":[…],…,"sf_velocity":[…]`.
+/// serde_json writes them), without the closing brace: `{"epoch":[…],"t":[…],…,"sf_velocity":[…]`.
 /// Written straight into bytes: a long history's plot holds ~1 600 rows of 19 columns.
 fn write_columns(c: &SeriesColumns, out: &mut Vec<u8>) {
     let floats: [(&str, &[f64]); 18] = [
