@@ -119,6 +119,9 @@ struct Processed {
     /// rms of error/σ of the still points' displacements per axis: sums of squares and count.
     z2: [f64; 3],
     zn: usize,
+    /// The same for the block's translation in the still series.
+    bz2: [f64; 3],
+    bzn: usize,
 }
 
 fn scenario(index: usize) -> (ImageSeriesScenario, bool) {
@@ -221,6 +224,7 @@ fn process(index: usize, confidence: f64) -> Processed {
     let mut analyses = vec![];
     let mut failed_epochs = 0;
     let (mut z2, mut zn) = ([0.0; 3], 0);
+    let (mut bz2, mut bzn) = ([0.0; 3], 0);
     for (k, input) in series.epochs.iter().enumerate() {
         let Ok(problem) = input.validate() else {
             failed_epochs += 1;
@@ -273,6 +277,15 @@ fn process(index: usize, confidence: f64) -> Processed {
                 }
                 zn += 1;
             }
+            // The block of a still series: its translation's error is the translation itself.
+            if !failing {
+                if let Some(m) = a.blocks.first().and_then(|b| b.motion.as_ref()) {
+                    for i in 0..3 {
+                        bz2[i] += m.translation_mm[i].powi(2) / m.covariance_mm2[i][i];
+                    }
+                    bzn += 1;
+                }
+            }
         }
         analyses.push(a);
     }
@@ -285,6 +298,8 @@ fn process(index: usize, confidence: f64) -> Processed {
         block,
         z2,
         zn,
+        bz2,
+        bzn,
     }
 }
 
@@ -397,13 +412,15 @@ fn main() {
     // series analysed at 95 %.
     let processed95: Vec<Processed> = (0..n).into_par_iter().map(|i| process(i, 0.95)).collect();
     let failed: usize = processed.iter().map(|p| p.failed_epochs).sum();
-    let mut z2 = [0.0; 3];
-    let mut zn = 0;
+    let (mut z2, mut bz2) = ([0.0; 3], [0.0; 3]);
+    let (mut zn, mut bzn) = (0, 0);
     for p in &processed {
         for i in 0..3 {
             z2[i] += p.z2[i];
+            bz2[i] += p.bz2[i];
         }
         zn += p.zn;
+        bzn += p.bzn;
     }
     println!(
         "{n} series ({} still, {} failing), {EPOCHS} daily epochs; {failed} epochs not analysed; processed in {:.1} s",
@@ -416,6 +433,12 @@ fn main() {
         (z2[0] / zn as f64).sqrt(),
         (z2[1] / zn as f64).sqrt(),
         (z2[2] / zn as f64).sqrt()
+    );
+    println!(
+        "Blocks of the still series, translation's rms of error/σ per axis over {bzn} epochs: {:.2} / {:.2} / {:.2}\n",
+        (bz2[0] / bzn as f64).sqrt(),
+        (bz2[1] / bzn as f64).sqrt(),
+        (bz2[2] / bzn as f64).sqrt()
     );
     println!("| setting | false watch / warning / alarm per 1000 still subject-epochs | watch delay median / max (missed) | warning delay median / max (missed) | TTF error 96 h before, median abs (h) | TTF error 24 h before, median abs (h) | alarm lead median (min–max) h | alarm 24–120 h before | alarm > 8 days early |");
     println!("|---|---|---|---|---|---|---|---|---|");
@@ -511,7 +534,17 @@ fn main() {
                 .min();
             if vi == 0 && std::env::var_os("CLIFFWATCH_BENCH_VERBOSE").is_some() {
                 let lead = first.map(|t| (tf - t).num_seconds() as f64 / 3600.0);
-                let mut line = format!("series lead {lead:?}:");
+                // The share of depth in the block's direction, and its σ along it at the end.
+                let dir = truth.direction;
+                let depth = dir[2] / (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+                let sigma_along = p
+                    .analyses
+                    .last()
+                    .and_then(|a| a.blocks.first())
+                    .and_then(|b| b.motion.as_ref())
+                    .map(|m| m.along(dir).1);
+                let mut line =
+                    format!("series lead {lead:?} depth {depth:.2} σ block {sigma_along:.2?}:");
                 for a in p.analyses.iter().rev().take(7).rev() {
                     let h = (tf - a.observed_at).num_seconds() as f64 / 3600.0;
                     let best = a

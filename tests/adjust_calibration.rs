@@ -9,6 +9,10 @@
 //!   [`cliffwatch::analysis::analyse_epoch`] (points outside the datum, joint covariance of all
 //!   points) within 0.9–1.06 of 1; the same with the joint covariance of the stable points only
 //!   (today's service) is printed, not asserted: it is 8 % optimistic in depth (docs/accuracy.md);
+//! - rms of (translation / its σ) per axis of the 6-point block (`analysis::block`, estimated
+//!   with the joint covariance of its points) within 0.85–1.12 of 1 (180 block-epochs per case);
+//!   the per-point weighting that ignores the cross-covariances is printed beside it (it is
+//!   ~1.2 / 1.2 / 1.5: the datum's and the reference epoch's errors are common to the points);
 //! - false drops at most 1.5 α per observed coordinate (no blunders are simulated);
 //! - σ0 within ±5 % of the simulated noise.
 //!
@@ -17,8 +21,10 @@
 mod adjust_common;
 
 use chrono::{DateTime, Utc};
+use cliffwatch::analysis::block::{estimate_block, BlockPoint};
 use cliffwatch::analysis::{
-    analyse_epoch, AnalysisConfig, EpochCoordinates, History, PointConfig, PointRole,
+    analyse_epoch, AnalysisConfig, EpochCoordinates, GroupConfig, GroupKind, History, PointConfig,
+    PointRole,
 };
 use cliffwatch::photogrammetry::adjust::report::VarianceModel;
 use cliffwatch::photogrammetry::{adjust, AdjustOptions, Adjustment, JointCovariance};
@@ -43,6 +49,8 @@ struct Tally {
     free_expected: [Vec<f64>; 3],
     disp: [Vec<f64>; 3],
     disp_stable_joint: [Vec<f64>; 3],
+    block: [Vec<f64>; 3],
+    block_per_point: [Vec<f64>; 3],
     coordinates: usize,
     false_drops: usize,
     sigma0: Vec<f64>,
@@ -159,6 +167,26 @@ fn run_case(sigma_factor: f64) -> Tally {
             .filter(|p| p.role == PointRole::Stable)
             .map(|p| p.name.clone())
             .collect();
+        let group = points
+            .iter()
+            .find_map(|p| p.group.clone())
+            .expect("the scene declares a block");
+        let config = AnalysisConfig {
+            groups: vec![GroupConfig {
+                name: group.clone(),
+                kind: GroupKind::Block,
+                direction: None,
+                points: vec![],
+                process_noise: None,
+            }],
+            ..AnalysisConfig::default()
+        };
+        let reference_xyz: std::collections::HashMap<String, [f64; 3]> = series
+            .truth
+            .points
+            .iter()
+            .map(|p| (p.name.clone(), p.xyz_m))
+            .collect();
         let mut options = AdjustOptions {
             joint_covariance_of: points.iter().map(|p| p.name.clone()).collect(),
             ..AdjustOptions::default()
@@ -200,14 +228,11 @@ fn run_case(sigma_factor: f64) -> Tally {
                 None => reference = Some(coords),
                 Some(r) => {
                     for (v, (r, c)) in r.iter().zip(&coords).enumerate() {
-                        let a = analyse_epoch(
-                            r,
-                            c,
-                            &points,
-                            &History::new(),
-                            &AnalysisConfig::default(),
-                        )
-                        .expect("analysis");
+                        let a = analyse_epoch(r, c, &points, &History::new(), &config)
+                            .expect("analysis");
+                        if v == 0 {
+                            block_errors(&a, &group, &reference_xyz, &mut t);
+                        }
                         for p in a.points.iter().filter(|p| !p.in_datum) {
                             let d = [p.record.dx_mm, p.record.dy_mm, p.record.dz_mm];
                             for (i, x) in d.iter().enumerate() {
@@ -225,6 +250,40 @@ fn run_case(sigma_factor: f64) -> Tally {
         }
     }
     t
+}
+
+/// The still block's translation (its error) over its σ, per axis: as analysed (joint
+/// covariance of the members) and re-estimated from the members' own covariances alone.
+fn block_errors(
+    a: &cliffwatch::analysis::EpochAnalysis,
+    group: &str,
+    xyz: &std::collections::HashMap<String, [f64; 3]>,
+    t: &mut Tally,
+) {
+    let b = a
+        .blocks
+        .iter()
+        .find(|b| b.group == group)
+        .expect("block analysed");
+    let m = b.motion.as_ref().expect("block motion");
+    let members: Vec<BlockPoint> = b
+        .points
+        .iter()
+        .map(|name| {
+            let p = a.point(name).expect("member analysed");
+            BlockPoint {
+                name: name.clone(),
+                xyz_m: xyz[name],
+                d_mm: [p.record.dx_mm, p.record.dy_mm, p.record.dz_mm],
+                cov_mm2: p.covariance_mm2,
+            }
+        })
+        .collect();
+    let naive = estimate_block(&members, 0.99).expect("per-point block");
+    for i in 0..3 {
+        t.block[i].push(m.translation_mm[i] / m.covariance_mm2[i][i].sqrt());
+        t.block_per_point[i].push(naive.translation_mm[i] / naive.covariance_mm2[i][i].sqrt());
+    }
 }
 
 #[test]
@@ -266,7 +325,17 @@ fn reported_precision_is_calibrated() {
             "| {name} | the same, joint covariance of the stable points only | {:.3} | {:.3} | {:.3} | 1.000 | | | |",
             disp_stable[0], disp_stable[1], disp_stable[2]
         );
-        assert!(t.free[0].len() >= 1000 && t.disp[0].len() >= 1000);
+        let block: Vec<f64> = t.block.iter().map(|v| rms(v)).collect();
+        let per_point: Vec<f64> = t.block_per_point.iter().map(|v| rms(v)).collect();
+        println!(
+            "| {name} | block translation, joint covariance ({} epochs) | {:.3} | {:.3} | {:.3} | 1.000 | | | |",
+            t.block[0].len(), block[0], block[1], block[2]
+        );
+        println!(
+            "| {name} | the same, points taken as uncorrelated | {:.3} | {:.3} | {:.3} | 1.000 | | | |",
+            per_point[0], per_point[1], per_point[2]
+        );
+        assert!(t.free[0].len() >= 1000 && t.disp[0].len() >= 1000 && t.block[0].len() >= 150);
         for (k, axis) in ["X", "Y", "Z"].iter().enumerate() {
             let r = free[k] / expected[k];
             if !(0.9..=1.06).contains(&r) {
@@ -275,6 +344,10 @@ fn reported_precision_is_calibrated() {
             let r = disp[k];
             if !(0.9..=1.06).contains(&r) {
                 failures.push(format!("{name}: displacement {axis} ratio {r:.3}"));
+            }
+            let r = block[k];
+            if !(0.85..=1.12).contains(&r) {
+                failures.push(format!("{name}: block translation {axis} ratio {r:.3}"));
             }
         }
         if t.false_drops as f64 > allowed {

@@ -12,7 +12,9 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 
-use cliffwatch::analysis::block::{estimate_block, BlockModel, BlockPoint};
+use cliffwatch::analysis::block::{
+    estimate_block, estimate_block_correlated, translation_share, BlockModel, BlockPoint,
+};
 use cliffwatch::analysis::failure::forecast_from_displacements;
 use cliffwatch::analysis::kalman::{filter, smooth, KalmanConfig, Measurement, MotionModel};
 use cliffwatch::analysis::AnalysisError;
@@ -335,4 +337,141 @@ fn block_motion_is_estimated_with_an_honest_sigma() {
         estimate_block(&bad, 0.99),
         Err(AnalysisError::NonFinite { .. })
     ));
+}
+
+/// A block whose points share an error (the datum's, the reference epoch's: covariance
+/// `common` added to every point and to every pair): with the joint covariance the translation's
+/// rms error/σ is ≈ 1 per axis; the per-point weighting, blind to the shared error, is
+/// optimistic (that is what the joint covariance mends). The share of a part of the covariance
+/// is the gain's propagation: all of it gives the translation's covariance; with no
+/// cross-covariances the correlated estimate is the per-point one.
+#[test]
+fn block_motion_with_shared_errors_keeps_an_honest_sigma() {
+    let positions = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.2, 0.1],
+        [0.4, 1.1, -0.2],
+        [1.2, 1.0, 0.3],
+        [0.6, 0.5, 0.4],
+        [0.1, 0.9, 0.2],
+    ];
+    let t_true = Vector3::new(3.0, -2.0, 5.0);
+    let common = Matrix3::from_diagonal(&Vector3::new(0.2, 0.2, 1.5));
+    let (mut z2, mut z2_per_point, mut n) = ([0.0; 3], [0.0; 3], 0);
+    for seed in 1..=300u64 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let shared = draw(&mut rng, &common);
+        let covs: Vec<Matrix3<f64>> = positions.iter().map(|_| covariance(&mut rng)).collect();
+        let pts: Vec<BlockPoint> = positions
+            .iter()
+            .zip(&covs)
+            .enumerate()
+            .map(|(i, (p, cov))| BlockPoint {
+                name: format!("B{i}"),
+                xyz_m: *p,
+                d_mm: (t_true + shared + draw(&mut rng, cov)).into(),
+                cov_mm2: (cov + common).into(),
+            })
+            .collect();
+        let k = 3 * pts.len();
+        let joint = nalgebra::DMatrix::from_fn(k, k, |r, c| {
+            let own = if r / 3 == c / 3 {
+                covs[r / 3][(r % 3, c % 3)]
+            } else {
+                0.0
+            };
+            own + common[(r % 3, c % 3)]
+        });
+        let m = estimate_block_correlated(&pts, &joint, 0.99).expect("block");
+        let naive = estimate_block(&pts, 0.99).expect("block");
+        for a in 0..3 {
+            z2[a] += (m.translation_mm[a] - t_true[a]).powi(2) / m.covariance_mm2[a][a];
+            z2_per_point[a] +=
+                (naive.translation_mm[a] - t_true[a]).powi(2) / naive.covariance_mm2[a][a];
+        }
+        n += 1;
+        if seed == 1 {
+            let all = translation_share(&pts, &joint, &joint).expect("share");
+            let none = translation_share(&pts, &joint, &(&joint * 0.0)).expect("share");
+            for r in 0..3 {
+                for c in 0..3 {
+                    let q = m.covariance_mm2[r][c];
+                    assert!((all[(r, c)] - q).abs() <= 1e-9 * (1.0 + q.abs()));
+                    assert_eq!(none[(r, c)], 0.0);
+                }
+            }
+            // Block-diagonal joint covariance: the per-point estimate.
+            let diagonal = nalgebra::DMatrix::from_fn(k, k, |r, c| {
+                if r / 3 == c / 3 {
+                    pts[r / 3].cov_mm2[r % 3][c % 3]
+                } else {
+                    0.0
+                }
+            });
+            let same = estimate_block_correlated(&pts, &diagonal, 0.99).expect("block");
+            for a in 0..3 {
+                assert!((same.translation_mm[a] - naive.translation_mm[a]).abs() < 1e-9);
+            }
+            assert!(matches!(
+                estimate_block_correlated(&pts, &joint.rows(0, 3).into_owned(), 0.99),
+                Err(AnalysisError::InvalidInput(_))
+            ));
+        }
+    }
+    for a in 0..3 {
+        let r = (z2[a] / n as f64).sqrt();
+        let naive = (z2_per_point[a] / n as f64).sqrt();
+        println!("axis {a}: rms error/σ {r:.3} (points taken as uncorrelated: {naive:.3})");
+        assert!((0.85..=1.15).contains(&r), "axis {a}: {r}");
+        assert!(
+            naive > 1.3,
+            "axis {a}: the shared error should show, {naive}"
+        );
+    }
+}
+
+/// The share of the covariance that every epoch has in common (the reference epoch's errors)
+/// cancels in the law's free intercept: given to `track`, the forecast is the same and its σ
+/// shrinks to that of the epochs' own errors (here half the variance: σ × √0.5, within 0.05 as
+/// the χ² profile of the failure time is not quite parabolic).
+#[test]
+fn shared_reference_error_leaves_the_forecast_and_narrows_its_sigma() {
+    use cliffwatch::analysis::tracking::{track, Observed};
+    use cliffwatch::analysis::AnalysisConfig;
+    let law = FailureLaw {
+        creep_mm_per_day: 0.5,
+        acceleration_start_days: Some(28.0),
+        failure_days: 40.0,
+    };
+    let now = 37.5;
+    let cov = Matrix3::from_diagonal(&Vector3::new(0.3, 0.3, 0.8));
+    let series: Vec<Observed> = (0..38)
+        .map(|k| {
+            let t = now - 37.0 + k as f64;
+            Observed {
+                t_days: t - now,
+                d_mm: Vector3::new(law.displacement_mm(t), 0.0, 0.0),
+                cov_mm2: cov,
+            }
+        })
+        .collect();
+    let config = AnalysisConfig::default();
+    let dir = Some(Vector3::new(1.0, 0.0, 0.0));
+    let whole = track(&series, dir, None, None, &config)
+        .and_then(|t| t.failure)
+        .expect("a forecast");
+    let own = track(&series, dir, None, Some(cov * 0.5), &config)
+        .and_then(|t| t.failure)
+        .expect("a forecast");
+    let truth_h = (law.failure_days - now) * 24.0;
+    assert!(
+        (whole.time_to_failure_hours - truth_h).abs() < 1.0,
+        "{whole:?}"
+    );
+    assert!(
+        (own.time_to_failure_hours - whole.time_to_failure_hours).abs() < 1e-6 * truth_h,
+        "{own:?} {whole:?}"
+    );
+    let ratio = own.sigma_hours / whole.sigma_hours;
+    assert!((ratio - 0.5f64.sqrt()).abs() < 0.05, "σ ratio {ratio}");
 }

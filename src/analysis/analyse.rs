@@ -6,15 +6,15 @@ use chrono::{DateTime, Utc};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::alerts::{Metric, Reading, Readings, Source};
-use super::block::{estimate_block, BlockMotion, BlockPoint};
+use super::block_analysis::{analyse_blocks, BlockAnalysis, BlockInputs, MemberCovariance};
 use super::congruence::{test_and_localise, CongruenceTest};
-use super::datum::{fit_iwst, transform_all, DatumFit, DatumMethod, Differences};
+use super::datum::{
+    fit_iwst, transform_all, transformed_joint, DatumFit, DatumMethod, Differences,
+};
 use super::displacement::{point_test, sigma_length, DisplacementRecord, PointAnalysis};
-use super::epoch::GroupConfig;
 use super::epoch::{AnalysisConfig, EpochCoordinates, PointConfig, PointRole};
 use super::error::AnalysisError;
-use super::failure::{forecast, FailureForecast};
+use super::failure::forecast;
 use super::stats::{f_quantile, normal_quantile};
 use super::tracking::{track, Observed};
 use super::velocity::{days_between, kinematics_z, Sample};
@@ -64,30 +64,6 @@ pub struct EpochAnalysis {
     /// The motion of each declared block group.
     #[serde(default)]
     pub blocks: Vec<BlockAnalysis>,
-}
-
-/// The analysis of one block group in one epoch: its members and the values its rules read.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct BlockAnalysis {
-    /// Group name.
-    pub group: String,
-    /// Member points present in this epoch.
-    pub points: Vec<String>,
-    /// Raw and filtered values of the block's metrics (displacement at the block's centroid in
-    /// mm, along the block's direction in mm, velocity in mm/day, time to failure in hours).
-    pub readings: Readings,
-    /// The block's motion in this epoch (None when it could not be estimated).
-    #[serde(default)]
-    pub motion: Option<BlockMotion>,
-    /// Raw time-to-failure forecast of the block (inverse velocity of its translation).
-    #[serde(default)]
-    pub failure: Option<FailureForecast>,
-    /// Filtered state of the block's translation.
-    #[serde(default)]
-    pub filtered: Option<super::displacement::FilteredValues>,
-    /// Time-to-failure forecast from the block's smoothed velocities, with its interval.
-    #[serde(default)]
-    pub filtered_failure: Option<FailureForecast>,
 }
 
 impl EpochAnalysis {
@@ -142,7 +118,7 @@ fn samples_of(
 
 /// The 3 × 3 covariance of a stored record (mm²); `None` when it is not positive definite (the
 /// reference epoch's own zero row).
-fn record_covariance(r: &DisplacementRecord) -> Option<Matrix3<f64>> {
+pub(super) fn record_covariance(r: &DisplacementRecord) -> Option<Matrix3<f64>> {
     let (xy, xz, yz) = (
         r.cov_dxdy_mm2.unwrap_or(0.0),
         r.cov_dxdz_mm2.unwrap_or(0.0),
@@ -186,253 +162,8 @@ fn observed_of(
         .collect()
 }
 
-/// The motion of each declared block in this epoch and in the past epochs of the history, its
-/// filtered kinematics and forecasts, and the readings its rules see.
-#[allow(clippy::too_many_arguments)]
-fn analyse_blocks(
-    reference: &EpochCoordinates,
-    points: &[PointConfig],
-    out: &[PointAnalysis],
-    history: &History,
-    now: DateTime<Utc>,
-    config: &AnalysisConfig,
-    z_vel: f64,
-    z_acc: f64,
-) -> Vec<BlockAnalysis> {
-    let positions: HashMap<&str, [f64; 3]> = reference
-        .points
-        .iter()
-        .map(|p| (p.name.as_str(), p.xyz_m))
-        .collect();
-    config
-        .groups
-        .iter()
-        .map(|g| {
-            analyse_block(
-                g, &positions, points, out, history, now, config, z_vel, z_acc,
-            )
-        })
-        .collect()
-}
-
-#[allow(clippy::too_many_arguments)]
-fn analyse_block(
-    g: &GroupConfig,
-    positions: &HashMap<&str, [f64; 3]>,
-    points: &[PointConfig],
-    out: &[PointAnalysis],
-    history: &History,
-    now: DateTime<Utc>,
-    config: &AnalysisConfig,
-    z_vel: f64,
-    z_acc: f64,
-) -> BlockAnalysis {
-    let members: Vec<String> = g
-        .members(points)
-        .into_iter()
-        .filter(|m| positions.contains_key(m.as_str()) && out.iter().any(|p| &p.record.point == m))
-        .collect();
-    let current: Vec<BlockPoint> = members
-        .iter()
-        .filter_map(|m| {
-            let p = out.iter().find(|p| &p.record.point == m)?;
-            let r = &p.record;
-            Some(BlockPoint {
-                name: m.clone(),
-                xyz_m: positions[m.as_str()],
-                d_mm: [r.dx_mm, r.dy_mm, r.dz_mm],
-                cov_mm2: p.covariance_mm2,
-            })
-        })
-        .collect();
-    let motion = estimate_block(&current, config.confidence).ok();
-    // Past motions: the epochs in which every current member has a usable record.
-    let mut by_epoch: std::collections::BTreeMap<DateTime<Utc>, Vec<BlockPoint>> =
-        Default::default();
-    for m in &members {
-        let Some(h) = history.get(m) else { continue };
-        let end = h.partition_point(|r| r.observed_at < now);
-        let start = end.saturating_sub(config.filter_epochs.saturating_sub(1));
-        for r in &h[start..end] {
-            if let Some(cov) = record_covariance(r) {
-                by_epoch.entry(r.observed_at).or_default().push(BlockPoint {
-                    name: m.clone(),
-                    xyz_m: positions[m.as_str()],
-                    d_mm: [r.dx_mm, r.dy_mm, r.dz_mm],
-                    cov_mm2: cov.into(),
-                });
-            }
-        }
-    }
-    let mut series: Vec<Observed> = by_epoch
-        .into_iter()
-        .filter(|(_, ps)| ps.len() == members.len())
-        .filter_map(|(t, ps)| {
-            let b = estimate_block(&ps, config.confidence).ok()?;
-            Some(Observed {
-                t_days: days_between(now, t),
-                d_mm: Vector3::from(b.translation_mm),
-                cov_mm2: Matrix3::from(b.covariance_mm2),
-            })
-        })
-        .collect();
-    let mut readings = Readings::default();
-    let (mut failure, mut filtered, mut filtered_failure) = (None, None, None);
-    if let Some(b) = &motion {
-        series.push(Observed {
-            t_days: 0.0,
-            d_mm: Vector3::from(b.translation_mm),
-            cov_mm2: Matrix3::from(b.covariance_mm2),
-        });
-        let (d, sd) = b.length();
-        let significant = d > z_vel * sd;
-        readings.set(
-            Metric::DisplacementMm,
-            Source::Raw,
-            Reading {
-                value: Some(d),
-                sigma: sd,
-                significant,
-            },
-        );
-        let dir = g
-            .direction
-            .map(Vector3::from)
-            .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
-        if let Some(v) = dir {
-            let (a, sa) = b.along(v.into());
-            readings.set(
-                Metric::DisplacementAlongMm,
-                Source::Raw,
-                Reading {
-                    value: Some(a),
-                    sigma: sa,
-                    significant,
-                },
-            );
-        }
-        // Raw velocity and forecast from the block's length series, as for a point.
-        let samples: Vec<Sample> = series
-            .iter()
-            .map(|o| {
-                let (len, s) = length_of(&o.d_mm, &o.cov_mm2);
-                Sample {
-                    t_days: o.t_days,
-                    d_mm: len,
-                    sigma_mm: s.max(1e-6),
-                }
-            })
-            .collect();
-        let kin = kinematics_z(
-            &samples,
-            config.velocity_window,
-            config.failure.window,
-            z_vel,
-            z_acc,
-        );
-        if let Some(k) = kin {
-            readings.set(
-                Metric::VelocityMmPerDay,
-                Source::Raw,
-                Reading {
-                    value: Some(k.velocity_mm_per_day),
-                    sigma: k.sigma_velocity_mm_per_day,
-                    significant: significant && k.velocity_significant,
-                },
-            );
-            if k.accelerating && significant {
-                failure = forecast(&samples, &config.failure);
-            }
-        }
-        readings.set(
-            Metric::TimeToFailureHours,
-            Source::Raw,
-            Reading::new(
-                failure.map(|f| f.time_to_failure_hours),
-                failure.map(|f| f.sigma_hours),
-            ),
-        );
-        if let Some(t) = track(&series, dir, g.process_noise, config) {
-            let f = t.values;
-            readings.set(
-                Metric::DisplacementMm,
-                Source::Filtered,
-                Reading::new(Some(f.f_d_mm), Some(f.sigma_f_d_mm)),
-            );
-            if let Some((a, sa)) = t.along_mm {
-                readings.set(
-                    Metric::DisplacementAlongMm,
-                    Source::Filtered,
-                    Reading::new(Some(a), Some(sa)),
-                );
-            }
-            readings.set(
-                Metric::VelocityMmPerDay,
-                Source::Filtered,
-                Reading::new(
-                    Some(f.f_velocity_mm_per_day),
-                    Some(f.sigma_f_velocity_mm_per_day),
-                ),
-            );
-            readings.set(
-                Metric::TimeToFailureHours,
-                Source::Filtered,
-                Reading::new(
-                    t.failure.map(|f| f.time_to_failure_hours),
-                    t.failure.map(|f| f.sigma_hours),
-                ),
-            );
-            filtered = Some(f);
-            filtered_failure = t.failure;
-        }
-    }
-    BlockAnalysis {
-        group: g.name.clone(),
-        points: members,
-        readings,
-        motion,
-        failure,
-        filtered,
-        filtered_failure,
-    }
-}
-
-impl BlockAnalysis {
-    /// The block's row of the motion series in a point's form (`point` is the group): the
-    /// translation (mm) with its covariance (mm²), its length, the raw velocity (mm/day) and
-    /// forecast (h) of the length, the filtered values. `None` without a motion this epoch.
-    pub fn record(&self, epoch: i64, observed_at: DateTime<Utc>) -> Option<DisplacementRecord> {
-        let m = self.motion.as_ref()?;
-        let (d, sd) = m.length();
-        let c = m.covariance_mm2;
-        let raw = |metric: Metric| self.readings.get(metric, Source::Raw);
-        Some(DisplacementRecord {
-            point: self.group.clone(),
-            epoch,
-            observed_at,
-            dx_mm: m.translation_mm[0],
-            dy_mm: m.translation_mm[1],
-            dz_mm: m.translation_mm[2],
-            d_mm: d,
-            sigma_dx_mm: c[0][0].max(0.0).sqrt(),
-            sigma_dy_mm: c[1][1].max(0.0).sqrt(),
-            sigma_dz_mm: c[2][2].max(0.0).sqrt(),
-            sigma_mm: sd,
-            cov_dxdy_mm2: Some(c[0][1]),
-            cov_dxdz_mm2: Some(c[0][2]),
-            cov_dydz_mm2: Some(c[1][2]),
-            d_along_mm: raw(Metric::DisplacementAlongMm).value,
-            significant: raw(Metric::DisplacementMm).significant,
-            velocity_mm_per_day: raw(Metric::VelocityMmPerDay).value,
-            time_to_failure_hours: self.failure.map(|f| f.time_to_failure_hours),
-            time_to_failure_sigma_hours: self.failure.map(|f| f.sigma_hours),
-            filtered: self.filtered,
-        })
-    }
-}
-
 /// Length of a displacement and its linearised σ (mm).
-fn length_of(d: &Vector3<f64>, cov: &Matrix3<f64>) -> (f64, f64) {
+pub(super) fn length_of(d: &Vector3<f64>, cov: &Matrix3<f64>) -> (f64, f64) {
     (d.norm(), sigma_length(d, cov))
 }
 
@@ -524,6 +255,12 @@ pub fn analyse_epoch(
         iwst()?
     };
     let transformed = transform_all(&diffs, &fit);
+    // The reference epoch's share of each displacement's covariance, common to every epoch.
+    let reference_only = diffs.reference_only();
+    let shared: Vec<Matrix3<f64>> = transform_all(&reference_only, &fit)
+        .into_iter()
+        .map(|(_, c)| c)
+        .collect();
     let p = &fit.params;
     let get = |k: usize| if k < p.len() { p[k] } else { 0.0 };
     let datum = DatumReport {
@@ -597,7 +334,7 @@ pub fn analyse_epoch(
                 d_mm: d,
                 cov_mm2: cov,
             });
-            track(&series, dir, None, config)
+            track(&series, dir, None, Some(shared[i]), config)
         };
         let sd = |k: usize| cov[(k, k)].max(0.0).sqrt();
         let record = DisplacementRecord {
@@ -638,16 +375,34 @@ pub fn analyse_epoch(
             filtered_failure: tracked.and_then(|t| t.failure),
         });
     }
-    let blocks = analyse_blocks(
+    // The joint covariance of any set of points' displacements (the blocks' members).
+    let index: HashMap<&str, usize> = diffs
+        .names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (n.as_str(), i))
+        .collect();
+    let joint_of = |names: &[String]| -> Option<MemberCovariance> {
+        let idx: Vec<usize> = names
+            .iter()
+            .map(|n| index.get(n.as_str()).copied())
+            .collect::<Option<_>>()?;
+        (!same_epoch).then(|| MemberCovariance {
+            joint_mm2: transformed_joint(&diffs, &fit, &idx),
+            shared_mm2: transformed_joint(&reference_only, &fit, &idx),
+        })
+    };
+    let blocks = analyse_blocks(&BlockInputs {
         reference,
         points,
-        &out,
+        out: &out,
         history,
-        current.observed_at,
+        now: current.observed_at,
         config,
         z_vel,
         z_acc,
-    );
+        joint_of: &joint_of,
+    });
     Ok(EpochAnalysis {
         epoch: current.epoch,
         observed_at: current.observed_at,

@@ -1,8 +1,10 @@
 //! The motion of a rigid block from its points' displacements (the rigid-body model of deformation
 //! analysis, Caspary 1987 §7.2; Niemeier 2008 §12.6): `d_i = t + ω × (x_i − c)`, with `t` the
 //! translation at the block's centroid `c` (mm), `ω` small rotations (mrad = mm/m) and `x_i` the
-//! points' reference positions (m). Estimated by weighted least squares with each point's 3 × 3
-//! displacement covariance (cross-covariances between points are not available and taken as zero).
+//! points' reference positions (m). Estimated by generalised least squares with the joint
+//! covariance of the points' displacements ([`estimate_block_correlated`]: the datum and the
+//! reference epoch put errors common to all points, which do not average out), or with each
+//! point's 3 × 3 covariance alone ([`estimate_block`]).
 //! With fewer than three points, or points on a line, only the translation is estimated (the
 //! weighted mean). The residuals' χ² test says whether the points move as one block.
 
@@ -83,7 +85,8 @@ impl BlockMotion {
     }
 }
 
-/// Estimates the block's motion; `confidence` is that of the rigidity test.
+/// Estimates the block's motion from its points taken as uncorrelated; `confidence` is that of
+/// the rigidity test.
 ///
 /// Errors: no point, a non-finite value or a covariance that is not positive definite (the point
 /// is named), or normal equations that cannot be inverted.
@@ -91,12 +94,86 @@ pub fn estimate_block(
     points: &[BlockPoint],
     confidence: f64,
 ) -> Result<BlockMotion, AnalysisError> {
+    check_points(points)?;
+    let mut weight = DMatrix::<f64>::zeros(3 * points.len(), 3 * points.len());
+    for (k, p) in points.iter().enumerate() {
+        let inv = Matrix3::from(p.cov_mm2)
+            .cholesky()
+            .map(|ch| ch.inverse())
+            .ok_or_else(|| AnalysisError::Singular {
+                what: format!("displacement covariance of block point {}", p.name),
+            })?;
+        weight.view_mut((3 * k, 3 * k), (3, 3)).copy_from(&inv);
+    }
+    solve(points, &weight, confidence)
+}
+
+/// Estimates the block's motion with the joint covariance of its points' displacements
+/// (`joint_mm2`, 3n × 3n in the order of `points`; the cross-covariances the datum and the
+/// epochs put between them): generalised least squares, so the translation's covariance keeps
+/// the errors common to the points (the datum's, the reference epoch's) that a per-point
+/// weighting would average away. The points' own `cov_mm2` are not read.
+///
+/// Errors: no point, a non-finite value, a joint covariance of the wrong size or not positive
+/// definite, or normal equations that cannot be inverted.
+pub fn estimate_block_correlated(
+    points: &[BlockPoint],
+    joint_mm2: &DMatrix<f64>,
+    confidence: f64,
+) -> Result<BlockMotion, AnalysisError> {
+    check_points(points)?;
+    let n = 3 * points.len();
+    if joint_mm2.shape() != (n, n) || !joint_mm2.iter().all(|v| v.is_finite()) {
+        return Err(AnalysisError::InvalidInput(format!(
+            "the joint covariance of a block of {} points must be a finite {n} × {n} matrix",
+            points.len()
+        )));
+    }
+    let weight = joint_mm2
+        .clone()
+        .cholesky()
+        .map(|ch| ch.inverse())
+        .ok_or_else(|| AnalysisError::Singular {
+            what: format!(
+                "joint displacement covariance of block points {}",
+                points
+                    .iter()
+                    .map(|p| p.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        })?;
+    solve(points, &weight, confidence)
+}
+
+/// The covariance (mm²) of the translation that [`estimate_block_correlated`] with `joint_mm2`
+/// estimates, due to errors of covariance `part_mm2` alone (3n × 3n, e.g. the reference epoch's
+/// share of `joint_mm2`): `K part Kᵀ` with the estimator's gain `K = (AᵀWA)⁻¹AᵀW`. None when the
+/// sizes do not match or `joint_mm2` or the normal equations cannot be inverted.
+pub fn translation_share(
+    points: &[BlockPoint],
+    joint_mm2: &DMatrix<f64>,
+    part_mm2: &DMatrix<f64>,
+) -> Option<Matrix3<f64>> {
+    let n = 3 * points.len();
+    if points.is_empty() || joint_mm2.shape() != (n, n) || part_mm2.shape() != (n, n) {
+        return None;
+    }
+    let weight = joint_mm2.clone().cholesky()?.inverse();
+    let a = design(points);
+    let at_w = a.transpose() * &weight;
+    let gain = (&at_w * &a).cholesky()?.inverse() * at_w;
+    let share = &gain * part_mm2 * gain.transpose();
+    Some(Matrix3::from_fn(|r, c| share[(r, c)]))
+}
+
+/// Every point's position, displacement and covariance finite; at least one point.
+fn check_points(points: &[BlockPoint]) -> Result<(), AnalysisError> {
     if points.is_empty() {
         return Err(AnalysisError::InvalidInput(
             "a block needs at least one point".into(),
         ));
     }
-    let mut weights = Vec::with_capacity(points.len());
     for p in points {
         if !p
             .xyz_m
@@ -109,15 +186,14 @@ pub fn estimate_block(
                 what: format!("block point {}", p.name),
             });
         }
-        let c = Matrix3::from(p.cov_mm2);
-        let inv = c
-            .cholesky()
-            .map(|ch| ch.inverse())
-            .ok_or_else(|| AnalysisError::Singular {
-                what: format!("displacement covariance of block point {}", p.name),
-            })?;
-        weights.push(inv);
     }
+    Ok(())
+}
+
+/// The design matrix (3n × u) of the rigid-body model `d_i = t + ω × r_i = t − [r_i]× ω` (ω in
+/// mrad = mm/m, r_i in m from the centroid; u = 6), or of the translation alone (u = 3) with
+/// fewer than three points or points on a line.
+fn design(points: &[BlockPoint]) -> DMatrix<f64> {
     let n = points.len() as f64;
     let centroid = points
         .iter()
@@ -135,46 +211,46 @@ pub fn estimate_block(
     let rigid_model =
         points.len() >= 3 && s.len() >= 2 && s[1] > 1e-3 * s[0].max(1e-9) && s[1] > 1e-4;
     let u = if rigid_model { 6 } else { 3 };
-    let mut nm = DMatrix::<f64>::zeros(u, u);
-    let mut rhs = DVector::<f64>::zeros(u);
-    let design = |arm: &Vector3<f64>| {
-        // d = t + ω × r = t − [r]× ω, ω in mrad = mm/m, r in m.
-        let mut a = DMatrix::<f64>::zeros(3, u);
-        for k in 0..3 {
-            a[(k, k)] = 1.0;
+    let mut a = DMatrix::<f64>::zeros(3 * points.len(), u);
+    for (k, arm) in arms.iter().enumerate() {
+        for r in 0..3 {
+            a[(3 * k + r, r)] = 1.0;
         }
         if u == 6 {
             let cross = Matrix3::new(0.0, -arm.z, arm.y, arm.z, 0.0, -arm.x, -arm.y, arm.x, 0.0);
             for r in 0..3 {
                 for c in 0..3 {
-                    a[(r, 3 + c)] = -cross[(r, c)];
+                    a[(3 * k + r, 3 + c)] = -cross[(r, c)];
                 }
             }
         }
-        a
-    };
-    for ((p, w), arm) in points.iter().zip(&weights).zip(&arms) {
-        let a = design(arm);
-        let wd = DMatrix::from_fn(3, 3, |r, c| w[(r, c)]);
-        let at_w = a.transpose() * &wd;
-        nm += &at_w * &a;
-        rhs += &at_w * DVector::from_column_slice(&p.d_mm);
     }
-    let qxx =
-        nm.clone()
-            .cholesky()
-            .map(|c| c.inverse())
-            .ok_or_else(|| AnalysisError::Singular {
-                what: "normal equations of the block motion".into(),
-            })?;
-    let x = &qxx * &rhs;
-    let mut vtpv = 0.0;
-    for ((p, w), arm) in points.iter().zip(&weights).zip(&arms) {
-        let a = design(arm);
-        let v = &a * &x - DVector::from_column_slice(&p.d_mm);
-        let v3 = Vector3::new(v[0], v[1], v[2]);
-        vtpv += (v3.transpose() * w * v3)[(0, 0)];
-    }
+    a
+}
+
+/// Weighted least squares of the rigid-body model (or the translation alone) with the weight
+/// matrix `weight` (3n × 3n, the inverse of the displacements' covariance).
+fn solve(
+    points: &[BlockPoint],
+    weight: &DMatrix<f64>,
+    confidence: f64,
+) -> Result<BlockMotion, AnalysisError> {
+    let a = design(points);
+    let u = a.ncols();
+    let d = DVector::from_iterator(
+        3 * points.len(),
+        points.iter().flat_map(|p| p.d_mm.iter().copied()),
+    );
+    let at_w = a.transpose() * weight;
+    let qxx = (&at_w * &a)
+        .cholesky()
+        .map(|c| c.inverse())
+        .ok_or_else(|| AnalysisError::Singular {
+            what: "normal equations of the block motion".into(),
+        })?;
+    let x = &qxx * (&at_w * &d);
+    let v = &a * &x - &d;
+    let vtpv = (v.transpose() * weight * &v)[(0, 0)];
     let redundancy = 3 * points.len() - u;
     let rigid = redundancy == 0
         || vtpv <= redundancy as f64 * f_quantile(confidence, redundancy as f64, f64::INFINITY);

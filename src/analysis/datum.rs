@@ -11,8 +11,10 @@
 //!   points do not drag the datum.
 //!
 //! The covariance of the transformed differences is propagated in full:
-//! `Σ'_i = Σ_ii − G_i A Σ_Si − (G_i A Σ_Si)ᵀ + G_i A Σ_SS Aᵀ G_iᵀ` with `A = (GᵀWG)⁻¹GᵀW`. Cross
-//! covariances come from the joint covariances of both epochs where given, else they are taken as zero.
+//! `Σ'_ij = Σ_ij − G_i A Σ_Sj − (G_j A Σ_Si)ᵀ + G_i A Σ_SS Aᵀ G_jᵀ` with `A = (GᵀWG)⁻¹GᵀW`, per
+//! point (i = j) and between the points of a block. Cross covariances come from the joint
+//! covariances of both epochs where given, else they are taken as zero. The reference epoch's
+//! errors alone, propagated the same way, give the share every epoch has in common.
 //! Units inside: coordinates (for G) in m, differences in mm, covariances in mm².
 
 use std::collections::HashMap;
@@ -33,6 +35,8 @@ pub(crate) struct Differences {
     pub d_mm: Vec<Vector3<f64>>,
     /// Covariance of each difference in mm² (sum of both epochs).
     pub cov_mm2: Vec<Matrix3<f64>>,
+    /// The reference epoch's share of `cov_mm2` (mm²).
+    ref_cov_mm2: Vec<Matrix3<f64>>,
     /// For each common point, its index in the reference / current joint covariance.
     joint_ref: Vec<Option<usize>>,
     joint_cur: Vec<Option<usize>>,
@@ -103,6 +107,7 @@ impl Differences {
             xyz_m: vec![],
             d_mm: vec![],
             cov_mm2: vec![],
+            ref_cov_mm2: vec![],
             joint_ref: vec![],
             joint_cur: vec![],
             ref_matrix,
@@ -130,10 +135,24 @@ impl Differences {
             out.d_mm.push((xc - xr) * 1e3);
             out.cov_mm2
                 .push(cm(&c.covariance_m2) + cm(&r.covariance_m2));
+            out.ref_cov_mm2.push(cm(&r.covariance_m2));
             out.joint_ref.push(jr.get(c.name.as_str()).copied());
             out.joint_cur.push(jc.get(c.name.as_str()).copied());
         }
         Ok(out)
+    }
+
+    /// The same differences with the reference epoch's errors alone (its covariances and joint
+    /// covariance): propagated by the datum's transformation ([`transform_all`],
+    /// [`transformed_joint`]) they give the share of each displacement's covariance that every
+    /// epoch analysed against this reference has in common.
+    pub fn reference_only(&self) -> Differences {
+        Differences {
+            cov_mm2: self.ref_cov_mm2.clone(),
+            joint_cur: vec![None; self.names.len()],
+            cur_matrix: None,
+            ..self.clone()
+        }
     }
 
     /// Number of common points.
@@ -387,60 +406,137 @@ pub(crate) fn fit_iwst(
     })
 }
 
+/// The covariance propagation of the S-transformation `d'_i = d_i − G_i θ`, `θ = A d_S`
+/// (Caspary 1987 §5.3): `Σ_ij' = Σ_ij − G_i A Σ_Sj − (G_j A Σ_Si)ᵀ + G_i A Σ_SS Aᵀ G_jᵀ`, with `S`
+/// the datum points. Built once per epoch; [`transform_all`] takes the 3 × 3 blocks of every
+/// point, [`transformed_joint`] the full covariance of a few.
+struct Propagation<'a> {
+    diffs: &'a Differences,
+    fit: &'a DatumFit,
+    /// A split in u × 3 blocks per datum point.
+    a_blocks: Vec<DMatrix<f64>>,
+    /// P = A Σ_SS Aᵀ (u × u).
+    p: DMatrix<f64>,
+    /// Positions (in the datum) of the datum points with cross covariances.
+    joint: Vec<usize>,
+    /// Position in the datum of each datum point (index into `diffs`).
+    pos_in_datum: HashMap<usize, usize>,
+}
+
+impl<'a> Propagation<'a> {
+    fn new(diffs: &'a Differences, fit: &'a DatumFit) -> Self {
+        let (u, m) = (fit.u, fit.datum.len());
+        let a_blocks: Vec<DMatrix<f64>> = (0..m)
+            .map(|k| fit.a.columns(3 * k, 3).into_owned())
+            .collect();
+        // P = A Σ_SS Aᵀ, exploiting block sparsity.
+        let mut p = DMatrix::<f64>::zeros(u, u);
+        let joint: Vec<usize> = (0..m).filter(|&k| diffs.in_joint(fit.datum[k])).collect();
+        for (ab, &i) in a_blocks.iter().zip(&fit.datum) {
+            p += ab * to_d(&diffs.cov_mm2[i]) * ab.transpose();
+        }
+        for &k in &joint {
+            for &l in &joint {
+                if k != l {
+                    let s = to_d(&diffs.cross(fit.datum[k], fit.datum[l]));
+                    p += &a_blocks[k] * s * a_blocks[l].transpose();
+                }
+            }
+        }
+        let pos_in_datum = fit.datum.iter().enumerate().map(|(k, &i)| (i, k)).collect();
+        Propagation {
+            diffs,
+            fit,
+            a_blocks,
+            p,
+            joint,
+            pos_in_datum,
+        }
+    }
+
+    /// Helmert rows G_i (3 × u) of point i.
+    fn g(&self, i: usize) -> DMatrix<f64> {
+        helmert_rows(&(self.diffs.xyz_m[i] - self.fit.centroid), self.fit.u)
+    }
+
+    /// A Σ_Si (u × 3): the covariance of the parameters with the difference of point i.
+    fn a_sigma(&self, i: usize) -> DMatrix<f64> {
+        let (diffs, fit) = (self.diffs, self.fit);
+        let mut asi = DMatrix::<f64>::zeros(fit.u, 3);
+        if diffs.in_joint(i) {
+            for &k in &self.joint {
+                asi += &self.a_blocks[k] * to_d(&diffs.cross(fit.datum[k], i));
+            }
+            if let Some(&k) = self.pos_in_datum.get(&i) {
+                if !diffs.in_joint(fit.datum[k]) {
+                    asi += &self.a_blocks[k] * to_d(&diffs.cov_mm2[i]);
+                }
+            }
+        } else if let Some(&k) = self.pos_in_datum.get(&i) {
+            asi += &self.a_blocks[k] * to_d(&diffs.cov_mm2[i]);
+        }
+        asi
+    }
+
+    /// Σ_ij' (3 × 3) from the Helmert rows and A Σ_S of both points.
+    fn block(
+        &self,
+        (i, gi, asi): (usize, &DMatrix<f64>, &DMatrix<f64>),
+        (j, gj, asj): (usize, &DMatrix<f64>, &DMatrix<f64>),
+    ) -> Matrix3<f64> {
+        let gi_asj = gi * asj;
+        let gj_asi = gj * asi;
+        let gpg = gi * &self.p * gj.transpose();
+        let sij = self.diffs.cross(i, j);
+        Matrix3::from_fn(|r, c| sij[(r, c)] - gi_asj[(r, c)] - gj_asi[(c, r)] + gpg[(r, c)])
+    }
+}
+
 /// Transformed difference (mm) and its covariance (mm²) of every common point.
 pub(crate) fn transform_all(
     diffs: &Differences,
     fit: &DatumFit,
 ) -> Vec<(Vector3<f64>, Matrix3<f64>)> {
-    let u = fit.u;
-    let m = fit.datum.len();
-    // A split in u × 3 blocks per datum point.
-    let a_blocks: Vec<DMatrix<f64>> = (0..m)
-        .map(|k| fit.a.columns(3 * k, 3).into_owned())
-        .collect();
-    // P = A Σ_SS Aᵀ, exploiting block sparsity.
-    let mut p = DMatrix::<f64>::zeros(u, u);
-    let joint: Vec<usize> = (0..m).filter(|&k| diffs.in_joint(fit.datum[k])).collect();
-    for (ab, &i) in a_blocks.iter().zip(&fit.datum) {
-        p += ab * to_d(&diffs.cov_mm2[i]) * ab.transpose();
-    }
-    for &k in &joint {
-        for &l in &joint {
-            if k != l {
-                let s = to_d(&diffs.cross(fit.datum[k], fit.datum[l]));
-                p += &a_blocks[k] * s * a_blocks[l].transpose();
-            }
-        }
-    }
-    let pos_in_datum: HashMap<usize, usize> =
-        fit.datum.iter().enumerate().map(|(k, &i)| (i, k)).collect();
+    let prop = Propagation::new(diffs, fit);
     (0..diffs.len())
         .map(|i| {
-            let g = helmert_rows(&(diffs.xyz_m[i] - fit.centroid), u);
+            let g = prop.g(i);
             let t = &g * &fit.params;
             let d = diffs.d_mm[i] - Vector3::new(t[0], t[1], t[2]);
-            // A Σ_Si (u × 3).
-            let mut asi = DMatrix::<f64>::zeros(u, 3);
-            if diffs.in_joint(i) {
-                for &k in &joint {
-                    asi += &a_blocks[k] * to_d(&diffs.cross(fit.datum[k], i));
-                }
-                if let Some(&k) = pos_in_datum.get(&i) {
-                    if !diffs.in_joint(fit.datum[k]) {
-                        asi += &a_blocks[k] * to_d(&diffs.cov_mm2[i]);
-                    }
-                }
-            } else if let Some(&k) = pos_in_datum.get(&i) {
-                asi += &a_blocks[k] * to_d(&diffs.cov_mm2[i]);
-            }
-            let gasi = &g * asi;
-            let gpg = &g * &p * g.transpose();
-            let cov = Matrix3::from_fn(|r, c| {
-                diffs.cov_mm2[i][(r, c)] - gasi[(r, c)] - gasi[(c, r)] + gpg[(r, c)]
-            });
+            let asi = prop.a_sigma(i);
+            let cov = prop.block((i, &g, &asi), (i, &g, &asi));
             (d, 0.5 * (cov + cov.transpose()))
         })
         .collect()
+}
+
+/// The joint covariance (mm², 3k × 3k, symmetric) of the transformed differences of the points
+/// `members` (indices into `diffs`, k of them), in their order: the cross-covariances the datum
+/// and the epochs' joint covariances put between them.
+pub(crate) fn transformed_joint(
+    diffs: &Differences,
+    fit: &DatumFit,
+    members: &[usize],
+) -> DMatrix<f64> {
+    let prop = Propagation::new(diffs, fit);
+    let parts: Vec<(usize, DMatrix<f64>, DMatrix<f64>)> = members
+        .iter()
+        .map(|&i| (i, prop.g(i), prop.a_sigma(i)))
+        .collect();
+    let k = members.len();
+    let mut out = DMatrix::<f64>::zeros(3 * k, 3 * k);
+    for (a, (i, gi, asi)) in parts.iter().enumerate() {
+        for (b, (j, gj, asj)) in parts.iter().enumerate().skip(a) {
+            let c = prop.block((*i, gi, asi), (*j, gj, asj));
+            for r in 0..3 {
+                for col in 0..3 {
+                    out[(3 * a + r, 3 * b + col)] = c[(r, col)];
+                    out[(3 * b + col, 3 * a + r)] = c[(r, col)];
+                }
+            }
+        }
+    }
+    out
 }
 
 fn to_d(m: &Matrix3<f64>) -> DMatrix<f64> {

@@ -7,8 +7,9 @@
 //!    significance test ([`displacement`]), velocity and acceleration ([`velocity`]) and, while it
 //!    accelerates, an inverse-velocity time-to-failure forecast ([`failure`]); the Kalman filter
 //!    ([`kalman`]) over the point's last epochs gives its filtered displacement, velocity and
-//!    forecast ([`tracking`]); each declared block gets its rigid-body motion ([`block`]) and the
-//!    same filtered kinematics. The reference may be the mean of several epochs ([`reference`](self::reference)).
+//!    forecast ([`tracking`]); each declared block gets its rigid-body motion ([`block`]) with the
+//!    joint covariance of its points and the same filtered kinematics ([`block_analysis`]). The
+//!    reference may be the mean of several epochs ([`reference`](self::reference)).
 //! 2. [`evaluate_alerts`]: the site's rules turn the analysis into alert transitions and events
 //!    ([`alerts`]): a rule fires when its value exceeds the threshold at the site's one-sided
 //!    confidence, for points and blocks; [`check_overdue`] watches the campaign schedule; [`acknowledge`] and [`resolve`] are the
@@ -26,6 +27,7 @@
 pub mod alerts;
 pub mod analyse;
 pub mod block;
+pub mod block_analysis;
 pub mod congruence;
 pub mod datum;
 pub mod displacement;
@@ -45,7 +47,8 @@ pub use alerts::{
     AlertConfig, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState,
     AlertStatus, Metric, Reading, Readings, Source,
 };
-pub use analyse::{analyse_epoch, BlockAnalysis, DatumReport, EpochAnalysis, History};
+pub use analyse::{analyse_epoch, DatumReport, EpochAnalysis, History};
+pub use block_analysis::BlockAnalysis;
 pub use congruence::CongruenceTest;
 pub use datum::DatumMethod;
 pub use displacement::{DisplacementRecord, FilteredValues, PointAnalysis};

@@ -19,6 +19,10 @@ use super::onset::accelerating;
 use super::stats::normal_quantile;
 use super::velocity::{window_slice, Sample};
 
+/// Smallest share of an epoch's variance taken as its own error (an epoch observed with fewer
+/// stations than the current one can have a covariance below the shared part).
+const OWN_SHARE_FLOOR: f64 = 0.25;
+
 /// One epoch of a subject's displacement series: days relative to the current epoch (≤ 0),
 /// displacement in mm and its covariance in mm².
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,11 +49,15 @@ pub struct Tracked {
 /// Runs the filter over `series` (oldest first, the current epoch last) with process noise
 /// `process_noise` (None: the configuration's). `direction`: the direction of interest (need not
 /// be normalised); the velocity is taken along it, else along the filtered displacement.
+/// `shared_mm2`: the share of every epoch's covariance that all epochs have in common (the
+/// reference epoch's errors, mm²): the law's fit for the forecast has a free intercept, which
+/// absorbs a common error, so it weighs each epoch by the rest, its own error.
 /// `None` when the series is empty or the filter refuses it (non-finite or singular input).
 pub fn track(
     series: &[Observed],
     direction: Option<Vector3<f64>>,
     process_noise: Option<f64>,
+    shared_mm2: Option<Matrix3<f64>>,
     config: &AnalysisConfig,
 ) -> Option<Tracked> {
     let start = series.len().saturating_sub(config.filter_epochs.max(2));
@@ -98,7 +106,7 @@ pub fn track(
     // forecast's own test (the law against a straight line).
     let moving = f_d > z * s_d && along.v_mm_per_day > z * along.sigma_v_mm_per_day;
     let failure = if moving {
-        forecast_smoothed(&meas, &kc, u, config)
+        forecast_smoothed(&meas, &kc, u, shared_mm2, config)
     } else {
         None
     };
@@ -121,8 +129,10 @@ fn forecast_smoothed(
     meas: &[Measurement],
     kc: &KalmanConfig,
     u: Vector3<f64>,
+    shared_mm2: Option<Matrix3<f64>>,
     config: &AnalysisConfig,
 ) -> Option<FailureForecast> {
+    let shared = shared_mm2.map_or(0.0, |c| (u.transpose() * c * u)[(0, 0)].max(0.0));
     // The window's epochs (the window counts epochs or days back from the current one).
     let times: Vec<Sample> = meas
         .iter()
@@ -134,20 +144,31 @@ fn forecast_smoothed(
         .collect();
     match config.failure.method {
         ForecastMethod::Displacement => {
-            // The displacements along u of the last n epochs, with their σ.
-            let along = |n: usize| {
+            // The displacements along u of the last n epochs, with their σ: of their own errors
+            // (`own`, without the shared part) or whole.
+            let along = |n: usize, own: bool| {
                 let mut out = (vec![], vec![], vec![]);
                 for m in &meas[meas.len() - n..] {
                     let c = Matrix3::from(m.cov_mm2);
+                    let total = (u.transpose() * c * u)[(0, 0)].max(0.0);
                     out.0.push(m.t_days);
                     out.1.push(u.dot(&Vector3::from(m.d_mm)));
-                    out.2.push((u.transpose() * c * u)[(0, 0)].max(0.0).sqrt());
+                    let shared = if own { shared } else { 0.0 };
+                    out.2
+                        .push((total - shared).max(OWN_SHARE_FLOOR * total).sqrt());
                 }
                 out
             };
-            let (t, d, s) = along(window_slice(&times, config.failure.acceleration_window).len());
+            // The onset test weighs by the whole σ: its Δχ² over a scan of two nonlinear
+            // parameters has a heavier tail than χ²(2), and with the own errors alone it raised
+            // a false alarm on a still point in the detection benchmark. The law's fit, whose
+            // intercept absorbs the shared error, weighs by the own errors.
+            let (t, d, s) = along(
+                window_slice(&times, config.failure.acceleration_window).len(),
+                false,
+            );
             accelerating(&t, &d, &s)?;
-            let (t, d, s) = along(window_slice(&times, config.failure.law_window).len());
+            let (t, d, s) = along(window_slice(&times, config.failure.law_window).len(), true);
             fit_law_to_displacements(&t, &d, &s).map(|f| f.forecast)
         }
         ForecastMethod::SmoothedVelocity => {

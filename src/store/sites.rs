@@ -9,8 +9,9 @@ use crate::photogrammetry::Model;
 
 /// The version of the derived series (displacements, filtered values, block motions) this binary
 /// writes. Sites stored by an older one (`sites.analysis_version` below it) are recomputed once at
-/// start ([`crate::service::recompute::recompute_outdated`]); a new site starts at it.
-pub const ANALYSIS_VERSION: i64 = 1;
+/// start ([`crate::service::recompute::recompute_outdated`]); a new site starts at it. 2: block
+/// motions with the joint covariance of their points, forecasts weighed by the epochs' own errors.
+pub const ANALYSIS_VERSION: i64 = 2;
 
 /// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]

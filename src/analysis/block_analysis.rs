@@ -1,0 +1,356 @@
+//! The blocks of an epoch: each declared group's rigid-body motion ([`super::block`]) from its
+//! members' displacements with their joint covariance, in this epoch and the past epochs of the
+//! history, its raw and filtered kinematics and forecasts ([`super::tracking`]), and the readings
+//! its rules see.
+
+use std::collections::HashMap;
+
+use chrono::{DateTime, Utc};
+use nalgebra::{DMatrix, Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::alerts::{Metric, Reading, Readings, Source};
+use super::analyse::{length_of, record_covariance, History};
+use super::block::{
+    estimate_block, estimate_block_correlated, translation_share, BlockMotion, BlockPoint,
+};
+use super::displacement::{DisplacementRecord, PointAnalysis};
+use super::epoch::{AnalysisConfig, EpochCoordinates, GroupConfig, PointConfig};
+use super::failure::{forecast, FailureForecast};
+use super::tracking::{track, Observed};
+use super::velocity::{days_between, kinematics_z, Sample};
+
+/// The analysis of one block group in one epoch: its members and the values its rules read.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BlockAnalysis {
+    /// Group name.
+    pub group: String,
+    /// Member points present in this epoch.
+    pub points: Vec<String>,
+    /// Raw and filtered values of the block's metrics (displacement at the block's centroid in
+    /// mm, along the block's direction in mm, velocity in mm/day, time to failure in hours).
+    pub readings: Readings,
+    /// The block's motion in this epoch (None when it could not be estimated).
+    #[serde(default)]
+    pub motion: Option<BlockMotion>,
+    /// Raw time-to-failure forecast of the block (inverse velocity of its translation).
+    #[serde(default)]
+    pub failure: Option<FailureForecast>,
+    /// Filtered state of the block's translation.
+    #[serde(default)]
+    pub filtered: Option<super::displacement::FilteredValues>,
+    /// Time-to-failure forecast from the block's smoothed velocities, with its interval.
+    #[serde(default)]
+    pub filtered_failure: Option<FailureForecast>,
+}
+
+/// What the blocks of an epoch are analysed from: the epoch's point analyses, the points'
+/// history, and the joint covariance of any set of points' displacements in this epoch.
+pub(super) struct BlockInputs<'a> {
+    /// The reference epoch (the points' reference positions).
+    pub reference: &'a EpochCoordinates,
+    /// The site's point configurations (group membership).
+    pub points: &'a [PointConfig],
+    /// This epoch's point analyses.
+    pub out: &'a [PointAnalysis],
+    /// The points' earlier records.
+    pub history: &'a History,
+    /// This epoch's time.
+    pub now: DateTime<Utc>,
+    /// The site's analysis settings.
+    pub config: &'a AnalysisConfig,
+    /// One-sided normal quantiles of the velocity and acceleration tests.
+    pub z_vel: f64,
+    /// See `z_vel`.
+    pub z_acc: f64,
+    /// The joint covariance of the displacements of the named points in this epoch, in their
+    /// order; None when it is not available.
+    pub joint_of: &'a dyn Fn(&[String]) -> Option<MemberCovariance>,
+}
+
+/// The joint covariance (mm², 3k × 3k) of k points' displacements in one epoch.
+pub(super) struct MemberCovariance {
+    /// The whole covariance.
+    pub joint_mm2: DMatrix<f64>,
+    /// The reference epoch's share of it, common to every epoch analysed against it.
+    pub shared_mm2: DMatrix<f64>,
+}
+
+/// The motion of each declared block in this epoch and in the past epochs of the history, its
+/// filtered kinematics and forecasts, and the readings its rules see.
+pub(super) fn analyse_blocks(inputs: &BlockInputs) -> Vec<BlockAnalysis> {
+    let positions: HashMap<&str, [f64; 3]> = inputs
+        .reference
+        .points
+        .iter()
+        .map(|p| (p.name.as_str(), p.xyz_m))
+        .collect();
+    inputs
+        .config
+        .groups
+        .iter()
+        .map(|g| analyse_block(g, &positions, inputs))
+        .collect()
+}
+
+fn analyse_block(
+    g: &GroupConfig,
+    positions: &HashMap<&str, [f64; 3]>,
+    inputs: &BlockInputs,
+) -> BlockAnalysis {
+    let BlockInputs {
+        points,
+        out,
+        history,
+        now,
+        config,
+        z_vel,
+        z_acc,
+        joint_of,
+        ..
+    } = *inputs;
+    let members: Vec<String> = g
+        .members(points)
+        .into_iter()
+        .filter(|m| positions.contains_key(m.as_str()) && out.iter().any(|p| &p.record.point == m))
+        .collect();
+    let current: Vec<BlockPoint> = members
+        .iter()
+        .filter_map(|m| {
+            let p = out.iter().find(|p| &p.record.point == m)?;
+            let r = &p.record;
+            Some(BlockPoint {
+                name: m.clone(),
+                xyz_m: positions[m.as_str()],
+                d_mm: [r.dx_mm, r.dy_mm, r.dz_mm],
+                cov_mm2: p.covariance_mm2,
+            })
+        })
+        .collect();
+    // This epoch's joint covariance of the members, when every member is present; the past
+    // epochs' is taken with the same correlations (see `correlated_like`).
+    let (joint_now, shared_joint) = (current.len() == members.len())
+        .then(|| joint_of(&members))
+        .flatten()
+        .map(|m| (m.joint_mm2, m.shared_mm2))
+        .unzip();
+    let motion = match &joint_now {
+        Some(j) => estimate_block_correlated(&current, j, config.confidence),
+        None => estimate_block(&current, config.confidence),
+    }
+    .ok();
+    // The reference epoch's share of the translation's covariance.
+    let shared = joint_now
+        .as_ref()
+        .zip(shared_joint.as_ref())
+        .and_then(|(j, s)| translation_share(&current, j, s));
+    // Past motions: the epochs in which every current member has a usable record.
+    let mut by_epoch: std::collections::BTreeMap<DateTime<Utc>, Vec<BlockPoint>> =
+        Default::default();
+    for m in &members {
+        let Some(h) = history.get(m) else { continue };
+        let end = h.partition_point(|r| r.observed_at < now);
+        let start = end.saturating_sub(config.filter_epochs.saturating_sub(1));
+        for r in &h[start..end] {
+            if let Some(cov) = record_covariance(r) {
+                by_epoch.entry(r.observed_at).or_default().push(BlockPoint {
+                    name: m.clone(),
+                    xyz_m: positions[m.as_str()],
+                    d_mm: [r.dx_mm, r.dy_mm, r.dz_mm],
+                    cov_mm2: cov.into(),
+                });
+            }
+        }
+    }
+    let mut series: Vec<Observed> = by_epoch
+        .into_iter()
+        .filter(|(_, ps)| ps.len() == members.len())
+        .filter_map(|(t, ps)| {
+            let b = match joint_now.as_ref().and_then(|j| correlated_like(j, &ps)) {
+                Some(j) => estimate_block_correlated(&ps, &j, config.confidence),
+                None => estimate_block(&ps, config.confidence),
+            }
+            .ok()?;
+            Some(Observed {
+                t_days: days_between(now, t),
+                d_mm: Vector3::from(b.translation_mm),
+                cov_mm2: Matrix3::from(b.covariance_mm2),
+            })
+        })
+        .collect();
+    let mut readings = Readings::default();
+    let (mut failure, mut filtered, mut filtered_failure) = (None, None, None);
+    if let Some(b) = &motion {
+        series.push(Observed {
+            t_days: 0.0,
+            d_mm: Vector3::from(b.translation_mm),
+            cov_mm2: Matrix3::from(b.covariance_mm2),
+        });
+        let (d, sd) = b.length();
+        let significant = d > z_vel * sd;
+        readings.set(
+            Metric::DisplacementMm,
+            Source::Raw,
+            Reading {
+                value: Some(d),
+                sigma: sd,
+                significant,
+            },
+        );
+        let dir = g
+            .direction
+            .map(Vector3::from)
+            .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
+        if let Some(v) = dir {
+            let (a, sa) = b.along(v.into());
+            readings.set(
+                Metric::DisplacementAlongMm,
+                Source::Raw,
+                Reading {
+                    value: Some(a),
+                    sigma: sa,
+                    significant,
+                },
+            );
+        }
+        // Raw velocity and forecast from the block's length series, as for a point.
+        let samples: Vec<Sample> = series
+            .iter()
+            .map(|o| {
+                let (len, s) = length_of(&o.d_mm, &o.cov_mm2);
+                Sample {
+                    t_days: o.t_days,
+                    d_mm: len,
+                    sigma_mm: s.max(1e-6),
+                }
+            })
+            .collect();
+        let kin = kinematics_z(
+            &samples,
+            config.velocity_window,
+            config.failure.window,
+            z_vel,
+            z_acc,
+        );
+        if let Some(k) = kin {
+            readings.set(
+                Metric::VelocityMmPerDay,
+                Source::Raw,
+                Reading {
+                    value: Some(k.velocity_mm_per_day),
+                    sigma: k.sigma_velocity_mm_per_day,
+                    significant: significant && k.velocity_significant,
+                },
+            );
+            if k.accelerating && significant {
+                failure = forecast(&samples, &config.failure);
+            }
+        }
+        readings.set(
+            Metric::TimeToFailureHours,
+            Source::Raw,
+            Reading::new(
+                failure.map(|f| f.time_to_failure_hours),
+                failure.map(|f| f.sigma_hours),
+            ),
+        );
+        if let Some(t) = track(&series, dir, g.process_noise, shared, config) {
+            let f = t.values;
+            readings.set(
+                Metric::DisplacementMm,
+                Source::Filtered,
+                Reading::new(Some(f.f_d_mm), Some(f.sigma_f_d_mm)),
+            );
+            if let Some((a, sa)) = t.along_mm {
+                readings.set(
+                    Metric::DisplacementAlongMm,
+                    Source::Filtered,
+                    Reading::new(Some(a), Some(sa)),
+                );
+            }
+            readings.set(
+                Metric::VelocityMmPerDay,
+                Source::Filtered,
+                Reading::new(
+                    Some(f.f_velocity_mm_per_day),
+                    Some(f.sigma_f_velocity_mm_per_day),
+                ),
+            );
+            readings.set(
+                Metric::TimeToFailureHours,
+                Source::Filtered,
+                Reading::new(
+                    t.failure.map(|f| f.time_to_failure_hours),
+                    t.failure.map(|f| f.sigma_hours),
+                ),
+            );
+            filtered = Some(f);
+            filtered_failure = t.failure;
+        }
+    }
+    BlockAnalysis {
+        group: g.name.clone(),
+        points: members,
+        readings,
+        motion,
+        failure,
+        filtered,
+        filtered_failure,
+    }
+}
+
+/// The joint covariance of a past epoch's member displacements (`past`, in the order of
+/// `joint_now`'s points) with this epoch's correlations: `T Σ_now Tᵀ` with the block-diagonal
+/// `T_i = L_past,i L_now,i⁻¹` (L the Cholesky factors of each point's 3 × 3 covariance), so each
+/// point keeps its own stored covariance and the cross-covariances (the datum's, the reference
+/// epoch's: the same stations and stable points every epoch) scale with it. Stored records keep
+/// no cross-covariances. None when a covariance is not positive definite.
+fn correlated_like(joint_now: &DMatrix<f64>, past: &[BlockPoint]) -> Option<DMatrix<f64>> {
+    let n = 3 * past.len();
+    if joint_now.shape() != (n, n) {
+        return None;
+    }
+    let mut t = DMatrix::<f64>::zeros(n, n);
+    for (k, p) in past.iter().enumerate() {
+        let now = Matrix3::from(joint_now.fixed_view::<3, 3>(3 * k, 3 * k));
+        let l_now = now.cholesky()?.l();
+        let l_past = Matrix3::from(p.cov_mm2).cholesky()?.l();
+        let tk = l_past * l_now.try_inverse()?;
+        t.view_mut((3 * k, 3 * k), (3, 3)).copy_from(&tk);
+    }
+    Some(&t * joint_now * t.transpose())
+}
+
+impl BlockAnalysis {
+    /// The block's row of the motion series in a point's form (`point` is the group): the
+    /// translation (mm) with its covariance (mm²), its length, the raw velocity (mm/day) and
+    /// forecast (h) of the length, the filtered values. `None` without a motion this epoch.
+    pub fn record(&self, epoch: i64, observed_at: DateTime<Utc>) -> Option<DisplacementRecord> {
+        let m = self.motion.as_ref()?;
+        let (d, sd) = m.length();
+        let c = m.covariance_mm2;
+        let raw = |metric: Metric| self.readings.get(metric, Source::Raw);
+        Some(DisplacementRecord {
+            point: self.group.clone(),
+            epoch,
+            observed_at,
+            dx_mm: m.translation_mm[0],
+            dy_mm: m.translation_mm[1],
+            dz_mm: m.translation_mm[2],
+            d_mm: d,
+            sigma_dx_mm: c[0][0].max(0.0).sqrt(),
+            sigma_dy_mm: c[1][1].max(0.0).sqrt(),
+            sigma_dz_mm: c[2][2].max(0.0).sqrt(),
+            sigma_mm: sd,
+            cov_dxdy_mm2: Some(c[0][1]),
+            cov_dxdz_mm2: Some(c[0][2]),
+            cov_dydz_mm2: Some(c[1][2]),
+            d_along_mm: raw(Metric::DisplacementAlongMm).value,
+            significant: raw(Metric::DisplacementMm).significant,
+            velocity_mm_per_day: raw(Metric::VelocityMmPerDay).value,
+            time_to_failure_hours: self.failure.map(|f| f.time_to_failure_hours),
+            time_to_failure_sigma_hours: self.failure.map(|f| f.sigma_hours),
+            filtered: self.filtered,
+        })
+    }
+}
