@@ -61,10 +61,10 @@ pub fn alert_config(site: &Site) -> AlertConfig {
 
 /// Role, group and direction of interest of every configured point of a site.
 pub async fn point_configs(
-    tx: &mut Connection,
+    db: impl sqlx::AnyExecutor<'_>,
     site: &str,
 ) -> Result<Vec<PointConfig>, StoreError> {
-    Ok(points::list(&mut *tx, site, None, i64::MAX)
+    Ok(points::list(db, site, None, i64::MAX)
         .await?
         .into_iter()
         .map(|p| PointConfig {

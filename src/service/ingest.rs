@@ -12,12 +12,12 @@ use std::time::Instant;
 use chrono::Utc;
 use sha2::{Digest, Sha256};
 
-use crate::analysis::{self, EpochCoordinates};
+use crate::analysis::{self, EpochCoordinates, GroupKind};
 use crate::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochInput};
 use crate::store::block_motions;
 use crate::store::displacements::{self, Displacement};
 use crate::store::sites::Site;
-use crate::store::{self, epochs, points, sites, Connection, Store};
+use crate::store::{self, epochs, groups, points, sites, Connection, Store};
 
 use super::alert_outcome;
 use super::analysis_inputs::{
@@ -48,16 +48,34 @@ pub fn body_hash(input: &EpochInput) -> String {
 pub const JOINT_COVARIANCE_ALL_POINTS_MAX: usize = 40;
 
 /// The points whose joint covariance an epoch stores: every point of a network of up to
-/// [`JOINT_COVARIANCE_ALL_POINTS_MAX`] points, else the stable ones. The displacement analysis
-/// propagates the stable-point datum with the cross-covariances between each point and the datum
-/// points; without them the depth σ of displacements came out 8 % optimistic in the calibration
-/// test (`tests/adjust_calibration.rs`).
-pub fn joint_covariance_points(points: &[String], stable: Vec<String>) -> Vec<String> {
+/// [`JOINT_COVARIANCE_ALL_POINTS_MAX`] points, else the stable ones and the members of the
+/// declared blocks (`kept`). The displacement analysis propagates the stable-point datum with the
+/// cross-covariances between each point and the datum points (without them the depth σ of
+/// displacements came out 8 % optimistic in `tests/adjust_calibration.rs`), and a block's motion
+/// uses those between its members.
+pub fn joint_covariance_points(points: &[String], kept: Vec<String>) -> Vec<String> {
     if points.len() <= JOINT_COVARIANCE_ALL_POINTS_MAX {
         points.to_vec()
     } else {
-        stable
+        let mut kept = kept;
+        kept.sort();
+        kept.dedup();
+        kept
     }
+}
+
+/// The site's stable points and the members of its declared blocks, for
+/// [`joint_covariance_points`].
+async fn stable_and_block_points(store: &Store, site: &str) -> Result<Vec<String>, ServiceError> {
+    let mut names = points::stable(store.reader(), site).await?;
+    let blocks = groups::list(store.reader(), site).await?;
+    if blocks.iter().any(|g| g.kind == GroupKind::Block) {
+        let configs = point_configs(store.reader(), site).await?;
+        for g in blocks.iter().filter(|g| g.kind == GroupKind::Block) {
+            names.extend(g.members(&configs));
+        }
+    }
+    Ok(names)
 }
 
 /// Ingests one epoch of the upload form into a site.
@@ -99,7 +117,7 @@ pub async fn ingest_with_identification(
         prior,
         joint_covariance_of: joint_covariance_points(
             &problem.points,
-            points::stable(store.reader(), &site.id).await?,
+            stable_and_block_points(store, &site.id).await?,
         ),
         ..AdjustOptions::default()
     };
@@ -210,7 +228,7 @@ async fn derive(
     };
     let current = EpochCoordinates::from_adjustment(epoch, t, adjustment);
     let config = site_analysis_config(tx, site).await?;
-    let points = point_configs(tx, &site.id).await?;
+    let points = point_configs(&mut *tx, &site.id).await?;
     let reference = if reference == epoch {
         current.clone()
     } else {
@@ -262,4 +280,24 @@ async fn failed(
         raised,
         ..Derived::default()
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Small networks keep every point; larger ones the stable points and the blocks' members,
+    /// each once, in order.
+    #[test]
+    fn joint_covariance_keeps_all_points_or_the_datum_and_the_blocks() {
+        let names = |n: usize| (0..n).map(|i| format!("P{i:02}")).collect::<Vec<_>>();
+        let small = names(JOINT_COVARIANCE_ALL_POINTS_MAX);
+        assert_eq!(joint_covariance_points(&small, vec!["P01".into()]), small);
+        let large = names(JOINT_COVARIANCE_ALL_POINTS_MAX + 1);
+        let kept = vec!["P07".into(), "P01".into(), "P30".into(), "P07".into()];
+        assert_eq!(
+            joint_covariance_points(&large, kept),
+            vec!["P01".to_string(), "P07".into(), "P30".into()]
+        );
+    }
 }

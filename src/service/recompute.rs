@@ -38,7 +38,7 @@ pub async fn recompute_site(tx: &mut Connection, site: &Site) -> Result<usize, S
         return Ok(0);
     };
     let config = site_analysis_config(tx, &site).await?;
-    let points = point_configs(tx, &site.id).await?;
+    let points = point_configs(&mut *tx, &site.id).await?;
     let Some(reference) = reference_coordinates(tx, &site, reference, &points, &config).await?
     else {
         return Ok(0);
