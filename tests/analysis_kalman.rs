@@ -258,19 +258,22 @@ fn displacement_forecast_finds_the_failure_time() {
     assert!(spurious <= 2, "{spurious} forecasts on still points");
 }
 
+/// Reference positions (m) of the six points of the test blocks.
+const BLOCK_POSITIONS: [[f64; 3]; 6] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.2, 0.1],
+    [0.4, 1.1, -0.2],
+    [1.2, 1.0, 0.3],
+    [0.6, 0.5, 0.4],
+    [0.1, 0.9, 0.2],
+];
+
 /// A rigid block moved by a known translation and small rotation: the estimated translation's
 /// error/σ has rms ≈ 1 per axis; a point that does not follow makes the block non-rigid; a
 /// single point gives the translation model.
 #[test]
 fn block_motion_is_estimated_with_an_honest_sigma() {
-    let positions = [
-        [0.0, 0.0, 0.0],
-        [1.0, 0.2, 0.1],
-        [0.4, 1.1, -0.2],
-        [1.2, 1.0, 0.3],
-        [0.6, 0.5, 0.4],
-        [0.1, 0.9, 0.2],
-    ];
+    let positions = BLOCK_POSITIONS;
     let t_true = Vector3::new(3.0, -2.0, 5.0);
     let w_true = Vector3::new(0.5, -0.3, 0.2); // mrad
     let c = positions
@@ -347,14 +350,7 @@ fn block_motion_is_estimated_with_an_honest_sigma() {
 /// cross-covariances the correlated estimate is the per-point one.
 #[test]
 fn block_motion_with_shared_errors_keeps_an_honest_sigma() {
-    let positions = [
-        [0.0, 0.0, 0.0],
-        [1.0, 0.2, 0.1],
-        [0.4, 1.1, -0.2],
-        [1.2, 1.0, 0.3],
-        [0.6, 0.5, 0.4],
-        [0.1, 0.9, 0.2],
-    ];
+    let positions = BLOCK_POSITIONS;
     let t_true = Vector3::new(3.0, -2.0, 5.0);
     let common = Matrix3::from_diagonal(&Vector3::new(0.2, 0.2, 1.5));
     let (mut z2, mut z2_per_point, mut n) = ([0.0; 3], [0.0; 3], 0);

@@ -59,9 +59,9 @@ pub(super) struct BlockInputs<'a> {
     pub now: DateTime<Utc>,
     /// The site's analysis settings.
     pub config: &'a AnalysisConfig,
-    /// One-sided normal quantiles of the velocity and acceleration tests.
+    /// Normal quantile of the velocity's significance test (at the site's confidence).
     pub z_vel: f64,
-    /// See `z_vel`.
+    /// Normal quantile of the acceleration's significance test.
     pub z_acc: f64,
     /// The joint covariance of the displacements of the named points in this epoch, in their
     /// order; None when it is not available.

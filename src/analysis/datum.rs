@@ -408,8 +408,8 @@ pub(crate) fn fit_iwst(
 
 /// The covariance propagation of the S-transformation `d'_i = d_i − G_i θ`, `θ = A d_S`
 /// (Caspary 1987 §5.3): `Σ_ij' = Σ_ij − G_i A Σ_Sj − (G_j A Σ_Si)ᵀ + G_i A Σ_SS Aᵀ G_jᵀ`, with `S`
-/// the datum points. Built once per epoch; [`transform_all`] takes the 3 × 3 blocks of every
-/// point, [`transformed_joint`] the full covariance of a few.
+/// the datum points. [`transform_all`] takes the 3 × 3 blocks of every point,
+/// [`transformed_joint`] the full covariance of a few.
 struct Propagation<'a> {
     diffs: &'a Differences,
     fit: &'a DatumFit,

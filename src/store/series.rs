@@ -354,9 +354,8 @@ pub(super) const COUNT_SQL: &str = "SELECT CAST(COALESCE((SELECT SUM(n_rows) FRO
 pub(super) fn count_records(source: &mut Source, q: &SeriesQuery) -> Result<usize, StoreError> {
     match source {
         Source::Sqlite(conn) => {
-            let (site, point) = (Param::Text(&q.site), Param::Text(&q.point));
             let mut n = 0;
-            sqlite_raw::query(conn, COUNT_SQL, &[site, point, site, point, site], |row| {
+            sqlite_raw::query(conn, COUNT_SQL, &count_params(q), |row| {
                 n = usize::try_from(row.int(0)).unwrap_or(0);
                 false
             })?;
@@ -491,6 +490,13 @@ fn run(
         out: w.out,
         more,
     })
+}
+
+/// The parameters of [`COUNT_SQL`] for `q` (site, point, site, point, site; both backends bind
+/// these).
+pub(super) fn count_params(q: &SeriesQuery) -> [Param<'_>; 5] {
+    let (site, point) = (Param::Text(&q.site), Param::Text(&q.point));
+    [site, point, site, point, site]
 }
 
 /// The parameters of [`SQL`] for `q`, in order (both backends bind these).

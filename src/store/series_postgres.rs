@@ -5,21 +5,21 @@
 
 use sqlx::{AnyPool, Row};
 
-use super::series::{params, SeriesQuery, COUNT_SQL, EXTREMES_SQL, SQL};
+use super::series::{count_params, params, SeriesQuery, COUNT_SQL, EXTREMES_SQL, SQL};
 use super::series_record::{self, Filtered, Record};
 use super::sqlite_raw::Param;
 use super::StoreError;
 
 /// How many records the whole series of `q.site`/`q.point` holds (its range is not applied).
 pub async fn count(pool: &AnyPool, q: &SeriesQuery) -> Result<usize, StoreError> {
-    let n: i64 = sqlx::query_scalar(COUNT_SQL)
-        .bind(&q.site)
-        .bind(&q.point)
-        .bind(&q.site)
-        .bind(&q.point)
-        .bind(&q.site)
-        .fetch_one(pool)
-        .await?;
+    let mut query = sqlx::query_scalar(COUNT_SQL);
+    for p in count_params(q) {
+        query = match p {
+            Param::Text(t) => query.bind(t),
+            Param::Int(i) => query.bind(i),
+        };
+    }
+    let n: i64 = query.fetch_one(pool).await?;
     Ok(usize::try_from(n).unwrap_or(0))
 }
 
