@@ -87,14 +87,21 @@ struct Prepared {
 }
 
 impl Prepared {
-    /// Degrees of freedom of `b`: active observations, control and prior pseudo-observations,
-    /// less the unknowns, plus the datum defect of a free network.
-    fn dof(&self, b: &Bundle) -> i64 {
+    /// Observation equations of `b` (active observations, control and prior
+    /// pseudo-observations) and its unknowns less the datum defect of a free network.
+    fn counts(&self, b: &Bundle) -> (usize, usize) {
         let active = b.obs.iter().filter(|o| o.active).count();
         let defect = if self.datum == Datum::Free { 7 } else { 0 };
-        2 * active as i64 + self.control_eq as i64 + b.prior_count() as i64
-            - (b.camera_unknowns() + 3 * b.points.len()) as i64
-            + defect
+        (
+            2 * active + self.control_eq + b.prior_count(),
+            (b.camera_unknowns() + 3 * b.points.len()).saturating_sub(defect),
+        )
+    }
+
+    /// Degrees of freedom of `b`: observation equations less unknowns ([`Self::counts`]).
+    fn dof(&self, b: &Bundle) -> i64 {
+        let (observations, unknowns) = self.counts(b);
+        observations as i64 - unknowns as i64
     }
 }
 
@@ -370,16 +377,14 @@ pub fn adjust_problem(
     check_geometry(problem)?;
     let prepared = prepare(problem, options)?;
     let solved = solve_or_retry(problem, options, &prepared)?;
-    let dof = prepared.dof(&solved.bundle);
-    if dof <= 0 {
-        let b = &solved.bundle;
-        let active = b.obs.iter().filter(|o| o.active).count();
-        let defect = if prepared.datum == Datum::Free { 7 } else { 0 };
+    let (observations, unknowns) = prepared.counts(&solved.bundle);
+    if observations <= unknowns {
         return Err(AdjustError::TooFewObservations {
-            observations: 2 * active + prepared.control_eq,
-            unknowns: b.camera_unknowns() + 3 * b.points.len() - defect,
+            observations,
+            unknowns,
         });
     }
+    let dof = observations as i64 - unknowns as i64;
     let Prepared {
         frame,
         datum,
