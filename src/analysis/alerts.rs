@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 use super::analyse::EpochAnalysis;
 use super::displacement::PointAnalysis;
 use super::error::AnalysisError;
+use super::failure::FailureForecast;
 use super::stats::normal_quantile;
 
 /// Alert level; ordered `watch` < `warning` < `alarm` (the default is the lowest).
@@ -133,6 +134,11 @@ impl Reading {
             significant: value.is_some(),
         }
     }
+
+    /// The time to failure (hours) of a forecast with its σ; no value without one.
+    pub fn forecast(f: Option<FailureForecast>) -> Self {
+        Reading::new(f.map(|f| f.time_to_failure_hours), f.map(|f| f.sigma_hours))
+    }
 }
 
 /// The values the rules can read for one subject (a point or a block): per [`Source`], one
@@ -197,10 +203,7 @@ impl Readings {
         out.set(
             Metric::TimeToFailureHours,
             Source::Raw,
-            Reading::new(
-                p.failure.map(|f| f.time_to_failure_hours),
-                p.failure.map(|f| f.sigma_hours),
-            ),
+            Reading::forecast(p.failure),
         );
         if let Some(f) = &r.filtered {
             out.set(

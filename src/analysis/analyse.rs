@@ -14,10 +14,10 @@ use super::datum::{
 use super::displacement::{point_test, sigma_length, DisplacementRecord, PointAnalysis};
 use super::epoch::{AnalysisConfig, EpochCoordinates, PointConfig, PointRole};
 use super::error::AnalysisError;
-use super::failure::forecast;
+use super::failure::{forecast, FailureForecast};
 use super::stats::{f_quantile, normal_quantile};
 use super::tracking::{track, Observed};
-use super::velocity::{days_between, kinematics_z, Sample};
+use super::velocity::{days_between, kinematics_z, Kinematics, Sample};
 
 /// Past displacement records per point name, each list oldest first (records at or after the current
 /// epoch's `observed_at` are ignored, so re-analysing an epoch is idempotent). Only the windows are read:
@@ -160,6 +160,30 @@ fn observed_of(
             })
         })
         .collect()
+}
+
+/// Velocity and acceleration of a subject's length series over `config.velocity_window`, and the
+/// inverse-velocity forecast while the subject moves `significant`ly and accelerates (the raw
+/// kinematics of a point or a block; `z_vel`, `z_acc`: the tests' normal quantiles).
+pub(super) fn raw_kinematics(
+    samples: &[Sample],
+    significant: bool,
+    config: &AnalysisConfig,
+    z_vel: f64,
+    z_acc: f64,
+) -> (Option<Kinematics>, Option<FailureForecast>) {
+    let kin = kinematics_z(
+        samples,
+        config.velocity_window,
+        config.failure.window,
+        z_vel,
+        z_acc,
+    );
+    let failure = match kin {
+        Some(k) if k.accelerating && significant => forecast(samples, &config.failure),
+        _ => None,
+    };
+    (kin, failure)
 }
 
 /// Length of a displacement and its linearised σ (mm).
@@ -314,17 +338,7 @@ pub fn analyse_epoch(
             d_mm,
             sigma_mm: sigma_mm.max(1e-6),
         });
-        let kin = kinematics_z(
-            &samples,
-            config.velocity_window,
-            config.failure.window,
-            z_vel,
-            z_acc,
-        );
-        let failure = match kin {
-            Some(k) if k.accelerating && significant => forecast(&samples, &config.failure),
-            _ => None,
-        };
+        let (kin, failure) = raw_kinematics(&samples, significant, config, z_vel, z_acc);
         let tracked = if same_epoch {
             None
         } else {

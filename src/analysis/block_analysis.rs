@@ -10,15 +10,15 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::alerts::{Metric, Reading, Readings, Source};
-use super::analyse::{length_of, record_covariance, History};
+use super::analyse::{length_of, raw_kinematics, record_covariance, History};
 use super::block::{
     estimate_block, estimate_block_correlated, translation_share, BlockMotion, BlockPoint,
 };
 use super::displacement::{DisplacementRecord, PointAnalysis};
 use super::epoch::{AnalysisConfig, EpochCoordinates, GroupConfig, PointConfig};
-use super::failure::{forecast, FailureForecast};
+use super::failure::FailureForecast;
 use super::tracking::{track, Observed};
-use super::velocity::{days_between, kinematics_z, Sample};
+use super::velocity::{days_between, Sample};
 
 /// The analysis of one block group in one epoch: its members and the values its rules read.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -225,13 +225,8 @@ fn analyse_block(
                 }
             })
             .collect();
-        let kin = kinematics_z(
-            &samples,
-            config.velocity_window,
-            config.failure.window,
-            z_vel,
-            z_acc,
-        );
+        let (kin, raw_failure) = raw_kinematics(&samples, significant, config, z_vel, z_acc);
+        failure = raw_failure;
         if let Some(k) = kin {
             readings.set(
                 Metric::VelocityMmPerDay,
@@ -242,17 +237,11 @@ fn analyse_block(
                     significant: significant && k.velocity_significant,
                 },
             );
-            if k.accelerating && significant {
-                failure = forecast(&samples, &config.failure);
-            }
         }
         readings.set(
             Metric::TimeToFailureHours,
             Source::Raw,
-            Reading::new(
-                failure.map(|f| f.time_to_failure_hours),
-                failure.map(|f| f.sigma_hours),
-            ),
+            Reading::forecast(failure),
         );
         if let Some(t) = track(&series, dir, g.process_noise, shared, config) {
             let f = t.values;
@@ -279,10 +268,7 @@ fn analyse_block(
             readings.set(
                 Metric::TimeToFailureHours,
                 Source::Filtered,
-                Reading::new(
-                    t.failure.map(|f| f.time_to_failure_hours),
-                    t.failure.map(|f| f.sigma_hours),
-                ),
+                Reading::forecast(t.failure),
             );
             filtered = Some(f);
             filtered_failure = t.failure;
