@@ -15,7 +15,9 @@ use rand_distr::{Distribution, Normal, StandardNormal};
 use cliffwatch::analysis::block::{
     estimate_block, estimate_block_correlated, translation_share, BlockModel, BlockPoint,
 };
-use cliffwatch::analysis::failure::forecast_from_displacements;
+use cliffwatch::analysis::failure::{
+    fit_law_to_displacements, fit_law_to_displacements_3d, forecast_from_displacements,
+};
 use cliffwatch::analysis::kalman::{filter, smooth, KalmanConfig, Measurement, MotionModel};
 use cliffwatch::analysis::AnalysisError;
 use cliffwatch::simulate::monitoring::FailureLaw;
@@ -256,6 +258,98 @@ fn displacement_forecast_finds_the_failure_time() {
     // The law must beat a line by Δχ² > 10.83 (0.1 %) and the line must rise: a few in a
     // thousand at most.
     assert!(spurious <= 2, "{spurious} forecasts on still points");
+}
+
+/// A block moving mostly in depth at long range: the law fitted in three dimensions, each
+/// component weighed by its precision, finds the failure time far better than the fit along the
+/// direction of motion, whose σ the depth's swamps, and its σ stays honest. 200 seeds, 12 daily
+/// epochs, lateral σ 0.3 mm and depth σ 1.5 mm in a turned frame, 24 and 48 h before failure.
+#[test]
+fn three_dimensional_law_fit_uses_the_precise_components() {
+    let law = FailureLaw {
+        creep_mm_per_day: 0.5,
+        acceleration_start_days: Some(25.0),
+        failure_days: 37.0,
+    };
+    let u = Vector3::new(0.25, -0.15, 1.0).normalize();
+    for hours_before in [48.0, 24.0] {
+        let (mut z2, mut below, mut made3, mut made1) = (0.0, 0, 0, 0);
+        let mut z2_1 = 0.0;
+        let mut zs = vec![];
+        let (mut err3, mut err1) = (vec![], vec![]);
+        for seed in 1..=200u64 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let r = nalgebra::Rotation3::from_euler_angles(0.1, -0.05, 0.2);
+            let sd = Vector3::new(0.3, 0.3, 1.5);
+            let cov = r.matrix()
+                * Matrix3::from_diagonal(&sd.component_mul(&sd))
+                * r.matrix().transpose();
+            let now = law.failure_days - hours_before / 24.0;
+            let t: Vec<f64> = (0..12).map(|k| -(11 - k) as f64).collect();
+            let d: Vec<Vector3<f64>> = t
+                .iter()
+                .map(|ti| u * law.displacement_mm(now + ti) + draw(&mut rng, &cov))
+                .collect();
+            let covs = vec![cov; t.len()];
+            if let Some(f) = fit_law_to_displacements_3d(&t, &d, &covs, u) {
+                let f = f.forecast;
+                made3 += 1;
+                let e = f.time_to_failure_hours - hours_before;
+                err3.push(e.abs());
+                z2 += (e / f.sigma_hours).powi(2);
+                zs.push((e / f.sigma_hours).abs());
+                if hours_before <= f.time_to_failure_hours + 2.33 * f.sigma_hours {
+                    below += 1;
+                }
+            }
+            let along: Vec<f64> = d.iter().map(|x| u.dot(x)).collect();
+            let s = vec![(u.transpose() * cov * u)[(0, 0)].sqrt(); t.len()];
+            if let Some(f) = fit_law_to_displacements(&t, &along, &s) {
+                made1 += 1;
+                let e = f.forecast.time_to_failure_hours - hours_before;
+                err1.push(e.abs());
+                z2_1 += (e / f.forecast.sigma_hours).powi(2);
+            }
+        }
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(|a, b| a.total_cmp(b));
+            v[v.len() / 2]
+        };
+        let (m3, m1) = (median(&mut err3), median(&mut err1));
+        let rms = (z2 / made3 as f64).sqrt();
+        let rms1 = (z2_1 / made1 as f64).sqrt();
+        let mz = median(&mut zs);
+        let share = below as f64 / made3 as f64;
+        println!(
+            "{hours_before} h before: 3-D {made3}/200 forecasts, median |error| {m3:.1} h, \
+             rms error/σ {rms:.2}, median |error|/σ {mz:.2}, truth ≤ forecast + 2.33 σ in {:.1} %; along the motion \
+             {made1}/200, median |error| {m1:.1} h, rms error/σ {:.2}",
+            100.0 * share,
+            rms1
+        );
+        assert!(made3 >= 190, "{hours_before} h: {made3} forecasts");
+        assert!(
+            m3 < 0.75 * m1,
+            "{hours_before} h: median error {m3} against {m1}"
+        );
+        // The failure time's estimate has a heavy tail (a law extrapolated to its singularity,
+        // here over a window that starts a day before the acceleration): its core is narrower
+        // than σ says (median |error|/σ below the normal 0.674) and its tail wider (rms above
+        // 1). Checked: the core not overconfident, the rms below the fit along the motion's,
+        // and the upper bound the alarm uses holding in at least 90 % of the seeds.
+        assert!(
+            (0.3..=0.85).contains(&mz),
+            "{hours_before} h: median |error|/σ {mz}"
+        );
+        assert!(
+            rms < rms1 && rms < 1.6,
+            "{hours_before} h: rms error/σ {rms} ({rms1})"
+        );
+        assert!(
+            share >= 0.9,
+            "{hours_before} h: upper bound holds in {share}"
+        );
+    }
 }
 
 /// Reference positions (m) of the six points of the test blocks.

@@ -196,8 +196,9 @@ pub enum Window {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ForecastMethod {
-    /// The inverse-velocity law integrated, fitted to the displacements along the direction of
-    /// motion (no differentiation of noisy data).
+    /// The inverse-velocity law integrated and fitted to the displacement vectors in three
+    /// dimensions (no differentiation of noisy data), once the displacements along the direction
+    /// of motion show an onset of acceleration.
     #[default]
     Displacement,
     /// Fukuzono's line through the inverse of the Kalman smoother's velocities.

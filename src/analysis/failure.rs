@@ -7,6 +7,7 @@
 //! where the line reaches zero. A forecast is made only while the point accelerates (see
 //! [`super::velocity::Kinematics::accelerating`]) and the line falls.
 
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 use super::epoch::FailureConfig;
@@ -317,14 +318,36 @@ pub fn fit_law_to_displacements(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) 
     }
     let t_last = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let (chi2_line, _, v_line) = line_fit(&t, &d, &w)?;
-    let chi = |tf: f64| log_fit(&t, &d, &w, t_last + tf).map_or(f64::INFINITY, |f| f.0);
-    let tf = min_over_failure_time(120, 60, chi)?;
-    let (chi2, _, slope) = log_fit(&t, &d, &w, t_last + tf)?;
-    // d = a − B ln(t_f − t) is fitted as d = a + B x with x = −ln(t_f − t): B = slope > 0.
-    if !(slope > 0.0) || !(v_line > 0.0) || tf >= SCAN_END_DAYS * 0.999 {
+    if !(v_line > 0.0) {
         return None;
     }
-    let factor = (chi2 / (n - 3) as f64).max(1.0);
+    let chi = |tf: f64| log_fit(&t, &d, &w, t_last + tf).map_or(f64::INFINITY, |f| f.0);
+    // d = a − B ln(t_f − t) is fitted as d = a + B x with x = −ln(t_f − t): B = slope > 0.
+    let advances = |tf: f64| log_fit(&t, &d, &w, t_last + tf).is_some_and(|f| f.2 > 0.0);
+    profile_law(t_last, n - 3, chi2_line, n, chi, advances)
+}
+
+/// The law's failure time from its χ² profile `chi` (a function of the failure time in days
+/// after the last sample, `t_last` days): the minimum, its σ from Δχ² = 1 and the 90 % interval
+/// from Δχ² = 2.71, both scaled by the variance factor χ²/`dof` when that exceeds 1. `advances`
+/// says whether the law's amplitude at a failure time points forward; `chi2_line` is the
+/// straight line's χ², `epochs` the number of epochs fitted. Shared by the fit along one
+/// direction ([`fit_law_to_displacements`]) and the fit in three dimensions
+/// ([`fit_law_to_displacements_3d`]).
+fn profile_law(
+    t_last: f64,
+    dof: usize,
+    chi2_line: f64,
+    epochs: usize,
+    chi: impl Fn(f64) -> f64,
+    advances: impl Fn(f64) -> bool,
+) -> Option<LawFit> {
+    let tf = min_over_failure_time(120, 60, &chi)?;
+    let chi2 = chi(tf);
+    if !chi2.is_finite() || !advances(tf) || tf >= SCAN_END_DAYS * 0.999 || dof == 0 {
+        return None;
+    }
+    let factor = (chi2 / dof as f64).max(1.0);
     // Profile interval: where χ² rises by Δ·factor on either side of the minimum.
     let bound = |delta: f64, up: bool| -> f64 {
         let target = chi2 + delta * factor;
@@ -361,7 +384,7 @@ pub fn fit_law_to_displacements(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) 
         time_to_failure_hours: hours(tf).max(0.0),
         sigma_hours: 0.5 * (s_hi - s_lo) * 24.0,
         r2,
-        velocities: n,
+        velocities: epochs,
         lower_hours: Some(hours(i_lo).max(0.0)),
         upper_hours: Some(hours(i_hi)),
     };
@@ -369,4 +392,96 @@ pub fn fit_law_to_displacements(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) 
         forecast: out,
         gain_over_line: chi2_line - chi2,
     })
+}
+
+/// Weighted least squares of the displacement vectors `d = a + b x` (a, b in mm, x
+/// dimensionless or days), each epoch weighted by the inverse of its 3 × 3 covariance `w`:
+/// (χ², a, b). x is centred before the solve, so the normal equations stay well conditioned.
+fn line_fit_3d(
+    x: &[f64],
+    d: &[Vector3<f64>],
+    w: &[Matrix3<f64>],
+) -> Option<(f64, Vector3<f64>, Vector3<f64>)> {
+    let xm = x.iter().sum::<f64>() / x.len().max(1) as f64;
+    let mut n = Matrix6::<f64>::zeros();
+    let mut r = Vector6::<f64>::zeros();
+    for ((&xi, di), wi) in x.iter().zip(d).zip(w) {
+        let xc = xi - xm;
+        let wd = wi * di;
+        let mut top = n.fixed_view_mut::<3, 3>(0, 0);
+        top += wi;
+        let mut off = n.fixed_view_mut::<3, 3>(0, 3);
+        off += wi * xc;
+        let mut low = n.fixed_view_mut::<3, 3>(3, 3);
+        low += wi * (xc * xc);
+        let mut r_top = r.fixed_rows_mut::<3>(0);
+        r_top += wd;
+        let mut r_low = r.fixed_rows_mut::<3>(3);
+        r_low += wd * xc;
+    }
+    let upper = n.fixed_view::<3, 3>(0, 3).into_owned();
+    n.fixed_view_mut::<3, 3>(3, 0).copy_from(&upper.transpose());
+    let sol = n.cholesky()?.solve(&r);
+    let b: Vector3<f64> = sol.fixed_rows::<3>(3).into_owned();
+    let a_c: Vector3<f64> = sol.fixed_rows::<3>(0).into_owned();
+    let chi2 = x
+        .iter()
+        .zip(d)
+        .zip(w)
+        .map(|((&xi, di), wi)| {
+            let e = di - a_c - b * (xi - xm);
+            (e.transpose() * wi * e)[(0, 0)]
+        })
+        .sum();
+    Some((chi2, a_c - b * xm, b))
+}
+
+/// The inverse-velocity law fitted to the displacement vectors themselves: `d(t) = a − b ln(t_f −
+/// t)` with a, b in three dimensions, each epoch weighted by the inverse of its covariance
+/// `cov_mm2` (mm²). `t_days` ≤ 0 relative to the current epoch (oldest first).
+///
+/// The law's failure time does not depend on the direction of the motion, and the direction
+/// need not be known: b is fitted. Along a single direction the depth's σ (several times that
+/// across the line of sight at long range) swamps a motion that is mostly in depth, while the
+/// small part of it across the line of sight is measured well; the fit in three dimensions
+/// weighs each component by its precision and keeps both. `forward`: the direction of motion
+/// (need not be normalised); the law's amplitude b and the straight line's velocity must point
+/// along it. σ and interval as in [`fit_law_to_displacements`] (Δχ² = 1 and 2.71 of the profile,
+/// scaled by the variance factor over 3n − 7 degrees of freedom). None for fewer than 5 epochs,
+/// a singular covariance, or the refusals of the fit along one direction.
+pub fn fit_law_to_displacements_3d(
+    t_days: &[f64],
+    d_mm: &[Vector3<f64>],
+    cov_mm2: &[Matrix3<f64>],
+    forward: Vector3<f64>,
+) -> Option<LawFit> {
+    let mut t = vec![];
+    let mut d = vec![];
+    let mut w = vec![];
+    for ((&ti, di), ci) in t_days.iter().zip(d_mm).zip(cov_mm2) {
+        if ti.is_finite() && di.iter().all(|v| v.is_finite()) {
+            let wi = ci
+                .try_inverse()
+                .filter(|m| m.iter().all(|v| v.is_finite()))?;
+            t.push(ti);
+            d.push(*di);
+            w.push(wi);
+        }
+    }
+    let n = t.len();
+    if n < 5 {
+        return None;
+    }
+    let t_last = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (chi2_line, _, v_line) = line_fit_3d(&t, &d, &w)?;
+    if !(v_line.dot(&forward) > 0.0) {
+        return None;
+    }
+    let fit = |tf: f64| {
+        let x: Vec<f64> = t.iter().map(|&ti| -(t_last + tf - ti).ln()).collect();
+        line_fit_3d(&x, &d, &w)
+    };
+    let chi = |tf: f64| fit(tf).map_or(f64::INFINITY, |f| f.0);
+    let advances = |tf: f64| fit(tf).is_some_and(|f| f.2.dot(&forward) > 0.0);
+    profile_law(t_last, 3 * n - 7, chi2_line, n, chi, advances)
 }

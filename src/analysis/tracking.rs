@@ -13,7 +13,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::displacement::FilteredValues;
 use super::epoch::AnalysisConfig;
 use super::epoch::ForecastMethod;
-use super::failure::{fit_law_to_displacements, forecast_from_velocities, FailureForecast};
+use super::failure::{fit_law_to_displacements_3d, forecast_from_velocities, FailureForecast};
 use super::kalman::{filter, smooth, KalmanConfig, Measurement};
 use super::onset::accelerating;
 use super::stats::normal_quantile;
@@ -122,8 +122,8 @@ pub fn track(
 
 /// The inverse-velocity forecast. By default, once the displacements along `u` show an onset
 /// of acceleration over `FailureConfig::acceleration_window` ([`accelerating`]), the law
-/// integrated and fitted to the last `FailureConfig::law_window` epochs
-/// ([`fit_law_to_displacements`]); with `FailureConfig::method` `smoothed_velocity`, Fukuzono's
+/// integrated and fitted to the displacement vectors of the last `FailureConfig::law_window`
+/// epochs ([`fit_law_to_displacements_3d`], each epoch weighed by its own error); with `FailureConfig::method` `smoothed_velocity`, Fukuzono's
 /// line through the inverse of the smoothed velocities ([`forecast_from_velocities`]).
 fn forecast_smoothed(
     meas: &[Measurement],
@@ -132,7 +132,6 @@ fn forecast_smoothed(
     shared_mm2: Option<Matrix3<f64>>,
     config: &AnalysisConfig,
 ) -> Option<FailureForecast> {
-    let shared = shared_mm2.map_or(0.0, |c| (u.transpose() * c * u)[(0, 0)].max(0.0));
     // The window's epochs (the window counts epochs or days back from the current one).
     let times: Vec<Sample> = meas
         .iter()
@@ -144,32 +143,29 @@ fn forecast_smoothed(
         .collect();
     match config.failure.method {
         ForecastMethod::Displacement => {
-            // The displacements along u of the last n epochs, with their σ: of their own errors
-            // (`own`, without the shared part) or whole.
-            let along = |n: usize, own: bool| {
-                let mut out = (vec![], vec![], vec![]);
-                for m in &meas[meas.len() - n..] {
-                    let c = Matrix3::from(m.cov_mm2);
-                    let total = (u.transpose() * c * u)[(0, 0)].max(0.0);
-                    out.0.push(m.t_days);
-                    out.1.push(u.dot(&Vector3::from(m.d_mm)));
-                    let shared = if own { shared } else { 0.0 };
-                    out.2
-                        .push((total - shared).max(OWN_SHARE_FLOOR * total).sqrt());
-                }
-                out
-            };
-            // The onset test weighs by the whole σ: its Δχ² over a scan of two nonlinear
-            // parameters has a heavier tail than χ²(2), and with the own errors alone it raised
-            // a false alarm on a still point in the detection benchmark. The law's fit, whose
-            // intercept absorbs the shared error, weighs by the own errors.
-            let (t, d, s) = along(
-                window_slice(&times, config.failure.acceleration_window).len(),
-                false,
-            );
+            // The onset test, along u with the displacements' whole σ: its Δχ² over a scan of
+            // two nonlinear parameters has a heavier tail than χ²(2), and with the own errors
+            // alone it raised a false alarm on a still point in the detection benchmark.
+            let n = window_slice(&times, config.failure.acceleration_window).len();
+            let (mut t, mut d, mut s) = (vec![], vec![], vec![]);
+            for m in &meas[meas.len() - n..] {
+                let c = Matrix3::from(m.cov_mm2);
+                t.push(m.t_days);
+                d.push(u.dot(&Vector3::from(m.d_mm)));
+                s.push((u.transpose() * c * u)[(0, 0)].max(0.0).sqrt());
+            }
             accelerating(&t, &d, &s)?;
-            let (t, d, s) = along(window_slice(&times, config.failure.law_window).len(), true);
-            fit_law_to_displacements(&t, &d, &s).map(|f| f.forecast)
+            // The law's fit in three dimensions, weighed by each epoch's own error: its
+            // intercept absorbs the error all epochs share.
+            let n = window_slice(&times, config.failure.law_window).len();
+            let win = &meas[meas.len() - n..];
+            let t: Vec<f64> = win.iter().map(|m| m.t_days).collect();
+            let d: Vec<Vector3<f64>> = win.iter().map(|m| Vector3::from(m.d_mm)).collect();
+            let own: Vec<Matrix3<f64>> = win
+                .iter()
+                .map(|m| own_covariance(&Matrix3::from(m.cov_mm2), shared_mm2.as_ref()))
+                .collect();
+            fit_law_to_displacements_3d(&t, &d, &own, u).map(|f| f.forecast)
         }
         ForecastMethod::SmoothedVelocity => {
             let n = window_slice(&times, config.failure.window).len();
@@ -184,5 +180,69 @@ fn forecast_smoothed(
             }
             forecast_from_velocities(&t, &v, &s, &config.failure)
         }
+    }
+}
+
+/// An epoch's own error: its covariance `total` less the share `shared` all epochs have in
+/// common (mm²). The shared share is scaled down where it would leave less than
+/// [`OWN_SHARE_FLOOR`] of the total in some direction (an epoch observed with fewer stations than
+/// the current one can have a covariance below the shared part).
+fn own_covariance(total: &Matrix3<f64>, shared: Option<&Matrix3<f64>>) -> Matrix3<f64> {
+    let Some(shared) = shared else {
+        return *total;
+    };
+    let Some(l) = total.cholesky() else {
+        return *total;
+    };
+    // The shared share relative to the total: L⁻¹ S L⁻ᵀ, whose largest eigenvalue is the
+    // largest share of the total variance in any direction.
+    let Some(l_inv) = l.l().try_inverse() else {
+        return *total;
+    };
+    let relative = l_inv * shared * l_inv.transpose();
+    let largest = relative
+        .symmetric_eigenvalues()
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
+    let scale = if largest > 1.0 - OWN_SHARE_FLOOR {
+        (1.0 - OWN_SHARE_FLOOR) / largest
+    } else {
+        1.0
+    };
+    total - shared * scale
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The smallest eigenvalue of `own` relative to `total` (L⁻¹ own L⁻ᵀ).
+    fn smallest_share(own: &Matrix3<f64>, total: &Matrix3<f64>) -> f64 {
+        let l_inv = total.cholesky().unwrap().l().try_inverse().unwrap();
+        (l_inv * own * l_inv.transpose())
+            .symmetric_eigenvalues()
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    #[test]
+    fn own_covariance_removes_the_shared_share_and_keeps_the_floor() {
+        let total = Matrix3::new(1.0, 0.2, 0.1, 0.2, 0.5, 0.0, 0.1, 0.0, 4.0);
+        // A small shared share is removed whole.
+        let small = Matrix3::from_diagonal(&Vector3::new(0.2, 0.1, 1.0));
+        let own = own_covariance(&total, Some(&small));
+        assert!((own - (total - small)).norm() < 1e-12);
+        // One larger than the total in some direction is scaled so that the floor remains.
+        let large = Matrix3::from_diagonal(&Vector3::new(2.0, 0.1, 1.0));
+        let own = own_covariance(&total, Some(&large));
+        let share = smallest_share(&own, &total);
+        assert!((share - OWN_SHARE_FLOOR).abs() < 1e-9, "{share}");
+        assert!(own.cholesky().is_some());
+        // No shared share, or a singular total: the total.
+        assert_eq!(own_covariance(&total, None), total);
+        let singular = Matrix3::zeros();
+        assert_eq!(own_covariance(&singular, Some(&small)), singular);
     }
 }

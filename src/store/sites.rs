@@ -10,8 +10,9 @@ use crate::photogrammetry::Model;
 /// The version of the derived series (displacements, filtered values, block motions) this binary
 /// writes. Sites stored by an older one (`sites.analysis_version` below it) are recomputed once at
 /// start ([`crate::service::recompute::recompute_outdated`]); a new site starts at it. 2: block
-/// motions with the joint covariance of their points, forecasts weighed by the epochs' own errors.
-pub const ANALYSIS_VERSION: i64 = 2;
+/// motions with the joint covariance of their points, forecasts weighed by the epochs' own errors;
+/// 3: the forecast's law fitted to the displacements in three dimensions.
+pub const ANALYSIS_VERSION: i64 = 3;
 
 /// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
