@@ -179,8 +179,7 @@ fn analyse_block(
         })
         .collect();
     let mut readings = Readings::default();
-    let (mut failure, mut filtered, mut filtered_failure) = (None, None, None);
-    if let Some(b) = &motion {
+    let (failure, filtered, filtered_failure) = if let Some(b) = &motion {
         series.push(Observed {
             t_days: 0.0,
             d_mm: Vector3::from(b.translation_mm),
@@ -225,8 +224,7 @@ fn analyse_block(
                 }
             })
             .collect();
-        let (kin, raw_failure) = raw_kinematics(&samples, significant, config, z_vel, z_acc);
-        failure = raw_failure;
+        let (kin, failure) = raw_kinematics(&samples, significant, config, z_vel, z_acc);
         if let Some(k) = kin {
             readings.set(
                 Metric::VelocityMmPerDay,
@@ -243,7 +241,8 @@ fn analyse_block(
             Source::Raw,
             Reading::forecast(failure),
         );
-        if let Some(t) = track(&series, dir, g.process_noise, shared, config) {
+        let tracked = track(&series, dir, g.process_noise, shared, config);
+        if let Some(t) = &tracked {
             let f = t.values;
             readings.set(
                 Metric::DisplacementMm,
@@ -270,10 +269,15 @@ fn analyse_block(
                 Source::Filtered,
                 Reading::forecast(t.failure),
             );
-            filtered = Some(f);
-            filtered_failure = t.failure;
         }
-    }
+        (
+            failure,
+            tracked.map(|t| t.values),
+            tracked.and_then(|t| t.failure),
+        )
+    } else {
+        (None, None, None)
+    };
     BlockAnalysis {
         group: g.name.clone(),
         points: members,

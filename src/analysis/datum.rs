@@ -148,10 +148,15 @@ impl Differences {
     /// epoch analysed against this reference has in common.
     pub fn reference_only(&self) -> Differences {
         Differences {
+            names: self.names.clone(),
+            xyz_m: self.xyz_m.clone(),
+            d_mm: self.d_mm.clone(),
             cov_mm2: self.ref_cov_mm2.clone(),
+            ref_cov_mm2: self.ref_cov_mm2.clone(),
+            joint_ref: self.joint_ref.clone(),
             joint_cur: vec![None; self.names.len()],
+            ref_matrix: self.ref_matrix.clone(),
             cur_matrix: None,
-            ..self.clone()
         }
     }
 
