@@ -1,23 +1,20 @@
 //! The adjustment: validation, start values, the working frame, Levenberg–Marquardt with the Schur
-//! complement, datum (free network with inner constraints, or weighted control points), data snooping,
-//! precision and the report. The orthogonal model always runs first; the central model starts from its
-//! solution.
+//! complement, datum (free network with inner constraints, or weighted control points) and data
+//! snooping; `site_result` then gives the precision, the site frame and the report. The
+//! orthogonal model always runs first; the central model starts from its solution.
 
 use nalgebra::{Matrix3, Vector3};
 
 use super::options::AdjustOptions;
-use super::report::{
-    AdjustmentReport, CalibratedParameter, CameraReport, DroppedObservation, ImageReport,
-    PointReport, ResidualReport, VarianceModel,
-};
-use super::result::{AdjustedPoint, Adjustment, ImageOrientation, JointCovariance};
+use super::report::{DroppedObservation, VarianceModel};
+use super::result::Adjustment;
 use super::robust::{affine_stage, choose_mirrors, first_stage};
+use super::site_result::{site_result, Solution};
 use crate::photogrammetry::error::AdjustError;
 use crate::photogrammetry::input::epoch::{EpochInput, EpochProblem};
 use crate::photogrammetry::model::bundle::{Bundle, ImageState, Obs};
-use crate::photogrammetry::model::camera::{brown_correct, INTERIOR_NAMES};
-use crate::photogrammetry::model::central::CentralImage;
-use crate::photogrammetry::model::frame::{similarity_fit, WorkingFrame};
+use crate::photogrammetry::model::camera::brown_correct;
+use crate::photogrammetry::model::frame::WorkingFrame;
 use crate::photogrammetry::model::orthogonal::OrthoImage;
 use crate::photogrammetry::model::Model;
 use crate::photogrammetry::solve::lm::{
@@ -46,7 +43,7 @@ pub fn adjust(input: &EpochInput, options: &AdjustOptions) -> Result<Adjustment,
 
 /// The datum of an adjustment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Datum {
+pub(super) enum Datum {
     /// Inner constraints on all points (minimum norm against the start coordinates).
     Free,
     /// Control points as weighted observations.
@@ -403,7 +400,7 @@ pub fn adjust_problem(
         ..
     } = solved;
     warnings.extend(more);
-    finish(
+    site_result(Solution {
         problem,
         options,
         bundle,
@@ -416,8 +413,8 @@ pub fn adjust_problem(
         dropped,
         w,
         variance_model,
-        &start_points,
-    )
+        start_points: &start_points,
+    })
 }
 
 /// What one run of the pipeline produced.
@@ -728,243 +725,5 @@ fn snoop(
         cof,
         warning,
         variance_model: model,
-    })
-}
-
-/// Precision, datum transformation and the report.
-#[allow(clippy::too_many_arguments)]
-fn finish(
-    problem: &EpochProblem,
-    options: &AdjustOptions,
-    bundle: Bundle,
-    frame: WorkingFrame,
-    cof: Cofactors,
-    outcome: LmOutcome,
-    dof: i64,
-    datum: Datum,
-    warnings: Vec<String>,
-    dropped: Vec<DroppedObservation>,
-    w: Vec<[f64; 2]>,
-    variance_model: VarianceModel,
-    start_points: &[Vector3<f64>],
-) -> Result<Adjustment, AdjustError> {
-    if !outcome.converged {
-        return Err(AdjustError::NoConvergence {
-            iterations: outcome.iterations,
-            sigma0_mm: problem.cameras[0].sigma_mm * (outcome.cost / dof as f64).sqrt(),
-        });
-    }
-    let variance_factor = outcome.cost / dof as f64;
-    let mut warnings = warnings;
-    let limit = chi2_upper(dof as f64, GLOBAL_TEST_Z) / dof as f64;
-    if variance_factor > limit {
-        warnings.push(format!(
-            "global test failed: variance factor {variance_factor:.2} exceeds {limit:.2} (99.9 %): the a-priori σ is too optimistic, or a gross or model error remains"
-        ));
-    }
-    let sigma_ref = problem.cameras[0].sigma_mm;
-    let sigma0_mm = sigma_ref * variance_factor.sqrt();
-    // Free network: the similarity onto the start coordinates gives the inner-constraint datum.
-    let sim = match datum {
-        Datum::Free => similarity_fit(&bundle.points, start_points),
-        Datum::Control => None,
-    };
-    let to_datum = |x: &Vector3<f64>| sim.map_or(*x, |s| s.apply(x));
-    let sim_rot = sim.map_or(Matrix3::identity(), |s| s.rotation);
-    let sim_scale = sim.map_or(1.0, |s| s.scale);
-    let np = problem.points.len();
-    let mut points = Vec::with_capacity(np);
-    let mut point_reports = Vec::with_capacity(np);
-    let cov_site = |q: Matrix3<f64>| -> Matrix3<f64> {
-        let q = sim_rot * q * sim_rot.transpose() * (sim_scale * sim_scale) * variance_factor;
-        frame.covariance_to_site(&q)
-    };
-    for i in 0..np {
-        let xyz = frame.to_site(to_datum(&bundle.points[i]));
-        let cov = cov_site(cof.point_block(i, i));
-        let sd = |k: usize| cov[(k, k)].max(0.0).sqrt() * 1000.0;
-        point_reports.push(PointReport {
-            point: problem.points[i].clone(),
-            X: xyz.x,
-            Y: xyz.y,
-            Z: xyz.z,
-            sigma_X_mm: sd(0),
-            sigma_Y_mm: sd(1),
-            sigma_Z_mm: sd(2),
-        });
-        let mut c = [[0.0; 3]; 3];
-        for (r, row) in c.iter_mut().enumerate() {
-            for (s, v) in row.iter_mut().enumerate() {
-                *v = cov[(r, s)];
-            }
-        }
-        points.push(AdjustedPoint {
-            name: problem.points[i].clone(),
-            xyz: [xyz.x, xyz.y, xyz.z],
-            covariance_m2: c,
-        });
-    }
-    // Joint covariance of the requested points.
-    let chosen: Vec<usize> = options
-        .joint_covariance_of
-        .iter()
-        .filter_map(|n| problem.point_index(n))
-        .collect();
-    let joint_covariance = (!chosen.is_empty()).then(|| {
-        let d = 3 * chosen.len();
-        let mut m = vec![0.0; d * d];
-        for (a, &pa) in chosen.iter().enumerate() {
-            for (b, &pb) in chosen.iter().enumerate() {
-                let q = cof.point_block(pa, pb);
-                let q =
-                    sim_rot * q * sim_rot.transpose() * (sim_scale * sim_scale) * variance_factor;
-                let q = frame.rotation.transpose() * q * frame.rotation;
-                for r in 0..3 {
-                    for s in 0..3 {
-                        m[(3 * a + r) * d + 3 * b + s] = q[(r, s)];
-                    }
-                }
-            }
-        }
-        JointCovariance {
-            points: chosen.iter().map(|&p| problem.points[p].clone()).collect(),
-            matrix_m2: m,
-        }
-    });
-    // Cameras.
-    let icols = bundle.interior_columns();
-    let mut cameras = problem.cameras.clone();
-    let mut camera_reports = Vec::new();
-    for (k, cam) in cameras.iter_mut().enumerate() {
-        cam.params = bundle.interior[k];
-        let mut calibrated = Vec::new();
-        let mut c_sigma = None;
-        for (q, name) in INTERIOR_NAMES.iter().enumerate() {
-            if let Some(col) = icols[k][q] {
-                let s = (cof.camera_cofactor(col) * variance_factor).max(0.0).sqrt();
-                if q == 0 {
-                    c_sigma = Some(s);
-                }
-                calibrated.push(CalibratedParameter {
-                    name: name.to_string(),
-                    value: cam.params[q],
-                    sigma: s,
-                });
-            }
-        }
-        camera_reports.push(CameraReport {
-            id: cam.id.clone(),
-            c_mm: cam.params[0],
-            c_sigma_mm: c_sigma,
-            calibrated,
-        });
-    }
-    // Orientations in the site frame (after the datum similarity).
-    let orientations = problem
-        .images
-        .iter()
-        .enumerate()
-        .map(|(j, im)| {
-            let st = &bundle.images[j];
-            let c = bundle.interior[im.camera][0];
-            let (r_w, xo_w) = match bundle.model {
-                Model::Orthogonal => {
-                    let o = OrthoImage {
-                        rotation: st.rotation,
-                        m: st.p[0],
-                        a4: st.p[1],
-                        a8: st.p[2],
-                    };
-                    (
-                        st.rotation,
-                        o.center(c, bundle.zbar).unwrap_or_else(Vector3::zeros),
-                    )
-                }
-                Model::Central => {
-                    let ci = CentralImage {
-                        rotation: st.rotation,
-                        center: Vector3::from(st.p),
-                    };
-                    (ci.rotation, ci.center)
-                }
-            };
-            let r_w = r_w * sim_rot.transpose();
-            let xo = frame.to_site(to_datum(&xo_w));
-            let r = frame.rotation_to_site(&r_w);
-            let mut rotation = [[0.0; 3]; 3];
-            for (a, row) in rotation.iter_mut().enumerate() {
-                for (b, v) in row.iter_mut().enumerate() {
-                    *v = r[(a, b)];
-                }
-            }
-            ImageOrientation {
-                image: im.id.clone(),
-                station: im.station.clone(),
-                camera: problem.cameras[im.camera].id.clone(),
-                rotation,
-                center: [xo.x, xo.y, xo.z],
-            }
-        })
-        .collect();
-    // Residuals.
-    let mut residuals = Vec::with_capacity(bundle.obs.len());
-    let mut sums = vec![(0usize, 0.0f64); problem.images.len()];
-    for (k, o) in bundle.obs.iter().enumerate() {
-        let e = bundle.residual_of(o);
-        let w = w[k];
-        if o.active {
-            sums[o.image].0 += 1;
-            sums[o.image].1 += e[0] * e[0] + e[1] * e[1];
-        }
-        residuals.push(ResidualReport {
-            image: problem.images[o.image].id.clone(),
-            point: problem.points[o.point].clone(),
-            vx_mm: e[0],
-            vy_mm: e[1],
-            w: w[0].abs().max(w[1].abs()),
-            dropped: !o.active,
-        });
-    }
-    let image_reports = problem
-        .images
-        .iter()
-        .zip(&sums)
-        .map(|(im, &(n, s))| ImageReport {
-            id: im.id.clone(),
-            observations: n,
-            rms_mm: if n > 0 {
-                (s / (2 * n) as f64).sqrt()
-            } else {
-                0.0
-            },
-        })
-        .collect();
-    let report = AdjustmentReport {
-        model: bundle.model,
-        converged: outcome.converged,
-        iterations: outcome.iterations,
-        sigma0_mm,
-        dof,
-        variance_factor,
-        cameras: camera_reports,
-        points: point_reports,
-        images: image_reports,
-        dropped,
-        warnings,
-        residuals,
-        datum: match datum {
-            Datum::Free => "free network (inner constraints)".into(),
-            Datum::Control => "control points".into(),
-        },
-        index3_rmse_mm: None,
-        index4_rmse_mm: None,
-        variance_model,
-    };
-    Ok(Adjustment {
-        report,
-        points,
-        orientations,
-        cameras,
-        joint_covariance,
     })
 }
