@@ -345,3 +345,85 @@ async fn site_settings_are_validated_and_a_reference_of_several_epochs_is_averag
         "σ against the mean of 3 / against one epoch = {ratio} ({sigma:?})"
     );
 }
+
+/// A network of more than 40 points keeps the joint covariance of its stable points and its
+/// declared blocks' members only (not of all points), and the block's motion still rests on the
+/// members' cross-covariances: the datum's and the reference epoch's errors are common to the
+/// members, so the block's σ is wider than the members' σ combined as if independent.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_large_network_keeps_the_blocks_members_in_the_joint_covariance() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), "");
+    let d = Daemon::start(&dir.path().join("data"), &config).await;
+    let scene = Scene { n: 48, stable: 8 };
+    let (s, b) = create(&d, json!({"id": "cliff"})).await;
+    assert_eq!(s, 201, "{b}");
+    mark_stable(&d, "cliff", &scene).await;
+    // The block: the last 8 of the 40 moving points.
+    let block: Vec<String> = (40..48).map(Scene::name).collect();
+    let (s, g) = d
+        .send(
+            Method::PUT,
+            "/api/v1/sites/cliff/groups/B1",
+            Some(&json!({"kind": "block", "points": block})),
+        )
+        .await;
+    assert_eq!(s, 200, "{g}");
+    for k in 0..3 {
+        upload_new(
+            &d,
+            "cliff",
+            &scene.epoch(&day(k), 700 + k as u64, 8.0 * k as f64),
+        )
+        .await;
+    }
+    // The stored joint covariances: the stable points and the block's members, once each.
+    d.kill9();
+    {
+        use sqlx::ConnectOptions;
+        let mut db = sqlx::sqlite::SqliteConnectOptions::new()
+            .filename(dir.path().join("data").join("cliffwatch.db"))
+            .connect()
+            .await
+            .unwrap();
+        let rows: Vec<(String,)> = sqlx::query_as("SELECT points FROM joint_covariances")
+            .fetch_all(&mut db)
+            .await
+            .unwrap();
+        assert_eq!(rows.len(), 3, "one joint covariance per epoch");
+        let mut expected: Vec<String> = (0..8).map(Scene::name).chain(block.clone()).collect();
+        expected.sort();
+        for (points,) in rows {
+            let mut got: Vec<String> = serde_json::from_str(&points).unwrap();
+            got.sort();
+            assert_eq!(got, expected);
+        }
+    }
+    let d = Daemon::start(&dir.path().join("data"), &config).await;
+    let (s, m) = d.get("/api/v1/sites/cliff/groups/B1/motion").await;
+    assert_eq!(s, 200, "{m}");
+    let rows = m["items"].as_array().unwrap();
+    assert_eq!(rows.len(), 2, "{m}");
+    for (k, r) in rows.iter().enumerate() {
+        let truth = 8.0 * (k + 1) as f64;
+        let sigma = num(r, "sigma_mm");
+        assert!(
+            (num(r, "d_mm") - truth).abs() < 4.0 * sigma + 0.5,
+            "{r} against {truth} mm"
+        );
+        // The members' σ at this epoch, combined as if their errors were independent.
+        let mut info = 0.0;
+        for p in &block {
+            let (s, series) = d
+                .get(&format!("/api/v1/sites/cliff/points/{p}/displacements"))
+                .await;
+            assert_eq!(s, 200, "{series}");
+            let it = &series["items"].as_array().unwrap()[k + 1];
+            assert_eq!(it["epoch"], r["epoch"]);
+            info += num(it, "sigma_mm").powi(-2);
+        }
+        let independent = info.sqrt().recip();
+        println!("epoch {k}: block σ {sigma:.3} mm, members as if independent {independent:.3} mm");
+        assert!(sigma > 1.05 * independent, "{sigma} against {independent}");
+    }
+}
