@@ -115,7 +115,7 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
         .map(|w| NewWebhook {
             url: w.url.clone(),
             secret: w.secret.clone(),
-            min_level: Some(w.min_level.clone()),
+            min_level: Some(w.min_level),
             format: w.format,
         })
         .collect();

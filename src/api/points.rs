@@ -119,14 +119,6 @@ pub async fn update(
             format!("point '{point}': identifiers must match [A-Za-z0-9._-]{{1,64}}"),
         ));
     }
-    if let Some(role) = &settings.role {
-        if role != "stable" && role != "monitored" {
-            return Err(ApiError::unprocessable(
-                "invalid_point",
-                format!("role '{role}': stable or monitored"),
-            ));
-        }
-    }
     if let Some(d) = settings.direction {
         if d.iter().any(|v| !v.is_finite()) || d.iter().all(|v| *v == 0.0) {
             return Err(ApiError::unprocessable(

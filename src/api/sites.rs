@@ -20,7 +20,8 @@ pub const MIN_CONFIDENCE: f64 = 0.500_001;
 /// See [`MIN_CONFIDENCE`].
 pub const MAX_CONFIDENCE: f64 = 0.999_999;
 
-/// Checks a site definition (identifier, model, confidence, rule levels and metrics).
+/// Checks a site definition (identifier, confidence, rule levels and metrics; the model is
+/// checked by its type when the body is read).
 pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
     if !is_valid_identifier(&s.id) {
         return Err(ApiError::unprocessable(
@@ -30,14 +31,6 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
                 s.id
             ),
         ));
-    }
-    if let Some(m) = &s.model {
-        if m != "orthogonal" && m != "central" {
-            return Err(ApiError::unprocessable(
-                "invalid_site",
-                format!("model '{m}': orthogonal or central"),
-            ));
-        }
     }
     if let Some(c) = s.confidence {
         if !(MIN_CONFIDENCE..=MAX_CONFIDENCE).contains(&c) {

@@ -7,7 +7,6 @@ use axum::response::IntoResponse;
 use super::error::{ApiError, ApiJson, ApiPath};
 use super::list::Page;
 use super::AppState;
-use crate::analysis::AlertLevel;
 use crate::store::webhooks::{self, NewWebhook};
 use crate::store::StoreError;
 
@@ -23,15 +22,6 @@ pub fn check_webhook(h: &NewWebhook) -> Result<(), ApiError> {
         return Err(ApiError::unprocessable(
             "invalid_webhook",
             "secret: whsec_<base64>",
-        ));
-    }
-    if h.min_level
-        .as_deref()
-        .is_some_and(|l| l.parse::<AlertLevel>().is_err())
-    {
-        return Err(ApiError::unprocessable(
-            "invalid_webhook",
-            "min_level: watch, warning or alarm",
         ));
     }
     Ok(())

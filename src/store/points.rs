@@ -13,8 +13,7 @@ use crate::analysis::PointRole;
 pub struct PointSettings {
     /// `stable` or `monitored`.
     #[serde(default)]
-    #[schema(pattern = "^(stable|monitored)$")]
-    pub role: Option<String>,
+    pub role: Option<PointRole>,
     /// Free group name (e.g. a block of the cliff).
     #[serde(default)]
     pub group: Option<String>,
@@ -40,7 +39,8 @@ pub struct Point {
 #[derive(FromRow)]
 struct PointRow {
     name: String,
-    role: String,
+    #[sqlx(try_from = "String")]
+    role: PointRole,
     grp: Option<String>,
     dir_x: Option<f64>,
     dir_y: Option<f64>,
@@ -56,7 +56,7 @@ impl TryFrom<PointRow> for Point {
         };
         Ok(Point {
             name: r.name,
-            role: r.role.parse()?,
+            role: r.role,
             group: r.grp,
             direction,
         })
@@ -134,12 +134,12 @@ pub async fn upsert(
     )
     .bind(site)
     .bind(name)
-    .bind(&s.role)
+    .bind(s.role.map(PointRole::as_str))
     .bind(&s.group)
     .bind(d.map(|d| d[0]))
     .bind(d.map(|d| d[1]))
     .bind(d.map(|d| d[2]))
-    .bind(&s.role)
+    .bind(s.role.map(PointRole::as_str))
     .bind(&s.group)
     .bind(d.map(|d| d[0]))
     .bind(d.map(|d| d[1]))

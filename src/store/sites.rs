@@ -26,8 +26,7 @@ pub struct NewSite {
     pub name: Option<String>,
     /// `orthogonal` (default) or `central`.
     #[serde(default)]
-    #[schema(pattern = "^(orthogonal|central)$")]
-    pub model: Option<String>,
+    pub model: Option<Model>,
     /// Expected interval between campaigns in hours (> 0).
     #[serde(default)]
     #[schema(exclusive_minimum = 0.0)]
@@ -94,7 +93,8 @@ pub struct Site {
 struct SiteRow {
     id: String,
     name: String,
-    model: String,
+    #[sqlx(try_from = "String")]
+    model: Model,
     schedule_hours: Option<f64>,
     confidence: f64,
     alert_rules: String,
@@ -112,7 +112,7 @@ impl TryFrom<SiteRow> for Site {
         Ok(Site {
             id: r.id,
             name: r.name,
-            model: r.model.parse()?,
+            model: r.model,
             schedule_hours: r.schedule_hours,
             confidence: r.confidence,
             alert_rules: serde_json::from_str(&r.alert_rules)?,
@@ -202,7 +202,7 @@ pub async fn upsert(db: &mut AnyConnection, site: &NewSite) -> Result<(), StoreE
 async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(), StoreError> {
     let rules = serde_json::to_string(&site.alert_rules.clone().unwrap_or_default())?;
     let name = site.name.clone().unwrap_or_else(|| site.id.clone());
-    let model = site.model.clone().unwrap_or_else(|| "orthogonal".into());
+    let model = site.model.unwrap_or_default().as_str();
     let confidence = site.confidence.unwrap_or(0.99);
     let reference_epochs = site.reference_epochs.unwrap_or(1);
     let area = site.area.as_ref().map(serde_json::to_string).transpose()?;

@@ -37,8 +37,7 @@ pub struct NewWebhook {
     pub secret: String,
     /// Lowest level delivered (default `warning`).
     #[serde(default)]
-    #[schema(pattern = "^(watch|warning|alarm)$")]
-    pub min_level: Option<String>,
+    pub min_level: Option<AlertLevel>,
     /// Body format (default `standard`).
     #[serde(default)]
     #[schema(schema_with = format_schema)]
@@ -92,7 +91,7 @@ pub async fn insert(
     .bind(&id)
     .bind(&hook.url)
     .bind(&hook.secret)
-    .bind(hook.min_level.as_deref().unwrap_or("warning"))
+    .bind(hook.min_level.unwrap_or(AlertLevel::Warning).as_str())
     .bind(hook.format.as_str())
     .bind(source)
     .bind(now())
@@ -117,7 +116,7 @@ pub async fn replace_configured(
     let same = |h: &NewWebhook, (_, url, secret, min, format): &Row| {
         &h.url == url
             && &h.secret == secret
-            && h.min_level.as_deref().unwrap_or("warning") == min
+            && h.min_level.unwrap_or(AlertLevel::Warning).as_str() == min
             && h.format.as_str() == format
     };
     for e in &existing {
