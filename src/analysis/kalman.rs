@@ -78,7 +78,7 @@ impl Default for KalmanConfig {
     /// acceleration by √q ≈ 0.22 mm/day², enough to follow a block accelerating to failure
     /// by the inverse-velocity law from about five days before failure on (its jerk there is
     /// ≈ 0.4 mm/day³ for a creep of 2 mm/day), while a still point's filtered velocity stays
-    /// within a few tenths of a mm/day (measured by `tests/analysis_kalman.rs`).
+    /// within a few tenths of a mm/day (measured by `tests/analysis/kalman.rs`).
     fn default() -> Self {
         KalmanConfig {
             model: MotionModel::ConstantAcceleration,

@@ -2,7 +2,7 @@
 //! their own (the upload form is parsed by the photogrammetric core, the epoch summary is the
 //! stored report merged with the list fields, errors are built by [`super::error::ApiError`]).
 //! Documentation only: nothing is (de)serialized through these types; the test
-//! `tests/service_api.rs` checks that the paper epochs use only fields named here.
+//! `tests/service/api.rs` checks that the paper epochs use only fields named here.
 
 #![allow(dead_code)]
 

@@ -31,7 +31,7 @@
 //! Portable and used as is: `$1` placeholders, `ON CONFLICT … DO UPDATE/NOTHING` with
 //! `excluded.`, `RETURNING`, timestamps as fixed-width RFC 3339 text, JSON documents as text.
 //! Benchmarks and tests only, SQLite: `strftime`, `printf`, `WITH RECURSIVE` fills and the
-//! `dbstat` table (`benches/service.rs`, `tests/service_series.rs`).
+//! `dbstat` table (`benches/service.rs`, `tests/service/series.rs`).
 
 pub mod alert_states;
 pub mod alerts;

@@ -1,0 +1,11 @@
+//! The bundle adjustment against truth: the paper's epochs, simulated scenes, errors, and the Monte-Carlo calibration of its σ.
+//!
+//! One test binary per area (each binary links the whole crate once); the files are its modules.
+
+#[path = "../adjust_common/mod.rs"]
+mod adjust_common;
+
+mod calibration;
+mod errors;
+mod paper;
+mod scenes;

@@ -1,0 +1,12 @@
+//! Alerting through the service: series, blocks, recompute, failed analyses, the alert service.
+//!
+//! One test binary per area (each binary links the whole crate once); the files are its modules.
+
+#[path = "../alerts_support/mod.rs"]
+mod alerts_support;
+
+mod blocks;
+mod failed;
+mod recompute;
+mod series;
+mod service;

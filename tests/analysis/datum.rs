@@ -1,0 +1,214 @@
+//! Datum and robustness: IWST without stable points, bad input as typed errors (never a panic).
+
+use crate::analysis_common;
+use analysis_common as common;
+
+use chrono::{TimeZone, Utc};
+use cliffwatch::analysis::{
+    analyse_epoch, AlertConfig, AnalysisConfig, AnalysisError, DatumMethod, EpochCoordinates,
+    History, PointConfig, PointCoordinates, PointRole,
+};
+use cliffwatch::simulate::monitoring::MonitoringScenario;
+use proptest::prelude::*;
+
+/// Without stable points, IWST keeps the moving block from dragging the datum: the block's displacement
+/// error stays within 4.5σ (the 3-D test value below χ²(3) at 99.9 %… with margin), the fixed points' too.
+#[test]
+fn iwst_without_stable_points_is_not_dragged_by_the_block() {
+    let sc = MonitoringScenario {
+        seed: 5,
+        ..Default::default()
+    };
+    let series = sc.generate();
+    let points: Vec<PointConfig> = series
+        .points
+        .iter()
+        .map(|p| PointConfig {
+            role: PointRole::Monitored,
+            ..p.clone()
+        })
+        .collect();
+    let steps = common::run(
+        &series,
+        &points,
+        &AnalysisConfig::default(),
+        &AlertConfig::new("s", vec![]),
+    );
+    let (mut n, mut below) = (0, 0);
+    let mut worst: f64 = 0.0;
+    for (k, s) in steps.iter().enumerate() {
+        assert_eq!(s.analysis.datum.method, DatumMethod::Iwst);
+        for (i, p) in s.analysis.points.iter().enumerate() {
+            let t = series.epochs[k + 1].true_displacement_mm[i];
+            let r = &p.record;
+            let q = common::mahalanobis(
+                [r.dx_mm - t[0], r.dy_mm - t[1], r.dz_mm - t[2]],
+                p.covariance_mm2,
+            )
+            .expect("regular");
+            n += 1;
+            below += usize::from(q < 16.27);
+            worst = worst.max(q);
+        }
+    }
+    let share = below as f64 / n as f64;
+    println!(
+        "IWST: {below}/{n} = {:.2} % of point-epochs below χ²(3; 0.999) = 16.27; worst {worst:.1}",
+        100.0 * share
+    );
+    // The block (4 of 20 points) moves up to ~45 mm; a dragged datum would shift every point by mm.
+    assert!(share >= 0.97);
+}
+
+fn pt(name: &str, xyz: [f64; 3], s: f64) -> PointCoordinates {
+    PointCoordinates {
+        name: name.into(),
+        xyz_m: xyz,
+        covariance_m2: [[s, 0.0, 0.0], [0.0, s, 0.0], [0.0, 0.0, s]],
+    }
+}
+
+fn epoch(id: i64, pts: Vec<PointCoordinates>) -> EpochCoordinates {
+    EpochCoordinates {
+        epoch: id,
+        observed_at: Utc
+            .timestamp_opt(1_700_000_000 + id * 86_400, 0)
+            .single()
+            .expect("t"),
+        points: pts,
+        joint: None,
+    }
+}
+
+#[test]
+fn bad_input_gives_typed_errors() {
+    let cfg = AnalysisConfig::default();
+    let h = History::new();
+    let a = epoch(
+        1,
+        vec![
+            pt("A", [0.0, 0.0, 0.0], 1e-8),
+            pt("B", [1.0, 0.0, 0.0], 1e-8),
+        ],
+    );
+    assert!(matches!(
+        analyse_epoch(&a, &a, &[], &h, &cfg),
+        Err(AnalysisError::TooFewDatumPoints {
+            found: 2,
+            needed: 3
+        })
+    ));
+    let mut b = epoch(
+        2,
+        vec![
+            pt("A", [0.0, 0.0, 0.0], 1e-8),
+            pt("B", [1.0, 0.0, 0.0], 1e-8),
+            pt("C", [0.0, 1.0, 0.0], 1e-8),
+        ],
+    );
+    let a3 = b.clone();
+    b.points[1].xyz_m[0] = f64::NAN;
+    assert!(matches!(
+        analyse_epoch(&a3, &b, &[], &h, &cfg),
+        Err(AnalysisError::NonFinite { .. })
+    ));
+    let bad_cfg = AnalysisConfig {
+        confidence: 1.5,
+        ..Default::default()
+    };
+    assert!(matches!(
+        analyse_epoch(&a3, &a3, &[], &h, &bad_cfg),
+        Err(AnalysisError::InvalidConfig(_))
+    ));
+    // Collinear stable points: the stable datum is impossible, IWST over all (also collinear) fails typed.
+    let line = |id| {
+        epoch(
+            id,
+            (0..4)
+                .map(|i| pt(&format!("P{i}"), [i as f64, 0.0, 0.0], 1e-8))
+                .collect(),
+        )
+    };
+    let stable: Vec<PointConfig> = (0..4)
+        .map(|i| PointConfig {
+            name: format!("P{i}"),
+            role: PointRole::Stable,
+            group: None,
+            direction: None,
+        })
+        .collect();
+    assert!(matches!(
+        analyse_epoch(&line(1), &line(2), &stable, &h, &cfg),
+        Err(AnalysisError::Singular { .. })
+    ));
+    // Zero covariances everywhere: no panic, typed outcome.
+    let z = |id| {
+        epoch(
+            id,
+            (0..5)
+                .map(|i| {
+                    pt(
+                        &format!("P{i}"),
+                        [i as f64, (i * i) as f64, (i % 2) as f64],
+                        0.0,
+                    )
+                })
+                .collect(),
+        )
+    };
+    let _ = analyse_epoch(&z(1), &z(2), &stable, &h, &cfg);
+}
+
+#[test]
+fn the_reference_epoch_has_zero_displacement_and_new_points_are_listed() {
+    let series = MonitoringScenario {
+        seed: 3,
+        epochs: 2,
+        ..Default::default()
+    }
+    .generate();
+    let e0 = &series.epochs[0].coordinates;
+    let a = analyse_epoch(
+        e0,
+        e0,
+        &series.points,
+        &History::new(),
+        &AnalysisConfig::default(),
+    )
+    .expect("ok");
+    assert!(a
+        .points
+        .iter()
+        .all(|p| p.record.d_mm == 0.0 && !p.record.significant));
+    let mut e1 = series.epochs[1].coordinates.clone();
+    e1.points.push(pt("NEW", [1.0, 2.0, 3.0], 1e-8));
+    let a = analyse_epoch(
+        e0,
+        &e1,
+        &series.points,
+        &History::new(),
+        &AnalysisConfig::default(),
+    )
+    .expect("ok");
+    assert_eq!(a.new_points, vec!["NEW".to_string()]);
+    assert!(
+        a.points
+            .iter()
+            .all(|p| p.record.velocity_mm_per_day.is_none()),
+        "no velocity without history"
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// Arbitrary finite coordinates and covariances (even indefinite ones): a result or a typed error.
+    #[test]
+    fn never_panics(coords in proptest::collection::vec((-100.0f64..100.0, -100.0f64..100.0, -100.0f64..100.0, -1e-6f64..1e-6), 0..8),
+                    shift in -0.01f64..0.01, stable_mask in 0u8..=255) {
+        let pts = |d: f64| coords.iter().enumerate().map(|(i, c)| pt(&format!("P{i}"), [c.0 + d, c.1, c.2], c.3)).collect();
+        let roles: Vec<PointConfig> = (0..coords.len())
+            .map(|i| PointConfig { name: format!("P{i}"), role: if stable_mask & (1 << i) != 0 { PointRole::Stable } else { PointRole::Monitored }, group: None, direction: Some([1.0, 0.0, 0.0]) })
+            .collect();
+        let _ = analyse_epoch(&epoch(1, pts(0.0)), &epoch(2, pts(shift)), &roles, &History::new(), &AnalysisConfig::default());
+    }
+}

@@ -1,0 +1,11 @@
+//! Target detection, centring and identification against truth.
+//!
+//! One test binary per area (each binary links the whole crate once); the files are its modules.
+
+#[path = "../identify_support/mod.rs"]
+mod identify_support;
+
+mod first_epoch;
+mod identify;
+mod reference;
+mod synthetic;

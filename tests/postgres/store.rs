@@ -1,0 +1,496 @@
+//! The same daemon on PostgreSQL: a throwaway cluster (`pg_support`) serves a monitoring series
+//! (stable points, a declared block moving to alarm, an epoch out of order, a reference change,
+//! an acknowledgement), and every API answer is compared with the same scenario on SQLite. The
+//! data must survive a restart on the same database, move between the backends with
+//! `migrate-store`, and two daemons must share one database.
+
+use crate::alerts_support;
+use crate::pg_support;
+use crate::plot_support;
+
+use std::collections::BTreeMap;
+
+use alerts_support::service_support::{synthetic_epoch, TestServer};
+use serde_json::{json, Value};
+
+const SITE: &str = "cliff";
+/// Targets of the scene; the first `STABLE` never move, the others are block B1.
+const POINTS: usize = 16;
+const STABLE: usize = 8;
+/// Epochs, one a day; the block moves `STEP_MM` a day towards the cameras.
+const EPOCHS: usize = 9;
+const STEP_MM: f64 = 3.0;
+
+fn name(i: usize) -> String {
+    format!("T{:03}", i + 1)
+}
+
+fn day(k: usize) -> String {
+    format!("2026-11-{:02}T09:00:00Z", k + 1)
+}
+
+async fn send(s: &TestServer, method: reqwest::Method, path: &str, body: Value) -> (u16, Value) {
+    let r = s
+        .client
+        .request(method, s.url(path))
+        .json(&body)
+        .send()
+        .await
+        .unwrap();
+    let status = r.status().as_u16();
+    (status, r.json().await.unwrap_or(Value::Null))
+}
+
+async fn text(s: &TestServer, path: &str) -> (u16, String) {
+    let r = s.client.get(s.url(path)).send().await.unwrap();
+    (r.status().as_u16(), r.text().await.unwrap())
+}
+
+/// The scenario, the same on every backend.
+async fn run_scenario(s: &TestServer) {
+    let rules = json!([
+        {"level": "watch", "metric": "displacement_mm", "above": 5.0, "clear_below": 4.0},
+        {"level": "warning", "metric": "displacement_mm", "above": 10.0},
+        {"level": "alarm", "metric": "displacement_mm", "above": 20.0}]);
+    let (st, b) = send(
+        s,
+        reqwest::Method::POST,
+        "/api/v1/sites",
+        json!({"id": SITE, "name": "Cliff", "alert_rules": rules}),
+    )
+    .await;
+    assert_eq!(st, 201, "{b}");
+    for i in 0..STABLE {
+        let path = format!("/api/v1/sites/{SITE}/points/{}", name(i));
+        let (st, b) = send(s, reqwest::Method::PUT, &path, json!({"role": "stable"})).await;
+        assert_eq!(st, 200, "{b}");
+    }
+    let block: Vec<String> = (STABLE..POINTS).map(name).collect();
+    let (st, b) = send(
+        s,
+        reqwest::Method::PUT,
+        &format!("/api/v1/sites/{SITE}/groups/B1"),
+        json!({"kind": "block", "direction": [0.0, -1.0, 0.0], "points": block}),
+    )
+    .await;
+    assert_eq!(st, 200, "{b}");
+    // Epoch 4 arrives after 5: the series is recomputed when it comes.
+    let order = [0, 1, 2, 3, 5, 4, 6, 7, 8];
+    for k in order {
+        let body = synthetic_epoch(
+            4,
+            POINTS,
+            &day(k),
+            500 + k as u64,
+            STEP_MM * k as f64,
+            STABLE,
+        );
+        let (st, b) = s.upload(SITE, &body).await;
+        assert_eq!(st, 201, "epoch {k}: {b}");
+    }
+    // The same body again is the stored epoch; another body for the same time a conflict.
+    let again = synthetic_epoch(4, POINTS, &day(8), 508, STEP_MM * 8.0, STABLE);
+    assert_eq!(s.upload(SITE, &again).await.0, 200);
+    let other = synthetic_epoch(4, POINTS, &day(8), 999, STEP_MM * 8.0, STABLE);
+    assert_eq!(s.upload(SITE, &other).await.0, 409);
+    // A reference change and back: both recompute the site.
+    let (_, epochs) = s
+        .get(&format!("/api/v1/sites/{SITE}/epochs?limit=100"))
+        .await;
+    let second = epochs["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["observed_at"] == day(1).as_str())
+        .unwrap()["id"]
+        .clone();
+    let path = format!("/api/v1/sites/{SITE}/reference");
+    let (st, b) = send(s, reqwest::Method::PUT, &path, json!({"epoch": second})).await;
+    assert_eq!(st, 200, "{b}");
+    let (st, b) = send(s, reqwest::Method::PUT, &path, json!({"epoch": null})).await;
+    assert_eq!(st, 200, "{b}");
+    // Staff acknowledge the block's alarm.
+    let (_, alerts) = s
+        .get(&format!("/api/v1/alerts?site={SITE}&limit=1000"))
+        .await;
+    let alarm = alerts["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["level"] == "alarm" && a["state"] == "open")
+        .expect("an open alarm")["id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let (st, b) = send(
+        s,
+        reqwest::Method::POST,
+        &format!("/api/v1/alerts/{alarm}/ack"),
+        json!({"by": "on call", "comment": "seen"}),
+    )
+    .await;
+    assert_eq!(st, 200, "{b}");
+}
+
+/// Removes what differs between two runs by construction: wall-clock times and random ids;
+/// and writes −0 as 0 (SQLite stores a REAL −0.0 as 0, PostgreSQL keeps its sign).
+fn normalize(v: &mut Value) {
+    match v {
+        Value::Number(n) if n.as_f64() == Some(0.0) && n.is_f64() => *v = json!(0.0),
+        Value::Object(m) => {
+            for key in ["created_at", "raised_at", "updated_at", "taken_at"] {
+                m.remove(key);
+            }
+            if m.contains_key("rule") && m.contains_key("level") {
+                m.remove("id");
+            }
+            for (_, x) in m.iter_mut() {
+                normalize(x);
+            }
+        }
+        Value::Array(a) => {
+            for x in a.iter_mut() {
+                normalize(x);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Every answer a user sees of the site, by request.
+async fn answers(s: &TestServer) -> BTreeMap<String, String> {
+    let mut out = BTreeMap::new();
+    let mut json_paths = vec![
+        "/api/v1/sites".to_string(),
+        format!("/api/v1/sites/{SITE}"),
+        format!("/api/v1/sites/{SITE}/epochs?limit=100"),
+        format!("/api/v1/sites/{SITE}/points"),
+        format!("/api/v1/sites/{SITE}/groups"),
+        format!("/api/v1/sites/{SITE}/groups/B1/motion?limit=1000"),
+    ];
+    let (_, epochs) = s
+        .get(&format!("/api/v1/sites/{SITE}/epochs?limit=100"))
+        .await;
+    for e in epochs["items"].as_array().unwrap() {
+        json_paths.push(format!("/api/v1/sites/{SITE}/epochs/{}", e["id"]));
+    }
+    for i in 0..POINTS {
+        json_paths.push(format!(
+            "/api/v1/sites/{SITE}/points/{}/displacements?limit=3",
+            name(i)
+        ));
+        json_paths.push(format!(
+            "/api/v1/sites/{SITE}/points/{}/displacements?limit=1000",
+            name(i)
+        ));
+    }
+    for path in json_paths {
+        let (st, mut v) = s.get(&path).await;
+        assert_eq!(st, 200, "{path}: {v}");
+        normalize(&mut v);
+        out.insert(path, serde_json::to_string_pretty(&v).unwrap());
+    }
+    let (st, mut alerts) = s
+        .get(&format!("/api/v1/alerts?site={SITE}&limit=1000"))
+        .await;
+    assert_eq!(st, 200);
+    normalize(&mut alerts);
+    let mut items: Vec<String> = alerts["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a.to_string())
+        .collect();
+    items.sort();
+    out.insert("alerts".into(), items.join("\n"));
+    for i in [0, STABLE, POINTS - 1] {
+        let path = format!(
+            "/api/v1/sites/{SITE}/points/{}/displacements?format=csv",
+            name(i)
+        );
+        let (st, body) = text(s, &path).await;
+        assert_eq!(st, 200, "{path}");
+        let zero = |f: &str| match f.parse::<f64>() {
+            Ok(0.0) => "0".to_string(),
+            _ => f.to_string(),
+        };
+        let body: Vec<String> = body
+            .lines()
+            .map(|l| l.split(',').map(zero).collect::<Vec<_>>().join(","))
+            .collect();
+        out.insert(path, body.join("\n"));
+    }
+    out
+}
+
+/// Fails with the first line where `have` and `want` differ.
+fn assert_same(what: &str, have: &str, want: &str) {
+    if have == want {
+        return;
+    }
+    let (h, w): (Vec<&str>, Vec<&str>) = (have.lines().collect(), want.lines().collect());
+    let k = (0..h.len().max(w.len()))
+        .find(|&k| h.get(k) != w.get(k))
+        .unwrap_or(0);
+    let context = |v: &[&str]| v[k.saturating_sub(3)..(k + 2).min(v.len())].join("\n");
+    panic!(
+        "{what}: PostgreSQL answers differently at line {k}:\n--- PostgreSQL\n{}\n--- SQLite\n{}",
+        context(&h),
+        context(&w)
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
+    let _ = tracing_subscriber::fmt().with_test_writer().try_init();
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("cliffwatch");
+
+    let sqlite = TestServer::start(|_| {}).await;
+    assert_eq!(sqlite.store.backend(), cliffwatch::store::Backend::Sqlite);
+    run_scenario(&sqlite).await;
+    let expected = answers(&sqlite).await;
+    sqlite.stop().await;
+
+    let pg_url = url.clone();
+    let pg = TestServer::start(move |c| c.database_url = Some(pg_url)).await;
+    assert_eq!(pg.store.backend(), cliffwatch::store::Backend::Postgres);
+    let (st, ready) = pg.get("/readyz").await;
+    assert_eq!(st, 200, "{ready}");
+    run_scenario(&pg).await;
+    let got = answers(&pg).await;
+
+    // What the scenario must have produced at all (so that equal answers mean something).
+    let alerts = &got["alerts"];
+    assert!(alerts.contains("\"alarm\""), "no alarm: {alerts}");
+    assert!(alerts.contains("\"acknowledged\""), "no acknowledgement");
+    let series = &got[&format!(
+        "/api/v1/sites/{SITE}/points/{}/displacements?limit=1000",
+        name(POINTS - 1)
+    )];
+    assert_eq!(
+        series.matches("\"observed_at\"").count(),
+        EPOCHS,
+        "{series}"
+    );
+    assert_eq!(got.len(), expected.len());
+    for (path, want) in &expected {
+        let have = got.get(path).unwrap_or_else(|| panic!("{path} missing"));
+        assert_same(path, have, want);
+    }
+
+    // A restart on the same database: nothing lost, the migrations not applied twice.
+    pg.stop().await;
+    let pg_url = url.clone();
+    let again = TestServer::start(move |c| c.database_url = Some(pg_url)).await;
+    let after = answers(&again).await;
+    for (path, want) in &got {
+        assert_same(&format!("{path} after a restart"), &after[path], want);
+    }
+    again.stop().await;
+}
+
+/// Runs `cliffwatch migrate-store --from FROM --to TO`; returns its stderr.
+fn migrate_store(from: &str, to: &str) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cliffwatch"))
+        .args(["migrate-store", "--from", from, "--to", to])
+        .output()
+        .expect("run cliffwatch migrate-store");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(
+        out.status.success(),
+        "migrate-store {from} → {to}: {stderr}"
+    );
+    stderr
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn migrate_store_moves_an_installation_both_ways() {
+    let cluster = pg_support::PgCluster::start();
+    let pg_url = cluster.create_database("moved");
+    let dir = tempfile::tempdir().unwrap();
+    let first = format!("sqlite://{}", dir.path().join("first.db").display());
+    let back = format!("sqlite://{}", dir.path().join("back.db").display());
+
+    let url = first.clone();
+    let original = TestServer::start(move |c| c.database_url = Some(url)).await;
+    run_scenario(&original).await;
+    let expected = answers(&original).await;
+    original.stop().await;
+
+    let log = migrate_store(&first, &pg_url);
+    assert!(log.contains("displacements"), "{log}");
+    let url = pg_url.clone();
+    let on_pg = TestServer::start(move |c| c.database_url = Some(url)).await;
+    assert_eq!(on_pg.store.backend(), cliffwatch::store::Backend::Postgres);
+    let got = answers(&on_pg).await;
+    on_pg.stop().await;
+    for (path, want) in &expected {
+        assert_same(&format!("{path} on PostgreSQL"), &got[path], want);
+    }
+
+    // A second copy into the same (no longer empty) store is refused and writes nothing.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cliffwatch"))
+        .args(["migrate-store", "--from", &first, "--to", &pg_url])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("empty store only"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    migrate_store(&pg_url, &back);
+    let url = back.clone();
+    let returned = TestServer::start(move |c| c.database_url = Some(url)).await;
+    let got = answers(&returned).await;
+    returned.stop().await;
+    for (path, want) in &expected {
+        assert_same(&format!("{path} back on SQLite"), &got[path], want);
+    }
+}
+
+/// Two daemons on one PostgreSQL database, as behind a load balancer: uploads go to either,
+/// the same epoch to both at once is stored once, both serve the same answers, and every alert
+/// message reaches the webhook exactly once although both delivery workers run.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn two_nodes_share_one_database() {
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("nodes");
+    let receiver = alerts_support::Receiver::start(3).await;
+    let node = |url: String| {
+        TestServer::start(move |c| {
+            c.database_url = Some(url);
+            c.webhook_poll_ms = 20;
+            c.webhook_timeout_secs = 2;
+        })
+    };
+    let a = node(url.clone()).await;
+    let b = node(url.clone()).await;
+    let (st, w) = send(
+        &a,
+        reqwest::Method::POST,
+        "/api/v1/webhooks",
+        json!({"url": receiver.url, "secret": alerts_support::SECRET, "min_level": "watch"}),
+    )
+    .await;
+    assert_eq!(st, 201, "{w}");
+    let rules = json!([
+        {"level": "watch", "metric": "displacement_mm", "above": 5.0, "clear_below": 4.0},
+        {"level": "warning", "metric": "displacement_mm", "above": 10.0},
+        {"level": "alarm", "metric": "displacement_mm", "above": 20.0}]);
+    let (st, b0) = send(
+        &b,
+        reqwest::Method::POST,
+        "/api/v1/sites",
+        json!({"id": SITE, "name": "Cliff", "alert_rules": rules}),
+    )
+    .await;
+    assert_eq!(st, 201, "{b0}");
+    for i in 0..STABLE {
+        let path = format!("/api/v1/sites/{SITE}/points/{}", name(i));
+        let node = if i % 2 == 0 { &a } else { &b };
+        let (st, r) = send(node, reqwest::Method::PUT, &path, json!({"role": "stable"})).await;
+        assert_eq!(st, 200, "{r}");
+    }
+    let block: Vec<String> = (STABLE..POINTS).map(name).collect();
+    let (st, g) = send(
+        &b,
+        reqwest::Method::PUT,
+        &format!("/api/v1/sites/{SITE}/groups/B1"),
+        json!({"kind": "block", "direction": [0.0, -1.0, 0.0], "points": block}),
+    )
+    .await;
+    assert_eq!(st, 200, "{g}");
+    let epoch = |k: usize| {
+        synthetic_epoch(
+            4,
+            POINTS,
+            &day(k),
+            700 + k as u64,
+            STEP_MM * k as f64,
+            STABLE,
+        )
+    };
+    // The reference first, then two epochs at a time, one to each node.
+    assert_eq!(a.upload(SITE, &epoch(0)).await.0, 201);
+    for k in (1..EPOCHS - 2).step_by(2) {
+        let (ea, eb) = (epoch(k), epoch(k + 1));
+        let ((sa, ba), (sb, bb)) = tokio::join!(a.upload(SITE, &ea), b.upload(SITE, &eb));
+        assert_eq!((sa, sb), (201, 201), "{} {}", ba["error"], bb["error"]);
+    }
+    assert_eq!(b.upload(SITE, &epoch(EPOCHS - 2)).await.0, 201);
+    // A new epoch to both nodes at once: stored once, the other answer is the stored epoch.
+    let last = epoch(EPOCHS - 1);
+    let ((s1, e1), (s2, e2)) = tokio::join!(a.upload(SITE, &last), b.upload(SITE, &last));
+    let mut statuses = [s1, s2];
+    statuses.sort();
+    assert_eq!(statuses, [200, 201], "{} {}", e1["error"], e2["error"]);
+    assert_eq!(e1["epoch"], e2["epoch"]);
+
+    let (_, epochs) = a
+        .get(&format!("/api/v1/sites/{SITE}/epochs?limit=100"))
+        .await;
+    assert_eq!(epochs["items"].as_array().unwrap().len(), EPOCHS);
+    let (from_a, from_b) = (answers(&a).await, answers(&b).await);
+    for (path, want) in &from_a {
+        assert_same(&format!("{path} from the second node"), &from_b[path], want);
+    }
+    assert!(
+        from_a["alerts"].contains("\"alarm\""),
+        "{}",
+        from_a["alerts"]
+    );
+
+    // Every message delivered, each exactly once, through the receiver's first 503s.
+    let pending = || async {
+        let n: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM webhook_deliveries WHERE state = 'pending'")
+                .fetch_one(a.store.reader())
+                .await
+                .unwrap();
+        n
+    };
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while pending().await > 0 {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "deliveries still pending"
+        );
+        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+    }
+    let messages: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM webhook_outbox")
+        .fetch_one(a.store.reader())
+        .await
+        .unwrap();
+    assert!(messages >= 8, "only {messages} messages");
+    let log = receiver.log.lock().unwrap().clone();
+    let mut accepted: BTreeMap<String, usize> = BTreeMap::new();
+    for r in log.iter().filter(|r| r.accepted) {
+        *accepted.entry(r.id.clone()).or_default() += 1;
+    }
+    assert_eq!(accepted.len() as i64, messages);
+    let twice: Vec<_> = accepted.iter().filter(|(_, n)| **n > 1).collect();
+    assert!(twice.is_empty(), "delivered more than once: {twice:?}");
+    assert_eq!(
+        receiver
+            .bad_signatures
+            .load(std::sync::atomic::Ordering::SeqCst),
+        0
+    );
+    a.stop().await;
+    b.stop().await;
+}
+
+/// The plot of a long history from PostgreSQL reads the blocks' extremes as SQLite does
+/// ([`plot_support::long_history_plot`]).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn long_history_plot_on_postgres() {
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("plot");
+    let pg = TestServer::start(move |c| c.database_url = Some(url)).await;
+    assert_eq!(pg.store.backend(), cliffwatch::store::Backend::Postgres);
+    plot_support::long_history_plot(&pg.store, &pg.url("")).await;
+    pg.stop().await;
+}

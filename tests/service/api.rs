@@ -1,0 +1,692 @@
+//! The HTTP API against a real server (in process, ephemeral port, temporary data dir): uploads of
+//! the paper epochs, read-back, idempotency, conflicts, rejections that store nothing, auth.
+
+use crate::service_support;
+
+use cliffwatch::config::{Role, TokenConfig};
+use cliffwatch::photogrammetry::{adjust, AdjustOptions, EpochInput};
+use serde_json::{json, Value};
+use service_support::{paper, TestServer, PAPER};
+
+#[tokio::test]
+async fn paper_epochs_upload_and_read_back() {
+    let s = TestServer::start(|_| {}).await;
+    s.create_site("paper").await;
+    // The first epoch of the site has no history: the stored coordinates are adjust()'s exactly.
+    let first = paper(PAPER[0]);
+    let (status, summary) = s.upload("paper", &first).await;
+    assert_eq!(status, 201, "{summary}");
+    assert_eq!(summary["id"], 1);
+    assert!(summary["sigma0_mm"].is_number() && summary["cameras"][0]["c_mm"].is_number());
+    let input: EpochInput = serde_json::from_value(first.clone()).unwrap();
+    let expected = adjust(&input, &AdjustOptions::default()).unwrap();
+    let (_, full) = s.get("/api/v1/sites/paper/epochs/1").await;
+    // the stored coordinates are adjust()'s points, bit for bit (read from the database: JSON
+    // parsing without serde_json's float_roundtrip may move the last bit)
+    let stored = cliffwatch::store::points::epoch_coordinates(s.store.reader(), "paper", 1)
+        .await
+        .unwrap();
+    assert_eq!(stored.len(), expected.points.len());
+    for p in &expected.points {
+        let c = stored.iter().find(|c| c.point == p.name).unwrap();
+        assert_eq!(c.xyz, p.xyz, "point {}", p.name);
+        for i in 0..3 {
+            for j in i..3 {
+                assert_eq!(
+                    c.covariance_m2[i][j], p.covariance_m2[i][j],
+                    "point {} covariance (upper triangle)",
+                    p.name
+                );
+            }
+        }
+    }
+    // the stored report is adjust()'s report
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1.0);
+    for p in &expected.report.points {
+        let got = full["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|q| q["point"] == p.point.as_str())
+            .unwrap();
+        assert!(
+            close(got["X"].as_f64().unwrap(), p.X)
+                && close(got["Y"].as_f64().unwrap(), p.Y)
+                && close(got["Z"].as_f64().unwrap(), p.Z),
+            "point {}",
+            p.point
+        );
+    }
+    assert!(close(
+        full["sigma0_mm"].as_f64().unwrap(),
+        expected.report.sigma0_mm
+    ));
+    let residuals = full["residuals"].as_array().unwrap();
+    assert_eq!(
+        residuals.len(),
+        input
+            .images
+            .iter()
+            .map(|i| i.observations.len())
+            .sum::<usize>()
+    );
+    let (_, points) = s.get("/api/v1/sites/paper/points").await;
+    for p in &expected.points {
+        let item = points["items"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|q| q["point"] == p.name.as_str())
+            .unwrap();
+        let latest = &item["latest"];
+        assert!(
+            close(latest["X"].as_f64().unwrap(), p.xyz[0])
+                && close(latest["Z"].as_f64().unwrap(), p.xyz[2])
+        );
+        let sx = (p.covariance_m2[0][0]).sqrt() * 1000.0;
+        assert!((item["latest"]["sigma_X_mm"].as_f64().unwrap() - sx).abs() < 1e-12);
+    }
+
+    for (k, name) in PAPER.iter().enumerate().skip(1) {
+        let (status, summary) = s.upload("paper", &paper(name)).await;
+        assert_eq!(status, 201, "{name}: {summary}");
+        assert_eq!(summary["id"], k as i64 + 1);
+    }
+    let (status, epochs) = s.get("/api/v1/sites/paper/epochs").await;
+    assert_eq!(status, 200);
+    let items = epochs["items"].as_array().unwrap();
+    assert_eq!(items.len(), 9);
+    assert_eq!(
+        items[0]["observed_at"], "2000-03-20T00:00:00Z",
+        "newest first"
+    );
+    assert!(epochs["next_cursor"].is_null());
+    let (_, page) = s.get("/api/v1/sites/paper/epochs?limit=4").await;
+    assert_eq!(page["items"].as_array().unwrap().len(), 4);
+    let cursor = page["next_cursor"].as_str().unwrap().to_string();
+    let (_, page2) = s
+        .get(&format!(
+            "/api/v1/sites/paper/epochs?limit=4&cursor={cursor}"
+        ))
+        .await;
+    assert_eq!(page2["items"][0]["id"], items[4]["id"]);
+
+    let (status, series) = s.get("/api/v1/sites/paper/points/5/displacements").await;
+    assert_eq!(status, 200);
+    let rows = series["items"].as_array().unwrap();
+    assert_eq!(rows.len(), 9);
+    assert_eq!(rows[0]["epoch"], 1);
+    assert_eq!(rows[0]["d_mm"], 0.0);
+    assert!(
+        rows.windows(2)
+            .all(|w| w[0]["observed_at"].as_str() < w[1]["observed_at"].as_str()),
+        "oldest first"
+    );
+    // displacement against the reference epoch, in mm, in the reference datum
+    let (_, e9) = s.get("/api/v1/sites/paper/epochs/9").await;
+    let p9 = e9["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|q| q["point"] == "5")
+        .unwrap();
+    let p1 = full["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|q| q["point"] == "5")
+        .unwrap();
+    let dx = (p9["X"].as_f64().unwrap() - p1["X"].as_f64().unwrap()) * 1000.0;
+    // The paper epochs observe one unmoved object: after the analysis' datum transformation (IWST:
+    // no point is stable) the displacement is noise, not the raw coordinate difference between the
+    // cases' datums.
+    let got = rows[8]["dx_mm"].as_f64().unwrap();
+    let sigma = rows[8]["sigma_dx_mm"].as_f64().unwrap();
+    assert!(
+        sigma > 0.0 && got.abs() <= 3.0 * sigma,
+        "dx {got} ± {sigma} mm"
+    );
+    assert!(
+        (got - dx).abs() > 0.0,
+        "the datum transformation applied (raw {dx} mm)"
+    );
+
+    let r = s
+        .client
+        .get(s.url("/api/v1/sites/paper/points/5/displacements?format=csv&from=2000-02-01"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    assert!(r.headers()["content-type"]
+        .to_str()
+        .unwrap()
+        .starts_with("text/csv"));
+    let text = r.text().await.unwrap();
+    assert!(text.starts_with("epoch,observed_at,dx_mm"));
+    assert_eq!(text.lines().count(), 1 + 6);
+
+    // direction of interest, then reference change
+    let r = s
+        .client
+        .put(s.url("/api/v1/sites/paper/points/5"))
+        .json(&json!({"role": "monitored", "direction": [0.0, -1.0, 0.0]}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let (_, series) = s.get("/api/v1/sites/paper/points/5/displacements").await;
+    assert!(series["items"][8]["d_along_mm"].is_number());
+    let r = s
+        .client
+        .put(s.url("/api/v1/sites/paper/reference"))
+        .json(&json!({"epoch": 9}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let (_, series) = s.get("/api/v1/sites/paper/points/5/displacements").await;
+    assert_eq!(series["items"][8]["d_mm"], 0.0);
+    assert_eq!(series["items"][0]["reference_epoch"], 9);
+    let (status, _) = s.get("/api/v1/sites/paper/points/nope/displacements").await;
+    assert_eq!(status, 404);
+    let (status, _) = s.get("/api/v1/sites/paper/epochs/99").await;
+    assert_eq!(status, 404);
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn same_body_is_idempotent_other_body_conflicts() {
+    let s = TestServer::start(|_| {}).await;
+    s.create_site("idem").await;
+    let body = paper("paper-case3-seed102");
+    let (status, first) = s.upload("idem", &body).await;
+    assert_eq!(status, 201, "{first}");
+    let before = s.snapshot().await;
+    let (status, again) = s.upload("idem", &body).await;
+    assert_eq!(status, 200);
+    assert_eq!(again, first, "the same result");
+    // Bodies compare as parsed JSON: another layout of the same JSON is the same body.
+    let pretty = serde_json::to_string_pretty(&body).unwrap();
+    let r = s
+        .client
+        .post(s.url("/api/v1/sites/idem/epochs"))
+        .header("content-type", "application/json")
+        .body(pretty)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let mut other = body.clone();
+    let x = other["images"][0]["observations"][0]["x_mm"]
+        .as_f64()
+        .unwrap();
+    other["images"][0]["observations"][0]["x_mm"] = json!(x + 0.0005);
+    let (status, err) = s.upload("idem", &other).await;
+    assert_eq!(status, 409, "{err}");
+    assert_eq!(err["error"]["code"], "conflict");
+    assert_eq!(s.snapshot().await, before, "nothing stored");
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn rejections_store_nothing() {
+    let s = TestServer::start(|c| c.body_limit_bytes = 1 << 20).await;
+    s.create_site("rej").await;
+    let good = paper("paper-case3-seed101");
+    assert_eq!(s.upload("rej", &good).await.0, 201);
+    let before = s.snapshot().await;
+    let post = |body: Vec<u8>| {
+        s.client
+            .post(s.url("/api/v1/sites/rej/epochs"))
+            .header("content-type", "application/json")
+            .body(body)
+            .send()
+    };
+
+    let r = post(br#"{"observed_at": "2001-01-01T00:00:00Z", "images": ["#.to_vec())
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 400);
+    let e: Value = r.json().await.unwrap();
+    assert_eq!(e["error"]["code"], "bad_request");
+
+    // a point seen in one image only, no approximations: cannot be adjusted → 422 naming it
+    let mut bad = good.clone();
+    bad["observed_at"] = json!("2001-02-01T00:00:00Z");
+    bad["images"][1]["observations"] =
+        json!(bad["images"][1]["observations"].as_array().unwrap()[..2]);
+    bad.as_object_mut().unwrap().remove("approx");
+    let (status, e) = s.upload("rej", &bad).await;
+    assert_eq!(status, 422, "{e}");
+    let msg = e["error"]["message"].as_str().unwrap();
+    assert!(msg.contains("image '") || msg.contains("point '"), "{msg}");
+
+    // schema errors: unknown camera, duplicate observation, missing field
+    let mut unknown = good.clone();
+    unknown["observed_at"] = json!("2001-03-01T00:00:00Z");
+    unknown["images"][0]["camera"] = json!("nikon");
+    let (status, e) = s.upload("rej", &unknown).await;
+    assert_eq!(status, 422);
+    assert!(e["error"]["message"].as_str().unwrap().contains("nikon"));
+    let mut dup = good.clone();
+    dup["observed_at"] = json!("2001-04-01T00:00:00Z");
+    let o = dup["images"][0]["observations"][0].clone();
+    dup["images"][0]["observations"]
+        .as_array_mut()
+        .unwrap()
+        .push(o);
+    assert_eq!(s.upload("rej", &dup).await.0, 422);
+    let (status, _) = s.upload("rej", &json!({"images": []})).await;
+    assert_eq!(status, 422);
+
+    let r = post(vec![b' '; (1 << 20) + 10]).await.unwrap();
+    assert_eq!(r.status(), 413);
+    let e: Value = r.json().await.unwrap();
+    assert_eq!(e["error"]["code"], "payload_too_large");
+
+    let (status, _) = s.upload("nosuchsite", &good).await;
+    assert_eq!(status, 404);
+    assert_eq!(
+        s.snapshot().await,
+        before,
+        "nothing stored by any rejection"
+    );
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn tokens_and_roles() {
+    let s = TestServer::start(|c| {
+        c.tokens = vec![
+            TokenConfig {
+                token: "r".repeat(20),
+                role: Role::Read,
+            },
+            TokenConfig {
+                token: "u".repeat(20),
+                role: Role::Upload,
+            },
+            TokenConfig {
+                token: "a".repeat(20),
+                role: Role::Admin,
+            },
+        ]
+    })
+    .await;
+    let site = json!({"id": "auth"});
+    let post = |token: Option<String>| {
+        let mut r = s.client.post(s.url("/api/v1/sites")).json(&site);
+        if let Some(t) = token {
+            r = r.bearer_auth(t);
+        }
+        r.send()
+    };
+    assert_eq!(post(None).await.unwrap().status(), 401);
+    assert_eq!(post(Some("wrong".into())).await.unwrap().status(), 401);
+    assert_eq!(post(Some("r".repeat(20))).await.unwrap().status(), 403);
+    assert_eq!(post(Some("u".repeat(20))).await.unwrap().status(), 403);
+    let before = s.snapshot().await;
+    let r = s
+        .client
+        .post(s.url("/api/v1/sites/auth/epochs"))
+        .bearer_auth("r".repeat(20))
+        .json(&paper(PAPER[0]))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 403);
+    let e: Value = r.json().await.unwrap();
+    assert_eq!(e["error"]["code"], "forbidden");
+    assert_eq!(s.snapshot().await, before);
+    assert_eq!(post(Some("a".repeat(20))).await.unwrap().status(), 201);
+    let r = s.client.get(s.url("/api/v1/sites")).send().await.unwrap();
+    assert_eq!(r.status(), 401);
+    let r = s
+        .client
+        .get(s.url("/api/v1/sites"))
+        .bearer_auth("r".repeat(20))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(
+        s.client
+            .get(s.url("/healthz"))
+            .send()
+            .await
+            .unwrap()
+            .status(),
+        200
+    );
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn health_metrics_openapi_and_request_ids() {
+    let s = TestServer::start(|_| {}).await;
+    assert_eq!(s.get("/healthz").await.0, 200);
+    assert_eq!(s.get("/readyz").await.0, 200);
+    let (status, doc) = s.get("/api/v1/openapi.json").await;
+    assert_eq!(status, 200);
+    for path in [
+        "/api/v1/sites/{site}/epochs",
+        "/api/v1/sites/{site}/points/{point}/displacements",
+        "/api/v1/alerts/{id}/ack",
+    ] {
+        assert!(doc["paths"].get(path).is_some(), "{path}");
+    }
+    let r = s.client.get(s.url("/metrics")).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    assert!(r.headers().contains_key("x-request-id"));
+    assert!(r.text().await.unwrap().contains("# TYPE"));
+    let (status, e) = s.get("/api/v1/sites/none").await;
+    assert_eq!(status, 404);
+    assert_eq!(e["error"]["code"], "not_found");
+    let (status, alerts) = s.get("/api/v1/alerts?state=open").await;
+    assert_eq!(status, 200);
+    assert_eq!(alerts, json!({"items": [], "next_cursor": null}));
+    assert_eq!(
+        s.client
+            .post(s.url("/api/v1/alerts/x/ack"))
+            .json(&json!({"by": "me"}))
+            .send()
+            .await
+            .unwrap()
+            .status(),
+        404
+    );
+    let r = s.client.post(s.url("/api/v1/webhooks")).json(&json!({"url": "http://127.0.0.1:9/hook", "secret": "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw"})).send().await.unwrap();
+    assert_eq!(r.status(), 201);
+    let (_, hooks) = s.get("/api/v1/webhooks").await;
+    assert_eq!(hooks["items"].as_array().unwrap().len(), 1);
+    assert!(hooks["items"][0].get("secret").is_none());
+    assert_eq!(hooks["items"][0]["format"], "standard");
+    let r = s.client.post(s.url("/api/v1/webhooks")).json(&json!({"url": "http://127.0.0.1:9/am", "secret": "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw", "format": "alertmanager_api_v2"})).send().await.unwrap();
+    assert_eq!(r.status(), 201);
+    let created: Value = r.json().await.unwrap();
+    assert_eq!(created["format"], "alertmanager_api_v2");
+    let r = s.client.post(s.url("/api/v1/webhooks")).json(&json!({"url": "http://127.0.0.1:9/am", "secret": "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw", "format": "prometheus"})).send().await.unwrap();
+    assert_eq!(r.status(), 422);
+    let e: Value = r.json().await.unwrap();
+    assert!(
+        e["error"]["message"].as_str().unwrap().contains("format"),
+        "{e}"
+    );
+    let (_, hooks) = s.get("/api/v1/webhooks").await;
+    assert_eq!(hooks["items"].as_array().unwrap().len(), 2);
+    s.stop().await;
+}
+
+#[tokio::test]
+async fn csv_upload_uses_the_site_cameras() {
+    let s = TestServer::start(|_| {}).await;
+    s.create_site("csv").await;
+    // Before any JSON epoch the site has no cameras: a state conflict, not a bad body.
+    let r = s
+        .client
+        .post(s.url("/api/v1/sites/csv/epochs?observed_at=2000-03-18T00:00:00Z"))
+        .header("content-type", "text/csv")
+        .body("image,point,x_mm,y_mm\n")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 409);
+    let e: Value = r.json().await.unwrap();
+    assert_eq!(e["error"]["code"], "no_cameras");
+    let first = paper(PAPER[6]);
+    assert_eq!(s.upload("csv", &first).await.0, 201);
+    let second = paper(PAPER[7]);
+    let mut text = String::from("image,point,x_mm,y_mm\n");
+    for im in second["images"].as_array().unwrap() {
+        for o in im["observations"].as_array().unwrap() {
+            text += &format!(
+                "{},{},{},{}\n",
+                im["id"].as_str().unwrap(),
+                o["point"].as_str().unwrap(),
+                o["x_mm"],
+                o["y_mm"]
+            );
+        }
+    }
+    let url = s.url("/api/v1/sites/csv/epochs?observed_at=2000-03-19T00:00:00Z");
+    let r = s
+        .client
+        .post(&url)
+        .header("content-type", "text/csv")
+        .body(text.clone())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201, "{}", r.text().await.unwrap());
+    let r = s
+        .client
+        .post(&url)
+        .header("content-type", "text/csv")
+        .body(text)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let r = s
+        .client
+        .post(&url)
+        .header("content-type", "text/csv")
+        .body("A,1,x,y\n")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 400);
+    s.stop().await;
+}
+
+/// Follows `$ref`s of the OpenAPI document to the schema itself.
+fn resolve<'a>(doc: &'a Value, schema: &'a Value) -> &'a Value {
+    match schema["$ref"].as_str() {
+        Some(r) => {
+            let name = r.trim_start_matches("#/components/schemas/");
+            resolve(doc, &doc["components"]["schemas"][name])
+        }
+        None => schema,
+    }
+}
+
+/// The property names of an object schema (through `$ref` and `allOf`).
+fn properties(doc: &Value, schema: &Value) -> Vec<String> {
+    let s = resolve(doc, schema);
+    let mut names: Vec<String> = s["properties"]
+        .as_object()
+        .map(|p| p.keys().cloned().collect())
+        .unwrap_or_default();
+    for part in s["allOf"].as_array().into_iter().flatten() {
+        names.extend(properties(doc, part));
+    }
+    names
+}
+
+#[tokio::test]
+async fn openapi_describes_every_contract_endpoint_with_schemas() {
+    let s = TestServer::start(|_| {}).await;
+    let (status, doc) = s.get("/api/v1/openapi.json").await;
+    assert_eq!(status, 200);
+    // (method, path, success status, list endpoint, request body)
+    let endpoints = [
+        ("get", "/healthz", "200", false, false),
+        ("get", "/readyz", "200", false, false),
+        ("get", "/metrics", "200", false, false),
+        ("post", "/api/v1/sites", "201", false, true),
+        ("get", "/api/v1/sites", "200", true, false),
+        ("get", "/api/v1/sites/{site}", "200", false, false),
+        ("post", "/api/v1/sites/{site}/epochs", "201", false, true),
+        ("get", "/api/v1/sites/{site}/epochs", "200", true, false),
+        (
+            "get",
+            "/api/v1/sites/{site}/epochs/{epoch}",
+            "200",
+            false,
+            false,
+        ),
+        ("put", "/api/v1/sites/{site}/reference", "200", false, true),
+        ("get", "/api/v1/sites/{site}/points", "200", true, false),
+        (
+            "put",
+            "/api/v1/sites/{site}/points/{point}",
+            "200",
+            false,
+            true,
+        ),
+        (
+            "get",
+            "/api/v1/sites/{site}/points/{point}/displacements",
+            "200",
+            true,
+            false,
+        ),
+        ("get", "/api/v1/alerts", "200", true, false),
+        ("post", "/api/v1/alerts/{id}/ack", "200", false, true),
+        ("post", "/api/v1/webhooks", "201", false, true),
+        ("get", "/api/v1/webhooks", "200", true, false),
+    ];
+    for (method, path, ok, list, request) in endpoints {
+        let op = &doc["paths"][path][method];
+        assert!(op.is_object(), "{method} {path} missing");
+        let content = &op["responses"][ok]["content"];
+        let (media, body) = content
+            .as_object()
+            .and_then(|c| c.iter().next())
+            .unwrap_or_else(|| panic!("{method} {path}: no {ok} response schema"));
+        let schema = &body["schema"];
+        assert!(
+            schema.is_object(),
+            "{method} {path}: {media} without schema"
+        );
+        if media == "application/json" {
+            let props = properties(&doc, schema);
+            assert!(!props.is_empty(), "{method} {path}: no properties");
+            if list {
+                assert!(
+                    props.contains(&"items".to_string())
+                        && props.contains(&"next_cursor".to_string()),
+                    "{method} {path}: not the list shape: {props:?}"
+                );
+                let item = &resolve(&doc, schema)["properties"]["items"]["items"];
+                assert!(
+                    !properties(&doc, item).is_empty(),
+                    "{method} {path}: list items without a schema"
+                );
+            }
+        }
+        if request {
+            assert!(
+                op["requestBody"]["content"]["application/json"]["schema"].is_object(),
+                "{method} {path}: no request schema"
+            );
+        }
+        // every error answer names the error body
+        for (code, r) in op["responses"].as_object().unwrap() {
+            if code.starts_with('4') || code.starts_with('5') {
+                assert!(
+                    r["content"]["application/json"]["schema"].is_object(),
+                    "{method} {path} {code}: no error schema"
+                );
+            }
+        }
+    }
+    // the webhook schemas name the body formats
+    for name in ["NewWebhook", "Webhook"] {
+        let format = &doc["components"]["schemas"][name]["properties"]["format"];
+        assert_eq!(
+            format["enum"],
+            json!(["standard", "alertmanager_webhook", "alertmanager_api_v2"]),
+            "{name}.format: {format}"
+        );
+    }
+    // the documented upload form names every field the paper epochs use
+    let form = &doc["paths"]["/api/v1/sites/{site}/epochs"]["post"]["requestBody"]["content"]
+        ["application/json"]["schema"];
+    let epoch = paper(PAPER[0]);
+    let top = properties(&doc, form);
+    let form = resolve(&doc, form);
+    for (key, value) in epoch.as_object().unwrap() {
+        assert!(top.contains(key), "upload form lacks '{key}'");
+        if let Some(first) = value.as_array().and_then(|a| a.first()) {
+            let item = &form["properties"][key]["items"];
+            let names = properties(&doc, item);
+            for k in first.as_object().unwrap().keys() {
+                assert!(names.contains(k), "upload form: {key} lacks '{k}'");
+            }
+        }
+    }
+    s.stop().await;
+}
+
+/// What the OpenAPI document promises of bodies: an object (an array is refused although serde
+/// would read a struct from one), integers also written as integral floats, bounds that hold
+/// after parsing.
+#[tokio::test]
+async fn bodies_are_objects_integers_may_be_integral_floats() {
+    let s = TestServer::start(|_| {}).await;
+    s.create_site("b").await;
+    assert_eq!(s.upload("b", &paper(PAPER[6])).await.0, 201);
+    let send = |method: reqwest::Method, path: &str, body: Value| {
+        s.client.request(method, s.url(path)).json(&body).send()
+    };
+    let status = |r: reqwest::Response| r.status().as_u16();
+    let put = reqwest::Method::PUT;
+    let post = reqwest::Method::POST;
+    let r = send(put.clone(), "/api/v1/sites/b/points/1", json!([null, null]));
+    assert_eq!(status(r.await.unwrap()), 422);
+    let r = send(
+        put.clone(),
+        "/api/v1/sites/b/points/1",
+        json!({"role": "stable"}),
+    );
+    assert_eq!(status(r.await.unwrap()), 200);
+    let r = send(
+        put.clone(),
+        "/api/v1/sites/b/reference",
+        json!({"epoch": 1.0}),
+    );
+    assert_eq!(status(r.await.unwrap()), 200);
+    let r = send(
+        put.clone(),
+        "/api/v1/sites/b/reference",
+        json!({"epoch": 1.5}),
+    );
+    assert_eq!(status(r.await.unwrap()), 422);
+    let r = send(
+        put.clone(),
+        "/api/v1/sites/b/reference",
+        json!({"epoch": 99.0}),
+    );
+    assert_eq!(status(r.await.unwrap()), 404);
+    let rule = |for_epochs: Value| {
+        json!({"id": "r", "alert_rules": [{"level": "watch", "metric": "displacement_mm",
+               "above": 5.0, "for_epochs": for_epochs}]})
+    };
+    for (body, want) in [
+        (rule(json!(2.0)), 201),
+        (rule(json!(0)), 422),
+        (rule(json!(1001)), 422),
+        (json!({"id": "h", "schedule_hours": -1.0}), 422),
+        (json!({"id": "h", "schedule_hours": 24}), 201),
+        (json!({"id": "c", "confidence": 0.999}), 201),
+    ] {
+        let r = send(post.clone(), "/api/v1/sites", body.clone())
+            .await
+            .unwrap();
+        assert_eq!(status(r), want, "{body}");
+    }
+    // 0.99999999999999999 is below 1 as written but reads as 1.0: refused, as the document's
+    // maximum (0.999999) says.
+    let r = s
+        .client
+        .post(s.url("/api/v1/sites"))
+        .header("content-type", "application/json")
+        .body(r#"{"id": "d", "confidence": 0.99999999999999999}"#)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(status(r), 422);
+    s.stop().await;
+}

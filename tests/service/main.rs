@@ -1,0 +1,11 @@
+//! The HTTP API against a real server: uploads, series, concurrency, crashes.
+//!
+//! One test binary per area (each binary links the whole crate once); the files are its modules.
+
+#[path = "../service_support/mod.rs"]
+mod service_support;
+
+mod api;
+mod concurrency;
+mod crash;
+mod series;

@@ -1,0 +1,147 @@
+//! The watched directory end to end: rendered station images of the long-range scene + `epoch.json`
+//! with 4 seeds per station → detection, identification, ingestion, `.done/`; a second epoch without
+//! seeds from the orientations kept in the database; the same folder again is not ingested twice
+//! (content hashes in the database); a broken folder goes to `.failed/` with `error.txt`.
+
+use crate::service_support;
+use crate::watch_support;
+
+use std::path::Path;
+
+use cliffwatch::photogrammetry::input::epoch::ObservationInput;
+use cliffwatch::photogrammetry::EpochInput;
+use cliffwatch::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
+use cliffwatch::watch::{scan_once, WatchOptions};
+use service_support::TestServer;
+
+/// Writes `<dir>/<epoch>/` with one PNG per station (targets of 8 px where the scene observes them) and
+/// `epoch.json` keeping `seeds` observations per image (the corner-most ones).
+fn write_epoch(
+    dir: &Path,
+    epoch: &EpochInput,
+    name: &str,
+    observed_at: &str,
+    seeds: bool,
+    noise_seed: u64,
+) {
+    let folder = dir.join(name);
+    std::fs::create_dir_all(&folder).unwrap();
+    let cam = &epoch.cameras[0];
+    let (w, h) = (cam.width_px.unwrap(), cam.height_px.unwrap());
+    let mut upload = epoch.clone();
+    upload.observed_at = observed_at.into();
+    for (k, image) in upload.images.iter_mut().enumerate() {
+        let mut spec = ImageSpec::new(w, h, 8);
+        spec.supersample = 4;
+        spec.targets = image
+            .observations
+            .iter()
+            .map(|o| TargetTruth {
+                col: o.col.unwrap(),
+                row: o.row.unwrap(),
+                semi_major_px: 4.0,
+                semi_minor_px: 4.0,
+                angle_rad: 0.0,
+                contrast: 150.0,
+            })
+            .collect();
+        let img = render(&spec, noise_seed * 100 + k as u64).unwrap().image;
+        let station = image.station.clone().unwrap_or_else(|| image.id.clone());
+        std::fs::write(
+            folder.join(format!("{station}.png")),
+            encode_png(&img).unwrap(),
+        )
+        .unwrap();
+        let obs = std::mem::take(&mut image.observations);
+        if seeds {
+            let mut chosen: Vec<ObservationInput> = Vec::new();
+            for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                let best = obs
+                    .iter()
+                    .filter(|o| !chosen.iter().any(|c| c.point == o.point))
+                    .max_by(|a, b| {
+                        let f = |o: &ObservationInput| sx * o.col.unwrap() + sy * o.row.unwrap();
+                        f(a).total_cmp(&f(b))
+                    })
+                    .unwrap();
+                chosen.push(best.clone());
+            }
+            image.observations = chosen;
+        }
+    }
+    std::fs::write(
+        folder.join("epoch.json"),
+        serde_json::to_string(&upload).unwrap(),
+    )
+    .unwrap();
+    std::fs::write(folder.join("READY"), "").unwrap();
+}
+
+/// Folders taken (content hashes in the database) and stations with a kept orientation.
+async fn taken(store: &cliffwatch::store::Store) -> i64 {
+    sqlx::query_scalar("SELECT COUNT(*) FROM watch_folders WHERE site_id = 'kamo'")
+        .fetch_one(store.reader())
+        .await
+        .unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn watched_folders_are_detected_identified_ingested_once() {
+    let server = TestServer::start(|_| {}).await;
+    server.create_site("kamo").await;
+    let watch = tempfile::tempdir().unwrap();
+    let site = watch.path().join("kamo");
+    let epoch = watch_support::small_scene();
+    let opts = WatchOptions::new(watch.path().to_path_buf());
+
+    write_epoch(&site, &epoch, "e1", "2026-11-20T09:00:00Z", true, 1);
+    let r = scan_once(&server.store, &opts).await;
+    assert_eq!(r.len(), 1);
+    let dest = r[0].as_ref().unwrap();
+    let err = std::fs::read_to_string(dest.join("error.txt")).unwrap_or_default();
+    assert!(dest.starts_with(site.join(".done")), "{dest:?}: {err}");
+    assert_eq!(taken(&server.store).await, 1);
+    let stations: i64 =
+        sqlx::query_scalar("SELECT COUNT(*) FROM watch_orientations WHERE site_id = 'kamo'")
+            .fetch_one(server.store.reader())
+            .await
+            .unwrap();
+    assert_eq!(stations, 5, "orientations kept in the database");
+    assert!(!site.join(".state/orientations.json").exists());
+
+    // epoch 2: no seeds, identified from the kept orientations
+    write_epoch(&site, &epoch, "e2", "2026-11-21T09:00:00Z", false, 2);
+    let r = scan_once(&server.store, &opts).await;
+    let dest = r[0].as_ref().unwrap();
+    let err = std::fs::read_to_string(dest.join("error.txt")).unwrap_or_default();
+    assert!(dest.starts_with(site.join(".done")), "{dest:?}: {err}");
+    assert_eq!(taken(&server.store).await, 2);
+    let (status, body) = server.get("/api/v1/sites/kamo/epochs").await;
+    assert_eq!(status, 200, "{body}");
+    assert_eq!(body.to_string().matches("observed_at").count(), 2, "{body}");
+
+    // the same content again: not ingested twice
+    let again = site.join("e2-again");
+    std::fs::create_dir_all(&again).unwrap();
+    for f in std::fs::read_dir(dest).unwrap().flatten() {
+        std::fs::copy(f.path(), again.join(f.file_name())).unwrap();
+    }
+    let r = scan_once(&server.store, &opts).await;
+    assert!(r[0].as_ref().unwrap().starts_with(site.join(".done")));
+    assert_eq!(taken(&server.store).await, 2);
+
+    // broken: an image missing
+    write_epoch(&site, &epoch, "e3", "2026-11-22T09:00:00Z", false, 3);
+    let first = std::fs::read_dir(site.join("e3"))
+        .unwrap()
+        .flatten()
+        .find(|f| f.path().extension().is_some_and(|e| e == "png"))
+        .unwrap();
+    std::fs::remove_file(first.path()).unwrap();
+    let r = scan_once(&server.store, &opts).await;
+    let dest = r[0].as_ref().unwrap();
+    assert!(dest.starts_with(site.join(".failed")), "{dest:?}");
+    let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
+    assert!(err.contains("no image file"), "{err}");
+    server.stop().await;
+}
