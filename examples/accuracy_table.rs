@@ -7,7 +7,7 @@
 //! ≈ 170 degrees of freedom) and index 3 is within 1.3 × that of the same data and model started
 //! from the true coordinates (the rigorous optimum).
 
-use cliffwatch::photogrammetry::{adjust, AdjustOptions, Model};
+use cliffwatch::photogrammetry::{adjust, AdjustError, AdjustOptions, Model};
 use cliffwatch::simulate::scenes::{long_range, with_true_approx, LongRangeParams};
 
 fn main() {
@@ -69,7 +69,7 @@ fn main() {
                             ));
                         }
                     }
-                    Err(e) => failures.push(format!("{seed}: error: {e}")),
+                    Err(e) => failures.push(format!("{seed}: {}", short(&e))),
                 }
             }
             i3s.sort_by(f64::total_cmp);
@@ -96,5 +96,20 @@ fn main() {
                 }
             );
         }
+    }
+}
+
+/// The kind of a failure, short enough for a table cell.
+fn short(e: &AdjustError) -> String {
+    match e {
+        AdjustError::NoConvergence { iterations, .. } => format!("not converged in {iterations}"),
+        AdjustError::Inconsistent {
+            sigma0_mm,
+            outliers,
+        } => {
+            format!("refused (σ0 {sigma0_mm:.4} mm, {outliers} beyond |w|)")
+        }
+        AdjustError::Singular(_) => "singular".into(),
+        other => format!("error: {other}"),
     }
 }
