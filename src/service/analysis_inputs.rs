@@ -11,7 +11,7 @@ use crate::analysis::{
 };
 use crate::store::displacements::{self, Displacement};
 use crate::store::sites::Site;
-use crate::store::{self, epochs, points, Connection, StoreError};
+use crate::store::{self, epochs, points, Connection, Store, StoreError};
 
 use super::ServiceError;
 
@@ -169,16 +169,21 @@ pub async fn reference_coordinates(
 
 /// The last `per_point` displacement records of every point observed before `before` (stored
 /// timestamp form), oldest first per point. One range scan of the primary key (site, point,
-/// observed_at) per point, so the cost does not grow with the length of the site's history.
+/// observed_at) per point, so the cost does not grow with the length of the site's history;
+/// on SQLite through the C API ([`displacements::recent_of_points`]: call it before `tx` writes
+/// displacements of `site`).
 pub async fn history(
+    store: &Store,
     tx: &mut Connection,
     site: &str,
     before: &str,
     per_point: usize,
 ) -> Result<History, StoreError> {
+    let names = points::names(&mut *tx, site).await?;
     let mut out: History = HashMap::new();
-    for point in points::names(&mut *tx, site).await? {
-        let mut rows = displacements::recent(&mut *tx, site, &point, before, per_point).await?;
+    for (point, mut rows) in
+        displacements::recent_of_points(store, tx, site, names, before, per_point).await?
+    {
         rows.reverse();
         let records: Vec<DisplacementRecord> =
             rows.iter().filter_map(Displacement::to_record).collect();

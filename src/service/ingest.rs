@@ -145,7 +145,7 @@ pub async fn ingest_with_identification(
         identification: identification.as_ref(),
     };
     let epoch = epochs::insert(&mut tx, &record).await?;
-    let derived = derive(&mut tx, &site, epoch, &observed_at, &adjustment).await?;
+    let derived = derive(store, &mut tx, &site, epoch, &observed_at, &adjustment).await?;
     displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
     block_motions::insert(&mut tx, &site.id, &derived.block_motions).await?;
     tx.commit().await.map_err(store::StoreError::from)?;
@@ -191,7 +191,9 @@ pub struct Derived {
 }
 
 /// THE seam of the displacement analysis and the alert rules: runs inside the epoch's write
-/// transaction (history read from `tx` is consistent with what is written).
+/// transaction, which holds the site's write lock, so the history it reads (from `tx`, or on
+/// SQLite from the last commit, before `tx` writes this epoch's displacements) is consistent with
+/// what is written.
 ///
 /// Loads the reference epoch's coordinates (with the stable points' joint covariance), the point
 /// configurations and the history the windows need, runs [`crate::analysis::analyse_epoch`] on a
@@ -200,6 +202,7 @@ pub struct Derived {
 /// reference) is stored without displacements, with status `analysis_failed`, the reason in its
 /// report (`analysis_error`) and a site-level `analysis_failed` alert for the staff.
 async fn derive(
+    store: &Store,
     tx: &mut Connection,
     site: &Site,
     epoch: i64,
@@ -241,7 +244,7 @@ async fn derive(
         }
     };
     let reference_id = reference.epoch;
-    let history = history(tx, &site.id, observed_at, config.history_epochs()).await?;
+    let history = history(store, tx, &site.id, observed_at, config.history_epochs()).await?;
     let analysis = tokio::task::spawn_blocking(move || {
         analysis::analyse_epoch(&reference, &current, &points, &history, &config)
     })

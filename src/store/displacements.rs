@@ -2,7 +2,8 @@
 
 use sqlx::{AnyConnection, AnyExecutor};
 
-use super::{display_timestamp, StoreError};
+use super::sqlite_raw::{self, Param};
+use super::{display_timestamp, Connection, Store, StoreError};
 
 pub use super::displacement_row::Displacement;
 use super::displacement_row::{select_list, COLUMNS, HISTORY_COLUMNS};
@@ -179,6 +180,89 @@ pub async fn recent(
     .bind(n as i64)
     .fetch_all(db)
     .await?)
+}
+
+/// [`recent`] of each of `points` (newest first, one entry per point in order): the analysis'
+/// history of a new epoch.
+///
+/// SQLite reads through the C API on the native read pool ([`sqlite_raw`]): sqlx's per-value
+/// copies made this read most of an upload's time (28 points × 40 rows × 19 columns). That
+/// connection sees the last committed state, not `tx`'s own writes, so call it before `tx`
+/// writes displacements of `site`, while `tx` holds the write lock (SQLite's `BEGIN
+/// IMMEDIATE`: no other writer can commit in between). PostgreSQL reads in `tx`.
+pub async fn recent_of_points(
+    store: &Store,
+    tx: &mut Connection,
+    site: &str,
+    points: Vec<String>,
+    before: &str,
+    n: usize,
+) -> Result<Vec<(String, Vec<Displacement>)>, StoreError> {
+    let Some(pool) = store.sqlite_reader() else {
+        let mut out = Vec::with_capacity(points.len());
+        for point in points {
+            let rows = recent(&mut *tx, site, &point, before, n).await?;
+            out.push((point, rows));
+        }
+        return Ok(out);
+    };
+    let mut conn = pool.acquire().await?;
+    let (site, before) = (site.to_string(), before.to_string());
+    let sql = format!(
+        "SELECT {} FROM displacements WHERE site_id = $1 AND point = $2 \
+         AND observed_at < $3 ORDER BY observed_at DESC LIMIT $4",
+        select_list(HISTORY_COLUMNS, "")
+    );
+    let limit = i64::try_from(n).unwrap_or(i64::MAX);
+    tokio::task::spawn_blocking(move || {
+        let params: Vec<[Param<'_>; 4]> = points
+            .iter()
+            .map(|p| {
+                [
+                    Param::Text(&site),
+                    Param::Text(p),
+                    Param::Text(&before),
+                    Param::Int(limit),
+                ]
+            })
+            .collect();
+        let sets: Vec<&[Param<'_>]> = params.iter().map(|p| &p[..]).collect();
+        let mut rows: Vec<Vec<Displacement>> = vec![Vec::with_capacity(n); points.len()];
+        sqlite_raw::query_each(&mut conn, &sql, &sets, |k, row| {
+            rows[k].push(history_row(row));
+            true
+        })?;
+        Ok(points.into_iter().zip(rows).collect())
+    })
+    .await
+    .map_err(super::series::reader_failed)?
+}
+
+/// A row of [`HISTORY_COLUMNS`] read through the C API (the columns not read stay `None`).
+fn history_row(row: &sqlite_raw::Row) -> Displacement {
+    let text = |i| String::from_utf8_lossy(row.text(i)).into_owned();
+    Displacement {
+        point: text(0),
+        epoch: row.int(1),
+        observed_at: text(2),
+        reference_epoch: row.int(3),
+        dx_mm: row.double(4),
+        dy_mm: row.double(5),
+        dz_mm: row.double(6),
+        d_mm: row.double(7),
+        sigma_dx_mm: row.double(8),
+        sigma_dy_mm: row.double(9),
+        sigma_dz_mm: row.double(10),
+        sigma_mm: row.double(11),
+        d_along_mm: row.opt_double(12),
+        significant: row.int(13) != 0,
+        velocity_mm_per_day: row.opt_double(14),
+        time_to_failure_hours: row.opt_double(15),
+        cov_dxdy_mm2: row.opt_double(16),
+        cov_dxdz_mm2: row.opt_double(17),
+        cov_dydz_mm2: row.opt_double(18),
+        ..Displacement::default()
+    }
 }
 
 /// The displacements of one epoch.

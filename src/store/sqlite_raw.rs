@@ -135,6 +135,18 @@ pub fn query(
     params: &[Param<'_>],
     mut each: impl FnMut(&Row) -> bool,
 ) -> Result<(), StoreError> {
+    query_each(conn, sql, &[params], |_, row| each(row))
+}
+
+/// [`query`] of one statement, prepared once, run with each of `param_sets` in turn; `each`
+/// gets the index of the parameter set and the row, and returns `false` to stop that run (the
+/// next set runs).
+pub fn query_each(
+    conn: &mut PoolConnection<Sqlite>,
+    sql: &str,
+    param_sets: &[&[Param<'_>]],
+    mut each: impl FnMut(usize, &Row) -> bool,
+) -> Result<(), StoreError> {
     let runtime = tokio::runtime::Handle::current();
     let mut locked = runtime.block_on(conn.lock_handle())?;
     let db = locked.as_raw_handle().as_ptr();
@@ -161,42 +173,49 @@ pub fn query(
         return Ok(()); // empty statement
     }
     let stmt = Statement(raw);
-    for (k, p) in params.iter().enumerate() {
-        let i = k as c_int + 1;
-        // SAFETY: live statement; text is copied by SQLite (`SQLITE_TRANSIENT`).
-        let rc = unsafe {
-            match *p {
-                Param::Text(s) => ffi::sqlite3_bind_text(
-                    stmt.0,
-                    i,
-                    s.as_ptr() as *const c_char,
-                    c_int::try_from(s.len()).unwrap_or(c_int::MAX),
-                    ffi::SQLITE_TRANSIENT(),
-                ),
-                Param::Int(v) => ffi::sqlite3_bind_int64(stmt.0, i, v),
-            }
-        };
-        if rc != ffi::SQLITE_OK {
-            return Err(error(db, rc, "bind"));
-        }
-    }
     // SAFETY: live statement.
     let columns = unsafe { ffi::sqlite3_column_count(stmt.0) };
     let row = Row {
         stmt: stmt.0,
         columns,
     };
-    loop {
-        // SAFETY: live statement, stepped only here, on this thread.
-        let rc = unsafe { ffi::sqlite3_step(stmt.0) };
-        match rc {
-            ffi::SQLITE_ROW => {
-                if !each(&row) {
-                    break;
+    for (set, params) in param_sets.iter().enumerate() {
+        // SAFETY: live statement, not stepping (fresh, or reset after its last run).
+        unsafe {
+            ffi::sqlite3_reset(stmt.0);
+            ffi::sqlite3_clear_bindings(stmt.0);
+        }
+        for (k, p) in params.iter().enumerate() {
+            let i = k as c_int + 1;
+            // SAFETY: live statement; text is copied by SQLite (`SQLITE_TRANSIENT`).
+            let rc = unsafe {
+                match *p {
+                    Param::Text(s) => ffi::sqlite3_bind_text(
+                        stmt.0,
+                        i,
+                        s.as_ptr() as *const c_char,
+                        c_int::try_from(s.len()).unwrap_or(c_int::MAX),
+                        ffi::SQLITE_TRANSIENT(),
+                    ),
+                    Param::Int(v) => ffi::sqlite3_bind_int64(stmt.0, i, v),
                 }
+            };
+            if rc != ffi::SQLITE_OK {
+                return Err(error(db, rc, "bind"));
             }
-            ffi::SQLITE_DONE => break,
-            _ => return Err(error(db, rc, "step")),
+        }
+        loop {
+            // SAFETY: live statement, stepped only here, on this thread.
+            let rc = unsafe { ffi::sqlite3_step(stmt.0) };
+            match rc {
+                ffi::SQLITE_ROW => {
+                    if !each(set, &row) {
+                        break;
+                    }
+                }
+                ffi::SQLITE_DONE => break,
+                _ => return Err(error(db, rc, "step")),
+            }
         }
     }
     drop(stmt);
