@@ -234,7 +234,8 @@ impl Displacement {
 }
 
 /// The columns of a row the analysis reads back as history (all but the forecast's σ and the
-/// filtered values, which it recomputes).
+/// filtered values, which it recomputes). SQLite's fast read of the history
+/// (`displacements::history_row`) takes them by position, in this order.
 macro_rules! history_columns {
     () => {
         "point, epoch_id, observed_at, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
