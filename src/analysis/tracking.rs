@@ -102,9 +102,11 @@ pub fn track(
         sigma_f_time_to_failure_hours: None,
     };
     let z = normal_quantile(0.5 + 0.5 * config.confidence);
-    // A forecast only while the subject moves significantly; whether it accelerates is the
-    // forecast's own test (the law against a straight line).
-    let moving = f_d > z * s_d && along.v_mm_per_day > z * along.sigma_v_mm_per_day;
+    // A forecast only once the subject has moved significantly; whether it creeps and then
+    // accelerates is the forecast's own test (the onset against a straight line). The filter's
+    // velocity is not asked to be significant too: along the depth of a long-range network its σ
+    // (process noise included) held the forecast back until a day or two before failure.
+    let moving = f_d > z * s_d;
     let failure = if moving {
         forecast_smoothed(&meas, &kc, u, shared_mm2, config)
     } else {
