@@ -6,7 +6,7 @@ use crate::alerts_support;
 
 use std::time::{Duration, Instant};
 
-use alerts_support::{day, mark_stable, write_config, Daemon, Receiver, Scene};
+use alerts_support::{day, mark_stable, write_webhook_config, Daemon, Receiver, Scene};
 use reqwest::Method;
 use serde_json::{json, Value};
 
@@ -46,14 +46,7 @@ async fn wait_for(receiver: &Receiver, what: &str, f: impl Fn(&Value) -> bool) -
 async fn a_failed_analysis_raises_an_alert_and_says_why() {
     let dir = tempfile::tempdir().unwrap();
     let receiver = Receiver::start(0).await;
-    let config = write_config(
-        dir.path(),
-        &format!(
-            "[[webhooks]]\nurl = \"{}\"\nsecret = \"{}\"\nmin_level = \"watch\"\n",
-            receiver.url,
-            alerts_support::SECRET
-        ),
-    );
+    let config = write_webhook_config(dir.path(), &receiver.url);
     let daemon = Daemon::start(&dir.path().join("data"), &config).await;
     let scene = Scene { n: 16, stable: 8 };
     let (s, b) = daemon

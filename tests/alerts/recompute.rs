@@ -9,7 +9,8 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use alerts_support::{
-    create_site, day, mark_stable, outbox_events, write_config, Daemon, Receiver, Scene,
+    create_site, day, mark_stable, outbox_events, write_config, write_webhook_config, Daemon,
+    Receiver, Scene,
 };
 use reqwest::Method;
 use serde_json::{json, Value};
@@ -83,14 +84,7 @@ async fn series(d: &Daemon, site: &str, scene: &Scene) -> BTreeMap<String, Vec<V
 async fn reference_change_reevaluates_alerts_without_resending_history() {
     let dir = tempfile::tempdir().unwrap();
     let receiver = Receiver::start(0).await;
-    let config = write_config(
-        dir.path(),
-        &format!(
-            "[[webhooks]]\nurl = \"{}\"\nsecret = \"{}\"\nmin_level = \"watch\"\n",
-            receiver.url,
-            alerts_support::SECRET
-        ),
-    );
+    let config = write_webhook_config(dir.path(), &receiver.url);
     let data = dir.path().join("data");
     let d = Daemon::start(&data, &config).await;
     let scene = Scene { n: 16, stable: 8 };

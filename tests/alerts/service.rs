@@ -8,8 +8,8 @@ use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
 
 use alerts_support::{
-    create_site, day, mark_stable, outbox_ids, watch_block_moving, write_config, Daemon, Receiver,
-    Scene,
+    create_site, day, mark_stable, outbox_ids, watch_block_moving, write_config,
+    write_webhook_config, Daemon, Receiver, Scene,
 };
 use reqwest::Method;
 use serde_json::json;
@@ -44,14 +44,7 @@ async fn block_level(d: &Daemon) -> u8 {
 async fn series_alerts_and_webhooks_survive_503_and_sigkill() {
     let dir = tempfile::tempdir().unwrap();
     let receiver = Receiver::start(12).await;
-    let config = write_config(
-        dir.path(),
-        &format!(
-            "[[webhooks]]\nurl = \"{}\"\nsecret = \"{}\"\nmin_level = \"watch\"\n",
-            receiver.url,
-            alerts_support::SECRET
-        ),
-    );
+    let config = write_webhook_config(dir.path(), &receiver.url);
     let data = dir.path().join("data");
     let scene = Scene { n: 16, stable: 8 };
     let mut daemon = Daemon::start(&data, &config).await;
@@ -364,14 +357,7 @@ async fn gone_disables_the_endpoint() {
     receiver
         .gone
         .store(true, std::sync::atomic::Ordering::SeqCst);
-    let config = write_config(
-        dir.path(),
-        &format!(
-            "[[webhooks]]\nurl = \"{}\"\nsecret = \"{}\"\nmin_level = \"watch\"\n",
-            receiver.url,
-            alerts_support::SECRET
-        ),
-    );
+    let config = write_webhook_config(dir.path(), &receiver.url);
     let data = dir.path().join("data");
     let scene = Scene { n: 16, stable: 8 };
     let daemon = Daemon::start(&data, &config).await;

@@ -130,6 +130,14 @@ pub fn write_config(dir: &Path, extra: &str) -> PathBuf {
     path
 }
 
+/// [`write_config`] with one webhook to `url`, signed with [`SECRET`], from the watch level up.
+pub fn write_webhook_config(dir: &Path, url: &str) -> PathBuf {
+    write_config(
+        dir,
+        &format!("[[webhooks]]\nurl = \"{url}\"\nsecret = \"{SECRET}\"\nmin_level = \"watch\"\n"),
+    )
+}
+
 /// One message the receiver accepted (answered 2xx) or refused.
 #[derive(Debug, Clone)]
 pub struct Received {
@@ -251,15 +259,20 @@ impl Receiver {
     }
 }
 
-/// `enabled` of every webhook endpoint in a data directory's database (read-only).
-pub async fn endpoints_enabled(data_dir: &Path) -> Vec<bool> {
+/// A read-only connection to a data directory's database.
+async fn read_only_database(data_dir: &Path) -> sqlx::SqliteConnection {
     use sqlx::ConnectOptions;
-    let mut conn = sqlx::sqlite::SqliteConnectOptions::new()
+    sqlx::sqlite::SqliteConnectOptions::new()
         .filename(data_dir.join("cliffwatch.db"))
         .read_only(true)
         .connect()
         .await
-        .unwrap();
+        .unwrap()
+}
+
+/// `enabled` of every webhook endpoint in a data directory's database (read-only).
+pub async fn endpoints_enabled(data_dir: &Path) -> Vec<bool> {
+    let mut conn = read_only_database(data_dir).await;
     sqlx::query_scalar("SELECT enabled FROM webhooks ORDER BY id")
         .fetch_all(&mut conn)
         .await
@@ -268,13 +281,7 @@ pub async fn endpoints_enabled(data_dir: &Path) -> Vec<bool> {
 
 /// Every outbox id and its event type in a data directory's database (read-only).
 pub async fn outbox_ids(data_dir: &Path) -> Vec<(String, String)> {
-    use sqlx::ConnectOptions;
-    let mut conn = sqlx::sqlite::SqliteConnectOptions::new()
-        .filename(data_dir.join("cliffwatch.db"))
-        .read_only(true)
-        .connect()
-        .await
-        .unwrap();
+    let mut conn = read_only_database(data_dir).await;
     sqlx::query_as("SELECT id, event_type FROM webhook_outbox ORDER BY id")
         .fetch_all(&mut conn)
         .await
@@ -283,13 +290,7 @@ pub async fn outbox_ids(data_dir: &Path) -> Vec<(String, String)> {
 
 /// Every outbox event of a data directory's database (read-only): `(id, event_type, alert_id)`.
 pub async fn outbox_events(data_dir: &Path) -> Vec<(String, String, String)> {
-    use sqlx::ConnectOptions;
-    let mut conn = sqlx::sqlite::SqliteConnectOptions::new()
-        .filename(data_dir.join("cliffwatch.db"))
-        .read_only(true)
-        .connect()
-        .await
-        .unwrap();
+    let mut conn = read_only_database(data_dir).await;
     sqlx::query_as("SELECT id, event_type, alert_id FROM webhook_outbox ORDER BY id")
         .fetch_all(&mut conn)
         .await
