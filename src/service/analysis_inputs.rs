@@ -11,7 +11,7 @@ use crate::analysis::{
 };
 use crate::store::displacements::{self, Displacement};
 use crate::store::sites::Site;
-use crate::store::{self, epochs, points, Connection, Store, StoreError};
+use crate::store::{self, epochs, joint_covariances, points, Connection, Store, StoreError};
 
 use super::ServiceError;
 
@@ -90,7 +90,7 @@ pub async fn epoch_coordinates(
     let Some(observed_at) = store::parse_timestamp(&first.observed_at) else {
         return Ok(None);
     };
-    let joint = epochs::joint_covariance(&mut *tx, site, epoch).await?;
+    let joint = joint_covariances::get(&mut *tx, site, epoch).await?;
     Ok(Some(EpochCoordinates {
         epoch,
         observed_at,

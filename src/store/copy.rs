@@ -191,6 +191,7 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("epoch_id", I),
             ("points", T),
             ("matrix_m2", T),
+            ("upper_m2", X),
         ],
     ),
     ("displacements", &[]),

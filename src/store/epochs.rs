@@ -385,15 +385,8 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
     }
 
     if let Some(joint) = &adj.joint_covariance {
-        sqlx::query(
-            "INSERT INTO joint_covariances (site_id, epoch_id, points, matrix_m2) VALUES ($1, $2, $3, $4)",
-        )
-        .bind(rec.site)
-        .bind(id)
-        .bind(serde_json::to_string(&joint.points)?)
-        .bind(serde_json::to_string(&joint.matrix_m2)?)
-        .execute(&mut *db)
-        .await?;
+        super::joint_covariances::insert(&mut *db, rec.site, id, &joint.points, &joint.matrix_m2)
+            .await?;
     }
     Ok(id)
 }
@@ -552,27 +545,4 @@ pub async fn set_analysis_outcome(
         .execute(&mut *db)
         .await?;
     Ok(())
-}
-
-/// The joint covariance an epoch's adjustment stored (of all its points, or of its stable
-/// points in large networks), m².
-pub async fn joint_covariance(
-    db: impl AnyExecutor<'_>,
-    site: &str,
-    epoch: i64,
-) -> Result<Option<crate::analysis::JointCovarianceM2>, StoreError> {
-    let joint: Option<(String, String)> = sqlx::query_as(
-        "SELECT points, matrix_m2 FROM joint_covariances WHERE site_id = $1 AND epoch_id = $2",
-    )
-    .bind(site)
-    .bind(epoch)
-    .fetch_optional(db)
-    .await?;
-    Ok(match joint {
-        Some((p, m)) => Some(crate::analysis::JointCovarianceM2 {
-            points: serde_json::from_str(&p)?,
-            matrix_m2: serde_json::from_str(&m)?,
-        }),
-        None => None,
-    })
 }

@@ -9,7 +9,8 @@
 //! ([`Store::begin_write_site`]), let different sites write in parallel, and give cluster-wide
 //! jobs to one node at a time ([`Store::try_job_lock`]).
 //!
-//! One submodule per aggregate: [`sites`], [`epochs`], [`points`], [`groups`],
+//! One submodule per aggregate: [`sites`], [`epochs`] (their joint covariances:
+//! [`joint_covariances`]), [`points`], [`groups`],
 //! [`displacements`] (rows: [`displacement_row`]), [`block_motions`], [`alerts`],
 //! [`alert_states`], [`webhooks`], [`outbox`], [`watch_state`]; [`series`] serves a point's
 //! displacement time series fast from the packed blocks of [`series_blocks`] (layout:
@@ -41,6 +42,7 @@ pub mod displacement_row;
 pub mod displacements;
 pub mod epochs;
 pub mod groups;
+pub mod joint_covariances;
 pub mod outbox;
 pub mod points;
 pub mod series;

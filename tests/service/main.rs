@@ -8,4 +8,5 @@ mod service_support;
 mod api;
 mod concurrency;
 mod crash;
+mod joint_covariance;
 mod series;
