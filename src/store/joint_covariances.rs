@@ -7,6 +7,7 @@
 
 use sqlx::AnyExecutor;
 
+use super::series_record::f64_at;
 use super::StoreError;
 use crate::analysis::JointCovarianceM2;
 
@@ -96,13 +97,12 @@ pub fn unpack_upper(bytes: &[u8], n: usize) -> Result<Vec<f64>, StoreError> {
             bytes.len()
         )));
     }
-    let mut values = bytes
-        .chunks_exact(8)
-        .map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]));
     let mut m = vec![0.0; n * n];
+    let mut at = 0;
     for i in 0..n {
         for j in i..n {
-            let v = values.next().unwrap_or(f64::NAN);
+            let v = f64_at(bytes, at);
+            at += 8;
             m[i * n + j] = v;
             m[j * n + i] = v;
         }

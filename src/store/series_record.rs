@@ -118,7 +118,8 @@ pub fn peek(bytes: &[u8]) -> Option<(&[u8], usize)> {
     (bytes.len() >= total).then(|| (&bytes[2..2 + len], total))
 }
 
-fn f64_at(bytes: &[u8], at: usize) -> f64 {
+/// The little-endian f64 at byte `at` of `bytes` (panics when fewer than 8 bytes follow).
+pub(super) fn f64_at(bytes: &[u8], at: usize) -> f64 {
     let mut b = [0u8; 8];
     b.copy_from_slice(&bytes[at..at + 8]);
     f64::from_le_bytes(b)
