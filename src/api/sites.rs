@@ -9,16 +9,11 @@ use utoipa::ToSchema;
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{Page, PageParams};
 use super::AppState;
+use crate::analysis::alerts::{MAX_CONFIDENCE, MIN_CONFIDENCE};
 use crate::analysis::AlertRule;
 use crate::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::sites::{self, NewSite, Site};
 use crate::store::StoreError;
-
-/// Bounds of a site's `confidence`: the open interval (0.5, 1) as numbers that stay inside it
-/// once parsed (a JSON 0.99999999999999999 reads as 1.0).
-pub const MIN_CONFIDENCE: f64 = 0.500_001;
-/// See [`MIN_CONFIDENCE`].
-pub const MAX_CONFIDENCE: f64 = 0.999_999;
 
 /// Checks a site definition (identifier, confidence, rule levels and metrics; the model is
 /// checked by its type when the body is read).

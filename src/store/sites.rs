@@ -11,8 +11,9 @@ use crate::photogrammetry::Model;
 /// writes. Sites stored by an older one (`sites.analysis_version` below it) are recomputed once at
 /// start ([`crate::service::recompute::recompute_outdated`]); a new site starts at it. 2: block
 /// motions with the joint covariance of their points, forecasts weighed by the epochs' own errors;
-/// 3: the forecast's law fitted to the displacements in three dimensions.
-pub const ANALYSIS_VERSION: i64 = 3;
+/// 3: the forecast's law fitted to the displacements in three dimensions; 4: time-to-failure
+/// rules read at 0.95 by default (the alert state is replayed with the series).
+pub const ANALYSIS_VERSION: i64 = 4;
 
 /// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
@@ -36,7 +37,7 @@ pub struct NewSite {
     #[schema(minimum = 0.500_001, maximum = 0.999_999)]
     pub confidence: Option<f64>,
     /// Alert rules (`{"level", "metric", "above"|"below", "clear_below"|"clear_above", "source",
-    /// "for_epochs", "group"}`).
+    /// "for_epochs", "group", "confidence"}`).
     #[serde(default)]
     #[schema(value_type = Option<Vec<crate::analysis::alerts::AlertRule>>)]
     pub alert_rules: Option<Vec<serde_json::Value>>,

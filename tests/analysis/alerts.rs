@@ -439,6 +439,64 @@ fn threshold_exceedance_is_tested_at_the_confidence() {
     }
 }
 
+/// A time-to-failure rule reads the forecast at 95 % unless the rule sets its own confidence or the
+/// site's is lower; other rules read the site's.
+#[test]
+fn time_to_failure_rules_default_to_95_percent() {
+    use AlertLevel::*;
+    let rule = |extra: &str| -> AlertRule {
+        serde_json::from_str(&format!(
+            r#"{{"level": "alarm", "metric": "time_to_failure_hours", "below": 96, "source": "raw"{extra}}}"#
+        ))
+        .expect("rule")
+    };
+    let f = |h: f64, s: f64| -> cliffwatch::analysis::FailureForecast {
+        serde_json::from_value(serde_json::json!({
+            "time_to_failure_hours": h, "sigma_hours": s, "r2": 0.9, "velocities": 8
+        }))
+        .expect("forecast")
+    };
+    let alarm = |cfg: &AlertConfig, h: f64, s: f64| {
+        let mut a = analysis_sigma(2, 30.0, 0.5, true, None, &[]);
+        a.points[0].failure = Some(f(h, s));
+        let (_, ev) = evaluate_alerts(cfg, &AlertState::default(), &a, a.observed_at);
+        ev.iter().any(|e| e.alert.level == Alarm)
+    };
+    // 78 ± 10 h: 78 + 1.645·10 = 94.4 < 96 (alarm at 95 %); 78 + 2.326·10 = 101 (none at 99 %).
+    let site99 = AlertConfig::new("kamo", vec![rule("")]);
+    assert_eq!(site99.rules[0].confidence(site99.confidence), 0.95);
+    assert!(alarm(&site99, 78.0, 10.0));
+    assert!(!alarm(&site99, 81.0, 10.0), "81 + 16.4 > 96");
+    let strict = AlertConfig::new("kamo", vec![rule(r#", "confidence": 0.99"#)]);
+    assert!(!alarm(&strict, 78.0, 10.0));
+    assert!(alarm(&strict, 72.0, 10.0), "72 + 23.3 < 96");
+    // A site more sensitive than 95 % keeps its own: 84 + 1.28·10 = 96.8 at 90 % fires only below.
+    let site90 = AlertConfig {
+        confidence: 0.9,
+        ..AlertConfig::new("kamo", vec![rule("")])
+    };
+    assert!(alarm(&site90, 83.0, 10.0));
+    assert!(!alarm(
+        &AlertConfig::new("kamo", vec![rule("")]),
+        83.0,
+        10.0
+    ));
+    // A displacement rule's own confidence overrides the site's: 5.9 ± 0.5 mm at 95 % watches.
+    let watch: AlertRule = serde_json::from_str(
+        r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "confidence": 0.95}"#,
+    )
+    .expect("rule");
+    let ev = feed_sigma(&AlertConfig::new("kamo", vec![watch]), &[(5.9, 0.5)]);
+    assert_eq!(ev[0], vec![(AlertEventType::Raised, Watch)]);
+    // Out-of-range rule confidences are refused.
+    for c in ["0.5", "1.0", "0.3", "0.9999999"] {
+        assert!(
+            rule(&format!(r#", "confidence": {c}"#)).validate().is_err(),
+            "{c}"
+        );
+    }
+}
+
 /// `for_epochs: N` needs N consecutive triggering epochs; one quiet epoch starts the count anew.
 #[test]
 fn for_epochs_asks_for_consecutive_triggering_epochs() {

@@ -30,6 +30,7 @@ fn rule(
         for_epochs: None,
         require_significant: true,
         quiet_epochs: None,
+        confidence: None,
     }
 }
 

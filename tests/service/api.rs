@@ -671,6 +671,16 @@ async fn bodies_are_objects_integers_may_be_integral_floats() {
         (json!({"id": "h", "schedule_hours": -1.0}), 422),
         (json!({"id": "h", "schedule_hours": 24}), 201),
         (json!({"id": "c", "confidence": 0.999}), 201),
+        (
+            json!({"id": "t", "alert_rules": [{"level": "alarm", "metric": "time_to_failure_hours",
+                   "below": 96, "confidence": 1.0}]}),
+            422,
+        ),
+        (
+            json!({"id": "t", "alert_rules": [{"level": "alarm", "metric": "time_to_failure_hours",
+                   "below": 96, "confidence": 0.99}]}),
+            201,
+        ),
     ] {
         let r = send(post.clone(), "/api/v1/sites", body.clone())
             .await
