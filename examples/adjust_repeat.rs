@@ -1,5 +1,6 @@
 //! Repeats one adjustment for profiling (`perf record`): `cargo run --release --example adjust_repeat
-//! -- small|large|huge N` runs the benchmark network N times and prints the median time.
+//! -- small|large|huge N` runs the benchmark network N times and prints the median time, and that
+//! of the first run (cold: fresh heap, thread pool starting).
 
 use std::time::Instant;
 
@@ -23,10 +24,11 @@ fn main() {
         last = Some(adjust(&epoch, &options).expect("adjusts"));
         times.push(t.elapsed().as_secs_f64() * 1e3);
     }
+    let first = times[0];
     times.sort_by(f64::total_cmp);
     let a = last.expect("ran");
     println!(
-        "{scene}: median {:.3} ms over {n} runs (min {:.3}); σ0 {:.6} mm, iterations {}, dropped {}",
+        "{scene}: median {:.3} ms over {n} runs (min {:.3}, first {first:.3}); σ0 {:.6} mm, iterations {}, dropped {}",
         times[n / 2],
         times[0],
         a.report.sigma0_mm,

