@@ -32,7 +32,8 @@ pub struct NewSite {
     #[serde(default)]
     #[schema(exclusive_minimum = 0.0)]
     pub schedule_hours: Option<f64>,
-    /// Confidence level of the significance tests, one-sided (default 0.99; 0.500001 to 0.999999).
+    /// Confidence level of the significance tests and the alert rules, one-sided (default 0.99;
+    /// 0.500001 to 0.999999); time-to-failure rules read at most 0.95 unless they set their own.
     #[serde(default)]
     #[schema(minimum = 0.500_001, maximum = 0.999_999)]
     pub confidence: Option<f64>,
