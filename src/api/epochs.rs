@@ -75,7 +75,7 @@ pub struct UploadParams {
 /// `POST /api/v1/sites/{site}/epochs`: validates, adjusts and stores an epoch; 201 with its
 /// summary, 200 when the same body was stored before, 409 for another body at the same time.
 #[utoipa::path(post, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("observed_at" = Option<String>, Query, description = "CSV uploads only")),
-    request_body(description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)", content((crate::api::schemas::UploadForm = "application/json"), (String = "text/csv"))),
+    request_body(description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)", content((crate::photogrammetry::EpochInput = "application/json"), (String = "text/csv"))),
     responses((status = 201, description = "stored; the epoch summary", body = crate::api::schemas::EpochSummary), (status = 200, description = "the same body was stored before", body = crate::api::schemas::EpochSummary),
         (status = 400, description = "not JSON/CSV", body = crate::api::schemas::ErrorBody), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 409, description = "another body for this observed_at, or a CSV upload to a site without cameras yet (upload a JSON epoch first)", body = crate::api::schemas::ErrorBody),
         (status = 413, description = "body too large", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid or cannot be adjusted", body = crate::api::schemas::ErrorBody)))]

@@ -617,6 +617,40 @@ async fn openapi_describes_every_contract_endpoint_with_schemas() {
             }
         }
     }
+    // null where the document allows it, and only there: the schema is that of the types that
+    // read the form (a hand-written copy once documented null for fields the server refused)
+    let camera = resolve(&doc, &form["properties"]["cameras"]["items"]).clone();
+    let nullable = |schema: &Value, field: &str| {
+        schema["properties"][field]["type"]
+            .as_array()
+            .is_some_and(|t| t.contains(&json!("null")))
+    };
+    s.create_site("n").await;
+    for (k, (field, on_camera)) in [
+        ("label", false),
+        ("control", false),
+        ("calibrate_c", true),
+        ("k1", true),
+        ("sigma_mm", true),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut body = paper(PAPER[0]);
+        body["observed_at"] = json!(format!("2026-02-0{}T00:00:00Z", k + 1));
+        if on_camera {
+            body["cameras"][0][field] = Value::Null;
+        } else {
+            body[field] = Value::Null;
+        }
+        let documented = nullable(if on_camera { &camera } else { form }, field);
+        let (status, answer) = s.upload("n", &body).await;
+        assert_eq!(
+            status == 201,
+            documented,
+            "{field}: null documented {documented}, answered {status} {answer}"
+        );
+    }
     s.stop().await;
 }
 

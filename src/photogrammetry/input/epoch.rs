@@ -12,19 +12,23 @@ use crate::photogrammetry::error::EpochError;
 use crate::photogrammetry::model::camera::Camera;
 pub use crate::photogrammetry::model::camera::CameraInput;
 
-/// One campaign at one site as uploaded (JSON form of the contract).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// One campaign at one site as uploaded (JSON form of the contract; the OpenAPI document's
+/// upload form is derived from these types).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct EpochInput {
-    /// When the images were taken (RFC 3339, UTC).
+    /// When the images were taken (RFC 3339, UTC), unique within the site.
+    #[schema(format = DateTime)]
     pub observed_at: String,
     /// Free text label.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub label: Option<String>,
     /// Cameras (interior orientation) used by the images.
     #[serde(default)]
+    #[schema(required = true, min_items = 1)]
     pub cameras: Vec<CameraInput>,
     /// Images with their target observations.
     #[serde(default)]
+    #[schema(required = true, min_items = 1)]
     pub images: Vec<ImageInput>,
     /// Points with known coordinates, weighted by `sigma_m`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -35,24 +39,28 @@ pub struct EpochInput {
 }
 
 /// One image of the upload form.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct ImageInput {
     /// Image identifier, unique within the epoch.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub id: String,
     /// The camera id that took it.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub camera: String,
     /// The station (camera set-up position) name; defaults to the image id.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub station: Option<String>,
     /// Target observations.
     #[serde(default)]
+    #[schema(required = true)]
     pub observations: Vec<ObservationInput>,
 }
 
 /// One target observation: either (`x_mm`, `y_mm`) or (`col`, `row`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct ObservationInput {
     /// Point name.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub point: String,
     /// Image x in mm (right, from the principal point).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -69,10 +77,11 @@ pub struct ObservationInput {
 }
 
 /// A control point: known coordinates (m) weighted by `sigma_m`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 #[allow(non_snake_case)]
 pub struct ControlInput {
     /// Point name.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub point: String,
     /// X in m.
     pub X: f64,
@@ -86,10 +95,11 @@ pub struct ControlInput {
 }
 
 /// Approximate coordinates (m): start values only.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 #[allow(non_snake_case)]
 pub struct ApproxInput {
     /// Point name.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub point: String,
     /// X in m.
     pub X: f64,

@@ -5,9 +5,10 @@ use serde::{Deserialize, Serialize};
 use crate::photogrammetry::error::EpochError;
 
 /// A camera (interior orientation) of the upload form. Only `c_mm` is required.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct CameraInput {
     /// Camera identifier referenced by images.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub id: String,
     /// Principal distance c in mm.
     pub c_mm: f64,
