@@ -651,6 +651,25 @@ async fn openapi_describes_every_contract_endpoint_with_schemas() {
             "{field}: null documented {documented}, answered {status} {answer}"
         );
     }
+    // the bounds the core checks are in the document: c_mm in (0, 100 m], the distortion terms
+    // within ±1000, calibrate's names
+    let c = &camera["properties"];
+    assert_eq!(c["c_mm"]["exclusiveMinimum"], json!(0));
+    assert_eq!(c["c_mm"]["maximum"], json!(100_000));
+    assert_eq!(c["k1"]["maximum"], json!(1000));
+    assert_eq!(
+        c["calibrate"]["items"]["enum"].as_array().map(Vec::len),
+        Some(8)
+    );
+    for (k, (field, value)) in [("c_mm", json!(0.0)), ("k1", json!(1000.5))]
+        .into_iter()
+        .enumerate()
+    {
+        let mut body = paper(PAPER[0]);
+        body["observed_at"] = json!(format!("2026-03-0{}T00:00:00Z", k + 1));
+        body["cameras"][0][field] = value;
+        assert_eq!(s.upload("n", &body).await.0, 422, "{field}");
+    }
     s.stop().await;
 }
 

@@ -64,15 +64,19 @@ pub struct ObservationInput {
     pub point: String,
     /// Image x in mm (right, from the principal point).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = -1e7, maximum = 1e7)]
     pub x_mm: Option<f64>,
     /// Image y in mm (up, from the principal point).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = -1e7, maximum = 1e7)]
     pub y_mm: Option<f64>,
     /// Pixel column (centre of the top-left pixel is 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = -1e7, maximum = 1e7)]
     pub col: Option<f64>,
     /// Pixel row (grows downward).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = -1e7, maximum = 1e7)]
     pub row: Option<f64>,
 }
 
@@ -84,13 +88,17 @@ pub struct ControlInput {
     #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub point: String,
     /// X in m.
+    #[schema(minimum = -1e8, maximum = 1e8)]
     pub X: f64,
     /// Y in m.
+    #[schema(minimum = -1e8, maximum = 1e8)]
     pub Y: f64,
     /// Z in m.
+    #[schema(minimum = -1e8, maximum = 1e8)]
     pub Z: f64,
     /// Standard deviation of each coordinate in m (default 0.001 m).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(exclusive_minimum = 0.0)]
     pub sigma_m: Option<f64>,
 }
 
@@ -102,10 +110,13 @@ pub struct ApproxInput {
     #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub point: String,
     /// X in m.
+    #[schema(minimum = -1e8, maximum = 1e8)]
     pub X: f64,
     /// Y in m.
+    #[schema(minimum = -1e8, maximum = 1e8)]
     pub Y: f64,
     /// Z in m.
+    #[schema(minimum = -1e8, maximum = 1e8)]
     pub Z: f64,
 }
 
