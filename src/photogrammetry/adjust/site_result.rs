@@ -209,11 +209,13 @@ fn joint_covariance(
     if chosen.is_empty() {
         return None;
     }
-    let d = 3 * chosen.len();
+    let n = chosen.len();
+    let d = 3 * n;
+    let blocks = cof.point_blocks(&chosen);
     let mut m = vec![0.0; d * d];
-    for (a, &pa) in chosen.iter().enumerate() {
-        for (b, &pb) in chosen.iter().enumerate() {
-            let q = to_site.covariance(cof.point_block(pa, pb));
+    for a in 0..n {
+        for b in 0..n {
+            let q = to_site.covariance(blocks[a * n + b]);
             for r in 0..3 {
                 for s in 0..3 {
                     m[(3 * a + r) * d + 3 * b + s] = q[(r, s)];
