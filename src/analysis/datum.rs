@@ -19,7 +19,7 @@
 
 use std::collections::HashMap;
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, Vector3};
 
 use super::epoch::{DatumTransformation, EpochCoordinates};
 use super::error::AnalysisError;
@@ -374,7 +374,7 @@ pub(crate) fn fit_iwst(
     let n = d.len();
     let mut w = DVector::from_fn(n, |j, _| 1.0 / (sigma[j] * sigma[j]));
     let mut p = DVector::zeros(u);
-    let mut a = DMatrix::zeros(u, n);
+    let mut last = None;
     for _ in 0..max_iterations.max(1) {
         // GᵀW with W diagonal: scale the columns of Gᵀ (no dense 3m × 3m matrix).
         let mut gtw = g.transpose();
@@ -387,11 +387,11 @@ pub(crate) fn fit_iwst(
                 what: "the datum points do not determine the transformation (collinear or too few)"
                     .into(),
             })?;
-        let a_new = ch.solve(&gtw);
-        let p_new = &a_new * &d;
+        // θ = (GᵀWG)⁻¹ GᵀW d; A itself only for the weights of the last iteration.
+        let p_new = ch.solve(&(&gtw * &d));
         let change = (&p_new - &p).amax();
         p = p_new;
-        a = a_new;
+        last = Some((ch, gtw));
         let v = &d - &g * &p;
         for j in 0..n {
             w[j] = 1.0 / (sigma[j] * v[j].abs().max(1e-3 * sigma[j]));
@@ -400,6 +400,7 @@ pub(crate) fn fit_iwst(
             break;
         }
     }
+    let a = last.map_or_else(|| DMatrix::zeros(u, n), |(ch, gtw)| ch.solve(&gtw));
     Ok(DatumFit {
         datum: datum.to_vec(),
         centroid: c,
@@ -418,35 +419,40 @@ pub(crate) fn fit_iwst(
 struct Propagation<'a> {
     diffs: &'a Differences,
     fit: &'a DatumFit,
-    /// A split in u × 3 blocks per datum point.
-    a_blocks: Vec<DMatrix<f64>>,
-    /// P = A Σ_SS Aᵀ (u × u).
-    p: DMatrix<f64>,
+    /// A split in u × 3 blocks per datum point, padded with zero rows to 7 × 3.
+    a_blocks: Vec<SMatrix<f64, 7, 3>>,
+    /// P = A Σ_SS Aᵀ (u × u, padded with zeros to 7 × 7).
+    p: SMatrix<f64, 7, 7>,
     /// Positions (in the datum) of the datum points with cross covariances.
     joint: Vec<usize>,
     /// Position in the datum of each datum point (index into `diffs`).
     pos_in_datum: HashMap<usize, usize>,
 }
 
+/// Helmert rows G_i of a point (3 × u, padded with zero columns to 3 × 7), and A Σ_Si (u × 3,
+/// padded likewise): what [`Propagation::block`] needs of a point.
+type PointTerms = (SMatrix<f64, 3, 7>, SMatrix<f64, 7, 3>);
+
 impl<'a> Propagation<'a> {
     fn new(diffs: &'a Differences, fit: &'a DatumFit) -> Self {
         let (u, m) = (fit.u, fit.datum.len());
-        let a_blocks: Vec<DMatrix<f64>> = (0..m)
-            .map(|k| fit.a.columns(3 * k, 3).into_owned())
+        let a_blocks: Vec<SMatrix<f64, 7, 3>> = (0..m)
+            .map(|k| SMatrix::from_fn(|r, c| if r < u { fit.a[(r, 3 * k + c)] } else { 0.0 }))
             .collect();
         // P = A Σ_SS Aᵀ, exploiting block sparsity.
-        let mut p = DMatrix::<f64>::zeros(u, u);
+        let mut p = SMatrix::<f64, 7, 7>::zeros();
         let joint: Vec<usize> = (0..m).filter(|&k| diffs.in_joint(fit.datum[k])).collect();
         for (ab, &i) in a_blocks.iter().zip(&fit.datum) {
-            p += ab * to_d(&diffs.cov_mm2[i]) * ab.transpose();
+            p += ab * diffs.cov_mm2[i] * ab.transpose();
         }
         for &k in &joint {
+            let mut row = SMatrix::<f64, 7, 3>::zeros();
             for &l in &joint {
                 if k != l {
-                    let s = to_d(&diffs.cross(fit.datum[k], fit.datum[l]));
-                    p += &a_blocks[k] * s * a_blocks[l].transpose();
+                    row += a_blocks[l] * diffs.cross(fit.datum[l], fit.datum[k]);
                 }
             }
+            p += row * a_blocks[k].transpose();
         }
         let pos_in_datum = fit.datum.iter().enumerate().map(|(k, &i)| (i, k)).collect();
         Propagation {
@@ -459,41 +465,44 @@ impl<'a> Propagation<'a> {
         }
     }
 
-    /// Helmert rows G_i (3 × u) of point i.
-    fn g(&self, i: usize) -> DMatrix<f64> {
-        helmert_rows(&(self.diffs.xyz_m[i] - self.fit.centroid), self.fit.u)
+    /// Helmert rows G_i (3 × u, padded) of point i.
+    fn g(&self, i: usize) -> SMatrix<f64, 3, 7> {
+        let rows = helmert_rows(&(self.diffs.xyz_m[i] - self.fit.centroid), self.fit.u);
+        SMatrix::from_fn(|r, c| if c < self.fit.u { rows[(r, c)] } else { 0.0 })
     }
 
-    /// A Σ_Si (u × 3): the covariance of the parameters with the difference of point i.
-    fn a_sigma(&self, i: usize) -> DMatrix<f64> {
+    /// A Σ_Si (u × 3, padded): the covariance of the parameters with the difference of point i.
+    fn a_sigma(&self, i: usize) -> SMatrix<f64, 7, 3> {
         let (diffs, fit) = (self.diffs, self.fit);
-        let mut asi = DMatrix::<f64>::zeros(fit.u, 3);
+        let mut asi = SMatrix::<f64, 7, 3>::zeros();
         if diffs.in_joint(i) {
             for &k in &self.joint {
-                asi += &self.a_blocks[k] * to_d(&diffs.cross(fit.datum[k], i));
+                asi += self.a_blocks[k] * diffs.cross(fit.datum[k], i);
             }
             if let Some(&k) = self.pos_in_datum.get(&i) {
                 if !diffs.in_joint(fit.datum[k]) {
-                    asi += &self.a_blocks[k] * to_d(&diffs.cov_mm2[i]);
+                    asi += self.a_blocks[k] * diffs.cov_mm2[i];
                 }
             }
         } else if let Some(&k) = self.pos_in_datum.get(&i) {
-            asi += &self.a_blocks[k] * to_d(&diffs.cov_mm2[i]);
+            asi += self.a_blocks[k] * diffs.cov_mm2[i];
         }
         asi
+    }
+
+    /// G_i and A Σ_Si of point i.
+    fn terms(&self, i: usize) -> PointTerms {
+        (self.g(i), self.a_sigma(i))
     }
 
     /// Σ_ij' (3 × 3) from the Helmert rows and A Σ_S of both points.
     fn block(
         &self,
-        (i, gi, asi): (usize, &DMatrix<f64>, &DMatrix<f64>),
-        (j, gj, asj): (usize, &DMatrix<f64>, &DMatrix<f64>),
+        (i, (gi, asi)): (usize, &PointTerms),
+        (j, (gj, asj)): (usize, &PointTerms),
     ) -> Matrix3<f64> {
-        let gi_asj = gi * asj;
-        let gj_asi = gj * asi;
-        let gpg = gi * &self.p * gj.transpose();
-        let sij = self.diffs.cross(i, j);
-        Matrix3::from_fn(|r, c| sij[(r, c)] - gi_asj[(r, c)] - gj_asi[(c, r)] + gpg[(r, c)])
+        let gpg = gi * self.p * gj.transpose();
+        self.diffs.cross(i, j) - gi * asj - (gj * asi).transpose() + gpg
     }
 }
 
@@ -503,13 +512,12 @@ pub(crate) fn transform_all(
     fit: &DatumFit,
 ) -> Vec<(Vector3<f64>, Matrix3<f64>)> {
     let prop = Propagation::new(diffs, fit);
+    let params = SVector::<f64, 7>::from_fn(|r, _| if r < fit.u { fit.params[r] } else { 0.0 });
     (0..diffs.len())
         .map(|i| {
-            let g = prop.g(i);
-            let t = &g * &fit.params;
-            let d = diffs.d_mm[i] - Vector3::new(t[0], t[1], t[2]);
-            let asi = prop.a_sigma(i);
-            let cov = prop.block((i, &g, &asi), (i, &g, &asi));
+            let terms = prop.terms(i);
+            let d = diffs.d_mm[i] - terms.0 * params;
+            let cov = prop.block((i, &terms), (i, &terms));
             (d, 0.5 * (cov + cov.transpose()))
         })
         .collect()
@@ -524,15 +532,12 @@ pub(crate) fn transformed_joint(
     members: &[usize],
 ) -> DMatrix<f64> {
     let prop = Propagation::new(diffs, fit);
-    let parts: Vec<(usize, DMatrix<f64>, DMatrix<f64>)> = members
-        .iter()
-        .map(|&i| (i, prop.g(i), prop.a_sigma(i)))
-        .collect();
+    let parts: Vec<(usize, PointTerms)> = members.iter().map(|&i| (i, prop.terms(i))).collect();
     let k = members.len();
     let mut out = DMatrix::<f64>::zeros(3 * k, 3 * k);
-    for (a, (i, gi, asi)) in parts.iter().enumerate() {
-        for (b, (j, gj, asj)) in parts.iter().enumerate().skip(a) {
-            let c = prop.block((*i, gi, asi), (*j, gj, asj));
+    for (a, (i, ti)) in parts.iter().enumerate() {
+        for (b, (j, tj)) in parts.iter().enumerate().skip(a) {
+            let c = prop.block((*i, ti), (*j, tj));
             for r in 0..3 {
                 for col in 0..3 {
                     out[(3 * a + r, 3 * b + col)] = c[(r, col)];
@@ -542,8 +547,4 @@ pub(crate) fn transformed_joint(
         }
     }
     out
-}
-
-fn to_d(m: &Matrix3<f64>) -> DMatrix<f64> {
-    DMatrix::from_fn(3, 3, |r, c| m[(r, c)])
 }
