@@ -1,7 +1,8 @@
 //! The daemon: opens the database, applies the configuration, and runs its parts under one
 //! shutdown signal ([`crate::shutdown`]): the HTTP server ([`crate::api`] and the dashboard), the
 //! watched directory ([`crate::watch`]), the webhook delivery worker
-//! ([`service::webhook_delivery`]) and the campaign check ([`service::overdue`]).
+//! ([`service::webhook_delivery`]), the campaign check ([`service::overdue`]) and, on SQLite, the
+//! WAL checkpoints ([`store::wal_checkpoint`]).
 //!
 //! On shutdown the listener stops accepting, in-flight requests (uploads included) finish within
 //! the grace period, the background parts stop, and the database is closed.
@@ -178,6 +179,9 @@ impl Bound {
             Duration::from_secs(state.config.overdue_check_secs.max(1)),
             stop.clone(),
         )));
+        if store.backend() == store::Backend::Sqlite {
+            parts.push(tokio::spawn(checkpoint_wal(store.clone(), stop.clone())));
+        }
         let graceful = {
             let stop = stop.clone();
             async move {
@@ -202,6 +206,19 @@ impl Bound {
         store.close().await;
         tracing::info!("stopped");
         Ok(())
+    }
+}
+
+/// SQLite: checkpoints the WAL every [`store::wal_checkpoint::CHECKPOINT_INTERVAL`] until
+/// shutdown, so that no upload's commit does it ([`store::wal_checkpoint`]).
+async fn checkpoint_wal(store: Store, stop: shutdown::Shutdown) {
+    loop {
+        if let Err(e) = store.checkpoint_wal().await {
+            tracing::warn!(error = %e, "WAL checkpoint failed");
+        }
+        if stop.sleep(store::wal_checkpoint::CHECKPOINT_INTERVAL).await {
+            break;
+        }
     }
 }
 

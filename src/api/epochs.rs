@@ -151,8 +151,9 @@ pub async fn summary(
     id: i64,
     residuals: bool,
 ) -> Result<Option<Value>, ApiError> {
-    let db = store.reader();
-    let Some((item, report)) = epochs::get(db, site, id).await? else {
+    let mut conn = store.read().await?;
+    let db = &mut *conn;
+    let Some((item, report)) = epochs::get(&mut *db, site, id).await? else {
         return Ok(None);
     };
     let mut out: Map<String, Value> = report;
@@ -163,15 +164,15 @@ pub async fn summary(
     if residuals {
         out.insert(
             "residuals".into(),
-            Value::Array(epochs::residuals(db, site, id).await?),
+            Value::Array(epochs::residuals(&mut *db, site, id).await?),
         );
     }
-    let d = displacements::of_epoch(db, site, id).await?;
+    let d = displacements::of_epoch(&mut *db, site, id).await?;
     out.insert(
         "displacements".into(),
         serde_json::to_value(d).map_err(StoreError::from)?,
     );
-    let a = alerts::of_epoch(db, site, id).await?;
+    let a = alerts::of_epoch(&mut *db, site, id).await?;
     out.insert(
         "alerts".into(),
         serde_json::to_value(a).map_err(StoreError::from)?,

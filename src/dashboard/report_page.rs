@@ -67,7 +67,7 @@ pub async fn report(
     let last = in_period.first();
     let (mut disp, coords) = match last {
         Some(e) => (
-            displacements::of_epoch(db, &site.id, e.id).await?,
+            displacements::of_epoch(&mut *state.store.read().await?, &site.id, e.id).await?,
             points::epoch_coordinates(db, &site.id, e.id).await?,
         ),
         None => (vec![], vec![]),

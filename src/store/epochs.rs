@@ -319,7 +319,7 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
             let sql = format!(
                 "INSERT INTO observations (site_id, epoch_id, image_id, point, seq, x_mm, y_mm, \
                  col_px, row_px, vx_mm, vy_mm, w, dropped) VALUES {}",
-                super::values_list(chunk.len(), 13)
+                super::values_list(db, chunk.len(), 13)
             );
             let mut q = sqlx::query(&sql);
             for (oseq, o) in chunk {
@@ -346,7 +346,7 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
     for chunk in adj.points.chunks(super::rows_per_insert(13)) {
         let sql = format!(
             "INSERT INTO points (site_id, name, role) VALUES {} ON CONFLICT (site_id, name) DO NOTHING",
-            super::values_list(chunk.len(), 3)
+            super::values_list(db, chunk.len(), 3)
         );
         let mut q = sqlx::query(&sql);
         for p in chunk {
@@ -361,7 +361,7 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
         let sql = format!(
             "INSERT INTO coordinates (site_id, epoch_id, point, observed_at, x_m, y_m, z_m, \
              cxx_m2, cxy_m2, cxz_m2, cyy_m2, cyz_m2, czz_m2) VALUES {}",
-            super::values_list(chunk.len(), 13)
+            super::values_list(db, chunk.len(), 13)
         );
         let mut q = sqlx::query(&sql);
         for p in chunk {

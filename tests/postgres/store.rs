@@ -255,6 +255,7 @@ async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
     let pg_url = url.clone();
     let pg = TestServer::start(move |c| c.database_url = Some(pg_url)).await;
     assert_eq!(pg.store.backend(), cliffwatch::store::Backend::Postgres);
+    assert_eq!(pg.store.checkpoint_wal().await.expect("no-op"), None);
     let (st, ready) = pg.get("/readyz").await;
     assert_eq!(st, 200, "{ready}");
     run_scenario(&pg).await;

@@ -10,3 +10,4 @@ mod concurrency;
 mod crash;
 mod joint_covariance;
 mod series;
+mod wal;
