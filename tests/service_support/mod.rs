@@ -270,7 +270,11 @@ impl Daemon {
     /// Starts `cliffwatch serve` on `data_dir` with `config`; waits for `/readyz`.
     pub async fn start(data_dir: &std::path::Path, config: &std::path::Path) -> Daemon {
         let port = free_port();
-        let child = std::process::Command::new(env!("CARGO_BIN_EXE_cliffwatch"))
+        // Absent only in examples, which include this module but start no daemon.
+        let Some(binary) = option_env!("CARGO_BIN_EXE_cliffwatch") else {
+            panic!("Daemon::start needs the cliffwatch binary (tests and benchmarks only)");
+        };
+        let child = std::process::Command::new(binary)
             .args(["serve", "--listen"])
             .arg(format!("127.0.0.1:{port}"))
             .arg("--data-dir")

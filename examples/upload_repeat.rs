@@ -1,0 +1,67 @@
+//! Repeats the service benchmark's upload for profiling: `cargo run --release --example
+//! upload_repeat -- [N] [WARM]` starts an in-process server on a temporary SQLite database, uploads
+//! WARM 5 × 28 epochs (default 45, so that the analysis reads a full 40-epoch history), then N more
+//! (default 50) and prints the median, mean, minimum and maximum of those N. Under
+//! `valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*upload_inner*'` it counts the
+//! server's instructions per upload, which the machine's load does not move.
+
+#[path = "../tests/service_support/mod.rs"]
+mod service_support;
+
+use std::time::Instant;
+
+use service_support::{synthetic_epoch, TestServer};
+
+fn observed_at(k: usize) -> String {
+    let t = chrono::DateTime::parse_from_rfc3339("2020-01-01T00:00:00Z").unwrap()
+        + chrono::Duration::hours(k as i64);
+    t.to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(50);
+    let warm: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(45);
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .expect("runtime");
+    rt.block_on(async {
+        let server = TestServer::start(|_| {}).await;
+        server.create_site("bench").await;
+        let url = server.url("/api/v1/sites/bench/epochs");
+        let mut times = Vec::with_capacity(n);
+        for k in 1..=warm + n {
+            let body =
+                serde_json::to_vec(&synthetic_epoch(5, 28, &observed_at(k), k as u64, 0.0, 28))
+                    .expect("JSON");
+            let t = Instant::now();
+            let r = server
+                .client
+                .post(&url)
+                .header("content-type", "application/json")
+                .body(body)
+                .send()
+                .await
+                .expect("sent");
+            assert_eq!(r.status(), 201, "upload {k}");
+            r.bytes().await.expect("answer");
+            if k > warm {
+                times.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+        let mean = times.iter().sum::<f64>() / n.max(1) as f64;
+        times.sort_by(f64::total_cmp);
+        if !times.is_empty() {
+            println!(
+                "upload 5 × 28 after {warm}: median {:.2} ms, mean {mean:.2} ms over {n} (min {:.2}, max {:.2}; {} over twice the median)",
+                times[n / 2],
+                times[0],
+                times[n - 1],
+                times.iter().filter(|&&t| t > 2.0 * times[n / 2]).count()
+            );
+        }
+        let _ = server.stop().await;
+    });
+}
