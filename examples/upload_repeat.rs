@@ -1,10 +1,13 @@
 //! Repeats the service benchmark's upload for profiling: `cargo run --release --example
-//! upload_repeat -- [N] [WARM]` starts an in-process server on a temporary SQLite database, uploads
+//! upload_repeat -- [N] [WARM] [postgres]` starts an in-process server on a temporary SQLite
+//! database (or a throwaway PostgreSQL cluster), uploads
 //! WARM 5 × 28 epochs (default 45, so that the analysis reads a full 40-epoch history), then N more
 //! (default 50) and prints the median, mean, minimum and maximum of those N. Under
 //! `valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*upload_inner*'` it counts the
 //! server's instructions per upload, which the machine's load does not move.
 
+#[path = "../tests/pg_support/mod.rs"]
+mod pg_support;
 #[path = "../tests/service_support/mod.rs"]
 mod service_support;
 
@@ -22,13 +25,16 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(50);
     let warm: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(45);
+    // `postgres`: a throwaway cluster (tests/pg_support) instead of SQLite.
+    let cluster = (args.next().as_deref() == Some("postgres")).then(pg_support::PgCluster::start);
+    let url = cluster.as_ref().map(|c| c.create_database("upload"));
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
         .expect("runtime");
     rt.block_on(async {
-        let server = TestServer::start(|_| {}).await;
+        let server = TestServer::start(move |c| c.database_url = url).await;
         server.create_site("bench").await;
         let url = server.url("/api/v1/sites/bench/epochs");
         let mut times = Vec::with_capacity(n);

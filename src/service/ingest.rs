@@ -66,11 +66,14 @@ pub fn joint_covariance_points(points: &[String], kept: Vec<String>) -> Vec<Stri
 
 /// The site's stable points and the members of its declared blocks, for
 /// [`joint_covariance_points`].
-async fn stable_and_block_points(store: &Store, site: &str) -> Result<Vec<String>, ServiceError> {
-    let mut names = points::stable(store.reader(), site).await?;
-    let blocks = groups::list(store.reader(), site).await?;
+async fn stable_and_block_points(
+    db: &mut Connection,
+    site: &str,
+) -> Result<Vec<String>, ServiceError> {
+    let mut names = points::stable(&mut *db, site).await?;
+    let blocks = groups::list(&mut *db, site).await?;
     if blocks.iter().any(|g| g.kind == GroupKind::Block) {
-        let configs = point_configs(store.reader(), site).await?;
+        let configs = point_configs(&mut *db, site).await?;
         for g in blocks.iter().filter(|g| g.kind == GroupKind::Block) {
             names.extend(g.members(&configs));
         }
@@ -96,18 +99,19 @@ pub async fn ingest_with_identification(
     identification: Option<serde_json::Value>,
 ) -> Result<Ingested, ServiceError> {
     let problem = input.validate()?;
-    let site = sites::get(store.reader(), site_id)
+    // The reads before the adjustment on one connection (one acquisition, and on PostgreSQL
+    // one connection check, instead of one per read).
+    let mut db = store.read().await?;
+    let site = sites::get(&mut *db, site_id)
         .await?
         .ok_or_else(|| ServiceError::UnknownSite(site_id.to_string()))?;
     let observed_at = store::timestamp(problem.observed_at);
     let hash = body_hash(&input);
-    if let Some(done) =
-        check_existing(&mut *store.read().await?, &site.id, &observed_at, &hash).await?
-    {
+    if let Some(done) = check_existing(&mut db, &site.id, &observed_at, &hash).await? {
         return Ok(done);
     }
 
-    let prior: BTreeMap<String, [f64; 3]> = points::latest_coordinates(store.reader(), &site.id)
+    let prior: BTreeMap<String, [f64; 3]> = points::latest_coordinates(&mut *db, &site.id)
         .await?
         .into_iter()
         .map(|c| (c.point, c.xyz))
@@ -117,10 +121,11 @@ pub async fn ingest_with_identification(
         prior,
         joint_covariance_of: joint_covariance_points(
             &problem.points,
-            stable_and_block_points(store, &site.id).await?,
+            stable_and_block_points(&mut db, &site.id).await?,
         ),
         ..AdjustOptions::default()
     };
+    drop(db);
     let started = Instant::now();
     let adjustment =
         tokio::task::spawn_blocking(move || adjust_problem(&problem, &options)).await?;

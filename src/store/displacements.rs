@@ -1,5 +1,7 @@
 //! Displacements of points per epoch against the site's reference epoch (mm).
 
+use std::collections::HashMap;
+
 use sqlx::{AnyConnection, AnyExecutor};
 
 use super::sqlite_raw::{self, Param};
@@ -199,12 +201,7 @@ pub async fn recent_of_points(
     n: usize,
 ) -> Result<Vec<(String, Vec<Displacement>)>, StoreError> {
     let Some(pool) = store.sqlite_reader() else {
-        let mut out = Vec::with_capacity(points.len());
-        for point in points {
-            let rows = recent(&mut *tx, site, &point, before, n).await?;
-            out.push((point, rows));
-        }
-        return Ok(out);
+        return recent_of_points_postgres(tx, site, points, before, n).await;
     };
     let mut conn = pool.acquire().await?;
     let (site, before) = (site.to_string(), before.to_string());
@@ -236,6 +233,41 @@ pub async fn recent_of_points(
     })
     .await
     .map_err(super::series::reader_failed)?
+}
+
+/// PostgreSQL's [`recent_of_points`]: one statement for all points (a `LATERAL` read of each
+/// point's last `n` rows by the primary key) instead of one round trip per point, which made
+/// the history 12 ms of a 37 ms upload.
+async fn recent_of_points_postgres(
+    tx: &mut Connection,
+    site: &str,
+    points: Vec<String>,
+    before: &str,
+    n: usize,
+) -> Result<Vec<(String, Vec<Displacement>)>, StoreError> {
+    let sql = format!(
+        "SELECT {} FROM points p CROSS JOIN LATERAL (SELECT * FROM displacements d \
+         WHERE d.site_id = p.site_id AND d.point = p.name AND d.observed_at < $2 \
+         ORDER BY d.observed_at DESC LIMIT $3) d WHERE p.site_id = $1 ORDER BY d.point, d.observed_at DESC",
+        select_list(HISTORY_COLUMNS, "d.")
+    );
+    let rows: Vec<Displacement> = sqlx::query_as(&sql)
+        .bind(site)
+        .bind(before)
+        .bind(i64::try_from(n).unwrap_or(i64::MAX))
+        .fetch_all(&mut *tx)
+        .await?;
+    let mut by_point: HashMap<String, Vec<Displacement>> = HashMap::new();
+    for r in rows {
+        by_point.entry(r.point.clone()).or_default().push(r);
+    }
+    Ok(points
+        .into_iter()
+        .map(|p| {
+            let rows = by_point.remove(&p).unwrap_or_default();
+            (p, rows)
+        })
+        .collect())
 }
 
 /// A row of [`HISTORY_COLUMNS`] read through the C API (the columns not read stay `None`).

@@ -271,17 +271,22 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
     .execute(&mut *db)
     .await?;
 
-    for cam in &rec.input.cameras {
-        sqlx::query(
-            "INSERT INTO cameras (site_id, id, definition, updated_at) VALUES ($1, $2, $3, $4) \
+    // Camera ids are unique within an upload (validated), so one statement may update them all.
+    for chunk in rec.input.cameras.chunks(super::rows_per_insert(4)) {
+        let sql = format!(
+            "INSERT INTO cameras (site_id, id, definition, updated_at) VALUES {} \
              ON CONFLICT (site_id, id) DO UPDATE SET definition = excluded.definition, updated_at = excluded.updated_at",
-        )
-        .bind(rec.site)
-        .bind(&cam.id)
-        .bind(serde_json::to_string(cam)?)
-        .bind(&created)
-        .execute(&mut *db)
-        .await?;
+            super::values_list(db, chunk.len(), 4)
+        );
+        let mut q = sqlx::query(&sql);
+        for cam in chunk {
+            q = q
+                .bind(rec.site)
+                .bind(&cam.id)
+                .bind(serde_json::to_string(cam)?)
+                .bind(&created);
+        }
+        q.execute(&mut *db).await?;
     }
 
     let residuals: HashMap<(&str, &str), _> = adj
@@ -290,57 +295,87 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
         .iter()
         .map(|r| ((r.image.as_str(), r.point.as_str()), r))
         .collect();
-    for (seq, image) in rec.input.images.iter().enumerate() {
-        let station = image.station.clone().unwrap_or_else(|| image.id.clone());
-        sqlx::query(
-            "INSERT INTO stations (site_id, name, first_epoch) VALUES ($1, $2, $3) ON CONFLICT (site_id, name) DO NOTHING",
-        )
-        .bind(rec.site)
-        .bind(&station)
-        .bind(id)
-        .execute(&mut *db)
-        .await?;
-        sqlx::query(
-            "INSERT INTO images (site_id, epoch_id, id, camera, station, seq) VALUES ($1, $2, $3, $4, $5, $6)",
-        )
-        .bind(rec.site)
-        .bind(id)
-        .bind(&image.id)
-        .bind(&image.camera)
-        .bind(&station)
-        .bind(seq as i64)
-        .execute(&mut *db)
-        .await?;
-        let observations: Vec<(
-            usize,
-            &crate::photogrammetry::input::epoch::ObservationInput,
-        )> = image.observations.iter().enumerate().collect();
-        for chunk in observations.chunks(super::rows_per_insert(13)) {
-            let sql = format!(
-                "INSERT INTO observations (site_id, epoch_id, image_id, point, seq, x_mm, y_mm, \
-                 col_px, row_px, vx_mm, vy_mm, w, dropped) VALUES {}",
-                super::values_list(db, chunk.len(), 13)
-            );
-            let mut q = sqlx::query(&sql);
-            for (oseq, o) in chunk {
-                let r = residuals.get(&(image.id.as_str(), o.point.as_str()));
-                q = q
-                    .bind(rec.site)
-                    .bind(id)
-                    .bind(&image.id)
-                    .bind(&o.point)
-                    .bind(*oseq as i64)
-                    .bind(o.x_mm)
-                    .bind(o.y_mm)
-                    .bind(o.col)
-                    .bind(o.row)
-                    .bind(r.map(|r| r.vx_mm))
-                    .bind(r.map(|r| r.vy_mm))
-                    .bind(r.map(|r| r.w))
-                    .bind(r.is_some_and(|r| r.dropped));
-            }
-            q.execute(&mut *db).await?;
+    // One statement per table for all images (each statement is a round trip on PostgreSQL).
+    let stations: Vec<String> = rec
+        .input
+        .images
+        .iter()
+        .map(|image| image.station.clone().unwrap_or_else(|| image.id.clone()))
+        .collect();
+    let mut new_stations: Vec<&String> = stations.iter().collect();
+    new_stations.sort();
+    new_stations.dedup();
+    for chunk in new_stations.chunks(super::rows_per_insert(3)) {
+        let sql = format!(
+            "INSERT INTO stations (site_id, name, first_epoch) VALUES {} ON CONFLICT (site_id, name) DO NOTHING",
+            super::values_list(db, chunk.len(), 3)
+        );
+        let mut q = sqlx::query(&sql);
+        for station in chunk {
+            q = q.bind(rec.site).bind(*station).bind(id);
         }
+        q.execute(&mut *db).await?;
+    }
+    let images: Vec<(usize, &crate::photogrammetry::input::epoch::ImageInput)> =
+        rec.input.images.iter().enumerate().collect();
+    for chunk in images.chunks(super::rows_per_insert(6)) {
+        let sql = format!(
+            "INSERT INTO images (site_id, epoch_id, id, camera, station, seq) VALUES {}",
+            super::values_list(db, chunk.len(), 6)
+        );
+        let mut q = sqlx::query(&sql);
+        for (seq, image) in chunk {
+            q = q
+                .bind(rec.site)
+                .bind(id)
+                .bind(&image.id)
+                .bind(&image.camera)
+                .bind(&stations[*seq])
+                .bind(*seq as i64);
+        }
+        q.execute(&mut *db).await?;
+    }
+    let observations: Vec<(
+        &str,
+        usize,
+        &crate::photogrammetry::input::epoch::ObservationInput,
+    )> = rec
+        .input
+        .images
+        .iter()
+        .flat_map(|image| {
+            image
+                .observations
+                .iter()
+                .enumerate()
+                .map(move |(oseq, o)| (image.id.as_str(), oseq, o))
+        })
+        .collect();
+    for chunk in observations.chunks(super::rows_per_insert(13)) {
+        let sql = format!(
+            "INSERT INTO observations (site_id, epoch_id, image_id, point, seq, x_mm, y_mm, \
+             col_px, row_px, vx_mm, vy_mm, w, dropped) VALUES {}",
+            super::values_list(db, chunk.len(), 13)
+        );
+        let mut q = sqlx::query(&sql);
+        for (image, oseq, o) in chunk {
+            let r = residuals.get(&(*image, o.point.as_str()));
+            q = q
+                .bind(rec.site)
+                .bind(id)
+                .bind(*image)
+                .bind(&o.point)
+                .bind(*oseq as i64)
+                .bind(o.x_mm)
+                .bind(o.y_mm)
+                .bind(o.col)
+                .bind(o.row)
+                .bind(r.map(|r| r.vx_mm))
+                .bind(r.map(|r| r.vy_mm))
+                .bind(r.map(|r| r.w))
+                .bind(r.is_some_and(|r| r.dropped));
+        }
+        q.execute(&mut *db).await?;
     }
 
     for chunk in adj.points.chunks(super::rows_per_insert(13)) {
