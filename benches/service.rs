@@ -51,7 +51,6 @@ fn upload_on(c: &mut Criterion, name: &str, database_url: Option<String>) {
     let rt = runtime();
     let server = rt.block_on(TestServer::start(move |c| c.database_url = database_url));
     rt.block_on(server.create_site("bench"));
-    let url = server.url("/api/v1/sites/bench/epochs");
     let k = Cell::new(0usize);
     c.bench_function(name, |b| {
         b.iter_batched(
@@ -69,16 +68,9 @@ fn upload_on(c: &mut Criterion, name: &str, database_url: Option<String>) {
             },
             |body| {
                 rt.block_on(async {
-                    let r = server
-                        .client
-                        .post(&url)
-                        .header("content-type", "application/json")
-                        .body(body)
-                        .send()
-                        .await
-                        .unwrap();
-                    assert_eq!(r.status(), 201);
-                    r.bytes().await.unwrap()
+                    let (status, len) = server.upload_bytes("bench", body).await;
+                    assert_eq!(status, 201);
+                    len
                 })
             },
             criterion::BatchSize::SmallInput,

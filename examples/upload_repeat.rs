@@ -36,23 +36,14 @@ fn main() {
     rt.block_on(async {
         let server = TestServer::start(move |c| c.database_url = url).await;
         server.create_site("bench").await;
-        let url = server.url("/api/v1/sites/bench/epochs");
         let mut times = Vec::with_capacity(n);
         for k in 1..=warm + n {
             let body =
                 serde_json::to_vec(&synthetic_epoch(5, 28, &observed_at(k), k as u64, 0.0, 28))
                     .expect("JSON");
             let t = Instant::now();
-            let r = server
-                .client
-                .post(&url)
-                .header("content-type", "application/json")
-                .body(body)
-                .send()
-                .await
-                .expect("sent");
-            assert_eq!(r.status(), 201, "upload {k}");
-            r.bytes().await.expect("answer");
+            let (status, _) = server.upload_bytes("bench", body).await;
+            assert_eq!(status, 201, "upload {k}");
             if k > warm {
                 times.push(t.elapsed().as_secs_f64() * 1e3);
             }

@@ -204,6 +204,21 @@ impl TestServer {
         (status, r.json().await.unwrap_or(Value::Null))
     }
 
+    /// POSTs an epoch already serialized (`body`, JSON) to `site` and reads the whole answer, as
+    /// the benchmarks time it: the status and the answer's length in bytes.
+    pub async fn upload_bytes(&self, site: &str, body: Vec<u8>) -> (u16, usize) {
+        let r = self
+            .client
+            .post(self.url(&format!("/api/v1/sites/{site}/epochs")))
+            .header("content-type", "application/json")
+            .body(body)
+            .send()
+            .await
+            .expect("sent");
+        let status = r.status().as_u16();
+        (status, r.bytes().await.expect("answer").len())
+    }
+
     /// GETs JSON.
     pub async fn get(&self, path: &str) -> (u16, Value) {
         let r = self.client.get(self.url(path)).send().await.unwrap();
