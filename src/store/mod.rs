@@ -478,12 +478,18 @@ impl From<Flag> for bool {
     }
 }
 
+/// Whether the connection `db` is to PostgreSQL (else SQLite): for the few statements whose
+/// text differs between the backends.
+pub(crate) fn is_postgres(db: &AnyConnection) -> bool {
+    db.backend_name() == "PostgreSQL"
+}
+
 /// Placeholders of a multi-row `VALUES` list on the connection `db`: `rows` groups of `cols`,
 /// bound in order. PostgreSQL numbers them from `$1`; SQLite gets anonymous `?`, because sqlx
 /// looks up the name of every parameter it binds and SQLite finds a named one by walking a list,
 /// which made binding a statement of n named parameters cost n² (6 M instructions per upload).
 pub(crate) fn values_list(db: &AnyConnection, rows: usize, cols: usize) -> String {
-    let numbered = db.backend_name() == "PostgreSQL";
+    let numbered = is_postgres(db);
     let mut out = String::with_capacity(rows * cols * 5);
     for r in 0..rows {
         out.push_str(if r == 0 { "(" } else { ", (" });

@@ -134,7 +134,7 @@ pub async fn claim_due(
     lease_until: &str,
     limit: i64,
 ) -> Result<Vec<DueDelivery>, StoreError> {
-    let due: Vec<DueDelivery> = if db.backend_name() == "PostgreSQL" {
+    let due: Vec<DueDelivery> = if super::is_postgres(db) {
         sqlx::query_as(CLAIM_DUE)
             .bind(now)
             .bind(limit)
