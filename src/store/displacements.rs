@@ -161,31 +161,9 @@ pub(super) async fn series_of(
     Ok(display(rows))
 }
 
-/// The last `n` rows of `point` observed before `before` (store format), newest first, times
-/// in store format (the analysis' history: without the filtered values, which the analysis
-/// recomputes).
-pub async fn recent(
-    db: impl AnyExecutor<'_>,
-    site: &str,
-    point: &str,
-    before: &str,
-    n: usize,
-) -> Result<Vec<Displacement>, StoreError> {
-    let columns = select_list(HISTORY_COLUMNS, "");
-    Ok(sqlx::query_as(&format!(
-        "SELECT {columns} FROM displacements WHERE site_id = $1 AND point = $2 \
-         AND observed_at < $3 ORDER BY observed_at DESC LIMIT $4"
-    ))
-    .bind(site)
-    .bind(point)
-    .bind(before)
-    .bind(n as i64)
-    .fetch_all(db)
-    .await?)
-}
-
-/// [`recent`] of each of `points` (newest first, one entry per point in order): the analysis'
-/// history of a new epoch.
+/// The last `n` rows of each of `points` observed before `before` (store format), newest first,
+/// one entry per point in order, times in store format: the analysis' history of a new epoch
+/// (without the filtered values, which the analysis recomputes).
 ///
 /// SQLite reads through the C API on the native read pool ([`sqlite_raw`]): sqlx's per-value
 /// copies made this read most of an upload's time (28 points × 40 rows × 19 columns). That
@@ -309,7 +287,7 @@ pub async fn of_epoch(
     epoch: i64,
 ) -> Result<Vec<Displacement>, StoreError> {
     let columns = select_list(COLUMNS, "");
-    let hint = if db.backend_name() == "PostgreSQL" {
+    let hint = if super::is_postgres(db) {
         ""
     } else {
         "INDEXED BY displacements_by_epoch "
