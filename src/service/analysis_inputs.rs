@@ -169,21 +169,17 @@ pub async fn reference_coordinates(
 
 /// The last `per_point` displacement records of every point observed before `before` (stored
 /// timestamp form), oldest first per point. One range scan of the primary key (site, point,
-/// observed_at) per point, so the cost does not grow with the length of the site's history;
-/// on SQLite through the C API ([`displacements::recent_of_points`]: call it before `tx` writes
-/// displacements of `site`).
+/// observed_at) per point, so the cost does not grow with the length of the site's history.
+/// It reads the last committed state on its own connection ([`displacements::recent`]): call
+/// it while the epoch's write transaction holds the site's lock, before it commits.
 pub async fn history(
     store: &Store,
-    tx: &mut Connection,
     site: &str,
     before: &str,
     per_point: usize,
 ) -> Result<History, StoreError> {
-    let names = points::names(&mut *tx, site).await?;
     let mut out: History = HashMap::new();
-    for (point, mut rows) in
-        displacements::recent_of_points(store, tx, site, names, before, per_point).await?
-    {
+    for (point, mut rows) in displacements::recent(store, site, before, per_point).await? {
         rows.reverse();
         let records: Vec<DisplacementRecord> =
             rows.iter().filter_map(Displacement::to_record).collect();

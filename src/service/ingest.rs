@@ -12,7 +12,7 @@ use std::time::Instant;
 use chrono::Utc;
 use sha2::{Digest, Sha256};
 
-use crate::analysis::{self, EpochCoordinates, GroupKind};
+use crate::analysis::{self, EpochCoordinates, GroupKind, History};
 use crate::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochInput};
 use crate::store::block_motions;
 use crate::store::displacements::{self, Displacement};
@@ -21,8 +21,8 @@ use crate::store::{self, epochs, groups, points, sites, Connection, Store};
 
 use super::alert_outcome;
 use super::analysis_inputs::{
-    history, point_configs, reference_coordinates, reference_epoch, reference_window,
-    site_analysis_config, to_rows,
+    analysis_config, history, point_configs, reference_coordinates, reference_epoch,
+    reference_window, site_analysis_config, to_rows,
 };
 use super::{recompute, ServiceError};
 
@@ -111,7 +111,7 @@ pub async fn ingest_with_identification(
         return Ok(done);
     }
 
-    let prior: BTreeMap<String, [f64; 3]> = points::latest_coordinates(&mut *db, &site.id)
+    let prior: BTreeMap<String, [f64; 3]> = points::latest_coordinates(&mut db, &site.id)
         .await?
         .into_iter()
         .map(|c| (c.point, c.xyz))
@@ -139,6 +139,8 @@ pub async fn ingest_with_identification(
     if let Some(done) = check_existing(&mut tx, &site.id, &observed_at, &hash).await? {
         return Ok(done);
     }
+    // The history the analysis needs is read on its own connection while `tx` stores the epoch.
+    let history = HistoryPrefetch::start(store, &site, &observed_at);
     let control: Vec<String> = input.control.iter().map(|c| c.point.clone()).collect();
     let record = epochs::EpochRecord {
         site: &site.id,
@@ -150,7 +152,7 @@ pub async fn ingest_with_identification(
         identification: identification.as_ref(),
     };
     let epoch = epochs::insert(&mut tx, &record).await?;
-    let derived = derive(store, &mut tx, &site, epoch, &observed_at, &adjustment).await?;
+    let derived = derive(&mut tx, &site, epoch, &observed_at, &adjustment, history).await?;
     displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
     block_motions::insert(&mut tx, &site.id, &derived.block_motions).await?;
     tx.commit().await.map_err(store::StoreError::from)?;
@@ -183,6 +185,32 @@ async fn check_existing(
     }
 }
 
+/// The history of a new epoch ([`history`]: the last committed displacements before it), read
+/// on a task of its own from when the epoch's write transaction holds the site's lock, so that
+/// its round trips overlap the transaction's writes. Dropped unused (an epoch out of order
+/// recomputes the site instead), it is cancelled.
+struct HistoryPrefetch(tokio::task::JoinHandle<Result<History, store::StoreError>>);
+
+impl HistoryPrefetch {
+    fn start(store: &Store, site: &Site, observed_at: &str) -> HistoryPrefetch {
+        let (store, site_id, before) = (store.clone(), site.id.clone(), observed_at.to_string());
+        let per_point = analysis_config(site).history_epochs();
+        HistoryPrefetch(tokio::spawn(async move {
+            history(&store, &site_id, &before, per_point).await
+        }))
+    }
+
+    async fn get(mut self) -> Result<History, ServiceError> {
+        Ok((&mut self.0).await??)
+    }
+}
+
+impl Drop for HistoryPrefetch {
+    fn drop(&mut self) {
+        self.0.abort();
+    }
+}
+
 /// What an epoch makes besides its own rows: its displacements and how many alerts it raised
 /// (alert rows and outbox rows are already written).
 #[derive(Debug, Default)]
@@ -196,9 +224,8 @@ pub struct Derived {
 }
 
 /// THE seam of the displacement analysis and the alert rules: runs inside the epoch's write
-/// transaction, which holds the site's write lock, so the history it reads (from `tx`, or on
-/// SQLite from the last commit, before `tx` writes this epoch's displacements) is consistent with
-/// what is written.
+/// transaction, which holds the site's write lock, so the history (`history`, read from the last
+/// commit while `tx` holds the lock) is consistent with what is written.
 ///
 /// Loads the reference epoch's coordinates (with the stable points' joint covariance), the point
 /// configurations and the history the windows need, runs [`crate::analysis::analyse_epoch`] on a
@@ -207,12 +234,12 @@ pub struct Derived {
 /// reference) is stored without displacements, with status `analysis_failed`, the reason in its
 /// report (`analysis_error`) and a site-level `analysis_failed` alert for the staff.
 async fn derive(
-    store: &Store,
     tx: &mut Connection,
     site: &Site,
     epoch: i64,
     observed_at: &str,
     adjustment: &Adjustment,
+    history: HistoryPrefetch,
 ) -> Result<Derived, ServiceError> {
     let later = epochs::count_after(&mut *tx, &site.id, observed_at).await?;
     let reference = reference_epoch(tx, site).await?.unwrap_or(epoch);
@@ -249,7 +276,7 @@ async fn derive(
         }
     };
     let reference_id = reference.epoch;
-    let history = history(store, tx, &site.id, observed_at, config.history_epochs()).await?;
+    let history = history.get().await?;
     let analysis = tokio::task::spawn_blocking(move || {
         analysis::analyse_epoch(&reference, &current, &points, &history, &config)
     })

@@ -1,11 +1,9 @@
 //! Displacements of points per epoch against the site's reference epoch (mm).
 
-use std::collections::HashMap;
-
 use sqlx::{AnyConnection, AnyExecutor};
 
 use super::sqlite_raw::{self, Param};
-use super::{display_timestamp, Connection, Store, StoreError};
+use super::{display_timestamp, Store, StoreError};
 
 pub use super::displacement_row::Displacement;
 use super::displacement_row::{select_list, COLUMNS, HISTORY_COLUMNS};
@@ -161,25 +159,25 @@ pub(super) async fn series_of(
     Ok(display(rows))
 }
 
-/// The last `n` rows of each of `points` observed before `before` (store format), newest first,
-/// one entry per point in order, times in store format: the analysis' history of a new epoch
-/// (without the filtered values, which the analysis recomputes).
+/// The last `n` rows of each point of `site` observed before `before` (store format), newest
+/// first, one entry per point with rows, times in store format: the analysis' history of a new
+/// epoch (without the filtered values, which the analysis recomputes).
 ///
-/// SQLite reads through the C API on the native read pool ([`sqlite_raw`]): sqlx's per-value
-/// copies made this read most of an upload's time (28 points × 40 rows × 19 columns). That
-/// connection sees the last committed state, not `tx`'s own writes, so call it before `tx`
-/// writes displacements of `site`, while `tx` holds the write lock (SQLite's `BEGIN
-/// IMMEDIATE`: no other writer can commit in between). PostgreSQL reads in `tx`.
-pub async fn recent_of_points(
+/// Both backends read on their native read pool, not through sqlx's `Any` driver, whose copies
+/// of each value made this read most of an upload's time (28 points × 40 rows × 19 columns):
+/// SQLite through the C API ([`sqlite_raw`], one range scan of the primary key per point),
+/// PostgreSQL in one statement. That connection sees the last committed state, not the epoch's
+/// write transaction: call it once that transaction holds the site's write lock (SQLite's
+/// `BEGIN IMMEDIATE`, PostgreSQL's advisory lock: no other writer of the site commits in
+/// between), and before it commits; it may run while the transaction writes.
+pub async fn recent(
     store: &Store,
-    tx: &mut Connection,
     site: &str,
-    points: Vec<String>,
     before: &str,
     n: usize,
 ) -> Result<Vec<(String, Vec<Displacement>)>, StoreError> {
     let Some(pool) = store.sqlite_reader() else {
-        return recent_of_points_postgres(tx, site, points, before, n).await;
+        return recent_postgres(store, site, before, n).await;
     };
     let mut conn = pool.acquire().await?;
     let (site, before) = (site.to_string(), before.to_string());
@@ -190,6 +188,16 @@ pub async fn recent_of_points(
     );
     let limit = i64::try_from(n).unwrap_or(i64::MAX);
     tokio::task::spawn_blocking(move || {
+        let mut points = Vec::new();
+        sqlite_raw::query(
+            &mut conn,
+            "SELECT name FROM points WHERE site_id = $1 ORDER BY name",
+            &[Param::Text(&site)],
+            |row| {
+                points.push(String::from_utf8_lossy(row.text(0)).into_owned());
+                true
+            },
+        )?;
         let params: Vec<[Param<'_>; 4]> = points
             .iter()
             .map(|p| {
@@ -207,45 +215,85 @@ pub async fn recent_of_points(
             rows[k].push(history_row(row));
             true
         })?;
-        Ok(points.into_iter().zip(rows).collect())
+        drop(sets);
+        drop(params);
+        Ok(points
+            .into_iter()
+            .zip(rows)
+            .filter(|(_, r)| !r.is_empty())
+            .collect())
     })
     .await
     .map_err(super::series::reader_failed)?
 }
 
-/// PostgreSQL's [`recent_of_points`]: one statement for all points (a `LATERAL` read of each
-/// point's last `n` rows by the primary key) instead of one round trip per point, which made
-/// the history 12 ms of a 37 ms upload.
-async fn recent_of_points_postgres(
-    tx: &mut Connection,
+/// PostgreSQL's [`recent`]: one statement for all points (a `LATERAL` read of each point's last
+/// `n` rows by the primary key) instead of one round trip per point, on the native pool
+/// ([`Store::postgres_reader`]). No `ORDER BY`: sorting the 1 120 rows of a 40-epoch history
+/// took PostgreSQL a third of the statement; the rows are grouped and ordered here.
+async fn recent_postgres(
+    store: &Store,
     site: &str,
-    points: Vec<String>,
     before: &str,
     n: usize,
 ) -> Result<Vec<(String, Vec<Displacement>)>, StoreError> {
+    let Some(pool) = store.postgres_reader() else {
+        return Err(StoreError::Url("a store without a native read pool".into()));
+    };
     let sql = format!(
-        "SELECT {} FROM points p CROSS JOIN LATERAL (SELECT * FROM displacements d \
+        "SELECT {HISTORY_COLUMNS} FROM points p CROSS JOIN LATERAL (SELECT * FROM displacements d \
          WHERE d.site_id = p.site_id AND d.point = p.name AND d.observed_at < $2 \
-         ORDER BY d.observed_at DESC LIMIT $3) d WHERE p.site_id = $1 ORDER BY d.point, d.observed_at DESC",
-        select_list(HISTORY_COLUMNS, "d.")
+         ORDER BY d.observed_at DESC LIMIT $3) d WHERE p.site_id = $1"
     );
-    let rows: Vec<Displacement> = sqlx::query_as(&sql)
+    let rows = sqlx::query(&sql)
         .bind(site)
         .bind(before)
         .bind(i64::try_from(n).unwrap_or(i64::MAX))
-        .fetch_all(&mut *tx)
+        .fetch_all(pool)
         .await?;
-    let mut by_point: HashMap<String, Vec<Displacement>> = HashMap::new();
-    for r in rows {
-        by_point.entry(r.point.clone()).or_default().push(r);
+    let mut out: Vec<(String, Vec<Displacement>)> = Vec::new();
+    for row in &rows {
+        let d = history_row_postgres(row)?;
+        match out.iter_mut().rev().find(|(p, _)| *p == d.point) {
+            Some((_, list)) => list.push(d),
+            None => out.push((d.point.clone(), vec![d])),
+        }
     }
-    Ok(points
-        .into_iter()
-        .map(|p| {
-            let rows = by_point.remove(&p).unwrap_or_default();
-            (p, rows)
-        })
-        .collect())
+    for (_, list) in &mut out {
+        if !list.is_sorted_by(|a, b| a.observed_at >= b.observed_at) {
+            list.sort_by(|a, b| b.observed_at.cmp(&a.observed_at));
+        }
+    }
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    Ok(out)
+}
+
+/// A row of [`HISTORY_COLUMNS`] read by the native PostgreSQL driver (`significant` as the
+/// BOOLEAN it is; the columns not read stay `None`).
+fn history_row_postgres(row: &sqlx::postgres::PgRow) -> Result<Displacement, sqlx::Error> {
+    use sqlx::Row;
+    Ok(Displacement {
+        point: row.try_get(0)?,
+        epoch: row.try_get(1)?,
+        observed_at: row.try_get(2)?,
+        reference_epoch: row.try_get(3)?,
+        dx_mm: row.try_get(4)?,
+        dy_mm: row.try_get(5)?,
+        dz_mm: row.try_get(6)?,
+        d_mm: row.try_get(7)?,
+        sigma_dx_mm: row.try_get(8)?,
+        sigma_dy_mm: row.try_get(9)?,
+        sigma_dz_mm: row.try_get(10)?,
+        sigma_mm: row.try_get(11)?,
+        d_along_mm: row.try_get(12)?,
+        significant: row.try_get(13)?,
+        velocity_mm_per_day: row.try_get(14)?,
+        time_to_failure_hours: row.try_get(15)?,
+        cov_dxdy_mm2: row.try_get(16)?,
+        cov_dxdz_mm2: row.try_get(17)?,
+        cov_dydz_mm2: row.try_get(18)?,
+        ..Displacement::default()
+    })
 }
 
 /// A row of [`HISTORY_COLUMNS`] read through the C API (the columns not read stay `None`).
