@@ -554,7 +554,11 @@ async fn process(
     for c in &input.control {
         known.insert(c.point.clone(), [c.X, c.Y, c.Z]);
     }
-    if let Ok(stored) = points::latest_coordinates(store.reader(), site).await {
+    let stored = match store.read().await {
+        Ok(mut db) => points::latest_coordinates(&mut db, site).await,
+        Err(e) => Err(e),
+    };
+    if let Ok(stored) = stored {
         for c in stored {
             known.insert(c.point, c.xyz);
         }
@@ -603,7 +607,11 @@ async fn process(
         ingest_with_identification(store, site, input, Some(serde_json::to_value(&counts)?))
             .await?;
     // the stations' orientations for the next epoch, from this epoch's adjusted coordinates
-    let adjusted: BTreeMap<String, [f64; 3]> = points::latest_coordinates(store.reader(), site)
+    let mut db = store
+        .read()
+        .await
+        .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
+    let adjusted: BTreeMap<String, [f64; 3]> = points::latest_coordinates(&mut db, site)
         .await
         .map_err(|e| WatchError::Io(std::io::Error::other(e)))?
         .into_iter()

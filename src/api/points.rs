@@ -57,11 +57,12 @@ pub async fn list(
     let cursor = page.cursor()?;
     let pts = points::list(db, &site, cursor.as_deref(), page.limit() + 1).await?;
     let page = Page::from_fetched(pts, page.limit(), |p| p.name.clone());
-    let mut latest: HashMap<String, _> = points::latest_coordinates(db, &site)
-        .await?
-        .into_iter()
-        .map(|c| (c.point.clone(), c))
-        .collect();
+    let mut latest: HashMap<String, _> =
+        points::latest_coordinates(&mut *state.store.read().await?, &site)
+            .await?
+            .into_iter()
+            .map(|c| (c.point.clone(), c))
+            .collect();
     let mut disp: HashMap<String, Displacement> = displacements::latest(db, &site)
         .await?
         .into_iter()

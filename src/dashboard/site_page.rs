@@ -43,7 +43,7 @@ pub async fn site(
     };
     let mut pts = points::list(db, &site.id, None, 100_000).await?;
     pts.sort_by(|a, b| super::natural_order::natural_cmp(&a.name, &b.name));
-    let coords = points::latest_coordinates(db, &site.id).await?;
+    let coords = points::latest_coordinates(&mut *state.store.read().await?, &site.id).await?;
     let latest: HashMap<String, displacements::Displacement> = displacements::latest(db, &site.id)
         .await?
         .into_iter()

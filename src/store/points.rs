@@ -1,7 +1,7 @@
 //! Points (role, group, direction of interest) and their adjusted coordinates per epoch.
 
 use serde::{Deserialize, Serialize};
-use sqlx::{AnyExecutor, FromRow};
+use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::StoreError;
@@ -199,21 +199,29 @@ impl From<CoordRow> for StoredCoordinate {
 const COORD_COLUMNS: &str = "c.point, c.epoch_id, c.observed_at, c.x_m, c.y_m, c.z_m, \
     c.cxx_m2, c.cxy_m2, c.cxz_m2, c.cyy_m2, c.cyz_m2, c.czz_m2";
 
-/// The latest coordinates (by observation time) of every point of the site. `CROSS JOIN` keeps
-/// the points as the outer loop, so each point costs one index seek however long the history.
+/// The latest coordinates (by observation time) of every point of the site. Each point costs
+/// one index seek however long the history: SQLite keeps the points as the outer loop of the
+/// `CROSS JOIN`; PostgreSQL, whose planner joined all the site's coordinates by hash (its
+/// statistics of a young table), reads each point's newest row `LATERAL`ly.
 pub async fn latest_coordinates(
-    db: impl AnyExecutor<'_>,
+    db: &mut AnyConnection,
     site: &str,
 ) -> Result<Vec<StoredCoordinate>, StoreError> {
-    let rows: Vec<CoordRow> = sqlx::query_as(&format!(
-        "SELECT {COORD_COLUMNS} FROM points p CROSS JOIN coordinates c \
-         WHERE p.site_id = $1 AND c.site_id = p.site_id AND c.point = p.name AND c.observed_at = \
-         (SELECT MAX(c2.observed_at) FROM coordinates c2 WHERE c2.site_id = p.site_id AND c2.point = p.name) \
-         ORDER BY p.name"
-    ))
-    .bind(site)
-    .fetch_all(db)
-    .await?;
+    let sql = if super::is_postgres(db) {
+        format!(
+            "SELECT {COORD_COLUMNS} FROM points p CROSS JOIN LATERAL (SELECT * FROM coordinates c2 \
+             WHERE c2.site_id = p.site_id AND c2.point = p.name ORDER BY c2.observed_at DESC LIMIT 1) c \
+             WHERE p.site_id = $1 ORDER BY p.name"
+        )
+    } else {
+        format!(
+            "SELECT {COORD_COLUMNS} FROM points p CROSS JOIN coordinates c \
+             WHERE p.site_id = $1 AND c.site_id = p.site_id AND c.point = p.name AND c.observed_at = \
+             (SELECT MAX(c2.observed_at) FROM coordinates c2 WHERE c2.site_id = p.site_id AND c2.point = p.name) \
+             ORDER BY p.name"
+        )
+    };
+    let rows: Vec<CoordRow> = sqlx::query_as(&sql).bind(site).fetch_all(db).await?;
     Ok(rows.into_iter().map(StoredCoordinate::from).collect())
 }
 
