@@ -21,6 +21,34 @@ fn observed_at(k: usize) -> String {
     t.to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
 }
 
+/// CPU time (user + system, ms) of processes whose name is `postgres`, or of this process when
+/// `name` is `None`, from `/proc` (Linux; 0 elsewhere).
+fn cpu_ms(name: Option<&str>) -> f64 {
+    let ticks = |stat: &str| -> f64 {
+        // fields after the ")" of the command: state is field 3, utime 14, stime 15
+        let rest = stat.rsplit_once(')').map(|(_, r)| r).unwrap_or("");
+        let f: Vec<&str> = rest.split_whitespace().collect();
+        let get = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+        get(11) + get(12)
+    };
+    let per_tick = 10.0; // USER_HZ = 100 on Linux
+    let Some(name) = name else {
+        return std::fs::read_to_string("/proc/self/stat")
+            .map(|s| ticks(&s) * per_tick)
+            .unwrap_or(0.0);
+    };
+    let mut total = 0.0;
+    for entry in std::fs::read_dir("/proc").into_iter().flatten().flatten() {
+        let stat = entry.path().join("stat");
+        if let Ok(s) = std::fs::read_to_string(stat) {
+            if s.contains(&format!("({name})")) {
+                total += ticks(&s) * per_tick;
+            }
+        }
+    }
+    total
+}
+
 fn main() {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(50);
@@ -37,10 +65,14 @@ fn main() {
         let server = TestServer::start(move |c| c.database_url = url).await;
         server.create_site("bench").await;
         let mut times = Vec::with_capacity(n);
+        let mut cpu_start = (0.0, 0.0);
         for k in 1..=warm + n {
             let body =
                 serde_json::to_vec(&synthetic_epoch(5, 28, &observed_at(k), k as u64, 0.0, 28))
                     .expect("JSON");
+            if k == warm + 1 {
+                cpu_start = (cpu_ms(None), cpu_ms(Some("postgres")));
+            }
             let t = Instant::now();
             let (status, _) = server.upload_bytes("bench", body).await;
             assert_eq!(status, 201, "upload {k}");
@@ -48,6 +80,14 @@ fn main() {
                 times.push(t.elapsed().as_secs_f64() * 1e3);
             }
         }
+        if let Ok(secs) = std::env::var("HOLD") {
+            eprintln!("HOLD {:?}", cluster.as_ref().map(|c| c.port()));
+            tokio::time::sleep(std::time::Duration::from_secs(secs.parse().unwrap())).await;
+        }
+        let cpu = (
+            (cpu_ms(None) - cpu_start.0) / n.max(1) as f64,
+            (cpu_ms(Some("postgres")) - cpu_start.1) / n.max(1) as f64,
+        );
         let mean = times.iter().sum::<f64>() / n.max(1) as f64;
         times.sort_by(f64::total_cmp);
         if !times.is_empty() {
@@ -57,6 +97,10 @@ fn main() {
                 times[0],
                 times[n - 1],
                 times.iter().filter(|&&t| t > 2.0 * times[n / 2]).count()
+            );
+            println!(
+                "CPU per upload: this process {:.2} ms, PostgreSQL processes {:.2} ms",
+                cpu.0, cpu.1
             );
         }
         let _ = server.stop().await;
