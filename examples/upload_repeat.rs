@@ -4,7 +4,10 @@
 //! WARM 5 × 28 epochs (default 45, so that the analysis reads a full 40-epoch history), then N more
 //! (default 50) and prints the median, mean, minimum and maximum of those N. Under
 //! `valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*upload_inner*'` it counts the
-//! server's instructions per upload, which the machine's load does not move.
+//! server's instructions per upload, which the machine's load does not move. It also prints the
+//! CPU time per upload of itself and of the `postgres` processes. `CLIFFWATCH_HOLD_SECONDS=S`
+//! keeps the database S seconds after the uploads (and prints how to reach a cluster with
+//! `psql`, for `EXPLAIN ANALYZE`).
 
 #[path = "../tests/pg_support/mod.rs"]
 mod pg_support;
@@ -80,9 +83,17 @@ fn main() {
                 times.push(t.elapsed().as_secs_f64() * 1e3);
             }
         }
-        if let Ok(secs) = std::env::var("HOLD") {
-            eprintln!("HOLD {:?}", cluster.as_ref().map(|c| c.port()));
-            tokio::time::sleep(std::time::Duration::from_secs(secs.parse().unwrap())).await;
+        if let Some(secs) = std::env::var("CLIFFWATCH_HOLD_SECONDS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+        {
+            if let Some(c) = &cluster {
+                eprintln!(
+                    "holding for {secs} s: psql -h 127.0.0.1 -p {} -U cliffwatch upload",
+                    c.port()
+                );
+            }
+            tokio::time::sleep(std::time::Duration::from_secs(secs)).await;
         }
         let cpu = (
             (cpu_ms(None) - cpu_start.0) / n.max(1) as f64,
