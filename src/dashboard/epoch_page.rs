@@ -19,12 +19,12 @@ use super::{viewer, PageError};
 use crate::api::auth::Access;
 use crate::api::AppState;
 use crate::store::epochs::{self, EpochListItem, ObservationResidual};
-use crate::store::sites;
+use crate::store::{sites, ReadPool};
 
 /// The site `site_id` and its epoch `epoch` (id as in the URL) with the epoch's list item and
 /// report; 404 naming what is missing.
 pub(super) async fn load(
-    db: &sqlx::AnyPool,
+    db: &ReadPool,
     site_id: &str,
     epoch: &str,
 ) -> Result<(sites::Site, i64, EpochListItem, Map<String, Value>), PageError> {

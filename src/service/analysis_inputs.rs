@@ -61,7 +61,7 @@ pub fn alert_config(site: &Site) -> AlertConfig {
 
 /// Role, group and direction of interest of every configured point of a site.
 pub async fn point_configs(
-    db: impl sqlx::AnyExecutor<'_>,
+    db: &mut Connection,
     site: &str,
 ) -> Result<Vec<PointConfig>, StoreError> {
     Ok(points::list(db, site, None, i64::MAX)

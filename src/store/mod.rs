@@ -94,6 +94,9 @@ pub struct JobLock {
 /// A connection of the read pool, returned to it when dropped.
 pub type ReadConnection = PoolConnection<Any>;
 
+/// The read pool ([`Store::reader`]): each statement run on it takes a connection for itself.
+pub type ReadPool = AnyPool;
+
 /// A database error.
 #[derive(Debug, Error)]
 pub enum StoreError {
@@ -341,7 +344,7 @@ impl Store {
     }
 
     /// The read pool.
-    pub fn reader(&self) -> &AnyPool {
+    pub fn reader(&self) -> &ReadPool {
         &self.read
     }
 
