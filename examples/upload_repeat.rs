@@ -109,10 +109,13 @@ fn main() {
                 times[n - 1],
                 times.iter().filter(|&&t| t > 2.0 * times[n / 2]).count()
             );
-            println!(
-                "CPU per upload: this process {:.2} ms, PostgreSQL processes {:.2} ms",
-                cpu.0, cpu.1
-            );
+            match &cluster {
+                Some(_) => println!(
+                    "CPU per upload: this process {:.2} ms, PostgreSQL processes {:.2} ms",
+                    cpu.0, cpu.1
+                ),
+                None => println!("CPU per upload: this process {:.2} ms", cpu.0),
+            }
         }
         let _ = server.stop().await;
     });
