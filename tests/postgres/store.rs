@@ -240,6 +240,16 @@ fn assert_same(what: &str, have: &str, want: &str) {
     );
 }
 
+/// The analysis' history of an epoch after the scenario's last (`displacements::recent`, read
+/// natively on each backend: SQLite's C API, PostgreSQL's own driver): the last 4 rows per point.
+async fn history(
+    s: &TestServer,
+) -> Vec<(String, Vec<cliffwatch::store::displacements::Displacement>)> {
+    cliffwatch::store::displacements::recent(&s.store, SITE, "9999", 4)
+        .await
+        .expect("history")
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
     let _ = tracing_subscriber::fmt().with_test_writer().try_init();
@@ -250,6 +260,7 @@ async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
     assert_eq!(sqlite.store.backend(), cliffwatch::store::Backend::Sqlite);
     run_scenario(&sqlite).await;
     let expected = answers(&sqlite).await;
+    let expected_history = history(&sqlite).await;
     sqlite.stop().await;
 
     let pg_url = url.clone();
@@ -274,6 +285,21 @@ async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
         EPOCHS,
         "{series}"
     );
+    // The history the next epoch's analysis would read: every point with 4 rows, newest first,
+    // the same values to the bit on both backends (booleans and nulls included).
+    let got_history = history(&pg).await;
+    assert_eq!(got_history.len(), POINTS);
+    for (point, rows) in &got_history {
+        assert_eq!(rows.len(), 4, "{point}");
+        assert!(
+            rows.windows(2).all(|w| w[0].observed_at > w[1].observed_at),
+            "{point}"
+        );
+    }
+    let rows = got_history.iter().flat_map(|(_, r)| r);
+    assert!(rows.clone().any(|r| r.significant) && rows.clone().any(|r| !r.significant));
+    assert!(rows.clone().any(|r| r.velocity_mm_per_day.is_some()));
+    assert_eq!(got_history, expected_history);
     assert_eq!(got.len(), expected.len());
     for (path, want) in &expected {
         let have = got.get(path).unwrap_or_else(|| panic!("{path} missing"));
