@@ -617,6 +617,7 @@ async fn process(
         .into_iter()
         .map(|c| (c.point, c.xyz))
         .collect();
+    drop(db);
     let mut found = BTreeMap::new();
     for (s, named) in stations.iter().zip(&names) {
         let measured: Vec<Seed> = named

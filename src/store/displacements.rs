@@ -215,6 +215,7 @@ pub async fn recent(
             rows[k].push(history_row(row));
             true
         })?;
+        // the parameters borrow `points`, which the answer takes
         drop(sets);
         drop(params);
         Ok(points
@@ -238,7 +239,8 @@ async fn recent_postgres(
     n: usize,
 ) -> Result<Vec<(String, Vec<Displacement>)>, StoreError> {
     let Some(pool) = store.postgres_reader() else {
-        return Err(StoreError::Url("a store without a native read pool".into()));
+        let missing = "the history read needs the store's native read pool";
+        return Err(StoreError::Sql(sqlx::Error::Configuration(missing.into())));
     };
     let sql = format!(
         "SELECT {HISTORY_COLUMNS} FROM points p CROSS JOIN LATERAL (SELECT * FROM displacements d \
