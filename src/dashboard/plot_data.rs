@@ -58,14 +58,9 @@ pub async fn plot(
             "unknown point '{point}' of site '{site_id}'"
         )));
     };
-    let concerns = |a: &alerts::Alert| {
-        a.point.as_deref() == Some(p.name.as_str()) || a.points.contains(&p.name)
-    };
-    let alert_epochs: HashSet<i64> = alerts::list(db, Some(&site.id), None, None, 100_000)
+    let alert_epochs: HashSet<i64> = alerts::epochs_of_point(db, &site.id, &p.name)
         .await?
         .into_iter()
-        .filter(|(_, a)| concerns(a))
-        .filter_map(|(_, a)| a.epoch)
         .collect();
     let direction = p.direction;
     let query = SeriesQuery {

@@ -247,6 +247,36 @@ pub struct AlertEvent {
     pub at: String,
 }
 
+/// `LIKE` pattern of `point` as a member of an alert's `points` (a JSON array; `%`, `_` and
+/// the backslash escaped with a backslash).
+fn member_pattern(point: &str) -> String {
+    format!(
+        "%\"{}\"%",
+        point
+            .replace('\\', "\\\\")
+            .replace('%', "\\%")
+            .replace('_', "\\_")
+    )
+}
+
+/// The epochs at which the alerts concerning `point` (as the point of the alert or one of its
+/// points) were last raised or changed, each once, in no order: epochs a plot of the point keeps.
+pub async fn epochs_of_point(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    point: &str,
+) -> Result<Vec<i64>, StoreError> {
+    Ok(sqlx::query_scalar(
+        "SELECT DISTINCT epoch_id FROM alerts WHERE site_id = $1 AND epoch_id IS NOT NULL \
+         AND (point = $2 OR points LIKE $3 ESCAPE '\\')",
+    )
+    .bind(site)
+    .bind(point)
+    .bind(member_pattern(point))
+    .fetch_all(db)
+    .await?)
+}
+
 /// The recorded changes of the alerts that concern `point` (as the point of the alert or one of
 /// its points), oldest first.
 pub async fn events_of_point(
@@ -261,13 +291,7 @@ pub async fn events_of_point(
     )
     .bind(site)
     .bind(point)
-    .bind(format!(
-        "%\"{}\"%",
-        point
-            .replace('\\', "\\\\")
-            .replace('%', "\\%")
-            .replace('_', "\\_")
-    ))
+    .bind(member_pattern(point))
     .fetch_all(db)
     .await?;
     rows.into_iter()

@@ -342,6 +342,36 @@ async fn long_series_plot_keeps_peaks_ends_and_alert_epochs() {
             );
         }
     }
+    // The epochs the plot keeps: those of the alerts on the point or on a group it is in.
+    let concerns = |a: &&Value| {
+        a["point"] == json!(moving)
+            || a["points"]
+                .as_array()
+                .is_some_and(|p| p.contains(&json!(moving)))
+    };
+    let want: std::collections::BTreeSet<i64> = alerts["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(concerns)
+        .filter_map(|a| a["epoch"].as_i64())
+        .collect();
+    let of_point = |p: String| {
+        let store = s.store.clone();
+        async move {
+            cliffwatch::store::alerts::epochs_of_point(store.reader(), SITE, &p)
+                .await
+                .unwrap()
+                .into_iter()
+                .collect::<std::collections::BTreeSet<i64>>()
+        }
+    };
+    assert!(!want.is_empty());
+    assert_eq!(of_point(moving.clone()).await, want);
+    assert!(
+        of_point(name(0)).await.is_empty(),
+        "a stable point has no alerts"
+    );
     let max_api = items
         .iter()
         .map(|i| i["d_mm"].as_f64().unwrap())
