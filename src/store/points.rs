@@ -99,16 +99,6 @@ pub async fn get(
     row.map(Point::try_from).transpose()
 }
 
-/// Names of every configured point of the site.
-pub async fn names(db: impl AnyExecutor<'_>, site: &str) -> Result<Vec<String>, StoreError> {
-    Ok(
-        sqlx::query_scalar("SELECT name FROM points WHERE site_id = $1 ORDER BY name")
-            .bind(site)
-            .fetch_all(db)
-            .await?,
-    )
-}
-
 /// Names of the site's stable points.
 pub async fn stable(db: impl AnyExecutor<'_>, site: &str) -> Result<Vec<String>, StoreError> {
     Ok(sqlx::query_scalar(
