@@ -162,9 +162,10 @@ pub async fn summary(
     }
     out.insert("site".into(), Value::String(site.to_string()));
     if residuals {
+        let r = epochs::residuals(&mut *db, site, id).await?;
         out.insert(
             "residuals".into(),
-            Value::Array(epochs::residuals(&mut *db, site, id).await?),
+            serde_json::to_value(r).map_err(StoreError::from)?,
         );
     }
     let d = displacements::of_epoch(&mut *db, site, id).await?;

@@ -8,6 +8,7 @@ use axum::response::IntoResponse;
 use metrics_exporter_prometheus::{PrometheusBuilder, PrometheusHandle};
 
 use super::error::ApiError;
+use super::schemas::Status;
 use super::AppState;
 
 /// The process-wide Prometheus recorder (installed once, shared by every server of the process),
@@ -52,14 +53,14 @@ fn describe() {
 /// `GET /healthz`: the process answers.
 #[utoipa::path(get, path = "/healthz", responses((status = 200, description = "alive", body = crate::api::schemas::Status)))]
 pub async fn healthz() -> impl IntoResponse {
-    axum::Json(serde_json::json!({"status": "ok"}))
+    axum::Json(Status { status: "ok" })
 }
 
 /// `GET /readyz`: the database answers and the migrations are applied.
 #[utoipa::path(get, path = "/readyz", responses((status = 200, description = "ready", body = crate::api::schemas::Status), (status = 503, description = "not ready", body = crate::api::schemas::ErrorBody)))]
 pub async fn readyz(State(state): State<AppState>) -> Result<impl IntoResponse, ApiError> {
     match state.store.ready().await {
-        Ok(true) => Ok(axum::Json(serde_json::json!({"status": "ready"}))),
+        Ok(true) => Ok(axum::Json(Status { status: "ready" })),
         Ok(false) => Err(ApiError::new(
             StatusCode::SERVICE_UNAVAILABLE,
             "not_ready",

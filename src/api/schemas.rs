@@ -1,19 +1,21 @@
-//! Schemas of the OpenAPI document for bodies that the handlers build without a Rust type of
-//! their own (the epoch summary is the stored report merged with the list fields, errors are
-//! built by [`super::error::ApiError`]). Documentation only: nothing is (de)serialized through
-//! these types. The upload form's schema is derived from the types that read it
-//! ([`crate::photogrammetry::EpochInput`]).
-
-#![allow(dead_code)]
+//! Response types of the contract that have no Rust type elsewhere: the error body (written
+//! through [`ErrorBody`] by [`super::error::ApiError`]), the status of the health endpoints, and
+//! the epoch summary. The summary is the stored report merged with the list fields, so its schema
+//! [`EpochSummary`] is documentation only, but each of its parts is the type that writes it (the
+//! report's [`CameraReport`], [`PointReport`], …, the store's rows). The upload form's schema is
+//! derived from the types that read it ([`crate::photogrammetry::EpochInput`]).
 
 use serde::Serialize;
 use utoipa::ToSchema;
 
+use crate::photogrammetry::adjust::report::{
+    CameraReport, DroppedObservation, ImageReport, PointReport, VarianceModel,
+};
 use crate::store::alerts::Alert;
 use crate::store::displacements::Displacement;
-use crate::store::epochs::EpochListItem;
+use crate::store::epochs::{EpochListItem, StoredResidual};
 
-/// The error answer of every endpoint.
+/// The error answer of every endpoint, as [`super::error::ApiError`] writes it.
 #[derive(Serialize, ToSchema)]
 pub struct ErrorBody {
     /// What went wrong.
@@ -24,19 +26,19 @@ pub struct ErrorBody {
 #[derive(Serialize, ToSchema)]
 pub struct ErrorDetail {
     /// Stable machine-readable code (`not_found`, `invalid_epoch`, `cannot_adjust`, `conflict`, …).
-    pub code: String,
+    pub code: &'static str,
     /// Human-readable message naming the field, image or point at fault.
     pub message: String,
     /// Extra JSON (or null), e.g. `{"limit_bytes": N}` for 413.
     #[schema(value_type = Option<Object>)]
-    pub details: Option<serde_json::Value>,
+    pub details: serde_json::Value,
 }
 
 /// `{"status": "ok"}` / `{"status": "ready"}`.
 #[derive(Serialize, ToSchema)]
 pub struct Status {
-    /// `ok`, `ready` or `not ready`.
-    pub status: String,
+    /// `ok` or `ready`.
+    pub status: &'static str,
 }
 
 /// The summary of a stored epoch (upload answer, `GET .../epochs/{epoch}`): the list fields, the
@@ -59,22 +61,22 @@ pub struct EpochSummary {
     /// Datum of the adjustment.
     pub datum: String,
     /// Cameras: id, c_mm, c_sigma_mm, calibrated parameters.
-    #[schema(value_type = Vec<Object>)]
-    pub cameras: Vec<serde_json::Value>,
+    pub cameras: Vec<CameraReport>,
     /// Points: name, X/Y/Z in m, σ in mm.
-    #[schema(value_type = Vec<Object>)]
-    pub points: Vec<serde_json::Value>,
+    pub points: Vec<PointReport>,
     /// Images: id, observations, RMS in mm.
-    #[schema(value_type = Vec<Object>)]
-    pub images: Vec<serde_json::Value>,
+    pub images: Vec<ImageReport>,
     /// Observations dropped by data snooping: image, point, normalized residual.
-    #[schema(value_type = Vec<Object>)]
-    pub dropped: Vec<serde_json::Value>,
+    pub dropped: Vec<DroppedObservation>,
     /// Warnings of the adjustment.
     pub warnings: Vec<String>,
-    /// Residuals per observation (image, point, vx_mm, vy_mm, w, dropped); detail view only.
-    #[schema(value_type = Option<Vec<Object>>)]
-    pub residuals: Option<Vec<serde_json::Value>>,
+    /// Which variance the normalized residuals rest on (absent from epochs stored before it was
+    /// reported).
+    pub variance_model: Option<VarianceModel>,
+    /// Why the displacement analysis failed (status `analysis_failed` only).
+    pub analysis_error: Option<String>,
+    /// Residuals per observation; detail view only.
+    pub residuals: Option<Vec<StoredResidual>>,
     /// Displacements of this epoch against the reference epoch.
     pub displacements: Vec<Displacement>,
     /// Alerts raised by this epoch.

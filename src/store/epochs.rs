@@ -191,18 +191,8 @@ pub async fn residuals(
     db: impl AnyExecutor<'_>,
     site: &str,
     id: i64,
-) -> Result<Vec<Value>, StoreError> {
-    #[derive(FromRow)]
-    struct Row {
-        image_id: String,
-        point: String,
-        vx_mm: Option<f64>,
-        vy_mm: Option<f64>,
-        w: Option<f64>,
-        #[sqlx(try_from = "super::Flag")]
-        dropped: bool,
-    }
-    let rows: Vec<Row> = sqlx::query_as(
+) -> Result<Vec<StoredResidual>, StoreError> {
+    Ok(sqlx::query_as(
         "SELECT o.image_id, o.point, o.vx_mm, o.vy_mm, o.w, CAST(o.dropped AS INTEGER) AS dropped FROM observations o \
          JOIN images i ON i.site_id = o.site_id AND i.epoch_id = o.epoch_id AND i.id = o.image_id \
          WHERE o.site_id = $1 AND o.epoch_id = $2 ORDER BY i.seq, o.seq",
@@ -210,14 +200,26 @@ pub async fn residuals(
     .bind(site)
     .bind(id)
     .fetch_all(db)
-    .await?;
-    Ok(rows
-        .into_iter()
-        .map(|r| {
-            serde_json::json!({"image": r.image_id, "point": r.point, "vx_mm": r.vx_mm,
-                               "vy_mm": r.vy_mm, "w": r.w, "dropped": r.dropped})
-        })
-        .collect())
+    .await?)
+}
+
+/// The residual of one stored observation, as `GET .../epochs/{epoch}` lists it.
+#[derive(Debug, Serialize, FromRow, ToSchema)]
+pub struct StoredResidual {
+    /// Image id.
+    #[serde(rename = "image")]
+    pub image_id: String,
+    /// Point name.
+    pub point: String,
+    /// Residual in x (observed − computed), mm; null when the adjustment gave none.
+    pub vx_mm: Option<f64>,
+    /// Residual in y, mm.
+    pub vy_mm: Option<f64>,
+    /// Largest |w| of the two coordinates.
+    pub w: Option<f64>,
+    /// Dropped by data snooping.
+    #[sqlx(try_from = "super::Flag")]
+    pub dropped: bool,
 }
 
 /// The cameras (upload form, JSON) of the site as last uploaded: cameras of CSV uploads.

@@ -504,6 +504,144 @@ fn properties(doc: &Value, schema: &Value) -> Vec<String> {
     names
 }
 
+/// Checks `value` against `schema` of the OpenAPI document (3.1: `$ref`, `allOf`, `oneOf`,
+/// `anyOf`, `type` as a name or a list, `enum`, `properties`, `required`, `items`); an object
+/// member the schema does not name is an error too. Appends what does not conform to `errors`.
+fn conforms(doc: &Value, schema: &Value, value: &Value, at: &str, errors: &mut Vec<String>) {
+    let s = resolve(doc, schema);
+    if let Some(parts) = s["allOf"].as_array() {
+        // members are checked against the union of the parts' properties below
+        for part in parts {
+            let part = resolve(doc, part);
+            for name in part["required"].as_array().into_iter().flatten() {
+                if value.get(name.as_str().unwrap()).is_none() {
+                    errors.push(format!("{at}: required member {name} missing"));
+                }
+            }
+        }
+    }
+    for key in ["oneOf", "anyOf"] {
+        if let Some(alternatives) = s[key].as_array() {
+            let fits = alternatives.iter().any(|a| {
+                let mut e = Vec::new();
+                conforms(doc, a, value, at, &mut e);
+                e.is_empty()
+            });
+            if !fits {
+                errors.push(format!("{at}: {value} fits none of {key}"));
+            }
+            return;
+        }
+    }
+    let type_ok = |t: &str| match t {
+        "null" => value.is_null(),
+        "boolean" => value.is_boolean(),
+        "string" => value.is_string(),
+        "integer" => value.is_i64() || value.is_u64(),
+        "number" => value.is_number(),
+        "array" => value.is_array(),
+        "object" => value.is_object(),
+        _ => true,
+    };
+    let types: Vec<&str> = match &s["type"] {
+        Value::String(t) => vec![t.as_str()],
+        Value::Array(ts) => ts.iter().filter_map(Value::as_str).collect(),
+        _ => Vec::new(),
+    };
+    if !types.is_empty() && !types.iter().any(|t| type_ok(t)) {
+        errors.push(format!("{at}: {value} is not {types:?}"));
+        return;
+    }
+    if let Some(allowed) = s["enum"].as_array() {
+        if !allowed.contains(value) {
+            errors.push(format!("{at}: {value} not in {allowed:?}"));
+        }
+    }
+    if let (Some(items), Some(values)) = (s.get("items"), value.as_array()) {
+        for (k, v) in values.iter().enumerate() {
+            conforms(doc, items, v, &format!("{at}[{k}]"), errors);
+        }
+    }
+    if let Some(members) = value.as_object() {
+        let names = properties(doc, s);
+        if names.is_empty() {
+            return; // a free-form object
+        }
+        for name in s["required"].as_array().into_iter().flatten() {
+            if !members.contains_key(name.as_str().unwrap()) {
+                errors.push(format!("{at}: required member {name} missing"));
+            }
+        }
+        for (name, v) in members {
+            let Some(member_schema) = member_schema(doc, s, name) else {
+                errors.push(format!("{at}: member '{name}' is not in the schema"));
+                continue;
+            };
+            conforms(doc, member_schema, v, &format!("{at}.{name}"), errors);
+        }
+    }
+}
+
+/// The schema of member `name` of an object schema (through `$ref` and `allOf`).
+fn member_schema<'a>(doc: &'a Value, schema: &'a Value, name: &str) -> Option<&'a Value> {
+    let s = resolve(doc, schema);
+    if let Some(m) = s["properties"].get(name) {
+        return Some(m);
+    }
+    s["allOf"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .find_map(|part| member_schema(doc, part, name))
+}
+
+#[tokio::test]
+async fn epoch_summaries_and_errors_conform_to_their_schemas() {
+    let s = TestServer::start(|_| {}).await;
+    let (_, doc) = s.get("/api/v1/openapi.json").await;
+    let schema = |name: &str| json!({ "$ref": format!("#/components/schemas/{name}") });
+    s.create_site("paper").await;
+    // an epoch with a blunder, so that `dropped` and the residuals' `w` are filled
+    let mut body = paper(PAPER[3]);
+    let blunder = &mut body["images"][0]["observations"][3]["x_mm"];
+    *blunder = json!(blunder.as_f64().unwrap() + 0.05);
+    let (status, created) = s.upload("paper", &body).await;
+    assert_eq!(status, 201, "{created}");
+    assert!(
+        !created["dropped"].as_array().unwrap().is_empty(),
+        "the blunder is dropped: {}",
+        created["dropped"]
+    );
+    let (status, full) = s.get("/api/v1/sites/paper/epochs/1").await;
+    assert_eq!(status, 200);
+    assert!(!full["residuals"].as_array().unwrap().is_empty());
+    let (status, missing) = s.get("/api/v1/sites/paper/epochs/9").await;
+    assert_eq!(status, 404);
+    let (status, healthy) = s.get("/healthz").await;
+    assert_eq!(status, 200);
+    let mut errors = Vec::new();
+    conforms(
+        &doc,
+        &schema("EpochSummary"),
+        &created,
+        "upload",
+        &mut errors,
+    );
+    conforms(&doc, &schema("EpochSummary"), &full, "epoch", &mut errors);
+    conforms(&doc, &schema("ErrorBody"), &missing, "404", &mut errors);
+    conforms(&doc, &schema("Status"), &healthy, "healthz", &mut errors);
+    assert!(errors.is_empty(), "{errors:#?}");
+    // the checker itself: a wrong type, an unknown member and a missing one are caught
+    let mut wrong = full.clone();
+    wrong["cameras"][0]["c_mm"] = json!("300");
+    wrong["points"][0]["extra"] = json!(1);
+    wrong["images"][0].as_object_mut().unwrap().remove("rms_mm");
+    let mut errors = Vec::new();
+    conforms(&doc, &schema("EpochSummary"), &wrong, "epoch", &mut errors);
+    assert_eq!(errors.len(), 3, "{errors:#?}");
+    s.stop().await;
+}
+
 #[tokio::test]
 async fn openapi_describes_every_contract_endpoint_with_schemas() {
     let s = TestServer::start(|_| {}).await;

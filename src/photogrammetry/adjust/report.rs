@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::photogrammetry::model::Model;
 
 /// The variance behind the data snooping's test statistics.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum VarianceModel {
     /// Baarda's w with the a-priori σ and the normal critical value (the global test accepted σ).
@@ -18,7 +18,7 @@ pub enum VarianceModel {
 }
 
 /// Adjusted interior orientation of one camera.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct CameraReport {
     /// Camera id.
     pub id: String,
@@ -32,7 +32,7 @@ pub struct CameraReport {
 }
 
 /// One estimated interior parameter.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct CalibratedParameter {
     /// c, x0, y0, k1, k2, k3, p1 or p2.
     pub name: String,
@@ -43,7 +43,7 @@ pub struct CalibratedParameter {
 }
 
 /// Adjusted coordinates of one point: metres in the site frame, σ in mm.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 #[allow(non_snake_case)]
 pub struct PointReport {
     /// Point name.
@@ -63,7 +63,7 @@ pub struct PointReport {
 }
 
 /// Per-image summary.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct ImageReport {
     /// Image id.
     pub id: String,
@@ -74,7 +74,7 @@ pub struct ImageReport {
 }
 
 /// An observation dropped by data snooping.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct DroppedObservation {
     /// Image id.
     pub image: String,
