@@ -642,6 +642,60 @@ async fn epoch_summaries_and_errors_conform_to_their_schemas() {
     s.stop().await;
 }
 
+/// Every `pattern` in the document (schemas and parameters), recursively.
+fn patterns(v: &Value, out: &mut Vec<String>) {
+    match v {
+        Value::Object(m) => {
+            for (k, x) in m {
+                match (k.as_str(), x) {
+                    ("pattern", Value::String(p)) => out.push(p.clone()),
+                    _ => patterns(x, out),
+                }
+            }
+        }
+        Value::Array(a) => a.iter().for_each(|x| patterns(x, out)),
+        _ => {}
+    }
+}
+
+#[tokio::test]
+async fn upload_form_bounds_in_the_document_are_the_cores_limits() {
+    use cliffwatch::photogrammetry::input::epoch::{MAX_IMAGE_COORDINATE, MAX_OBJECT_COORDINATE_M};
+    let s = TestServer::start(|_| {}).await;
+    let (_, doc) = s.get("/api/v1/openapi.json").await;
+    let schemas = &doc["components"]["schemas"];
+    let bounds: [(&str, &[&str], f64); 3] = [
+        (
+            "ObservationInput",
+            &["x_mm", "y_mm", "col", "row"],
+            MAX_IMAGE_COORDINATE,
+        ),
+        ("ControlInput", &["X", "Y", "Z"], MAX_OBJECT_COORDINATE_M),
+        ("ApproxInput", &["X", "Y", "Z"], MAX_OBJECT_COORDINATE_M),
+    ];
+    for (schema, fields, limit) in bounds {
+        for field in fields {
+            let p = &schemas[schema]["properties"][field];
+            assert_eq!(p["maximum"].as_f64(), Some(limit), "{schema}.{field}: {p}");
+            assert_eq!(p["minimum"].as_f64(), Some(-limit), "{schema}.{field}: {p}");
+        }
+    }
+    // one identifier rule everywhere: every identifier pattern of the document (the other
+    // patterns are cursors, URLs, secrets, …) is the core's rule, which refuses what it refuses
+    let mut found = Vec::new();
+    patterns(&doc, &mut found);
+    let identifiers: Vec<&String> = found.iter().filter(|p| p.contains("A-Za-z0-9._")).collect();
+    assert!(identifiers.len() >= 5, "{found:?}");
+    assert!(
+        identifiers.iter().all(|p| *p == "^[A-Za-z0-9._-]{1,64}$"),
+        "{identifiers:?}"
+    );
+    use cliffwatch::photogrammetry::input::epoch::is_valid_identifier as valid;
+    assert!(valid(&"a".repeat(64)) && valid("T-1.b_2"));
+    assert!(!valid(&"a".repeat(65)) && !valid("") && !valid("a b") && !valid("é"));
+    s.stop().await;
+}
+
 #[tokio::test]
 async fn openapi_describes_every_contract_endpoint_with_schemas() {
     let s = TestServer::start(|_| {}).await;
