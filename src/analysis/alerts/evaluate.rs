@@ -1,0 +1,341 @@
+//! An epoch's analysis through the site's rules: every point's and block's alerts, the
+//! reference's stability, and the site-level alerts an epoch resolves.
+
+use chrono::{DateTime, Utc};
+
+use super::alert::{AlertEvent, AlertEventType, AlertState, RuleMemory};
+use super::metric::{AlertKind, Metric};
+use super::readings::Readings;
+use super::rule::{AlertConfig, AlertRule};
+use super::transition::{apply, fmt_time, Subject, Update};
+use crate::analysis::analyse::EpochAnalysis;
+
+/// A point or block with the values its rules read.
+struct SubjectReadings<'a> {
+    subject: Subject<'a>,
+    points: Vec<String>,
+    readings: Readings,
+}
+
+/// Runs `rules` (those applying to the subject) over its readings: updates their memories
+/// (hysteresis, persistence) and the subject's alert per metric.
+#[allow(clippy::too_many_arguments)]
+fn evaluate_subject(
+    config: &AlertConfig,
+    st: &mut AlertState,
+    s: &SubjectReadings<'_>,
+    rules: &[&AlertRule],
+    analysis: &EpochAnalysis,
+    suffix: &str,
+    now: DateTime<Utc>,
+    events: &mut Vec<AlertEvent>,
+) {
+    let mut metrics: Vec<Metric> = vec![];
+    for r in rules {
+        if !metrics.contains(&r.metric) {
+            metrics.push(r.metric);
+        }
+    }
+    let prefix = s.subject.memory_prefix();
+    for m in metrics {
+        let mut top: Option<&AlertRule> = None;
+        let mut shown = s.readings.get(m, m.default_source()).value;
+        for r in rules.iter().filter(|r| r.metric == m) {
+            let z = r.z(config.confidence);
+            let reading = r.reading(&s.readings, m, z);
+            let key = format!("{prefix}{}", r.key());
+            let mut mem = st.rules.get(&key).copied().unwrap_or_default();
+            let ok = !r.require_significant || reading.significant;
+            let triggered = reading
+                .value
+                .is_some_and(|v| ok && r.triggers(v, reading.sigma, z));
+            if triggered {
+                mem.streak = mem.streak.saturating_add(1);
+                if mem.streak >= r.for_epochs.unwrap_or(1).max(1) {
+                    mem.active = true;
+                }
+                mem.quiet_epochs = 0;
+            } else {
+                mem.streak = 0;
+                if mem.active {
+                    let cleared = match reading.value {
+                        Some(v) if ok => r.clears(v),
+                        _ => r.clears(f64::NAN).map(|_| true),
+                    };
+                    match cleared {
+                        Some(c) => {
+                            if c {
+                                mem = RuleMemory::default();
+                            }
+                        }
+                        None => {
+                            mem.quiet_epochs += 1;
+                            if mem.quiet_epochs
+                                >= r.quiet_epochs.unwrap_or(config.quiet_epochs).max(1)
+                            {
+                                mem = RuleMemory::default();
+                            }
+                        }
+                    }
+                }
+            }
+            if mem == RuleMemory::default() {
+                st.rules.remove(&key);
+            } else {
+                st.rules.insert(key, mem);
+            }
+            if mem.active && top.is_none_or(|t| r.level > t.level) {
+                top = Some(*r);
+                shown = reading.value;
+            }
+        }
+        apply(
+            &config.site,
+            st,
+            Update {
+                subject: s.subject,
+                points: s.points.clone(),
+                kind: m.into(),
+                level: top.map(|r| r.level),
+                value: shown,
+                threshold: top.and_then(|r| r.threshold()),
+                unit: m.unit(),
+                rule: top,
+                epoch: Some(analysis.epoch),
+                observed_at: Some(analysis.observed_at),
+                id_suffix: suffix.to_string(),
+            },
+            now,
+            events,
+        );
+    }
+}
+
+/// Evaluates the rules against one epoch's analysis: returns the new state and the events (in order).
+///
+/// Points absent from the analysis keep their state. An open `campaign_overdue` resolves (an epoch
+/// arrived); `reference_unstable` is raised when the congruence test excludes stable points (its `points`
+/// grow with later exclusions) and stays open until resolved by hand ([`super::resolve`]). Invalid rules (see [`AlertRule::validate`]) never
+/// trigger.
+pub fn evaluate_alerts(
+    config: &AlertConfig,
+    state: &AlertState,
+    analysis: &EpochAnalysis,
+    now: DateTime<Utc>,
+) -> (AlertState, Vec<AlertEvent>) {
+    let mut st = state.clone();
+    let mut events = vec![];
+    let site = config.site.as_str();
+    let rules: Vec<&AlertRule> = config
+        .rules
+        .iter()
+        .filter(|r| r.validate().is_ok())
+        .collect();
+    let suffix = analysis.epoch.to_string();
+    let blocks: Vec<&str> = analysis.blocks.iter().map(|b| b.group.as_str()).collect();
+    // A rule naming a block group applies to the block's motion, not to its single points; a
+    // rule without a group applies to every point and every declared block.
+    let (block_rules, point_rules): (Vec<&AlertRule>, Vec<&AlertRule>) = rules
+        .iter()
+        .partition(|r| r.group.as_deref().is_some_and(|g| blocks.contains(&g)));
+    for p in &analysis.points {
+        let applicable: Vec<&AlertRule> = point_rules
+            .iter()
+            .copied()
+            .filter(|r| r.applies_to(p.group.as_deref()))
+            .collect();
+        let subject = SubjectReadings {
+            subject: Subject::Point(p.record.point.as_str()),
+            points: vec![],
+            readings: Readings::of_point(p),
+        };
+        evaluate_subject(
+            config,
+            &mut st,
+            &subject,
+            &applicable,
+            analysis,
+            &suffix,
+            now,
+            &mut events,
+        );
+    }
+    for b in &analysis.blocks {
+        let applicable: Vec<&AlertRule> = block_rules
+            .iter()
+            .chain(point_rules.iter())
+            .copied()
+            .filter(|r| r.group.as_deref().is_none_or(|g| g == b.group.as_str()))
+            .collect();
+        let subject = SubjectReadings {
+            subject: Subject::Group(b.group.as_str()),
+            points: b.points.clone(),
+            readings: b.readings,
+        };
+        evaluate_subject(
+            config,
+            &mut st,
+            &subject,
+            &applicable,
+            analysis,
+            &suffix,
+            now,
+            &mut events,
+        );
+    }
+    // Site level: reference stability.
+    let excluded = &analysis.datum.excluded;
+    let first = analysis.datum.congruence.first();
+    let open_unstable = st.find(None, AlertKind::ReferenceUnstable).map(|a| a.level);
+    apply(
+        site,
+        &mut st,
+        Update {
+            subject: Subject::Site,
+            points: excluded.clone(),
+            kind: AlertKind::ReferenceUnstable,
+            // Raised when stable points are excluded; it does not resolve by itself (a moved reference point
+            // does not move back, and the test's power near its threshold would make it flap): resolve it by
+            // hand once the point's role was changed.
+            level: if excluded.is_empty() {
+                open_unstable
+            } else {
+                Some(config.reference_unstable_level)
+            },
+            value: first.map(|t| t.statistic),
+            threshold: first.map(|t| t.critical),
+            unit: "",
+            rule: None,
+            epoch: Some(analysis.epoch),
+            observed_at: Some(analysis.observed_at),
+            id_suffix: suffix.clone(),
+        },
+        now,
+        &mut events,
+    );
+    if let Some(e) = events
+        .last_mut()
+        .filter(|e| e.alert.rule == AlertKind::ReferenceUnstable)
+    {
+        if e.event_type == AlertEventType::Raised {
+            e.alert.message = format!(
+                "site {site}: stable point(s) {} moved; excluded from the datum",
+                excluded.join(", ")
+            );
+            if let Some(a) = st.alerts.iter_mut().find(|a| a.id == e.alert.id) {
+                a.message = e.alert.message.clone();
+            }
+        }
+    }
+    // This epoch was analysed: an earlier failure no longer stands.
+    apply(
+        site,
+        &mut st,
+        Update {
+            subject: Subject::Site,
+            points: vec![],
+            kind: AlertKind::AnalysisFailed,
+            level: None,
+            value: None,
+            threshold: None,
+            unit: "",
+            rule: None,
+            epoch: Some(analysis.epoch),
+            observed_at: Some(analysis.observed_at),
+            id_suffix: suffix.clone(),
+        },
+        now,
+        &mut events,
+    );
+    // An epoch arrived: the campaign is no longer overdue.
+    apply(
+        site,
+        &mut st,
+        Update {
+            subject: Subject::Site,
+            points: vec![],
+            kind: AlertKind::CampaignOverdue,
+            level: None,
+            value: None,
+            threshold: None,
+            unit: "hours",
+            rule: None,
+            epoch: Some(analysis.epoch),
+            observed_at: Some(analysis.observed_at),
+            id_suffix: suffix,
+        },
+        now,
+        &mut events,
+    );
+    (st, events)
+}
+
+/// An epoch whose analysis failed (`reason`, e.g. too few points in common with the reference):
+/// raises the site-level `analysis_failed` alert, or keeps the open one up to date (its message
+/// names the latest failed epoch; no new event). The next epoch that is analysed resolves it
+/// ([`evaluate_alerts`]). A campaign arrived, so an open `campaign_overdue` resolves as well.
+pub fn analysis_failed(
+    config: &AlertConfig,
+    state: &AlertState,
+    epoch: i64,
+    observed_at: DateTime<Utc>,
+    reason: &str,
+    now: DateTime<Utc>,
+) -> (AlertState, Vec<AlertEvent>) {
+    let mut st = state.clone();
+    let mut events = vec![];
+    let site = config.site.as_str();
+    apply(
+        site,
+        &mut st,
+        Update {
+            subject: Subject::Site,
+            points: vec![],
+            kind: AlertKind::AnalysisFailed,
+            level: Some(config.analysis_failed_level),
+            value: None,
+            threshold: None,
+            unit: "",
+            rule: None,
+            epoch: Some(epoch),
+            observed_at: Some(observed_at),
+            id_suffix: epoch.to_string(),
+        },
+        now,
+        &mut events,
+    );
+    let text = format!(
+        "site {site}: epoch {epoch} ({}) stored without displacements: {reason}",
+        fmt_time(observed_at)
+    );
+    if let Some(a) = st
+        .alerts
+        .iter_mut()
+        .find(|a| a.rule == AlertKind::AnalysisFailed)
+    {
+        a.message = text.clone();
+    }
+    for e in &mut events {
+        e.alert.message = text.clone();
+    }
+    apply(
+        site,
+        &mut st,
+        Update {
+            subject: Subject::Site,
+            points: vec![],
+            kind: AlertKind::CampaignOverdue,
+            level: None,
+            value: None,
+            threshold: None,
+            unit: "hours",
+            rule: None,
+            epoch: Some(epoch),
+            observed_at: Some(observed_at),
+            id_suffix: epoch.to_string(),
+        },
+        now,
+        &mut events,
+    );
+    (st, events)
+}

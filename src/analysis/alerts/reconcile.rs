@@ -1,0 +1,93 @@
+//! A recomputed series against the stored alert state: only the net difference is announced.
+
+use chrono::{DateTime, Utc};
+
+use super::alert::{AlertEvent, AlertEventType, AlertState, AlertStatus};
+use super::metric::AlertKind;
+
+/// After the derived series was recomputed (reference changed, an epoch arrived out of order):
+/// brings the stored alert state to `replayed` — the state the rules reach when replayed from
+/// scratch over the recomputed series — without re-sending history staff already received.
+///
+/// Only the net difference is announced, stamped `now`: an alert open in both keeps its id,
+/// raising time and acknowledgement, and gets `alert.escalated` / `alert.deescalated` when its
+/// level differs (an escalation needs a new acknowledgement); an alert only in `replayed` is
+/// raised; an alert only in `current` is resolved. Intermediate transitions of the replay are
+/// not sent. `campaign_overdue` is not part of a replay (it depends on the clock, not on the
+/// series) and is kept as it is. The rules' memory is the replay's.
+pub fn reconcile(
+    current: &AlertState,
+    replayed: &AlertState,
+    now: DateTime<Utc>,
+) -> (AlertState, Vec<AlertEvent>) {
+    let mut out = AlertState {
+        alerts: vec![],
+        rules: replayed.rules.clone(),
+    };
+    let mut events = vec![];
+    for r in &replayed.alerts {
+        if r.rule == AlertKind::CampaignOverdue {
+            continue;
+        }
+        match current.find_subject(r.point.as_deref(), r.group.as_deref(), r.rule) {
+            Some(c) => {
+                let mut a = r.clone();
+                a.id = c.id.clone();
+                a.raised_at = c.raised_at;
+                a.peak_level = c.peak_level.max(r.level);
+                a.acknowledged_by = c.acknowledged_by.clone();
+                a.comment = c.comment.clone();
+                a.status = c.status;
+                a.updated_at = c.updated_at;
+                if a.level != c.level {
+                    let ty = if a.level > c.level {
+                        a.status = AlertStatus::Open;
+                        AlertEventType::Escalated
+                    } else {
+                        AlertEventType::Deescalated
+                    };
+                    a.updated_at = now;
+                    events.push(AlertEvent {
+                        event_type: ty,
+                        timestamp: now,
+                        alert: a.clone(),
+                    });
+                }
+                out.alerts.push(a);
+            }
+            None => {
+                let mut a = r.clone();
+                a.raised_at = now;
+                a.updated_at = now;
+                a.status = AlertStatus::Open;
+                events.push(AlertEvent {
+                    event_type: AlertEventType::Raised,
+                    timestamp: now,
+                    alert: a.clone(),
+                });
+                out.alerts.push(a);
+            }
+        }
+    }
+    for c in &current.alerts {
+        if c.rule == AlertKind::CampaignOverdue {
+            out.alerts.push(c.clone());
+            continue;
+        }
+        if replayed
+            .find_subject(c.point.as_deref(), c.group.as_deref(), c.rule)
+            .is_none()
+        {
+            let mut a = c.clone();
+            a.status = AlertStatus::Resolved;
+            a.updated_at = now;
+            a.message = format!("{} — resolved after the series was recomputed", c.message);
+            events.push(AlertEvent {
+                event_type: AlertEventType::Resolved,
+                timestamp: now,
+                alert: a,
+            });
+        }
+    }
+    (out, events)
+}

@@ -1,0 +1,321 @@
+//! One alert rule (threshold, hysteresis, persistence, confidence) and a site's alert
+//! configuration.
+
+use serde::{Deserialize, Serialize};
+
+use super::alert::AlertLevel;
+use super::metric::{AlertKind, Metric, Source};
+use super::readings::{Reading, Readings};
+use crate::analysis::error::AnalysisError;
+use crate::analysis::stats::normal_quantile;
+
+fn yes() -> bool {
+    true
+}
+
+/// Bounds of a site's or a rule's `confidence`: the open interval (0.5, 1) as numbers that stay
+/// inside it once parsed (a JSON 0.99999999999999999 reads as 1.0).
+pub const MIN_CONFIDENCE: f64 = 0.500_001;
+/// See [`MIN_CONFIDENCE`].
+pub const MAX_CONFIDENCE: f64 = 0.999_999;
+
+/// Largest `for_epochs` and `quiet_epochs` of a rule.
+pub const MAX_EPOCHS: u32 = 1000;
+
+/// One alert rule (contract JSON, plus optional fields).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct AlertRule {
+    /// Level raised when the rule triggers.
+    pub level: AlertLevel,
+    /// Metric thresholded.
+    pub metric: Metric,
+    /// Triggers when the value is above this (unit of the metric).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub above: Option<f64>,
+    /// Triggers when the value is below this (unit of the metric).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub below: Option<f64>,
+    /// Hysteresis of an `above` rule: once active, clears only below this value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clear_below: Option<f64>,
+    /// Hysteresis of a `below` rule: once active, clears only above this value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clear_above: Option<f64>,
+    /// Restricts the rule to points of this group (all points and all declared blocks when
+    /// absent); when the group is declared a block, the rule applies to the block's motion
+    /// instead of its single points.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<String>,
+    /// Which estimate the rule reads (default: [`Metric::default_source`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<Source>,
+    /// Consecutive triggering epochs needed before the rule becomes active (default 1).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::json_integer::optional_u32"
+    )]
+    #[schema(minimum = 1, maximum = 1000)]
+    pub for_epochs: Option<u32>,
+    /// Only significant values trigger (default true).
+    #[serde(default = "yes")]
+    pub require_significant: bool,
+    /// Without a clear threshold: epochs without triggering before the rule clears (default: the config's).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::json_integer::optional_u32"
+    )]
+    #[schema(maximum = 1000)]
+    pub quiet_epochs: Option<u32>,
+    /// One-sided confidence at which the value must exceed the threshold, in (0.5, 1) (default
+    /// [`AlertRule::confidence`]: the site's, and for `time_to_failure_hours` at most
+    /// [`FORECAST_CONFIDENCE`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 0.500_001, maximum = 0.999_999)]
+    pub confidence: Option<f64>,
+}
+
+/// Default confidence of a `time_to_failure_hours` rule, when the site's is higher: the forecast
+/// exists only once the onset test has shown an acceleration (Δχ² > 13.82), so this confidence
+/// decides how early the alarm comes, not whether the point moves. On 130 simulated failing
+/// series (docs/accuracy.md) the alarm came 24–120 h before failure in 92 % of them at 0.95 and
+/// in 88 % at 0.99; at 0.95, 4 of 129 alarms came more than 96 h before failure.
+pub const FORECAST_CONFIDENCE: f64 = 0.95;
+
+impl AlertRule {
+    /// Checks that exactly one of `above` / `below` is set, finite, and that the clear threshold lies on the
+    /// right side.
+    pub fn validate(&self) -> Result<(), AnalysisError> {
+        let bad = |m: &str| {
+            Err(AnalysisError::InvalidConfig(format!(
+                "alert rule {:?}: {m}",
+                self.metric
+            )))
+        };
+        match (self.above, self.below) {
+            (Some(a), None) if a.is_finite() => {
+                if self.clear_below.is_some_and(|c| !(c <= a)) {
+                    return bad("clear_below must be ≤ above");
+                }
+            }
+            (None, Some(b)) if b.is_finite() => {
+                if self.clear_above.is_some_and(|c| !(c >= b)) {
+                    return bad("clear_above must be ≥ below");
+                }
+            }
+            _ => return bad("exactly one finite `above` or `below` is needed"),
+        }
+        if self
+            .for_epochs
+            .is_some_and(|n| !(1..=MAX_EPOCHS).contains(&n))
+        {
+            return bad("for_epochs must be 1 to 1000");
+        }
+        if self.quiet_epochs.is_some_and(|n| n > MAX_EPOCHS) {
+            return bad("quiet_epochs must be at most 1000");
+        }
+        if self
+            .confidence
+            .is_some_and(|c| !(MIN_CONFIDENCE..=MAX_CONFIDENCE).contains(&c))
+        {
+            return bad("confidence must lie in (0.5, 1): 0.500001 to 0.999999");
+        }
+        Ok(())
+    }
+
+    /// The rule's one-sided confidence given the site's: its own `confidence` when set, else the
+    /// site's, lowered to [`FORECAST_CONFIDENCE`] for `time_to_failure_hours` rules.
+    pub fn confidence(&self, site: f64) -> f64 {
+        self.confidence.unwrap_or(match self.metric {
+            Metric::TimeToFailureHours => site.min(FORECAST_CONFIDENCE),
+            _ => site,
+        })
+    }
+
+    /// The normal quantile `z` of [`AlertRule::confidence`] (0 when it is out of range).
+    pub(super) fn z(&self, site: f64) -> f64 {
+        let c = self.confidence(site);
+        if c > 0.5 && c < 1.0 {
+            normal_quantile(c)
+        } else {
+            0.0
+        }
+    }
+
+    /// The estimate the rule reads.
+    pub fn source(&self) -> Source {
+        self.source.unwrap_or(self.metric.default_source())
+    }
+
+    pub(super) fn applies_to(&self, group: Option<&str>) -> bool {
+        self.group.as_deref().is_none_or(|g| Some(g) == group)
+    }
+
+    pub(super) fn threshold(&self) -> Option<f64> {
+        self.above.or(self.below)
+    }
+
+    /// Whether the value exceeds the threshold at one-sided confidence: `v − z·σ > above` or
+    /// `v + z·σ < below`, σ the value's own σ (`z` the normal quantile of the rule's confidence).
+    pub(super) fn triggers(&self, v: f64, sigma: f64, z: f64) -> bool {
+        match (self.above, self.below) {
+            (Some(a), None) => v - z * sigma > a,
+            (None, Some(b)) => v + z * sigma < b,
+            _ => false,
+        }
+    }
+
+    /// The reading the rule judges: that of its source; for [`Source::Either`] the raw one if it
+    /// triggers, else the filtered one if it triggers, else the one farther over the threshold's
+    /// side (so the rule clears only when both have).
+    pub(super) fn reading(&self, readings: &Readings, metric: Metric, z: f64) -> Reading {
+        if self.source() != Source::Either {
+            return readings.get(metric, self.source());
+        }
+        let raw = readings.get(metric, Source::Raw);
+        let filtered = readings.get(metric, Source::Filtered);
+        let fires = |r: &Reading| {
+            (!self.require_significant || r.significant)
+                && r.value.is_some_and(|v| self.triggers(v, r.sigma, z))
+        };
+        if fires(&raw) {
+            return raw;
+        }
+        if fires(&filtered) {
+            return filtered;
+        }
+        match (raw.value, filtered.value) {
+            (Some(a), Some(b)) => {
+                let filtered_worse = if self.below.is_some() { b < a } else { b > a };
+                if filtered_worse {
+                    filtered
+                } else {
+                    raw
+                }
+            }
+            (None, Some(_)) => filtered,
+            _ => raw,
+        }
+    }
+
+    /// Whether an active rule clears at this value (with a clear threshold).
+    pub(super) fn clears(&self, v: f64) -> Option<bool> {
+        match (self.above, self.below) {
+            (Some(_), None) => self.clear_below.map(|c| v < c),
+            (None, Some(_)) => self.clear_above.map(|c| v > c),
+            _ => Some(true),
+        }
+    }
+
+    /// Stable key of the rule in the state.
+    pub fn key(&self) -> String {
+        let mut k = format!(
+            "{}:{}:{}:{}:{}",
+            AlertKind::from(self.metric).as_str(),
+            self.level.as_str(),
+            self.above.map_or("-".into(), |a| format!("above{a}")),
+            self.below.map_or("-".into(), |b| format!("below{b}")),
+            self.group.as_deref().unwrap_or("*")
+        );
+        if self.source.is_some() || self.for_epochs.is_some() {
+            let src = match self.source() {
+                Source::Raw => "raw",
+                Source::Filtered => "filtered",
+                Source::Either => "either",
+            };
+            k.push_str(&format!(":{src}:{}", self.for_epochs.unwrap_or(1)));
+        }
+        if let Some(c) = self.confidence {
+            k.push_str(&format!(":c{c}"));
+        }
+        k
+    }
+}
+
+fn default_quiet() -> u32 {
+    1
+}
+fn default_unstable() -> AlertLevel {
+    AlertLevel::Warning
+}
+fn default_overdue() -> AlertLevel {
+    AlertLevel::Watch
+}
+fn default_failed() -> AlertLevel {
+    AlertLevel::Warning
+}
+fn default_grace() -> f64 {
+    0.25
+}
+fn default_confidence() -> f64 {
+    0.99
+}
+
+/// Alert configuration of a site.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AlertConfig {
+    /// Site id (goes into alert ids and payloads).
+    pub site: String,
+    /// The rules.
+    #[serde(default)]
+    pub rules: Vec<AlertRule>,
+    /// Default epochs without triggering before a rule without clear threshold clears (default 1).
+    #[serde(default = "default_quiet")]
+    pub quiet_epochs: u32,
+    /// Level of `reference_unstable` (default warning).
+    #[serde(default = "default_unstable")]
+    pub reference_unstable_level: AlertLevel,
+    /// Level of `campaign_overdue` (default watch).
+    #[serde(default = "default_overdue")]
+    pub campaign_overdue_level: AlertLevel,
+    /// Level of `analysis_failed` (default warning).
+    #[serde(default = "default_failed")]
+    pub analysis_failed_level: AlertLevel,
+    /// Campaign schedule in hours (`schedule_hours` of the site); no overdue alerts without it.
+    #[serde(default)]
+    pub schedule_hours: Option<f64>,
+    /// Grace as a fraction of the schedule before `campaign_overdue` (default 0.25).
+    #[serde(default = "default_grace")]
+    pub overdue_grace: f64,
+    /// One-sided confidence at which a value must exceed a rule's threshold (the site's
+    /// `confidence`, in (0.5, 1); default 0.99).
+    #[serde(default = "default_confidence")]
+    pub confidence: f64,
+}
+
+impl AlertConfig {
+    /// A configuration with the given rules and defaults otherwise.
+    pub fn new(site: impl Into<String>, rules: Vec<AlertRule>) -> Self {
+        AlertConfig {
+            site: site.into(),
+            rules,
+            quiet_epochs: 1,
+            reference_unstable_level: AlertLevel::Warning,
+            campaign_overdue_level: AlertLevel::Watch,
+            analysis_failed_level: AlertLevel::Warning,
+            schedule_hours: None,
+            overdue_grace: 0.25,
+            confidence: 0.99,
+        }
+    }
+
+    /// Validates the confidence and every rule.
+    pub fn validate(&self) -> Result<(), AnalysisError> {
+        if !(self.confidence > 0.5 && self.confidence < 1.0) {
+            return Err(AnalysisError::InvalidConfig(
+                "confidence must lie in (0.5, 1)".into(),
+            ));
+        }
+        self.rules.iter().try_for_each(AlertRule::validate)
+    }
+
+    /// The one-sided normal quantile of [`AlertConfig::confidence`] (0 when it is out of range).
+    pub fn z(&self) -> f64 {
+        if self.confidence > 0.5 && self.confidence < 1.0 {
+            normal_quantile(self.confidence)
+        } else {
+            0.0
+        }
+    }
+}
