@@ -11,14 +11,16 @@
 //!   datum, precision, blunder detection, the adjustment report; one sub-module per step (`input`,
 //!   `start`, `model`, `solve`, `statistics`, `adjust`).
 //! - [`detect`]: images → circular targets with sub-pixel centres → identified observations.
-//! - [`analysis`]: stable-point datum, congruence test, displacements, velocity, time-to-failure, alert rules.
+//! - [`analysis`]: stable-point datum, congruence test, displacements, velocity, time-to-failure, alert
+//!   rules (`analysis::alerts`, one file per step of an alert's life).
 //! - [`simulate`]: scenes with truth for tests and benchmarks.
 //! - [`contract_names`]: the names of the domain's enums (levels, states, roles, models) in the API,
 //!   the webhooks and the database, one table each.
 //!
 //! The shell around it:
 //! - [`config`]: layered configuration (file, environment, flags).
-//! - [`store`]: all SQL (SQLite through sqlx); migrations under `migrations/`.
+//! - [`store`]: all SQL (SQLite or PostgreSQL through sqlx, behind one `Store`); migrations under
+//!   `migrations/sqlite/` and `migrations/postgres/`.
 //! - [`service`]: the use cases, one file each (ingest an epoch, recompute a site, change its
 //!   settings, acknowledge an alert, the campaign check, the webhook worker); each owns its
 //!   transaction and calls the core and the store.
@@ -26,7 +28,8 @@
 //! - [`dashboard`]: the HTML pages on the same port (maud templates, embedded uPlot and htmx).
 //! - [`cap`]: the public-warning feed, alerts as CAP 1.2 messages and an Atom feed of them.
 //! - [`webhooks`]: signing, bodies, retry policy and one delivery attempt of the alert webhooks.
-//! - [`watch`]: the watched directory.
+//! - [`watch`]: the watched directory: its folders, each station's detection, the naming of the
+//!   targets, and a folder's ingestion (as an upload, through [`service::ingest`]).
 //! - [`daemon`] and [`shutdown`]: start and stop every part with one shutdown signal.
 
 // Numerical code indexes several parallel arrays with one loop variable; the lint fights that style.

@@ -1,0 +1,112 @@
+//! The watched directory on disk: which folders are ready, their content hash, their images,
+//! and where a folder moves once taken (`.done/`, `.failed/`).
+
+use std::path::{Path, PathBuf};
+
+use sha2::{Digest, Sha256};
+
+const IMAGE_EXTENSIONS: [&str; 6] = ["jpg", "jpeg", "png", "tif", "tiff", "JPG"];
+
+/// Folders `<dir>/<site>/<epoch>/` holding `READY` (names starting with `.` skipped), sorted.
+pub fn ready_folders(dir: &Path) -> Vec<(String, PathBuf)> {
+    let mut out = Vec::new();
+    let Ok(sites) = std::fs::read_dir(dir) else {
+        return out;
+    };
+    for site in sites.flatten() {
+        let name = site.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') || !site.path().is_dir() {
+            continue;
+        }
+        let Ok(epochs) = std::fs::read_dir(site.path()) else {
+            continue;
+        };
+        for e in epochs.flatten() {
+            let en = e.file_name().to_string_lossy().into_owned();
+            if !en.starts_with('.') && e.path().join("READY").is_file() {
+                out.push((name.clone(), e.path()));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Files the watcher writes into a folder (not part of its content).
+const OUTPUT_FILES: [&str; 3] = ["READY", "error.txt", "identification.json"];
+
+/// sha256 (hex) over the sorted names and bytes of the folder's files (`READY` and the watcher's own
+/// outputs excluded).
+pub fn content_hash(folder: &Path) -> std::io::Result<String> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(folder)?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.is_file()
+                && p.file_name()
+                    .is_some_and(|n| !OUTPUT_FILES.iter().any(|o| n == *o))
+        })
+        .collect();
+    files.sort();
+    let mut h = Sha256::new();
+    for f in files {
+        h.update(f.file_name().unwrap_or_default().as_encoded_bytes());
+        h.update([0]);
+        h.update(std::fs::read(&f)?);
+    }
+    Ok(hex::encode(h.finalize()))
+}
+
+pub(super) fn state_dir(site_dir: &Path) -> PathBuf {
+    site_dir.join(".state")
+}
+
+/// Where `folder` would move in `<site>/<sub>/`: its own name, or `<name>.<k>` when that is taken.
+pub(super) fn free_destination(folder: &Path, sub: &str) -> PathBuf {
+    let site_dir = folder.parent().unwrap_or(Path::new("."));
+    let dest_dir = site_dir.join(sub);
+    let name = folder
+        .file_name()
+        .unwrap_or_default()
+        .to_string_lossy()
+        .into_owned();
+    let mut dest = dest_dir.join(&name);
+    let mut k = 1;
+    while dest.exists() {
+        dest = dest_dir.join(format!("{name}.{k}"));
+        k += 1;
+    }
+    dest
+}
+
+/// Moves `folder` to `dest` (a [`free_destination`]), or to the next free name when `dest` was taken
+/// in the meantime.
+pub(super) fn move_folder(folder: &Path, dest: PathBuf) -> std::io::Result<PathBuf> {
+    let sub = dest
+        .parent()
+        .and_then(Path::file_name)
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let dest = if dest.exists() {
+        free_destination(folder, &sub)
+    } else {
+        dest
+    };
+    if let Some(dir) = dest.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    std::fs::rename(folder, &dest)?;
+    Ok(dest)
+}
+
+/// Moves `folder` into `<site>/<sub>/`, with a numeric suffix when the name is taken.
+pub(super) fn move_to(folder: &Path, sub: &str) -> std::io::Result<PathBuf> {
+    move_folder(folder, free_destination(folder, sub))
+}
+
+pub(super) fn find_image(folder: &Path, station: &str) -> Option<PathBuf> {
+    IMAGE_EXTENSIONS
+        .iter()
+        .map(|e| folder.join(format!("{station}.{e}")))
+        .find(|p| p.is_file())
+}

@@ -1,0 +1,164 @@
+//! One ready folder taken (the use case): detected, named, ingested exactly as an upload (the
+//! epoch's one transaction), then the watcher's state recorded and the folder moved.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use super::folders::{content_hash, free_destination, move_folder, move_to, state_dir};
+use super::naming::name_targets;
+use super::state::{load_orientations, save_state};
+use super::stations::detect_station;
+use super::{WatchError, WatchOptions};
+use crate::detect::identify::{resect_seeds, Seed};
+use crate::photogrammetry::input::epoch::ObservationInput;
+use crate::photogrammetry::{EpochInput, ImageOrientation};
+use crate::service::ingest::{ingest_with_identification, Ingested};
+use crate::store::{points, watch_state, Store};
+
+/// Detects, identifies and ingests one folder (does not move it; writes its `identification.json`).
+/// `done` is where the folder will move, relative to the site's directory (kept in the report so the
+/// dashboard finds the images). Returns the ingestion and the orientations found per station
+/// (resected from the epoch's adjusted coordinates).
+pub(super) async fn process(
+    store: &Store,
+    site: &str,
+    folder: &Path,
+    done: &str,
+    opts: &WatchOptions,
+) -> Result<(Ingested, BTreeMap<String, ImageOrientation>), WatchError> {
+    let site_dir = folder.parent().unwrap_or(Path::new("."));
+    let mut input: EpochInput =
+        serde_json::from_str(&tokio::fs::read_to_string(folder.join("epoch.json")).await?)?;
+    // known points: the site's latest coordinates, then the upload's control and approximations
+    let mut known: BTreeMap<String, [f64; 3]> = BTreeMap::new();
+    for a in &input.approx {
+        known.insert(a.point.clone(), [a.X, a.Y, a.Z]);
+    }
+    for c in &input.control {
+        known.insert(c.point.clone(), [c.X, c.Y, c.Z]);
+    }
+    let stored = match store.read().await {
+        Ok(mut db) => points::latest_coordinates(&mut db, site).await,
+        Err(e) => Err(e),
+    };
+    if let Ok(stored) = stored {
+        for c in stored {
+            known.insert(c.point, c.xyz);
+        }
+    }
+    let previous = load_orientations(store, site, site_dir)
+        .await
+        .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
+    let mut stations = Vec::with_capacity(input.images.len());
+    for image in &input.images {
+        stations.push(detect_station(folder, image, &input.cameras, opts).await?);
+    }
+    let (names, mut counts) = name_targets(&stations, &known, &previous, opts)?;
+    for c in &mut counts {
+        c.folder = done.to_string();
+    }
+    for c in &counts {
+        tracing::info!(
+            site,
+            station = c.station,
+            method = c.method,
+            detected = c.detected,
+            identified = c.identified,
+            ambiguous = c.ambiguous,
+            unmatched = c.unmatched,
+            "watched image identified"
+        );
+    }
+    tokio::fs::write(
+        folder.join("identification.json"),
+        serde_json::to_string_pretty(&counts)?,
+    )
+    .await?;
+    for ((image, s), named) in input.images.iter_mut().zip(&stations).zip(&names) {
+        image.observations = named
+            .iter()
+            .map(|(point, blob)| ObservationInput {
+                point: point.clone(),
+                x_mm: None,
+                y_mm: None,
+                col: Some(s.targets[*blob].0),
+                row: Some(s.targets[*blob].1),
+            })
+            .collect();
+    }
+    let ingested =
+        ingest_with_identification(store, site, input, Some(serde_json::to_value(&counts)?))
+            .await?;
+    // the stations' orientations for the next epoch, from this epoch's adjusted coordinates
+    let mut db = store
+        .read()
+        .await
+        .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
+    let adjusted: BTreeMap<String, [f64; 3]> = points::latest_coordinates(&mut db, site)
+        .await
+        .map_err(|e| WatchError::Io(std::io::Error::other(e)))?
+        .into_iter()
+        .map(|c| (c.point, c.xyz))
+        .collect();
+    drop(db);
+    let mut found = BTreeMap::new();
+    for (s, named) in stations.iter().zip(&names) {
+        let measured: Vec<Seed> = named
+            .iter()
+            .filter(|(p, _)| adjusted.contains_key(p))
+            .map(|(p, blob)| Seed {
+                point: p.clone(),
+                xy_mm: s.blobs[*blob],
+            })
+            .collect();
+        match resect_seeds(&measured, &adjusted, &s.camera) {
+            Ok((o, _)) => {
+                found.insert(s.station.clone(), o);
+            }
+            Err(e) => tracing::warn!(site, station = s.station, error = %e, "no orientation kept"),
+        }
+    }
+    Ok((ingested, found))
+}
+
+/// Takes one ready folder: skips it when its hash was ingested before, otherwise processes it; moves it
+/// to `.done/` or `.failed/` (with `error.txt`). Returns the destination.
+pub async fn take_folder(
+    store: &Store,
+    site: &str,
+    folder: &Path,
+    opts: &WatchOptions,
+) -> std::io::Result<PathBuf> {
+    let site_dir = folder.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let hash = content_hash(folder)?;
+    let legacy = std::fs::read_to_string(state_dir(&site_dir).join("ingested")).unwrap_or_default();
+    let seen = watch_state::folder_epoch(store.reader(), site, &hash)
+        .await
+        .map_err(std::io::Error::other)?
+        .is_some()
+        || legacy
+            .lines()
+            .any(|l| l.split_whitespace().next() == Some(hash.as_str()));
+    if seen {
+        tracing::warn!(site, folder = %folder.display(), "already ingested; not again");
+        return move_to(folder, ".done");
+    }
+    let done = free_destination(folder, ".done");
+    let done_rel = format!(
+        ".done/{}",
+        done.file_name().unwrap_or_default().to_string_lossy()
+    );
+    match process(store, site, folder, &done_rel, opts).await {
+        Ok((ing, found)) => {
+            save_state(store, site, &hash, ing.epoch, &found)
+                .await
+                .map_err(std::io::Error::other)?;
+            move_folder(folder, done)
+        }
+        Err(e) => {
+            tracing::warn!(site, folder = %folder.display(), error = %e, "watched folder failed");
+            std::fs::write(folder.join("error.txt"), format!("{e}\n"))?;
+            move_to(folder, ".failed")
+        }
+    }
+}

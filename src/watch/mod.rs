@@ -1,0 +1,103 @@
+//! The watched directory of the contract: `<watch_dir>/<site>/<epoch>/` holds one image per station
+//! (`<station>.jpg|.png|.tif`) and an `epoch.json` in the upload form; the folder is taken when `READY`
+//! appears. Each image is decoded and searched for targets (in `spawn_blocking`). The targets are
+//! identified: stations with ≥ 4 seed observations in `epoch.json` together, by multi-view matching
+//! that needs the approximations only to name the targets ([`crate::detect::first_epoch`]; a station
+//! seeded alone, or stations that do not share 4 seeded targets, from their own seeds,
+//! [`crate::detect::identify`]); stations without seeds from the orientation the watcher kept from
+//! their previous epoch. The epoch is ingested exactly as an upload
+//! ([`crate::service::ingest::ingest_with_identification`]: the counts below are stored with its report),
+//! and the stations' orientations for the next epoch are resected from its adjusted coordinates.
+//! The folder then moves to `<site>/.done/` with `identification.json` (per station: method,
+//! detected, identified, ambiguous, unmatched, where the image is kept and every detection with its
+//! name, which the report keeps too, so the dashboard can draw them over the image) or, with
+//! `error.txt`, to `<site>/.failed/`;
+//! when too few targets can be named, `error.txt` gives the same counts, the likely cause and what
+//! to add. A folder whose content hash (sha256 of its files' names and bytes, the watcher's own
+//! outputs excluded) is in the database ([`crate::store::watch_state`]) is never ingested
+//! again; the stations' orientations are kept there too, so the state is backed up and restored with
+//! the database. (Files `<site>/.state/ingested` and `<site>/.state/orientations.json` of earlier
+//! versions are still read, never written.) The state is written after the epoch's own transaction:
+//! when the daemon dies in between, the folder is taken again on restart and ingestion recognises
+//! the identical upload (same body hash), so it still becomes one epoch.
+//!
+//! Watching: `notify` events and a periodic rescan (events can be lost, e.g. on network shares).
+//!
+//! The files: `folders.rs` (what the directory holds and where a folder moves), `stations.rs`
+//! (one station's image: detection and the counts of its targets), `naming.rs` (which detected
+//! target is which point), `ingest.rs` (one folder taken, the use case), `state.rs` (what the
+//! watcher keeps between epochs: the folders taken and the stations' orientations), and here the
+//! loop that scans.
+
+mod error;
+pub mod folders;
+pub mod ingest;
+mod naming;
+mod options;
+mod state;
+mod stations;
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+pub use error::WatchError;
+pub use folders::{content_hash, ready_folders};
+pub use ingest::take_folder;
+pub use options::WatchOptions;
+
+use crate::shutdown::Shutdown;
+use crate::store::Store;
+
+/// Takes every ready folder once (sequentially). Several nodes may watch one shared directory:
+/// each folder is claimed ([`Store::try_job_lock`] on its site and name) and held until it has
+/// moved to `.done/` or `.failed/`; a folder another node holds, or has already moved, is left.
+pub async fn scan_once(store: &Store, opts: &WatchOptions) -> Vec<std::io::Result<PathBuf>> {
+    let mut out = Vec::new();
+    for (site, folder) in ready_folders(&opts.dir) {
+        let name = folder.file_name().unwrap_or_default().to_string_lossy();
+        let claim = match store.try_job_lock(&format!("watch {site}/{name}")).await {
+            Ok(Some(claim)) => claim,
+            Ok(None) => continue,
+            Err(e) => {
+                out.push(Err(std::io::Error::other(e)));
+                continue;
+            }
+        };
+        if folder.is_dir() {
+            out.push(take_folder(store, &site, &folder, opts).await);
+        }
+        drop(claim);
+    }
+    out
+}
+
+/// Watches `opts.dir` until shutdown: a scan at start, on every file-system event and every
+/// `opts.rescan`.
+pub async fn run(store: Store, opts: WatchOptions, shutdown: Shutdown) -> Result<(), WatchError> {
+    use notify::Watcher;
+    let (tx, mut rx) = tokio::sync::mpsc::channel::<()>(16);
+    let mut watcher = notify::recommended_watcher(move |_res: notify::Result<notify::Event>| {
+        let _ = tx.try_send(());
+    })
+    .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
+    if let Err(e) = watcher.watch(&opts.dir, notify::RecursiveMode::Recursive) {
+        tracing::warn!(error = %e, "file-system events unavailable; rescanning only");
+    }
+    let mut tick = tokio::time::interval(opts.rescan);
+    loop {
+        tokio::select! {
+            _ = shutdown.requested() => return Ok(()),
+            _ = tick.tick() => {}
+            Some(()) = rx.recv() => {
+                // let the writer finish its burst of events
+                tokio::time::sleep(Duration::from_millis(200)).await;
+                while rx.try_recv().is_ok() {}
+            }
+        }
+        for r in scan_once(&store, &opts).await {
+            if let Err(e) = r {
+                tracing::warn!(error = %e, "watched folder could not be moved");
+            }
+        }
+    }
+}

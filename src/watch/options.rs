@@ -1,0 +1,36 @@
+//! Options of the watcher: where, how often, and the detection and identification options.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use crate::detect::first_epoch::FirstEpochOptions;
+use crate::detect::identify::IdentifyOptions;
+use crate::detect::DetectOptions;
+
+/// Options of the watcher.
+#[derive(Debug, Clone)]
+pub struct WatchOptions {
+    /// The watched directory.
+    pub dir: PathBuf,
+    /// Period of the rescan.
+    pub rescan: Duration,
+    /// Detection options.
+    pub detect: DetectOptions,
+    /// Identification options (a station from its previous orientation, or alone from its seeds).
+    pub identify: IdentifyOptions,
+    /// Multi-view identification options (stations of a first epoch, from their seeds).
+    pub first_epoch: FirstEpochOptions,
+}
+
+impl WatchOptions {
+    /// Defaults for `dir`: rescan every 30 s.
+    pub fn new(dir: PathBuf) -> Self {
+        Self {
+            dir,
+            rescan: Duration::from_secs(30),
+            detect: DetectOptions::default(),
+            identify: IdentifyOptions::default(),
+            first_epoch: FirstEpochOptions::default(),
+        }
+    }
+}

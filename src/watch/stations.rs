@@ -1,0 +1,194 @@
+//! One station's image of a watched folder: its detection, and the counts and targets of its
+//! naming that `identification.json` and the epoch's report keep.
+
+use std::path::Path;
+
+use super::folders::find_image;
+use super::{WatchError, WatchOptions};
+use crate::detect::detect_bytes;
+use crate::detect::identify::Seed;
+use crate::photogrammetry::input::epoch::{CameraInput, ImageInput};
+use crate::photogrammetry::{Camera, EpochError};
+
+/// One station's image after detection.
+pub(super) struct StationData {
+    /// The station (the image's `station`, else its id).
+    pub(super) station: String,
+    /// Its camera, from the upload form.
+    pub(super) camera: Camera,
+    /// The image's file name in the folder.
+    pub(super) image_file: String,
+    /// Image size in px.
+    pub(super) size: (u32, u32),
+    /// Detected targets: (col, row) px.
+    pub(super) targets: Vec<(f64, f64)>,
+    /// Diameters of the detected targets in px.
+    pub(super) diameters: Vec<f64>,
+    /// The same in image mm.
+    pub(super) blobs: Vec<[f64; 2]>,
+    /// The seed observations of `epoch.json` for this station, in image mm.
+    pub(super) seeds: Vec<Seed>,
+}
+
+/// A station's named detections: (point, detection index).
+pub(super) type StationNamed = Vec<(String, usize)>;
+
+/// How a station's targets were named, for the folder's `identification.json`, the epoch's report
+/// (the dashboard draws `targets` over the image) and the log.
+#[derive(Debug, Clone, serde::Serialize)]
+pub(super) struct StationCounts {
+    /// The station.
+    pub(super) station: String,
+    /// How its targets were named (`multi-view from seeds`, `seeds`, `previous orientation`).
+    pub(super) method: &'static str,
+    /// Targets detected.
+    pub(super) detected: usize,
+    /// Targets named.
+    pub(super) identified: usize,
+    /// Targets left out because two names were about equally likely.
+    pub(super) ambiguous: usize,
+    /// Targets matching no point.
+    pub(super) unmatched: usize,
+    /// The folder after ingestion, relative to the site's directory (`.done/<epoch folder>`).
+    pub(super) folder: String,
+    /// The image's file name in that folder.
+    pub(super) image: String,
+    /// Image width in px.
+    pub(super) width_px: u32,
+    /// Image height in px.
+    pub(super) height_px: u32,
+    /// Every detected target.
+    pub(super) targets: Vec<DetectedTarget>,
+}
+
+/// One detected target of a station's image, as the report keeps it.
+#[derive(Debug, Clone, serde::Serialize)]
+pub(super) struct DetectedTarget {
+    /// Centre column in px (0.01 px).
+    col: f64,
+    /// Centre row in px (0.01 px).
+    row: f64,
+    /// Equivalent diameter in px (0.1 px).
+    diameter_px: f64,
+    /// The point it was named, when identified.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    point: Option<String>,
+    /// `identified`, `ambiguous` or `unmatched`.
+    status: &'static str,
+}
+
+impl StationCounts {
+    /// The counts and targets of station `s` from its named detections and the indices of the
+    /// ambiguous and unmatched ones.
+    pub(super) fn new(
+        s: &StationData,
+        method: &'static str,
+        named: &StationNamed,
+        ambiguous: &[usize],
+        unmatched: &[usize],
+    ) -> Self {
+        let round = |v: f64, k: f64| (v * k).round() / k;
+        let targets = s
+            .targets
+            .iter()
+            .zip(&s.diameters)
+            .enumerate()
+            .map(|(i, (&(col, row), &d))| {
+                let point = named.iter().find(|(_, b)| *b == i).map(|(p, _)| p.clone());
+                let status = if point.is_some() {
+                    "identified"
+                } else if ambiguous.contains(&i) {
+                    "ambiguous"
+                } else {
+                    "unmatched"
+                };
+                DetectedTarget {
+                    col: round(col, 100.0),
+                    row: round(row, 100.0),
+                    diameter_px: round(d, 10.0),
+                    point,
+                    status,
+                }
+            })
+            .collect();
+        StationCounts {
+            station: s.station.clone(),
+            method,
+            detected: s.blobs.len(),
+            identified: named.len(),
+            ambiguous: ambiguous.len(),
+            unmatched: unmatched.len(),
+            folder: String::new(),
+            image: s.image_file.clone(),
+            width_px: s.size.0,
+            height_px: s.size.1,
+            targets,
+        }
+    }
+}
+
+/// Decodes and searches one station's image (in `spawn_blocking`).
+pub(super) async fn detect_station(
+    folder: &Path,
+    image: &ImageInput,
+    cameras: &[CameraInput],
+    opts: &WatchOptions,
+) -> Result<StationData, WatchError> {
+    let station = image.station.clone().unwrap_or_else(|| image.id.clone());
+    let cam_err = |reason: String| WatchError::Camera {
+        station: station.clone(),
+        reason,
+    };
+    let cam_in = cameras
+        .iter()
+        .find(|c| c.id == image.camera)
+        .ok_or_else(|| cam_err(format!("unknown camera {}", image.camera)))?;
+    let camera = Camera::from_input(cam_in).map_err(|e: EpochError| cam_err(e.to_string()))?;
+    let path =
+        find_image(folder, &station).ok_or_else(|| WatchError::MissingImage(station.clone()))?;
+    let bytes = tokio::fs::read(&path).await?;
+    let dopts = opts.detect.clone();
+    let det = tokio::task::spawn_blocking(move || detect_bytes(&bytes, &dopts))
+        .await
+        .map_err(|e| WatchError::Task(e.to_string()))?
+        .map_err(|source| WatchError::Detect {
+            station: station.clone(),
+            source,
+        })?;
+    let mut blobs = Vec::with_capacity(det.targets.len());
+    for t in &det.targets {
+        blobs.push(
+            t.image_mm(&camera)
+                .ok_or_else(|| cam_err("pixel size and image size are needed".into()))?,
+        );
+    }
+    let seeds = image
+        .observations
+        .iter()
+        .filter_map(|o| {
+            let xy = match (o.x_mm, o.y_mm, o.col, o.row) {
+                (Some(x), Some(y), _, _) => Some([x, y]),
+                (_, _, Some(c), Some(r)) => camera.pixel_to_mm(c, r),
+                _ => None,
+            }?;
+            Some(Seed {
+                point: o.point.clone(),
+                xy_mm: xy,
+            })
+        })
+        .collect();
+    Ok(StationData {
+        station,
+        camera,
+        image_file: path
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned(),
+        size: (det.width, det.height),
+        targets: det.targets.iter().map(|t| (t.col, t.row)).collect(),
+        diameters: det.targets.iter().map(|t| t.diameter_px).collect(),
+        blobs,
+        seeds,
+    })
+}
