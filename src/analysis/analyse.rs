@@ -191,6 +191,201 @@ pub(super) fn length_of(d: &Vector3<f64>, cov: &Matrix3<f64>) -> (f64, f64) {
     (d.norm(), sigma_length(d, cov))
 }
 
+/// The datum of an epoch and how it was found.
+struct ChosenDatum {
+    fit: DatumFit,
+    method: DatumMethod,
+    /// The congruence tests of the stable points, in order (none for IWST).
+    congruence: Vec<CongruenceTest>,
+    /// Indices (into the differences) of the stable points the tests excluded.
+    excluded: Vec<usize>,
+}
+
+/// The datum: the S-transformation onto the `stable` points (indices into `diffs`) after the
+/// congruence test has excluded the moving ones; IWST over all points when there are too few
+/// stable points or their datum fails (each fallback adds a warning).
+fn choose_datum(
+    diffs: &Differences,
+    stable: &[usize],
+    config: &AnalysisConfig,
+    warnings: &mut Vec<String>,
+) -> Result<ChosenDatum, AnalysisError> {
+    let kind = config.transformation;
+    let iwst = || -> Result<ChosenDatum, AnalysisError> {
+        let all: Vec<usize> = (0..diffs.len()).collect();
+        Ok(ChosenDatum {
+            fit: fit_iwst(diffs, &all, kind, config.iwst_max_iterations)?,
+            method: DatumMethod::Iwst,
+            congruence: vec![],
+            excluded: vec![],
+        })
+    };
+    if stable.len() < kind.min_points() {
+        if !stable.is_empty() {
+            warnings.push(format!(
+                "{} stable point(s), {} needed: robust IWST over all points instead",
+                stable.len(),
+                kind.min_points()
+            ));
+        }
+        return iwst();
+    }
+    match test_and_localise(
+        diffs,
+        stable,
+        kind,
+        config.congruence_confidence,
+        config.variance_dof,
+    ) {
+        Ok(c) => {
+            if c.tests.last().is_some_and(|t| !t.passed) {
+                warnings.push("the remaining stable points are still not congruent".into());
+            }
+            Ok(ChosenDatum {
+                fit: c.fit,
+                method: DatumMethod::StablePoints,
+                congruence: c.tests,
+                excluded: c.excluded,
+            })
+        }
+        Err(e) => {
+            warnings.push(format!(
+                "stable-point datum failed ({e}); robust IWST over all points instead"
+            ));
+            iwst()
+        }
+    }
+}
+
+/// Which point is analysed.
+struct PointId<'a> {
+    name: &'a String,
+    role: PointRole,
+    /// Its configuration (group, direction of interest), when it has one.
+    config: Option<&'a PointConfig>,
+    /// Whether it defines the datum.
+    in_datum: bool,
+}
+
+/// What every point of an epoch's analysis shares.
+struct PointInputs<'a> {
+    epoch: i64,
+    observed_at: DateTime<Utc>,
+    /// The reference epoch analysed against itself: every displacement is zero.
+    same_epoch: bool,
+    history: &'a History,
+    config: &'a AnalysisConfig,
+    /// 3 × the F quantile of the point test (`point_test`).
+    critical3: f64,
+    /// Normal quantiles of the velocity and acceleration tests.
+    z_vel: f64,
+    z_acc: f64,
+}
+
+/// One point's analysis: its displacement `d` (mm) with covariance `cov` (mm²) in the datum, the
+/// significance test, the displacement along its direction of interest, the raw kinematics and
+/// forecast from its history, and the Kalman filter's estimates. `shared` is the reference
+/// epoch's share of `cov`.
+fn analyse_point(
+    point: PointId<'_>,
+    mut d: Vector3<f64>,
+    mut cov: Matrix3<f64>,
+    shared: Matrix3<f64>,
+    e: &PointInputs<'_>,
+) -> PointAnalysis {
+    let PointId {
+        name,
+        role,
+        config: pc,
+        in_datum,
+    } = point;
+    let (config, history) = (e.config, e.history);
+    if e.same_epoch {
+        d = Vector3::zeros();
+        cov = Matrix3::zeros();
+    }
+    let test = point_test(
+        &d,
+        &cov,
+        config.confidence,
+        config.variance_dof,
+        e.critical3,
+    );
+    let significant = !e.same_epoch && test.significant;
+    let d_mm = d.norm();
+    let sigma_mm = sigma_length(&d, &cov);
+    let dir = pc
+        .and_then(|c| c.direction)
+        .map(Vector3::from)
+        .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
+    let (d_along, s_along) = match dir {
+        Some(v) => {
+            let n = v / v.norm();
+            (
+                Some(n.dot(&d)),
+                Some((n.transpose() * cov * n)[(0, 0)].max(0.0).sqrt()),
+            )
+        }
+        None => (None, None),
+    };
+    let mut samples = samples_of(history.get(name), e.observed_at, config);
+    samples.push(Sample {
+        t_days: 0.0,
+        d_mm,
+        sigma_mm: sigma_mm.max(1e-6),
+    });
+    let (kin, failure) = raw_kinematics(&samples, significant, config, e.z_vel, e.z_acc);
+    let tracked = if e.same_epoch {
+        None
+    } else {
+        let mut series = observed_of(history.get(name), e.observed_at, config);
+        series.push(Observed {
+            t_days: 0.0,
+            d_mm: d,
+            cov_mm2: cov,
+        });
+        track(&series, dir, None, Some(shared), config)
+    };
+    let sd = |k: usize| cov[(k, k)].max(0.0).sqrt();
+    let record = DisplacementRecord {
+        point: name.clone(),
+        epoch: e.epoch,
+        observed_at: e.observed_at,
+        dx_mm: d.x,
+        dy_mm: d.y,
+        dz_mm: d.z,
+        d_mm,
+        sigma_dx_mm: sd(0),
+        sigma_dy_mm: sd(1),
+        sigma_dz_mm: sd(2),
+        sigma_mm,
+        cov_dxdy_mm2: Some(cov[(0, 1)]),
+        cov_dxdz_mm2: Some(cov[(0, 2)]),
+        cov_dydz_mm2: Some(cov[(1, 2)]),
+        d_along_mm: d_along,
+        significant,
+        velocity_mm_per_day: kin.map(|k| k.velocity_mm_per_day),
+        time_to_failure_hours: failure.map(|f| f.time_to_failure_hours),
+        time_to_failure_sigma_hours: failure.map(|f| f.sigma_hours),
+        filtered: tracked.map(|t| t.values),
+    };
+    PointAnalysis {
+        record,
+        role,
+        group: pc.and_then(|c| c.group.clone()),
+        in_datum,
+        covariance_mm2: cov.into(),
+        sigma_along_mm: s_along,
+        test_statistic: test.statistic,
+        test_dof: test.dof,
+        critical_value: test.critical,
+        kinematics: kin,
+        failure,
+        filtered_along_mm: tracked.and_then(|t| t.along_mm),
+        filtered_failure: tracked.and_then(|t| t.failure),
+    }
+}
+
 /// Analyses `current` against `reference`.
 ///
 /// The datum: the S-transformation onto the points whose role is `stable`, after the congruence test has
@@ -236,48 +431,12 @@ pub fn analyse_epoch(
     let stable: Vec<usize> = (0..diffs.len())
         .filter(|&i| role(&diffs.names[i]) == PointRole::Stable)
         .collect();
-    let all: Vec<usize> = (0..diffs.len()).collect();
-    let mut congruence = vec![];
-    let mut excluded = vec![];
-    let iwst = || -> Result<(DatumFit, DatumMethod), AnalysisError> {
-        Ok((
-            fit_iwst(&diffs, &all, kind, config.iwst_max_iterations)?,
-            DatumMethod::Iwst,
-        ))
-    };
-    let (fit, method) = if stable.len() >= kind.min_points() {
-        match test_and_localise(
-            &diffs,
-            &stable,
-            kind,
-            config.congruence_confidence,
-            config.variance_dof,
-        ) {
-            Ok(c) => {
-                congruence = c.tests;
-                excluded = c.excluded;
-                if congruence.last().is_some_and(|t| !t.passed) {
-                    warnings.push("the remaining stable points are still not congruent".into());
-                }
-                (c.fit, DatumMethod::StablePoints)
-            }
-            Err(e) => {
-                warnings.push(format!(
-                    "stable-point datum failed ({e}); robust IWST over all points instead"
-                ));
-                iwst()?
-            }
-        }
-    } else {
-        if !stable.is_empty() {
-            warnings.push(format!(
-                "{} stable point(s), {} needed: robust IWST over all points instead",
-                stable.len(),
-                kind.min_points()
-            ));
-        }
-        iwst()?
-    };
+    let ChosenDatum {
+        fit,
+        method,
+        congruence,
+        excluded,
+    } = choose_datum(&diffs, &stable, config, &mut warnings)?;
     let transformed = transform_all(&diffs, &fit);
     // The reference epoch's share of each displacement's covariance, common to every epoch.
     let reference_only = diffs.reference_only();
@@ -306,89 +465,30 @@ pub fn analyse_epoch(
         );
     let z_vel = normal_quantile(0.5 + 0.5 * config.confidence);
     let z_acc = normal_quantile(config.failure.acceleration_confidence);
-    let mut out = Vec::with_capacity(diffs.len());
-    for (i, (mut d, mut cov)) in transformed.into_iter().enumerate() {
-        if same_epoch {
-            d = Vector3::zeros();
-            cov = Matrix3::zeros();
-        }
-        let name = &diffs.names[i];
-        let pc = cfg.get(name.as_str());
-        let test = point_test(&d, &cov, config.confidence, config.variance_dof, critical3);
-        let significant = !same_epoch && test.significant;
-        let d_mm = d.norm();
-        let sigma_mm = sigma_length(&d, &cov);
-        let dir = pc
-            .and_then(|c| c.direction)
-            .map(Vector3::from)
-            .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
-        let (d_along, s_along) = match dir {
-            Some(v) => {
-                let n = v / v.norm();
-                (
-                    Some(n.dot(&d)),
-                    Some((n.transpose() * cov * n)[(0, 0)].max(0.0).sqrt()),
-                )
-            }
-            None => (None, None),
-        };
-        let mut samples = samples_of(history.get(name), current.observed_at, config);
-        samples.push(Sample {
-            t_days: 0.0,
-            d_mm,
-            sigma_mm: sigma_mm.max(1e-6),
-        });
-        let (kin, failure) = raw_kinematics(&samples, significant, config, z_vel, z_acc);
-        let tracked = if same_epoch {
-            None
-        } else {
-            let mut series = observed_of(history.get(name), current.observed_at, config);
-            series.push(Observed {
-                t_days: 0.0,
-                d_mm: d,
-                cov_mm2: cov,
-            });
-            track(&series, dir, None, Some(shared[i]), config)
-        };
-        let sd = |k: usize| cov[(k, k)].max(0.0).sqrt();
-        let record = DisplacementRecord {
-            point: name.clone(),
-            epoch: current.epoch,
-            observed_at: current.observed_at,
-            dx_mm: d.x,
-            dy_mm: d.y,
-            dz_mm: d.z,
-            d_mm,
-            sigma_dx_mm: sd(0),
-            sigma_dy_mm: sd(1),
-            sigma_dz_mm: sd(2),
-            sigma_mm,
-            cov_dxdy_mm2: Some(cov[(0, 1)]),
-            cov_dxdz_mm2: Some(cov[(0, 2)]),
-            cov_dydz_mm2: Some(cov[(1, 2)]),
-            d_along_mm: d_along,
-            significant,
-            velocity_mm_per_day: kin.map(|k| k.velocity_mm_per_day),
-            time_to_failure_hours: failure.map(|f| f.time_to_failure_hours),
-            time_to_failure_sigma_hours: failure.map(|f| f.sigma_hours),
-            filtered: tracked.map(|t| t.values),
-        };
-        out.push(PointAnalysis {
-            record,
-            role: role(name),
-            group: pc.and_then(|c| c.group.clone()),
-            in_datum: in_datum.contains(&i),
-            covariance_mm2: cov.into(),
-            sigma_along_mm: s_along,
-            test_statistic: test.statistic,
-            test_dof: test.dof,
-            critical_value: test.critical,
-            kinematics: kin,
-            failure,
-            filtered_along_mm: tracked.and_then(|t| t.along_mm),
-            filtered_failure: tracked.and_then(|t| t.failure),
-        });
-    }
+    let epoch_wide = PointInputs {
+        epoch: current.epoch,
+        observed_at: current.observed_at,
+        same_epoch,
+        history,
+        config,
+        critical3,
+        z_vel,
+        z_acc,
+    };
+    let out: Vec<PointAnalysis> = transformed
+        .into_iter()
+        .enumerate()
+        .map(|(i, (d, cov))| {
+            let name = &diffs.names[i];
+            let point = PointId {
+                name,
+                role: role(name),
+                config: cfg.get(name.as_str()).copied(),
+                in_datum: in_datum.contains(&i),
+            };
+            analyse_point(point, d, cov, shared[i], &epoch_wide)
+        })
+        .collect();
     // The joint covariance of any set of points' displacements (the blocks' members).
     let index: HashMap<&str, usize> = diffs
         .names
