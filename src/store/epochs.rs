@@ -272,8 +272,24 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
     .bind(&created)
     .execute(&mut *db)
     .await?;
+    upsert_cameras(db, rec, &created).await?;
+    insert_images(db, rec, id).await?;
+    insert_observations(db, rec, id).await?;
+    insert_coordinates(db, rec, id).await?;
+    if let Some(joint) = &adj.joint_covariance {
+        super::joint_covariances::insert(&mut *db, rec.site, id, &joint.points, &joint.matrix_m2)
+            .await?;
+    }
+    Ok(id)
+}
 
-    // Camera ids are unique within an upload (validated), so one statement may update them all.
+/// The upload's cameras, new or updated. Camera ids are unique within an upload (validated), so
+/// one statement may update them all.
+async fn upsert_cameras(
+    db: &mut AnyConnection,
+    rec: &EpochRecord<'_>,
+    created: &str,
+) -> Result<(), StoreError> {
     for chunk in rec.input.cameras.chunks(super::rows_per_insert(4)) {
         let sql = format!(
             "INSERT INTO cameras (site_id, id, definition, updated_at) VALUES {} \
@@ -286,18 +302,20 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
                 .bind(rec.site)
                 .bind(&cam.id)
                 .bind(serde_json::to_string(cam)?)
-                .bind(&created);
+                .bind(created);
         }
         q.execute(&mut *db).await?;
     }
+    Ok(())
+}
 
-    let residuals: HashMap<(&str, &str), _> = adj
-        .report
-        .residuals
-        .iter()
-        .map(|r| ((r.image.as_str(), r.point.as_str()), r))
-        .collect();
-    // One statement per table for all images (each statement is a round trip on PostgreSQL).
+/// The epoch's images, and the stations seen for the first time. One statement per table for all
+/// images (each statement is a round trip on PostgreSQL).
+async fn insert_images(
+    db: &mut AnyConnection,
+    rec: &EpochRecord<'_>,
+    id: i64,
+) -> Result<(), StoreError> {
     let stations: Vec<String> = rec
         .input
         .images
@@ -337,6 +355,23 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
         }
         q.execute(&mut *db).await?;
     }
+    Ok(())
+}
+
+/// The epoch's observations with their residuals, normalized residuals and whether data
+/// snooping dropped them.
+async fn insert_observations(
+    db: &mut AnyConnection,
+    rec: &EpochRecord<'_>,
+    id: i64,
+) -> Result<(), StoreError> {
+    let residuals: HashMap<(&str, &str), _> = rec
+        .adjustment
+        .report
+        .residuals
+        .iter()
+        .map(|r| ((r.image.as_str(), r.point.as_str()), r))
+        .collect();
     let observations: Vec<(
         &str,
         usize,
@@ -379,8 +414,17 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
         }
         q.execute(&mut *db).await?;
     }
+    Ok(())
+}
 
-    for chunk in adj.points.chunks(super::rows_per_insert(13)) {
+/// The epoch's adjusted coordinates with their covariance, and the points seen for the first
+/// time (a control point of the upload starts `stable`, any other `monitored`).
+async fn insert_coordinates(
+    db: &mut AnyConnection,
+    rec: &EpochRecord<'_>,
+    id: i64,
+) -> Result<(), StoreError> {
+    for chunk in rec.adjustment.points.chunks(super::rows_per_insert(13)) {
         let sql = format!(
             "INSERT INTO points (site_id, name, role) VALUES {} ON CONFLICT (site_id, name) DO NOTHING",
             super::values_list(db, chunk.len(), 3)
@@ -420,12 +464,7 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
         }
         q.execute(&mut *db).await?;
     }
-
-    if let Some(joint) = &adj.joint_covariance {
-        super::joint_covariances::insert(&mut *db, rec.site, id, &joint.points, &joint.matrix_m2)
-            .await?;
-    }
-    Ok(id)
+    Ok(())
 }
 
 /// One observation of an epoch with its residual, for the residual plot of an image.
