@@ -101,11 +101,7 @@ fn analyse_block(
     let BlockInputs {
         points,
         out,
-        history,
-        now,
         config,
-        z_vel,
-        z_acc,
         joint_of,
         ..
     } = *inputs;
@@ -144,10 +140,53 @@ fn analyse_block(
         .as_ref()
         .zip(shared_joint.as_ref())
         .and_then(|(j, s)| translation_share(&current, j, s));
-    // Past motions: the epochs in which every current member has a usable record.
+    let mut series = past_motions(&members, positions, inputs, joint_now.as_ref());
+    let kinematics = match &motion {
+        Some(b) => {
+            series.push(Observed {
+                t_days: 0.0,
+                d_mm: Vector3::from(b.translation_mm),
+                cov_mm2: Matrix3::from(b.covariance_mm2),
+            });
+            block_kinematics(b, g, &series, shared, inputs)
+        }
+        None => BlockKinematics::default(),
+    };
+    let BlockKinematics {
+        readings,
+        failure,
+        filtered,
+        filtered_failure,
+    } = kinematics;
+    BlockAnalysis {
+        group: g.name.clone(),
+        points: members,
+        readings,
+        motion,
+        failure,
+        filtered,
+        filtered_failure,
+    }
+}
+
+/// The block's translation in the past epochs of the history (the last
+/// `config.filter_epochs − 1` before `now`) in which every current member has a usable record,
+/// oldest first; each with this epoch's correlations when `joint_now` is known.
+fn past_motions(
+    members: &[String],
+    positions: &HashMap<&str, [f64; 3]>,
+    inputs: &BlockInputs,
+    joint_now: Option<&DMatrix<f64>>,
+) -> Vec<Observed> {
+    let BlockInputs {
+        history,
+        now,
+        config,
+        ..
+    } = *inputs;
     let mut by_epoch: std::collections::BTreeMap<DateTime<Utc>, Vec<BlockPoint>> =
         Default::default();
-    for m in &members {
+    for m in members {
         let Some(h) = history.get(m) else { continue };
         let end = h.partition_point(|r| r.observed_at < now);
         let start = end.saturating_sub(config.filter_epochs.saturating_sub(1));
@@ -162,11 +201,11 @@ fn analyse_block(
             }
         }
     }
-    let mut series: Vec<Observed> = by_epoch
+    by_epoch
         .into_iter()
         .filter(|(_, ps)| ps.len() == members.len())
         .filter_map(|(t, ps)| {
-            let b = match joint_now.as_ref().and_then(|j| correlated_like(j, &ps)) {
+            let b = match joint_now.and_then(|j| correlated_like(j, &ps)) {
                 Some(j) => estimate_block_correlated(&ps, &j, config.confidence),
                 None => estimate_block(&ps, config.confidence),
             }
@@ -177,115 +216,126 @@ fn analyse_block(
                 cov_mm2: Matrix3::from(b.covariance_mm2),
             })
         })
-        .collect();
+        .collect()
+}
+
+/// What a block's rules read, with its forecasts.
+#[derive(Default)]
+struct BlockKinematics {
+    readings: Readings,
+    failure: Option<FailureForecast>,
+    filtered: Option<super::displacement::FilteredValues>,
+    filtered_failure: Option<FailureForecast>,
+}
+
+/// The readings of a block whose motion `b` is known in this epoch: its displacement (and along
+/// the group's direction), the raw velocity and forecast from the length of its translation
+/// `series` (this epoch last), and the Kalman filter's estimates (`shared`: the reference epoch's
+/// share of the translation's covariance).
+fn block_kinematics(
+    b: &BlockMotion,
+    g: &GroupConfig,
+    series: &[Observed],
+    shared: Option<Matrix3<f64>>,
+    inputs: &BlockInputs,
+) -> BlockKinematics {
+    let BlockInputs {
+        config,
+        z_vel,
+        z_acc,
+        ..
+    } = *inputs;
     let mut readings = Readings::default();
-    let (failure, filtered, filtered_failure) = if let Some(b) = &motion {
-        series.push(Observed {
-            t_days: 0.0,
-            d_mm: Vector3::from(b.translation_mm),
-            cov_mm2: Matrix3::from(b.covariance_mm2),
-        });
-        let (d, sd) = b.length();
-        let significant = d > z_vel * sd;
+    let (d, sd) = b.length();
+    let significant = d > z_vel * sd;
+    readings.set(
+        Metric::DisplacementMm,
+        Source::Raw,
+        Reading {
+            value: Some(d),
+            sigma: sd,
+            significant,
+        },
+    );
+    let dir = g
+        .direction
+        .map(Vector3::from)
+        .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
+    if let Some(v) = dir {
+        let (a, sa) = b.along(v.into());
         readings.set(
-            Metric::DisplacementMm,
+            Metric::DisplacementAlongMm,
             Source::Raw,
             Reading {
-                value: Some(d),
-                sigma: sd,
+                value: Some(a),
+                sigma: sa,
                 significant,
             },
         );
-        let dir = g
-            .direction
-            .map(Vector3::from)
-            .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
-        if let Some(v) = dir {
-            let (a, sa) = b.along(v.into());
+    }
+    // Raw velocity and forecast from the block's length series, as for a point.
+    let samples: Vec<Sample> = series
+        .iter()
+        .map(|o| {
+            let (len, s) = length_of(&o.d_mm, &o.cov_mm2);
+            Sample {
+                t_days: o.t_days,
+                d_mm: len,
+                sigma_mm: s.max(1e-6),
+            }
+        })
+        .collect();
+    let (kin, failure) = raw_kinematics(&samples, significant, config, z_vel, z_acc);
+    if let Some(k) = kin {
+        readings.set(
+            Metric::VelocityMmPerDay,
+            Source::Raw,
+            Reading {
+                value: Some(k.velocity_mm_per_day),
+                sigma: k.sigma_velocity_mm_per_day,
+                significant: significant && k.velocity_significant,
+            },
+        );
+    }
+    readings.set(
+        Metric::TimeToFailureHours,
+        Source::Raw,
+        Reading::forecast(failure),
+    );
+    let tracked = track(series, dir, g.process_noise, shared, config);
+    if let Some(t) = &tracked {
+        let f = t.values;
+        readings.set(
+            Metric::DisplacementMm,
+            Source::Filtered,
+            Reading::new(Some(f.f_d_mm), Some(f.sigma_f_d_mm)),
+        );
+        if let Some((a, sa)) = t.along_mm {
             readings.set(
                 Metric::DisplacementAlongMm,
-                Source::Raw,
-                Reading {
-                    value: Some(a),
-                    sigma: sa,
-                    significant,
-                },
-            );
-        }
-        // Raw velocity and forecast from the block's length series, as for a point.
-        let samples: Vec<Sample> = series
-            .iter()
-            .map(|o| {
-                let (len, s) = length_of(&o.d_mm, &o.cov_mm2);
-                Sample {
-                    t_days: o.t_days,
-                    d_mm: len,
-                    sigma_mm: s.max(1e-6),
-                }
-            })
-            .collect();
-        let (kin, failure) = raw_kinematics(&samples, significant, config, z_vel, z_acc);
-        if let Some(k) = kin {
-            readings.set(
-                Metric::VelocityMmPerDay,
-                Source::Raw,
-                Reading {
-                    value: Some(k.velocity_mm_per_day),
-                    sigma: k.sigma_velocity_mm_per_day,
-                    significant: significant && k.velocity_significant,
-                },
+                Source::Filtered,
+                Reading::new(Some(a), Some(sa)),
             );
         }
         readings.set(
-            Metric::TimeToFailureHours,
-            Source::Raw,
-            Reading::forecast(failure),
+            Metric::VelocityMmPerDay,
+            Source::Filtered,
+            Reading::new(
+                Some(f.f_velocity_mm_per_day),
+                Some(f.sigma_f_velocity_mm_per_day),
+            ),
         );
-        let tracked = track(&series, dir, g.process_noise, shared, config);
-        if let Some(t) = &tracked {
-            let f = t.values;
-            readings.set(
-                Metric::DisplacementMm,
-                Source::Filtered,
-                Reading::new(Some(f.f_d_mm), Some(f.sigma_f_d_mm)),
-            );
-            if let Some((a, sa)) = t.along_mm {
-                readings.set(
-                    Metric::DisplacementAlongMm,
-                    Source::Filtered,
-                    Reading::new(Some(a), Some(sa)),
-                );
-            }
-            readings.set(
-                Metric::VelocityMmPerDay,
-                Source::Filtered,
-                Reading::new(
-                    Some(f.f_velocity_mm_per_day),
-                    Some(f.sigma_f_velocity_mm_per_day),
-                ),
-            );
-            readings.set(
-                Metric::TimeToFailureHours,
-                Source::Filtered,
-                Reading::forecast(t.failure),
-            );
-        }
-        (
-            failure,
-            tracked.map(|t| t.values),
-            tracked.and_then(|t| t.failure),
-        )
-    } else {
-        (None, None, None)
-    };
-    BlockAnalysis {
-        group: g.name.clone(),
-        points: members,
+        readings.set(
+            Metric::TimeToFailureHours,
+            Source::Filtered,
+            Reading::forecast(t.failure),
+        );
+    }
+    BlockKinematics {
         readings,
-        motion,
         failure,
-        filtered,
-        filtered_failure,
+        filtered: tracked.map(|t| t.values),
+        filtered_failure: tracked.and_then(|t| t.failure),
     }
 }
 
