@@ -35,6 +35,13 @@ pub struct Config {
     pub body_limit_bytes: usize,
     /// Time limit of one request in seconds.
     pub request_timeout_secs: u64,
+    /// Uploads this node processes at once (0: twice its cores, at least 2); the others wait.
+    #[serde(default)]
+    pub max_concurrent_uploads: usize,
+    /// How long an upload waits for one of those slots before it is turned away with 503 and
+    /// `Retry-After`, in seconds.
+    #[serde(default = "default_upload_queue_secs")]
+    pub upload_queue_secs: f64,
     /// Time in-flight requests get to finish after SIGTERM / ctrl-c, in seconds.
     pub shutdown_grace_secs: u64,
     /// Log format.
@@ -83,6 +90,9 @@ pub struct Config {
     pub public_url: Option<String>,
 }
 
+fn default_upload_queue_secs() -> f64 {
+    30.0
+}
 fn default_write_connections() -> u32 {
     4
 }
@@ -294,6 +304,12 @@ impl Config {
                 CAP_STATUSES.join(", ")
             )));
         }
+        if !(0.0..=self.request_timeout_secs as f64).contains(&self.upload_queue_secs) {
+            return Err(ConfigError::Invalid(format!(
+                "upload_queue_secs {}: 0 to request_timeout_secs ({})",
+                self.upload_queue_secs, self.request_timeout_secs
+            )));
+        }
         if let Some(u) = &self.public_url {
             if !(u.starts_with("http://") || u.starts_with("https://"))
                 || u.contains(char::is_whitespace)
@@ -344,6 +360,15 @@ mod tests {
         c.public_url = Some("cliffwatch.example".into());
         assert!(matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("public_url")));
         c.public_url = Some("https://cliffwatch.example".into());
+        assert!(c.check().is_ok());
+        for bad in [-1.0, f64::NAN, 121.0] {
+            c.upload_queue_secs = bad;
+            assert!(
+                matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("upload_queue_secs")),
+                "{bad}"
+            );
+        }
+        c.upload_queue_secs = 0.0;
         assert!(c.check().is_ok());
     }
 

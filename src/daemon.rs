@@ -18,6 +18,7 @@ use tokio::net::TcpListener;
 use crate::api::{health, router, AppState};
 use crate::config::{Config, ConfigError};
 use crate::service;
+use crate::service::admission::UploadGate;
 use crate::shutdown;
 use crate::store::webhooks::NewWebhook;
 use crate::store::{self, Store, StoreError, StoreOptions};
@@ -79,10 +80,20 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
         source,
     })?;
     let metrics = health::metrics_handle(&config.node_name(addr.port()));
+    let uploads = UploadGate::new(
+        config.max_concurrent_uploads,
+        Duration::try_from_secs_f64(config.upload_queue_secs).unwrap_or_default(),
+    );
+    tracing::info!(
+        slots = uploads.size(),
+        wait_secs = config.upload_queue_secs,
+        "upload slots"
+    );
     let state = AppState {
         store,
         config: Arc::new(config),
         metrics,
+        uploads,
     };
     Ok(Bound {
         listener,

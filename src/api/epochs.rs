@@ -16,7 +16,7 @@ use super::AppState;
 use crate::photogrammetry::input::epoch::CameraInput;
 use crate::photogrammetry::input::epoch_csv::epoch_from_csv;
 use crate::photogrammetry::EpochInput;
-use crate::service::ingest;
+use crate::service::{ingest, ServiceError};
 use crate::store::{alerts, displacements, epochs, parse_timestamp, timestamp, Store, StoreError};
 
 /// Bodies up to this many times the limit are read to the end before answering 413, so the client
@@ -78,7 +78,8 @@ pub struct UploadParams {
     request_body(description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)", content((crate::photogrammetry::EpochInput = "application/json"), (String = "text/csv"))),
     responses((status = 201, description = "stored; the epoch summary", body = crate::api::schemas::EpochSummary), (status = 200, description = "the same body was stored before", body = crate::api::schemas::EpochSummary),
         (status = 400, description = "not JSON/CSV", body = crate::api::schemas::ErrorBody), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 409, description = "another body for this observed_at, or a CSV upload to a site without cameras yet (upload a JSON epoch first)", body = crate::api::schemas::ErrorBody),
-        (status = 413, description = "body too large", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid or cannot be adjusted", body = crate::api::schemas::ErrorBody)))]
+        (status = 413, description = "body too large", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid or cannot be adjusted", body = crate::api::schemas::ErrorBody),
+        (status = 503, description = "every upload slot of the node stayed busy for `upload_queue_secs`; nothing stored, retry after the `Retry-After` header's seconds", body = crate::api::schemas::ErrorBody, headers(("Retry-After" = u64, description = "seconds to wait before retrying")))))]
 pub async fn upload(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
@@ -104,6 +105,8 @@ async fn upload_inner(
     headers: &HeaderMap,
     body: Body,
 ) -> Result<(StatusCode, Value), ApiError> {
+    // A slot before the body is read: it bounds the bodies held in memory as well as the CPU.
+    let _slot = state.uploads.enter().await.map_err(ServiceError::from)?;
     let bytes = read_limited(headers, body, state.config.body_limit_bytes).await?;
     let is_csv = headers
         .get(header::CONTENT_TYPE)

@@ -21,6 +21,8 @@ pub struct ApiError {
     pub message: String,
     /// Extra JSON (or null).
     pub details: Value,
+    /// Seconds after which to retry (the `Retry-After` header of a 503).
+    pub retry_after_secs: Option<u64>,
 }
 
 impl ApiError {
@@ -31,6 +33,7 @@ impl ApiError {
             code,
             message: message.into(),
             details: Value::Null,
+            retry_after_secs: None,
         }
     }
 
@@ -86,7 +89,13 @@ impl IntoResponse for ApiError {
                 details: self.details,
             },
         };
-        (self.status, axum::Json(body)).into_response()
+        let mut response = (self.status, axum::Json(body)).into_response();
+        if let Some(secs) = self.retry_after_secs {
+            response
+                .headers_mut()
+                .insert(axum::http::header::RETRY_AFTER, secs.into());
+        }
+        response
     }
 }
 
@@ -114,6 +123,15 @@ impl From<ServiceError> for ApiError {
                 format!("site '{site}' has epoch {epoch} at {observed_at} with another body"),
             )
             .with_details(json!({ "epoch": epoch, "observed_at": observed_at })),
+            ServiceError::Overloaded(o) => {
+                let mut e =
+                    ApiError::new(StatusCode::SERVICE_UNAVAILABLE, "overloaded", o.to_string())
+                        .with_details(
+                            json!({ "slots": o.slots, "retry_after_secs": o.retry_after_secs }),
+                        );
+                e.retry_after_secs = Some(o.retry_after_secs);
+                e
+            }
             ServiceError::Store(err) => ApiError::internal(err),
             ServiceError::Task(err) => ApiError::internal(err),
         }

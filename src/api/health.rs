@@ -39,6 +39,10 @@ fn describe() {
         "cliffwatch_adjustment_seconds",
         "duration of one bundle adjustment (s)"
     );
+    metrics::describe_gauge!(
+        "cliffwatch_upload_slots_busy",
+        "uploads being processed (of max_concurrent_uploads)"
+    );
     metrics::describe_counter!("cliffwatch_alerts_raised_total", "alerts raised");
     metrics::describe_counter!(
         "cliffwatch_webhook_deliveries_total",

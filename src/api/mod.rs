@@ -43,6 +43,8 @@ pub struct AppState {
     pub config: Arc<Config>,
     /// Renders `/metrics`.
     pub metrics: PrometheusHandle,
+    /// The upload slots of this node.
+    pub uploads: crate::service::admission::UploadGate,
 }
 
 const REQUEST_ID: HeaderName = HeaderName::from_static("x-request-id");

@@ -42,6 +42,9 @@ pub enum ServiceError {
     /// The database failed.
     #[error(transparent)]
     Store(#[from] StoreError),
+    /// Every upload slot of the node stayed busy for the whole wait.
+    #[error(transparent)]
+    Overloaded(#[from] super::admission::Overloaded),
     /// A computation task panicked or was cancelled.
     #[error("computation task failed: {0}")]
     Task(String),

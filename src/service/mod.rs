@@ -11,10 +11,13 @@
 //! - [`overdue`]: the campaign schedule check.
 //! - [`webhook_delivery`]: the outbox worker.
 //!
+//! Admission: [`admission`] bounds the uploads a node processes at once.
+//!
 //! Shared steps: [`analysis_inputs`] loads what the analysis needs, [`alert_outcome`] writes
 //! what the alert rules decide (state, alerts, outbox).
 
 pub mod acknowledge;
+pub mod admission;
 pub mod alert_outcome;
 pub mod analysis_inputs;
 pub mod error;

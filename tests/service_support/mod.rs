@@ -132,6 +132,8 @@ pub struct TestServer {
     task: Option<tokio::task::JoinHandle<()>>,
     /// Keeps the data directory alive.
     pub dir: tempfile::TempDir,
+    /// The server's upload slots (a test may hold them to fill the node).
+    pub uploads: cliffwatch::service::admission::UploadGate,
 }
 
 impl TestServer {
@@ -144,6 +146,7 @@ impl TestServer {
         let bound = bind(config).await.expect("bind");
         let base = format!("http://{}", bound.local_addr());
         let store = bound.state().store.clone();
+        let uploads = bound.state().uploads.clone();
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
         let task = tokio::spawn(async move {
             bound
@@ -160,6 +163,7 @@ impl TestServer {
             stop: Some(tx),
             task: Some(task),
             dir,
+            uploads,
         }
     }
 

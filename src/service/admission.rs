@@ -1,0 +1,150 @@
+//! Admission of uploads on one node: at most `slots` uploads are processed at once (each reads
+//! its body into memory, adjusts on the CPU and holds the site's write lock); the others wait in
+//! arrival order for at most `wait`, then are turned away with a time to retry (HTTP 503 and
+//! `Retry-After`). Without it, a burst of uploads shares the cores until every one of them runs
+//! past the request time limit and nothing is stored; with it, the first ones finish at full
+//! speed and the rest are told when to come back. A turned-away upload stores nothing.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
+
+/// The upload slots of a node. Cloning shares the slots.
+#[derive(Debug, Clone)]
+pub struct UploadGate {
+    slots: Arc<Semaphore>,
+    size: usize,
+    wait: Duration,
+}
+
+/// An upload turned away: every slot stayed busy for the whole wait.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("{slots} uploads are being processed and none finished within {waited_secs} s; retry in {retry_after_secs} s")]
+pub struct Overloaded {
+    /// The node's upload slots.
+    pub slots: usize,
+    /// How long the upload waited, seconds (rounded up).
+    pub waited_secs: u64,
+    /// When to retry, seconds (the `Retry-After` header).
+    pub retry_after_secs: u64,
+}
+
+/// A held upload slot; the slot is free again when this is dropped.
+#[derive(Debug)]
+pub struct UploadSlot {
+    _permit: OwnedSemaphorePermit,
+}
+
+impl Drop for UploadSlot {
+    fn drop(&mut self) {
+        metrics::gauge!("cliffwatch_upload_slots_busy").decrement(1.0);
+    }
+}
+
+impl UploadGate {
+    /// `slots` uploads at once (0: [`UploadGate::default_slots`]), each waiting at most `wait`
+    /// for a slot.
+    pub fn new(slots: usize, wait: Duration) -> Self {
+        let size = if slots == 0 {
+            Self::default_slots()
+        } else {
+            slots
+        };
+        UploadGate {
+            slots: Arc::new(Semaphore::new(size)),
+            size,
+            wait,
+        }
+    }
+
+    /// Twice the cores this process may use (an upload also waits on the database, so the cores
+    /// stay busy while some wait), at least 2.
+    pub fn default_slots() -> usize {
+        std::thread::available_parallelism()
+            .map(|n| 2 * n.get())
+            .unwrap_or(2)
+            .max(2)
+    }
+
+    /// The number of slots.
+    pub fn size(&self) -> usize {
+        self.size
+    }
+
+    /// Takes a slot, waiting in arrival order for at most the gate's wait (a wait of zero takes
+    /// a free slot or none).
+    pub async fn enter(&self) -> Result<UploadSlot, Overloaded> {
+        let permit = if self.wait.is_zero() {
+            self.slots.clone().try_acquire_owned().ok()
+        } else {
+            tokio::time::timeout(self.wait, self.slots.clone().acquire_owned())
+                .await
+                .ok()
+                .and_then(Result::ok)
+        };
+        match permit {
+            Some(permit) => {
+                metrics::gauge!("cliffwatch_upload_slots_busy").increment(1.0);
+                Ok(UploadSlot { _permit: permit })
+            }
+            None => {
+                let waited_secs = self.wait.as_secs_f64().ceil() as u64;
+                Err(Overloaded {
+                    slots: self.size,
+                    waited_secs,
+                    retry_after_secs: waited_secs.clamp(1, 60),
+                })
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test]
+    async fn a_full_gate_turns_away_after_its_wait_and_admits_in_order() {
+        let gate = UploadGate::new(1, Duration::from_millis(50));
+        assert_eq!(gate.size(), 1);
+        let held = gate.enter().await.expect("a free slot");
+        let started = std::time::Instant::now();
+        let refused = gate.enter().await.expect_err("no slot while one is held");
+        assert!(started.elapsed() >= Duration::from_millis(50));
+        assert_eq!(refused.retry_after_secs, 1);
+        assert_eq!(refused.slots, 1);
+        // Two waiters: the first to arrive gets the slot first.
+        let gate = UploadGate::new(1, Duration::from_secs(5));
+        let order = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let held2 = gate.enter().await.unwrap();
+        let mut tasks = Vec::new();
+        for k in 0..2 {
+            let (gate, order) = (gate.clone(), order.clone());
+            tasks.push(tokio::spawn(async move {
+                let slot = gate.enter().await.unwrap();
+                order.lock().unwrap().push(k);
+                tokio::time::sleep(Duration::from_millis(5)).await;
+                drop(slot);
+            }));
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        drop(held2);
+        for t in tasks {
+            t.await.unwrap();
+        }
+        assert_eq!(*order.lock().unwrap(), vec![0, 1]);
+        drop(held);
+    }
+
+    #[tokio::test]
+    async fn a_zero_wait_takes_a_free_slot_or_none() {
+        let gate = UploadGate::new(2, Duration::ZERO);
+        let a = gate.enter().await.unwrap();
+        let _b = gate.enter().await.unwrap();
+        assert!(gate.enter().await.is_err());
+        drop(a);
+        assert!(gate.enter().await.is_ok());
+        assert!(UploadGate::new(0, Duration::ZERO).size() >= 2);
+    }
+}
