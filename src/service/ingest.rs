@@ -139,6 +139,11 @@ pub async fn ingest_with_identification(
     if let Some(done) = check_existing(&mut tx, &site.id, &observed_at, &hash).await? {
         return Ok(done);
     }
+    // The site's settings as of the lock: a reference change (or rules, confidence, process noise)
+    // committed while this epoch adjusted has recomputed the site, and this epoch follows it.
+    let site = sites::get(&mut *tx, &site.id)
+        .await?
+        .ok_or_else(|| ServiceError::UnknownSite(site.id.clone()))?;
     // The history the analysis needs is read on its own connection while `tx` stores the epoch.
     let history = HistoryPrefetch::start(store, &site, &observed_at);
     let control: Vec<String> = input.control.iter().map(|c| c.point.clone()).collect();
