@@ -173,11 +173,15 @@ pub async fn find(state: &AppState, site: &str) -> Result<Site, ApiError> {
         .ok_or_else(|| ApiError::not_found(format!("unknown site '{site}'")))
 }
 
-/// Body of `PUT .../reference`.
+/// Body of `PUT .../reference`. `epoch` must be present (null resets), and no other member is
+/// taken: a misspelt or missing member would otherwise reset the reference and recompute the
+/// site.
 #[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct ReferenceBody {
     /// The reference epoch's integer id; null: back to the earliest.
-    #[serde(default, deserialize_with = "crate::json_integer::optional_i64")]
+    #[serde(deserialize_with = "crate::json_integer::optional_i64")]
+    #[schema(required = true)]
     pub epoch: Option<i64>,
 }
 

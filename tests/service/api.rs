@@ -415,6 +415,35 @@ async fn health_metrics_openapi_and_request_ids() {
     );
     let (_, hooks) = s.get("/api/v1/webhooks").await;
     assert_eq!(hooks["items"].as_array().unwrap().len(), 2);
+    // A secret whose base64 does not decode would fail every delivery: refused at creation, and
+    // the document's pattern says which secrets are taken.
+    let (_, doc) = s.get("/api/v1/openapi.json").await;
+    let pattern = doc["components"]["schemas"]["NewWebhook"]["properties"]["secret"]["pattern"]
+        .as_str()
+        .expect("the secret's pattern");
+    let pattern = regex::Regex::new(pattern).unwrap();
+    for (secret, want) in [
+        ("whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw", 201),
+        ("whsec_Y2xpZmZ3YXRjaC1hbS13ZWJob29rLXY0", 201),
+        ("whsec_YWJj", 201),
+        ("whsec_YWJjZA==", 201),
+        ("whsec_YWJjZGU=", 201),
+        ("whsec_abcdef", 422),
+        ("whsec_not base64!", 422),
+        ("whsec_YWJjZB==", 422),
+        ("whsec_YQ==", 422),
+        ("MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw", 422),
+    ] {
+        let r = s
+            .client
+            .post(s.url("/api/v1/webhooks"))
+            .json(&json!({"url": "http://127.0.0.1:9/h", "secret": secret}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), want, "{secret}");
+        assert_eq!(pattern.is_match(secret), want == 201, "pattern on {secret}");
+    }
     s.stop().await;
 }
 
@@ -905,6 +934,15 @@ async fn bodies_are_objects_integers_may_be_integral_floats() {
         json!({"epoch": 99.0}),
     );
     assert_eq!(status(r.await.unwrap()), 404);
+    // A missing or misspelt member is refused, not read as "back to the earliest epoch".
+    for body in [
+        json!({}),
+        json!({"epoch_id": 1}),
+        json!({"epoch": 1, "epochs": 2}),
+    ] {
+        let r = send(put.clone(), "/api/v1/sites/b/reference", body.clone());
+        assert_eq!(status(r.await.unwrap()), 422, "{body}");
+    }
     let rule = |for_epochs: Value| {
         json!({"id": "r", "alert_rules": [{"level": "watch", "metric": "displacement_mm",
                "above": 5.0, "for_epochs": for_epochs}]})
