@@ -304,6 +304,7 @@ impl Config {
                 CAP_STATUSES.join(", ")
             )));
         }
+        self.webhook_retry.check().map_err(ConfigError::Invalid)?;
         if !(0.0..=self.request_timeout_secs as f64).contains(&self.upload_queue_secs) {
             return Err(ConfigError::Invalid(format!(
                 "upload_queue_secs {}: 0 to request_timeout_secs ({})",
@@ -369,6 +370,20 @@ mod tests {
             );
         }
         c.upload_queue_secs = 0.0;
+        assert!(c.check().is_ok());
+        c.webhook_retry.max_retry_after_seconds = -1.0;
+        assert!(
+            matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("max_retry_after_seconds"))
+        );
+        c.webhook_retry = Default::default();
+        c.webhook_retry.max_delay_seconds = 1e300;
+        assert!(
+            matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("max_delay_seconds"))
+        );
+        c.webhook_retry = Default::default();
+        c.webhook_retry.max_attempts = 0;
+        assert!(matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("max_attempts")));
+        c.webhook_retry = Default::default();
         assert!(c.check().is_ok());
     }
 

@@ -10,7 +10,8 @@ use super::AppState;
 use crate::store::webhooks::{self, NewWebhook};
 use crate::store::StoreError;
 
-/// Checks a webhook endpoint: http(s) URL, `whsec_` secret, known level.
+/// Checks a webhook endpoint: http(s) URL, and a `whsec_` secret whose base64 decodes to the
+/// signing key (a secret that does not would fail every delivery, silently, at 3 a.m.).
 pub fn check_webhook(h: &NewWebhook) -> Result<(), ApiError> {
     if !(h.url.starts_with("http://") || h.url.starts_with("https://")) {
         return Err(ApiError::unprocessable(
@@ -18,13 +19,21 @@ pub fn check_webhook(h: &NewWebhook) -> Result<(), ApiError> {
             format!("url '{}': http or https", h.url),
         ));
     }
-    if !h.secret.starts_with("whsec_") || h.secret.len() < 10 {
-        return Err(ApiError::unprocessable(
+    let decoded = h
+        .secret
+        .strip_prefix("whsec_")
+        .map(|_| crate::webhooks::signing_key(&h.secret));
+    match decoded {
+        Some(Ok(key)) if key.len() >= 3 => Ok(()),
+        Some(Err(e)) => Err(ApiError::unprocessable(
             "invalid_webhook",
-            "secret: whsec_<base64>",
-        ));
+            format!("secret: whsec_ followed by standard padded base64 ({e})"),
+        )),
+        _ => Err(ApiError::unprocessable(
+            "invalid_webhook",
+            "secret: whsec_<base64> of at least 3 bytes",
+        )),
     }
-    Ok(())
 }
 
 /// `POST /api/v1/webhooks`.

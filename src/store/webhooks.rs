@@ -32,8 +32,11 @@ pub struct NewWebhook {
     /// Target URL.
     #[schema(pattern = "^https?://")]
     pub url: String,
-    /// Signing secret `whsec_<base64>`.
-    #[schema(pattern = "^whsec_.{4,}$")]
+    /// Signing secret `whsec_<base64>` (standard alphabet, padded, canonical) of a key of at
+    /// least 3 bytes: the key that signs every delivery.
+    #[schema(
+        pattern = "^whsec_(?:[A-Za-z0-9+/]{4})+(?:[A-Za-z0-9+/][AQgw]==|[A-Za-z0-9+/]{2}[AEIMQUYcgkosw048]=)?$"
+    )]
     pub secret: String,
     /// Lowest level delivered (default `warning`).
     #[serde(default)]

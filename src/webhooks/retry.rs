@@ -32,7 +32,30 @@ impl Default for RetryPolicy {
     }
 }
 
+/// Largest delay a policy may name, seconds (a year).
+pub const MAX_POLICY_SECONDS: f64 = 365.0 * 86_400.0;
+
 impl RetryPolicy {
+    /// Checks the policy: delays finite, from 0 to a year, and at least one attempt; the
+    /// message names the option at fault.
+    pub fn check(&self) -> Result<(), String> {
+        for (name, v) in [
+            ("base_seconds", self.base_seconds),
+            ("max_delay_seconds", self.max_delay_seconds),
+            ("max_retry_after_seconds", self.max_retry_after_seconds),
+        ] {
+            if !(0.0..=MAX_POLICY_SECONDS).contains(&v) {
+                return Err(format!(
+                    "webhook_retry.{name} {v}: 0 to {MAX_POLICY_SECONDS} seconds"
+                ));
+            }
+        }
+        if self.max_attempts == 0 {
+            return Err("webhook_retry.max_attempts: at least 1".into());
+        }
+        Ok(())
+    }
+
     /// Backoff ceiling d = min(cap, base·2^attempt) in seconds for retry number `attempt` (0 = first retry).
     pub fn ceiling_seconds(&self, attempt: u32) -> f64 {
         (self.base_seconds * 2f64.powi(attempt.min(60) as i32))
@@ -49,7 +72,7 @@ pub fn backoff_delay<R: Rng + ?Sized>(policy: &RetryPolicy, attempt: u32, rng: &
     } else {
         0.0
     };
-    Duration::from_secs_f64(s)
+    Duration::try_from_secs_f64(s).unwrap_or(Duration::ZERO)
 }
 
 /// When to retry after `attempts_made` failed attempts (≥ 1): `None` when the limit is reached. A server's
@@ -64,7 +87,9 @@ pub fn next_retry<R: Rng + ?Sized>(
         return None;
     }
     Some(match retry_after {
-        Some(ra) => ra.min(Duration::from_secs_f64(policy.max_retry_after_seconds)),
+        Some(ra) => ra.min(
+            Duration::try_from_secs_f64(policy.max_retry_after_seconds).unwrap_or(Duration::ZERO),
+        ),
         None => backoff_delay(policy, attempts_made.saturating_sub(1), rng),
     })
 }
