@@ -4,6 +4,7 @@ use crate::detect::first_epoch::FirstEpochError;
 use crate::detect::identify::IdentifyError;
 use crate::detect::DetectError;
 use crate::service::ServiceError;
+use crate::store::StoreError;
 
 /// Why a watched folder failed (written to its `error.txt`).
 #[derive(Debug, thiserror::Error)]
@@ -14,6 +15,10 @@ pub enum WatchError {
     /// `epoch.json` is not the upload form.
     #[error("epoch.json: {0}")]
     Json(#[from] serde_json::Error),
+    /// A station (or image id) of `epoch.json` is not an identifier, so it names no file of the
+    /// folder.
+    #[error("station '{0}': letters, digits, '.', '_' and '-' only (1 to 64)")]
+    BadStation(String),
     /// An image of `epoch.json` has no file.
     #[error("no image file <{0}>.jpg|.png|.tif for station {0}")]
     MissingImage(String),
@@ -50,10 +55,40 @@ pub enum WatchError {
     /// A station seen for the first time without ≥ 4 seed observations.
     #[error("station {0} has no previous orientation and fewer than 4 seed observations")]
     NoPrior(String),
+    /// The database failed (unreachable, restarting, or closed at shutdown): the folder stays
+    /// and is taken again at the next scan.
+    #[error("database: {0}")]
+    Store(#[from] StoreError),
     /// Ingestion refused the epoch.
     #[error("ingestion: {0}")]
     Ingest(#[from] ServiceError),
     /// The blocking task panicked.
     #[error("detection task failed: {0}")]
     Task(String),
+}
+
+impl WatchError {
+    /// Whether the failure lies with the database rather than the folder: then the folder stays
+    /// where it is and is taken again at the next scan, instead of moving to `.failed/`.
+    pub fn is_transient(&self) -> bool {
+        matches!(
+            self,
+            WatchError::Store(_) | WatchError::Ingest(ServiceError::Store(_))
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_database_failures_leave_the_folder_for_the_next_scan() {
+        let db = || StoreError::Url("postgres://***@db/cw".into());
+        assert!(WatchError::Store(db()).is_transient());
+        assert!(WatchError::Ingest(ServiceError::Store(db())).is_transient());
+        assert!(!WatchError::MissingImage("S1".into()).is_transient());
+        assert!(!WatchError::Ingest(ServiceError::UnknownSite("kamo".into())).is_transient());
+        assert!(!WatchError::NoPrior("S1".into()).is_transient());
+    }
 }

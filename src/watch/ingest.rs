@@ -46,9 +46,7 @@ pub(super) async fn process(
             known.insert(c.point, c.xyz);
         }
     }
-    let previous = load_orientations(store, site, site_dir)
-        .await
-        .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
+    let previous = load_orientations(store, site, site_dir).await?;
     let mut stations = Vec::with_capacity(input.images.len());
     for image in &input.images {
         stations.push(detect_station(folder, image, &input.cameras, opts).await?);
@@ -90,13 +88,9 @@ pub(super) async fn process(
         ingest_with_identification(store, site, input, Some(serde_json::to_value(&counts)?))
             .await?;
     // the stations' orientations for the next epoch, from this epoch's adjusted coordinates
-    let mut db = store
-        .read()
-        .await
-        .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
+    let mut db = store.read().await?;
     let adjusted: BTreeMap<String, [f64; 3]> = points::latest_coordinates(&mut db, site)
-        .await
-        .map_err(|e| WatchError::Io(std::io::Error::other(e)))?
+        .await?
         .into_iter()
         .map(|c| (c.point, c.xyz))
         .collect();
@@ -122,7 +116,9 @@ pub(super) async fn process(
 }
 
 /// Takes one ready folder: skips it when its hash was ingested before, otherwise processes it; moves it
-/// to `.done/` or `.failed/` (with `error.txt`). Returns the destination.
+/// to `.done/` or `.failed/` (with `error.txt`). Returns the destination. When the database fails
+/// ([`WatchError::is_transient`]) the folder stays where it is, for the next scan, and that is
+/// what is returned.
 pub async fn take_folder(
     store: &Store,
     site: &str,
@@ -154,6 +150,11 @@ pub async fn take_folder(
                 .await
                 .map_err(std::io::Error::other)?;
             move_folder(folder, done)
+        }
+        Err(e) if e.is_transient() => {
+            tracing::warn!(site, folder = %folder.display(), error = %e,
+                "watched folder not taken: the database failed; taken again at the next scan");
+            Ok(folder.to_path_buf())
         }
         Err(e) => {
             tracing::warn!(site, folder = %folder.display(), error = %e, "watched folder failed");

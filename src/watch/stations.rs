@@ -7,7 +7,7 @@ use super::folders::find_image;
 use super::{WatchError, WatchOptions};
 use crate::detect::detect_bytes;
 use crate::detect::identify::Seed;
-use crate::photogrammetry::input::epoch::{CameraInput, ImageInput};
+use crate::photogrammetry::input::epoch::{is_valid_identifier, CameraInput, ImageInput};
 use crate::photogrammetry::{Camera, EpochError};
 
 /// One station's image after detection.
@@ -135,6 +135,10 @@ pub(super) async fn detect_station(
     opts: &WatchOptions,
 ) -> Result<StationData, WatchError> {
     let station = image.station.clone().unwrap_or_else(|| image.id.clone());
+    // The station names the image's file: never a path (`../x`) out of the folder.
+    if !is_valid_identifier(&station) {
+        return Err(WatchError::BadStation(station));
+    }
     let cam_err = |reason: String| WatchError::Camera {
         station: station.clone(),
         reason,

@@ -143,5 +143,28 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     assert!(dest.starts_with(site.join(".failed")), "{dest:?}");
     let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
     assert!(err.contains("no image file"), "{err}");
+
+    // A station that is not an identifier names no file of the folder (never `../`).
+    write_epoch(&site, &epoch, "e5", "2026-11-24T09:00:00Z", false, 5);
+    let json = site.join("e5/epoch.json");
+    let mut upload: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    upload["images"][0]["station"] = serde_json::json!("../e3");
+    std::fs::write(&json, upload.to_string()).unwrap();
+    let r = scan_once(&server.store, &opts).await;
+    let dest = r[0].as_ref().unwrap();
+    assert!(dest.starts_with(site.join(".failed")), "{dest:?}");
+    let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
+    assert!(err.contains("station '../e3'"), "{err}");
+
+    // The database gone (a restart of PostgreSQL, the pools closed at shutdown): the folder is
+    // not the one at fault, so it stays for the next scan instead of going to `.failed/`.
+    write_epoch(&site, &epoch, "e4", "2026-11-23T09:00:00Z", false, 4);
+    server.store.close().await;
+    let stays =
+        cliffwatch::watch::take_folder(&server.store, "kamo", &site.join("e4"), &opts).await;
+    assert!(site.join("e4/READY").is_file(), "{stays:?}");
+    assert!(!site.join("e4/error.txt").exists());
+    assert!(!site.join(".failed/e4").exists());
     server.stop().await;
 }
