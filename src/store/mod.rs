@@ -216,7 +216,20 @@ pub fn redacted_url(url: &str) -> String {
             let _ = u.set_password(Some("***"));
             u.to_string()
         }
-        _ => url.to_string(),
+        // Anything else with an `@` (a typo such as `cliff:pw@db/cw`, which parses as a URL of
+        // scheme `cliff`): whatever stands before it may be a password.
+        _ => match url.rsplit_once('@') {
+            Some((before, host)) => {
+                let scheme = before.split_once("://").map_or("", |(s, _)| s);
+                let scheme = if scheme.is_empty() {
+                    String::new()
+                } else {
+                    format!("{scheme}://")
+                };
+                format!("{scheme}***@{host}")
+            }
+            None => url.to_string(),
+        },
     }
 }
 
@@ -237,7 +250,7 @@ impl Store {
         if url.starts_with("postgres://") || url.starts_with("postgresql://") {
             return Store::open_postgres(url, options).await;
         }
-        Err(StoreError::Url(url.to_string()))
+        Err(StoreError::Url(redacted_url(url)))
     }
 
     /// Opens (creating when missing) the SQLite file, applies the migrations, packs the series
@@ -604,4 +617,24 @@ pub async fn backup_file(
         .await?;
     conn.close().await?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A password never reaches a log line or an error, however the URL is mistyped.
+    #[test]
+    fn urls_are_shown_without_their_password() {
+        for url in [
+            "postgres://cliff:s3cret@db:5432/cw",
+            "postgress://cliff:s3cret@db/cw",
+            "cliff:s3cret@db:5432/cw",
+            "postgres://cliff:s3cret@",
+        ] {
+            let shown = redacted_url(url);
+            assert!(!shown.contains("s3cret"), "{url} → {shown}");
+        }
+        assert_eq!(redacted_url("sqlite://data/cw.db"), "sqlite://data/cw.db");
+    }
 }
