@@ -105,9 +105,10 @@ async fn upload_inner(
     headers: &HeaderMap,
     body: Body,
 ) -> Result<(StatusCode, Value), ApiError> {
-    // A slot before the body is read: it bounds the bodies held in memory as well as the CPU.
-    let _slot = state.uploads.enter().await.map_err(ServiceError::from)?;
+    // The slot is taken once the body has arrived: a client sending slowly (a field laptop on a
+    // cellular link) must not hold a slot while the CPU is idle.
     let bytes = read_limited(headers, body, state.config.body_limit_bytes).await?;
+    let _slot = state.uploads.enter().await.map_err(ServiceError::from)?;
     let is_csv = headers
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())

@@ -1,6 +1,6 @@
-//! Admission of uploads on one node: at most `slots` uploads are processed at once (each reads
-//! its body into memory, adjusts on the CPU and holds the site's write lock); the others wait in
-//! arrival order for at most `wait`, then are turned away with a time to retry (HTTP 503 and
+//! Admission of uploads on one node: at most `slots` uploads are processed at once (each parses,
+//! adjusts on the CPU and writes under the site's lock; the API takes the slot once the body has
+//! arrived, so slow senders do not hold one); the others wait in arrival order for at most `wait`, then are turned away with a time to retry (HTTP 503 and
 //! `Retry-After`). Without it, a burst of uploads shares the cores until every one of them runs
 //! past the request time limit and nothing is stored; with it, the first ones finish at full
 //! speed and the rest are told when to come back. A turned-away upload stores nothing.
