@@ -103,33 +103,44 @@ pub async fn insert(
     Ok(id)
 }
 
-/// Replaces the endpoints that came from the configuration file: a stored one whose URL, secret,
-/// level and format are all still configured stays (with its id and pending deliveries).
+/// Replaces the endpoints that came from the configuration file. A stored one whose URL is still
+/// configured stays, with its id and its pending deliveries, and takes the configured secret,
+/// level and format (a rotated secret signs the next attempts; the deliveries' bodies stay the
+/// bytes they were made with); one whose URL is no longer configured is deleted with its pending
+/// deliveries; a new URL is inserted. Several endpoints of one URL pair up in order.
 pub async fn replace_configured(
     db: &mut AnyConnection,
     hooks: &[NewWebhook],
 ) -> Result<(), StoreError> {
-    // (id, url, secret, min_level, format)
-    type Row = (String, String, String, String, String);
-    let existing: Vec<Row> = sqlx::query_as(
-        "SELECT id, url, secret, min_level, format FROM webhooks WHERE source = 'config'",
+    let existing: Vec<(String, String)> = sqlx::query_as(
+        "SELECT id, url FROM webhooks WHERE source = 'config' ORDER BY created_at, id",
     )
     .fetch_all(&mut *db)
     .await?;
-    let same = |h: &NewWebhook, (_, url, secret, min, format): &Row| {
-        &h.url == url
-            && &h.secret == secret
-            && h.min_level.unwrap_or(AlertLevel::Warning).as_str() == min
-            && h.format.as_str() == format
-    };
-    for e in &existing {
-        if !hooks.iter().any(|h| same(h, e)) {
-            delete(&mut *db, &e.0).await?;
+    let mut kept = vec![false; existing.len()];
+    for h in hooks {
+        let same_url = (0..existing.len()).find(|&i| !kept[i] && existing[i].1 == h.url);
+        match same_url {
+            Some(i) => {
+                kept[i] = true;
+                sqlx::query(
+                    "UPDATE webhooks SET secret = $1, min_level = $2, format = $3 WHERE id = $4",
+                )
+                .bind(&h.secret)
+                .bind(h.min_level.unwrap_or(AlertLevel::Warning).as_str())
+                .bind(h.format.as_str())
+                .bind(&existing[i].0)
+                .execute(&mut *db)
+                .await?;
+            }
+            None => {
+                insert(&mut *db, h, "config").await?;
+            }
         }
     }
-    for h in hooks {
-        if !existing.iter().any(|e| same(h, e)) {
-            insert(&mut *db, h, "config").await?;
+    for (i, (id, _)) in existing.iter().enumerate() {
+        if !kept[i] {
+            delete(&mut *db, id).await?;
         }
     }
     Ok(())

@@ -5,5 +5,6 @@
 #[path = "../alerts_support/mod.rs"]
 mod alerts_support;
 
+mod configured;
 mod delivery;
 mod format;
