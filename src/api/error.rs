@@ -142,6 +142,8 @@ impl From<CsvError> for ApiError {
     fn from(e: CsvError) -> Self {
         match e {
             CsvError::Malformed { .. } => ApiError::bad_request(e.to_string()),
+            // CSV of the wrong shape is the contract's 422, like JSON of the wrong schema.
+            CsvError::InvalidLine { .. } => ApiError::unprocessable("invalid_epoch", e.to_string()),
             // The site's state, not the body, is at fault: a JSON epoch must come first.
             CsvError::NoCameras => ApiError::new(StatusCode::CONFLICT, "no_cameras", e.to_string()),
         }

@@ -505,7 +505,40 @@ async fn csv_upload_uses_the_site_cameras() {
         .send()
         .await
         .unwrap();
-    assert_eq!(r.status(), 400);
+    // A coordinate that is not a number: CSV of the wrong shape, 422 naming the line.
+    assert_eq!(r.status(), 422);
+    let e: Value = r.json().await.unwrap();
+    assert!(
+        e["error"]["message"].as_str().unwrap().contains("line 1"),
+        "{e}"
+    );
+    let r = s
+        .client
+        .post(&url)
+        .header("content-type", "text/csv")
+        .body("A,1,2\n")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 422);
+    let r = s
+        .client
+        .post(&url)
+        .header("content-type", "text/csv")
+        .body("A,1,2,3\nB,1,2\n")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 422, "a short second line");
+    let r = s
+        .client
+        .post(&url)
+        .header("content-type", "text/csv")
+        .body(vec![0xffu8, 0xfe, b',', b'1'])
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 400, "not CSV (not text) at all");
     s.stop().await;
 }
 

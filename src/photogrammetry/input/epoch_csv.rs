@@ -9,9 +9,17 @@ use crate::photogrammetry::EpochInput;
 /// Why a CSV upload cannot be read.
 #[derive(Debug, Error)]
 pub enum CsvError {
-    /// Not CSV of the form `image,point,x_mm,y_mm`.
+    /// Not CSV at all (the reader failed).
     #[error("CSV line {line}: {reason}")]
     Malformed {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// CSV, but a line is not `image,point,x_mm,y_mm` (field count, a coordinate not a number).
+    #[error("CSV line {line}: {reason}")]
+    InvalidLine {
         /// 1-based line number.
         line: usize,
         /// What is wrong.
@@ -33,6 +41,8 @@ pub fn epoch_from_csv(
     let camera = cameras.first().ok_or(CsvError::NoCameras)?.id.clone();
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
+        // Each line's field count is checked below, with the line's number and a 422.
+        .flexible(true)
         .trim(csv::Trim::All)
         .comment(Some(b'#'))
         .from_reader(text.as_bytes());
@@ -44,7 +54,7 @@ pub fn epoch_from_csv(
             reason: e.to_string(),
         })?;
         if record.len() != 4 {
-            return Err(CsvError::Malformed {
+            return Err(CsvError::InvalidLine {
                 line,
                 reason: format!("{} fields, want image,point,x_mm,y_mm", record.len()),
             });
@@ -53,7 +63,7 @@ pub fn epoch_from_csv(
             continue;
         }
         let number = |k: usize| -> Result<f64, CsvError> {
-            record[k].parse().map_err(|_| CsvError::Malformed {
+            record[k].parse().map_err(|_| CsvError::InvalidLine {
                 line,
                 reason: format!("'{}' is not a number", &record[k]),
             })
