@@ -12,6 +12,7 @@ use super::AppState;
 use crate::analysis::alerts::{MAX_CONFIDENCE, MIN_CONFIDENCE};
 use crate::analysis::AlertRule;
 use crate::photogrammetry::input::epoch::is_valid_identifier;
+use crate::service::ServiceError;
 use crate::store::sites::{self, NewSite, Site};
 use crate::store::StoreError;
 
@@ -173,26 +174,34 @@ pub async fn find(state: &AppState, site: &str) -> Result<Site, ApiError> {
         .ok_or_else(|| ApiError::not_found(format!("unknown site '{site}'")))
 }
 
-/// Body of `PUT .../reference`. `epoch` must be present (null resets), and no other member is
-/// taken: a misspelt or missing member would otherwise reset the reference and recompute the
-/// site.
+/// Body of `PUT .../reference`: `{"epoch": ID}`, or `{"epoch": null}` / `{}` back to the
+/// earliest epoch. No other member is taken: a misspelt one (`epoch_id`) would otherwise read as
+/// a reset of the reference and recompute the site.
 #[derive(Debug, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ReferenceBody {
-    /// The reference epoch's integer id; null: back to the earliest.
-    #[serde(deserialize_with = "crate::json_integer::optional_i64")]
-    #[schema(required = true)]
+    /// The reference epoch's integer id; null or absent: back to the earliest.
+    #[serde(default, deserialize_with = "crate::json_integer::optional_i64")]
     pub epoch: Option<i64>,
 }
 
 /// `PUT /api/v1/sites/{site}/reference`: sets the reference epoch and recomputes displacements.
 #[utoipa::path(put, path = "/api/v1/sites/{site}/reference", request_body = ReferenceBody, params(("site" = String, Path)),
-    responses((status = 200, body = Site), (status = 404, description = "unknown site or epoch", body = crate::api::schemas::ErrorBody)))]
+    responses((status = 200, body = Site), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody),
+        (status = 422, description = "an epoch the site does not have, or a member other than `epoch`", body = crate::api::schemas::ErrorBody)))]
 pub async fn set_reference(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
     ApiJson(body): ApiJson<ReferenceBody>,
 ) -> Result<impl IntoResponse, ApiError> {
-    crate::service::site_settings::set_reference(&state.store, &site, body.epoch).await?;
+    crate::service::site_settings::set_reference(&state.store, &site, body.epoch)
+        .await
+        .map_err(|e| match e {
+            // Named in the body, like an unknown camera of an upload: 422, not 404.
+            ServiceError::UnknownEpoch { .. } => {
+                ApiError::unprocessable("unknown_epoch", e.to_string())
+            }
+            e => ApiError::from(e),
+        })?;
     Ok(axum::Json(find(&state, &site).await?))
 }

@@ -10,13 +10,22 @@ use super::AppState;
 use crate::store::webhooks::{self, NewWebhook};
 use crate::store::StoreError;
 
-/// Checks a webhook endpoint: http(s) URL, and a `whsec_` secret whose base64 decodes to the
+/// Checks a webhook endpoint: an http(s) URL that parses and names a host, and a `whsec_` secret whose base64 decodes to the
 /// signing key (a secret that does not would fail every delivery, silently, at 3 a.m.).
 pub fn check_webhook(h: &NewWebhook) -> Result<(), ApiError> {
-    if !(h.url.starts_with("http://") || h.url.starts_with("https://")) {
+    let parsed = url::Url::parse(&h.url).ok().filter(|u| {
+        (u.scheme() == "http" || u.scheme() == "https")
+            && u.host_str().is_some_and(|h| !h.is_empty())
+    });
+    // The host must be written after `//` (`http:///x` would be read as host `x`).
+    let after = h
+        .url
+        .strip_prefix("http://")
+        .or_else(|| h.url.strip_prefix("https://"));
+    if parsed.is_none() || after.is_none_or(|rest| rest.starts_with('/')) {
         return Err(ApiError::unprocessable(
             "invalid_webhook",
-            format!("url '{}': http or https", h.url),
+            format!("url '{}': an absolute http or https URL with a host", h.url),
         ));
     }
     let decoded = h

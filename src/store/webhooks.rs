@@ -29,7 +29,7 @@ fn format_schema() -> Object {
 #[derive(Debug, Clone, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewWebhook {
-    /// Target URL.
+    /// Target URL: absolute, http or https, with a host.
     #[schema(pattern = "^https?://")]
     pub url: String,
     /// Signing secret `whsec_<base64>` (standard alphabet, padded, canonical) of a key of at
