@@ -191,9 +191,7 @@ pub fn evaluate_alerts(
         site,
         &mut st,
         Update {
-            subject: Subject::Site,
             points: excluded.clone(),
-            kind: AlertKind::ReferenceUnstable,
             // Raised when stable points are excluded; it does not resolve by itself (a moved reference point
             // does not move back, and the test's power near its threshold would make it flap): resolve it by
             // hand once the point's role was changed.
@@ -204,11 +202,13 @@ pub fn evaluate_alerts(
             },
             value: first.map(|t| t.statistic),
             threshold: first.map(|t| t.critical),
-            unit: "",
-            rule: None,
-            epoch: Some(analysis.epoch),
-            observed_at: Some(analysis.observed_at),
-            id_suffix: suffix.clone(),
+            ..Update::site(
+                AlertKind::ReferenceUnstable,
+                None,
+                Some(analysis.epoch),
+                Some(analysis.observed_at),
+                suffix.clone(),
+            )
         },
         now,
         &mut events,
@@ -231,19 +231,13 @@ pub fn evaluate_alerts(
     apply(
         site,
         &mut st,
-        Update {
-            subject: Subject::Site,
-            points: vec![],
-            kind: AlertKind::AnalysisFailed,
-            level: None,
-            value: None,
-            threshold: None,
-            unit: "",
-            rule: None,
-            epoch: Some(analysis.epoch),
-            observed_at: Some(analysis.observed_at),
-            id_suffix: suffix.clone(),
-        },
+        Update::site(
+            AlertKind::AnalysisFailed,
+            None,
+            Some(analysis.epoch),
+            Some(analysis.observed_at),
+            suffix.clone(),
+        ),
         now,
         &mut events,
     );
@@ -251,19 +245,13 @@ pub fn evaluate_alerts(
     apply(
         site,
         &mut st,
-        Update {
-            subject: Subject::Site,
-            points: vec![],
-            kind: AlertKind::CampaignOverdue,
-            level: None,
-            value: None,
-            threshold: None,
-            unit: "hours",
-            rule: None,
-            epoch: Some(analysis.epoch),
-            observed_at: Some(analysis.observed_at),
-            id_suffix: suffix,
-        },
+        Update::site(
+            AlertKind::CampaignOverdue,
+            None,
+            Some(analysis.epoch),
+            Some(analysis.observed_at),
+            suffix,
+        ),
         now,
         &mut events,
     );
@@ -288,19 +276,13 @@ pub fn analysis_failed(
     apply(
         site,
         &mut st,
-        Update {
-            subject: Subject::Site,
-            points: vec![],
-            kind: AlertKind::AnalysisFailed,
-            level: Some(config.analysis_failed_level),
-            value: None,
-            threshold: None,
-            unit: "",
-            rule: None,
-            epoch: Some(epoch),
-            observed_at: Some(observed_at),
-            id_suffix: epoch.to_string(),
-        },
+        Update::site(
+            AlertKind::AnalysisFailed,
+            Some(config.analysis_failed_level),
+            Some(epoch),
+            Some(observed_at),
+            epoch.to_string(),
+        ),
         now,
         &mut events,
     );
@@ -321,19 +303,13 @@ pub fn analysis_failed(
     apply(
         site,
         &mut st,
-        Update {
-            subject: Subject::Site,
-            points: vec![],
-            kind: AlertKind::CampaignOverdue,
-            level: None,
-            value: None,
-            threshold: None,
-            unit: "hours",
-            rule: None,
-            epoch: Some(epoch),
-            observed_at: Some(observed_at),
-            id_suffix: epoch.to_string(),
-        },
+        Update::site(
+            AlertKind::CampaignOverdue,
+            None,
+            Some(epoch),
+            Some(observed_at),
+            epoch.to_string(),
+        ),
         now,
         &mut events,
     );

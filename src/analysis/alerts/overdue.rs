@@ -5,7 +5,7 @@ use chrono::{DateTime, Utc};
 use super::alert::{AlertEvent, AlertState};
 use super::metric::AlertKind;
 use super::rule::AlertConfig;
-use super::transition::{apply, fmt_time, Subject, Update};
+use super::transition::{apply, fmt_time, Update};
 
 /// Checks the campaign schedule: raises `campaign_overdue` when more than
 /// `schedule_hours × (1 + overdue_grace)` hours passed since `last_observed_at` (the latest epoch's
@@ -30,17 +30,15 @@ pub fn check_overdue(
             &config.site,
             &mut st,
             Update {
-                subject: Subject::Site,
-                points: vec![],
-                kind: AlertKind::CampaignOverdue,
-                level: Some(config.campaign_overdue_level),
                 value: Some(hours),
                 threshold: Some(schedule),
-                unit: "hours",
-                rule: None,
-                epoch: None,
-                observed_at: Some(last),
-                id_suffix: format!("{}", now.timestamp()),
+                ..Update::site(
+                    AlertKind::CampaignOverdue,
+                    Some(config.campaign_overdue_level),
+                    None,
+                    Some(last),
+                    format!("{}", now.timestamp()),
+                )
             },
             now,
             &mut events,

@@ -96,6 +96,36 @@ pub(super) struct Update<'a> {
     pub(super) id_suffix: String,
 }
 
+impl<'a> Update<'a> {
+    /// The site-level alert of `kind` brought to `level` by an epoch (or, without one, by the
+    /// clock): no value, threshold, rule or points; hours as the unit of `campaign_overdue`.
+    pub(super) fn site(
+        kind: AlertKind,
+        level: Option<AlertLevel>,
+        epoch: Option<i64>,
+        observed_at: Option<DateTime<Utc>>,
+        id_suffix: String,
+    ) -> Self {
+        Update {
+            subject: Subject::Site,
+            points: vec![],
+            kind,
+            level,
+            value: None,
+            threshold: None,
+            unit: if kind == AlertKind::CampaignOverdue {
+                "hours"
+            } else {
+                ""
+            },
+            rule: None,
+            epoch,
+            observed_at,
+            id_suffix,
+        }
+    }
+}
+
 /// Brings the subject's alert of `up.kind` to `up.level` in `state`: raises, escalates,
 /// de-escalates or resolves it, and pushes the event that announces the change (none when the
 /// level stays; an escalation needs a new acknowledgement).
