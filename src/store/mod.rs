@@ -219,15 +219,10 @@ pub fn redacted_url(url: &str) -> String {
         // Anything else with an `@` (a typo such as `cliff:pw@db/cw`, which parses as a URL of
         // scheme `cliff`): whatever stands before it may be a password.
         _ => match url.rsplit_once('@') {
-            Some((before, host)) => {
-                let scheme = before.split_once("://").map_or("", |(s, _)| s);
-                let scheme = if scheme.is_empty() {
-                    String::new()
-                } else {
-                    format!("{scheme}://")
-                };
-                format!("{scheme}***@{host}")
-            }
+            Some((before, host)) => match before.split_once("://") {
+                Some((scheme, _)) => format!("{scheme}://***@{host}"),
+                None => format!("***@{host}"),
+            },
             None => url.to_string(),
         },
     }
