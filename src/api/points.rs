@@ -105,7 +105,8 @@ fn along(d: &Displacement, direction: Option<[f64; 3]>) -> Option<f64> {
 }
 
 /// `PUT /api/v1/sites/{site}/points/{point}`: sets role, group, direction of interest (creates the
-/// point when new, so roles can be set before the first epoch).
+/// point when new, so roles can be set before the first epoch). A change on a site with epochs
+/// recomputes its series and alerts in the same transaction, as a reference change does.
 #[utoipa::path(put, path = "/api/v1/sites/{site}/points/{point}", request_body = PointSettings, params(("site" = String, Path), ("point" = String, Path)),
     responses((status = 200, body = crate::store::points::Point), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid settings", body = crate::api::schemas::ErrorBody)))]
 pub async fn update(
@@ -128,10 +129,8 @@ pub async fn update(
             ));
         }
     }
-    let mut tx = state.store.begin_write_site(&site).await?;
-    points::upsert(&mut *tx, &site, &point, &settings).await?;
-    tx.commit().await.map_err(crate::store::StoreError::from)?;
-    let stored = points::get(state.store.reader(), &site, &point).await?;
+    let (stored, _) =
+        crate::service::site_settings::set_point(&state.store, &site, &point, &settings).await?;
     Ok(axum::Json(stored))
 }
 

@@ -1,7 +1,9 @@
-//! Changes of a site's settings that the derived series depend on: the reference epoch and the
-//! declared block groups. Each change and the recompute it causes commit in one transaction.
+//! Changes of a site's settings that the derived series depend on: the reference epoch, the
+//! declared block groups and the points' roles, groups and directions. Each change and the
+//! recompute it causes commit in one transaction.
 
-use crate::analysis::GroupConfig;
+use crate::analysis::{GroupConfig, PointRole};
+use crate::store::points::{self, Point, PointSettings};
 use crate::store::{epochs, groups, sites, Store, StoreError};
 
 use super::recompute::recompute_site;
@@ -46,4 +48,39 @@ pub async fn declare_group(
     recompute_site(&mut tx, &s).await?;
     tx.commit().await.map_err(StoreError::from)?;
     Ok(())
+}
+
+/// Sets a point's role, group or direction of interest (creating the point when new) and, when
+/// that changed anything and the site has epochs, recomputes the site: the stable points hold the
+/// datum, the group decides the block, the direction the value along it, so a series derived
+/// before the change would otherwise jump at the next epoch. Returns the stored point and whether
+/// the site was recomputed.
+pub async fn set_point(
+    store: &Store,
+    site: &str,
+    point: &str,
+    settings: &PointSettings,
+) -> Result<(Point, bool), ServiceError> {
+    let mut tx = store.begin_write_site(site).await?;
+    let s = sites::get(&mut *tx, site)
+        .await?
+        .ok_or_else(|| ServiceError::UnknownSite(site.to_string()))?;
+    let before = points::get(&mut *tx, site, point).await?;
+    points::upsert(&mut *tx, site, point, settings).await?;
+    let after = points::get(&mut *tx, site, point)
+        .await?
+        .ok_or_else(|| StoreError::Corrupt(format!("point '{point}' of site '{site}' vanished")))?;
+    // A point without settings is a monitored one outside any group.
+    let before = before.unwrap_or_else(|| Point {
+        name: after.name.clone(),
+        role: PointRole::Monitored,
+        group: None,
+        direction: None,
+    });
+    let recomputed = before != after && epochs::count(&mut *tx, site).await? > 0;
+    if recomputed {
+        recompute_site(&mut tx, &s).await?;
+    }
+    tx.commit().await.map_err(StoreError::from)?;
+    Ok((after, recomputed))
 }

@@ -24,7 +24,7 @@ pub struct PointSettings {
 }
 
 /// A stored point.
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
 pub struct Point {
     /// Point name.
     pub name: String,

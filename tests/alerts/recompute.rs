@@ -184,12 +184,24 @@ async fn an_out_of_order_epoch_gives_the_in_order_series_and_alerts() {
     for k in [0, 1, 2, 4, 5, 3] {
         upload(&d, "late", &scene, k).await;
     }
-    let a = series(&d, "ordered", &scene).await;
-    let b = series(&d, "late", &scene).await;
+    assert_same_series_and_alerts(&d, "ordered", "late", &scene, 6).await;
+}
+
+/// The displacement series (each of `epochs` rows) and the open alerts of sites `one` and
+/// `other` agree.
+async fn assert_same_series_and_alerts(
+    d: &Daemon,
+    one: &str,
+    other: &str,
+    scene: &Scene,
+    epochs: usize,
+) {
+    let a = series(d, one, scene).await;
+    let b = series(d, other, scene).await;
     for (p, rows) in &a {
         let other = &b[p];
-        assert_eq!(rows.len(), 6, "{p}");
-        assert_eq!(other.len(), 6, "{p}");
+        assert_eq!(rows.len(), epochs, "{p}");
+        assert_eq!(other.len(), epochs, "{p}");
         for (r, o) in rows.iter().zip(other) {
             assert_eq!(r["observed_at"], o["observed_at"]);
             assert_eq!(r["significant"], o["significant"], "{p}: {r} vs {o}");
@@ -220,10 +232,48 @@ async fn an_out_of_order_epoch_gives_the_in_order_series_and_alerts() {
             .filter(|(_, (_, s))| s != "resolved")
             .collect()
     };
-    let (x, y) = (
-        level(alerts(&d, "ordered").await),
-        level(alerts(&d, "late").await),
-    );
+    let (x, y) = (level(alerts(d, one).await), level(alerts(d, other).await));
     assert!(!x.is_empty());
     assert_eq!(x, y);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stable_points_marked_after_the_epochs_give_the_series_of_marking_them_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), "");
+    let d = Daemon::start(&dir.path().join("data"), &config).await;
+    let scene = Scene { n: 16, stable: 8 };
+    site(&d, "first", &scene).await;
+    let rules = json!([
+        {"level": "watch", "metric": "displacement_mm", "above": 5.0, "clear_below": 4.0},
+        {"level": "warning", "metric": "displacement_mm", "above": 10.0, "clear_below": 8.0}]);
+    create_site(&d, "after", rules).await;
+    for k in 0..6 {
+        upload(&d, "first", &scene, k).await;
+        upload(&d, "after", &scene, k).await;
+    }
+    // Without stable points the datum is held by every point, the moving block included: the
+    // series differ until the roles are set.
+    let (a, b) = (
+        series(&d, "first", &scene).await,
+        series(&d, "after", &scene).await,
+    );
+    let p = Scene::name(0);
+    let gap = (a[&p][5]["dx_mm"].as_f64().unwrap() - b[&p][5]["dx_mm"].as_f64().unwrap()).abs()
+        + (a[&p][5]["dy_mm"].as_f64().unwrap() - b[&p][5]["dy_mm"].as_f64().unwrap()).abs()
+        + (a[&p][5]["dz_mm"].as_f64().unwrap() - b[&p][5]["dz_mm"].as_f64().unwrap()).abs();
+    assert!(gap > 0.5, "the datum should matter: {gap} mm");
+    mark_stable(&d, "after", &scene).await;
+    assert_same_series_and_alerts(&d, "first", "after", &scene, 6).await;
+    // Setting a role a point already has leaves the series as they are.
+    let (s, b) = d
+        .send(
+            Method::PUT,
+            &format!("/api/v1/sites/after/points/{p}"),
+            Some(&json!({"role": "stable"})),
+        )
+        .await;
+    assert_eq!(s, 200, "{b}");
+    assert_eq!(b["role"], "stable");
+    assert_same_series_and_alerts(&d, "first", "after", &scene, 6).await;
 }
