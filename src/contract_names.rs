@@ -98,6 +98,8 @@ mod tests {
         round_trip(AlertStatus::ALL);
         round_trip(AlertEventType::ALL);
         round_trip(PointRole::ALL);
+        round_trip(crate::webhooks::PayloadFormat::ALL);
+        round_trip(crate::store::webhooks::WebhookSource::ALL);
         round_trip(Model::ALL);
     }
 

@@ -15,7 +15,7 @@ use crate::webhooks::PayloadFormat;
 fn format_schema() -> Object {
     ObjectBuilder::new()
         .schema_type(Type::String)
-        .enum_values(Some(PayloadFormat::ALL.map(PayloadFormat::as_str)))
+        .enum_values(Some(PayloadFormat::ALL.iter().map(|f| f.as_str())))
         .default(Some(PayloadFormat::Standard.as_str().into()))
         .description(Some(
             "Body format: `standard` (the contract body), `alertmanager_webhook` (Alertmanager's \
@@ -24,6 +24,22 @@ fn format_schema() -> Object {
         ))
         .build()
 }
+
+/// Where an endpoint was registered: `api` (`POST /api/v1/webhooks`) or `config` (`[[webhooks]]`
+/// of the configuration file, replaced at each start).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum WebhookSource {
+    /// Registered through the API.
+    Api,
+    /// From the configuration file.
+    Config,
+}
+
+crate::contract_names!(WebhookSource, "webhook source" {
+    Api => "api",
+    Config => "config",
+});
 
 /// A webhook endpoint as created (`POST /api/v1/webhooks`).
 #[derive(Debug, Clone, Deserialize, ToSchema)]
@@ -57,11 +73,13 @@ pub struct Webhook {
     /// Lowest level delivered.
     #[sqlx(try_from = "String")]
     pub min_level: AlertLevel,
-    /// Body format ([`PayloadFormat`]'s name).
+    /// Body format.
+    #[sqlx(try_from = "String")]
     #[schema(schema_with = format_schema)]
-    pub format: String,
-    /// `api` or `config`.
-    pub source: String,
+    pub format: PayloadFormat,
+    /// Where it was registered.
+    #[sqlx(try_from = "String")]
+    pub source: WebhookSource,
     /// Creation time.
     pub created_at: String,
 }
@@ -84,7 +102,7 @@ pub async fn list(db: impl AnyExecutor<'_>) -> Result<Vec<Webhook>, StoreError> 
 pub async fn insert(
     db: impl AnyExecutor<'_>,
     hook: &NewWebhook,
-    source: &str,
+    source: WebhookSource,
 ) -> Result<String, StoreError> {
     let id = uuid::Uuid::new_v4().to_string();
     sqlx::query(
@@ -96,7 +114,7 @@ pub async fn insert(
     .bind(&hook.secret)
     .bind(hook.min_level.unwrap_or(AlertLevel::Warning).as_str())
     .bind(hook.format.as_str())
-    .bind(source)
+    .bind(source.as_str())
     .bind(now())
     .execute(db)
     .await?;
@@ -134,7 +152,7 @@ pub async fn replace_configured(
                 .await?;
             }
             None => {
-                insert(&mut *db, h, "config").await?;
+                insert(&mut *db, h, WebhookSource::Config).await?;
             }
         }
     }
@@ -182,7 +200,7 @@ pub async fn enabled_endpoints(
     Ok(rows
         .into_iter()
         .map(|(id, url, secret, min, format)| {
-            let format = PayloadFormat::from_name(&format).unwrap_or_else(|| {
+            let format = format.parse().unwrap_or_else(|_| {
                 tracing::warn!(webhook = %id, format = %format, "unknown body format: contract body");
                 PayloadFormat::Standard
             });

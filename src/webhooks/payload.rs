@@ -31,28 +31,11 @@ pub enum PayloadFormat {
     AlertmanagerApiV2,
 }
 
-impl PayloadFormat {
-    /// Every format, the default first.
-    pub const ALL: [PayloadFormat; 3] = [
-        PayloadFormat::Standard,
-        PayloadFormat::AlertmanagerWebhook,
-        PayloadFormat::AlertmanagerApiV2,
-    ];
-
-    /// The serde (and stored) name: `standard`, `alertmanager_webhook`, `alertmanager_api_v2`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            PayloadFormat::Standard => "standard",
-            PayloadFormat::AlertmanagerWebhook => "alertmanager_webhook",
-            PayloadFormat::AlertmanagerApiV2 => "alertmanager_api_v2",
-        }
-    }
-
-    /// The format of a name as [`PayloadFormat::as_str`] gives it; `None` for any other string.
-    pub fn from_name(name: &str) -> Option<PayloadFormat> {
-        PayloadFormat::ALL.into_iter().find(|f| f.as_str() == name)
-    }
-}
+crate::contract_names!(PayloadFormat, "webhook body format" {
+    Standard => "standard",
+    AlertmanagerWebhook => "alertmanager_webhook",
+    AlertmanagerApiV2 => "alertmanager_api_v2",
+});
 
 /// A webhook endpoint (`POST /api/v1/webhooks` or `[[webhooks]]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -116,7 +116,10 @@ async fn edited_endpoints_keep_their_pending_deliveries() {
     let listed = list(store.reader()).await.unwrap();
     let shown = listed.iter().find(|w| w.id == id_a).unwrap();
     assert_eq!(shown.min_level, AlertLevel::Alarm);
-    assert_eq!(shown.format, "alertmanager_webhook");
+    assert_eq!(
+        shown.format,
+        cliffwatch::webhooks::PayloadFormat::AlertmanagerWebhook
+    );
     assert_eq!(id_of(&store, b).await, None);
     assert_eq!(
         pending_of(&store, &id_b).await,

@@ -444,15 +444,15 @@ fn each_format_renders_its_body() {
         names,
         ["standard", "alertmanager_webhook", "alertmanager_api_v2"]
     );
-    for f in PayloadFormat::ALL {
+    for &f in PayloadFormat::ALL {
         assert_eq!(serde_json::to_value(f).unwrap(), f.as_str());
         assert_eq!(
             serde_json::from_value::<PayloadFormat>(f.as_str().into()).unwrap(),
             f
         );
-        assert_eq!(PayloadFormat::from_name(f.as_str()), Some(f));
+        assert_eq!(f.as_str().parse::<PayloadFormat>(), Ok(f));
     }
-    assert_eq!(PayloadFormat::from_name("alertmanager"), None);
+    assert!("alertmanager".parse::<PayloadFormat>().is_err());
     assert!(serde_json::from_value::<PayloadFormat>("alertmanager".into()).is_err());
     assert_eq!(PayloadFormat::default(), PayloadFormat::Standard);
 

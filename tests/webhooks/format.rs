@@ -370,7 +370,10 @@ async fn endpoints_from_before_the_migration_keep_the_standard_body() {
         .await
         .unwrap();
     assert_eq!(listed.len(), 1);
-    assert_eq!(listed[0].format, "standard");
+    assert_eq!(
+        listed[0].format,
+        cliffwatch::webhooks::PayloadFormat::Standard
+    );
     let mut tx = store.begin_write().await.unwrap();
     let endpoints = cliffwatch::store::webhooks::enabled_endpoints(&mut tx)
         .await
