@@ -108,13 +108,15 @@ async fn upload_inner(
     // The slot is taken once the body has arrived: a client sending slowly (a field laptop on a
     // cellular link) must not hold a slot while the CPU is idle.
     let bytes = read_limited(headers, body, state.config.body_limit_bytes).await?;
+    // An unknown site is named before anything is said about the body (ingestion checks again
+    // under the site's lock).
+    find(state, site).await?;
     let _slot = state.uploads.enter().await.map_err(ServiceError::from)?;
     let is_csv = headers
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
         .is_some_and(|v| v.starts_with("text/csv"));
     let input: EpochInput = if is_csv {
-        find(state, site).await?;
         let text = std::str::from_utf8(&bytes)
             .map_err(|_| ApiError::bad_request("the CSV is not UTF-8"))?;
         let observed_at = params.observed_at.ok_or_else(|| {

@@ -287,6 +287,16 @@ async fn rejections_store_nothing() {
 
     let (status, _) = s.upload("nosuchsite", &good).await;
     assert_eq!(status, 404);
+    // An invalid body to an unknown site: the site is named first.
+    let (status, e) = s.upload("nosuchsite", &json!({"images": []})).await;
+    assert_eq!(status, 404, "{e}");
+    assert!(
+        e["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("nosuchsite"),
+        "{e}"
+    );
     assert_eq!(
         s.snapshot().await,
         before,
