@@ -101,14 +101,18 @@ async fn csv_and_json_pages_equal_the_portable_read() {
     let s = TestServer::start(|_| {}).await;
     fill(&s, "fast").await;
     let direction = [0.0, -2.0, 1.0];
-    let r = s
-        .client
-        .put(s.url("/api/v1/sites/fast/points/P1"))
-        .json(&json!({"direction": direction}))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 200);
+    // Set in the table: the API's PUT would recompute the site from its (absent) coordinates.
+    let mut tx = s.store.begin_write().await.unwrap();
+    sqlx::query(
+        "UPDATE points SET dir_x = ?, dir_y = ?, dir_z = ? WHERE site_id = 'fast' AND name = 'P1'",
+    )
+    .bind(direction[0])
+    .bind(direction[1])
+    .bind(direction[2])
+    .execute(&mut *tx)
+    .await
+    .unwrap();
+    tx.commit().await.unwrap();
     // rows written by SQL, not packed: the whole series is tail rows
     assert_served_as_stored(&s, "fast", Some(direction), ROWS).await;
     // packed: BLOCK_EPOCHS-epoch blocks, then a tail of the rest
