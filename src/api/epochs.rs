@@ -7,10 +7,10 @@ use axum::extract::State;
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::IntoResponse;
 use serde::Deserialize;
-use serde_json::{Map, Value};
 
 use super::error::{ApiError, ApiPath, ApiQuery};
 use super::list::{Page, PageParams};
+use super::schemas::EpochSummary;
 use super::sites::find;
 use super::AppState;
 use crate::photogrammetry::input::epoch::CameraInput;
@@ -94,7 +94,7 @@ pub async fn upload(
     };
     metrics::counter!("cliffwatch_uploads_total", "status" => status.to_string()).increment(1);
     let (status, summary) = result?;
-    let location = format!("/api/v1/sites/{site}/epochs/{}", summary["id"]);
+    let location = format!("/api/v1/sites/{site}/epochs/{}", summary.epoch.id);
     Ok((status, [(header::LOCATION, location)], axum::Json(summary)))
 }
 
@@ -104,7 +104,7 @@ async fn upload_inner(
     params: UploadParams,
     headers: &HeaderMap,
     body: Body,
-) -> Result<(StatusCode, Value), ApiError> {
+) -> Result<(StatusCode, EpochSummary), ApiError> {
     // The slot is taken once the body has arrived: a client sending slowly (a field laptop on a
     // cellular link) must not hold a slot while the CPU is idle.
     let bytes = read_limited(headers, body, state.config.body_limit_bytes).await?;
@@ -156,35 +156,26 @@ pub async fn summary(
     site: &str,
     id: i64,
     residuals: bool,
-) -> Result<Option<Value>, ApiError> {
+) -> Result<Option<EpochSummary>, ApiError> {
     let mut conn = store.read().await?;
     let db = &mut *conn;
-    let Some((item, report)) = epochs::get(&mut *db, site, id).await? else {
+    let Some((epoch, report)) = epochs::get(&mut *db, site, id).await? else {
         return Ok(None);
     };
-    let mut out: Map<String, Value> = report;
-    if let Value::Object(fields) = serde_json::to_value(&item).map_err(StoreError::from)? {
-        out.extend(fields);
-    }
-    out.insert("site".into(), Value::String(site.to_string()));
-    if residuals {
-        let r = epochs::residuals(&mut *db, site, id).await?;
-        out.insert(
-            "residuals".into(),
-            serde_json::to_value(r).map_err(StoreError::from)?,
-        );
-    }
-    let d = displacements::of_epoch(&mut *db, site, id).await?;
-    out.insert(
-        "displacements".into(),
-        serde_json::to_value(d).map_err(StoreError::from)?,
-    );
-    let a = alerts::of_epoch(&mut *db, site, id).await?;
-    out.insert(
-        "alerts".into(),
-        serde_json::to_value(a).map_err(StoreError::from)?,
-    );
-    Ok(Some(Value::Object(out)))
+    let residuals = if residuals {
+        Some(epochs::residuals(&mut *db, site, id).await?)
+    } else {
+        None
+    };
+    Ok(Some(EpochSummary {
+        epoch,
+        site: site.to_string(),
+        global_test: report.global_test(),
+        report,
+        residuals,
+        displacements: displacements::of_epoch(&mut *db, site, id).await?,
+        alerts: alerts::of_epoch(&mut *db, site, id).await?,
+    }))
 }
 
 /// `GET /api/v1/sites/{site}/epochs`: newest first.

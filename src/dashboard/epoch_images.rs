@@ -20,6 +20,7 @@ use super::image_preview::{preview, PREVIEW_MAX_SIDE};
 use super::layout::seg;
 use super::PageError;
 use crate::api::AppState;
+use crate::store::epoch_report::EpochReport;
 
 /// One station of a watched epoch as its report keeps it.
 #[derive(Debug, Clone, PartialEq)]
@@ -100,10 +101,10 @@ fn plain_component(s: &str) -> bool {
 }
 
 /// The stations of a report that have an image.
-pub fn stations(report: &serde_json::Map<String, Value>) -> Vec<StationImage> {
+pub fn stations(report: &EpochReport) -> Vec<StationImage> {
     report
-        .get("identification")
-        .and_then(Value::as_array)
+        .identification
+        .as_deref()
         .map(|a| a.iter().filter_map(StationImage::from_report).collect())
         .unwrap_or_default()
 }

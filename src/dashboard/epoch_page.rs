@@ -9,7 +9,7 @@ use axum::extract::{Path, State};
 use axum::response::Html;
 use axum::Extension;
 use maud::{html, Markup};
-use serde_json::{Map, Value};
+use serde_json::Value;
 
 use super::epoch_images::{self, station_figure};
 use super::face_plan::nice_floor;
@@ -18,6 +18,8 @@ use super::local_time::when;
 use super::{viewer, PageError};
 use crate::api::auth::Access;
 use crate::api::AppState;
+use crate::photogrammetry::adjust::report::VarianceModel;
+use crate::store::epoch_report::EpochReport;
 use crate::store::epochs::{self, EpochListItem, ObservationResidual};
 use crate::store::{sites, ReadPool};
 
@@ -27,7 +29,7 @@ pub(super) async fn load(
     db: &ReadPool,
     site_id: &str,
     epoch: &str,
-) -> Result<(sites::Site, i64, EpochListItem, Map<String, Value>), PageError> {
+) -> Result<(sites::Site, i64, EpochListItem, EpochReport), PageError> {
     let Some(site) = sites::get(db, site_id).await? else {
         return Err(PageError::not_found(format!("no site '{site_id}'")));
     };
@@ -60,27 +62,12 @@ pub async fn epoch(
         let k = order.iter().position(|x| *x == o.image_id).unwrap_or(0);
         by_image.entry((k, o.image_id.clone())).or_default().push(o);
     }
-    let f = |k: &str| report.get(k).and_then(Value::as_f64);
-    let dropped = report
-        .get("dropped")
-        .and_then(Value::as_array)
-        .cloned()
-        .unwrap_or_default();
-    let cameras = report
-        .get("cameras")
-        .and_then(Value::as_array)
-        .cloned()
-        .unwrap_or_default();
-    let warnings = report
-        .get("warnings")
-        .and_then(Value::as_array)
-        .cloned()
-        .unwrap_or_default();
     let text = |v: &Value| match v {
         Value::String(s) => s.clone(),
         Value::Null => "–".into(),
         other => other.to_string(),
     };
+    let test = report.global_test();
     let images: Vec<_> = epoch_images::stations(&report)
         .into_iter()
         .map(|st| {
@@ -96,21 +83,24 @@ pub async fn epoch(
             tr { th { "status" } td { (item.status) } }
             tr { th { "model" } td { (item.model) } }
             tr { th { "σ0 (mm)" } td { (num(Some(item.sigma0_mm), 5)) } }
-            tr { th { "variance factor" } td { (num(f("variance_factor"), 3)) } }
-            tr { th { "global test" } td { (report.get("global_test").map(text).unwrap_or_else(|| "–".into())) } }
-            tr { th { "variance model" } td { (report.get("variance_model").map(text).unwrap_or_else(|| "–".into())) } }
-            tr { th { "degrees of freedom" } td { (report.get("dof").map(text).unwrap_or_else(|| "–".into())) } }
+            tr { th { "variance factor" } td { (num(Some(report.variance_factor), 3)) } }
+            tr { th { "global test" }
+                 td { (if test.accepted { "accepted" } else { "rejected" }) ": "
+                      (num(Some(test.variance_factor), 3)) " in [" (num(Some(test.lower), 3)) ", " (num(Some(test.upper), 3)) "]"
+                      " (" (num(Some(100.0 * test.confidence), 1)) " %)" } }
+            tr { th { "variance model" } td { (report.variance_model.map_or("–", variance_model_text)) } }
+            tr { th { "degrees of freedom" } td { (report.dof) } }
             tr { th { "iterations" } td { (item.iterations) } }
-            tr { th { "datum" } td { (report.get("datum").map(text).unwrap_or_else(|| "–".into())) } }
-            @for c in &cameras {
-                tr { th { "c ± σ (mm), camera " (c.get("id").map(text).unwrap_or_default()) }
-                     td { (with_sigma(c.get("c_mm").and_then(Value::as_f64), c.get("c_sigma_mm").and_then(Value::as_f64), 3)) } }
+            tr { th { "datum" } td { (if report.datum.is_empty() { "–" } else { report.datum.as_str() }) } }
+            @for c in &report.cameras {
+                tr { th { "c ± σ (mm), camera " (c.id) }
+                     td { (with_sigma(Some(c.c_mm), c.c_sigma_mm, 3)) } }
             }
         }
-        @if !warnings.is_empty() {
-            ul.warnings { @for w in &warnings { li { (text(w)) } } }
+        @if !report.warnings.is_empty() {
+            ul.warnings { @for w in &report.warnings { li { (w) } } }
         }
-        @if let Some(Value::Array(stations)) = report.get("identification") {
+        @if let Some(stations) = &report.identification {
             h2 { "Identification (watched directory)" }
             table.identification {
                 thead { tr { th { "station" } th { "method" } th { "detected" } th { "identified" } th { "ambiguous" } th { "unmatched" } } }
@@ -129,15 +119,15 @@ pub async fn epoch(
             }
         }
         h2 { "Dropped observations" }
-        @if dropped.is_empty() {
+        @if report.dropped.is_empty() {
             p.note { "None: every observation passed data snooping." }
         } @else {
             table.dropped {
                 thead { tr { th { "image" } th { "point" } th { "w" } } }
-                tbody { @for d in &dropped {
-                    tr { td { (d.get("image").map(text).unwrap_or_default()) }
-                         td { (d.get("point").map(text).unwrap_or_default()) }
-                         td.num { (num(d.get("w").and_then(Value::as_f64), 2)) } }
+                tbody { @for d in &report.dropped {
+                    tr { td { (d.image) }
+                         td { (d.point) }
+                         td.num { (num(Some(d.w), 2)) } }
                 } }
             }
         }
@@ -158,6 +148,14 @@ pub async fn epoch(
     Ok(Html(
         page(&format!("epoch {}", item.id), &crumbs, &v, body).into_string(),
     ))
+}
+
+/// How the page names the variance behind the snooping's statistics.
+fn variance_model_text(m: VarianceModel) -> &'static str {
+    match m {
+        VarianceModel::APriori => "a priori σ (Baarda's w)",
+        VarianceModel::APosteriori => "a posteriori σ̂0 (Pope's τ)",
+    }
 }
 
 /// The residual vectors of one image drawn at their image positions, exaggerated so the largest

@@ -72,7 +72,7 @@ pub async fn site(
     for (_, e) in epochs::list(db, &site.id, None, EPOCHS_SHOWN).await? {
         let dropped = epochs::get(db, &site.id, e.id)
             .await?
-            .and_then(|(_, r)| r.get("dropped").and_then(|d| d.as_array()).map(Vec::len));
+            .map(|(_, r)| r.dropped.len());
         epoch_rows.push((e, dropped));
     }
     let v = viewer(access.as_deref());

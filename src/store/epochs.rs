@@ -4,10 +4,11 @@
 use std::collections::HashMap;
 
 use serde::Serialize;
-use serde_json::{Map, Value};
+use serde_json::Value;
 use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
+use super::epoch_report::EpochReport;
 use super::{display_timestamp, now, StoreError};
 use crate::photogrammetry::{Adjustment, EpochInput, Model};
 
@@ -140,12 +141,12 @@ pub async fn count(db: impl AnyExecutor<'_>, site: &str) -> Result<i64, StoreErr
     )
 }
 
-/// The stored header of one epoch: list fields plus the report (JSON object, without residuals).
+/// The stored header of one epoch: list fields plus the report (without residuals).
 pub async fn get(
     db: impl AnyExecutor<'_>,
     site: &str,
     id: i64,
-) -> Result<Option<(EpochListItem, Map<String, Value>)>, StoreError> {
+) -> Result<Option<(EpochListItem, EpochReport)>, StoreError> {
     #[derive(FromRow)]
     struct Row {
         #[sqlx(flatten)]
@@ -165,7 +166,7 @@ pub async fn get(
         Some(mut r) => {
             r.item.observed_at = display_timestamp(&r.item.observed_at);
             r.item.created_at = display_timestamp(&r.item.created_at);
-            let report: Map<String, Value> = serde_json::from_str(&r.report)?;
+            let report: EpochReport = serde_json::from_str(&r.report)?;
             Ok(Some((r.item, report)))
         }
     }

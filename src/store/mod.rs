@@ -42,6 +42,7 @@ pub mod block_motions;
 pub mod copy;
 pub mod displacement_row;
 pub mod displacements;
+pub mod epoch_report;
 pub mod epochs;
 pub mod groups;
 pub mod joint_covariances;

@@ -193,6 +193,22 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
     let (st, epoch) = html(&s, &epoch_links[0]).await;
     assert_eq!(st, 200);
     assert!(epoch.contains("σ0 (mm)") && epoch.contains("iterations"));
+    // The global test as the API reports it: verdict, variance factor and bounds.
+    let (_, summary) = s.get(&format!("/api/v1{}", epoch_links[0])).await;
+    let t = &summary["global_test"];
+    let f = |k: &str| format!("{:.3}", t[k].as_f64().unwrap());
+    let verdict = if t["accepted"].as_bool().unwrap() {
+        "accepted"
+    } else {
+        "rejected"
+    };
+    let row = format!(
+        "{verdict}: {} in [{}, {}] (99.8 %)",
+        f("variance_factor"),
+        f("lower"),
+        f("upper")
+    );
+    assert!(epoch.contains(&row), "{row} not on the page");
     assert_eq!(
         epoch.matches("<svg class=\"residual\"").count(),
         4,

@@ -698,6 +698,20 @@ async fn epoch_summaries_and_errors_conform_to_their_schemas() {
     let (status, full) = s.get("/api/v1/sites/paper/epochs/1").await;
     assert_eq!(status, 200);
     assert!(!full["residuals"].as_array().unwrap().is_empty());
+    assert!(created.get("residuals").is_none(), "detail view only");
+    // The global test: the reported variance factor against χ²(r)/r bounds around 1, 0.1 % in
+    // each tail; the paper's noise matches its a-priori σ, so it is accepted.
+    let t = &full["global_test"];
+    let (lower, upper, vf) = (
+        t["lower"].as_f64().unwrap(),
+        t["upper"].as_f64().unwrap(),
+        t["variance_factor"].as_f64().unwrap(),
+    );
+    assert_eq!(vf, full["variance_factor"].as_f64().unwrap());
+    assert!(lower < 1.0 && 1.0 < upper, "{t}");
+    assert_eq!(t["accepted"], json!((lower..=upper).contains(&vf)), "{t}");
+    assert_eq!(t["accepted"], json!(true), "{t}");
+    assert_eq!(t["confidence"], json!(0.998));
     let (status, missing) = s.get("/api/v1/sites/paper/epochs/9").await;
     assert_eq!(status, 404);
     let (status, healthy) = s.get("/healthz").await;

@@ -3,6 +3,7 @@
 //! (the paper's quality indexes against truth).
 
 pub(crate) mod global_test;
+pub use global_test::{GlobalTest, GLOBAL_TEST_CONFIDENCE};
 pub(crate) mod precision;
 pub mod quality;
 pub(crate) mod snooping;
