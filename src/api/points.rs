@@ -121,7 +121,15 @@ pub async fn update(
             format!("point '{point}': identifiers must match [A-Za-z0-9._-]{{1,64}}"),
         ));
     }
-    if let Some(d) = settings.direction {
+    if let Some(Some(g)) = &settings.group {
+        if !is_valid_identifier(g) {
+            return Err(ApiError::unprocessable(
+                "invalid_point",
+                format!("group '{g}': identifiers must match [A-Za-z0-9._-]{{1,64}}"),
+            ));
+        }
+    }
+    if let Some(Some(d)) = settings.direction {
         if d.iter().any(|v| !v.is_finite()) || d.iter().all(|v| *v == 0.0) {
             return Err(ApiError::unprocessable(
                 "invalid_point",

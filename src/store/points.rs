@@ -7,20 +7,33 @@ use utoipa::ToSchema;
 use super::StoreError;
 use crate::analysis::PointRole;
 
-/// Settings of a point (`PUT /api/v1/sites/{site}/points/{point}`).
-#[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
+/// Settings of a point (`PUT /api/v1/sites/{site}/points/{point}`): a member left out keeps its
+/// value, `null` clears a group or a direction.
+#[derive(Debug, Clone, Default, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PointSettings {
     /// `stable` or `monitored`.
     #[serde(default)]
     pub role: Option<PointRole>,
-    /// Free group name (e.g. a block of the cliff).
-    #[serde(default)]
-    pub group: Option<String>,
-    /// Direction of interest in the site frame (e.g. the cliff normal); any length but zero.
-    #[serde(default)]
-    #[schema(min_items = 3, max_items = 3)]
-    pub direction: Option<[f64; 3]>,
+    /// Group name (e.g. a block of the cliff); `null` takes the point out of its group.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Option<String>, pattern = "^[A-Za-z0-9._-]{1,64}$")]
+    pub group: Option<Option<String>>,
+    /// Direction of interest in the site frame (e.g. the cliff normal); any length but zero;
+    /// `null` clears it.
+    #[serde(default, deserialize_with = "present")]
+    #[schema(value_type = Option<[f64; 3]>, min_items = 3, max_items = 3)]
+    pub direction: Option<Option<[f64; 3]>>,
+}
+
+/// A member that is present: `Some(None)` for `null`, `Some(Some(v))` for a value (an absent
+/// member stays `None` through `#[serde(default)]`).
+fn present<'de, T, D>(d: D) -> Result<Option<Option<T>>, D::Error>
+where
+    T: Deserialize<'de>,
+    D: serde::Deserializer<'de>,
+{
+    Option::<T>::deserialize(d).map(Some)
 }
 
 /// A stored point.
@@ -109,31 +122,33 @@ pub async fn stable(db: impl AnyExecutor<'_>, site: &str) -> Result<Vec<String>,
     .await?)
 }
 
-/// Creates the point or changes the given settings (others stay).
+/// Creates the point or changes the given settings (others stay; a group or direction given as
+/// `null` is cleared).
 pub async fn upsert(
     db: impl AnyExecutor<'_>,
     site: &str,
     name: &str,
     s: &PointSettings,
 ) -> Result<(), StoreError> {
-    let d = s.direction;
+    let group = s.group.clone().flatten();
+    let d = s.direction.flatten();
     sqlx::query(
         "INSERT INTO points (site_id, name, role, grp, dir_x, dir_y, dir_z) VALUES ($1, $2, COALESCE($3, 'monitored'), $4, $5, $6, $7) \
-         ON CONFLICT (site_id, name) DO UPDATE SET role = COALESCE($8, points.role), grp = COALESCE($9, points.grp), \
-         dir_x = COALESCE($10, points.dir_x), dir_y = COALESCE($11, points.dir_y), dir_z = COALESCE($12, points.dir_z)",
+         ON CONFLICT (site_id, name) DO UPDATE SET role = COALESCE($3, points.role), \
+         grp = CASE WHEN $8 THEN $4 ELSE points.grp END, \
+         dir_x = CASE WHEN $9 THEN $5 ELSE points.dir_x END, \
+         dir_y = CASE WHEN $9 THEN $6 ELSE points.dir_y END, \
+         dir_z = CASE WHEN $9 THEN $7 ELSE points.dir_z END",
     )
     .bind(site)
     .bind(name)
     .bind(s.role.map(PointRole::as_str))
-    .bind(&s.group)
+    .bind(group)
     .bind(d.map(|d| d[0]))
     .bind(d.map(|d| d[1]))
     .bind(d.map(|d| d[2]))
-    .bind(s.role.map(PointRole::as_str))
-    .bind(&s.group)
-    .bind(d.map(|d| d[0]))
-    .bind(d.map(|d| d[1]))
-    .bind(d.map(|d| d[2]))
+    .bind(s.group.is_some())
+    .bind(s.direction.is_some())
     .execute(db)
     .await?;
     Ok(())
