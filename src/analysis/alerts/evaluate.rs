@@ -125,16 +125,46 @@ pub fn evaluate_alerts(
 ) -> (AlertState, Vec<AlertEvent>) {
     let mut st = state.clone();
     let mut events = vec![];
-    let site = config.site.as_str();
+    let suffix = analysis.epoch.to_string();
+    evaluate_rules(config, &mut st, analysis, &suffix, now, &mut events);
+    reference_stability(config, &mut st, analysis, &suffix, now, &mut events);
+    // This epoch was analysed: an earlier failure no longer stands; and an epoch arrived: the
+    // campaign is no longer overdue.
+    for kind in [AlertKind::AnalysisFailed, AlertKind::CampaignOverdue] {
+        apply(
+            &config.site,
+            &mut st,
+            Update::site(
+                kind,
+                None,
+                Some(analysis.epoch),
+                Some(analysis.observed_at),
+                suffix.clone(),
+            ),
+            now,
+            &mut events,
+        );
+    }
+    (st, events)
+}
+
+/// The rules over every point and every declared block of the epoch. A rule naming a block group
+/// applies to the block's motion, not to its single points; a rule without a group applies to
+/// every point and every declared block.
+fn evaluate_rules(
+    config: &AlertConfig,
+    st: &mut AlertState,
+    analysis: &EpochAnalysis,
+    suffix: &str,
+    now: DateTime<Utc>,
+    events: &mut Vec<AlertEvent>,
+) {
     let rules: Vec<&AlertRule> = config
         .rules
         .iter()
         .filter(|r| r.validate().is_ok())
         .collect();
-    let suffix = analysis.epoch.to_string();
     let blocks: Vec<&str> = analysis.blocks.iter().map(|b| b.group.as_str()).collect();
-    // A rule naming a block group applies to the block's motion, not to its single points; a
-    // rule without a group applies to every point and every declared block.
     let (block_rules, point_rules): (Vec<&AlertRule>, Vec<&AlertRule>) = rules
         .iter()
         .partition(|r| r.group.as_deref().is_some_and(|g| blocks.contains(&g)));
@@ -151,13 +181,13 @@ pub fn evaluate_alerts(
         };
         evaluate_subject(
             config,
-            &mut st,
+            st,
             &subject,
             &applicable,
             analysis,
-            &suffix,
+            suffix,
             now,
-            &mut events,
+            events,
         );
     }
     for b in &analysis.blocks {
@@ -174,27 +204,39 @@ pub fn evaluate_alerts(
         };
         evaluate_subject(
             config,
-            &mut st,
+            st,
             &subject,
             &applicable,
             analysis,
-            &suffix,
+            suffix,
             now,
-            &mut events,
+            events,
         );
     }
-    // Site level: reference stability.
+}
+
+/// The site-level `reference_unstable` alert: raised when the congruence test excluded stable
+/// points from the datum. It does not resolve by itself (a moved reference point does not move
+/// back, and the test's power near its threshold would make it flap): staff resolve it by hand
+/// once the point's role was changed.
+fn reference_stability(
+    config: &AlertConfig,
+    st: &mut AlertState,
+    analysis: &EpochAnalysis,
+    suffix: &str,
+    now: DateTime<Utc>,
+    events: &mut Vec<AlertEvent>,
+) {
+    let site = config.site.as_str();
     let excluded = &analysis.datum.excluded;
     let first = analysis.datum.congruence.first();
     let open_unstable = st.find(None, AlertKind::ReferenceUnstable).map(|a| a.level);
+    let before = events.len();
     apply(
         site,
-        &mut st,
+        st,
         Update {
             points: excluded.clone(),
-            // Raised when stable points are excluded; it does not resolve by itself (a moved reference point
-            // does not move back, and the test's power near its threshold would make it flap): resolve it by
-            // hand once the point's role was changed.
             level: if excluded.is_empty() {
                 open_unstable
             } else {
@@ -207,13 +249,13 @@ pub fn evaluate_alerts(
                 None,
                 Some(analysis.epoch),
                 Some(analysis.observed_at),
-                suffix.clone(),
+                suffix.to_string(),
             )
         },
         now,
-        &mut events,
+        events,
     );
-    if let Some(e) = events
+    if let Some(e) = events[before..]
         .last_mut()
         .filter(|e| e.alert.rule == AlertKind::ReferenceUnstable)
     {
@@ -227,35 +269,6 @@ pub fn evaluate_alerts(
             }
         }
     }
-    // This epoch was analysed: an earlier failure no longer stands.
-    apply(
-        site,
-        &mut st,
-        Update::site(
-            AlertKind::AnalysisFailed,
-            None,
-            Some(analysis.epoch),
-            Some(analysis.observed_at),
-            suffix.clone(),
-        ),
-        now,
-        &mut events,
-    );
-    // An epoch arrived: the campaign is no longer overdue.
-    apply(
-        site,
-        &mut st,
-        Update::site(
-            AlertKind::CampaignOverdue,
-            None,
-            Some(analysis.epoch),
-            Some(analysis.observed_at),
-            suffix,
-        ),
-        now,
-        &mut events,
-    );
-    (st, events)
 }
 
 /// An epoch whose analysis failed (`reason`, e.g. too few points in common with the reference):
