@@ -172,6 +172,25 @@ pub fn match_tracks(
         tracks: Vec::new(),
         ambiguous: vec![Vec::new(); m],
     };
+    take_given(cams, blobs, given, &mut used, &mut out);
+    let mut cands = pair_candidates(cams, blobs, &used, tol_mm, min_views);
+    take_unrivalled(&mut cands, &mut used, &mut out);
+    for (v, amb) in out.ambiguous.iter_mut().enumerate() {
+        amb.retain(|j| !used[v][*j]);
+        amb.sort_unstable();
+    }
+    out
+}
+
+/// The given tracks (seeds, earlier identifications) that intersect: taken first, their
+/// detections marked used.
+fn take_given(
+    cams: &[AffineCamera],
+    blobs: &[&[[f64; 2]]],
+    given: &[Vec<Option<usize>>],
+    used: &mut [Vec<bool>],
+    out: &mut Matching,
+) {
     for g in given {
         let obs: Vec<(usize, [f64; 2])> = g
             .iter()
@@ -191,6 +210,19 @@ pub fn match_tracks(
             });
         }
     }
+}
+
+/// Every track found from a pair of views by the affine epipolar constraint and completed in the
+/// other views, with a misfit within `tol_mm` (mm) and at least `min_views` views; each track once
+/// however many of its pairs found it.
+fn pair_candidates(
+    cams: &[AffineCamera],
+    blobs: &[&[[f64; 2]]],
+    used: &[Vec<bool>],
+    tol_mm: f64,
+    min_views: usize,
+) -> Vec<Track> {
+    let m = cams.len();
     let mut cands: Vec<Track> = Vec::new();
     let mut seen: HashSet<Vec<Option<usize>>> = HashSet::new();
     for r in 0..m {
@@ -258,6 +290,13 @@ pub fn match_tracks(
             }
         }
     }
+    cands
+}
+
+/// Takes the candidates, most views and smallest misfit first, that no rival with about as many
+/// views contradicts; a candidate with rivals is left out with them, and their detections are
+/// reported ambiguous.
+fn take_unrivalled(cands: &mut [Track], used: &mut [Vec<bool>], out: &mut Matching) {
     cands.sort_by(|a, b| {
         b.views()
             .cmp(&a.views())
@@ -320,11 +359,6 @@ pub fn match_tracks(
         }
         out.tracks.push(c.clone());
     }
-    for (v, amb) in out.ambiguous.iter_mut().enumerate() {
-        amb.retain(|j| !used[v][*j]);
-        amb.sort_unstable();
-    }
-    out
 }
 
 /// Median distance from each detection to its nearest neighbour in mm (∞ with fewer than 2).
