@@ -62,16 +62,24 @@ pub async fn list(
 /// Body of an acknowledgement.
 #[derive(Debug, Deserialize, ToSchema)]
 pub struct AckBody {
-    /// Who acknowledges.
+    /// Who acknowledges: 1 to 200 characters once trimmed.
+    #[schema(min_length = 1, max_length = 200, pattern = "\\S")]
     pub by: String,
-    /// Comment.
+    /// Comment: at most 2000 characters once trimmed; blank is none.
     #[serde(default)]
+    #[schema(max_length = 2000)]
     pub comment: Option<String>,
 }
 
-/// `POST /api/v1/alerts/{id}/ack`: acknowledges; queues an `alert.acknowledged` webhook event.
+/// `POST /api/v1/alerts/{id}/ack`: acknowledges an open alert; queues an `alert.acknowledged`
+/// webhook event. An acknowledgement given stands: acknowledging again is 409 until an
+/// escalation opens the alert again.
 #[utoipa::path(post, path = "/api/v1/alerts/{id}/ack", request_body = AckBody, params(("id" = String, Path)),
-    responses((status = 200, body = crate::store::alerts::Alert), (status = 404, description = "unknown alert", body = crate::api::schemas::ErrorBody)))]
+    responses((status = 200, body = crate::store::alerts::Alert),
+              (status = 400, description = "not JSON", body = crate::api::schemas::ErrorBody),
+              (status = 404, description = "unknown alert", body = crate::api::schemas::ErrorBody),
+              (status = 409, description = "acknowledged already (code `already_acknowledged`, naming who)", body = crate::api::schemas::ErrorBody),
+              (status = 422, description = "`by` blank or too long, `comment` too long", body = crate::api::schemas::ErrorBody)))]
 pub async fn acknowledge(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<String>,

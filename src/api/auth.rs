@@ -4,7 +4,8 @@
 //! The dashboard's pages follow the same roles: a browser signs in with a token through
 //! `/signin` and then carries a session cookie ([`crate::dashboard::session`]); a change made
 //! with the cookie must carry the session's CSRF token in `x-csrf-token`. A page asked for
-//! without credentials redirects to the sign-in form.
+//! without credentials redirects to the sign-in form. A change sent by a browser from another
+//! site's page is refused in every mode ([`is_cross_site_change`]).
 
 use axum::extract::{Request, State};
 use axum::http::{header, Method, StatusCode};
@@ -61,6 +62,32 @@ fn is_page(path: &str) -> bool {
     !(path.starts_with("/api/") || path == "/metrics" || path.starts_with("/dashboard/plot"))
 }
 
+/// A change (not GET, HEAD or OPTIONS) that a browser sent from another site's page without a
+/// bearer token: `Sec-Fetch-Site` says `cross-site` or `same-site`, or `Origin` names another
+/// host than `Host`. A page elsewhere could otherwise make the browser of someone on the
+/// service's machine acknowledge an alarm (forms are sent without a preflight), even with no
+/// tokens configured. Clients that are not browsers send neither header; a bearer token cannot be
+/// set by a form.
+fn is_cross_site_change(req: &Request) -> bool {
+    if matches!(*req.method(), Method::GET | Method::HEAD | Method::OPTIONS)
+        || req.headers().contains_key(header::AUTHORIZATION)
+    {
+        return false;
+    }
+    let h = req.headers();
+    if let Some(site) = h.get("sec-fetch-site").and_then(|v| v.to_str().ok()) {
+        return matches!(site, "cross-site" | "same-site");
+    }
+    match (h.get(header::ORIGIN), h.get(header::HOST)) {
+        (Some(origin), host) => {
+            let origin = origin.to_str().unwrap_or("");
+            let origin_host = origin.split_once("://").map(|(_, rest)| rest).unwrap_or("");
+            origin == "null" || host.and_then(|v| v.to_str().ok()) != Some(origin_host)
+        }
+        (None, _) => false,
+    }
+}
+
 /// Middleware: 401 for a missing or unknown token, 403 for a token without the role; pages
 /// without credentials redirect to `/signin`.
 pub async fn authorize(
@@ -68,6 +95,13 @@ pub async fn authorize(
     mut req: Request,
     next: Next,
 ) -> Result<Response, ApiError> {
+    if is_cross_site_change(&req) {
+        return Err(ApiError::new(
+            StatusCode::FORBIDDEN,
+            "forbidden",
+            "a change sent from another site's page is refused (Origin / Sec-Fetch-Site)",
+        ));
+    }
     let tokens = &state.config.tokens;
     if tokens.is_empty() {
         req.extensions_mut().insert(Access::default());

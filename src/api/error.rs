@@ -113,6 +113,12 @@ impl From<ServiceError> for ApiError {
             | ServiceError::UnknownAlert(_) => ApiError::not_found(e.to_string()),
             ServiceError::Invalid(err) => ApiError::unprocessable("invalid_epoch", err.to_string()),
             ServiceError::Adjust(err) => ApiError::unprocessable("cannot_adjust", err.to_string()),
+            ServiceError::BadAcknowledgement(_) => {
+                ApiError::unprocessable("invalid_acknowledgement", e.to_string())
+            }
+            ServiceError::AlreadyAcknowledged { .. } => {
+                ApiError::new(StatusCode::CONFLICT, "already_acknowledged", e.to_string())
+            }
             ServiceError::Conflict {
                 site,
                 observed_at,

@@ -4,7 +4,7 @@
 //! table row.
 
 use axum::extract::{Path, State};
-use axum::http::{HeaderMap, StatusCode};
+use axum::http::HeaderMap;
 use axum::response::{Html, IntoResponse, Redirect, Response};
 use axum::{Extension, Form};
 use maud::{html, Markup};
@@ -74,27 +74,13 @@ pub async fn acknowledge(
     access: Option<Extension<Access>>,
     Form(form): Form<AckForm>,
 ) -> Response {
-    let by = form.by.trim();
-    if by.is_empty() || by.chars().count() > 200 {
-        return (
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "by: a name of 1 to 200 characters",
-        )
-            .into_response();
-    }
-    let comment = form
-        .comment
-        .as_deref()
-        .map(str::trim)
-        .filter(|c| !c.is_empty());
-    if comment.is_some_and(|c| c.chars().count() > 2000) {
-        return (
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "comment: at most 2000 characters",
-        )
-            .into_response();
-    }
-    match crate::service::acknowledge::acknowledge(&state.store, &id, by, comment).await {
+    let ack = crate::service::acknowledge::acknowledge(
+        &state.store,
+        &id,
+        &form.by,
+        form.comment.as_deref(),
+    );
+    match ack.await {
         Ok(alert) => {
             if headers.contains_key("hx-request") {
                 let zone = crate::store::sites::get(state.store.reader(), &alert.site)

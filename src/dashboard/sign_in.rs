@@ -30,9 +30,19 @@ pub struct SignInForm {
     pub next: Option<String>,
 }
 
+/// Where to go after signing in: a path on this service, else `/`. Browsers drop tabs and line
+/// breaks and read `\\` as `/` when they parse a URL, so `/\t/host` would leave the service.
 fn safe_next(next: Option<&str>) -> String {
     match next {
-        Some(n) if n.starts_with('/') && !n.starts_with("//") && !n.contains('\\') => n.to_string(),
+        Some(n)
+            if n.starts_with('/')
+                && !n.starts_with("//")
+                && !n
+                    .chars()
+                    .any(|c| c == '\\' || c.is_whitespace() || c.is_control()) =>
+        {
+            n.to_string()
+        }
         _ => "/".to_string(),
     }
 }
@@ -77,10 +87,17 @@ pub async fn sign_in(State(state): State<AppState>, Form(f): Form<SignInForm>) -
         return (StatusCode::UNAUTHORIZED, Html(form_page(&next, true))).into_response();
     }
     let value = session::issue(f.token.trim(), chrono::Utc::now().timestamp());
+    // Behind HTTPS (as `public_url` says) the cookie is never sent over plain HTTP.
+    let secure = state
+        .config
+        .public_url
+        .as_deref()
+        .is_some_and(|u| u.starts_with("https://"));
     let cookie = format!(
-        "{}={value}; Path=/; HttpOnly; SameSite=Strict; Max-Age={}",
+        "{}={value}; Path=/; HttpOnly; SameSite=Strict; Max-Age={}{}",
         session::COOKIE,
-        session::LIFETIME_SECS
+        session::LIFETIME_SECS,
+        if secure { "; Secure" } else { "" }
     );
     (
         StatusCode::SEE_OTHER,

@@ -23,6 +23,18 @@ pub enum ServiceError {
     /// No alert has that id.
     #[error("unknown alert '{0}'")]
     UnknownAlert(String),
+    /// An acknowledgement without a name, or with a name or comment too long.
+    #[error("{0}")]
+    BadAcknowledgement(&'static str),
+    /// The alert was acknowledged already and has not been raised again since (escalated alerts
+    /// open again and can be acknowledged anew).
+    #[error("alert '{id}' was acknowledged already by {by}")]
+    AlreadyAcknowledged {
+        /// Alert id.
+        id: String,
+        /// Who acknowledged it.
+        by: String,
+    },
     /// The upload is not a valid epoch (names the field, image or point).
     #[error(transparent)]
     Invalid(#[from] EpochError),

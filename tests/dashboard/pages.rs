@@ -267,10 +267,38 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
         .as_str()
         .expect("an open alert")
         .to_string();
+    // Even with no tokens, another site's page cannot make a browser acknowledge it.
+    let host = s
+        .url("")
+        .trim_start_matches("http://")
+        .trim_end_matches('/')
+        .to_string();
+    for (name, value) in [
+        ("origin", "http://evil.example".to_string()),
+        ("origin", "null".to_string()),
+        ("sec-fetch-site", "cross-site".to_string()),
+    ] {
+        let r = s
+            .client
+            .post(s.url(&format!("/dashboard/alerts/{id}/ack")))
+            .header(name, value.as_str())
+            .form(&[("by", "mallory")])
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 403, "{name}: {value}");
+    }
+    let (_, still) = s
+        .get(&format!("/api/v1/alerts?site={SITE}&state=open"))
+        .await;
+    assert_eq!(still["items"][0]["id"], json!(id), "nothing acknowledged");
+    // The service's own page (same origin) may.
     let r = s
         .client
         .post(s.url(&format!("/dashboard/alerts/{id}/ack")))
         .header("hx-request", "true")
+        .header("origin", format!("http://{host}"))
+        .header("sec-fetch-site", "same-origin")
         .form(&[("by", "Aiko <b>"), ("comment", "on my way")])
         .send()
         .await
@@ -278,6 +306,22 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
     assert_eq!(r.status(), 200);
     let row = r.text().await.unwrap();
     assert!(row.contains("acknowledged by Aiko &lt;b&gt;"), "{row}");
+    // A second acknowledgement does not overwrite the first: 409 naming who.
+    let r = s
+        .client
+        .post(s.url(&format!("/api/v1/alerts/{id}/ack")))
+        .json(&json!({"by": "someone else"}))
+        .send()
+        .await
+        .unwrap();
+    let st = r.status();
+    let e: Value = r.json().await.unwrap();
+    assert_eq!(st, 409, "{e}");
+    assert_eq!(e["error"]["code"], "already_acknowledged");
+    assert!(
+        e["error"]["message"].as_str().unwrap().contains("Aiko <b>"),
+        "{e}"
+    );
     let (_, a) = s
         .get(&format!("/api/v1/alerts?site={SITE}&state=acknowledged"))
         .await;
@@ -472,7 +516,7 @@ async fn with_tokens_pages_need_a_session_and_changes_a_csrf_token() {
         async move {
             let r = client
                 .post(url)
-                .form(&[("token", token), ("next", "//evil.example/")])
+                .form(&[("token", token), ("next", "/\t/evil.example/")])
                 .send()
                 .await
                 .unwrap();
