@@ -85,7 +85,8 @@ pub struct Config {
     #[serde(default = "default_cap_status")]
     pub cap_status: String,
     /// The address people reach the dashboard at, e.g. `https://cliffwatch.agency.example`
-    /// (absolute links in the CAP messages and feed); `None`: links relative to the server.
+    /// (absolute links in the CAP messages and feed, the session cookie's `Secure` flag, and an
+    /// `Origin` accepted besides the request's `Host`); `None`: links relative to the server.
     #[serde(default)]
     pub public_url: Option<String>,
 }

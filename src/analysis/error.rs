@@ -39,6 +39,15 @@ pub enum AnalysisError {
     /// No open alert has that id.
     #[error("unknown alert {0}")]
     UnknownAlert(String),
+    /// The alert was acknowledged already and has not been escalated since: an acknowledgement
+    /// stands, and only a higher level asks for a new one.
+    #[error("alert '{id}' was acknowledged already by {by}")]
+    AlreadyAcknowledged {
+        /// Alert id.
+        id: String,
+        /// Who acknowledged it.
+        by: String,
+    },
     /// A series the filter cannot take (non-finite value, times not increasing, a covariance that
     /// is not positive definite): the message names the measurement.
     #[error("invalid input: {0}")]

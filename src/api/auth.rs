@@ -3,7 +3,8 @@
 //!
 //! The dashboard's pages follow the same roles: a browser signs in with a token through
 //! `/signin` and then carries a session cookie ([`crate::dashboard::session`]); a change made
-//! with the cookie must carry the session's CSRF token in `x-csrf-token`. A page asked for
+//! with the cookie must carry the session's CSRF token in `x-csrf-token` (htmx) or in the form's
+//! `csrf` field (a form posted without JavaScript). A page asked for
 //! without credentials redirects to the sign-in form. A change sent by a browser from another
 //! site's page is refused in every mode ([`is_cross_site_change`]).
 
@@ -63,12 +64,12 @@ fn is_page(path: &str) -> bool {
 }
 
 /// A change (not GET, HEAD or OPTIONS) that a browser sent from another site's page without a
-/// bearer token: `Sec-Fetch-Site` says `cross-site` or `same-site`, or `Origin` names another
-/// host than `Host`. A page elsewhere could otherwise make the browser of someone on the
-/// service's machine acknowledge an alarm (forms are sent without a preflight), even with no
-/// tokens configured. Clients that are not browsers send neither header; a bearer token cannot be
-/// set by a form.
-fn is_cross_site_change(req: &Request) -> bool {
+/// bearer token: `Sec-Fetch-Site` says `cross-site` or `same-site`, or `Origin` names neither
+/// this request's `Host` nor the configured `public_url` (a proxy may rewrite `Host`), or is
+/// `null`. A page elsewhere could otherwise make the browser of someone on the service's machine
+/// acknowledge an alarm (forms are sent without a preflight), even with no tokens configured.
+/// Clients that are not browsers send neither header; a bearer token cannot be set by a form.
+fn is_cross_site_change(req: &Request, public_url: Option<&str>) -> bool {
     if matches!(*req.method(), Method::GET | Method::HEAD | Method::OPTIONS)
         || req.headers().contains_key(header::AUTHORIZATION)
     {
@@ -78,14 +79,58 @@ fn is_cross_site_change(req: &Request) -> bool {
     if let Some(site) = h.get("sec-fetch-site").and_then(|v| v.to_str().ok()) {
         return matches!(site, "cross-site" | "same-site");
     }
-    match (h.get(header::ORIGIN), h.get(header::HOST)) {
-        (Some(origin), host) => {
-            let origin = origin.to_str().unwrap_or("");
-            let origin_host = origin.split_once("://").map(|(_, rest)| rest).unwrap_or("");
-            origin == "null" || host.and_then(|v| v.to_str().ok()) != Some(origin_host)
-        }
-        (None, _) => false,
+    let Some(origin) = h.get(header::ORIGIN) else {
+        return false;
+    };
+    let origin = origin.to_str().unwrap_or("").to_ascii_lowercase();
+    let origin_host = origin.split_once("://").map(|(_, rest)| rest).unwrap_or("");
+    let host = h
+        .get(header::HOST)
+        .and_then(|v| v.to_str().ok())
+        .map(str::to_ascii_lowercase);
+    let public = public_url.and_then(origin_of);
+    let same = host.as_deref() == Some(origin_host) || public.as_deref() == Some(origin.as_str());
+    origin == "null" || !same
+}
+
+/// The origin (`scheme://host[:port]`, lower case, default port left out) of a URL, as browsers
+/// send it in `Origin`.
+fn origin_of(u: &str) -> Option<String> {
+    let u = url::Url::parse(u).ok()?;
+    Some(u.origin().ascii_serialization().to_ascii_lowercase())
+}
+
+/// Largest url-encoded form whose `csrf` field the middleware reads (bytes); the dashboard's
+/// forms are far smaller.
+const FORM_CSRF_LIMIT: usize = 64 * 1024;
+
+/// The CSRF token a change carries: the `x-csrf-token` header (htmx), or else the `csrf` field
+/// of a url-encoded form (a plain form post, without JavaScript). The form's body is read and
+/// put back for the handler; a body over [`FORM_CSRF_LIMIT`] carries none.
+async fn sent_csrf(req: Request) -> (Request, Option<String>) {
+    if let Some(t) = req.headers().get("x-csrf-token") {
+        let t = String::from_utf8_lossy(t.as_bytes()).into_owned();
+        return (req, Some(t));
     }
+    let is_form = req
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("application/x-www-form-urlencoded"));
+    if !is_form {
+        return (req, None);
+    }
+    let (parts, body) = req.into_parts();
+    let Ok(bytes) = axum::body::to_bytes(body, FORM_CSRF_LIMIT).await else {
+        return (Request::from_parts(parts, axum::body::Body::empty()), None);
+    };
+    let token = url::form_urlencoded::parse(&bytes)
+        .find(|(k, _)| k == "csrf")
+        .map(|(_, v)| v.into_owned());
+    (
+        Request::from_parts(parts, axum::body::Body::from(bytes)),
+        token,
+    )
 }
 
 /// Middleware: 401 for a missing or unknown token, 403 for a token without the role; pages
@@ -95,7 +140,7 @@ pub async fn authorize(
     mut req: Request,
     next: Next,
 ) -> Result<Response, ApiError> {
-    if is_cross_site_change(&req) {
+    if is_cross_site_change(&req, state.config.public_url.as_deref()) {
         return Err(ApiError::new(
             StatusCode::FORBIDDEN,
             "forbidden",
@@ -149,18 +194,17 @@ pub async fn authorize(
                 .and_then(|c| session::verify(c, tokens, now));
             match found {
                 Some(s) => {
-                    let safe = matches!(*req.method(), Method::GET | Method::HEAD);
-                    let sent = req
-                        .headers()
-                        .get("x-csrf-token")
-                        .map(|v| v.as_bytes())
-                        .unwrap_or_default();
-                    if !safe && !session::constant_time_eq(sent, s.csrf.as_bytes()) {
-                        return Err(ApiError::new(
-                            StatusCode::FORBIDDEN,
-                            "forbidden",
-                            "missing or wrong CSRF token (x-csrf-token)",
-                        ));
+                    if !matches!(*req.method(), Method::GET | Method::HEAD) {
+                        let (back, sent) = sent_csrf(req).await;
+                        req = back;
+                        let sent = sent.unwrap_or_default();
+                        if !session::constant_time_eq(sent.as_bytes(), s.csrf.as_bytes()) {
+                            return Err(ApiError::new(
+                                StatusCode::FORBIDDEN,
+                                "forbidden",
+                                "missing or wrong CSRF token (x-csrf-token header or csrf field)",
+                            ));
+                        }
                     }
                     Access {
                         role: Some(s.role),

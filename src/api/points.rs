@@ -137,7 +137,7 @@ pub async fn update(
             ));
         }
     }
-    let (stored, _) =
+    let stored =
         crate::service::site_settings::set_point(&state.store, &site, &point, &settings).await?;
     Ok(axum::Json(stored))
 }

@@ -1,7 +1,8 @@
-//! Acknowledging an alert from the site page: an htmx form posts `by` and `comment` to
+//! Acknowledging an alert from the site page: a form posts `by` and `comment` to
 //! `POST /dashboard/alerts/{id}/ack` (role `upload`, and with a session cookie its CSRF token in
-//! `x-csrf-token`), which acknowledges exactly as the API does and answers the alert's new
-//! table row.
+//! `x-csrf-token` or the form's `csrf` field), which acknowledges exactly as the API does. With
+//! htmx it answers the alert's new table row; a plain form post (no JavaScript) is redirected to
+//! the site page.
 
 use axum::extract::{Path, State};
 use axum::http::HeaderMap;
@@ -16,14 +17,15 @@ use super::viewer;
 use crate::analysis::AlertStatus;
 use crate::api::auth::Access;
 use crate::api::AppState;
+use crate::service::acknowledge::{MAX_COMMENT_CHARS, MAX_NAME_CHARS};
 use crate::store::alerts::Alert;
 
 /// The acknowledgement form's fields.
 #[derive(Debug, Deserialize)]
 pub struct AckForm {
-    /// Who acknowledges (required, ≤ 200 characters).
+    /// Who acknowledges (required, at most [`MAX_NAME_CHARS`] characters).
     pub by: String,
-    /// Optional comment (≤ 2000 characters).
+    /// Optional comment (at most [`MAX_COMMENT_CHARS`] characters).
     #[serde(default)]
     pub comment: Option<String>,
 }
@@ -54,9 +56,10 @@ pub fn alert_row(a: &Alert, v: &Viewer, time_zone: Option<&str>) -> Markup {
             }
             td {
                 @if a.state == AlertStatus::Open && v.can_acknowledge {
-                    form.ack hx-post={ "/dashboard/alerts/" (a.id) "/ack" } hx-target="closest tr" hx-swap="outerHTML" {
-                        input name="by" placeholder="your name" required maxlength="200";
-                        input name="comment" placeholder="comment" maxlength="2000";
+                    form.ack method="post" action={ "/dashboard/alerts/" (seg(&a.id)) "/ack" } hx-post={ "/dashboard/alerts/" (seg(&a.id)) "/ack" } hx-target="closest tr" hx-swap="outerHTML" {
+                        input type="hidden" name="csrf" value=[v.csrf.as_deref()];
+                        input name="by" placeholder="your name" required maxlength=(MAX_NAME_CHARS);
+                        input name="comment" placeholder="comment" maxlength=(MAX_COMMENT_CHARS);
                         button type="submit" { "acknowledge" }
                     }
                 }

@@ -2,7 +2,7 @@
 
 use chrono::Utc;
 
-use crate::analysis::{self, AlertStatus};
+use crate::analysis::{self, AnalysisError};
 use crate::store::{alert_states, alerts, Store, StoreError};
 
 use super::alert_outcome::save_and_record;
@@ -13,11 +13,12 @@ pub const MAX_NAME_CHARS: usize = 200;
 /// Longest comment of an acknowledgement (characters, after trimming).
 pub const MAX_COMMENT_CHARS: usize = 2000;
 
-/// Acknowledges alert `id` for `by` (trimmed, 1 to [`MAX_NAME_CHARS`] characters) with an optional comment (at most [`MAX_COMMENT_CHARS`]; blank is none), in one write transaction: an open
-/// alert moves to `acknowledged` and queues an `alert.acknowledged` event; a resolved one only
-/// records who acknowledged it. An acknowledgement already given stands: acknowledging again is
-/// [`ServiceError::AlreadyAcknowledged`] (an escalation opens the alert again, and then it can
-/// be). Returns the alert as stored after.
+/// Acknowledges alert `id` for `by` (trimmed, 1 to [`MAX_NAME_CHARS`] characters) with an
+/// optional comment (at most [`MAX_COMMENT_CHARS`]; blank is none), in one write transaction: an
+/// open alert moves to `acknowledged` and queues an `alert.acknowledged` event; a resolved one
+/// only records who acknowledged it. An acknowledgement already given stands
+/// ([`analysis::may_acknowledge`]): acknowledging again is [`ServiceError::AlreadyAcknowledged`]
+/// (an escalation opens the alert again, and then it can be). Returns the alert as stored after.
 pub async fn acknowledge(
     store: &Store,
     id: &str,
@@ -26,15 +27,15 @@ pub async fn acknowledge(
 ) -> Result<alerts::Alert, ServiceError> {
     let by = by.trim();
     if by.is_empty() || by.chars().count() > MAX_NAME_CHARS {
-        return Err(ServiceError::BadAcknowledgement(
-            "by: a name of 1 to 200 characters",
-        ));
+        return Err(ServiceError::BadAcknowledgement(format!(
+            "by: a name of 1 to {MAX_NAME_CHARS} characters"
+        )));
     }
     let comment = comment.map(str::trim).filter(|c| !c.is_empty());
     if comment.is_some_and(|c| c.chars().count() > MAX_COMMENT_CHARS) {
-        return Err(ServiceError::BadAcknowledgement(
-            "comment: at most 2000 characters",
-        ));
+        return Err(ServiceError::BadAcknowledgement(format!(
+            "comment: at most {MAX_COMMENT_CHARS} characters"
+        )));
     }
     // The alert's site decides the write lock; the alert is read again inside the transaction.
     let Some(site) = alerts::get(store.reader(), id).await?.map(|a| a.site) else {
@@ -44,21 +45,24 @@ pub async fn acknowledge(
     let Some(stored) = alerts::get(&mut *tx, id).await? else {
         return Err(ServiceError::UnknownAlert(id.to_string()));
     };
-    if let (Some(by), false) = (&stored.acknowledged_by, stored.state == AlertStatus::Open) {
-        return Err(ServiceError::AlreadyAcknowledged {
-            id: id.to_string(),
-            by: by.clone(),
-        });
-    }
     let engine = alert_states::load(&mut tx, &stored.site).await?;
+    let refused = |e: AnalysisError| match e {
+        AnalysisError::AlreadyAcknowledged { id, by } => {
+            ServiceError::AlreadyAcknowledged { id, by }
+        }
+        _ => ServiceError::UnknownAlert(id.to_string()),
+    };
     match analysis::acknowledge(&engine, id, by, comment, Utc::now()) {
         Ok((engine, event)) => {
             save_and_record(&mut tx, &stored.site, &engine, &[event]).await?;
         }
-        // Not open any more (resolved): note who acknowledged it, no event.
-        Err(_) => {
+        // Not active any more (resolved): note who acknowledged it, no event.
+        Err(AnalysisError::UnknownAlert(_)) => {
+            analysis::may_acknowledge(id, stored.state, stored.acknowledged_by.as_deref())
+                .map_err(refused)?;
             alerts::acknowledge(&mut tx, id, by, comment).await?;
         }
+        Err(e) => return Err(refused(e)),
     }
     let alert = alerts::get(&mut *tx, id)
         .await?

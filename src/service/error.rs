@@ -25,7 +25,7 @@ pub enum ServiceError {
     UnknownAlert(String),
     /// An acknowledgement without a name, or with a name or comment too long.
     #[error("{0}")]
-    BadAcknowledgement(&'static str),
+    BadAcknowledgement(String),
     /// The alert was acknowledged already and has not been raised again since (escalated alerts
     /// open again and can be acknowledged anew).
     #[error("alert '{id}' was acknowledged already by {by}")]

@@ -53,14 +53,13 @@ pub async fn declare_group(
 /// Sets a point's role, group or direction of interest (creating the point when new) and, when
 /// that changed anything and the site has epochs, recomputes the site: the stable points hold the
 /// datum, the group decides the block, the direction the value along it, so a series derived
-/// before the change would otherwise jump at the next epoch. Returns the stored point and whether
-/// the site was recomputed.
+/// before the change would otherwise jump at the next epoch. Returns the stored point.
 pub async fn set_point(
     store: &Store,
     site: &str,
     point: &str,
     settings: &PointSettings,
-) -> Result<(Point, bool), ServiceError> {
+) -> Result<Point, ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
     let s = sites::get(&mut *tx, site)
         .await?
@@ -77,10 +76,9 @@ pub async fn set_point(
         group: None,
         direction: None,
     });
-    let recomputed = before != after && epochs::count(&mut *tx, site).await? > 0;
-    if recomputed {
+    if before != after && epochs::count(&mut *tx, site).await? > 0 {
         recompute_site(&mut tx, &s).await?;
     }
     tx.commit().await.map_err(StoreError::from)?;
-    Ok((after, recomputed))
+    Ok(after)
 }

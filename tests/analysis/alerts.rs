@@ -9,8 +9,8 @@ use chrono::{DateTime, Duration, TimeZone, Utc};
 
 use cliffwatch::analysis::{
     acknowledge, analysis_failed, check_overdue, evaluate_alerts, reconcile, resolve, AlertConfig,
-    AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState, AlertStatus, DatumMethod,
-    DatumReport, DisplacementRecord, EpochAnalysis, PointAnalysis, PointRole,
+    AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState, AlertStatus, AnalysisError,
+    DatumMethod, DatumReport, DisplacementRecord, EpochAnalysis, PointAnalysis, PointRole,
 };
 
 fn t0() -> DateTime<Utc> {
@@ -209,12 +209,27 @@ fn acknowledge_and_resolve_by_hand() {
     assert_eq!(ev.event_type, AlertEventType::Acknowledged);
     assert_eq!(st.alerts[0].status, AlertStatus::Acknowledged);
     assert_eq!(st.alerts[0].acknowledged_by.as_deref(), Some("ops"));
-    // Escalation re-opens for acknowledgement.
+    // The acknowledgement stands: a second one is refused and changes nothing.
+    assert_eq!(
+        acknowledge(&st, &id, "night shift", None, t0()).map(|_| ()),
+        Err(AnalysisError::AlreadyAcknowledged {
+            id: id.clone(),
+            by: "ops".into()
+        })
+    );
+    // Escalation re-opens for acknowledgement and clears the old one (its event keeps it).
     let a = analysis(3, 12.0, true, None, &[]);
     let (st, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
     assert_eq!(ev[0].event_type, AlertEventType::Escalated);
     assert_eq!(st.alerts[0].status, AlertStatus::Open);
+    assert_eq!(st.alerts[0].acknowledged_by, None);
+    assert_eq!(st.alerts[0].comment, None);
     assert!(acknowledge(&st, "nope", "ops", None, t0()).is_err());
+    let (acked, _) = acknowledge(&st, &id, "night shift", None, t0()).expect("ack again");
+    assert_eq!(
+        acked.alerts[0].acknowledged_by.as_deref(),
+        Some("night shift")
+    );
     let (st, ev) = resolve(&st, &id, "ops", t0()).expect("resolve");
     assert_eq!(ev.event_type, AlertEventType::Resolved);
     assert!(st.alerts.is_empty() && st.rules.is_empty());
@@ -306,6 +321,7 @@ fn reconcile_announces_only_the_net_change() {
     let a = r.find(Some("T1"), AlertKind::DisplacementMm).expect("kept");
     assert_eq!(a.id, id);
     assert_eq!(a.status, AlertStatus::Acknowledged);
+    assert_eq!(a.acknowledged_by.as_deref(), Some("geologist"));
     assert_eq!(a.value, Some(6.5));
     assert!(r.find(None, AlertKind::CampaignOverdue).is_some());
 
@@ -316,10 +332,11 @@ fn reconcile_announces_only_the_net_change() {
     assert_eq!(ev[0].event_type, Escalated);
     assert_eq!(ev[0].alert.id, id);
     assert_eq!(ev[0].timestamp, now);
+    let a = r.find(Some("T1"), AlertKind::DisplacementMm).expect("kept");
     assert_eq!(
-        r.find(Some("T1"), AlertKind::DisplacementMm)
-            .map(|a| a.status),
-        Some(AlertStatus::Open)
+        (a.status, a.acknowledged_by.as_deref(), a.comment.as_deref()),
+        (AlertStatus::Open, None, None),
+        "the acknowledgement of the lower level is cleared"
     );
 
     // Replayed with nothing: resolved once; the overdue campaign is still open.

@@ -461,6 +461,8 @@ async fn with_tokens_pages_need_a_session_and_changes_a_csrf_token() {
                 role: *r,
             })
             .collect();
+        // Behind a proxy: browsers send this origin while the service sees another Host.
+        c.public_url = Some("https://cliff.example".into());
     })
     .await;
     fill(&s, 6, Some("admin-token-1")).await;
@@ -527,7 +529,7 @@ async fn with_tokens_pages_need_a_session_and_changes_a_csrf_token() {
                 .unwrap()
                 .to_string();
             assert!(
-                c.contains("HttpOnly") && c.contains("SameSite=Strict"),
+                c.contains("HttpOnly") && c.contains("SameSite=Strict") && c.contains("Secure"),
                 "{c}"
             );
             assert!(!c.contains(token), "the cookie does not carry the token");
@@ -602,7 +604,71 @@ async fn with_tokens_pages_need_a_session_and_changes_a_csrf_token() {
     let csrf = csrf_of(&page);
     assert_eq!(ack(uploader.clone(), None).await, 403);
     assert_eq!(ack(uploader.clone(), Some("0".repeat(32))).await, 403);
-    assert_eq!(ack(uploader.clone(), Some(csrf)).await, 200);
+    assert_eq!(ack(uploader.clone(), Some(csrf.clone())).await, 200);
+
+    // Without JavaScript the form posts itself, the token in its `csrf` field; through the
+    // proxy the browser's Origin is the public URL, not the Host the service sees.
+    assert!(
+        page.contains(&format!("name=\"csrf\" value=\"{csrf}\"")),
+        "the form carries the token"
+    );
+    let second = open["items"][1]["id"]
+        .as_str()
+        .expect("a second open alert")
+        .to_string();
+    let plain_ack = |csrf: &str| {
+        client
+            .post(s.url(&format!("/dashboard/alerts/{second}/ack")))
+            .header(header::COOKIE, &uploader)
+            .header(header::ORIGIN, "https://cliff.example")
+            .form(&[("csrf", csrf), ("by", "Ben"), ("comment", "")])
+            .send()
+    };
+    assert_eq!(plain_ack("0").await.unwrap().status(), 403);
+    let r = plain_ack(&csrf).await.unwrap();
+    assert_eq!(r.status(), 303);
+    assert_eq!(r.headers()[header::LOCATION], format!("/sites/{SITE}"));
+    let r = client
+        .get(s.url(&format!("/api/v1/alerts?site={SITE}&state=acknowledged")))
+        .bearer_auth("reader-token-1")
+        .send()
+        .await
+        .unwrap();
+    let acked: Value = r.json().await.unwrap();
+    assert!(
+        acked["items"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["id"] == json!(second) && a["acknowledged_by"] == json!("Ben")),
+        "{acked}"
+    );
+    // Another origin is still refused, whatever the token.
+    let r = client
+        .post(s.url(&format!("/dashboard/alerts/{second}/ack")))
+        .header(header::COOKIE, &uploader)
+        .header(header::ORIGIN, "https://evil.example")
+        .form(&[("csrf", csrf.as_str()), ("by", "Mallory")])
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 403);
+
+    // Signing out needs the session's token too, so that no other page can do it.
+    let sign_out = |csrf: &str| {
+        client
+            .post(s.url("/signout"))
+            .header(header::COOKIE, &uploader)
+            .form(&[("csrf", csrf)])
+            .send()
+    };
+    assert_eq!(sign_out("").await.unwrap().status(), 403);
+    let r = sign_out(&csrf).await.unwrap();
+    assert_eq!(r.status(), 303);
+    assert!(r.headers()[header::SET_COOKIE]
+        .to_str()
+        .unwrap()
+        .contains("Max-Age=0"));
 
     // A forged cookie is no session.
     // The last character changed (to '1' where it was '0', which made this test flaky).

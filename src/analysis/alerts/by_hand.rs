@@ -6,6 +6,28 @@ use super::alert::{AlertEvent, AlertEventType, AlertState, AlertStatus};
 use super::transition::Subject;
 use crate::analysis::error::AnalysisError;
 
+/// Whether alert `id`, in `status` and acknowledged by `acknowledged_by`, may be acknowledged:
+/// an acknowledgement stands until an escalation opens the alert again (which clears it), so an
+/// alert that is acknowledged, or resolved after it was, is
+/// [`AnalysisError::AlreadyAcknowledged`].
+pub fn may_acknowledge(
+    id: &str,
+    status: AlertStatus,
+    acknowledged_by: Option<&str>,
+) -> Result<(), AnalysisError> {
+    match (status, acknowledged_by) {
+        (AlertStatus::Open, _) | (_, None) => Ok(()),
+        (_, Some(by)) => Err(AnalysisError::AlreadyAcknowledged {
+            id: id.to_string(),
+            by: by.to_string(),
+        }),
+    }
+}
+
+/// Acknowledges the active alert `alert_id` of `state` for `by` with an optional comment: it moves
+/// to `acknowledged`, and the returned event announces it. [`AnalysisError::UnknownAlert`] when
+/// no active alert has that id; [`AnalysisError::AlreadyAcknowledged`] when it was acknowledged
+/// already (see [`may_acknowledge`]).
 pub fn acknowledge(
     state: &AlertState,
     alert_id: &str,
@@ -19,6 +41,7 @@ pub fn acknowledge(
         .iter_mut()
         .find(|a| a.id == alert_id)
         .ok_or_else(|| AnalysisError::UnknownAlert(alert_id.to_string()))?;
+    may_acknowledge(&a.id, a.status, a.acknowledged_by.as_deref())?;
     a.status = AlertStatus::Acknowledged;
     a.acknowledged_by = Some(by.to_string());
     a.comment = comment.map(str::to_string);

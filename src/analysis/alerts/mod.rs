@@ -30,7 +30,7 @@ mod transition;
 pub use alert::{
     Alert, AlertEvent, AlertEventType, AlertLevel, AlertState, AlertStatus, RuleMemory,
 };
-pub use by_hand::{acknowledge, resolve};
+pub use by_hand::{acknowledge, may_acknowledge, resolve};
 pub use evaluate::{analysis_failed, evaluate_alerts};
 pub use metric::{AlertKind, Metric, Source};
 pub use overdue::check_overdue;

@@ -11,7 +11,7 @@ use super::metric::AlertKind;
 ///
 /// Only the net difference is announced, stamped `now`: an alert open in both keeps its id,
 /// raising time and acknowledgement, and gets `alert.escalated` / `alert.deescalated` when its
-/// level differs (an escalation needs a new acknowledgement); an alert only in `replayed` is
+/// level differs (an escalation clears the acknowledgement and needs a new one); an alert only in `replayed` is
 /// raised; an alert only in `current` is resolved. Intermediate transitions of the replay are
 /// not sent. `campaign_overdue` is not part of a replay (it depends on the clock, not on the
 /// series) and is kept as it is. The rules' memory is the replay's.
@@ -42,6 +42,8 @@ pub fn reconcile(
                 if a.level != c.level {
                     let ty = if a.level > c.level {
                         a.status = AlertStatus::Open;
+                        a.acknowledged_by = None;
+                        a.comment = None;
                         AlertEventType::Escalated
                     } else {
                         AlertEventType::Deescalated

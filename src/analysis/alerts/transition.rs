@@ -213,8 +213,11 @@ pub(super) fn apply(
                         AlertEventType::Deescalated
                     };
                     if l > a.level {
-                        // A higher level needs a new acknowledgement.
+                        // A higher level needs a new acknowledgement; the one given for the lower
+                        // level stays in the alert's history (its `alert.acknowledged` event).
                         a.status = AlertStatus::Open;
+                        a.acknowledged_by = None;
+                        a.comment = None;
                     }
                     a.level = l;
                     a.peak_level = a.peak_level.max(l);
