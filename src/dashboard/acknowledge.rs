@@ -11,7 +11,7 @@ use axum::{Extension, Form};
 use maud::{html, Markup};
 use serde::Deserialize;
 
-use super::layout::{level_badge, num, seg, Viewer};
+use super::layout::{level_badge, num, page, seg, Viewer};
 use super::local_time::when;
 use super::viewer;
 use crate::analysis::AlertStatus;
@@ -99,7 +99,21 @@ pub async fn acknowledge(
         }
         Err(e) => {
             let e = crate::api::error::ApiError::from(e);
-            (e.status, e.message).into_response()
+            if headers.contains_key("hx-request") {
+                // forms.js shows it beside the form.
+                return (e.status, e.message).into_response();
+            }
+            let body = html! {
+                h1 { "Not acknowledged" }
+                p.error { (e.message) }
+                p { a href="/" { "back to the sites" } }
+            };
+            let v = viewer(access.as_deref());
+            (
+                e.status,
+                Html(page("Not acknowledged", &[], &v, body).into_string()),
+            )
+                .into_response()
         }
     }
 }

@@ -1,5 +1,6 @@
 //! The dashboard's static files, embedded in the binary: the vendored uPlot and htmx (see
-//! `assets/vendor/README.md` for versions and licences), the stylesheet and the plot script.
+//! `assets/vendor/README.md` for versions and licences), the stylesheet, the plot script and the
+//! forms' error display.
 //! Served under `/assets/{file}` with a content hash as ETag and a one-hour cache.
 
 use axum::extract::Path;
@@ -8,7 +9,7 @@ use axum::response::{IntoResponse, Response};
 use sha2::{Digest, Sha256};
 
 /// `(file name, content type, bytes)` of every asset.
-const ASSETS: [(&str, &str, &[u8]); 5] = [
+const ASSETS: [(&str, &str, &[u8]); 6] = [
     (
         "uPlot.iife.min.js",
         "text/javascript; charset=utf-8",
@@ -33,6 +34,11 @@ const ASSETS: [(&str, &str, &[u8]); 5] = [
         "plots.js",
         "text/javascript; charset=utf-8",
         include_bytes!("assets/plots.js"),
+    ),
+    (
+        "forms.js",
+        "text/javascript; charset=utf-8",
+        include_bytes!("assets/forms.js"),
     ),
 ];
 

@@ -35,6 +35,7 @@ pub fn page(title: &str, crumbs: &[(String, String)], viewer: &Viewer, body: Mar
                 script src="/assets/htmx.min.js" defer {}
                 script src="/assets/uPlot.iife.min.js" defer {}
                 script src="/assets/plots.js" defer {}
+                script src="/assets/forms.js" defer {}
             }
             body hx-headers=[headers] {
                 header.top {

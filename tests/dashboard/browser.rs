@@ -258,12 +258,58 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
         .iter()
         .any(|a| a["id"] == json!(id) && a["acknowledged_by"] == json!("Aiko")));
     driver.screenshot("site.png").await;
+
+    // A colleague acknowledged another alert since the page was loaded: the click is refused
+    // (409) and the page says so and by whom, instead of looking like nothing happened.
+    let other = open["items"][1]["id"]
+        .as_str()
+        .expect("a second open alert")
+        .to_string();
+    let r = s
+        .client
+        .post(s.url(&format!("/api/v1/alerts/{other}/ack")))
+        .json(&json!({"by": "Ben"}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let input = driver
+        .element(&format!("[id=\"alert-{other}\"] input[name=by]"))
+        .await;
+    driver
+        .call(
+            reqwest::Method::POST,
+            &format!("/element/{input}/value"),
+            json!({"text": "Aiko"}),
+        )
+        .await;
+    let button = driver
+        .element(&format!("[id=\"alert-{other}\"] button"))
+        .await;
+    driver
+        .call(
+            reqwest::Method::POST,
+            &format!("/element/{button}/click"),
+            json!({}),
+        )
+        .await;
+    let shown = driver
+        .wait_for(&format!(
+            "var e = document.querySelector('[id=\"alert-{other}\"] .form-error'); return e && e.textContent"
+        ))
+        .await;
+    let shown = shown.as_str().unwrap_or_default().to_string();
+    assert!(shown.contains("409") && shown.contains("Ben"), "{shown}");
+    driver.screenshot("site-refused.png").await;
     // The alert filter: choosing a state swaps the alert section (htmx) and the address keeps it.
     driver
         .script("var s = document.querySelector('form.filters select[name=state]'); s.value = 'acknowledged'; s.dispatchEvent(new Event('change', {bubbles: true})); return true")
         .await;
     let rows = driver
         .wait_for("return location.search.indexOf('state=acknowledged') >= 0 && document.querySelector('#alerts h2').textContent == 'Acknowledged alerts' ? Array.from(document.querySelectorAll('#alerts tr[id^=alert-]')).map(function (r) { return r.id; }) : null")
+        .await;
+    let (_, acked) = s
+        .get(&format!("/api/v1/alerts?site={SITE}&state=acknowledged"))
         .await;
     let want: Vec<Value> = acked["items"]
         .as_array()

@@ -643,6 +643,14 @@ async fn with_tokens_pages_need_a_session_and_changes_a_csrf_token() {
             .any(|a| a["id"] == json!(second) && a["acknowledged_by"] == json!("Ben")),
         "{acked}"
     );
+    // Again: refused (409) with a page that says by whom, not a bare status.
+    let r = plain_ack(&csrf).await.unwrap();
+    assert_eq!(r.status(), 409);
+    let page = r.text().await.unwrap();
+    assert!(
+        page.contains("<html") && page.contains("acknowledged already by Ben"),
+        "{page}"
+    );
     // Another origin is still refused, whatever the token.
     let r = client
         .post(s.url(&format!("/dashboard/alerts/{second}/ack")))
