@@ -109,6 +109,42 @@ async fn run_scenario(s: &TestServer) {
     assert_eq!(st, 200, "{b}");
     let (st, b) = send(s, reqwest::Method::PUT, &path, json!({"epoch": null})).await;
     assert_eq!(st, 200, "{b}");
+    // Point settings: a member left out is kept, a null one cleared (CASE flags in the upsert).
+    let path = format!("/api/v1/sites/{SITE}/points/X1");
+    let (st, b) = send(
+        s,
+        reqwest::Method::PUT,
+        &path,
+        json!({"group": "G9", "direction": [1.0, 0.0, 0.0]}),
+    )
+    .await;
+    assert_eq!(st, 200, "{b}");
+    let (st, b) = send(s, reqwest::Method::PUT, &path, json!({"role": "stable"})).await;
+    assert_eq!(st, 200, "{b}");
+    assert_eq!(
+        (&b["role"], &b["group"], &b["direction"]),
+        (&json!("stable"), &json!("G9"), &json!([1.0, 0.0, 0.0])),
+        "left out: kept"
+    );
+    let (st, b) = send(s, reqwest::Method::PUT, &path, json!({"group": null})).await;
+    assert_eq!(st, 200, "{b}");
+    assert_eq!(
+        (&b["group"], &b["direction"]),
+        (&Value::Null, &json!([1.0, 0.0, 0.0])),
+        "null: cleared"
+    );
+    let (st, b) = send(
+        s,
+        reqwest::Method::PUT,
+        &path,
+        json!({"direction": null, "role": "monitored"}),
+    )
+    .await;
+    assert_eq!(st, 200, "{b}");
+    assert_eq!(
+        (&b["role"], &b["group"], &b["direction"]),
+        (&json!("monitored"), &Value::Null, &Value::Null)
+    );
     // Staff acknowledge the block's alarm.
     let (_, alerts) = s
         .get(&format!("/api/v1/alerts?site={SITE}&limit=1000"))
