@@ -326,19 +326,7 @@ fn solve_or_retry(
         x.outcome.cost / dof > chi2_upper(dof, GLOBAL_TEST_Z) / dof
     };
     let failed = |x: &Solved| !x.outcome.converged || (x.too_many_outliers && global_test_fails(x));
-    let run = |affine_first: bool| {
-        solve(
-            problem,
-            options,
-            prepared.bundle.clone(),
-            &prepared.mirrors,
-            &prepared.free,
-            prepared.bundle.zbar,
-            prepared.datum,
-            affine_first,
-            &dof_of,
-        )
-    };
+    let run = |affine_first: bool| solve(problem, options, prepared, affine_first, &dof_of);
     let mut solved = run(false)?;
     // Without snooping, a failed global test may be a wrong basin as well as gross errors kept: worth
     // the second try, though not a reason to refuse the result (it carries the test's warning).
@@ -438,124 +426,177 @@ struct Solved {
 /// The pipeline from the start values: mirror choice, first stage (robust), self-calibration, the
 /// central model if asked, data snooping with its backward step. `affine_first` runs the affine
 /// bundle (stage 0) before the perspective stages.
-#[allow(clippy::too_many_arguments)]
 fn solve(
     problem: &EpochProblem,
     options: &AdjustOptions,
-    mut bundle: Bundle,
-    mirrors: &[Option<ImageState>],
-    free: &[[bool; 8]],
-    zbar: f64,
-    datum: Datum,
+    prepared: &Prepared,
     affine_first: bool,
     dof_of: &dyn Fn(&Bundle) -> i64,
 ) -> Result<Solved, AdjustError> {
-    let mut warnings = Vec::new();
+    let mut bundle = prepared.bundle.clone();
     // Stage 1: interior held, iteratively reweighted from the start so that a gross error cannot pull
     // the solution into a wrong basin; then gross residuals are set aside (and, with snooping off,
     // taken back before the final adjustment).
-    let converged = choose_mirrors(&mut bundle, mirrors);
+    let converged = choose_mirrors(&mut bundle, &prepared.mirrors);
     if affine_first && bundle.model == Model::Orthogonal {
         affine_stage(&mut bundle);
     }
-    let mut normals = None;
-    let mut outcome = if options.model == Model::Orthogonal {
-        let stage2: Vec<[bool; 8]> = free
-            .iter()
-            .map(|f| [f[0], false, false, false, false, false, false, false])
-            .collect();
-        let calibrate = stage2.iter().flatten().any(|&f| f);
-        // With c to be freed, stage 1 ends with the robust rounds: stage 2 converges from there.
-        let outcome = first_stage(
-            &mut bundle,
-            (!calibrate).then_some(options.max_iterations),
-            converged,
-        );
-        if calibrate {
-            bundle.free = stage2;
-            let (outcome, n) =
-                levenberg_marquardt_normals(&mut bundle, options.max_iterations, Start::Near);
-            normals = n;
-            outcome
-        } else {
-            outcome
-        }
+    let (outcome, normals) = if options.model == Model::Orthogonal {
+        orthogonal_stages(&mut bundle, options, &prepared.free, converged)
     } else {
-        // The orthogonal solution (interior held) starts the collinearity adjustment; gross errors are
-        // screened only once the interior orientation (e.g. strong distortion) is modelled. Without
-        // `central_from_orthogonal` the start values go to collinearity directly (for comparisons).
-        if options.central_from_orthogonal {
-            levenberg_marquardt(&mut bundle, options.max_iterations);
-        }
-        bundle.images = bundle
-            .images
-            .iter()
-            .enumerate()
-            .map(|(j, im)| {
-                let c = bundle.interior[bundle.image_camera[j]][0];
-                let o = OrthoImage {
-                    rotation: im.rotation,
-                    m: im.p[0],
-                    a4: im.p[1],
-                    a8: im.p[2],
-                };
-                let xo = o.center(c, zbar).unwrap_or_else(Vector3::zeros);
-                ImageState {
-                    rotation: im.rotation,
-                    p: [xo.x, xo.y, xo.z],
-                }
-            })
-            .collect();
-        bundle.model = Model::Central;
-        bundle.free = free.to_vec();
-        levenberg_marquardt(&mut bundle, options.max_iterations);
-        first_stage(&mut bundle, Some(options.max_iterations), None)
+        let zbar = prepared.bundle.zbar;
+        (
+            central_stages(&mut bundle, options, &prepared.free, zbar),
+            None,
+        )
     };
-
-    // Data snooping, one observation at a time.
     // The cofactors of the solution, from the normal equations of its last (negligible) step when
     // the adjustment returned them.
+    let datum = prepared.datum;
     let invert = |b: &Bundle, n: Option<Normals>| {
         let n = n.unwrap_or_else(|| b.normals());
         Cofactors::from_normals(b, n, datum == Datum::Free).ok_or_else(|| {
             AdjustError::Singular("the normal equations are not positive definite".into())
         })
     };
-    let mut cof = invert(&bundle, normals)?;
-    let mut final_w = None;
-    let mut capped = false;
-    let mut model = VarianceModel::APriori;
-    if options.snooping {
+    let cof = invert(&bundle, normals)?;
+    let screened = if options.snooping {
         let snooped = snoop(&mut bundle, cof, options, invert, dof_of)?;
-        (outcome, cof, final_w) = (
-            snooped.outcome.unwrap_or(outcome),
-            snooped.cof,
-            Some(snooped.w),
-        );
-        model = snooped.variance_model;
-        capped = snooped.warning.is_some();
-        warnings.extend(snooped.warning);
+        Screened {
+            outcome: snooped.outcome.unwrap_or(outcome),
+            cof: snooped.cof,
+            w: snooped.w,
+            variance_model: snooped.variance_model,
+            capped: snooped.warning.is_some(),
+            warnings: snooped.warning.into_iter().collect(),
+        }
     } else {
-        for k in 0..bundle.obs.len() {
-            bundle.obs[k].active = true;
-        }
-        let n;
-        (outcome, n) =
-            levenberg_marquardt_normals(&mut bundle, options.max_iterations, Start::Near);
-        cof = invert(&bundle, n)?;
-    }
-    let w: Vec<[f64; 2]> = match final_w {
-        Some(w) => w,
-        None => {
-            // Without snooping the statistics follow the same variance model (Pope's τ when the
-            // global test rejects the a-priori σ).
-            let (m, _, s) = variance_model(&bundle, dof_of(&bundle), options.critical_w);
-            model = m;
-            (0..bundle.obs.len())
-                .map(|k| normalized_residual(&bundle, &cof, k).map(|x| x / s))
-                .collect()
-        }
+        keep_every_observation(&mut bundle, options, invert, dof_of)?
     };
+    Ok(tally(problem, options, bundle, screened))
+}
+
+/// Stages 1 and 2 of the orthogonal model: the robust first stage with the interior held, then,
+/// when c is free, the adjustment with c. Returns the outcome and the last step's normal
+/// equations when the adjustment kept them.
+fn orthogonal_stages(
+    bundle: &mut Bundle,
+    options: &AdjustOptions,
+    free: &[[bool; 8]],
+    converged: Option<LmOutcome>,
+) -> (LmOutcome, Option<Normals>) {
+    let stage2: Vec<[bool; 8]> = free
+        .iter()
+        .map(|f| [f[0], false, false, false, false, false, false, false])
+        .collect();
+    let calibrate = stage2.iter().flatten().any(|&f| f);
+    // With c to be freed, stage 1 ends with the robust rounds: stage 2 converges from there.
+    let outcome = first_stage(
+        bundle,
+        (!calibrate).then_some(options.max_iterations),
+        converged,
+    );
+    if !calibrate {
+        return (outcome, None);
+    }
+    bundle.free = stage2;
+    levenberg_marquardt_normals(bundle, options.max_iterations, Start::Near)
+}
+
+/// The central model: the orthogonal solution (interior held) starts the collinearity
+/// adjustment; gross errors are screened only once the interior orientation (e.g. strong
+/// distortion) is modelled. Without `central_from_orthogonal` the start values go to
+/// collinearity directly (for comparisons). `zbar`: the working frame's mean depth (mm).
+fn central_stages(
+    bundle: &mut Bundle,
+    options: &AdjustOptions,
+    free: &[[bool; 8]],
+    zbar: f64,
+) -> LmOutcome {
+    if options.central_from_orthogonal {
+        levenberg_marquardt(bundle, options.max_iterations);
+    }
+    bundle.images = bundle
+        .images
+        .iter()
+        .enumerate()
+        .map(|(j, im)| {
+            let c = bundle.interior[bundle.image_camera[j]][0];
+            let o = OrthoImage {
+                rotation: im.rotation,
+                m: im.p[0],
+                a4: im.p[1],
+                a8: im.p[2],
+            };
+            let xo = o.center(c, zbar).unwrap_or_else(Vector3::zeros);
+            ImageState {
+                rotation: im.rotation,
+                p: [xo.x, xo.y, xo.z],
+            }
+        })
+        .collect();
+    bundle.model = Model::Central;
+    bundle.free = free.to_vec();
+    levenberg_marquardt(bundle, options.max_iterations);
+    first_stage(bundle, Some(options.max_iterations), None)
+}
+
+/// The solution after the observations were screened (snooped, or all taken back).
+struct Screened {
+    outcome: LmOutcome,
+    cof: Cofactors,
+    /// Normalized residuals (w_x, w_y) of every observation.
+    w: Vec<[f64; 2]>,
+    variance_model: VarianceModel,
+    /// Data snooping stopped at its cap with more left.
+    capped: bool,
+    warnings: Vec<String>,
+}
+
+/// Without data snooping: every observation set aside by the first stage is taken back and the
+/// adjustment repeated; the statistics follow the same variance model as with snooping (Pope's
+/// τ when the global test rejects the a-priori σ).
+fn keep_every_observation(
+    bundle: &mut Bundle,
+    options: &AdjustOptions,
+    invert: impl Fn(&Bundle, Option<Normals>) -> Result<Cofactors, AdjustError>,
+    dof_of: &dyn Fn(&Bundle) -> i64,
+) -> Result<Screened, AdjustError> {
+    for o in &mut bundle.obs {
+        o.active = true;
+    }
+    let (outcome, n) = levenberg_marquardt_normals(bundle, options.max_iterations, Start::Near);
+    let cof = invert(bundle, n)?;
+    let (variance_model, _, s) = variance_model(bundle, dof_of(bundle), options.critical_w);
+    let w = (0..bundle.obs.len())
+        .map(|k| normalized_residual(bundle, &cof, k).map(|x| x / s))
+        .collect();
+    Ok(Screened {
+        outcome,
+        cof,
+        w,
+        variance_model,
+        capped: false,
+        warnings: vec![],
+    })
+}
+
+/// The dropped observations with their |w|, the outliers kept (without snooping, with a
+/// warning), and whether there were too many for a right basin.
+fn tally(
+    problem: &EpochProblem,
+    options: &AdjustOptions,
+    bundle: Bundle,
+    screened: Screened,
+) -> Solved {
+    let Screened {
+        outcome,
+        cof,
+        w,
+        variance_model,
+        capped,
+        mut warnings,
+    } = screened;
     let dropped: Vec<DroppedObservation> = (0..bundle.obs.len())
         .filter(|&k| !bundle.obs[k].active)
         .map(|k| DroppedObservation {
@@ -578,7 +619,7 @@ fn solve(
     } else {
         beyond > outlier_cap(bundle.obs.len())
     };
-    Ok(Solved {
+    Solved {
         outliers: dropped.len() + beyond,
         bundle,
         outcome,
@@ -587,8 +628,8 @@ fn solve(
         dropped,
         too_many_outliers,
         w,
-        variance_model: model,
-    })
+        variance_model,
+    }
 }
 
 /// Largest |w| of an observation's two coordinates.
