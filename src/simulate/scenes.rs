@@ -610,123 +610,12 @@ pub const ENU_ORIGIN: [f64; 3] = [500_123.4, 3_900_456.7, 212.3];
 /// Every target gets an approximation with start error σ `approx_sigma_m`.
 pub fn long_range(params: &LongRangeParams) -> Result<(EpochInput, Truth), SceneError> {
     let p = params;
-    if p.n_points < 4 {
-        return Err(bad("n_points", "at least 4"));
-    }
-    if p.n_stations < 2 {
-        return Err(bad("n_stations", "at least 2"));
-    }
-    positive("face_width_m", p.face_width_m)?;
-    positive("face_height_m", p.face_height_m)?;
-    non_negative("relief_m", p.relief_m)?;
-    positive("distance_min_m", p.distance_min_m)?;
-    if p.distance_max_m.is_nan() || p.distance_max_m < p.distance_min_m {
-        return Err(bad("distance_max_m", "must be ≥ distance_min_m"));
-    }
-    non_negative("base_m", p.base_m)?;
-    positive("c_mm", p.c_mm)?;
-    if !(p.c_error.is_finite() && p.c_error > -0.5 && p.c_error < 0.5) {
-        return Err(bad("c_error", "must be within ±0.5"));
-    }
-    positive("pixel_size_mm", p.pixel_size_mm)?;
-    if p.width_px == 0 || p.height_px == 0 {
-        return Err(bad("width_px/height_px", "must be positive"));
-    }
-    non_negative("noise_px", p.noise_px)?;
-    non_negative("approx_sigma_m", p.approx_sigma_m)?;
-    if let SiteFrame::Enu { azimuth_deg } = p.frame {
-        if !azimuth_deg.is_finite() {
-            return Err(bad("azimuth_deg", "must be finite"));
-        }
-    }
-    if let Some(s) = p.swap {
-        if s.image >= p.n_stations || s.a >= p.n_points || s.b >= p.n_points || s.a == s.b {
-            return Err(bad("swap", "image or targets out of range (or a == b)"));
-        }
-    }
-
+    p.check()?;
     let mut geo = stream(p.seed, GEOMETRY);
-    // Targets on a jittered grid with about the face's aspect ratio.
-    let cols = ((p.n_points as f64 * p.face_width_m / p.face_height_m)
-        .sqrt()
-        .ceil() as usize)
-        .clamp(1, p.n_points);
-    let rows = p.n_points.div_ceil(cols);
-    let (dx, dy) = (p.face_width_m / cols as f64, p.face_height_m / rows as f64);
     let names: Vec<String> = (0..p.n_points).map(|i| format!("T{}", 101 + i)).collect();
-    let points: Vec<V3> = (0..p.n_points)
-        .map(|i| {
-            let (c, r) = (i % cols, i / cols);
-            let jx: f64 = geo.gen_range(-0.3..0.3);
-            let jy: f64 = geo.gen_range(-0.3..0.3);
-            let z: f64 = geo.gen_range(0.0..=1.0);
-            [
-                (c as f64 + 0.5 + jx) * dx - p.face_width_m / 2.0,
-                (r as f64 + 0.5 + jy) * dy,
-                z * p.relief_m,
-            ]
-        })
-        .collect();
-    let centre = [0.0, p.face_height_m / 2.0, p.relief_m / 2.0];
-    let stations: Vec<(V3, M3)> = (0..p.n_stations)
-        .map(|i| {
-            let x = -p.base_m / 2.0 + p.base_m * i as f64 / (p.n_stations - 1) as f64;
-            let d: f64 = geo.gen_range(p.distance_min_m..=p.distance_max_m);
-            let y: f64 = geo.gen_range(-1.0..=1.0);
-            let aim = [
-                centre[0] + geo.gen_range(-0.2..=0.2),
-                centre[1] + geo.gen_range(-0.2..=0.2),
-                centre[2],
-            ];
-            let xo = [x, y, d];
-            (xo, look_at(xo, aim, [0.0, 1.0, 0.0]))
-        })
-        .collect();
-
-    let interior = [p.c_mm, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-    let half_w = p.width_px as f64 * p.pixel_size_mm / 2.0;
-    let half_h = p.height_px as f64 * p.pixel_size_mm / 2.0;
-    let mut noise = stream(p.seed, NOISE);
-    let mut images = Vec::new();
-    for (i, (xo, r)) in stations.iter().enumerate() {
-        let id = format!("S{}", i + 1);
-        let mut observations = Vec::new();
-        for (name, x) in names.iter().zip(&points) {
-            let e = [gauss(&mut noise), gauss(&mut noise)];
-            let Some(xy) = project(r, *xo, &interior, *x) else {
-                continue;
-            };
-            if xy[0].abs() > half_w || xy[1].abs() > half_h {
-                continue;
-            }
-            let col = xy[0] / p.pixel_size_mm + (p.width_px as f64 - 1.0) / 2.0 + p.noise_px * e[0];
-            let row =
-                (p.height_px as f64 - 1.0) / 2.0 - xy[1] / p.pixel_size_mm + p.noise_px * e[1];
-            observations.push(if p.pixel_observations {
-                ObservationInput {
-                    point: name.clone(),
-                    x_mm: None,
-                    y_mm: None,
-                    col: Some(col),
-                    row: Some(row),
-                }
-            } else {
-                mm_observation(
-                    name,
-                    [
-                        (col - (p.width_px as f64 - 1.0) / 2.0) * p.pixel_size_mm,
-                        ((p.height_px as f64 - 1.0) / 2.0 - row) * p.pixel_size_mm,
-                    ],
-                )
-            });
-        }
-        images.push(ImageInput {
-            id: id.clone(),
-            camera: "cam".into(),
-            station: Some(id),
-            observations,
-        });
-    }
+    let points = face_targets(p, &mut geo);
+    let stations = long_range_stations(p, &mut geo);
+    let images = photograph(p, &stations, &names, &points);
     let mut start = stream(p.seed, START);
     let mut approx = approx_list(
         &names,
@@ -746,20 +635,7 @@ pub fn long_range(params: &LongRangeParams) -> Result<(EpochInput, Truth), Scene
     camera.height_px = Some(p.height_px);
 
     // The object frame: a rigid motion of the local one (image data unchanged).
-    let (rot, origin): (M3, V3) = match p.frame {
-        SiteFrame::TowardCameras => (
-            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-            [0.0; 3],
-        ),
-        SiteFrame::Enu { azimuth_deg } => {
-            let (s, c) = azimuth_deg.to_radians().sin_cos();
-            let n = [s, c, 0.0]; // face normal, horizontal
-            let u = [0.0, 0.0, 1.0];
-            let r = cross(u, n); // along the face, to the right seen from the cameras
-                                 // Columns r, u, n: X_enu = origin + M X_local.
-            (transpose(&[r, u, n]), ENU_ORIGIN)
-        }
-    };
+    let (rot, origin) = site_frame(p.frame);
     let to_site = |x: V3| -> V3 {
         let v = mat_vec(&rot, x);
         [v[0] + origin[0], v[1] + origin[1], v[2] + origin[2]]
@@ -801,6 +677,170 @@ pub fn long_range(params: &LongRangeParams) -> Result<(EpochInput, Truth), Scene
         swap_labels(&mut input, &image, &names[s.a], &names[s.b])?;
     }
     Ok((input, truth))
+}
+
+impl LongRangeParams {
+    /// Checks every parameter; the error names the one at fault.
+    fn check(&self) -> Result<(), SceneError> {
+        let p = self;
+        if p.n_points < 4 {
+            return Err(bad("n_points", "at least 4"));
+        }
+        if p.n_stations < 2 {
+            return Err(bad("n_stations", "at least 2"));
+        }
+        positive("face_width_m", p.face_width_m)?;
+        positive("face_height_m", p.face_height_m)?;
+        non_negative("relief_m", p.relief_m)?;
+        positive("distance_min_m", p.distance_min_m)?;
+        if p.distance_max_m.is_nan() || p.distance_max_m < p.distance_min_m {
+            return Err(bad("distance_max_m", "must be ≥ distance_min_m"));
+        }
+        non_negative("base_m", p.base_m)?;
+        positive("c_mm", p.c_mm)?;
+        if !(p.c_error.is_finite() && p.c_error > -0.5 && p.c_error < 0.5) {
+            return Err(bad("c_error", "must be within ±0.5"));
+        }
+        positive("pixel_size_mm", p.pixel_size_mm)?;
+        if p.width_px == 0 || p.height_px == 0 {
+            return Err(bad("width_px/height_px", "must be positive"));
+        }
+        non_negative("noise_px", p.noise_px)?;
+        non_negative("approx_sigma_m", p.approx_sigma_m)?;
+        if let SiteFrame::Enu { azimuth_deg } = p.frame {
+            if !azimuth_deg.is_finite() {
+                return Err(bad("azimuth_deg", "must be finite"));
+            }
+        }
+        if let Some(s) = p.swap {
+            if s.image >= p.n_stations || s.a >= p.n_points || s.b >= p.n_points || s.a == s.b {
+                return Err(bad("swap", "image or targets out of range (or a == b)"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The targets in the scene's local frame (m): a jittered grid with about the face's aspect
+/// ratio, relief uniform in `[0, relief]`.
+fn face_targets(p: &LongRangeParams, geo: &mut impl Rng) -> Vec<V3> {
+    let cols = ((p.n_points as f64 * p.face_width_m / p.face_height_m)
+        .sqrt()
+        .ceil() as usize)
+        .clamp(1, p.n_points);
+    let rows = p.n_points.div_ceil(cols);
+    let (dx, dy) = (p.face_width_m / cols as f64, p.face_height_m / rows as f64);
+    (0..p.n_points)
+        .map(|i| {
+            let (c, r) = (i % cols, i / cols);
+            let jx: f64 = geo.gen_range(-0.3..0.3);
+            let jy: f64 = geo.gen_range(-0.3..0.3);
+            let z: f64 = geo.gen_range(0.0..=1.0);
+            [
+                (c as f64 + 0.5 + jx) * dx - p.face_width_m / 2.0,
+                (r as f64 + 0.5 + jy) * dy,
+                z * p.relief_m,
+            ]
+        })
+        .collect()
+}
+
+/// The stations (projection centre in m, rotation) evenly along the base at random distances,
+/// heights within ±1 m of the face bottom, each aimed at the face centre (±0.2 m) with +Y up.
+fn long_range_stations(p: &LongRangeParams, geo: &mut impl Rng) -> Vec<(V3, M3)> {
+    let centre = [0.0, p.face_height_m / 2.0, p.relief_m / 2.0];
+    (0..p.n_stations)
+        .map(|i| {
+            let x = -p.base_m / 2.0 + p.base_m * i as f64 / (p.n_stations - 1) as f64;
+            let d: f64 = geo.gen_range(p.distance_min_m..=p.distance_max_m);
+            let y: f64 = geo.gen_range(-1.0..=1.0);
+            let aim = [
+                centre[0] + geo.gen_range(-0.2..=0.2),
+                centre[1] + geo.gen_range(-0.2..=0.2),
+                centre[2],
+            ];
+            let xo = [x, y, d];
+            (xo, look_at(xo, aim, [0.0, 1.0, 0.0]))
+        })
+        .collect()
+}
+
+/// One image per station (`S1…`): every target inside the sensor, with Gaussian noise of
+/// `noise_px`, as pixels or mm as the parameters ask.
+fn photograph(
+    p: &LongRangeParams,
+    stations: &[(V3, M3)],
+    names: &[String],
+    points: &[V3],
+) -> Vec<ImageInput> {
+    let interior = [p.c_mm, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let half_w = p.width_px as f64 * p.pixel_size_mm / 2.0;
+    let half_h = p.height_px as f64 * p.pixel_size_mm / 2.0;
+    let (mid_col, mid_row) = (
+        (p.width_px as f64 - 1.0) / 2.0,
+        (p.height_px as f64 - 1.0) / 2.0,
+    );
+    let mut noise = stream(p.seed, NOISE);
+    let mut images = Vec::new();
+    for (i, (xo, r)) in stations.iter().enumerate() {
+        let id = format!("S{}", i + 1);
+        let mut observations = Vec::new();
+        for (name, x) in names.iter().zip(points) {
+            // Drawn for every target, seen or not, so that the noise does not depend on the view.
+            let e = [gauss(&mut noise), gauss(&mut noise)];
+            let Some(xy) = project(r, *xo, &interior, *x) else {
+                continue;
+            };
+            if xy[0].abs() > half_w || xy[1].abs() > half_h {
+                continue;
+            }
+            let col = xy[0] / p.pixel_size_mm + mid_col + p.noise_px * e[0];
+            let row = mid_row - xy[1] / p.pixel_size_mm + p.noise_px * e[1];
+            observations.push(if p.pixel_observations {
+                ObservationInput {
+                    point: name.clone(),
+                    x_mm: None,
+                    y_mm: None,
+                    col: Some(col),
+                    row: Some(row),
+                }
+            } else {
+                mm_observation(
+                    name,
+                    [
+                        (col - mid_col) * p.pixel_size_mm,
+                        (mid_row - row) * p.pixel_size_mm,
+                    ],
+                )
+            });
+        }
+        images.push(ImageInput {
+            id: id.clone(),
+            camera: "cam".into(),
+            station: Some(id),
+            observations,
+        });
+    }
+    images
+}
+
+/// The rotation and origin taking the scene's local frame to the site frame:
+/// `X_site = origin + R X_local`.
+fn site_frame(frame: SiteFrame) -> (M3, V3) {
+    match frame {
+        SiteFrame::TowardCameras => (
+            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            [0.0; 3],
+        ),
+        SiteFrame::Enu { azimuth_deg } => {
+            let (s, c) = azimuth_deg.to_radians().sin_cos();
+            let n = [s, c, 0.0]; // face normal, horizontal
+            let u = [0.0, 0.0, 1.0];
+            let r = cross(u, n); // along the face, to the right seen from the cameras
+                                 // Columns r, u, n: X_enu = origin + M X_local.
+            (transpose(&[r, u, n]), ENU_ORIGIN)
+        }
+    }
 }
 
 /// Swaps the labels of two targets in one image (a blunder: each observation now carries the other
