@@ -142,6 +142,9 @@ fn throughput(c: &mut Criterion) {
     g.finish();
 }
 
+/// The report every bench epoch stores: what an adjustment's report always holds, nothing more.
+const REPORT: &str = r#"{"converged":true,"dof":250,"variance_factor":1.0,"cameras":[],"points":[],"images":[],"dropped":[],"warnings":[]}"#;
+
 /// Fills a site with `epochs` hourly epochs × `points` points of displacements with covariances
 /// and filtered values (as an analysis stores them), directly in SQL
 /// (bench set-up only: no adjustment), then packs the series (`series_blocks::rebuild`).
@@ -156,11 +159,12 @@ async fn fill_history(server: &TestServer, site: &str, epochs: usize, points: us
             .await
             .unwrap();
     }
-    sqlx::query(
+    sqlx::query(&
         "INSERT INTO epochs (site_id, id, observed_at, status, model, sigma0_mm, iterations, body_sha256, cameras, report, created_at) \
          WITH RECURSIVE seq(n) AS (SELECT 1 UNION ALL SELECT n + 1 FROM seq WHERE n < ?) \
          SELECT ?, n, strftime('%Y-%m-%dT%H:%M:%S.000000Z', '2015-01-01', '+' || n || ' hours'), 'adjusted', 'orthogonal', 0.001, 5, \
-         printf('%064d', n), '[]', '{}', '2026-01-01T00:00:00.000000Z' FROM seq",
+         printf('%064d', n), '[]', '{REPORT}', '2026-01-01T00:00:00.000000Z' FROM seq"
+        .replace("{REPORT}", REPORT),
     )
     .bind(epochs as i64).bind(site).execute(&mut *tx).await.unwrap();
     sqlx::query(
@@ -196,11 +200,12 @@ async fn fill_history_postgres(server: &TestServer, site: &str, epochs: usize, p
     .execute(&mut *tx)
     .await
     .unwrap();
-    sqlx::query(
+    sqlx::query(&
         "INSERT INTO epochs (site_id, id, observed_at, status, model, sigma0_mm, iterations, body_sha256, cameras, report, created_at) \
          SELECT $1, n, to_char(timestamp '2015-01-01' + n * interval '1 hour', 'YYYY-MM-DD\"T\"HH24:MI:SS.US\"Z\"'), \
-         'adjusted', 'orthogonal', 0.001, 5, lpad(n::text, 64, '0'), '[]', '{}', '2026-01-01T00:00:00.000000Z' \
-         FROM generate_series(1, $2) n",
+         'adjusted', 'orthogonal', 0.001, 5, lpad(n::text, 64, '0'), '[]', '{REPORT}', '2026-01-01T00:00:00.000000Z' \
+         FROM generate_series(1, $2) n"
+        .replace("{REPORT}", REPORT),
     )
     .bind(site).bind(epochs as i64).execute(&mut *tx).await.unwrap();
     sqlx::query(

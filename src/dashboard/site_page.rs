@@ -70,9 +70,14 @@ pub async fn site(
         .collect();
     let mut epoch_rows = vec![];
     for (_, e) in epochs::list(db, &site.id, None, EPOCHS_SHOWN).await? {
-        let dropped = epochs::get(db, &site.id, e.id)
-            .await?
-            .map(|(_, r)| r.dropped.len());
+        // One unreadable report must not take the page of the whole site down.
+        let dropped = match epochs::get(db, &site.id, e.id).await {
+            Ok(found) => found.map(|(_, r)| r.dropped.len()),
+            Err(err) => {
+                tracing::warn!(site = %site.id, epoch = e.id, error = %err, "epoch report unreadable");
+                None
+            }
+        };
         epoch_rows.push((e, dropped));
     }
     let v = viewer(access.as_deref());

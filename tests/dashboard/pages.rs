@@ -358,6 +358,18 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
         .unwrap();
     assert_eq!(r.status(), 304);
     assert_eq!(s.get("/assets/../Cargo.toml").await.0, 404);
+
+    // One unreadable stored report does not take the site's page down (its epoch row shows no
+    // dropped count); the other epochs still show theirs.
+    let mut tx = s.store.begin_write().await.unwrap();
+    sqlx::query("UPDATE epochs SET report = '{}' WHERE id = (SELECT MAX(id) FROM epochs)")
+        .execute(&mut *tx)
+        .await
+        .unwrap();
+    tx.commit().await.unwrap();
+    let (st, site) = html(&s, &format!("/sites/{SITE}")).await;
+    assert_eq!(st, 200, "{site}");
+    assert!(site.contains("<svg class=\"plan\""));
     s.stop().await;
 }
 
