@@ -35,6 +35,26 @@ struct Driver {
 }
 
 impl Driver {
+    /// Types `name` into the acknowledgement form of alert `id`'s row and clicks the button.
+    async fn acknowledge_as(&self, id: &str, name: &str) {
+        let input = self
+            .element(&format!("[id=\"alert-{id}\"] input[name=by]"))
+            .await;
+        self.call(
+            reqwest::Method::POST,
+            &format!("/element/{input}/value"),
+            json!({"text": name}),
+        )
+        .await;
+        let button = self.element(&format!("[id=\"alert-{id}\"] button")).await;
+        self.call(
+            reqwest::Method::POST,
+            &format!("/element/{button}/click"),
+            json!({}),
+        )
+        .await;
+    }
+
     async fn start() -> Option<Driver> {
         if !(Path::new(CHROMIUM).exists() && Path::new(DRIVER).exists()) {
             assert!(
@@ -226,24 +246,7 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
         .as_str()
         .expect("an open alert")
         .to_string();
-    let input = driver
-        .element(&format!("[id=\"alert-{id}\"] input[name=by]"))
-        .await;
-    driver
-        .call(
-            reqwest::Method::POST,
-            &format!("/element/{input}/value"),
-            json!({"text": "Aiko"}),
-        )
-        .await;
-    let button = driver.element(&format!("[id=\"alert-{id}\"] button")).await;
-    driver
-        .call(
-            reqwest::Method::POST,
-            &format!("/element/{button}/click"),
-            json!({}),
-        )
-        .await;
+    driver.acknowledge_as(&id, "Aiko").await;
     driver
         .wait_for(&format!(
             "var r = document.getElementById('alert-{id}'); return r && r.textContent.indexOf('acknowledged by Aiko') >= 0"
@@ -273,26 +276,7 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
         .await
         .unwrap();
     assert_eq!(r.status(), 200);
-    let input = driver
-        .element(&format!("[id=\"alert-{other}\"] input[name=by]"))
-        .await;
-    driver
-        .call(
-            reqwest::Method::POST,
-            &format!("/element/{input}/value"),
-            json!({"text": "Aiko"}),
-        )
-        .await;
-    let button = driver
-        .element(&format!("[id=\"alert-{other}\"] button"))
-        .await;
-    driver
-        .call(
-            reqwest::Method::POST,
-            &format!("/element/{button}/click"),
-            json!({}),
-        )
-        .await;
+    driver.acknowledge_as(&other, "Aiko").await;
     let shown = driver
         .wait_for(&format!(
             "var e = document.querySelector('[id=\"alert-{other}\"] .form-error'); return e && e.textContent"
