@@ -71,6 +71,13 @@ pub struct AckBody {
     pub comment: Option<String>,
 }
 
+// utoipa's `max_length` takes only a literal: keep the schema above in step with the limits the
+// service enforces.
+const _: () = assert!(
+    service::acknowledge::MAX_NAME_CHARS == 200 && service::acknowledge::MAX_COMMENT_CHARS == 2000,
+    "AckBody's schema states the acknowledgement limits as literals"
+);
+
 /// `POST /api/v1/alerts/{id}/ack`: acknowledges an open alert; queues an `alert.acknowledged`
 /// webhook event. An acknowledgement given stands: acknowledging again is 409 until an
 /// escalation opens the alert again.

@@ -133,6 +133,21 @@ async fn sent_csrf(req: Request) -> (Request, Option<String>) {
     )
 }
 
+/// The request back if it carries the CSRF token of session `s` ([`sent_csrf`]); 403 if not.
+async fn with_csrf_of(req: Request, s: &session::Session) -> Result<Request, ApiError> {
+    let (req, sent) = sent_csrf(req).await;
+    let sent = sent.unwrap_or_default();
+    if session::constant_time_eq(sent.as_bytes(), s.csrf.as_bytes()) {
+        Ok(req)
+    } else {
+        Err(ApiError::new(
+            StatusCode::FORBIDDEN,
+            "forbidden",
+            "missing or wrong CSRF token (x-csrf-token header or csrf field)",
+        ))
+    }
+}
+
 /// Middleware: 401 for a missing or unknown token, 403 for a token without the role; pages
 /// without credentials redirect to `/signin`.
 pub async fn authorize(
@@ -153,6 +168,14 @@ pub async fn authorize(
         return Ok(next.run(req).await);
     }
     let Some(needed) = required_role(req.method(), req.uri().path()) else {
+        // Signing out ends a live session, so it carries the session's CSRF token like any other
+        // change and no other page can sign staff out; an expired or unknown cookie needs none.
+        if req.uri().path() == "/signout" && *req.method() == Method::POST {
+            let now = chrono::Utc::now().timestamp();
+            if let Some(s) = session::from_headers(req.headers(), tokens, now) {
+                req = with_csrf_of(req, &s).await?;
+            }
+        }
         return Ok(next.run(req).await);
     };
     let bearer = req
@@ -185,26 +208,10 @@ pub async fn authorize(
         }
         None => {
             let now = chrono::Utc::now().timestamp();
-            let found = req
-                .headers()
-                .get_all(header::COOKIE)
-                .iter()
-                .filter_map(|v| v.to_str().ok())
-                .find_map(session::cookie_value)
-                .and_then(|c| session::verify(c, tokens, now));
-            match found {
+            match session::from_headers(req.headers(), tokens, now) {
                 Some(s) => {
                     if !matches!(*req.method(), Method::GET | Method::HEAD) {
-                        let (back, sent) = sent_csrf(req).await;
-                        req = back;
-                        let sent = sent.unwrap_or_default();
-                        if !session::constant_time_eq(sent.as_bytes(), s.csrf.as_bytes()) {
-                            return Err(ApiError::new(
-                                StatusCode::FORBIDDEN,
-                                "forbidden",
-                                "missing or wrong CSRF token (x-csrf-token header or csrf field)",
-                            ));
-                        }
+                        req = with_csrf_of(req, &s).await?;
                     }
                     Access {
                         role: Some(s.role),

@@ -7,6 +7,7 @@
 //! `session|<expiry>` keyed by the token itself. The CSRF token is HMAC-SHA256 of
 //! `csrf|<expiry>` under the same key. Removing a token from the configuration ends its sessions.
 
+use axum::http::{header, HeaderMap};
 use hmac::{Hmac, Mac};
 use sha2::{Digest, Sha256};
 
@@ -77,6 +78,16 @@ pub fn cookie_value(cookie_header: &str) -> Option<&str> {
         let (k, v) = kv.trim().split_once('=')?;
         (k == COOKIE).then_some(v)
     })
+}
+
+/// The live session carried by a request's `Cookie` headers, if any (see [`verify`]).
+pub fn from_headers(headers: &HeaderMap, tokens: &[TokenConfig], now: i64) -> Option<Session> {
+    headers
+        .get_all(header::COOKIE)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .find_map(cookie_value)
+        .and_then(|c| verify(c, tokens, now))
 }
 
 /// Compares without an early exit.

@@ -7,6 +7,7 @@ use crate::dashboard_support;
 use crate::plot_support;
 
 use cliffwatch::config::{Role, TokenConfig};
+use cliffwatch::dashboard::session;
 use dashboard_support::service_support::TestServer;
 use dashboard_support::{fill, name, POINTS, SITE, STABLE};
 use reqwest::header;
@@ -359,8 +360,8 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
     assert_eq!(r.status(), 304);
     assert_eq!(s.get("/assets/../Cargo.toml").await.0, 404);
 
-    // One unreadable stored report does not take the site's page down (its epoch row shows no
-    // dropped count); the other epochs still show theirs.
+    // The site page lists epochs without reading their stored reports: one that is unreadable
+    // does not take the page down.
     let mut tx = s.store.begin_write().await.unwrap();
     sqlx::query("UPDATE epochs SET report = '{}' WHERE id = (SELECT MAX(id) FROM epochs)")
         .execute(&mut *tx)
@@ -684,6 +685,25 @@ async fn with_tokens_pages_need_a_session_and_changes_a_csrf_token() {
     };
     assert_eq!(sign_out("").await.unwrap().status(), 403);
     let r = sign_out(&csrf).await.unwrap();
+    assert_eq!(r.status(), 303);
+    assert!(r.headers()[header::SET_COOKIE]
+        .to_str()
+        .unwrap()
+        .contains("Max-Age=0"));
+    // An expired session's cookie is cleared without the field: it has no token left to carry.
+    let long_ago = chrono::Utc::now().timestamp() - session::LIFETIME_SECS - 60;
+    let expired = format!(
+        "{}={}",
+        session::COOKIE,
+        session::issue("uploader-token-1", long_ago)
+    );
+    let r = client
+        .post(s.url("/signout"))
+        .header(header::COOKIE, expired)
+        .form(&[("csrf", "")])
+        .send()
+        .await
+        .unwrap();
     assert_eq!(r.status(), 303);
     assert!(r.headers()[header::SET_COOKIE]
         .to_str()
