@@ -45,7 +45,7 @@ pub struct Status {
 /// observation in `GET .../epochs/{epoch}` only.
 #[derive(Serialize, ToSchema)]
 pub struct EpochSummary {
-    /// Id, observed_at, status, σ0, c, iterations, created_at.
+    /// Id, observed_at, status, σ0, c, iterations, dropped observations, created_at.
     #[serde(flatten)]
     pub epoch: EpochListItem,
     /// Site id.

@@ -68,18 +68,11 @@ pub async fn site(
         .map(|(_, a)| a)
         .filter(|a| filter.matches(a))
         .collect();
-    let mut epoch_rows = vec![];
-    for (_, e) in epochs::list(db, &site.id, None, EPOCHS_SHOWN).await? {
-        // One unreadable report must not take the page of the whole site down.
-        let dropped = match epochs::get(db, &site.id, e.id).await {
-            Ok(found) => found.map(|(_, r)| r.dropped.len()),
-            Err(err) => {
-                tracing::warn!(site = %site.id, epoch = e.id, error = %err, "epoch report unreadable");
-                None
-            }
-        };
-        epoch_rows.push((e, dropped));
-    }
+    let epoch_rows: Vec<_> = epochs::list(db, &site.id, None, EPOCHS_SHOWN)
+        .await?
+        .into_iter()
+        .map(|(_, e)| e)
+        .collect();
     let v = viewer(access.as_deref());
     let site_href = format!("/sites/{}", seg(&site.id));
     let body = html! {
@@ -134,14 +127,14 @@ pub async fn site(
             table.epochs {
                 thead { tr { th { "observed at" } th { "status" } th.wide { "σ0 (mm)" } th { "c ± σ (mm)" } th.wide { "iterations" } th.wide { "dropped" } } }
                 tbody {
-                    @for (e, dropped) in &epoch_rows {
+                    @for e in &epoch_rows {
                         tr {
                             td { a href={ (site_href) "/epochs/" (e.id) } { (when(&e.observed_at, site.time_zone.as_deref())) } }
                             td { (e.status) }
                             td.num.wide { (num(Some(e.sigma0_mm), 5)) }
                             td.num { (with_sigma(e.c_mm, e.c_sigma_mm, 3)) }
                             td.num.wide { (e.iterations) }
-                            td.num.wide { (dropped.map_or("–".to_string(), |n| n.to_string())) }
+                            td.num.wide { (e.dropped_observations) }
                         }
                     }
                 }

@@ -131,6 +131,7 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("c_mm", F),
             ("c_sigma_mm", F),
             ("iterations", I),
+            ("dropped_observations", I),
             ("body_sha256", T),
             ("cameras", T),
             ("report", T),

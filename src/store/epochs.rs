@@ -71,6 +71,8 @@ pub struct EpochListItem {
     pub c_sigma_mm: Option<f64>,
     /// Iterations of the adjustment.
     pub iterations: i64,
+    /// Observations dropped by data snooping (listed with their w in the epoch's report).
+    pub dropped_observations: i64,
     /// Time of ingestion (RFC 3339).
     pub created_at: String,
 }
@@ -110,7 +112,7 @@ pub async fn list(
     limit: i64,
 ) -> Result<Vec<(String, EpochListItem)>, StoreError> {
     let rows: Vec<EpochListItem> = sqlx::query_as(
-        "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, created_at \
+        "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, dropped_observations, created_at \
          FROM epochs WHERE site_id = $1 AND ($2 IS NULL OR observed_at < $3) \
          ORDER BY observed_at DESC LIMIT $4",
     )
@@ -154,7 +156,7 @@ pub async fn get(
         report: String,
     }
     let row: Option<Row> = sqlx::query_as(
-        "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, created_at, report \
+        "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, dropped_observations, created_at, report \
          FROM epochs WHERE site_id = $1 AND id = $2",
     )
     .bind(site)
@@ -256,7 +258,8 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
     let created = now();
     sqlx::query(
         "INSERT INTO epochs (site_id, id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, \
-         iterations, body_sha256, cameras, report, created_at) VALUES ($1, $2, $3, $4, 'adjusted', $5, $6, $7, $8, $9, $10, $11, $12, $13)",
+         iterations, dropped_observations, body_sha256, cameras, report, created_at) \
+         VALUES ($1, $2, $3, $4, 'adjusted', $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)",
     )
     .bind(rec.site)
     .bind(id)
@@ -267,6 +270,7 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
     .bind(first_camera.map(|c| c.c_mm))
     .bind(first_camera.and_then(|c| c.c_sigma_mm))
     .bind(adj.report.iterations as i64)
+    .bind(adj.report.dropped.len() as i64)
     .bind(rec.body_sha256)
     .bind(serde_json::to_string(&rec.input.cameras)?)
     .bind(report.to_string())

@@ -695,6 +695,15 @@ async fn epoch_summaries_and_errors_conform_to_their_schemas() {
         "the blunder is dropped: {}",
         created["dropped"]
     );
+    // The epoch list counts them (the site page's column) without reading the report.
+    let n_dropped = json!(created["dropped"].as_array().unwrap().len());
+    assert_eq!(created["dropped_observations"], n_dropped);
+    let (status, list) = s.get("/api/v1/sites/paper/epochs").await;
+    assert_eq!(status, 200);
+    assert_eq!(
+        list["items"][0]["dropped_observations"], n_dropped,
+        "{list}"
+    );
     let (status, full) = s.get("/api/v1/sites/paper/epochs/1").await;
     assert_eq!(status, 200);
     assert!(!full["residuals"].as_array().unwrap().is_empty());
