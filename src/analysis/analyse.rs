@@ -201,6 +201,36 @@ struct ChosenDatum {
     excluded: Vec<usize>,
 }
 
+impl ChosenDatum {
+    /// What the report says of the datum: its points and the excluded ones (named from
+    /// `names`), the congruence tests, and the transformation's translation (mm), rotation (mrad)
+    /// and scale (ppm).
+    fn report(&self, names: &[String]) -> DatumReport {
+        let p = &self.fit.params;
+        let get = |k: usize| if k < p.len() { p[k] } else { 0.0 };
+        DatumReport {
+            method: self.method,
+            points: self.fit.datum.iter().map(|&i| names[i].clone()).collect(),
+            excluded: self.excluded.iter().map(|&i| names[i].clone()).collect(),
+            congruence: self.congruence.clone(),
+            translation_mm: [get(0), get(1), get(2)],
+            rotation_mrad: [get(3), get(4), get(5)],
+            scale_ppm: get(6) * 1e3,
+        }
+    }
+}
+
+/// The points of `current` that the reference lacks (their displacements start later).
+fn new_points(current: &EpochCoordinates, diffs: &Differences) -> Vec<String> {
+    let common: std::collections::HashSet<&str> = diffs.names.iter().map(String::as_str).collect();
+    current
+        .points
+        .iter()
+        .filter(|p| !common.contains(p.name.as_str()))
+        .map(|p| p.name.clone())
+        .collect()
+}
+
 /// The datum: the S-transformation onto the `stable` points (indices into `diffs`) after the
 /// congruence test has excluded the moving ones; IWST over all points when there are too few
 /// stable points or their datum fails (each fallback adds a warning).
@@ -280,6 +310,32 @@ struct PointInputs<'a> {
     /// Normal quantiles of the velocity and acceleration tests.
     z_vel: f64,
     z_acc: f64,
+}
+
+impl<'a> PointInputs<'a> {
+    /// The epoch's shared inputs, with the tests' quantiles computed once (each is a bisection).
+    fn new(
+        current: &EpochCoordinates,
+        same_epoch: bool,
+        history: &'a History,
+        config: &'a AnalysisConfig,
+    ) -> Self {
+        PointInputs {
+            epoch: current.epoch,
+            observed_at: current.observed_at,
+            same_epoch,
+            history,
+            config,
+            critical3: 3.0
+                * f_quantile(
+                    config.confidence,
+                    3.0,
+                    config.variance_dof.unwrap_or(f64::INFINITY),
+                ),
+            z_vel: normal_quantile(0.5 + 0.5 * config.confidence),
+            z_acc: normal_quantile(config.failure.acceleration_confidence),
+        }
+    }
 }
 
 /// One point's analysis: its displacement `d` (mm) with covariance `cov` (mm²) in the datum, the
@@ -410,16 +466,7 @@ pub fn analyse_epoch(
     let cfg: HashMap<&str, &PointConfig> = points.iter().map(|p| (p.name.as_str(), p)).collect();
     let role = |name: &str| cfg.get(name).map(|c| c.role).unwrap_or_default();
     let mut warnings = vec![];
-    let new_points: Vec<String> = {
-        let common: std::collections::HashSet<&str> =
-            diffs.names.iter().map(String::as_str).collect();
-        current
-            .points
-            .iter()
-            .filter(|p| !common.contains(p.name.as_str()))
-            .map(|p| p.name.clone())
-            .collect()
-    };
+    let new_points = new_points(current, &diffs);
     if diffs.len() < kind.min_points() {
         return Err(AnalysisError::TooFewDatumPoints {
             found: diffs.len(),
@@ -431,12 +478,9 @@ pub fn analyse_epoch(
     let stable: Vec<usize> = (0..diffs.len())
         .filter(|&i| role(&diffs.names[i]) == PointRole::Stable)
         .collect();
-    let ChosenDatum {
-        fit,
-        method,
-        congruence,
-        excluded,
-    } = choose_datum(&diffs, &stable, config, &mut warnings)?;
+    let chosen = choose_datum(&diffs, &stable, config, &mut warnings)?;
+    let datum = chosen.report(&diffs.names);
+    let fit = chosen.fit;
     let transformed = transform_all(&diffs, &fit);
     // The reference epoch's share of each displacement's covariance, common to every epoch.
     let reference_only = diffs.reference_only();
@@ -444,37 +488,8 @@ pub fn analyse_epoch(
         .into_iter()
         .map(|(_, c)| c)
         .collect();
-    let p = &fit.params;
-    let get = |k: usize| if k < p.len() { p[k] } else { 0.0 };
-    let datum = DatumReport {
-        method,
-        points: fit.datum.iter().map(|&i| diffs.names[i].clone()).collect(),
-        excluded: excluded.iter().map(|&i| diffs.names[i].clone()).collect(),
-        congruence,
-        translation_mm: [get(0), get(1), get(2)],
-        rotation_mrad: [get(3), get(4), get(5)],
-        scale_ppm: get(6) * 1e3,
-    };
     let in_datum: std::collections::HashSet<usize> = fit.datum.iter().copied().collect();
-    // Quantiles once per epoch (each is a bisection).
-    let critical3 = 3.0
-        * f_quantile(
-            config.confidence,
-            3.0,
-            config.variance_dof.unwrap_or(f64::INFINITY),
-        );
-    let z_vel = normal_quantile(0.5 + 0.5 * config.confidence);
-    let z_acc = normal_quantile(config.failure.acceleration_confidence);
-    let epoch_wide = PointInputs {
-        epoch: current.epoch,
-        observed_at: current.observed_at,
-        same_epoch,
-        history,
-        config,
-        critical3,
-        z_vel,
-        z_acc,
-    };
+    let epoch_wide = PointInputs::new(current, same_epoch, history, config);
     let out: Vec<PointAnalysis> = transformed
         .into_iter()
         .enumerate()
@@ -513,8 +528,8 @@ pub fn analyse_epoch(
         history,
         now: current.observed_at,
         config,
-        z_vel,
-        z_acc,
+        z_vel: epoch_wide.z_vel,
+        z_acc: epoch_wide.z_acc,
         joint_of: &joint_of,
     });
     Ok(EpochAnalysis {

@@ -240,6 +240,32 @@ impl EpochInput {
         if self.images.is_empty() {
             return Err(EpochError::Empty);
         }
+        let (cameras, camera_index) = self.validate_cameras()?;
+        let mut names = PointNames::default();
+        let mut images = Vec::with_capacity(self.images.len());
+        let mut image_ids = HashSet::new();
+        for im in &self.images {
+            if !is_valid_identifier(&im.id) {
+                return Err(EpochError::BadIdentifier(format!("image '{}'", im.id)));
+            }
+            if !image_ids.insert(im.id.clone()) {
+                return Err(EpochError::DuplicateImage(im.id.clone()));
+            }
+            images.push(im.validate(&cameras, &camera_index, &mut names)?);
+        }
+        let (control, approx) = self.known_points(&names)?;
+        Ok(EpochProblem {
+            observed_at,
+            cameras,
+            images,
+            points: names.names,
+            control,
+            approx,
+        })
+    }
+
+    /// The cameras, with their index by id; ids must be valid and unique.
+    fn validate_cameras(&self) -> Result<(Vec<Camera>, HashMap<String, usize>), EpochError> {
         let mut cameras = Vec::with_capacity(self.cameras.len());
         let mut camera_index = HashMap::new();
         for c in &self.cameras {
@@ -251,82 +277,22 @@ impl EpochInput {
             }
             cameras.push(Camera::from_input(c)?);
         }
-        let mut points: Vec<String> = Vec::new();
-        let mut point_index: HashMap<String, usize> = HashMap::new();
-        let mut intern = |name: &str, points: &mut Vec<String>| -> Result<usize, EpochError> {
-            if let Some(&i) = point_index.get(name) {
-                return Ok(i);
-            }
-            if !is_valid_identifier(name) {
-                return Err(EpochError::BadIdentifier(format!("point '{name}'")));
-            }
-            point_index.insert(name.to_string(), points.len());
-            points.push(name.to_string());
-            Ok(points.len() - 1)
-        };
-        let mut images = Vec::with_capacity(self.images.len());
-        let mut image_ids = HashSet::new();
-        for im in &self.images {
-            if !is_valid_identifier(&im.id) {
-                return Err(EpochError::BadIdentifier(format!("image '{}'", im.id)));
-            }
-            if !image_ids.insert(im.id.clone()) {
-                return Err(EpochError::DuplicateImage(im.id.clone()));
-            }
-            let &cam = camera_index
-                .get(&im.camera)
-                .ok_or_else(|| EpochError::UnknownCamera {
-                    image: im.id.clone(),
-                    camera: im.camera.clone(),
-                })?;
-            let camera = &cameras[cam];
-            let mut seen = HashSet::new();
-            let mut observations = Vec::with_capacity(im.observations.len());
-            for o in &im.observations {
-                let item = format!("image '{}' point '{}'", im.id, o.point);
-                let p = intern(&o.point, &mut points)?;
-                if !seen.insert(p) {
-                    return Err(EpochError::DuplicateObservation {
-                        image: im.id.clone(),
-                        point: o.point.clone(),
-                    });
-                }
-                let xy = match (o.x_mm, o.y_mm, o.col, o.row) {
-                    (Some(x), Some(y), None, None) => [
-                        bounded(x, MAX_IMAGE_COORDINATE, &item, "x_mm")?,
-                        bounded(y, MAX_IMAGE_COORDINATE, &item, "y_mm")?,
-                    ],
-                    (None, None, Some(col), Some(row)) => {
-                        let col = bounded(col, MAX_IMAGE_COORDINATE, &item, "col")?;
-                        let row = bounded(row, MAX_IMAGE_COORDINATE, &item, "row")?;
-                        camera.pixel_to_mm(col, row).ok_or_else(|| {
-                            EpochError::PixelWithoutGeometry {
-                                image: im.id.clone(),
-                                camera: camera.id.clone(),
-                            }
-                        })?
-                    }
-                    _ => return Err(EpochError::MissingCoordinate { item }),
-                };
-                observations.push(Observation { point: p, xy });
-            }
-            images.push(Image {
-                id: im.id.clone(),
-                station: im.station.clone().unwrap_or_else(|| im.id.clone()),
-                camera: cam,
-                observations,
-            });
-        }
-        let mut control = vec![None; points.len()];
-        let mut approx = vec![None; points.len()];
+        Ok((cameras, camera_index))
+    }
+
+    /// Control coordinates and approximations by point index (control doubles as approximation);
+    /// points nobody observed are ignored, since they carry no information.
+    #[allow(clippy::type_complexity)]
+    fn known_points(
+        &self,
+        names: &PointNames,
+    ) -> Result<(Vec<Option<Control>>, Vec<Option<[f64; 3]>>), EpochError> {
+        let mut control = vec![None; names.names.len()];
+        let mut approx = vec![None; names.names.len()];
         let mut seen_control = HashSet::new();
         for c in &self.control {
             let item = format!("control point '{}'", c.point);
-            let xyz = [
-                bounded(c.X, MAX_OBJECT_COORDINATE_M, &item, "X")?,
-                bounded(c.Y, MAX_OBJECT_COORDINATE_M, &item, "Y")?,
-                bounded(c.Z, MAX_OBJECT_COORDINATE_M, &item, "Z")?,
-            ];
+            let xyz = object_xyz([c.X, c.Y, c.Z], &item)?;
             let sigma_m = finite(
                 c.sigma_m.unwrap_or(DEFAULT_CONTROL_SIGMA_M),
                 &item,
@@ -342,37 +308,22 @@ impl EpochInput {
             if !seen_control.insert(c.point.clone()) {
                 return Err(EpochError::DuplicatePoint(c.point.clone()));
             }
-            // Control points nobody observed are ignored: they carry no information.
-            if let Some(&i) = point_index.get(c.point.as_str()) {
+            if let Some(i) = names.get(&c.point) {
                 control[i] = Some(Control { xyz, sigma_m });
                 approx[i] = Some(xyz);
             }
         }
         let mut seen_approx = HashSet::new();
         for a in &self.approx {
-            let item = format!("approx point '{}'", a.point);
-            let xyz = [
-                bounded(a.X, MAX_OBJECT_COORDINATE_M, &item, "X")?,
-                bounded(a.Y, MAX_OBJECT_COORDINATE_M, &item, "Y")?,
-                bounded(a.Z, MAX_OBJECT_COORDINATE_M, &item, "Z")?,
-            ];
+            let xyz = object_xyz([a.X, a.Y, a.Z], &format!("approx point '{}'", a.point))?;
             if !seen_approx.insert(a.point.clone()) {
                 return Err(EpochError::DuplicatePoint(a.point.clone()));
             }
-            if let Some(&i) = point_index.get(a.point.as_str()) {
-                if approx[i].is_none() {
-                    approx[i] = Some(xyz);
-                }
+            if let Some(i) = names.get(&a.point) {
+                approx[i].get_or_insert(xyz);
             }
         }
-        Ok(EpochProblem {
-            observed_at,
-            cameras,
-            images,
-            points,
-            control,
-            approx,
-        })
+        Ok((control, approx))
     }
 
     /// The canonical form used for idempotency: the parsed body re-serialized (key order fixed by the
@@ -384,3 +335,100 @@ impl EpochInput {
 
 /// Known coordinates (m) of points from earlier epochs of the site, used as start values.
 pub type PriorCoordinates = BTreeMap<String, [f64; 3]>;
+
+/// X, Y, Z of `item` in m: finite and within [`MAX_OBJECT_COORDINATE_M`].
+fn object_xyz([x, y, z]: [f64; 3], item: &str) -> Result<[f64; 3], EpochError> {
+    Ok([
+        bounded(x, MAX_OBJECT_COORDINATE_M, item, "X")?,
+        bounded(y, MAX_OBJECT_COORDINATE_M, item, "Y")?,
+        bounded(z, MAX_OBJECT_COORDINATE_M, item, "Z")?,
+    ])
+}
+
+/// The epoch's point names in order of first observation, with their indices.
+#[derive(Default)]
+struct PointNames {
+    names: Vec<String>,
+    index: HashMap<String, usize>,
+}
+
+impl PointNames {
+    /// The index of `name`, added if new (after checking it is a valid identifier).
+    fn intern(&mut self, name: &str) -> Result<usize, EpochError> {
+        if let Some(&i) = self.index.get(name) {
+            return Ok(i);
+        }
+        if !is_valid_identifier(name) {
+            return Err(EpochError::BadIdentifier(format!("point '{name}'")));
+        }
+        self.index.insert(name.to_string(), self.names.len());
+        self.names.push(name.to_string());
+        Ok(self.names.len() - 1)
+    }
+
+    /// The index of an observed point.
+    fn get(&self, name: &str) -> Option<usize> {
+        self.index.get(name).copied()
+    }
+}
+
+impl ImageInput {
+    /// The image with its camera resolved and its observations in image mm, one per point.
+    fn validate(
+        &self,
+        cameras: &[Camera],
+        camera_index: &HashMap<String, usize>,
+        names: &mut PointNames,
+    ) -> Result<Image, EpochError> {
+        let &cam = camera_index
+            .get(&self.camera)
+            .ok_or_else(|| EpochError::UnknownCamera {
+                image: self.id.clone(),
+                camera: self.camera.clone(),
+            })?;
+        let camera = &cameras[cam];
+        let mut seen = HashSet::new();
+        let mut observations = Vec::with_capacity(self.observations.len());
+        for o in &self.observations {
+            let p = names.intern(&o.point)?;
+            if !seen.insert(p) {
+                return Err(EpochError::DuplicateObservation {
+                    image: self.id.clone(),
+                    point: o.point.clone(),
+                });
+            }
+            let xy = o.image_mm(&self.id, camera)?;
+            observations.push(Observation { point: p, xy });
+        }
+        Ok(Image {
+            id: self.id.clone(),
+            station: self.station.clone().unwrap_or_else(|| self.id.clone()),
+            camera: cam,
+            observations,
+        })
+    }
+}
+
+impl ObservationInput {
+    /// The observation in image mm: given in mm, or in pixels through the camera's geometry.
+    fn image_mm(&self, image: &str, camera: &Camera) -> Result<[f64; 2], EpochError> {
+        let item = format!("image '{image}' point '{}'", self.point);
+        match (self.x_mm, self.y_mm, self.col, self.row) {
+            (Some(x), Some(y), None, None) => Ok([
+                bounded(x, MAX_IMAGE_COORDINATE, &item, "x_mm")?,
+                bounded(y, MAX_IMAGE_COORDINATE, &item, "y_mm")?,
+            ]),
+            (None, None, Some(col), Some(row)) => {
+                let col = bounded(col, MAX_IMAGE_COORDINATE, &item, "col")?;
+                let row = bounded(row, MAX_IMAGE_COORDINATE, &item, "row")?;
+                camera
+                    .pixel_to_mm(col, row)
+                    .ok_or_else(|| EpochError::PixelWithoutGeometry {
+                        image: image.to_string(),
+                        camera: camera.id.clone(),
+                    })
+            }
+            _ => Err(EpochError::MissingCoordinate { item }),
+        }
+    }
+}
