@@ -149,7 +149,8 @@ impl Driver {
         v[ELEMENT].as_str().expect("element").to_string()
     }
 
-    /// Saves a PNG of the viewport as `name` in `$CLIFFWATCH_SCREENSHOTS`, when that is set.
+    /// Saves a PNG of the viewport as `name` in `$CLIFFWATCH_SCREENSHOTS` (created if missing),
+    /// when that is set.
     async fn screenshot(&self, name: impl AsRef<Path>) {
         if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
             use base64::Engine;
@@ -159,6 +160,7 @@ impl Driver {
             let bytes = base64::engine::general_purpose::STANDARD
                 .decode(png.as_str().unwrap())
                 .unwrap();
+            std::fs::create_dir_all(&dir).unwrap();
             std::fs::write(Path::new(&dir).join(name), bytes).unwrap();
         }
     }
