@@ -156,10 +156,84 @@ impl MonitoringScenario {
         let start: DateTime<Utc> = DateTime::parse_from_rfc3339("2026-01-01T00:00:00Z")
             .map(|t| t.to_utc())
             .unwrap_or_default();
+        let (names, xyz, points) = self.targets(&mut rng);
+        let dir = Vector3::from(self.direction).normalize();
+        let n_s = self.stable_points;
+        let covs = self.point_covariances(names.len(), &mut rng);
+        let chols: Vec<Matrix3<f64>> = covs
+            .iter()
+            .map(|c| c.cholesky().map(|l| l.l()).unwrap_or_else(Matrix3::zeros))
+            .collect();
+        let n = names.len();
+        let mut epochs = vec![];
+        for e in 0..self.epochs {
+            let t_days = e as f64 * self.interval_hours / 24.0;
+            let observed_at =
+                start + Duration::milliseconds((t_days * 86_400_000.0).round() as i64);
+            let dm = self.block_displacement_mm(t_days);
+            let mut gauss = || -> f64 { StandardNormal.sample(&mut rng) };
+            let shift = Vector3::new(gauss(), gauss(), gauss()) * self.datum_change_mm;
+            let rot =
+                Vector3::new(gauss(), gauss(), gauss()) * self.datum_change_mm / self.radius_m;
+            let scale = gauss() * self.datum_change_mm / self.radius_m;
+            let mut pts = vec![];
+            let mut truth = vec![];
+            for i in 0..n {
+                let mut true_d = Vector3::zeros();
+                if names[i].starts_with('B') {
+                    true_d = dir * dm;
+                }
+                if let Some((k, from, v)) = self.moved_stable {
+                    if i == k && e >= from {
+                        true_d += Vector3::from(v);
+                    }
+                }
+                let noise = chols[i] * Vector3::new(gauss(), gauss(), gauss());
+                let p = xyz[i] - Vector3::new(0.0, 100.0, 20.0);
+                let datum = shift + rot.cross(&p) + p * scale;
+                let x = xyz[i] + (true_d + noise + datum) * 1e-3;
+                pts.push(PointCoordinates {
+                    name: names[i].clone(),
+                    xyz_m: x.into(),
+                    covariance_m2: (covs[i] * 1e-6).into(),
+                });
+                truth.push(true_d.into());
+            }
+            epochs.push(SimulatedEpoch {
+                coordinates: EpochCoordinates {
+                    epoch: e as i64 + 1,
+                    observed_at,
+                    points: pts,
+                    joint: (n_s > 0).then(|| JointCovarianceM2 {
+                        points: names[..n_s].to_vec(),
+                        matrix_m2: block_diagonal_m2(&covs[..n_s]),
+                    }),
+                },
+                true_displacement_mm: truth,
+                block_velocity_mm_per_day: if self.block_points > 0 {
+                    self.block_velocity(t_days)
+                } else {
+                    0.0
+                },
+            });
+        }
+        let failure_at = self.acceleration_start_days.map(|_| {
+            start + Duration::milliseconds((self.failure_days * 86_400_000.0).round() as i64)
+        });
+        MonitoringSeries {
+            points,
+            epochs,
+            failure_at,
+            start,
+        }
+    }
+
+    /// The targets' names, true positions (m) and configurations: the stable ring `R…`, the
+    /// block `B…` near the centre and the other monitored points `M…`.
+    fn targets(&self, rng: &mut ChaCha8Rng) -> (Vec<String>, Vec<Vector3<f64>>, Vec<PointConfig>) {
         let mut names = vec![];
         let mut xyz = vec![];
         let mut points = vec![];
-        let dir = Vector3::from(self.direction).normalize();
         let n_s = self.stable_points;
         for k in 0..n_s {
             let a = k as f64 / n_s.max(1) as f64 * std::f64::consts::TAU;
@@ -206,8 +280,13 @@ impl MonitoringScenario {
                 direction: None,
             });
         }
-        // Per-point covariance (mm²): anisotropic, depth (Y, towards the cameras) weaker, slightly rotated.
-        let covs: Vec<Matrix3<f64>> = (0..names.len())
+        (names, xyz, points)
+    }
+
+    /// Each of `n` points' covariance (mm²): anisotropic, depth (Y, towards the cameras) weaker,
+    /// slightly rotated.
+    fn point_covariances(&self, n: usize, rng: &mut ChaCha8Rng) -> Vec<Matrix3<f64>> {
+        (0..n)
             .map(|_| {
                 let s = self.sigma_mm * rng.gen_range(0.7..1.3);
                 let d = Matrix3::from_diagonal(&Vector3::new(
@@ -222,82 +301,21 @@ impl MonitoringScenario {
                 );
                 r.matrix() * d * r.matrix().transpose()
             })
-            .collect();
-        let chols: Vec<Matrix3<f64>> = covs
-            .iter()
-            .map(|c| c.cholesky().map(|l| l.l()).unwrap_or_else(Matrix3::zeros))
-            .collect();
-        let n = names.len();
-        let mut epochs = vec![];
-        for e in 0..self.epochs {
-            let t_days = e as f64 * self.interval_hours / 24.0;
-            let observed_at =
-                start + Duration::milliseconds((t_days * 86_400_000.0).round() as i64);
-            let dm = self.block_displacement_mm(t_days);
-            let mut gauss = || -> f64 { StandardNormal.sample(&mut rng) };
-            let shift = Vector3::new(gauss(), gauss(), gauss()) * self.datum_change_mm;
-            let rot =
-                Vector3::new(gauss(), gauss(), gauss()) * self.datum_change_mm / self.radius_m;
-            let scale = gauss() * self.datum_change_mm / self.radius_m;
-            let mut pts = vec![];
-            let mut truth = vec![];
-            for i in 0..n {
-                let mut true_d = Vector3::zeros();
-                if names[i].starts_with('B') {
-                    true_d = dir * dm;
-                }
-                if let Some((k, from, v)) = self.moved_stable {
-                    if i == k && e >= from {
-                        true_d += Vector3::from(v);
-                    }
-                }
-                let noise = chols[i] * Vector3::new(gauss(), gauss(), gauss());
-                let p = xyz[i] - Vector3::new(0.0, 100.0, 20.0);
-                let datum = shift + rot.cross(&p) + p * scale;
-                let x = xyz[i] + (true_d + noise + datum) * 1e-3;
-                let cov_m2 = covs[i] * 1e-6;
-                pts.push(PointCoordinates {
-                    name: names[i].clone(),
-                    xyz_m: x.into(),
-                    covariance_m2: cov_m2.into(),
-                });
-                truth.push(true_d.into());
+            .collect()
+    }
+}
+
+/// The joint covariance (m², row-major 3n × 3n) of points with independent noise of the given
+/// covariances (mm²): block diagonal.
+fn block_diagonal_m2(covs_mm2: &[Matrix3<f64>]) -> Vec<f64> {
+    let n = covs_mm2.len();
+    let mut m = vec![0.0; 9 * n * n];
+    for (k, cov) in covs_mm2.iter().enumerate() {
+        for r in 0..3 {
+            for c in 0..3 {
+                m[(3 * k + r) * 3 * n + 3 * k + c] = cov[(r, c)] * 1e-6;
             }
-            // Joint covariance of the stable points: block diagonal (the noise is independent per point).
-            let mut m = vec![0.0; 9 * n_s * n_s];
-            for k in 0..n_s {
-                for r in 0..3 {
-                    for c in 0..3 {
-                        m[(3 * k + r) * 3 * n_s + 3 * k + c] = covs[k][(r, c)] * 1e-6;
-                    }
-                }
-            }
-            epochs.push(SimulatedEpoch {
-                coordinates: EpochCoordinates {
-                    epoch: e as i64 + 1,
-                    observed_at,
-                    points: pts,
-                    joint: (n_s > 0).then(|| JointCovarianceM2 {
-                        points: names[..n_s].to_vec(),
-                        matrix_m2: m,
-                    }),
-                },
-                true_displacement_mm: truth,
-                block_velocity_mm_per_day: if self.block_points > 0 {
-                    self.block_velocity(t_days)
-                } else {
-                    0.0
-                },
-            });
-        }
-        let failure_at = self.acceleration_start_days.map(|_| {
-            start + Duration::milliseconds((self.failure_days * 86_400_000.0).round() as i64)
-        });
-        MonitoringSeries {
-            points,
-            epochs,
-            failure_at,
-            start,
         }
     }
+    m
 }

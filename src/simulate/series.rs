@@ -21,7 +21,7 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use super::monitoring::FailureLaw;
-use super::scenes::{long_range, project, LongRangeParams, SceneError};
+use super::scenes::{long_range, project, LongRangeParams, SceneError, Truth, TruthCamera};
 use crate::photogrammetry::input::epoch::{EpochInput, ObservationInput};
 
 /// Parameters of [`image_series`].
@@ -151,21 +151,7 @@ fn uniform(rng: &mut ChaCha8Rng, half: f64) -> f64 {
 
 /// Generates the series (see the module documentation).
 pub fn image_series(sc: &ImageSeriesScenario) -> Result<ImageSeries, SceneError> {
-    let bad = |name: &'static str, reason: &str| SceneError::BadParameter {
-        name,
-        reason: reason.to_string(),
-    };
-    if sc.epochs == 0 {
-        return Err(bad("epochs", "at least 1"));
-    }
-    if sc.interval_hours.is_nan() || sc.interval_hours <= 0.0 {
-        return Err(bad("interval_hours", "must be positive"));
-    }
-    let dir = Vector3::from(sc.direction);
-    if dir.norm().is_nan() || dir.norm() == 0.0 {
-        return Err(bad("direction", "must be a non-zero vector"));
-    }
-    let dir = dir.normalize();
+    let dir = checked_direction(sc)?;
     let params = LongRangeParams {
         seed: sc.seed,
         width_px: 4000,
@@ -185,43 +171,7 @@ pub fn image_series(sc: &ImageSeriesScenario) -> Result<ImageSeries, SceneError>
         .first()
         .cloned()
         .ok_or_else(|| bad("cameras", "the scene has no camera"))?;
-    let (pixel, w, h) = (
-        params.pixel_size_mm,
-        params.width_px as f64,
-        params.height_px as f64,
-    );
-
-    // Roles by distance from the face centre: the block in the middle, the stable ring outside.
-    let centre = [0.0, params.face_height_m / 2.0];
-    let mut order: Vec<(&String, f64)> = truth
-        .points
-        .iter()
-        .map(|(n, x)| (n, (x[0] - centre[0]).hypot(x[1] - centre[1])))
-        .collect();
-    order.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let block: Vec<String> = order[..sc.block_points]
-        .iter()
-        .map(|(n, _)| n.to_string())
-        .collect();
-    let stable: Vec<String> = order[order.len() - sc.stable_points..]
-        .iter()
-        .map(|(n, _)| n.to_string())
-        .collect();
-    let points: Vec<SeriesPoint> = truth
-        .points
-        .iter()
-        .map(|(n, x)| SeriesPoint {
-            name: n.clone(),
-            role: if stable.contains(n) {
-                "stable"
-            } else {
-                "monitored"
-            }
-            .into(),
-            group: block.contains(n).then(|| "block".to_string()),
-            xyz_m: *x,
-        })
-        .collect();
+    let points = series_points(&truth, &params, sc);
 
     let mut rng = ChaCha8Rng::seed_from_u64(sc.seed);
     rng.set_stream(101);
@@ -261,38 +211,8 @@ pub fn image_series(sc: &ImageSeriesScenario) -> Result<ImageSeries, SceneError>
                 .cameras
                 .get(&station)
                 .ok_or_else(|| bad("station", "no true camera for a station"))?;
-            // The set-up of this epoch: the base station moved and turned a little.
-            let xo = [
-                cam.xo[0] + uniform(&mut rng, sc.setup_position_m),
-                cam.xo[1] + uniform(&mut rng, sc.setup_position_m),
-                cam.xo[2] + uniform(&mut rng, sc.setup_position_m),
-            ];
-            let a = sc.setup_angle_deg.to_radians();
-            let turn = Rotation3::from_euler_angles(
-                uniform(&mut rng, a),
-                uniform(&mut rng, a),
-                uniform(&mut rng, a),
-            );
-            let r0 = Matrix3::from_fn(|i, j| cam.r[i][j]);
-            let r1 = turn.matrix() * r0;
-            let r: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| r1[(i, j)]));
-            image.observations.clear();
-            for (name, x) in &now {
-                let e: [f64; 2] = [rng.sample(StandardNormal), rng.sample(StandardNormal)];
-                let Some(xy) = project(&r, xo, &interior, *x) else {
-                    continue;
-                };
-                if xy[0].abs() > w * pixel / 2.0 || xy[1].abs() > h * pixel / 2.0 {
-                    continue;
-                }
-                image.observations.push(ObservationInput {
-                    point: name.clone(),
-                    x_mm: None,
-                    y_mm: None,
-                    col: Some(xy[0] / pixel + (w - 1.0) / 2.0 + params.noise_px * e[0]),
-                    row: Some((h - 1.0) / 2.0 - xy[1] / pixel + params.noise_px * e[1]),
-                });
-            }
+            let setup = set_up_again(cam, sc, &mut rng);
+            image.observations = photograph(&setup, &interior, &params, &now, &mut rng);
         }
         input.cameras = vec![camera.clone()];
         epochs.push(input);
@@ -315,6 +235,119 @@ pub fn image_series(sc: &ImageSeriesScenario) -> Result<ImageSeries, SceneError>
             failure_at: accelerating.map(|_| at(sc.start, sc.law.failure_days)),
         },
     })
+}
+
+fn bad(name: &'static str, reason: &str) -> SceneError {
+    SceneError::BadParameter {
+        name,
+        reason: reason.to_string(),
+    }
+}
+
+/// The block's unit direction, after checking the epochs and their interval.
+fn checked_direction(sc: &ImageSeriesScenario) -> Result<Vector3<f64>, SceneError> {
+    if sc.epochs == 0 {
+        return Err(bad("epochs", "at least 1"));
+    }
+    if sc.interval_hours.is_nan() || sc.interval_hours <= 0.0 {
+        return Err(bad("interval_hours", "must be positive"));
+    }
+    let dir = Vector3::from(sc.direction);
+    if dir.norm().is_nan() || dir.norm() == 0.0 {
+        return Err(bad("direction", "must be a non-zero vector"));
+    }
+    Ok(dir.normalize())
+}
+
+/// The targets with their roles, by distance from the face centre: the block in the middle,
+/// the stable ring outside, the others monitored.
+fn series_points(
+    truth: &Truth,
+    params: &LongRangeParams,
+    sc: &ImageSeriesScenario,
+) -> Vec<SeriesPoint> {
+    let centre = [0.0, params.face_height_m / 2.0];
+    let mut order: Vec<(&String, f64)> = truth
+        .points
+        .iter()
+        .map(|(n, x)| (n, (x[0] - centre[0]).hypot(x[1] - centre[1])))
+        .collect();
+    order.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let block: Vec<String> = order[..sc.block_points]
+        .iter()
+        .map(|(n, _)| n.to_string())
+        .collect();
+    let stable: Vec<String> = order[order.len() - sc.stable_points..]
+        .iter()
+        .map(|(n, _)| n.to_string())
+        .collect();
+    truth
+        .points
+        .iter()
+        .map(|(n, x)| SeriesPoint {
+            name: n.clone(),
+            role: if stable.contains(n) {
+                "stable"
+            } else {
+                "monitored"
+            }
+            .into(),
+            group: block.contains(n).then(|| "block".to_string()),
+            xyz_m: *x,
+        })
+        .collect()
+}
+
+/// This epoch's set-up of a station: its base position `cam` moved (m) and turned (deg) a
+/// little, uniformly within the scenario's bounds.
+fn set_up_again(cam: &TruthCamera, sc: &ImageSeriesScenario, rng: &mut ChaCha8Rng) -> TruthCamera {
+    let xo = [
+        cam.xo[0] + uniform(rng, sc.setup_position_m),
+        cam.xo[1] + uniform(rng, sc.setup_position_m),
+        cam.xo[2] + uniform(rng, sc.setup_position_m),
+    ];
+    let a = sc.setup_angle_deg.to_radians();
+    let turn = Rotation3::from_euler_angles(uniform(rng, a), uniform(rng, a), uniform(rng, a));
+    let r0 = Matrix3::from_fn(|i, j| cam.r[i][j]);
+    let r1 = turn.matrix() * r0;
+    TruthCamera {
+        xo,
+        r: std::array::from_fn(|i| std::array::from_fn(|j| r1[(i, j)])),
+    }
+}
+
+/// The pixel observations of the points `now` (name, site-frame m) that fall on the sensor of
+/// `params`, seen from `setup` with `interior`, with the scene's image noise.
+fn photograph(
+    setup: &TruthCamera,
+    interior: &[f64; 8],
+    params: &LongRangeParams,
+    now: &[(String, [f64; 3])],
+    rng: &mut ChaCha8Rng,
+) -> Vec<ObservationInput> {
+    let (pixel, w, h) = (
+        params.pixel_size_mm,
+        params.width_px as f64,
+        params.height_px as f64,
+    );
+    let mut observations = vec![];
+    for (name, x) in now {
+        let e: [f64; 2] = [rng.sample(StandardNormal), rng.sample(StandardNormal)];
+        let Some(xy) = project(&setup.r, setup.xo, interior, *x) else {
+            continue;
+        };
+        if xy[0].abs() > w * pixel / 2.0 || xy[1].abs() > h * pixel / 2.0 {
+            continue;
+        }
+        observations.push(ObservationInput {
+            point: name.clone(),
+            x_mm: None,
+            y_mm: None,
+            col: Some(xy[0] / pixel + (w - 1.0) / 2.0 + params.noise_px * e[0]),
+            row: Some((h - 1.0) / 2.0 - xy[1] / pixel + params.noise_px * e[1]),
+        });
+    }
+    observations
 }
 
 #[cfg(test)]
