@@ -21,7 +21,7 @@ use crate::photogrammetry::solve::lm::{
     levenberg_marquardt, levenberg_marquardt_normals, LmOutcome, Start,
 };
 use crate::photogrammetry::solve::normal_equations::Normals;
-use crate::photogrammetry::start::start_values::{start_values, StartImage};
+use crate::photogrammetry::start::start_values::{start_values, StartImage, StartValues};
 use crate::photogrammetry::statistics::global_test::{chi2_upper, variance_model, GLOBAL_TEST_Z};
 use crate::photogrammetry::statistics::precision::Cofactors;
 use crate::photogrammetry::statistics::snooping::{
@@ -185,13 +185,10 @@ fn choose_datum(problem: &EpochProblem, warnings: &mut Vec<String>) -> (Datum, u
 
 /// Start values from the known points, the working frame (Z along the mean viewing axis, origin
 /// at the centroid of all start points) and the stage-1 bundle in it.
-fn prepare(problem: &EpochProblem, options: &AdjustOptions) -> Result<Prepared, AdjustError> {
-    let np = problem.points.len();
-    let KnownPoints {
-        centred: known,
-        origin,
-    } = known_points(problem, options)?;
-    let start_images: Vec<StartImage> = problem
+/// The images as the start values see them: each observation corrected for its camera's lens
+/// distortion (image mm).
+fn start_images(problem: &EpochProblem) -> Vec<StartImage> {
+    problem
         .images
         .iter()
         .map(|im| {
@@ -206,9 +203,12 @@ fn prepare(problem: &EpochProblem, options: &AdjustOptions) -> Result<Prepared, 
                     .collect(),
             }
         })
-        .collect();
-    let start = start_values(&start_images, &known)?;
+        .collect()
+}
 
+/// The working frame (docs/orthogonal-projection.md): axes from the start rotations' first and
+/// third rows, origin at the start points' centroid (in the site frame: centred + `origin`, m).
+fn working_frame(start: &StartValues, origin: Vector3<f64>) -> WorkingFrame {
     let r1s: Vec<Vector3<f64>> = start
         .rotations
         .iter()
@@ -219,8 +219,42 @@ fn prepare(problem: &EpochProblem, options: &AdjustOptions) -> Result<Prepared, 
         .iter()
         .map(|r| r.row(2).transpose())
         .collect();
-    let centroid = start.points.iter().fold(Vector3::zeros(), |a, b| a + b) / np as f64;
-    let frame = WorkingFrame::from_axes(&r1s, &r3s, centroid + origin);
+    let centroid =
+        start.points.iter().fold(Vector3::zeros(), |a, b| a + b) / start.points.len() as f64;
+    WorkingFrame::from_axes(&r1s, &r3s, centroid + origin)
+}
+
+/// Every observation of the problem, in image order, with its index per point; those the start
+/// values flagged as `suspects` (image, observation index; sorted) start inactive.
+fn observations(
+    problem: &EpochProblem,
+    suspects: &[(usize, usize)],
+) -> (Vec<Obs>, Vec<Vec<usize>>) {
+    let mut obs = Vec::new();
+    let mut point_obs = vec![Vec::new(); problem.points.len()];
+    for (j, im) in problem.images.iter().enumerate() {
+        for (k, o) in im.observations.iter().enumerate() {
+            point_obs[o.point].push(obs.len());
+            obs.push(Obs {
+                image: j,
+                point: o.point,
+                meas: o.xy,
+                active: suspects.binary_search(&(j, k)).is_err(),
+                weight: 1.0,
+            });
+        }
+    }
+    (obs, point_obs)
+}
+
+fn prepare(problem: &EpochProblem, options: &AdjustOptions) -> Result<Prepared, AdjustError> {
+    let np = problem.points.len();
+    let KnownPoints {
+        centred: known,
+        origin,
+    } = known_points(problem, options)?;
+    let start = start_values(&start_images(problem), &known)?;
+    let frame = working_frame(&start, origin);
     let to_w = |x_centred: &Vector3<f64>| frame.to_working(x_centred + origin);
 
     let mut warnings = Vec::new();
@@ -244,20 +278,7 @@ fn prepare(problem: &EpochProblem, options: &AdjustOptions) -> Result<Prepared, 
     let mirrors: Vec<Option<ImageState>> = (0..nimg)
         .map(|j| start.mirrors[j].map(|(r, xo)| state(j, &r, &xo)))
         .collect();
-    let mut obs = Vec::new();
-    let mut point_obs = vec![Vec::new(); np];
-    for (j, im) in problem.images.iter().enumerate() {
-        for (k, o) in im.observations.iter().enumerate() {
-            point_obs[o.point].push(obs.len());
-            obs.push(Obs {
-                image: j,
-                point: o.point,
-                meas: o.xy,
-                active: start.suspects.binary_search(&(j, k)).is_err(),
-                weight: 1.0,
-            });
-        }
-    }
+    let (obs, point_obs) = observations(problem, &start.suspects);
     let mut bundle = Bundle {
         model: Model::Orthogonal,
         zbar,
