@@ -9,15 +9,15 @@ use axum::extract::rejection::QueryRejection;
 use axum::extract::{Path, Query, State};
 use axum::response::Html;
 use axum::Extension;
-use maud::html;
+use maud::{html, Markup};
 
 use super::acknowledge::alert_row;
 use super::alert_filter::{AlertFilter, AlertQuery};
-use super::layout::{level_badge, num, page, seg, with_sigma};
+use super::layout::{level_badge, num, page, seg, with_sigma, Viewer};
 use super::local_time::when;
 use super::plan_svg::{face_plan, PlanPoint};
 use super::{viewer, PageError};
-use crate::analysis::PointRole;
+use crate::analysis::{AlertLevel, PointRole};
 use crate::api::auth::Access;
 use crate::api::AppState;
 use crate::store::{alerts, displacements, epochs, points, sites};
@@ -75,30 +75,62 @@ pub async fn site(
         .collect();
     let v = viewer(access.as_deref());
     let site_href = format!("/sites/{}", seg(&site.id));
+    let tz = site.time_zone.as_deref();
     let body = html! {
         h1 { (site.name) " " small { (site.id) } }
         p {
             a href={ (site_href) "/report" } { "Campaign report" } " (printable; add " code { "?from=YYYY-MM-DD&to=YYYY-MM-DD" } " for a period) · "
             a href={ "/api/v1/cap/feed.atom?site=" (seg(&site.id)) } { "public-warning feed (CAP 1.2, Atom)" }
-            @if let Some(z) = &site.time_zone { " · times in UTC and " (z) }
+            @if let Some(z) = tz { " · times in UTC and " (z) }
         }
         section {
             h2 { "Face plan" }
             (face_plan(&site.id, &plan))
         }
+        (alerts_section(&filter, &shown, truncated, &v, &site_href, tz))
+        (points_table(&pts, &latest, &levels, &site_href))
+        (epochs_table(&epoch_rows, &site_href, tz))
+    };
+    let crumbs = [(site.name.clone(), site_href.clone())];
+    Ok(Html(page(&site.name, &crumbs, &v, body).into_string()))
+}
+
+/// The alerts matching `filter`, each with its acknowledgement form where `v` may acknowledge;
+/// `truncated` when the newest [`ALERTS_READ`] were not all of them.
+fn alerts_section(
+    filter: &AlertFilter,
+    shown: &[alerts::Alert],
+    truncated: bool,
+    v: &Viewer,
+    site_href: &str,
+    tz: Option<&str>,
+) -> Markup {
+    html! {
         section #alerts {
             h2 { (filter.heading()) }
-            (filter.form(&site_href))
+            (filter.form(site_href))
             @if shown.is_empty() {
                 p.note { "No alert matches." }
             } @else {
                 table.alerts {
                     thead { tr { th { "level" } th { "subject" } th { "rule" } th { "value" } th.wide { "epoch" } th { "state" } th { "acknowledge" } } }
-                    tbody { @for a in &shown { (alert_row(a, &v, site.time_zone.as_deref())) } }
+                    tbody { @for a in shown { (alert_row(a, v, tz)) } }
                 }
                 @if truncated { p.note { "Only the newest " (ALERTS_READ) " alerts of this state were searched." } }
             }
         }
+    }
+}
+
+/// Every point with its role, alert level and latest displacement (mm ± σ), significance,
+/// velocity (mm/day, filtered where available) and time to failure (h).
+fn points_table(
+    pts: &[points::Point],
+    latest: &HashMap<String, displacements::Displacement>,
+    levels: &HashMap<String, AlertLevel>,
+    site_href: &str,
+) -> Markup {
+    html! {
         section {
             h2 { "Points" }
             table.points {
@@ -107,7 +139,7 @@ pub async fn site(
                     th { "velocity (mm/day)" } th { "time to failure (h)" }
                 } }
                 tbody {
-                    @for p in &pts {
+                    @for p in pts {
                         @let d = latest.get(&p.name);
                         tr {
                             td { a href={ (site_href) "/points/" (seg(&p.name)) } { (p.name) } }
@@ -122,14 +154,21 @@ pub async fn site(
                 }
             }
         }
+    }
+}
+
+/// The newest epochs: time (UTC and `tz`), status, σ0 (mm), c ± σ (mm), iterations and dropped
+/// observations, each linked to its epoch page.
+fn epochs_table(epochs: &[epochs::EpochListItem], site_href: &str, tz: Option<&str>) -> Markup {
+    html! {
         section {
             h2 { "Epochs" }
             table.epochs {
                 thead { tr { th { "observed at" } th { "status" } th.wide { "σ0 (mm)" } th { "c ± σ (mm)" } th.wide { "iterations" } th.wide { "dropped" } } }
                 tbody {
-                    @for e in &epoch_rows {
+                    @for e in epochs {
                         tr {
-                            td { a href={ (site_href) "/epochs/" (e.id) } { (when(&e.observed_at, site.time_zone.as_deref())) } }
+                            td { a href={ (site_href) "/epochs/" (e.id) } { (when(&e.observed_at, tz)) } }
                             td { (e.status) }
                             td.num.wide { (num(Some(e.sigma0_mm), 5)) }
                             td.num { (with_sigma(e.c_mm, e.c_sigma_mm, 3)) }
@@ -140,7 +179,5 @@ pub async fn site(
                 }
             }
         }
-    };
-    let crumbs = [(site.name.clone(), site_href.clone())];
-    Ok(Html(page(&site.name, &crumbs, &v, body).into_string()))
+    }
 }
