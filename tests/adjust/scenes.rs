@@ -431,3 +431,19 @@ fn snooping_leaves_every_observation_on_its_side_of_the_critical_value() {
     // and each swap adds two blunders: the test has drops to judge.
     assert!(drops >= 10, "only {drops} drops");
 }
+
+#[test]
+fn a_large_network_gives_the_same_report_on_every_run() {
+    // Its sums run on the rayon pool; they must not depend on how the threads shared the work
+    // (the datum projection's sum once did: σ differed in the 10th digit from run to run).
+    use cliffwatch::simulate::scenes::{large, LargeParams};
+    let (epoch, _) = large(&LargeParams::default()).unwrap();
+    let report = || {
+        let adj = adjust(&epoch, &options(Model::Orthogonal)).unwrap();
+        serde_json::to_string(&adj.report).unwrap()
+    };
+    let first = report();
+    for run in 2..=4 {
+        assert!(report() == first, "run {run} differs from the first");
+    }
+}

@@ -10,6 +10,9 @@ use crate::photogrammetry::model::dual::Dual;
 use crate::photogrammetry::solve::normal_equations::{Normals, PARALLEL_MIN_OBSERVATIONS};
 use rayon::prelude::*;
 
+/// Points per block of the datum projection's parallel sum (see `Cofactors::datum_projection`).
+const DATUM_BLOCK_POINTS: usize = 256;
+
 type G = SMatrix<f64, 3, 7>;
 type M7 = SMatrix<f64, 7, 7>;
 
@@ -122,20 +125,29 @@ impl Cofactors {
             bm
         };
         let bm: Vec<[f64; 7]> = if parallel {
-            gs.par_iter()
+            // Fixed blocks of points summed in order, so that the result does not depend on how
+            // the threads shared the work: the same network gives the same σ on every run.
+            let partials: Vec<Vec<[f64; 7]>> = gs
+                .par_chunks(DATUM_BLOCK_POINTS)
                 .enumerate()
-                .fold(|| vec![[0.0f64; 7]; nc], add_points)
-                .reduce(
-                    || vec![[0.0f64; 7]; nc],
-                    |mut a, b| {
-                        for (x, y) in a.iter_mut().zip(&b) {
-                            for k in 0..7 {
-                                x[k] += y[k];
-                            }
-                        }
-                        a
-                    },
-                )
+                .map(|(ci, block)| {
+                    let first = ci * DATUM_BLOCK_POINTS;
+                    block
+                        .iter()
+                        .enumerate()
+                        .map(|(k, g)| (first + k, g))
+                        .fold(vec![[0.0f64; 7]; nc], add_points)
+                })
+                .collect();
+            let mut sum = vec![[0.0f64; 7]; nc];
+            for part in &partials {
+                for (x, y) in sum.iter_mut().zip(part) {
+                    for k in 0..7 {
+                        x[k] += y[k];
+                    }
+                }
+            }
+            sum
         } else {
             gs.iter()
                 .enumerate()
