@@ -6,6 +6,71 @@ use super::area::SiteArea;
 use super::xml::{cap_time, escape};
 use crate::analysis::{AlertEventType, AlertLevel};
 
+/// The message's description: the alert's message, then the measured value against its
+/// threshold and the campaign it was measured at.
+fn description(now: &Snapshot) -> String {
+    let mut description = now.message.clone();
+    if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
+        description.push_str(&format!("\nMeasured {} {unit}", number(v)));
+        if let Some(t) = now.threshold {
+            description.push_str(&format!(" (threshold {} {unit})", number(t)));
+        }
+        if let Some(o) = &now.observed_at {
+            description.push_str(&format!(" at the campaign of {o}"));
+        }
+        description.push('.');
+    }
+    description
+}
+
+/// What the public is asked to do at this step.
+fn instruction(step: &CapStep) -> &'static str {
+    match (step.msg_type, step.reason, step.level) {
+        (MsgType::Cancel, "resolved", _) => {
+            "The measured movement is back within the thresholds; the warning is withdrawn."
+        }
+        (MsgType::Cancel, _, _) => {
+            "The level fell below warning; the site stays under watch and the warning is withdrawn."
+        }
+        (_, _, AlertLevel::Alarm) => {
+            "Keep out of the warning area until the all-clear. Follow the instructions of the authorities."
+        }
+        _ => "Movement beyond the warning threshold was measured. Expect closures of the warning area and follow local instructions.",
+    }
+}
+
+/// The `cliffwatch:` parameters: site, point or group, level, rule and the measured value.
+fn parameters(alert: &Subject<'_>, step: &CapStep) -> Vec<(&'static str, String)> {
+    let now = &step.snapshot;
+    let mut parameters: Vec<(&str, String)> = vec![("cliffwatch:site", alert.site.into())];
+    if let Some(p) = alert.point {
+        parameters.push(("cliffwatch:point", p.into()));
+    }
+    if let Some(g) = alert.group {
+        parameters.push(("cliffwatch:group", g.into()));
+    }
+    parameters.push(("cliffwatch:level", step.level.to_string()));
+    parameters.push(("cliffwatch:rule", alert.rule.into()));
+    if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
+        parameters.push(("cliffwatch:value", format!("{} {unit}", number(v))));
+    }
+    parameters
+}
+
+/// The `<area>`: the configured area's description, polygon and circle, else the site's name.
+fn area(d: &mut String, ctx: &CapContext<'_>) {
+    d.push_str("    <area>\n");
+    let area_desc = ctx.area.map_or(ctx.site_name, |a| a.description.as_str());
+    element(d, 3, "areaDesc", area_desc);
+    if let Some(p) = ctx.area.and_then(SiteArea::cap_polygon) {
+        element(d, 3, "polygon", &p);
+    }
+    if let Some(c) = ctx.area.and_then(SiteArea::cap_circle) {
+        element(d, 3, "circle", &c);
+    }
+    d.push_str("    </area>\n");
+}
+
 /// CAP `msgType` of a message in an alert's thread.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MsgType {
@@ -250,29 +315,6 @@ pub fn cap_message(
     let (urgency, severity, certainty, response) = grading(step);
     let headline = headline(alert, ctx.site_name, step);
     let now = &step.snapshot;
-    let mut description = now.message.clone();
-    if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
-        description.push_str(&format!("\nMeasured {} {unit}", number(v)));
-        if let Some(t) = now.threshold {
-            description.push_str(&format!(" (threshold {} {unit})", number(t)));
-        }
-        if let Some(o) = &now.observed_at {
-            description.push_str(&format!(" at the campaign of {o}"));
-        }
-        description.push('.');
-    }
-    let instruction = match (step.msg_type, step.reason, step.level) {
-        (MsgType::Cancel, "resolved", _) => {
-            "The measured movement is back within the thresholds; the warning is withdrawn.".to_string()
-        }
-        (MsgType::Cancel, _, _) => {
-            "The level fell below warning; the site stays under watch and the warning is withdrawn.".to_string()
-        }
-        (_, _, AlertLevel::Alarm) => {
-            "Keep out of the warning area until the all-clear. Follow the instructions of the authorities.".to_string()
-        }
-        _ => "Movement beyond the warning threshold was measured. Expect closures of the warning area and follow local instructions.".to_string(),
-    };
     let references: Vec<String> = thread
         .iter()
         .filter(|s| s.seq < step.seq)
@@ -322,39 +364,18 @@ pub fn cap_message(
         &format!("cliffwatch: {}", ctx.site_name),
     );
     element(d, 2, "headline", &headline);
-    element(d, 2, "description", &description);
-    element(d, 2, "instruction", &instruction);
+    element(d, 2, "description", &description(now));
+    element(d, 2, "instruction", instruction(step));
     if let Some(web) = &ctx.web {
         element(d, 2, "web", web);
     }
-    let mut parameters: Vec<(&str, String)> = vec![("cliffwatch:site", alert.site.into())];
-    if let Some(p) = alert.point {
-        parameters.push(("cliffwatch:point", p.into()));
-    }
-    if let Some(g) = alert.group {
-        parameters.push(("cliffwatch:group", g.into()));
-    }
-    parameters.push(("cliffwatch:level", step.level.to_string()));
-    parameters.push(("cliffwatch:rule", alert.rule.into()));
-    if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
-        parameters.push(("cliffwatch:value", format!("{} {unit}", number(v))));
-    }
-    for (name, value) in &parameters {
+    for (name, value) in &parameters(alert, step) {
         d.push_str("    <parameter>\n");
         element(d, 3, "valueName", name);
         element(d, 3, "value", value);
         d.push_str("    </parameter>\n");
     }
-    d.push_str("    <area>\n");
-    let area_desc = ctx.area.map_or(ctx.site_name, |a| a.description.as_str());
-    element(d, 3, "areaDesc", area_desc);
-    if let Some(p) = ctx.area.and_then(SiteArea::cap_polygon) {
-        element(d, 3, "polygon", &p);
-    }
-    if let Some(c) = ctx.area.and_then(SiteArea::cap_circle) {
-        element(d, 3, "circle", &c);
-    }
-    d.push_str("    </area>\n");
+    area(d, ctx);
     doc.push_str("  </info>\n</alert>\n");
     doc
 }

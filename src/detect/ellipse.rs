@@ -312,27 +312,15 @@ fn inscribed_disc(
     Some(([sx / n, sy / n], best as f64 / 3.0 + 0.5))
 }
 
-/// Fits the blurred-ellipse model in a square window of half-size `half` px around `c0`, starting
-/// from radius `r0` px. None if the window leaves the image, the fit fails or leaves its bounds.
-pub fn fit_ellipse(
+/// The pixels of the square window of half-width `half` px about `c0` (which lies inside the
+/// image): `(x, y, value)` with x, y relative to the window's top-left pixel and the value signed so
+/// that the target is bright; row-major, with the row length and the window's origin (px).
+fn window(
     img: &GreyImage,
-    polarity: Polarity,
     c0: [f64; 2],
-    r0: f64,
     half: f64,
-) -> Option<EllipseFit> {
-    if !(r0.is_finite() && r0 > 0.5 && half.is_finite() && half > r0) {
-        return None;
-    }
-    let sign = match polarity {
-        Polarity::BrightOnDark => 1.0,
-        Polarity::DarkOnBright => -1.0,
-    };
-    let (w, h) = (img.width() as f64, img.height() as f64);
-    if c0[0] - half < 0.0 || c0[1] - half < 0.0 || c0[0] + half > w - 1.0 || c0[1] + half > h - 1.0
-    {
-        return None;
-    }
+    sign: f64,
+) -> (Vec<(f64, f64, f64)>, usize, [f64; 2]) {
     let (x0, x1) = (
         (c0[0] - half).ceil() as usize,
         (c0[0] + half).floor() as usize,
@@ -352,31 +340,33 @@ pub fn fit_ellipse(
             ));
         }
     }
-    // start: background from the window border, amplitude from the centre pixel
+    (pix, x1 - x0 + 1, o)
+}
+
+/// The median value of the window's border pixels: the background's start value.
+fn border_median(pix: &[(f64, f64, f64)], nx: usize) -> f64 {
+    let (last_x, last_y) = ((nx - 1) as f64, (pix.len() / nx - 1) as f64);
     let mut border: Vec<f64> = pix
         .iter()
-        .filter(|p| p.0 == 0.0 || p.1 == 0.0 || p.0 == (x1 - x0) as f64 || p.1 == (y1 - y0) as f64)
+        .filter(|p| p.0 == 0.0 || p.1 == 0.0 || p.0 == last_x || p.1 == last_y)
         .map(|p| p.2)
         .collect();
     border.sort_by(|a, b| a.total_cmp(b));
-    let b0 = border[border.len() / 2];
-    let nx = x1 - x0 + 1;
-    let cpx = (c0[0].round() as usize, c0[1].round() as usize);
-    let a0 = sign * img.get(cpx.0, cpx.1) as f64 - b0;
-    if a0 <= 0.0 {
-        return None;
-    }
-    // start: the largest disc inscribed in the half-amplitude region near the start — the target
-    // itself even when a glint or a neighbour touches it and pulls the centroid
-    let (cs, rs) = inscribed_disc(&pix, nx, b0 + 0.5 * a0, [c0[0] - o[0], c0[1] - o[1]], r0)
-        .unwrap_or(([c0[0] - o[0], c0[1] - o[1]], r0));
-    let q0 = 1.0 / (rs * rs);
-    let p = Par::from_column_slice(&[cs[0], cs[1], q0, 0.0, q0, 0.8, a0, b0, 0.0, 0.0]);
-    // first fit without the asymmetric bright parts: an ellipse is point-symmetric about its centre,
-    // so bright pixels outside the inscribed disc whose reflection through its centre is not bright
-    // belong to something else (a glint, a neighbour); they and their neighbours are left out
+    border[border.len() / 2]
+}
+
+/// The pixels the first fit uses: an ellipse is point-symmetric about its centre, so a pixel
+/// brighter than `level` outside the start disc (centre `cs`, radius `rs`, window px) whose
+/// reflection through `cs` is not bright belongs to something else (a glint, a neighbour); it and
+/// its neighbours within `GROW` px are left out.
+fn symmetric_core(
+    pix: &[(f64, f64, f64)],
+    nx: usize,
+    cs: [f64; 2],
+    rs: f64,
+    level: f64,
+) -> Vec<bool> {
     let ny = pix.len() / nx;
-    let level = b0 + 0.5 * a0;
     let bright = |i: usize| pix[i].2 > level;
     let outside = |i: usize| (pix[i].0 - cs[0]).hypot(pix[i].1 - cs[1]) > rs + 0.5;
     let mut core = vec![true; pix.len()];
@@ -402,6 +392,58 @@ pub fn fit_ellipse(
             }
         }
     }
+    core
+}
+
+/// Semi-axes (major, minor; px) of the conic `a x² + 2 b x y + c y² = 1`; None unless it is an
+/// ellipse.
+fn semi_axes(a: f64, b: f64, c: f64) -> Option<[f64; 2]> {
+    let tr = a + c;
+    let disc = (0.25 * (a - c).powi(2) + b * b).sqrt();
+    let (l_small, l_big) = (0.5 * tr - disc, 0.5 * tr + disc);
+    if l_small <= 0.0 {
+        return None;
+    }
+    Some([1.0 / l_small.sqrt(), 1.0 / l_big.sqrt()])
+}
+
+/// Fits the blurred-ellipse model in a square window of half-size `half` px around `c0`, starting
+/// from radius `r0` px. None if the window leaves the image, the fit fails or leaves its bounds.
+pub fn fit_ellipse(
+    img: &GreyImage,
+    polarity: Polarity,
+    c0: [f64; 2],
+    r0: f64,
+    half: f64,
+) -> Option<EllipseFit> {
+    if !(r0.is_finite() && r0 > 0.5 && half.is_finite() && half > r0) {
+        return None;
+    }
+    let sign = match polarity {
+        Polarity::BrightOnDark => 1.0,
+        Polarity::DarkOnBright => -1.0,
+    };
+    let (w, h) = (img.width() as f64, img.height() as f64);
+    if c0[0] - half < 0.0 || c0[1] - half < 0.0 || c0[0] + half > w - 1.0 || c0[1] + half > h - 1.0
+    {
+        return None;
+    }
+    let (pix, nx, o) = window(img, c0, half, sign);
+    // start: background from the window border, amplitude from the centre pixel
+    let b0 = border_median(&pix, nx);
+    let cpx = (c0[0].round() as usize, c0[1].round() as usize);
+    let a0 = sign * img.get(cpx.0, cpx.1) as f64 - b0;
+    if a0 <= 0.0 {
+        return None;
+    }
+    // start: the largest disc inscribed in the half-amplitude region near the start — the target
+    // itself even when a glint or a neighbour touches it and pulls the centroid
+    let (cs, rs) = inscribed_disc(&pix, nx, b0 + 0.5 * a0, [c0[0] - o[0], c0[1] - o[1]], r0)
+        .unwrap_or(([c0[0] - o[0], c0[1] - o[1]], r0));
+    let q0 = 1.0 / (rs * rs);
+    let p = Par::from_column_slice(&[cs[0], cs[1], q0, 0.0, q0, 0.8, a0, b0, 0.0, 0.0]);
+    // first fit without the asymmetric bright parts (glints, neighbours)
+    let core = symmetric_core(&pix, nx, cs, rs, b0 + 0.5 * a0);
     let (p, c_cur, n_final, used) = robust_fit(p, &pix, nx, core)?;
 
     // validity: positive-definite conic, centre near the start, sensible size and blur
@@ -409,13 +451,7 @@ pub fn fit_ellipse(
     if !(p[2] > 0.0 && p[4] > 0.0 && det > 0.0 && p[6] > 0.0 && p[5] < 0.5 * r0 + 2.0) {
         return None;
     }
-    let tr = p[2] + p[4];
-    let disc = (0.25 * (p[2] - p[4]).powi(2) + p[3] * p[3]).sqrt();
-    let (l_small, l_big) = (0.5 * tr - disc, 0.5 * tr + disc);
-    if l_small <= 0.0 {
-        return None;
-    }
-    let semi = [1.0 / l_small.sqrt(), 1.0 / l_big.sqrt()];
+    let semi = semi_axes(p[2], p[3], p[4])?;
     let centre = [p[0] + o[0], p[1] + o[1]];
     if (centre[0] - c0[0]).hypot(centre[1] - c0[1]) > 0.5 * r0 + 1.0
         || semi[0] > half

@@ -277,33 +277,37 @@ fn rival(
     ((free_total - forced_total) as f64 / SCALE, other)
 }
 
-/// Names `tracks` (affine frame) after `approx` (site frame, m); `fixed[k]` is the approximation a
-/// seeded track is known to be. Needs ≥ 4 fixed tracks spanning 3 dimensions; None otherwise.
-pub fn name_tracks(
+/// Each track's position predicted in the site frame by `map` (m), and its squared distance
+/// (m²) to every approximation.
+fn predictions_and_costs(
+    tracks: &[Vector3<f64>],
+    map: &Matrix3x4<f64>,
+    approx: &[Vector3<f64>],
+) -> (Vec<Vector3<f64>>, Vec<Vec<f64>>) {
+    let pred: Vec<Vector3<f64>> = tracks.iter().map(|x| apply(map, x)).collect();
+    let cost = pred
+        .iter()
+        .map(|p| approx.iter().map(|a| (p - a).norm_squared()).collect())
+        .collect();
+    (pred, cost)
+}
+
+/// Alternates assignment and map until the names settle (at most 10 rounds): each round assigns
+/// within 5 σ, refits the map to the seeds and the pairs within 4 σ, and takes σ (m per
+/// coordinate) from the refit's scatter. Returns the map and σ.
+fn refine_map(
     tracks: &[Vector3<f64>],
     fixed: &[Option<usize>],
     approx: &[Vector3<f64>],
+    mut map: Matrix3x4<f64>,
+    mut sigma: f64,
     opts: &NamingOptions,
-) -> Option<Naming> {
-    let seeded: Vec<(Vector3<f64>, Vector3<f64>)> = fixed
-        .iter()
-        .enumerate()
-        .filter_map(|(k, f)| f.map(|j| (tracks[k], approx[j])))
-        .collect();
-    let spacing = median_spacing(approx);
-    // start in the face's plane, where 3 seeds fix the map whatever their depths, then in 3-D
-    let mut map =
-        first_map_in_plane(tracks, fixed, approx, spacing).or_else(|| fit_affine(&seeded))?;
-    let mut sigma = (0.5 * spacing).max(opts.min_sigma_m);
+) -> (Matrix3x4<f64>, f64) {
     let mut names: Vec<Option<usize>> = fixed.to_vec();
     for _ in 0..10 {
-        let pred: Vec<Vector3<f64>> = tracks.iter().map(|x| apply(&map, x)).collect();
-        let cost: Vec<Vec<f64>> = pred
-            .iter()
-            .map(|p| approx.iter().map(|a| (p - a).norm_squared()).collect())
-            .collect();
+        let (_, cost) = predictions_and_costs(tracks, &map, approx);
         let next = assign(&cost, fixed, approx.len(), (5.0 * sigma).powi(2));
-        // refit on the assigned pairs within 3 σ (the seeds always)
+        // refit on the assigned pairs within 4 σ (the seeds always)
         let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = next
             .iter()
             .enumerate()
@@ -327,29 +331,27 @@ pub fn name_tracks(
             break;
         }
     }
-    let pred: Vec<Vector3<f64>> = tracks.iter().map(|x| apply(&map, x)).collect();
-    let cost: Vec<Vec<f64>> = pred
-        .iter()
-        .map(|p| approx.iter().map(|a| (p - a).norm_squared()).collect())
-        .collect();
-    names = assign(&cost, fixed, approx.len(), (5.0 * sigma).powi(2));
-    // The assignment picks the nearest approximations, so the scatter of the assigned pairs is biased
-    // low when the approximations are rough; the seeds' scatter is not (their names are known).
-    let seeded = fixed.iter().flatten().count();
-    let seed_ss: f64 = (0..tracks.len())
-        .filter_map(|k| fixed[k].map(|j| cost[k][j]))
-        .sum();
-    if seeded > 0 {
-        sigma = sigma.max((seed_ss / (3 * seeded) as f64).sqrt());
-    }
+    (map, sigma)
+}
+
+/// The names kept: a name whose best re-naming (see `rival`) is less than `opts.margin` times σ²
+/// worse is left out as ambiguous, and when most names are in doubt the map itself is not
+/// trusted and none is kept. Returns the kept names, the ambiguities and the unlisted tracks.
+fn leave_out_doubtful(
+    names: &[Option<usize>],
+    fixed: &[Option<usize>],
+    pred: &[Vector3<f64>],
+    cost: &[Vec<f64>],
+    sigma: f64,
+    opts: &NamingOptions,
+) -> (Vec<Option<usize>>, Vec<Ambiguity>, Vec<usize>) {
     let s2 = sigma * sigma;
-    let used: Vec<bool> = (0..approx.len())
-        .map(|j| names.contains(&Some(j)))
-        .collect();
+    let n_approx = cost.first().map_or(0, Vec::len);
+    let used: Vec<bool> = (0..n_approx).map(|j| names.contains(&Some(j))).collect();
     let mut ambiguous = Vec::new();
     let mut unlisted = Vec::new();
-    let mut out = names.clone();
-    for k in 0..tracks.len() {
+    let mut out = names.to_vec();
+    for k in 0..names.len() {
         if fixed[k].is_some() {
             continue;
         }
@@ -357,16 +359,7 @@ pub fn name_tracks(
             unlisted.push(k);
             continue;
         };
-        let best = rival(
-            k,
-            j,
-            &pred,
-            &names,
-            fixed,
-            &used,
-            &cost,
-            (5.0 * sigma).powi(2),
-        );
+        let best = rival(k, j, pred, names, fixed, &used, cost, (5.0 * sigma).powi(2));
         let margin = best.0 / s2;
         if margin < opts.margin {
             out[k] = None;
@@ -379,11 +372,11 @@ pub fn name_tracks(
         }
     }
     // When most names are in doubt the map itself is not to be trusted: name none.
-    let candidates = (0..tracks.len())
+    let candidates = (0..names.len())
         .filter(|&k| fixed[k].is_none() && names[k].is_some())
         .count();
     if 2 * ambiguous.len() > candidates {
-        for k in 0..tracks.len() {
+        for k in 0..names.len() {
             if fixed[k].is_none() && out[k].is_some() {
                 out[k] = None;
                 ambiguous.push(Ambiguity {
@@ -395,6 +388,46 @@ pub fn name_tracks(
             }
         }
     }
+    (out, ambiguous, unlisted)
+}
+
+/// Names `tracks` (affine frame) after `approx` (site frame, m); `fixed[k]` is the approximation a
+/// seeded track is known to be. Needs ≥ 4 fixed tracks spanning 3 dimensions; None otherwise.
+pub fn name_tracks(
+    tracks: &[Vector3<f64>],
+    fixed: &[Option<usize>],
+    approx: &[Vector3<f64>],
+    opts: &NamingOptions,
+) -> Option<Naming> {
+    let seeded: Vec<(Vector3<f64>, Vector3<f64>)> = fixed
+        .iter()
+        .enumerate()
+        .filter_map(|(k, f)| f.map(|j| (tracks[k], approx[j])))
+        .collect();
+    let spacing = median_spacing(approx);
+    // start in the face's plane, where 3 seeds fix the map whatever their depths, then in 3-D
+    let first =
+        first_map_in_plane(tracks, fixed, approx, spacing).or_else(|| fit_affine(&seeded))?;
+    let (map, mut sigma) = refine_map(
+        tracks,
+        fixed,
+        approx,
+        first,
+        (0.5 * spacing).max(opts.min_sigma_m),
+        opts,
+    );
+    let (pred, cost) = predictions_and_costs(tracks, &map, approx);
+    let names = assign(&cost, fixed, approx.len(), (5.0 * sigma).powi(2));
+    // The assignment picks the nearest approximations, so the scatter of the assigned pairs is biased
+    // low when the approximations are rough; the seeds' scatter is not (their names are known).
+    let seeded = fixed.iter().flatten().count();
+    let seed_ss: f64 = (0..tracks.len())
+        .filter_map(|k| fixed[k].map(|j| cost[k][j]))
+        .sum();
+    if seeded > 0 {
+        sigma = sigma.max((seed_ss / (3 * seeded) as f64).sqrt());
+    }
+    let (out, ambiguous, unlisted) = leave_out_doubtful(&names, fixed, &pred, &cost, sigma, opts);
     Some(Naming {
         names: out,
         ambiguous,
