@@ -31,6 +31,9 @@
 //! - [`watch`]: the watched directory: its folders, each station's detection, the naming of the
 //!   targets, and a folder's ingestion (as an upload, through [`service::ingest`]).
 //! - [`daemon`] and [`shutdown`]: start and stop every part with one shutdown signal.
+//!
+//! In the shell, a module is `pub` only when the binary, the tests, the benchmarks or the examples
+//! use it; the others (handlers, page templates, internal rows and helpers) are `pub(crate)`.
 
 // Numerical code indexes several parallel arrays with one loop variable; the lint fights that style.
 #![allow(clippy::needless_range_loop)]

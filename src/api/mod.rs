@@ -5,19 +5,19 @@
 //! [`crate::store`], and answers. [`router`] builds the service from an [`AppState`];
 //! [`crate::daemon`] binds and runs it.
 
-pub mod alerts;
-pub mod auth;
-pub mod cap;
-pub mod epochs;
-pub mod error;
-pub mod groups;
-pub mod health;
+pub(crate) mod alerts;
+pub(crate) mod auth;
+pub(crate) mod cap;
+pub(crate) mod epochs;
+pub(crate) mod error;
+pub(crate) mod groups;
+pub(crate) mod health;
 pub mod list;
-pub mod openapi;
+pub(crate) mod openapi;
 pub mod points;
-pub mod schemas;
-pub mod sites;
-pub mod webhooks;
+pub(crate) mod schemas;
+pub(crate) mod sites;
+pub(crate) mod webhooks;
 
 use std::sync::Arc;
 use std::time::Duration;

@@ -8,10 +8,10 @@
 //! `Update`, and its resolution or fall back to `watch` a `Cancel` ([`message::steps`]). Every
 //! message has its own identifier (`<alert id>.<n>`) and references the earlier ones.
 
-pub mod area;
-pub mod feed;
-pub mod message;
-pub mod xml;
+pub(crate) mod area;
+pub(crate) mod feed;
+pub(crate) mod message;
+pub(crate) mod xml;
 
 pub use area::{Circle, SiteArea};
 pub use feed::{atom_feed, FeedEntry};

@@ -19,26 +19,26 @@
 //! Pure parts (no I/O): [`face_plan`] (the face's plane), [`downsample`] (which epochs a plot
 //! draws), [`image_preview`] (a station image made small), [`plan_svg`], [`time_plot_svg`], [`local_time`] and [`layout`] (markup).
 
-pub mod acknowledge;
-pub mod alert_filter;
-pub mod assets;
+pub(crate) mod acknowledge;
+pub(crate) mod alert_filter;
+pub(crate) mod assets;
 pub mod downsample;
-pub mod epoch_images;
-pub mod epoch_page;
-pub mod face_plan;
+pub(crate) mod epoch_images;
+pub(crate) mod epoch_page;
+pub(crate) mod face_plan;
 pub mod image_preview;
-pub mod layout;
-pub mod local_time;
-pub mod natural_order;
-pub mod plan_svg;
-pub mod plot_data;
-pub mod point_page;
-pub mod report_page;
+pub(crate) mod layout;
+pub(crate) mod local_time;
+pub(crate) mod natural_order;
+pub(crate) mod plan_svg;
+pub(crate) mod plot_data;
+pub(crate) mod point_page;
+pub(crate) mod report_page;
 pub mod session;
-pub mod sign_in;
-pub mod site_page;
-pub mod sites_page;
-pub mod time_plot_svg;
+pub(crate) mod sign_in;
+pub(crate) mod site_page;
+pub(crate) mod sites_page;
+pub(crate) mod time_plot_svg;
 
 use axum::http::StatusCode;
 use axum::response::{Html, IntoResponse, Response};

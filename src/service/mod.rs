@@ -16,15 +16,15 @@
 //! Shared steps: [`analysis_inputs`] loads what the analysis needs, [`alert_outcome`] writes
 //! what the alert rules decide (state, alerts, outbox).
 
-pub mod acknowledge;
+pub(crate) mod acknowledge;
 pub mod admission;
-pub mod alert_outcome;
-pub mod analysis_inputs;
-pub mod error;
+pub(crate) mod alert_outcome;
+pub(crate) mod analysis_inputs;
+pub(crate) mod error;
 pub mod ingest;
-pub mod overdue;
+pub(crate) mod overdue;
 pub mod recompute;
-pub mod site_settings;
-pub mod webhook_delivery;
+pub(crate) mod site_settings;
+pub(crate) mod webhook_delivery;
 
 pub use error::ServiceError;

@@ -36,27 +36,27 @@
 //! Benchmarks and tests only, SQLite: `strftime`, `printf`, `WITH RECURSIVE` fills and the
 //! `dbstat` table (`benches/service.rs`, `tests/service/series.rs`).
 
-pub mod alert_states;
+pub(crate) mod alert_states;
 pub mod alerts;
-pub mod block_motions;
+pub(crate) mod block_motions;
 pub mod copy;
-pub mod displacement_row;
+pub(crate) mod displacement_row;
 pub mod displacements;
-pub mod epoch_report;
+pub(crate) mod epoch_report;
 pub mod epochs;
-pub mod groups;
+pub(crate) mod groups;
 pub mod joint_covariances;
-pub mod outbox;
+pub(crate) mod outbox;
 pub mod points;
 pub mod series;
 pub mod series_blocks;
 pub mod series_columns;
-pub mod series_postgres;
-pub mod series_record;
-pub mod sites;
-pub mod sqlite_raw;
+pub(crate) mod series_postgres;
+pub(crate) mod series_record;
+pub(crate) mod sites;
+pub(crate) mod sqlite_raw;
 pub mod wal_checkpoint;
-pub mod watch_state;
+pub(crate) mod watch_state;
 pub mod webhooks;
 
 use std::path::Path;

@@ -30,8 +30,8 @@
 //! loop that scans.
 
 mod error;
-pub mod folders;
-pub mod ingest;
+pub(crate) mod folders;
+pub(crate) mod ingest;
 mod naming;
 mod options;
 mod state;
