@@ -32,8 +32,11 @@
 //!   targets, and a folder's ingestion (as an upload, through [`service::ingest`]).
 //! - [`daemon`] and [`shutdown`]: start and stop every part with one shutdown signal.
 //!
-//! In the shell, a module is `pub` only when the binary, the tests, the benchmarks or the examples
-//! use it; the others (handlers, page templates, internal rows and helpers) are `pub(crate)`.
+//! A module is `pub` when the binary, the tests, the benchmarks or the examples use it; the
+//! others (handlers, page templates, internal rows, solver and detection steps) are `pub(crate)`.
+//! Four core modules stay `pub` although only the crate uses them, because private they would leave
+//! helpers without a caller (`detect::threshold`, `photogrammetry::model::orthogonal`,
+//! `photogrammetry::start::affine`) or trip clippy's naming rules (`photogrammetry::model::frame`).
 
 // Numerical code indexes several parallel arrays with one loop variable; the lint fights that style.
 #![allow(clippy::needless_range_loop)]

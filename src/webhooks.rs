@@ -13,10 +13,10 @@
 //!   gone on 410 → disable the endpoint, failed). The outbox worker (the service) stores the message id and
 //!   reuses it on every retry.
 
-pub mod deliver;
-pub mod payload;
-pub mod retry;
-pub mod sign;
+pub(crate) mod deliver;
+pub(crate) mod payload;
+pub(crate) mod retry;
+pub(crate) mod sign;
 
 pub use deliver::{deliver, DeliveryOutcome};
 pub use payload::{

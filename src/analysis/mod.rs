@@ -25,22 +25,22 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod alerts;
-pub mod analyse;
+pub(crate) mod analyse;
 pub mod block;
-pub mod block_analysis;
-pub mod congruence;
-pub mod datum;
-pub mod displacement;
-pub mod epoch;
-pub mod error;
+pub(crate) mod block_analysis;
+pub(crate) mod congruence;
+pub(crate) mod datum;
+pub(crate) mod displacement;
+pub(crate) mod epoch;
+pub(crate) mod error;
 pub mod failure;
 pub mod kalman;
-pub mod onset;
-pub mod reference;
-pub mod series;
+pub(crate) mod onset;
+pub(crate) mod reference;
+pub(crate) mod series;
 pub mod stats;
 pub mod tracking;
-pub mod velocity;
+pub(crate) mod velocity;
 
 pub use alerts::{
     acknowledge, analysis_failed, check_overdue, evaluate_alerts, may_acknowledge, reconcile,

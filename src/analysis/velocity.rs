@@ -12,7 +12,6 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use super::epoch::Window;
-use super::stats::normal_quantile;
 
 /// One sample of a displacement series: time in days relative to the current epoch (≤ 0), value in mm and
 /// its σ in mm.
@@ -31,10 +30,9 @@ pub struct Sample {
 pub struct PolyFit {
     /// Coefficients c0 + c1 t + c2 t² (mm, mm/day, mm/day²).
     pub coef: DVector<f64>,
-    /// Covariance of the coefficients (scaled by max(1, variance factor)).
+    /// Covariance of the coefficients, scaled by the a-posteriori variance factor vᵀPv / (n − u)
+    /// when that exceeds 1.
     pub cov: DMatrix<f64>,
-    /// A-posteriori variance factor vᵀPv / (n − u) (1 when n = u).
-    pub variance_factor: f64,
 }
 
 /// Weighted least-squares polynomial of `degree` through the samples; `None` when underdetermined.
@@ -71,11 +69,7 @@ pub fn fit_polynomial(samples: &[Sample], degree: usize) -> Option<PolyFit> {
     if !coef.iter().chain(cov.iter()).all(|v| v.is_finite()) {
         return None;
     }
-    Some(PolyFit {
-        coef,
-        cov,
-        variance_factor,
-    })
+    Some(PolyFit { coef, cov })
 }
 
 /// Velocity and acceleration of one point at the current epoch.
@@ -109,21 +103,8 @@ pub fn window_slice(samples: &[Sample], window: Window) -> &[Sample] {
 }
 
 /// Velocity over `window` and acceleration over `acceleration_window` (usually longer: an acceleration needs
-/// a longer baseline than a velocity); `None` with fewer than 2 epochs.
-pub fn kinematics(
-    samples: &[Sample],
-    window: Window,
-    acceleration_window: Window,
-    confidence: f64,
-    acceleration_confidence: f64,
-) -> Option<Kinematics> {
-    let z = normal_quantile(0.5 + 0.5 * confidence);
-    let z_acc = normal_quantile(acceleration_confidence);
-    kinematics_z(samples, window, acceleration_window, z, z_acc)
-}
-
-/// [`kinematics`] with the normal quantiles given: `z` two-sided for the velocity, `z_acc` one-sided for the
-/// acceleration (compute them once per epoch).
+/// a longer baseline than a velocity); `None` with fewer than 2 epochs. `z` is the two-sided normal quantile of
+/// the velocity test, `z_acc` the one-sided one of the acceleration test (computed once per epoch).
 pub fn kinematics_z(
     samples: &[Sample],
     window: Window,

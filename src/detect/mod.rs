@@ -7,16 +7,16 @@
 //! a blurred-ellipse model started from the centroid) → [`Target`] (centre, size, contrast, quality,
 //! [`CentreMethod`] used).
 
-pub mod centroid;
-pub mod components;
-pub mod decode;
-pub mod ellipse;
-pub mod error;
+pub(crate) mod centroid;
+pub(crate) mod components;
+pub(crate) mod decode;
+pub(crate) mod ellipse;
+pub(crate) mod error;
 pub mod first_epoch;
 pub mod identify;
-pub mod multiview;
-pub mod naming;
-pub mod target;
+pub(crate) mod multiview;
+pub(crate) mod naming;
+pub(crate) mod target;
 pub mod threshold;
 
 pub use decode::{decode, decode_with_limit, GreyImage};

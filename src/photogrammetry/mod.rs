@@ -15,7 +15,7 @@
 //! [`adjust`] / [`adjust_problem`] and the types re-exported here.
 
 pub mod adjust;
-pub mod error;
+pub(crate) mod error;
 pub mod input;
 pub mod model;
 pub(crate) mod solve;

@@ -17,14 +17,14 @@
 //! (a recomputed series against the stored state), [`overdue`] (the campaign schedule) and
 //! [`by_hand`] (acknowledgement and resolution by a person).
 
-pub mod alert;
-pub mod by_hand;
-pub mod evaluate;
-pub mod metric;
-pub mod overdue;
-pub mod readings;
-pub mod reconcile;
-pub mod rule;
+pub(crate) mod alert;
+pub(crate) mod by_hand;
+pub(crate) mod evaluate;
+pub(crate) mod metric;
+pub(crate) mod overdue;
+pub(crate) mod readings;
+pub(crate) mod reconcile;
+pub(crate) mod rule;
 mod transition;
 
 pub use alert::{

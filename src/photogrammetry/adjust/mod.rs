@@ -3,9 +3,9 @@
 //! orientations, residuals), [`result`] is what it returns with the options that steer it, and
 //! [`report`] the contract's adjustment report.
 
-pub mod adjuster;
-pub mod options;
+pub(crate) mod adjuster;
+pub(crate) mod options;
 pub mod report;
-pub mod result;
+pub(crate) mod result;
 pub(crate) mod robust;
 mod site_result;

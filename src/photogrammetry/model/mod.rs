@@ -5,11 +5,11 @@
 
 pub(crate) mod bundle;
 pub mod camera;
-pub mod central;
+pub(crate) mod central;
 pub(crate) mod dual;
 pub mod frame;
 pub mod orthogonal;
-pub mod rotation;
+pub(crate) mod rotation;
 
 use serde::{Deserialize, Serialize};
 

@@ -3,9 +3,9 @@
 //! blocks, [`dense`] and [`dense_schur`] the dense kernels), and [`lm`] iterates
 //! Levenberg–Marquardt on them.
 
-pub mod camera_blocks;
-pub mod dense;
-pub mod dense_schur;
-pub mod lm;
-pub mod normal_equations;
-pub mod normals;
+pub(crate) mod camera_blocks;
+pub(crate) mod dense;
+pub(crate) mod dense_schur;
+pub(crate) mod lm;
+pub(crate) mod normal_equations;
+pub(crate) mod normals;

@@ -3,4 +3,4 @@
 //! image with the closed-form perspective model and intersects the rays of every other point.
 
 pub mod affine;
-pub mod start_values;
+pub(crate) mod start_values;
