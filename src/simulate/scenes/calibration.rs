@@ -167,15 +167,13 @@ pub fn calibration(params: &CalibrationParams) -> Result<(EpochInput, Truth), Sc
                 [xy[0] + p.noise_mm * e[0], xy[1] + p.noise_mm * e[1]],
             ));
         }
-        truth
-            .cameras
-            .insert(id.clone(), TruthCamera { xo: *xo, r: *r });
-        images.push(ImageInput {
-            id: id.clone(),
-            camera: "cam".into(),
-            station: Some(id),
+        add_image(
+            &mut truth,
+            &mut images,
+            &id,
+            TruthCamera { xo: *xo, r: *r },
             observations,
-        });
+        );
     }
     let mut start = stream(p.seed, START);
     let is_control: Vec<bool> = (0..g * g).map(|i| corners.contains(&i)).collect();

@@ -138,15 +138,13 @@ pub fn large(params: &LargeParams) -> Result<(EpochInput, Truth), SceneError> {
     let mut images = Vec::new();
     for (i, ((xo, r), observations)) in stations.iter().zip(obs).enumerate() {
         let id = format!("L{:03}", i + 1);
-        truth
-            .cameras
-            .insert(id.clone(), TruthCamera { xo: *xo, r: *r });
-        images.push(ImageInput {
-            id: id.clone(),
-            camera: "cam".into(),
-            station: Some(id),
+        add_image(
+            &mut truth,
+            &mut images,
+            &id,
+            TruthCamera { xo: *xo, r: *r },
             observations,
-        });
+        );
     }
     let mut start = stream(p.seed, START);
     let approx = approx_list(

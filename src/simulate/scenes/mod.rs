@@ -316,3 +316,21 @@ fn plain_camera(id: &str, c_mm: f64, calibrate_c: bool, sigma_mm: Option<f64>) -
         sigma_mm,
     }
 }
+
+/// Adds image `id` (a station of its own, camera `cam`) with its observations to `images`, and its
+/// true orientation to `truth`.
+fn add_image(
+    truth: &mut Truth,
+    images: &mut Vec<ImageInput>,
+    id: &str,
+    camera: TruthCamera,
+    observations: Vec<ObservationInput>,
+) {
+    truth.cameras.insert(id.to_string(), camera);
+    images.push(ImageInput {
+        id: id.to_string(),
+        camera: "cam".into(),
+        station: Some(id.to_string()),
+        observations,
+    });
+}

@@ -123,15 +123,13 @@ pub fn paper_table1(params: &PaperParams) -> Result<(EpochInput, Truth), SceneEr
                 ],
             ));
         }
-        truth
-            .cameras
-            .insert(id.to_string(), TruthCamera { xo: *xo, r });
-        images.push(ImageInput {
-            id: id.to_string(),
-            camera: "cam".into(),
-            station: Some(id.to_string()),
+        add_image(
+            &mut truth,
+            &mut images,
+            id,
+            TruthCamera { xo: *xo, r },
             observations,
-        });
+        );
     }
     let mut start = stream(params.seed, START);
     let approx = approx_list(
