@@ -88,10 +88,7 @@ pub fn windowed_centroid(
     sigma_w: f64,
     r_bg: f64,
 ) -> Option<Centroid> {
-    let sign = match polarity {
-        Polarity::BrightOnDark => 1.0,
-        Polarity::DarkOnBright => -1.0,
-    };
+    let sign = polarity.sign();
     let plane = annulus_plane(img, c0, r_bg, r_bg + 3.0)?;
     let r_w = 4.0 * sigma_w;
     let r_w2 = r_w * r_w;

@@ -419,10 +419,7 @@ pub fn fit_ellipse(
     if !(r0.is_finite() && r0 > 0.5 && half.is_finite() && half > r0) {
         return None;
     }
-    let sign = match polarity {
-        Polarity::BrightOnDark => 1.0,
-        Polarity::DarkOnBright => -1.0,
-    };
+    let sign = polarity.sign();
     let (w, h) = (img.width() as f64, img.height() as f64);
     if c0[0] - half < 0.0 || c0[1] - half < 0.0 || c0[0] + half > w - 1.0 || c0[1] + half > h - 1.0
     {

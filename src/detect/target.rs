@@ -12,6 +12,16 @@ pub enum Polarity {
     DarkOnBright,
 }
 
+impl Polarity {
+    /// The factor that turns grey levels into a signal in which the targets are bright: +1 or −1.
+    pub fn sign(self) -> f64 {
+        match self {
+            Polarity::BrightOnDark => 1.0,
+            Polarity::DarkOnBright => -1.0,
+        }
+    }
+}
+
 /// How a centre was measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CentreMethod {

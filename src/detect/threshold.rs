@@ -105,10 +105,7 @@ pub fn threshold_runs(
     threshold: f64,
 ) -> Vec<Run> {
     let (w, h) = (img.width() as usize, img.height() as usize);
-    let sign: f32 = match polarity {
-        Polarity::BrightOnDark => 1.0,
-        Polarity::DarkOnBright => -1.0,
-    };
+    let sign = polarity.sign() as f32;
     let t = threshold as f32;
     let cols: Vec<(usize, f32)> = (0..w)
         .map(|x| {
