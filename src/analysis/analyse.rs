@@ -6,6 +6,7 @@ use chrono::{DateTime, Utc};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use super::alignment::{self, Similarity};
 use super::block_analysis::{analyse_blocks, BlockAnalysis, BlockInputs, MemberCovariance};
 use super::congruence::{test_and_localise, CongruenceTest};
 use super::datum::{
@@ -217,6 +218,87 @@ impl ChosenDatum {
             rotation_mrad: [get(3), get(4), get(5)],
             scale_ppm: get(6) * 1e3,
         }
+    }
+}
+
+/// Most exact re-fits of the datum after an alignment ([`alignment`]).
+const MAX_REFINEMENTS: usize = 4;
+
+/// The differences of `current` against `reference`, their datum and its report. When the two
+/// datums differ by more than the linear S-transformation tolerates (a free network whose
+/// approximate coordinates held a blunder), `current` is first aligned exactly
+/// ([`alignment::coarse`]) and the fitted datum applied exactly until its second-order effect is
+/// below [`alignment::FINE_TOLERANCE_M`]; the report then gives the whole transformation.
+fn datum_of(
+    reference: &EpochCoordinates,
+    current: &EpochCoordinates,
+    role: &dyn Fn(&str) -> PointRole,
+    config: &AnalysisConfig,
+    warnings: &mut Vec<String>,
+) -> Result<(Differences, ChosenDatum, DatumReport), AnalysisError> {
+    let kind = config.transformation;
+    let stable_names: Vec<&str> = reference
+        .points
+        .iter()
+        .map(|p| p.name.as_str())
+        .filter(|n| role(n) == PointRole::Stable)
+        .collect();
+    let mut applied = alignment::coarse(reference, current, &stable_names, kind);
+    let before = warnings.len();
+    let mut round = 0;
+    loop {
+        let aligned = applied.map(|a| alignment::undo(current, &a));
+        let diffs = Differences::new(reference, aligned.as_ref().unwrap_or(current))?;
+        if diffs.len() < kind.min_points() {
+            return Err(AnalysisError::TooFewDatumPoints {
+                found: diffs.len(),
+                needed: kind.min_points(),
+            });
+        }
+        let stable: Vec<usize> = (0..diffs.len())
+            .filter(|&i| role(&diffs.names[i]) == PointRole::Stable)
+            .collect();
+        warnings.truncate(before);
+        let chosen = choose_datum(&diffs, &stable, config, warnings)?;
+        let step = Similarity::from_linear(&chosen.fit.params, &chosen.fit.centroid);
+        let c = chosen.fit.centroid;
+        let extent = diffs
+            .xyz_m
+            .iter()
+            .map(|x| (x - c).norm())
+            .fold(0.0, f64::max);
+        // Once aligned, until the fit is exact; otherwise only when the linear fit is not enough.
+        let tolerance = if applied.is_some() {
+            alignment::EXACT_TOLERANCE_M
+        } else {
+            alignment::FINE_TOLERANCE_M
+        };
+        if round == MAX_REFINEMENTS || step.second_order_m(extent) <= tolerance {
+            let mut report = chosen.report(&diffs.names);
+            let Some(a) = applied else {
+                return Ok((diffs, chosen, report));
+            };
+            let total = a.after(&step);
+            (
+                report.translation_mm,
+                report.rotation_mrad,
+                report.scale_ppm,
+            ) = total.report_form(&c);
+            // Not when only moving points pulled the coarse fit away (the datum points then agree).
+            if total.second_order_m(extent) > alignment::COARSE_TOLERANCE_M {
+                warnings.push(format!(
+                    "the epoch's datum differs from the reference's by a rotation of {:.3}° and a \
+                     scale of {:.0} ppm, beyond the linear S-transformation: it was aligned exactly \
+                     (a free network takes its datum from the approximate coordinates: check them \
+                     for a blunder)",
+                    total.angle().to_degrees(),
+                    (total.scale - 1.0) * 1e6
+                ));
+            }
+            return Ok((diffs, chosen, report));
+        }
+        applied = Some(applied.map_or(step, |a| a.after(&step)));
+        round += 1;
     }
 }
 
@@ -461,25 +543,13 @@ pub fn analyse_epoch(
     config: &AnalysisConfig,
 ) -> Result<EpochAnalysis, AnalysisError> {
     config.validate()?;
-    let diffs = Differences::new(reference, current)?;
-    let kind = config.transformation;
     let cfg: HashMap<&str, &PointConfig> = points.iter().map(|p| (p.name.as_str(), p)).collect();
     let role = |name: &str| cfg.get(name).map(|c| c.role).unwrap_or_default();
     let mut warnings = vec![];
+    let (diffs, chosen, datum) = datum_of(reference, current, &role, config, &mut warnings)?;
     let new_points = new_points(current, &diffs);
-    if diffs.len() < kind.min_points() {
-        return Err(AnalysisError::TooFewDatumPoints {
-            found: diffs.len(),
-            needed: kind.min_points(),
-        });
-    }
     // The reference epoch itself (not a mean of several epochs that includes it): zero.
     let same_epoch = reference.epoch == current.epoch && reference.points == current.points;
-    let stable: Vec<usize> = (0..diffs.len())
-        .filter(|&i| role(&diffs.names[i]) == PointRole::Stable)
-        .collect();
-    let chosen = choose_datum(&diffs, &stable, config, &mut warnings)?;
-    let datum = chosen.report(&diffs.names);
     let fit = chosen.fit;
     let transformed = transform_all(&diffs, &fit);
     // The reference epoch's share of each displacement's covariance, common to every epoch.

@@ -25,6 +25,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod alerts;
+pub(crate) mod alignment;
 pub(crate) mod analyse;
 pub mod block;
 pub(crate) mod block_analysis;

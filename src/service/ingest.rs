@@ -294,7 +294,7 @@ async fn derive(
         }
     };
     for w in &analysis.warnings {
-        tracing::info!(site = %site.id, epoch, "analysis: {w}");
+        tracing::warn!(site = %site.id, epoch, "analysis: {w}");
     }
     let displacements = to_rows(&analysis.records(), analysis.reference_epoch);
     let block_motions = to_rows(&analysis.block_records(), analysis.reference_epoch);
