@@ -104,6 +104,7 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
 
 async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeError> {
     let mut tx = store.begin_write().await?;
+    let mut raised = 0;
     for site in &config.sites {
         crate::api::sites::check_site(site)
             .map_err(|e| ServeError::Site(site.id.clone(), e.message))?;
@@ -115,7 +116,7 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
             if (b.reference_epochs, b.process_noise, b.confidence)
                 != (a.reference_epochs, a.process_noise, a.confidence)
             {
-                service::recompute::recompute_site(&mut tx, &a)
+                raised += service::recompute::recompute_site(&mut tx, &a)
                     .await
                     .map_err(|e| ServeError::Site(site.id.clone(), e.to_string()))?;
             }
@@ -137,6 +138,7 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
     }
     store::webhooks::replace_configured(&mut tx, &hooks).await?;
     tx.commit().await.map_err(StoreError::from)?;
+    service::alert_outcome::count_raised(raised);
     Ok(())
 }
 

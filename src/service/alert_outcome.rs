@@ -64,8 +64,13 @@ pub async fn record_events(
     Ok(raised)
 }
 
-/// Saves the site's new alert state and records the events that led to it. Returns how many
-/// alerts were raised.
+/// Counts `n` alerts raised in a committed transaction (`cliffwatch_alerts_raised_total`).
+pub fn count_raised(n: usize) {
+    metrics::counter!("cliffwatch_alerts_raised_total").increment(n as u64);
+}
+
+/// Saves the site's new alert state and records the events that led to it; the rows of the
+/// other active alerts take their latest value and message. Returns how many alerts were raised.
 pub async fn save_and_record(
     tx: &mut Connection,
     site: &str,
@@ -73,7 +78,14 @@ pub async fn save_and_record(
     events: &[AlertEvent],
 ) -> Result<usize, StoreError> {
     alert_states::save(&mut *tx, site, state).await?;
-    record_events(tx, events).await
+    let raised = record_events(tx, events).await?;
+    // The active alerts without an event this time: their rows follow the latest value too.
+    for a in &state.alerts {
+        if !events.iter().any(|e| e.alert.id == a.id) {
+            alerts::refresh(&mut *tx, a).await?;
+        }
+    }
+    Ok(raised)
 }
 
 /// Evaluates a site's rules against one epoch's analysis and records the outcome (state, alerts,

@@ -161,7 +161,7 @@ pub async fn ingest_with_identification(
     displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
     block_motions::insert(&mut tx, &site.id, &derived.block_motions).await?;
     tx.commit().await.map_err(store::StoreError::from)?;
-    metrics::counter!("cliffwatch_alerts_raised_total").increment(derived.raised as u64);
+    super::alert_outcome::count_raised(derived.raised);
     Ok(Ingested {
         site: site.id,
         epoch,

@@ -39,9 +39,7 @@ pub async fn check_all(store: &Store, now: DateTime<Utc>) -> Result<usize, Store
 pub async fn run(store: Store, every: Duration, shutdown: Shutdown) {
     loop {
         match check_once(&store).await {
-            Ok(n) if n > 0 => {
-                metrics::counter!("cliffwatch_alerts_raised_total").increment(n as u64)
-            }
+            Ok(n) if n > 0 => super::alert_outcome::count_raised(n),
             Ok(_) => {}
             Err(e) => tracing::warn!(error = %e, "campaign schedule check failed"),
         }

@@ -72,12 +72,14 @@ pub async fn recompute_site(tx: &mut Connection, site: &Site) -> Result<usize, S
 pub async fn recompute_outdated(store: &Store) -> Result<usize, ServiceError> {
     let ids = sites::outdated(store.reader()).await?;
     for id in &ids {
+        let mut raised = 0;
         let mut tx = store.begin_write_site(id).await?;
         if let Some(site) = sites::get(&mut *tx, id).await? {
             tracing::info!(site = %id, "recomputing the series derived by an older version");
-            recompute_site(&mut tx, &site).await?;
+            raised += recompute_site(&mut tx, &site).await?;
         }
         tx.commit().await.map_err(StoreError::from)?;
+        super::alert_outcome::count_raised(raised);
     }
     Ok(ids.len())
 }

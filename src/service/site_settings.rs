@@ -6,6 +6,7 @@ use crate::analysis::{GroupConfig, PointRole};
 use crate::store::points::{self, Point, PointSettings};
 use crate::store::{epochs, groups, sites, Store, StoreError};
 
+use super::alert_outcome::count_raised;
 use super::recompute::recompute_site;
 use super::ServiceError;
 
@@ -29,8 +30,9 @@ pub async fn set_reference(
         }
     }
     sites::set_reference(&mut *tx, site, epoch).await?;
-    recompute_site(&mut tx, &s).await?;
+    let raised = recompute_site(&mut tx, &s).await?;
     tx.commit().await.map_err(StoreError::from)?;
+    count_raised(raised);
     Ok(())
 }
 
@@ -45,8 +47,9 @@ pub async fn declare_group(
         .await?
         .ok_or_else(|| ServiceError::UnknownSite(site.to_string()))?;
     groups::put(&mut tx, site, group).await?;
-    recompute_site(&mut tx, &s).await?;
+    let raised = recompute_site(&mut tx, &s).await?;
     tx.commit().await.map_err(StoreError::from)?;
+    count_raised(raised);
     Ok(())
 }
 
@@ -76,9 +79,11 @@ pub async fn set_point(
         group: None,
         direction: None,
     });
+    let mut raised = 0;
     if before != after && epochs::count(&mut *tx, site).await? > 0 {
-        recompute_site(&mut tx, &s).await?;
+        raised = recompute_site(&mut tx, &s).await?;
     }
     tx.commit().await.map_err(StoreError::from)?;
+    count_raised(raised);
     Ok(after)
 }

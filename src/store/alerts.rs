@@ -212,6 +212,24 @@ pub async fn save(
     Ok(())
 }
 
+/// Brings an active alert's row up to the engine's latest evaluation: value, threshold, epoch,
+/// observation time and message (its state and `updated_at` change only with events, [`save`]).
+pub async fn refresh(db: &mut AnyConnection, a: &crate::analysis::Alert) -> Result<(), StoreError> {
+    sqlx::query(
+        "UPDATE alerts SET value = $1, threshold = $2, epoch_id = $3, observed_at = $4, \
+         message = $5 WHERE id = $6",
+    )
+    .bind(a.value)
+    .bind(a.threshold)
+    .bind(a.epoch)
+    .bind(a.observed_at.map(timestamp))
+    .bind(&a.message)
+    .bind(&a.id)
+    .execute(&mut *db)
+    .await?;
+    Ok(())
+}
+
 /// Acknowledges an alert; `Ok(false)` when it does not exist.
 pub async fn acknowledge(
     db: &mut AnyConnection,

@@ -12,7 +12,7 @@ use alerts_support::{
     write_webhook_config, Daemon, Receiver, Scene,
 };
 use reqwest::Method;
-use serde_json::json;
+use serde_json::{json, Value};
 
 const SITE: &str = "cliff";
 
@@ -170,6 +170,31 @@ async fn series_alerts_and_webhooks_survive_503_and_sigkill() {
         assert_eq!(b["data"]["unit"], "mm");
         assert!(b["data"]["value"].as_f64().unwrap() > b["data"]["threshold"].as_f64().unwrap());
     }
+    // Each alert's summary states its value, in the API and in every webhook body, and the
+    // active alerts carry the latest epoch's evaluation.
+    let states_value = |v: &Value| {
+        let value = v["value"].as_f64().expect("value");
+        v["message"]
+            .as_str()
+            .expect("message")
+            .contains(&format!("{value:.2} mm"))
+    };
+    for a in &alerts {
+        assert!(states_value(a), "{a}");
+    }
+    for b in accepted.values() {
+        assert!(states_value(&b["data"]), "{b}");
+    }
+    let (_, epochs) = daemon.get(&format!("/api/v1/sites/{SITE}/epochs")).await;
+    let newest = epochs["items"]
+        .as_array()
+        .expect("epochs")
+        .iter()
+        .filter_map(|e| e["id"].as_i64())
+        .max();
+    for a in alerts.iter().filter(|a| a["state"] != "resolved") {
+        assert_eq!(a["epoch"].as_i64(), newest, "{a}");
+    }
     let escalated = accepted
         .values()
         .filter(|b| b["type"] == "alert.escalated")
@@ -201,6 +226,9 @@ async fn series_alerts_and_webhooks_survive_503_and_sigkill() {
             .values()
             .any(|b| b["type"] == "alert.acknowledged" && b["data"]["alert_id"] == id);
         if acked {
+            for b in receiver.accepted().values() {
+                assert!(states_value(&b["data"]), "{b}");
+            }
             break;
         }
         assert!(

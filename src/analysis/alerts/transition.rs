@@ -230,6 +230,13 @@ pub(super) fn apply(
                         alert: a.clone(),
                     });
                 }
+                // The same level: a metric alert's summary follows the latest value, as `value`
+                // does (site-level alerts keep their own wording).
+                Some(_) if !matches!(up.subject, Subject::Site) => {
+                    a.message = message(
+                        site, up.subject, up.kind, a.level, a.value, up.rule, up.unit,
+                    );
+                }
                 Some(_) => {}
             }
         }
