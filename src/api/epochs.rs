@@ -98,6 +98,58 @@ pub async fn upload(
     Ok((status, [(header::LOCATION, location)], axum::Json(summary)))
 }
 
+/// Whether an upload is the CSV form (`text/csv`) rather than JSON (`application/json` or a
+/// `+json` type); anything else, or no content type, is 415.
+fn upload_is_csv(headers: &HeaderMap) -> Result<bool, ApiError> {
+    let media = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .map(|v| {
+            v.split(';')
+                .next()
+                .unwrap_or_default()
+                .trim()
+                .to_ascii_lowercase()
+        });
+    match media.as_deref() {
+        Some("text/csv") => Ok(true),
+        Some(m) if m == "application/json" || m.ends_with("+json") => Ok(false),
+        other => Err(ApiError::new(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            "unsupported_media_type",
+            format!(
+                "an epoch is uploaded as application/json or text/csv, not {}",
+                other.unwrap_or("a body without Content-Type")
+            ),
+        )),
+    }
+}
+
+/// The JSON upload form: 400 when the body is not JSON, 422 naming the field at fault when it is
+/// JSON of the wrong shape.
+fn parse_epoch(bytes: &[u8]) -> Result<EpochInput, ApiError> {
+    let mut de = serde_json::Deserializer::from_slice(bytes);
+    let parsed: Result<EpochInput, _> = serde_path_to_error::deserialize(&mut de);
+    let input = parsed.map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        match inner.classify() {
+            serde_json::error::Category::Data => ApiError::unprocessable(
+                "invalid_epoch",
+                if path == "." {
+                    inner.to_string()
+                } else {
+                    format!("{path}: {inner}")
+                },
+            ),
+            _ => ApiError::bad_request(format!("the body is not JSON: {inner}")),
+        }
+    })?;
+    de.end()
+        .map_err(|e| ApiError::bad_request(format!("the body is not JSON: {e}")))?;
+    Ok(input)
+}
+
 async fn upload_inner(
     state: &AppState,
     site: &str,
@@ -112,11 +164,7 @@ async fn upload_inner(
     // under the site's lock).
     find(state, site).await?;
     let _slot = state.uploads.enter().await.map_err(ServiceError::from)?;
-    let is_csv = headers
-        .get(header::CONTENT_TYPE)
-        .and_then(|v| v.to_str().ok())
-        .is_some_and(|v| v.starts_with("text/csv"));
-    let input: EpochInput = if is_csv {
+    let input: EpochInput = if upload_is_csv(headers)? {
         let text = std::str::from_utf8(&bytes)
             .map_err(|_| ApiError::bad_request("the CSV is not UTF-8"))?;
         let observed_at = params.observed_at.ok_or_else(|| {
@@ -130,12 +178,7 @@ async fn upload_inner(
             .map_err(StoreError::from)?;
         epoch_from_csv(text, &observed_at, cameras)?
     } else {
-        serde_json::from_slice(&bytes).map_err(|e| match e.classify() {
-            serde_json::error::Category::Data => {
-                ApiError::unprocessable("invalid_epoch", e.to_string())
-            }
-            _ => ApiError::bad_request(format!("the body is not JSON: {e}")),
-        })?
+        parse_epoch(&bytes)?
     };
     let done = ingest::ingest(&state.store, site, input).await?;
     let summary = summary(&state.store, &done.site, done.epoch, false)

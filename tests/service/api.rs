@@ -279,6 +279,34 @@ async fn rejections_store_nothing() {
     assert_eq!(s.upload("rej", &dup).await.0, 422);
     let (status, _) = s.upload("rej", &json!({"images": []})).await;
     assert_eq!(status, 422);
+    // A value of the wrong type: 422 naming the field by its path.
+    let mut typed = good.clone();
+    typed["observed_at"] = json!("2001-05-01T00:00:00Z");
+    typed["cameras"][0]["c_mm"] = json!("300");
+    let (status, e) = s.upload("rej", &typed).await;
+    assert_eq!(status, 422, "{e}");
+    let msg = e["error"]["message"].as_str().unwrap();
+    assert!(msg.starts_with("cameras[0].c_mm: invalid type"), "{msg}");
+    // A body that is neither JSON nor CSV by its content type: 415, whatever it holds.
+    let mut other = good.clone();
+    other["observed_at"] = json!("2001-06-01T00:00:00Z");
+    for ctype in [
+        Some("text/plain"),
+        Some("application/x-www-form-urlencoded"),
+        None,
+    ] {
+        let mut r = s
+            .client
+            .post(s.url("/api/v1/sites/rej/epochs"))
+            .body(serde_json::to_vec(&other).unwrap());
+        if let Some(c) = ctype {
+            r = r.header("content-type", c);
+        }
+        let r = r.send().await.unwrap();
+        assert_eq!(r.status(), 415, "{ctype:?}");
+        let e: Value = r.json().await.unwrap();
+        assert_eq!(e["error"]["code"], "unsupported_media_type");
+    }
 
     let r = post(vec![b' '; (1 << 20) + 10]).await.unwrap();
     assert_eq!(r.status(), 413);
