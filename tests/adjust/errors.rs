@@ -253,3 +253,27 @@ proptest! {
         }
     }
 }
+
+/// The orthogonal model estimates only c: asking it for more is said in a warning that names the
+/// camera and the parameters held, and the central model gives no such warning.
+#[test]
+fn the_orthogonal_model_says_which_parameters_it_holds() {
+    let mut e = base();
+    e.cameras[0].calibrate = Some(vec!["c".into(), "k1".into(), "x0".into()]);
+    let warned = |model| {
+        let options = AdjustOptions {
+            model,
+            ..AdjustOptions::default()
+        };
+        adjust(&e, &options)
+            .expect("adjusts")
+            .report
+            .warnings
+            .into_iter()
+            .find(|w| w.contains("estimates only c"))
+    };
+    let w = warned(cliffwatch::photogrammetry::Model::Orthogonal).expect("a warning");
+    assert!(w.contains(&format!("camera '{}'", e.cameras[0].id)), "{w}");
+    assert!(w.contains("x0, k1"), "{w}");
+    assert!(warned(cliffwatch::photogrammetry::Model::Central).is_none());
+}

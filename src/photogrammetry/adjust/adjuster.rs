@@ -13,7 +13,7 @@ use super::site_result::{site_result, Solution};
 use crate::photogrammetry::error::AdjustError;
 use crate::photogrammetry::input::epoch::{EpochInput, EpochProblem};
 use crate::photogrammetry::model::bundle::{Bundle, ImageState, Obs};
-use crate::photogrammetry::model::camera::brown_correct;
+use crate::photogrammetry::model::camera::{brown_correct, INTERIOR_NAMES};
 use crate::photogrammetry::model::frame::WorkingFrame;
 use crate::photogrammetry::model::orthogonal::OrthoImage;
 use crate::photogrammetry::model::Model;
@@ -146,11 +146,22 @@ fn interior_unknowns(
         .iter()
         .map(|c| {
             let f = c.calibrate;
-            if options.model == Model::Orthogonal {
-                [f[0], false, false, false, false, false, false, false]
-            } else {
-                f
+            if options.model != Model::Orthogonal {
+                return f;
             }
+            let held: Vec<&str> = (1..8)
+                .filter(|&k| f[k])
+                .map(|k| INTERIOR_NAMES[k])
+                .collect();
+            if !held.is_empty() {
+                warnings.push(format!(
+                    "camera '{}': the orthogonal model estimates only c; {} held at the given \
+                     values (the central model calibrates them)",
+                    c.id,
+                    held.join(", ")
+                ));
+            }
+            [f[0], false, false, false, false, false, false, false]
         })
         .collect();
     if nimg >= 3 {
