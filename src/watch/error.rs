@@ -12,6 +12,19 @@ pub enum WatchError {
     /// Reading or moving files failed.
     #[error("file system: {0}")]
     Io(#[from] std::io::Error),
+    /// A file of the folder could not be read (`file` relative to the folder).
+    #[error("{file}: {source}")]
+    File {
+        /// The file, relative to the folder.
+        file: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The folder's site directory names no site.
+    #[error(
+        "no site '{0}': create it (POST /api/v1/sites) or put the folder under the directory of an existing site"
+    )]
+    UnknownSite(String),
     /// `epoch.json` is not the upload form.
     #[error("epoch.json: {0}")]
     Json(#[from] serde_json::Error),

@@ -27,8 +27,19 @@ pub(super) async fn process(
     opts: &WatchOptions,
 ) -> Result<(Ingested, BTreeMap<String, ImageOrientation>), WatchError> {
     let site_dir = folder.parent().unwrap_or(Path::new("."));
-    let mut input: EpochInput =
-        serde_json::from_str(&tokio::fs::read_to_string(folder.join("epoch.json")).await?)?;
+    if crate::store::sites::get(store.reader(), site)
+        .await?
+        .is_none()
+    {
+        return Err(WatchError::UnknownSite(site.to_string()));
+    }
+    let text = tokio::fs::read_to_string(folder.join("epoch.json"))
+        .await
+        .map_err(|source| WatchError::File {
+            file: "epoch.json".into(),
+            source,
+        })?;
+    let mut input: EpochInput = serde_json::from_str(&text)?;
     // known points: the site's latest coordinates, then the upload's control and approximations
     let mut known: BTreeMap<String, [f64; 3]> = BTreeMap::new();
     for a in &input.approx {

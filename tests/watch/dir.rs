@@ -157,6 +157,28 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
     assert!(err.contains("station '../e3'"), "{err}");
 
+    // No epoch.json: the message names the file.
+    write_epoch(&site, &epoch, "e6", "2026-11-25T09:00:00Z", false, 6);
+    std::fs::remove_file(site.join("e6/epoch.json")).unwrap();
+    let r = scan_once(&server.store, &opts).await;
+    let dest = r[0].as_ref().unwrap();
+    assert!(dest.starts_with(site.join(".failed")), "{dest:?}");
+    let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
+    assert!(err.starts_with("epoch.json: "), "{err}");
+
+    // A directory that names no site: said before anything about the folder's files.
+    let nosite = site.parent().unwrap().join("nosite");
+    write_epoch(&nosite, &epoch, "e1", "2026-11-26T09:00:00Z", false, 7);
+    let r = scan_once(&server.store, &opts).await;
+    let dest = r
+        .iter()
+        .flatten()
+        .find(|d| d.starts_with(&nosite))
+        .expect("the folder of the unknown site was taken");
+    assert!(dest.starts_with(nosite.join(".failed")), "{dest:?}");
+    let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
+    assert!(err.contains("no site 'nosite'"), "{err}");
+
     // The database gone (a restart of PostgreSQL, the pools closed at shutdown): the folder is
     // not the one at fault, so it stays for the next scan instead of going to `.failed/`.
     write_epoch(&site, &epoch, "e4", "2026-11-23T09:00:00Z", false, 4);
