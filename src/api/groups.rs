@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
-use super::list::{encode, PageParams};
+use super::list::{encode, Page, PageParams};
 use super::points::SeriesParams;
 use super::sites::find;
 use super::AppState;
@@ -130,19 +130,30 @@ pub async fn put(
     Ok(axum::Json(Group::from(stored)))
 }
 
-/// `GET /api/v1/sites/{site}/groups`: the site's groups by name.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/groups", params(("site" = String, Path)),
-    responses((status = 200, body = Vec<Group>),
+/// `GET /api/v1/sites/{site}/groups`: the site's groups by name, a page of the contract's list
+/// shape.
+#[utoipa::path(get, path = "/api/v1/sites/{site}/groups", params(("site" = String, Path), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+    responses((status = 200, description = "groups by name", body = Page<Group>),
               (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
+    ApiQuery(page): ApiQuery<PageParams>,
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
-    let all = groups::list(state.store.reader(), &site).await?;
-    Ok(axum::Json(
-        all.into_iter().map(Group::from).collect::<Vec<_>>(),
-    ))
+    let after = page.cursor()?;
+    let limit = page.limit();
+    let mut all = groups::list(state.store.reader(), &site).await?;
+    all.sort_by(|a, b| a.name.cmp(&b.name));
+    let fetched: Vec<Group> = all
+        .into_iter()
+        .filter(|g| after.as_ref().is_none_or(|a| g.name.as_str() > a.as_str()))
+        .take(limit as usize + 1)
+        .map(Group::from)
+        .collect();
+    Ok(axum::Json(Page::from_fetched(fetched, limit, |g| {
+        g.name.clone()
+    })))
 }
 
 /// `GET /api/v1/sites/{site}/groups/{group}`: one group.

@@ -164,7 +164,8 @@ async fn a_declared_block_raises_one_group_alert() {
     assert_eq!(g["points"].as_array().unwrap().len(), block.len());
     let (s, all) = d.get("/api/v1/sites/cliff/groups").await;
     assert_eq!(s, 200, "{all}");
-    assert_eq!(all.as_array().unwrap().len(), 1);
+    assert_eq!(all["items"].as_array().unwrap().len(), 1, "{all}");
+    assert!(all["next_cursor"].is_null(), "{all}");
     for k in 0..3 {
         upload_new(
             &d,
