@@ -20,14 +20,7 @@ fn iwst_without_stable_points_is_not_dragged_by_the_block() {
         ..Default::default()
     };
     let series = sc.generate();
-    let points: Vec<PointConfig> = series
-        .points
-        .iter()
-        .map(|p| PointConfig {
-            role: PointRole::Monitored,
-            ..p.clone()
-        })
-        .collect();
+    let points = all_monitored(&series.points);
     let steps = common::run(
         &series,
         &points,
@@ -58,6 +51,17 @@ fn iwst_without_stable_points_is_not_dragged_by_the_block() {
     );
     // The block (4 of 20 points) moves up to ~45 mm; a dragged datum would shift every point by mm.
     assert!(share >= 0.97);
+}
+
+/// The same points, none of them stable (the datum then falls to IWST).
+fn all_monitored(points: &[PointConfig]) -> Vec<PointConfig> {
+    points
+        .iter()
+        .map(|p| PointConfig {
+            role: PointRole::Monitored,
+            ..p.clone()
+        })
+        .collect()
 }
 
 fn pt(name: &str, xyz: [f64; 3], s: f64) -> PointCoordinates {
@@ -252,14 +256,7 @@ fn a_grossly_different_datum_gives_the_same_displacements() {
         }
         out
     };
-    let monitored: Vec<PointConfig> = series
-        .points
-        .iter()
-        .map(|p| PointConfig {
-            role: PointRole::Monitored,
-            ..p.clone()
-        })
-        .collect();
+    let monitored = all_monitored(&series.points);
     let reference = &series.epochs[0].coordinates;
     let config = AnalysisConfig::default();
     let history = History::new();
