@@ -227,8 +227,10 @@ const MAX_REFINEMENTS: usize = 4;
 /// The differences of `current` against `reference`, their datum and its report. When the two
 /// datums differ by more than the linear S-transformation tolerates (a free network whose
 /// approximate coordinates held a blunder), `current` is first aligned exactly
-/// ([`alignment::coarse`]) and the fitted datum applied exactly until its second-order effect is
-/// below [`alignment::FINE_TOLERANCE_M`]; the report then gives the whole transformation.
+/// ([`alignment::coarse`]) and the fitted datum applied exactly until the fit is exact
+/// ([`alignment::EXACT_TOLERANCE_M`]); an epoch that needed no alignment is refitted so only when
+/// its linear fit alone would err by more than [`alignment::FINE_TOLERANCE_M`]. The report then
+/// gives the whole transformation.
 fn datum_of(
     reference: &EpochCoordinates,
     current: &EpochCoordinates,
