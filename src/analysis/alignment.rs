@@ -21,6 +21,8 @@ use std::collections::HashMap;
 use nalgebra::{DVector, Matrix3, Rotation3, Vector3};
 
 use super::epoch::{DatumTransformation, EpochCoordinates};
+use crate::photogrammetry::model::frame::similarity_fit;
+pub(crate) use crate::photogrammetry::model::frame::Similarity;
 
 /// Second-order effect (m) above which the closed-form similarity is applied before the datum fit.
 pub(crate) const COARSE_TOLERANCE_M: f64 = 1e-4;
@@ -29,20 +31,11 @@ pub(crate) const FINE_TOLERANCE_M: f64 = 1e-5;
 /// Second-order effect (m) below which an aligned epoch's datum fit counts as exact.
 pub(crate) const EXACT_TOLERANCE_M: f64 = 1e-9;
 
-/// A similarity transformation x ↦ k R x + b from the reference frame into the current epoch's (m).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Similarity {
-    /// Scale factor k.
-    pub scale: f64,
-    /// Rotation R.
-    pub rotation: Matrix3<f64>,
-    /// Translation b (m).
-    pub translation: Vector3<f64>,
-}
-
+/// The datum's transformations are [`Similarity`]s x ↦ k R x + b (m), taking the reference frame
+/// into the current epoch's.
 impl Similarity {
     /// The identity.
-    pub fn identity() -> Self {
+    pub(crate) fn identity() -> Self {
         Similarity {
             scale: 1.0,
             rotation: Matrix3::identity(),
@@ -53,7 +46,7 @@ impl Similarity {
     /// The exact transformation of linear datum parameters `params` (translation mm, rotations mrad,
     /// scale mm/m; 3, 6 or 7 of them, as in [`super::datum::helmert_rows`]) about `centroid` (m):
     /// x ↦ c + t + k R (x − c) with R = exp([ω]×), k = 1 + s.
-    pub fn from_linear(params: &DVector<f64>, centroid: &Vector3<f64>) -> Self {
+    pub(crate) fn from_linear(params: &DVector<f64>, centroid: &Vector3<f64>) -> Self {
         let get = |k: usize| if k < params.len() { params[k] } else { 0.0 };
         let t = Vector3::new(get(0), get(1), get(2)) * 1e-3;
         let omega = Vector3::new(get(3), get(4), get(5)) * 1e-3;
@@ -67,7 +60,7 @@ impl Similarity {
     }
 
     /// `self` after `inner`: x ↦ self(inner(x)).
-    pub fn after(&self, inner: &Similarity) -> Similarity {
+    pub(crate) fn after(&self, inner: &Similarity) -> Similarity {
         Similarity {
             scale: self.scale * inner.scale,
             rotation: self.rotation * inner.rotation,
@@ -77,7 +70,7 @@ impl Similarity {
 
     /// Rotation vector (axis × angle, rad): atan2 of the skew and symmetric parts, exact for small
     /// angles too (an arccosine of the trace loses half the digits there).
-    pub fn rotation_vector(&self) -> Vector3<f64> {
+    pub(crate) fn rotation_vector(&self) -> Vector3<f64> {
         let r = &self.rotation;
         let sine = Vector3::new(
             r[(2, 1)] - r[(1, 2)],
@@ -93,19 +86,19 @@ impl Similarity {
     }
 
     /// Rotation angle in rad.
-    pub fn angle(&self) -> f64 {
+    pub(crate) fn angle(&self) -> f64 {
         self.rotation_vector().norm()
     }
 
     /// Largest difference (m) between this transformation and its linearisation, for points within
     /// `extent` m of the centroid: extent · (angle + |k − 1|)², an upper bound of the neglected terms.
-    pub fn second_order_m(&self, extent: f64) -> f64 {
+    pub(crate) fn second_order_m(&self, extent: f64) -> f64 {
         extent * (self.angle() + (self.scale - 1.0).abs()).powi(2)
     }
 
     /// Rotation vector (mrad), scale difference (ppm) and the translation of `centroid` (mm): the form
     /// of [`super::analyse::DatumReport`].
-    pub fn report_form(&self, centroid: &Vector3<f64>) -> ([f64; 3], [f64; 3], f64) {
+    pub(crate) fn report_form(&self, centroid: &Vector3<f64>) -> ([f64; 3], [f64; 3], f64) {
         let omega = self.rotation_vector() * 1e3;
         let moved = self.scale * self.rotation * centroid + self.translation - centroid;
         let t = moved * 1e3;
@@ -137,40 +130,25 @@ pub(crate) fn closed_form(
             ..Similarity::identity()
         });
     }
-    let mut cross = Matrix3::zeros();
-    let mut spread = 0.0;
-    for (f, t) in from.iter().zip(to) {
-        let (x, y) = (f - mf, t - mt);
-        cross += y * x.transpose();
-        spread += x.norm_squared();
-    }
-    let svd = cross.svd(true, true);
-    let (u, v_t) = (svd.u?, svd.v_t?);
-    let mut sorted = svd.singular_values.iter().copied().collect::<Vec<_>>();
-    sorted.sort_by(|a, b| b.total_cmp(a));
     // Collinear (or coincident) points leave the rotation undetermined.
-    if !(sorted[1] > 1e-12 * sorted[0]) || !(spread > 0.0) {
+    let scatter: Matrix3<f64> = from.iter().map(|f| (f - mf) * (f - mf).transpose()).sum();
+    let mut spread: Vec<f64> = scatter.symmetric_eigenvalues().iter().copied().collect();
+    spread.sort_by(|a, b| b.total_cmp(a));
+    if !(spread[1] > 1e-12 * spread[0]) {
         return None;
     }
-    let flip = if (u * v_t).determinant() < 0.0 {
-        -1.0
-    } else {
-        1.0
-    };
-    let s = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, flip));
-    let rotation = u * s * v_t;
-    let scale = if kind == DatumTransformation::Similarity {
-        (Matrix3::from_diagonal(&svd.singular_values) * s).trace() / spread
-    } else {
-        1.0
-    };
-    if !(scale > 0.0) || !scale.is_finite() {
+    let fit = similarity_fit(from, to)?;
+    if !(fit.scale > 0.0) || !fit.scale.is_finite() {
         return None;
     }
-    Some(Similarity {
-        scale,
-        rotation,
-        translation: mt - scale * rotation * mf,
+    // The rotation of the least-squares fit does not depend on its scale.
+    Some(match kind {
+        DatumTransformation::Similarity => fit,
+        _ => Similarity {
+            scale: 1.0,
+            rotation: fit.rotation,
+            translation: mt - fit.rotation * mf,
+        },
     })
 }
 
