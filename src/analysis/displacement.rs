@@ -202,3 +202,10 @@ pub(crate) fn sigma_length(d: &Vector3<f64>, cov: &Matrix3<f64>) -> f64 {
     let u = d / n;
     (u.transpose() * cov * u)[(0, 0)].max(0.0).sqrt()
 }
+
+/// Whether `d` can serve as a direction of interest: three finite numbers whose length is finite
+/// and not zero (nor so small that it underflows), so that `d / |d|` is a unit vector.
+pub fn is_usable_direction(d: [f64; 3]) -> bool {
+    let length = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+    d.iter().all(|v| v.is_finite()) && length.is_finite() && length >= f64::MIN_POSITIVE
+}

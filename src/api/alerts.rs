@@ -26,7 +26,7 @@ pub struct AlertParams {
 }
 
 /// `GET /api/v1/alerts`: newest first.
-#[utoipa::path(get, path = "/api/v1/alerts", params(("site" = Option<String>, Query), ("state" = Option<String>, Query, pattern = "^(open|acknowledged|resolved)$"), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/alerts", params(("site" = Option<String>, Query), ("state" = Option<String>, Query, pattern = "^(open|acknowledged|resolved)$"), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "alerts, newest first", body = crate::api::list::Page<crate::store::alerts::Alert>)))]
 pub async fn list(
     State(state): State<AppState>,
@@ -49,10 +49,10 @@ pub async fn list(
         q.site.as_deref(),
         wanted,
         after,
-        page.limit() + 1,
+        page.limit()? + 1,
     )
     .await?;
-    let page = Page::from_fetched(rows, page.limit(), |(raw, a)| format!("{raw}|{}", a.id));
+    let page = Page::from_fetched(rows, page.limit()?, |(raw, a)| format!("{raw}|{}", a.id));
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, a)| a).collect(),
         next_cursor: page.next_cursor,

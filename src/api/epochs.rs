@@ -222,7 +222,7 @@ pub async fn summary(
 }
 
 /// `GET /api/v1/sites/{site}/epochs`: newest first.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "epochs, newest first", body = crate::api::list::Page<crate::store::epochs::EpochListItem>), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
     State(state): State<AppState>,
@@ -235,10 +235,10 @@ pub async fn list(
         state.store.reader(),
         &site,
         cursor.as_deref(),
-        page.limit() + 1,
+        page.limit()? + 1,
     )
     .await?;
-    let page = Page::from_fetched(rows, page.limit(), |(raw, _)| raw.clone());
+    let page = Page::from_fetched(rows, page.limit()?, |(raw, _)| raw.clone());
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, e)| e).collect(),
         next_cursor: page.next_cursor,

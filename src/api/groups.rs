@@ -82,9 +82,10 @@ fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
         return Err(invalid(format!("kind '{}': block", body.kind)));
     }
     if let Some(d) = body.direction {
-        if d.iter().any(|v| !v.is_finite()) || d.iter().all(|v| *v == 0.0) {
+        if !crate::analysis::is_usable_direction(d) {
             return Err(invalid(
-                "direction: three finite numbers, not all zero".into(),
+                "direction: three finite numbers, not all zero, whose length is a finite number"
+                    .into(),
             ));
         }
     }
@@ -132,7 +133,7 @@ pub async fn put(
 
 /// `GET /api/v1/sites/{site}/groups`: the site's groups by name, a page of the contract's list
 /// shape.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/groups", params(("site" = String, Path), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/sites/{site}/groups", params(("site" = String, Path), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "groups by name", body = Page<Group>),
               (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
@@ -142,7 +143,7 @@ pub async fn list(
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
     let after = page.cursor()?;
-    let limit = page.limit();
+    let limit = page.limit()?;
     let mut all = groups::list(state.store.reader(), &site).await?;
     all.sort_by(|a, b| a.name.cmp(&b.name));
     let fetched: Vec<Group> = all
@@ -176,7 +177,7 @@ pub async fn get_one(
 /// covariance, its length, velocity, time to failure and the filtered values.
 #[utoipa::path(get, path = "/api/v1/sites/{site}/groups/{group}/motion",
     params(("site" = String, Path), ("group" = String, Path), ("from" = Option<String>, Query), ("to" = Option<String>, Query),
-           ("format" = Option<String>, Query, description = "json or csv"), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+           ("format" = Option<String>, Query, description = "json or csv"), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "the block's motion series, oldest first: a page (JSON) or the whole range (CSV, columns as the point series)", content((crate::api::list::Page<crate::store::displacements::Displacement> = "application/json"), (String = "text/csv"))),
               (status = 400, description = "bad time bound, format or cursor", body = crate::api::schemas::ErrorBody),
               (status = 404, description = "unknown site or group", body = crate::api::schemas::ErrorBody)))]
@@ -210,7 +211,7 @@ pub async fn motion(
         cursor: q.cursor,
     };
     let after = page.cursor()?;
-    let limit = page.limit();
+    let limit = page.limit()?;
     let mut rows = block_motions::series(
         db,
         &site,

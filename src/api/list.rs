@@ -16,16 +16,22 @@ pub const MAX_LIMIT: i64 = 1000;
 /// `?limit=&cursor=`.
 #[derive(Debug, Default, Deserialize)]
 pub struct PageParams {
-    /// Page size (1 to 1000, default 100).
+    /// Page size (at least 1, default 100; above 1000 read as 1000).
     pub limit: Option<i64>,
     /// Cursor from the previous page's `next_cursor`.
     pub cursor: Option<String>,
 }
 
 impl PageParams {
-    /// The page size, clamped to 1..=1000.
-    pub fn limit(&self) -> i64 {
-        self.limit.unwrap_or(DEFAULT_LIMIT).clamp(1, MAX_LIMIT)
+    /// The page size: 100 when not given, at most 1000 (larger values are read as 1000); below 1
+    /// is a 400 naming `limit`.
+    pub fn limit(&self) -> Result<i64, ApiError> {
+        match self.limit {
+            Some(n) if n < 1 => Err(ApiError::bad_request(format!(
+                "limit: {n} is not a page size; give 1 to {MAX_LIMIT}"
+            ))),
+            n => Ok(n.unwrap_or(DEFAULT_LIMIT).min(MAX_LIMIT)),
+        }
     }
 
     /// The decoded cursor.

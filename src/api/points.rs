@@ -45,7 +45,7 @@ pub struct PointItem {
 }
 
 /// `GET /api/v1/sites/{site}/points`: every point (by name) with its latest state.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/points", params(("site" = String, Path), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/sites/{site}/points", params(("site" = String, Path), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "points by name", body = crate::api::list::Page<PointItem>), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
     State(state): State<AppState>,
@@ -55,8 +55,8 @@ pub async fn list(
     find(&state, &site).await?;
     let db = state.store.reader();
     let cursor = page.cursor()?;
-    let pts = points::list(db, &site, cursor.as_deref(), page.limit() + 1).await?;
-    let page = Page::from_fetched(pts, page.limit(), |p| p.name.clone());
+    let pts = points::list(db, &site, cursor.as_deref(), page.limit()? + 1).await?;
+    let page = Page::from_fetched(pts, page.limit()?, |p| p.name.clone());
     let mut latest: HashMap<String, _> =
         points::latest_coordinates(&mut *state.store.read().await?, &site)
             .await?
@@ -130,10 +130,10 @@ pub async fn update(
         }
     }
     if let Some(Some(d)) = settings.direction {
-        if d.iter().any(|v| !v.is_finite()) || d.iter().all(|v| *v == 0.0) {
+        if !crate::analysis::is_usable_direction(d) {
             return Err(ApiError::unprocessable(
                 "invalid_point",
-                "direction: three finite numbers, not all zero",
+                "direction: three finite numbers, not all zero, whose length is a finite number",
             ));
         }
     }
@@ -191,7 +191,7 @@ pub use crate::store::series::CSV_HEADER;
 /// `GET /api/v1/sites/{site}/points/{point}/displacements`: the time series, oldest first.
 #[utoipa::path(get, path = "/api/v1/sites/{site}/points/{point}/displacements",
     params(("site" = String, Path), ("point" = String, Path), ("from" = Option<String>, Query), ("to" = Option<String>, Query),
-           ("format" = Option<String>, Query, description = "json or csv"), ("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+           ("format" = Option<String>, Query, description = "json or csv"), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "the time series, oldest first: a page (JSON) or the whole range (CSV, columns as CSV_HEADER)", content((crate::api::list::Page<crate::store::displacements::Displacement> = "application/json"), (String = "text/csv"))), (status = 400, description = "bad time bound, format or cursor", body = crate::api::schemas::ErrorBody), (status = 404, description = "unknown site or point", body = crate::api::schemas::ErrorBody)))]
 pub async fn displacements(
     State(state): State<AppState>,
@@ -233,8 +233,8 @@ pub async fn displacements(
         cursor: q.cursor,
     };
     query.after = page.cursor()?;
-    query.limit = Some(page.limit());
-    let mut out = Vec::with_capacity(512 * page.limit() as usize + 64);
+    query.limit = Some(page.limit()?);
+    let mut out = Vec::with_capacity(512 * page.limit()? as usize + 64);
     out.extend_from_slice(b"{\"items\":");
     let written = series::write(&state.store, query, SeriesFormat::JsonItems, out).await?;
     let mut out = written.out;

@@ -132,7 +132,7 @@ pub async fn create(
 }
 
 /// `GET /api/v1/sites`: every site, newest first.
-#[utoipa::path(get, path = "/api/v1/sites", params(("limit" = Option<i64>, Query), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/sites", params(("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "sites", body = crate::api::list::Page<crate::store::sites::Site>)))]
 pub async fn list(
     State(state): State<AppState>,
@@ -140,7 +140,7 @@ pub async fn list(
 ) -> Result<impl IntoResponse, ApiError> {
     let cursor = page.cursor()?;
     let after = cursor.as_deref().and_then(|c| c.split_once('|'));
-    let items = sites::list(state.store.reader(), after, page.limit() + 1).await?;
+    let items = sites::list(state.store.reader(), after, page.limit()? + 1).await?;
     let mut raw = Vec::with_capacity(items.len());
     for s in &items {
         raw.push(
@@ -150,7 +150,7 @@ pub async fn list(
         );
     }
     let pairs: Vec<(String, Site)> = raw.into_iter().zip(items).collect();
-    let page = Page::from_fetched(pairs, page.limit(), |(t, s)| format!("{t}|{}", s.id));
+    let page = Page::from_fetched(pairs, page.limit()?, |(t, s)| format!("{t}|{}", s.id));
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, s)| s).collect(),
         next_cursor: page.next_cursor,

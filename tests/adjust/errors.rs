@@ -82,6 +82,35 @@ fn nan_coordinates_name_the_image_and_point() {
 }
 
 #[test]
+fn an_observation_off_the_sensor_names_the_image_and_point() {
+    use cliffwatch::simulate::scenes::{long_range, LongRangeParams};
+    let (good, _) = long_range(&LongRangeParams::default()).unwrap();
+    let (w, h) = (
+        good.cameras[0].width_px.unwrap() as f64,
+        good.cameras[0].height_px.unwrap() as f64,
+    );
+    // a column typed with one digit too many, then a target centred on the sensor's border
+    for (col, row, refused) in [(10.0 * w, 0.5 * h, true), (w - 0.5, h - 0.5, false)] {
+        let mut e = good.clone();
+        let o = &mut e.images[1].observations[3];
+        (o.col, o.row) = (Some(col), Some(row));
+        let point = o.point.clone();
+        match (e.validate(), refused) {
+            (Err(EpochError::OutOfRange { item, reason, .. }), true) => {
+                assert!(
+                    item.contains(&format!("'{}'", e.images[1].id))
+                        && item.contains(&format!("'{point}'")),
+                    "{item}"
+                );
+                assert!(reason.contains("off the sensor"), "{reason}");
+            }
+            (Ok(_), false) => {}
+            (other, _) => panic!("col {col}: {other:?}"),
+        }
+    }
+}
+
+#[test]
 fn unknown_camera_names_the_image() {
     let mut e = base();
     e.images[2].camera = "nikon".into();

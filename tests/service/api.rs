@@ -110,6 +110,22 @@ async fn paper_epochs_upload_and_read_back() {
         ))
         .await;
     assert_eq!(page2["items"][0]["id"], items[4]["id"]);
+    // A page size below 1 is refused, naming the parameter; above 1000 is read as 1000.
+    for limit in ["0", "-1"] {
+        let (status, body) = s
+            .get(&format!("/api/v1/sites/paper/epochs?limit={limit}"))
+            .await;
+        assert_eq!(status, 400, "{body}");
+        assert!(
+            body["error"]["message"]
+                .as_str()
+                .unwrap()
+                .starts_with("limit:"),
+            "{body}"
+        );
+    }
+    let (status, page) = s.get("/api/v1/sites/paper/epochs?limit=5000").await;
+    assert_eq!((status, page["items"].as_array().unwrap().len()), (200, 9));
 
     let (status, series) = s.get("/api/v1/sites/paper/points/5/displacements").await;
     assert_eq!(status, 200);
@@ -287,6 +303,17 @@ async fn rejections_store_nothing() {
     assert_eq!(status, 422, "{e}");
     let msg = e["error"]["message"].as_str().unwrap();
     assert!(msg.starts_with("cameras[0].c_mm: invalid type"), "{msg}");
+    // A misspelt member is refused by its path, not ignored (c would silently stay fixed).
+    let mut misspelt = good.clone();
+    misspelt["observed_at"] = json!("2001-05-02T00:00:00Z");
+    misspelt["cameras"][0]["calibrate_C"] = json!(true);
+    let (status, e) = s.upload("rej", &misspelt).await;
+    assert_eq!(status, 422, "{e}");
+    let msg = e["error"]["message"].as_str().unwrap();
+    assert!(
+        msg.starts_with("cameras[0].calibrate_C: unknown field"),
+        "{msg}"
+    );
     // A body that is neither JSON nor CSV by its content type: 415, whatever it holds.
     let mut other = good.clone();
     other["observed_at"] = json!("2001-06-01T00:00:00Z");
@@ -1067,6 +1094,28 @@ async fn bodies_are_objects_integers_may_be_integral_floats() {
                    "below": 96, "confidence": 0.99}]}),
             201,
         ),
+        // Rules that would fire on everything or nothing: a time to failure "above" a number of
+        // hours, a negative or zero horizon, a negative length.
+        (
+            json!({"id": "u", "alert_rules": [{"level": "alarm", "metric": "time_to_failure_hours",
+                   "above": 96}]}),
+            422,
+        ),
+        (
+            json!({"id": "u", "alert_rules": [{"level": "alarm", "metric": "time_to_failure_hours",
+                   "below": 0}]}),
+            422,
+        ),
+        (
+            json!({"id": "u", "alert_rules": [{"level": "watch", "metric": "displacement_mm",
+                   "above": -1}]}),
+            422,
+        ),
+        (
+            json!({"id": "u", "alert_rules": [{"level": "watch", "metric": "displacement_along_mm",
+                   "below": -5}]}),
+            201,
+        ),
     ] {
         let r = send(post.clone(), "/api/v1/sites", body.clone())
             .await
@@ -1138,7 +1187,20 @@ async fn point_settings_keep_what_is_left_out_and_clear_what_is_null() {
             .contains("group 'B 1'"),
         "{e}"
     );
+    // A direction whose length overflows (or is zero) has no unit vector: refused.
+    for d in [json!([1e308, 1e308, 0.0]), json!([0.0, 0.0, 0.0])] {
+        let (st, e) = put(json!({"direction": d})).await;
+        assert_eq!(st, 422, "{d}: {e}");
+        assert!(
+            e["error"]["message"]
+                .as_str()
+                .unwrap()
+                .starts_with("direction:"),
+            "{e}"
+        );
+    }
     let (_, list) = s.get("/api/v1/sites/pts/points").await;
     assert_eq!(list["items"][0]["role"], "stable", "{list}");
+    assert_eq!(list["items"][0]["direction"], Value::Null, "{list}");
     s.stop().await;
 }

@@ -85,7 +85,8 @@ pub const FORECAST_CONFIDENCE: f64 = 0.95;
 
 impl AlertRule {
     /// Checks that exactly one of `above` / `below` is set, finite, and that the clear threshold lies on the
-    /// right side.
+    /// right side; that a `time_to_failure_hours` rule has a positive `below` and a `displacement_mm`
+    /// rule a threshold of at least 0.
     pub fn validate(&self) -> Result<(), AnalysisError> {
         let bad = |m: &str| {
             Err(AnalysisError::InvalidConfig(format!(
@@ -105,6 +106,18 @@ impl AlertRule {
                 }
             }
             _ => return bad("exactly one finite `above` or `below` is needed"),
+        }
+        match (self.metric, self.above, self.below) {
+            (Metric::TimeToFailureHours, Some(_), _) => {
+                return bad("takes `below`: the rule fires when failure is forecast sooner than that many hours")
+            }
+            (Metric::TimeToFailureHours, _, Some(b)) if !(b > 0.0) => {
+                return bad("`below` must be a positive number of hours")
+            }
+            (Metric::DisplacementMm, a, b) if a.or(b).is_some_and(|t| t < 0.0) => {
+                return bad("d_mm is a length: its threshold must not be negative")
+            }
+            _ => {}
         }
         if self
             .for_epochs

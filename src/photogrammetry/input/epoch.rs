@@ -15,6 +15,7 @@ pub use crate::photogrammetry::model::camera::CameraInput;
 /// One campaign at one site as uploaded (JSON form of the contract; the OpenAPI document's
 /// upload form is derived from these types).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct EpochInput {
     /// When the images were taken (RFC 3339, UTC), unique within the site.
     #[schema(format = DateTime)]
@@ -40,6 +41,7 @@ pub struct EpochInput {
 
 /// One image of the upload form.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct ImageInput {
     /// Image identifier, unique within the epoch.
     #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
@@ -58,6 +60,7 @@ pub struct ImageInput {
 
 /// One target observation: either (`x_mm`, `y_mm`) or (`col`, `row`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct ObservationInput {
     /// Point name.
     #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
@@ -82,6 +85,7 @@ pub struct ObservationInput {
 
 /// A control point: known coordinates (m) weighted by `sigma_m`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
 #[allow(non_snake_case)]
 pub struct ControlInput {
     /// Point name.
@@ -104,6 +108,7 @@ pub struct ControlInput {
 
 /// Approximate coordinates (m): start values only.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
 #[allow(non_snake_case)]
 pub struct ApproxInput {
     /// Point name.
@@ -398,6 +403,9 @@ impl ImageInput {
                 });
             }
             let xy = o.image_mm(&self.id, camera)?;
+            on_sensor(xy, camera, || {
+                format!("image '{}' point '{}'", self.id, o.point)
+            })?;
             observations.push(Observation { point: p, xy });
         }
         Ok(Image {
@@ -407,6 +415,32 @@ impl ImageInput {
             observations,
         })
     }
+}
+
+/// How far beyond the sensor's edge (as a share of its half width or height) an observation may
+/// lie: the principal point may sit off the centre, a target may be centred on the border.
+const SENSOR_MARGIN: f64 = 0.1;
+
+/// Checks that an observation (image mm) lies on the sensor when the camera gives its size (pixel
+/// size and image size), within [`SENSOR_MARGIN`]: a point far off it is a typo or a wrong unit,
+/// which the adjustment would only drop as an outlier.
+fn on_sensor(xy: [f64; 2], camera: &Camera, item: impl Fn() -> String) -> Result<(), EpochError> {
+    let (Some(px), Some((w, h))) = (camera.pixel_size_mm, camera.size_px) else {
+        return Ok(());
+    };
+    let half = [0.5 * w as f64 * px, 0.5 * h as f64 * px];
+    let off = (0..2).any(|k| xy[k].abs() > (1.0 + SENSOR_MARGIN) * half[k]);
+    if off {
+        return Err(EpochError::OutOfRange {
+            item: item(),
+            field: "position".into(),
+            reason: format!(
+                "({:.3}, {:.3}) mm lies off the sensor of camera '{}' (±{:.3} × ±{:.3} mm)",
+                xy[0], xy[1], camera.id, half[0], half[1]
+            ),
+        });
+    }
+    Ok(())
 }
 
 impl ObservationInput {

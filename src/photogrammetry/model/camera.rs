@@ -6,6 +6,7 @@ use crate::photogrammetry::error::EpochError;
 
 /// A camera (interior orientation) of the upload form. Only `c_mm` is required.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct CameraInput {
     /// Camera identifier referenced by images.
     #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
