@@ -599,6 +599,7 @@ pub fn analyse_epoch(
         out: &out,
         history,
         now: current.observed_at,
+        same_epoch,
         config,
         z_vel: epoch_wide.z_vel,
         z_acc: epoch_wide.z_acc,

@@ -108,6 +108,32 @@ pub fn estimate_block(
     solve(points, &weight, confidence)
 }
 
+/// The motion of a block at the reference epoch: zero and exactly known. The reference epoch's
+/// own displacements are zero with zero covariance, which leave the estimate's weights undefined;
+/// the model and redundancy are those [`estimate_block`] gives the same points.
+///
+/// Errors: no point, or a non-finite value.
+pub fn at_rest(points: &[BlockPoint]) -> Result<BlockMotion, AnalysisError> {
+    check_points(points)?;
+    let u = design(points).ncols();
+    let rigid = u == 6;
+    Ok(BlockMotion {
+        model: if rigid {
+            BlockModel::Rigid
+        } else {
+            BlockModel::Translation
+        },
+        points: points.iter().map(|p| p.name.clone()).collect(),
+        translation_mm: [0.0; 3],
+        covariance_mm2: [[0.0; 3]; 3],
+        rotation_mrad: rigid.then_some([0.0; 3]),
+        sigma_rotation_mrad: rigid.then_some([0.0; 3]),
+        test_statistic: 0.0,
+        redundancy: 3 * points.len() - u,
+        rigid: true,
+    })
+}
+
 /// Estimates the block's motion with the joint covariance of its points' displacements
 /// (`joint_mm2`, 3n × 3n in the order of `points`; the cross-covariances the datum and the
 /// epochs put between them): generalised least squares, so the translation's covariance keeps

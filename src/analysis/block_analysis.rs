@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use super::alerts::{Metric, Reading, Readings, Source};
 use super::analyse::{length_of, raw_kinematics, record_covariance, History};
 use super::block::{
-    estimate_block, estimate_block_correlated, translation_share, BlockMotion, BlockPoint,
+    at_rest, estimate_block, estimate_block_correlated, translation_share, BlockMotion, BlockPoint,
 };
 use super::displacement::{DisplacementRecord, PointAnalysis};
 use super::epoch::{AnalysisConfig, EpochCoordinates, GroupConfig, PointConfig};
@@ -57,6 +57,8 @@ pub(super) struct BlockInputs<'a> {
     pub history: &'a History,
     /// This epoch's time.
     pub now: DateTime<Utc>,
+    /// This epoch is the reference epoch itself: every displacement is zero, exactly.
+    pub same_epoch: bool,
     /// The site's analysis settings.
     pub config: &'a AnalysisConfig,
     /// Normal quantile of the velocity's significance test (at the site's confidence).
@@ -125,6 +127,10 @@ fn analyse_block(
         .collect();
     // This epoch's joint covariance of the members, when every member is present; the past
     // epochs' is taken with the same correlations (see `correlated_like`).
+    // The reference epoch itself: the block has not moved, exactly.
+    if inputs.same_epoch {
+        return at_reference_epoch(g, members, &current);
+    }
     let (joint_now, shared_joint) = (current.len() == members.len())
         .then(|| joint_of(&members))
         .flatten()
@@ -166,6 +172,34 @@ fn analyse_block(
         failure,
         filtered,
         filtered_failure,
+    }
+}
+
+/// The block at the reference epoch: its motion zero and exactly known, its displacement 0 and
+/// not significant, so that its motion series starts where its points' series do.
+fn at_reference_epoch(
+    g: &GroupConfig,
+    members: Vec<String>,
+    current: &[BlockPoint],
+) -> BlockAnalysis {
+    let mut readings = Readings::default();
+    let zero = Reading {
+        value: Some(0.0),
+        sigma: 0.0,
+        significant: false,
+    };
+    readings.set(Metric::DisplacementMm, Source::Raw, zero);
+    if g.direction.is_some() {
+        readings.set(Metric::DisplacementAlongMm, Source::Raw, zero);
+    }
+    BlockAnalysis {
+        group: g.name.clone(),
+        points: members,
+        readings,
+        motion: at_rest(current).ok(),
+        failure: None,
+        filtered: None,
+        filtered_failure: None,
     }
 }
 

@@ -12,8 +12,9 @@ use crate::photogrammetry::Model;
 /// start ([`crate::service::recompute::recompute_outdated`]); a new site starts at it. 2: block
 /// motions with the joint covariance of their points, forecasts weighed by the epochs' own errors;
 /// 3: the forecast's law fitted to the displacements in three dimensions; 4: time-to-failure
-/// rules read at 0.95 by default (the alert state is replayed with the series).
-pub const ANALYSIS_VERSION: i64 = 4;
+/// rules read at 0.95 by default (the alert state is replayed with the series); 5: a block's
+/// motion series has its row at the reference epoch (zero), as its points' series do.
+pub const ANALYSIS_VERSION: i64 = 5;
 
 /// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]

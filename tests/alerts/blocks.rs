@@ -61,9 +61,15 @@ async fn assert_block_motion(d: &Daemon, point_items: &[Value]) {
     let (s, m) = d.get("/api/v1/sites/cliff/groups/B1/motion").await;
     assert_eq!(s, 200, "{m}");
     let rows = m["items"].as_array().unwrap();
-    // no motion is estimated in the reference epoch (zero with σ 0); one row per later epoch
-    assert_eq!(rows.len(), point_items.len() - 1, "{m}");
-    for (r, p) in rows.iter().zip(&point_items[1..]) {
+    // one row per epoch: at the reference epoch zero with σ 0, as the points' rows
+    assert_eq!(rows.len(), point_items.len(), "{m}");
+    let first = &rows[0];
+    assert_eq!(first["epoch"], point_items[0]["epoch"], "{first}");
+    assert!(
+        num(first, "d_mm") == 0.0 && num(first, "sigma_mm") == 0.0 && first["significant"] == false,
+        "{first}"
+    );
+    for (r, p) in rows[1..].iter().zip(&point_items[1..]) {
         assert_eq!(r["point"], "B1");
         assert_eq!(r["epoch"], p["epoch"]);
         assert!(
@@ -404,8 +410,9 @@ async fn a_large_network_keeps_the_blocks_members_in_the_joint_covariance() {
     let (s, m) = d.get("/api/v1/sites/cliff/groups/B1/motion").await;
     assert_eq!(s, 200, "{m}");
     let rows = m["items"].as_array().unwrap();
-    assert_eq!(rows.len(), 2, "{m}");
-    for (k, r) in rows.iter().enumerate() {
+    assert_eq!(rows.len(), 3, "{m}");
+    assert_eq!(num(&rows[0], "d_mm"), 0.0, "the reference epoch: {m}");
+    for (k, r) in rows[1..].iter().enumerate() {
         let truth = 8.0 * (k + 1) as f64;
         let sigma = num(r, "sigma_mm");
         assert!(
