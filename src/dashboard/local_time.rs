@@ -23,6 +23,20 @@ pub fn when(rfc3339: &str, tz: Option<&str>) -> Markup {
     }
 }
 
+/// A time (seconds since 1970) as plain text: `2026-11-25 09:00 UTC`, followed by
+/// ` · 18:00 JST` in the site's zone as [`when`] shows it.
+pub fn text(unix_seconds: f64, tz: Option<&str>) -> String {
+    let Some(utc) = DateTime::<Utc>::from_timestamp(unix_seconds.round() as i64, 0) else {
+        return format!("{unix_seconds} s");
+    };
+    let mut out = utc.format("%Y-%m-%d %H:%M UTC").to_string();
+    if let Some(zone) = tz.and_then(|z| z.parse::<Tz>().ok()) {
+        out.push_str(" · ");
+        out.push_str(&local_text(utc, zone));
+    }
+    out
+}
+
 /// The local part: `18:00 JST`, or `2026-11-26 02:00 JST` across midnight.
 fn local_text(utc: DateTime<Utc>, zone: Tz) -> String {
     let local = utc.with_timezone(&zone);
@@ -46,6 +60,17 @@ mod tests {
         assert!(s.contains("2026-11-26 05:30 JST"), "{s}");
         let s = when("2026-07-01T12:00:00Z", Some("Europe/Zurich")).into_string();
         assert!(s.contains("14:00 CEST"), "{s}");
+    }
+
+    #[test]
+    fn plain_text_of_seconds_has_the_same_parts() {
+        let t = 1_795_597_200.0; // 2026-11-25T09:00:00Z
+        assert_eq!(
+            text(t, Some("Asia/Tokyo")),
+            "2026-11-25 09:00 UTC · 18:00 JST"
+        );
+        assert_eq!(text(t, None), "2026-11-25 09:00 UTC");
+        assert_eq!(text(t, Some("Mars/Olympus")), "2026-11-25 09:00 UTC");
     }
 
     #[test]

@@ -24,6 +24,7 @@ use serde::Deserialize;
 use serde_json::{json, Value};
 
 use super::downsample::{bucket_count, PlotPicker};
+use super::local_time::text;
 use crate::api::error::ApiError;
 use crate::api::AppState;
 use crate::store::series::SeriesQuery;
@@ -101,7 +102,7 @@ pub async fn plot(
         "thresholds": thresholds,
         "events": events,
         "inverse_line": inverse_line(&last).map_or(Value::Null, |l| json!(l)),
-        "forecast": forecast(&last),
+        "forecast": forecast(&last, site.time_zone.as_deref()),
     });
     let mut body = Vec::with_capacity(drawn.t.len() * 19 * 20 + 4096);
     write_columns(&drawn, &mut body);
@@ -296,8 +297,9 @@ pub fn inverse_line(c: &SeriesColumns) -> Option<[f64; 4]> {
     Some([t0 * 86_400.0, a + b * t0, t1 * 86_400.0, a + b * t1])
 }
 
-/// The latest filtered forecast: failure time and ±2σ (s since 1970), or null.
-fn forecast(c: &SeriesColumns) -> Value {
+/// The latest filtered forecast: failure time and ±2σ (s since 1970), and the sentence the page
+/// shows (UTC and the site's time zone `tz`), or null.
+fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
     let Some(i) = c.t.len().checked_sub(1) else {
         return Value::Null;
     };
@@ -307,7 +309,14 @@ fn forecast(c: &SeriesColumns) -> Value {
     }
     let tf = c.t[i] + h * 3600.0;
     let s = if s.is_finite() { s * 3600.0 } else { 0.0 };
-    json!({"t_f": tf, "lower": (tf - 2.0 * s).max(c.t[i]), "upper": tf + 2.0 * s, "hours": h})
+    let (lower, upper) = ((tf - 2.0 * s).max(c.t[i]), tf + 2.0 * s);
+    let text = format!(
+        "Forecast failure (filtered): {} (±2σ: {} to {})",
+        text(tf, tz),
+        text(lower, tz),
+        text(upper, tz)
+    );
+    json!({"t_f": tf, "lower": lower, "upper": upper, "hours": h, "text": text})
 }
 
 #[cfg(test)]

@@ -59,13 +59,14 @@ pub async fn point(
                 tr { th { "latest epoch" } td { a href={ "/sites/" (s) "/epochs/" (d.epoch) } { (when(&d.observed_at, site.time_zone.as_deref())) } } }
                 tr { th { "d (mm)" } td { (with_sigma(Some(d.d_mm), Some(d.sigma_mm), 2)) @if d.significant { " (significant)" } } }
                 tr { th { "filtered d (mm)" } td { (with_sigma(d.f_d_mm, d.sigma_f_d_mm, 2)) } }
-                tr { th { "velocity (mm/day)" } td { (with_sigma(d.f_velocity_mm_per_day, d.sigma_f_velocity_mm_per_day, 3)) } }
-                tr { th { "time to failure (h)" } td { (with_sigma(d.f_time_to_failure_hours, d.sigma_f_time_to_failure_hours, 0)) } }
+                tr { th { "filtered velocity (mm/day)" } td { (with_sigma(d.f_velocity_mm_per_day, d.sigma_f_velocity_mm_per_day, 3)) } }
+                tr { th { "raw velocity (mm/day)" } td { (num(d.velocity_mm_per_day, 3)) } }
+                tr { th { "filtered time to failure (h)" } td { (with_sigma(d.f_time_to_failure_hours, d.sigma_f_time_to_failure_hours, 0)) } }
             }
         } @else {
             p.note { "No displacement yet: the point has no epoch after the reference." }
         }
-        div.plots data-src=(data) {
+        div.plots data-src=(data) data-tz=[site.time_zone.as_deref()] {
             figure { figcaption { "dx, dy, dz (mm), ±2σ" } div.plot data-panel="xyz" {} }
             figure { figcaption { "3-D displacement d (mm), raw and filtered, ±2σ" } div.plot data-panel="d" {} }
             @if p.direction.is_some() {

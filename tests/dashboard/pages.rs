@@ -731,3 +731,68 @@ async fn long_history_plot_reads_block_extremes_and_keeps_the_envelope() {
     plot_support::long_history_plot(&s.store, &s.url("")).await;
     s.stop().await;
 }
+
+/// A block accelerating towards failure (inverse-velocity law, failure on day 16): the point page
+/// says its estimates are filtered, and the forecast failure time reads in UTC and the site's zone.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_forecast_reads_in_utc_and_the_site_zone() {
+    use dashboard_support::day;
+    use dashboard_support::service_support::synthetic_epoch;
+    let s = TestServer::start(|_| {}).await;
+    let r = s
+        .client
+        .post(s.url("/api/v1/sites"))
+        .json(&json!({"id": "tf", "time_zone": "Asia/Tokyo", "model": "orthogonal"}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201);
+    for i in 0..STABLE {
+        let r = s
+            .client
+            .put(s.url(&format!("/api/v1/sites/tf/points/{}", name(i))))
+            .json(&json!({"role": "stable"}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200);
+    }
+    // d(t) = −v0·t_f·ln(1 − t/t_f): 1 mm/day at first, failure at t_f = 16 days
+    for k in 0..14 {
+        let mm = -16.0 * (1.0 - k as f64 / 16.0).ln();
+        let body = synthetic_epoch(4, POINTS, &day(k), 300 + k as u64, mm, STABLE);
+        let (st, answer) = s.upload("tf", &body).await;
+        assert_eq!(st, 201, "epoch {k}: {answer}");
+    }
+    let moving = name(POINTS - 1);
+    let (_, page) = html(&s, &format!("/sites/tf/points/{moving}")).await;
+    assert!(
+        page.contains("filtered velocity (mm/day)")
+            && page.contains("filtered time to failure (h)")
+            && page.contains("raw velocity (mm/day)"),
+        "{page}"
+    );
+    let (_, plot) = s
+        .get(&format!("/dashboard/plot/tf/{moving}?width=400"))
+        .await;
+    let text = plot["forecast"]["text"]
+        .as_str()
+        .unwrap_or_else(|| panic!("{}", plot["forecast"]));
+    eprintln!("{text}");
+    // the true failure (day 16, 2026-11-17 09:00 UTC) lies in the interval shown
+    let truth = chrono::DateTime::parse_from_rfc3339(&day(16))
+        .unwrap()
+        .timestamp() as f64;
+    let f = &plot["forecast"];
+    assert!(
+        f["lower"].as_f64().unwrap() <= truth && truth <= f["upper"].as_f64().unwrap(),
+        "{f}"
+    );
+    assert!(
+        text.starts_with("Forecast failure (filtered): ")
+            && text.contains(" UTC · ")
+            && text.matches("JST").count() == 3,
+        "{text}"
+    );
+    s.stop().await;
+}

@@ -104,9 +104,7 @@
       var f = el.parentNode.querySelector(".forecast");
       if (f) {
         f.textContent = d.forecast
-          ? "Forecast failure: " + new Date(d.forecast.t_f * 1000).toISOString().slice(0, 16).replace("T", " ") + " UTC (±2σ: " +
-            new Date(d.forecast.lower * 1000).toISOString().slice(0, 16).replace("T", " ") + " to " +
-            new Date(d.forecast.upper * 1000).toISOString().slice(0, 16).replace("T", " ") + ")"
+          ? d.forecast.text
           : "No failure forecast: the point does not accelerate significantly.";
       }
       return draw(el, t, [{ label: "1/v", stroke: RAW[3], width: 1.5, values: inv }, { label: "fitted line", stroke: FILTERED, width: 1, dash: [6, 3], values: line }], ev);
