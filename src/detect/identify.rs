@@ -6,9 +6,12 @@
 //! `scale · max_motion_m + orientation uncertainty` (mm on the image), where `scale = c / depth` is the
 //! image scale at the point. A match is kept only when it is mutual and unique: a blob inside the gates
 //! of two points, or a point with two blobs in its gate, is left out and listed as ambiguous — never
-//! guessed. After a first pass, a 2-D similarity from the unique matches to the detections absorbs a
-//! small re-pointing of the station, and the matching is repeated.
+//! guessed. When the first pass finds fewer than half the targets in view, the station was set up
+//! again or re-aimed: the pattern's shift on the image is found by voting
+//! ([`super::re_pointing`]) and the matching repeated. Then a 2-D similarity from the unique
+//! matches to the detections absorbs the rest of the re-pointing, and the matching is repeated.
 
+use super::re_pointing::{translation_by_votes, MIN_VOTES};
 use crate::photogrammetry::model::camera::brown_correct;
 use crate::photogrammetry::start::start_values::{resect_image, StartImage};
 use crate::photogrammetry::{Camera, ImageOrientation};
@@ -318,6 +321,17 @@ pub fn identify(
         proj.push((q, gate));
     }
     let mut pass = match_pass(&proj, blobs_mm, &inside);
+    // a station set up again: the pattern moved by more than the gates; find the shift by votes
+    let expected = inside.iter().filter(|i| **i).count();
+    if pass.matched.len() < MIN_VOTES.max(expected / 2) {
+        if let Some(t) = translation_by_votes(&proj, blobs_mm) {
+            for (k, (q, _)) in proj.iter_mut().enumerate() {
+                *q = [q[0] + t[0], q[1] + t[1]];
+                inside[k] = half.is_none_or(|h| q[0].abs() <= h[0] && q[1].abs() <= h[1]);
+            }
+            pass = match_pass(&proj, blobs_mm, &inside);
+        }
+    }
     // absorb a small re-pointing: similarity from the unique matches, then match again
     let pairs: Vec<([f64; 2], [f64; 2])> = pass
         .matched

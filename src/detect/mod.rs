@@ -16,6 +16,7 @@ pub mod first_epoch;
 pub mod identify;
 pub(crate) mod multiview;
 pub(crate) mod naming;
+pub(crate) mod re_pointing;
 pub(crate) mod target;
 pub mod threshold;
 

@@ -90,5 +90,66 @@ pub(super) fn name_targets(
             &id.unmatched_blobs,
         ));
     }
-    Ok((names, counts.into_iter().flatten().collect()))
+    let mut counts: Vec<StationCounts> = counts.into_iter().flatten().collect();
+    if let Some(msg) = lost_orientations(&counts) {
+        return Err(WatchError::Unidentified(msg));
+    }
+    leave_out_single_views(&mut names, &mut counts);
+    Ok((names, counts))
+}
+
+/// Leaves out the points named in one station only (a target the other cameras no longer see
+/// after a re-aim): one ray cannot place them. Each station's counts list those it named.
+fn leave_out_single_views(names: &mut [StationNamed], counts: &mut [StationCounts]) {
+    let mut stations_of: BTreeMap<String, usize> = BTreeMap::new();
+    for named in names.iter() {
+        for (p, _) in named {
+            *stations_of.entry(p.clone()).or_default() += 1;
+        }
+    }
+    for (named, c) in names.iter_mut().zip(counts.iter_mut()) {
+        let (single, kept): (StationNamed, StationNamed) =
+            named.drain(..).partition(|(p, _)| stations_of[p] < 2);
+        *named = kept;
+        c.in_one_station_only = single.into_iter().map(|(p, _)| p).collect();
+        if !c.in_one_station_only.is_empty() {
+            tracing::info!(
+                station = c.station,
+                points = ?c.in_one_station_only,
+                "named in this station only: left out of the epoch"
+            );
+        }
+    }
+}
+
+/// Fewest targets a station must name from its previous orientation; fewer means the camera no
+/// longer stands or points where it did.
+const MIN_NAMED: usize = 4;
+
+/// The refusal when stations named from their previous orientation found almost none of their
+/// targets: names the stations and what to add.
+fn lost_orientations(counts: &[StationCounts]) -> Option<String> {
+    let lost: Vec<String> = counts
+        .iter()
+        .filter(|c| {
+            c.method == "previous orientation"
+                && c.identified < MIN_NAMED
+                && c.detected >= MIN_NAMED
+        })
+        .map(|c| {
+            format!(
+                "{} ({} of {} detected targets named)",
+                c.station, c.identified, c.detected
+            )
+        })
+        .collect();
+    (!lost.is_empty()).then(|| {
+        format!(
+            "stations {} could not be identified from their orientation of the previous epoch: \
+             the camera was probably set up again or re-aimed. In epoch.json, give each of these \
+             stations at least {MIN_NAMED} seed observations (point with col and row) of targets \
+             spread over the face.",
+            lost.join(", ")
+        )
+    })
 }

@@ -49,6 +49,10 @@ pub(super) struct StationCounts {
     pub(super) ambiguous: usize,
     /// Targets matching no point.
     pub(super) unmatched: usize,
+    /// Points named here but in no other station: left out of the epoch (one ray cannot place
+    /// them).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub(super) in_one_station_only: Vec<String>,
     /// The folder after ingestion, relative to the site's directory (`.done/<epoch folder>`).
     pub(super) folder: String,
     /// The image's file name in that folder.
@@ -118,6 +122,7 @@ impl StationCounts {
             identified: named.len(),
             ambiguous: ambiguous.len(),
             unmatched: unmatched.len(),
+            in_one_station_only: Vec::new(),
             folder: String::new(),
             image: s.image_file.clone(),
             width_px: s.size.0,

@@ -8,7 +8,10 @@
 //!   started from ±5 cm;
 //! - independent ±0.5 m per point: refused, and `error.txt` names every station and what to add;
 //! - a second epoch with 6 targets moved by 3 cm, without seeds: every target identified from the
-//!   first epoch's orientations.
+//!   first epoch's orientations;
+//! - later epochs without seeds after every camera was set up again and turned by up to 1.1°
+//!   (2 m on the face): named, every name right; a roll of 8° about the optical axis: refused, and
+//!   `error.txt` names the stations to seed.
 
 use crate::identify_support;
 use crate::service_support;
@@ -336,5 +339,110 @@ async fn approximations_too_rough_are_refused_with_what_to_add() {
         !list.to_string().contains("observed_at"),
         "nothing stored: {list}"
     );
+    server.stop().await;
+}
+
+/// Turns every camera of `truth` by `angles_deg` (one per station, in order) about its own
+/// vertical axis (a re-aim) or, with `roll`, about its optical axis: the cameras set up again
+/// between two epochs.
+fn re_aim(truth: &Truth, angles_deg: &[f64], roll: bool) -> Truth {
+    let mut moved = truth.clone();
+    for (cam, a) in moved.cameras.values_mut().zip(angles_deg) {
+        let (s, c) = a.to_radians().sin_cos();
+        let q = if roll {
+            [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+        } else {
+            [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
+        };
+        let r = cam.r;
+        cam.r = std::array::from_fn(|i| {
+            std::array::from_fn(|j| (0..3).map(|k| q[i][k] * r[k][j]).sum())
+        });
+    }
+    moved
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn later_epochs_after_the_cameras_were_set_up_again_are_named_or_name_the_stations_to_seed() {
+    let server = TestServer::start(|_| {}).await;
+    let watch = tempfile::tempdir().unwrap();
+    let opts = WatchOptions::new(watch.path().to_path_buf());
+    for seed in 1..=3u64 {
+        let (epoch, truth) = long_range(&LongRangeParams {
+            seed,
+            ..LongRangeParams::default()
+        })
+        .unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(700 + seed);
+        let site = format!("reset{seed}");
+        server.create_site(&site).await;
+        let dir = watch.path().join(&site);
+        let rendered = observe(&epoch, &truth, &truth.points, &mut rng);
+        let fine = approximations(&truth, 0.0, 0.0, 0.05, 800 + seed);
+        write_folder(
+            &dir,
+            "e1",
+            &epoch,
+            "2026-11-20T09:00:00Z",
+            &rendered,
+            &corner_targets(&truth),
+            &fine,
+            seed,
+        );
+        scan_once(&server.store, &opts).await;
+        done(&dir, "e1");
+        // the next days every camera stands again, turned about its vertical axis (0.1° is
+        // 0.18 m on the face, the targets are about 0.8 m apart), and the folders bring no seeds:
+        // turns the identification absorbs, turns of about one target spacing, larger ones
+        // turns of about one target spacing, larger ones, then a roll of 8° about the optical
+        // axis that no shift explains
+        let turns: [([f64; 5], bool); 4] = [
+            ([0.05, 0.1, 0.15, 0.2, 0.25], false),
+            ([0.4, 0.42, 0.44, 0.46, 0.48], false),
+            ([0.3, 0.5, 0.7, 0.9, 1.1], false),
+            ([8.0; 5], true),
+        ];
+        let mut stored = 1;
+        let mut refused = 0;
+        for (k, (angles, roll)) in turns.iter().enumerate() {
+            let folder = format!("e{}", k + 2);
+            let turned = re_aim(&truth, angles, *roll);
+            let rendered2 = observe(&epoch, &turned, &truth.points, &mut rng);
+            write_folder(
+                &dir,
+                &folder,
+                &epoch,
+                &format!("2026-11-2{}T09:00:00Z", k + 1),
+                &rendered2,
+                &[],
+                &fine,
+                seed * 10 + k as u64,
+            );
+            scan_once(&server.store, &opts).await;
+            match std::fs::read_to_string(dir.join(".failed").join(&folder).join("error.txt")) {
+                Ok(err) => {
+                    eprintln!("seed {seed}, turns {angles:?}: {err}");
+                    assert!(
+                        err.contains("set up again") && err.contains("seed observations"),
+                        "{err}"
+                    );
+                    // every station that named almost nothing is listed with its counts
+                    assert!(err.contains("detected targets named"), "{err}");
+                    refused += 1;
+                }
+                // taken: then every name must be right
+                Err(_) => {
+                    let counts = done(&dir, &folder);
+                    eprintln!("seed {seed}, turns {angles:?}: taken, named per station {counts:?}");
+                    assert_names_right(&server, &site, &rendered2).await;
+                    stored += 1;
+                }
+            }
+            let (_, list) = server.get(&format!("/api/v1/sites/{site}/epochs")).await;
+            assert_eq!(list["items"].as_array().unwrap().len(), stored, "{list}");
+        }
+        // the turns are named, the roll refused
+        assert_eq!((stored, refused), (4, 1), "seed {seed}");
+    }
     server.stop().await;
 }
