@@ -48,7 +48,8 @@ pub struct SimulateArgs {
     /// Seed of the random draws (geometry, noise, start errors).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Directory to write the two files into (created if missing).
+    /// Directory to write into (created if missing): the upload and the truth, or for
+    /// `monitoring-series` one upload per epoch and the series truth.
     #[arg(long, default_value = ".")]
     pub out_dir: PathBuf,
     /// Swap two targets' labels in one image (long-range scenes only).
