@@ -84,7 +84,7 @@ fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
     if let Some(d) = body.direction {
         if !crate::analysis::is_usable_direction(d) {
             return Err(invalid(
-                "direction: three finite numbers, not all zero, whose length is a finite number"
+                "direction: three finite numbers, not all zero, whose squares add up to a finite non-zero number (a unit vector such as [0, -0.5, 0.866] is safest)"
                     .into(),
             ));
         }
@@ -192,6 +192,12 @@ pub async fn motion(
         .await?
         .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no group '{group}'")))?;
     let (from, to, format) = q.range_and_format()?;
+    // checked for both formats, though CSV answers the whole range
+    let page = PageParams {
+        limit: q.limit,
+        cursor: q.cursor,
+    };
+    let limit = page.limit()?;
     if format == SeriesFormat::Csv {
         let rows = block_motions::series(
             db,
@@ -206,12 +212,7 @@ pub async fn motion(
         let body = format_rows(&rows, format, g.direction, &group);
         return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], body).into_response());
     }
-    let page = PageParams {
-        limit: q.limit,
-        cursor: q.cursor,
-    };
     let after = page.cursor()?;
-    let limit = page.limit()?;
     let mut rows = block_motions::series(
         db,
         &site,

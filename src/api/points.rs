@@ -133,7 +133,7 @@ pub async fn update(
         if !crate::analysis::is_usable_direction(d) {
             return Err(ApiError::unprocessable(
                 "invalid_point",
-                "direction: three finite numbers, not all zero, whose length is a finite number",
+                "direction: three finite numbers, not all zero, whose squares add up to a finite non-zero number (a unit vector such as [0, -0.5, 0.866] is safest)",
             ));
         }
     }
@@ -205,6 +205,12 @@ pub async fn displacements(
         .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no point '{point}'")))?;
     let (from, to, format) = q.range_and_format()?;
     let csv = format == SeriesFormat::Csv;
+    // checked for both formats, though CSV answers the whole range
+    let page = PageParams {
+        limit: q.limit,
+        cursor: q.cursor,
+    };
+    page.limit()?;
     let mut query = SeriesQuery {
         site,
         point,
@@ -228,10 +234,6 @@ pub async fn displacements(
         });
         return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], body).into_response());
     }
-    let page = PageParams {
-        limit: q.limit,
-        cursor: q.cursor,
-    };
     query.after = page.cursor()?;
     query.limit = Some(page.limit()?);
     let mut out = Vec::with_capacity(512 * page.limit()? as usize + 64);

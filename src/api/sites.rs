@@ -94,10 +94,27 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
                 format!("alert_rules[{i}]: needs level (watch|warning|alarm), metric and a numeric above or below"),
             ));
         }
+        if let Some(unknown) = rule.as_object().and_then(|o| {
+            o.keys()
+                .find(|k| !crate::analysis::alerts::RULE_MEMBERS.contains(&k.as_str()))
+        }) {
+            return Err(ApiError::unprocessable(
+                "invalid_site",
+                format!(
+                    "alert_rules[{i}].{unknown}: unknown member; a rule has {}",
+                    crate::analysis::alerts::RULE_MEMBERS.join(", ")
+                ),
+            ));
+        }
         // The rule as the engine reads it: source, for_epochs, hysteresis on the right side.
         let parsed = serde_json::from_value::<AlertRule>(rule.clone())
             .map_err(|e| e.to_string())
-            .and_then(|r| r.validate().map_err(|e| e.to_string()));
+            .and_then(|r| {
+                r.validate().map_err(|e| match e {
+                    crate::analysis::AnalysisError::InvalidConfig(m) => m,
+                    other => other.to_string(),
+                })
+            });
         if let Err(e) = parsed {
             return Err(ApiError::unprocessable(
                 "invalid_site",

@@ -124,6 +124,13 @@ async fn paper_epochs_upload_and_read_back() {
             "{body}"
         );
     }
+    for path in [
+        "/api/v1/sites/paper/points/5/displacements?format=csv&limit=0",
+        "/api/v1/sites/paper/points/5/displacements?limit=-1",
+    ] {
+        let r = s.client.get(s.url(path)).send().await.unwrap();
+        assert_eq!(r.status().as_u16(), 400, "{path}");
+    }
     let (status, page) = s.get("/api/v1/sites/paper/epochs?limit=5000").await;
     assert_eq!((status, page["items"].as_array().unwrap().len()), (200, 9));
 
@@ -1109,6 +1116,16 @@ async fn bodies_are_objects_integers_may_be_integral_floats() {
         (
             json!({"id": "u", "alert_rules": [{"level": "watch", "metric": "displacement_mm",
                    "above": -1}]}),
+            422,
+        ),
+        (
+            json!({"id": "u", "alert_rules": [{"level": "watch", "metric": "displacement_mm",
+                   "below": 5}]}),
+            422,
+        ),
+        (
+            json!({"id": "u", "alert_rules": [{"level": "watch", "metric": "displacement_mm",
+                   "above": 5, "clear_bellow": 3}]}),
             422,
         ),
         (

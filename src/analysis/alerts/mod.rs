@@ -38,4 +38,5 @@ pub use readings::{Reading, Readings};
 pub use reconcile::reconcile;
 pub use rule::{
     AlertConfig, AlertRule, FORECAST_CONFIDENCE, MAX_CONFIDENCE, MAX_EPOCHS, MIN_CONFIDENCE,
+    RULE_MEMBERS,
 };

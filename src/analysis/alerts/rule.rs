@@ -83,6 +83,23 @@ pub struct AlertRule {
 /// in 88 % at 0.99; at 0.95, 4 of 129 alarms came more than 96 h before failure.
 pub const FORECAST_CONFIDENCE: f64 = 0.95;
 
+/// The members of an alert rule in the contract JSON; the API refuses others (a misspelt
+/// `clear_bellow` would otherwise be stored and ignored).
+pub const RULE_MEMBERS: [&str; 12] = [
+    "level",
+    "metric",
+    "above",
+    "below",
+    "clear_below",
+    "clear_above",
+    "group",
+    "source",
+    "for_epochs",
+    "require_significant",
+    "quiet_epochs",
+    "confidence",
+];
+
 impl AlertRule {
     /// Checks that exactly one of `above` / `below` is set, finite, and that the clear threshold lies on the
     /// right side; that a `time_to_failure_hours` rule has a positive `below` and a `displacement_mm`
@@ -90,8 +107,8 @@ impl AlertRule {
     pub fn validate(&self) -> Result<(), AnalysisError> {
         let bad = |m: &str| {
             Err(AnalysisError::InvalidConfig(format!(
-                "alert rule {:?}: {m}",
-                self.metric
+                "{} rule: {m}",
+                AlertKind::from(self.metric).as_str()
             )))
         };
         match (self.above, self.below) {
@@ -107,6 +124,17 @@ impl AlertRule {
             }
             _ => return bad("exactly one finite `above` or `below` is needed"),
         }
+        if self.above.is_some() && self.clear_above.is_some() {
+            return bad(
+                "clear_above belongs to a `below` rule; an `above` rule clears below clear_below",
+            );
+        }
+        if self.below.is_some() && self.clear_below.is_some() {
+            return bad(
+                "clear_below belongs to an `above` rule; a `below` rule clears above clear_above",
+            );
+        }
+        // A rule must not fire on a point that has not moved (zero, at the reference epoch).
         match (self.metric, self.above, self.below) {
             (Metric::TimeToFailureHours, Some(_), _) => {
                 return bad("takes `below`: the rule fires when failure is forecast sooner than that many hours")
@@ -114,8 +142,19 @@ impl AlertRule {
             (Metric::TimeToFailureHours, _, Some(b)) if !(b > 0.0) => {
                 return bad("`below` must be a positive number of hours")
             }
-            (Metric::DisplacementMm, a, b) if a.or(b).is_some_and(|t| t < 0.0) => {
-                return bad("d_mm is a length: its threshold must not be negative")
+            (Metric::DisplacementMm, _, Some(_)) => {
+                return bad("d_mm is a length: the rule takes `above` (a `below` rule would fire on every still point)")
+            }
+            (Metric::DisplacementMm, Some(a), _)
+                if a < 0.0 || self.clear_below.is_some_and(|c| c < 0.0) =>
+            {
+                return bad("d_mm is a length: `above` and clear_below must not be negative")
+            }
+            (Metric::DisplacementAlongMm | Metric::VelocityMmPerDay, Some(a), _) if a < 0.0 => {
+                return bad("`above` must be at least 0 (a negative one fires on every still point); use `below` for motion against the direction")
+            }
+            (Metric::DisplacementAlongMm | Metric::VelocityMmPerDay, _, Some(b)) if b > 0.0 => {
+                return bad("`below` must be at most 0 (a positive one fires on every still point); use `above` for motion along the direction")
             }
             _ => {}
         }
@@ -329,6 +368,54 @@ impl AlertConfig {
             normal_quantile(self.confidence)
         } else {
             0.0
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`RULE_MEMBERS`] names exactly the members of [`AlertRule`].
+    #[test]
+    fn the_member_list_matches_the_rule() {
+        let every: AlertRule = serde_json::from_str(
+            r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "below": 1,
+                "clear_below": 4, "clear_above": 2, "group": "B1", "source": "raw",
+                "for_epochs": 2, "require_significant": true, "quiet_epochs": 3,
+                "confidence": 0.9}"#,
+        )
+        .unwrap();
+        let v = serde_json::to_value(&every).unwrap();
+        let mut keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+        let mut want = RULE_MEMBERS.to_vec();
+        keys.sort_unstable();
+        want.sort_unstable();
+        assert_eq!(keys, want);
+    }
+
+    /// Rules that would fire on a point that never moved are refused, naming the metric.
+    #[test]
+    fn rules_firing_on_still_points_are_refused() {
+        let rule = |json: &str| serde_json::from_str::<AlertRule>(json).unwrap().validate();
+        for bad in [
+            r#"{"level": "watch", "metric": "displacement_mm", "below": 5}"#,
+            r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "clear_below": -1}"#,
+            r#"{"level": "watch", "metric": "displacement_along_mm", "below": 1}"#,
+            r#"{"level": "watch", "metric": "velocity_mm_per_day", "above": -0.5}"#,
+            r#"{"level": "alarm", "metric": "time_to_failure_hours", "below": 48, "clear_below": 72}"#,
+            r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "clear_above": 9}"#,
+        ] {
+            let e = rule(bad).unwrap_err().to_string();
+            assert!(e.contains(" rule: "), "{bad}: {e}");
+        }
+        for good in [
+            r#"{"level": "watch", "metric": "displacement_mm", "above": 0}"#,
+            r#"{"level": "watch", "metric": "displacement_along_mm", "below": -5, "clear_above": -4}"#,
+            r#"{"level": "watch", "metric": "velocity_mm_per_day", "above": 1, "clear_below": 0.5}"#,
+            r#"{"level": "alarm", "metric": "time_to_failure_hours", "below": 48, "clear_above": 72}"#,
+        ] {
+            assert_eq!(rule(good).map_err(|e| e.to_string()), Ok(()), "{good}");
         }
     }
 }

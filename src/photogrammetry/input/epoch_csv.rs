@@ -60,6 +60,17 @@ pub fn epoch_from_csv(
             });
         }
         if i == 0 && &record[0] == "image" {
+            // a header is read, not assumed: swapped or pixel columns would be misread as mm
+            let got: Vec<&str> = record.iter().collect();
+            if got != ["image", "point", "x_mm", "y_mm"] {
+                return Err(CsvError::InvalidLine {
+                    line,
+                    reason: format!(
+                        "header '{}': the columns must be image,point,x_mm,y_mm in this order",
+                        got.join(",")
+                    ),
+                });
+            }
             continue;
         }
         let number = |k: usize| -> Result<f64, CsvError> {
@@ -105,11 +116,33 @@ mod tests {
         let e = epoch_from_csv(
             "image,point,x_mm,y_mm\nA,1,0.5,0.25\nA,2,1,2\nB,1,3,4\n",
             "2026-01-01T00:00:00Z",
-            vec![cam],
+            vec![cam.clone()],
         )
         .unwrap();
         assert_eq!(e.images.len(), 2);
         assert_eq!(e.images[0].observations.len(), 2);
         assert!(epoch_from_csv("A,1,x,2", "2026-01-01T00:00:00Z", vec![]).is_err());
+        // without a header the columns are image,point,x_mm,y_mm
+        let e =
+            epoch_from_csv("A,1,0.5,0.25\n", "2026-01-01T00:00:00Z", vec![cam.clone()]).unwrap();
+        assert_eq!(e.images[0].observations[0].x_mm, Some(0.5));
+    }
+
+    #[test]
+    fn a_header_other_than_the_contracts_is_refused_not_misread() {
+        let cam: CameraInput = serde_json::from_str(r#"{"id": "cam", "c_mm": 300.0}"#).unwrap();
+        for header in [
+            "image,point,y_mm,x_mm",
+            "image,point,col,row",
+            "image,point,xmm,ymm",
+        ] {
+            let text = format!("{header}\nA,1,0.5,0.25\n");
+            match epoch_from_csv(&text, "2026-01-01T00:00:00Z", vec![cam.clone()]) {
+                Err(CsvError::InvalidLine { line: 1, reason }) => {
+                    assert!(reason.contains(header), "{reason}")
+                }
+                other => panic!("{header}: {other:?}"),
+            }
+        }
     }
 }
