@@ -125,12 +125,12 @@ fn analyse_block(
             })
         })
         .collect();
-    // This epoch's joint covariance of the members, when every member is present; the past
-    // epochs' is taken with the same correlations (see `correlated_like`).
     // The reference epoch itself: the block has not moved, exactly.
     if inputs.same_epoch {
         return at_reference_epoch(g, members, &current);
     }
+    // This epoch's joint covariance of the members, when every member is present; the past
+    // epochs' is taken with the same correlations (see `correlated_like`).
     let (joint_now, shared_joint) = (current.len() == members.len())
         .then(|| joint_of(&members))
         .flatten()

@@ -69,6 +69,15 @@ fn observe(
         .collect()
 }
 
+/// The long-range scene of `seed`: its upload form and truth.
+fn scene(seed: u64) -> (EpochInput, Truth) {
+    long_range(&LongRangeParams {
+        seed,
+        ..LongRangeParams::default()
+    })
+    .unwrap()
+}
+
 /// Writes `<site_dir>/<name>/`: one PNG per station and `epoch.json` with `approx` and, per station,
 /// the `seeds` measured with σ 1 px; `READY` last.
 #[allow(clippy::too_many_arguments)]
@@ -203,11 +212,7 @@ async fn first_epochs_from_map_grade_approximations() {
     let mut fewest = Vec::new();
     let mut sigma_ratio = Vec::new();
     for seed in 1..=20u64 {
-        let (epoch, truth) = long_range(&LongRangeParams {
-            seed,
-            ..LongRangeParams::default()
-        })
-        .unwrap();
+        let (epoch, truth) = scene(seed);
         let mut rng = ChaCha8Rng::seed_from_u64(500 + seed);
         let rendered = observe(&epoch, &truth, &truth.points, &mut rng);
         let seeds = corner_targets(&truth);
@@ -368,11 +373,7 @@ async fn later_epochs_after_the_cameras_were_set_up_again_are_named_or_name_the_
     let watch = tempfile::tempdir().unwrap();
     let opts = WatchOptions::new(watch.path().to_path_buf());
     for seed in 1..=3u64 {
-        let (epoch, truth) = long_range(&LongRangeParams {
-            seed,
-            ..LongRangeParams::default()
-        })
-        .unwrap();
+        let (epoch, truth) = scene(seed);
         let mut rng = ChaCha8Rng::seed_from_u64(700 + seed);
         let site = format!("reset{seed}");
         server.create_site(&site).await;
