@@ -203,6 +203,9 @@ pub(crate) fn sigma_length(d: &Vector3<f64>, cov: &Matrix3<f64>) -> f64 {
     (u.transpose() * cov * u)[(0, 0)].max(0.0).sqrt()
 }
 
+/// Why a direction was refused: the API's message for one that fails [`is_usable_direction`].
+pub const UNUSABLE_DIRECTION: &str = "direction: three finite numbers, not all zero, whose squares add up to a finite non-zero number (a unit vector such as [0, -0.5, 0.866] is safest)";
+
 /// Whether `d` can serve as a direction of interest: three finite numbers whose length is finite
 /// and not zero (nor so small that it underflows), so that `d / |d|` is a unit vector.
 pub fn is_usable_direction(d: [f64; 3]) -> bool {

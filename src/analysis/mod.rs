@@ -52,7 +52,9 @@ pub use analyse::{analyse_epoch, DatumReport, EpochAnalysis, History};
 pub use block_analysis::BlockAnalysis;
 pub use congruence::CongruenceTest;
 pub use datum::DatumMethod;
-pub use displacement::{is_usable_direction, DisplacementRecord, FilteredValues, PointAnalysis};
+pub use displacement::{
+    is_usable_direction, DisplacementRecord, FilteredValues, PointAnalysis, UNUSABLE_DIRECTION,
+};
 pub use epoch::{
     AnalysisConfig, DatumTransformation, EpochCoordinates, FailureConfig, GroupConfig, GroupKind,
     JointCovarianceM2, PointConfig, PointCoordinates, PointRole, Window,

@@ -43,16 +43,17 @@ pub async fn list(
         cursor: q.cursor,
     };
     let cursor = page.cursor()?;
+    let limit = page.limit()?;
     let after = cursor.as_deref().and_then(|c| c.split_once('|'));
     let rows = alerts::list(
         state.store.reader(),
         q.site.as_deref(),
         wanted,
         after,
-        page.limit()? + 1,
+        limit + 1,
     )
     .await?;
-    let page = Page::from_fetched(rows, page.limit()?, |(raw, a)| format!("{raw}|{}", a.id));
+    let page = Page::from_fetched(rows, limit, |(raw, a)| format!("{raw}|{}", a.id));
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, a)| a).collect(),
         next_cursor: page.next_cursor,

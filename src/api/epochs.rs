@@ -231,14 +231,9 @@ pub async fn list(
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
     let cursor = page.cursor()?;
-    let rows = epochs::list(
-        state.store.reader(),
-        &site,
-        cursor.as_deref(),
-        page.limit()? + 1,
-    )
-    .await?;
-    let page = Page::from_fetched(rows, page.limit()?, |(raw, _)| raw.clone());
+    let limit = page.limit()?;
+    let rows = epochs::list(state.store.reader(), &site, cursor.as_deref(), limit + 1).await?;
+    let page = Page::from_fetched(rows, limit, |(raw, _)| raw.clone());
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, e)| e).collect(),
         next_cursor: page.next_cursor,

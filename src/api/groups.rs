@@ -83,10 +83,7 @@ fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
     }
     if let Some(d) = body.direction {
         if !crate::analysis::is_usable_direction(d) {
-            return Err(invalid(
-                "direction: three finite numbers, not all zero, whose squares add up to a finite non-zero number (a unit vector such as [0, -0.5, 0.866] is safest)"
-                    .into(),
-            ));
+            return Err(invalid(crate::analysis::UNUSABLE_DIRECTION.into()));
         }
     }
     let points = body.points.clone().unwrap_or_default();

@@ -55,8 +55,9 @@ pub async fn list(
     find(&state, &site).await?;
     let db = state.store.reader();
     let cursor = page.cursor()?;
-    let pts = points::list(db, &site, cursor.as_deref(), page.limit()? + 1).await?;
-    let page = Page::from_fetched(pts, page.limit()?, |p| p.name.clone());
+    let limit = page.limit()?;
+    let pts = points::list(db, &site, cursor.as_deref(), limit + 1).await?;
+    let page = Page::from_fetched(pts, limit, |p| p.name.clone());
     let mut latest: HashMap<String, _> =
         points::latest_coordinates(&mut *state.store.read().await?, &site)
             .await?
@@ -133,7 +134,7 @@ pub async fn update(
         if !crate::analysis::is_usable_direction(d) {
             return Err(ApiError::unprocessable(
                 "invalid_point",
-                "direction: three finite numbers, not all zero, whose squares add up to a finite non-zero number (a unit vector such as [0, -0.5, 0.866] is safest)",
+                crate::analysis::UNUSABLE_DIRECTION,
             ));
         }
     }
@@ -210,7 +211,7 @@ pub async fn displacements(
         limit: q.limit,
         cursor: q.cursor,
     };
-    page.limit()?;
+    let limit = page.limit()?;
     let mut query = SeriesQuery {
         site,
         point,
@@ -235,8 +236,8 @@ pub async fn displacements(
         return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], body).into_response());
     }
     query.after = page.cursor()?;
-    query.limit = Some(page.limit()?);
-    let mut out = Vec::with_capacity(512 * page.limit()? as usize + 64);
+    query.limit = Some(limit);
+    let mut out = Vec::with_capacity(512 * limit as usize + 64);
     out.extend_from_slice(b"{\"items\":");
     let written = series::write(&state.store, query, SeriesFormat::JsonItems, out).await?;
     let mut out = written.out;

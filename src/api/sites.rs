@@ -156,8 +156,9 @@ pub async fn list(
     ApiQuery(page): ApiQuery<PageParams>,
 ) -> Result<impl IntoResponse, ApiError> {
     let cursor = page.cursor()?;
+    let limit = page.limit()?;
     let after = cursor.as_deref().and_then(|c| c.split_once('|'));
-    let items = sites::list(state.store.reader(), after, page.limit()? + 1).await?;
+    let items = sites::list(state.store.reader(), after, limit + 1).await?;
     let mut raw = Vec::with_capacity(items.len());
     for s in &items {
         raw.push(
@@ -167,7 +168,7 @@ pub async fn list(
         );
     }
     let pairs: Vec<(String, Site)> = raw.into_iter().zip(items).collect();
-    let page = Page::from_fetched(pairs, page.limit()?, |(t, s)| format!("{t}|{}", s.id));
+    let page = Page::from_fetched(pairs, limit, |(t, s)| format!("{t}|{}", s.id));
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, s)| s).collect(),
         next_cursor: page.next_cursor,

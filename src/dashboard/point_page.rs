@@ -66,7 +66,7 @@ pub async fn point(
         } @else {
             p.note { "No displacement yet: the point has no epoch after the reference." }
         }
-        div.plots data-src=(data) data-tz=[site.time_zone.as_deref()] {
+        div.plots data-src=(data) {
             figure { figcaption { "dx, dy, dz (mm), ±2σ" } div.plot data-panel="xyz" {} }
             figure { figcaption { "3-D displacement d (mm), raw and filtered, ±2σ" } div.plot data-panel="d" {} }
             @if p.direction.is_some() {

@@ -294,10 +294,8 @@ pub fn identify(
             (o, opts.orientation_mm.max(5.0 * rms))
         }
     };
-    let half = match (camera.pixel_size_mm, camera.size_px) {
-        (Some(px), Some((w, h))) => Some([0.5 * w as f64 * px, 0.5 * h as f64 * px]),
-        _ => None,
-    };
+    let half = camera.half_sensor_mm();
+    let in_view = |q: [f64; 2]| half.is_none_or(|h| q[0].abs() <= h[0] && q[1].abs() <= h[1]);
     // projections with their gates; points behind the camera are left out
     let mut names = Vec::new();
     let mut proj = Vec::new();
@@ -317,7 +315,7 @@ pub fn identify(
         let depth = -(r[2][0] * d[0] + r[2][1] * d[1] + r[2][2] * d[2]);
         let gate = c / depth * opts.max_motion_m + orient_mm;
         names.push(name.clone());
-        inside.push(half.is_none_or(|h| q[0].abs() <= h[0] && q[1].abs() <= h[1]));
+        inside.push(in_view(q));
         proj.push((q, gate));
     }
     let mut pass = match_pass(&proj, blobs_mm, &inside);
@@ -327,7 +325,7 @@ pub fn identify(
         if let Some(t) = translation_by_votes(&proj, blobs_mm) {
             for (k, (q, _)) in proj.iter_mut().enumerate() {
                 *q = [q[0] + t[0], q[1] + t[1]];
-                inside[k] = half.is_none_or(|h| q[0].abs() <= h[0] && q[1].abs() <= h[1]);
+                inside[k] = in_view(*q);
             }
             pass = match_pass(&proj, blobs_mm, &inside);
         }

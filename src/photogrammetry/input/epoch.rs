@@ -425,10 +425,9 @@ const SENSOR_MARGIN: f64 = 0.1;
 /// size and image size), within [`SENSOR_MARGIN`]: a point far off it is a typo or a wrong unit,
 /// which the adjustment would only drop as an outlier.
 fn on_sensor(xy: [f64; 2], camera: &Camera, item: impl Fn() -> String) -> Result<(), EpochError> {
-    let (Some(px), Some((w, h))) = (camera.pixel_size_mm, camera.size_px) else {
+    let Some(half) = camera.half_sensor_mm() else {
         return Ok(());
     };
-    let half = [0.5 * w as f64 * px, 0.5 * h as f64 * px];
     let off = (0..2).any(|k| xy[k].abs() > (1.0 + SENSOR_MARGIN) * half[k]);
     if off {
         return Err(EpochError::OutOfRange {

@@ -214,6 +214,14 @@ impl Camera {
         ])
     }
 
+    /// Half the sensor's width and height in mm, when the camera gives its pixel size and image
+    /// size.
+    pub fn half_sensor_mm(&self) -> Option<[f64; 2]> {
+        let px = self.pixel_size_mm?;
+        let (w, h) = self.size_px?;
+        Some([0.5 * w as f64 * px, 0.5 * h as f64 * px])
+    }
+
     /// Inverse of [`Camera::pixel_to_mm`]: image mm (relative to the image centre) to (col, row).
     pub fn mm_to_pixel(&self, xy: [f64; 2]) -> Option<[f64; 2]> {
         let px = self.pixel_size_mm?;
