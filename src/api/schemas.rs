@@ -60,6 +60,7 @@ pub struct EpochSummary {
     pub residuals: Option<Vec<StoredResidual>>,
     /// Displacements of this epoch against the reference epoch.
     pub displacements: Vec<Displacement>,
-    /// Alerts raised by this epoch.
+    /// Alerts this epoch raised or escalated, in their current state (alerts it only kept active
+    /// are not listed: `GET /api/v1/alerts` has those).
     pub alerts: Vec<Alert>,
 }

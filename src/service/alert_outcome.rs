@@ -32,9 +32,13 @@ pub async fn record_events(
         return Ok(0);
     }
     let hooks = webhooks::enabled_endpoints(&mut *tx).await?;
-    let now = store::now();
+    let start = Utc::now();
+    let now = store::timestamp(start);
     let mut raised = 0;
-    for e in events {
+    for (k, e) in events.iter().enumerate() {
+        // The messages of one transaction a microsecond apart, in the order of the events: the
+        // worker delivers each alert's messages in `created_at` order.
+        let created_at = store::timestamp(start + chrono::Duration::microseconds(k as i64));
         if e.event_type == AlertEventType::Raised {
             raised += 1;
         }
@@ -50,7 +54,8 @@ pub async fn record_events(
             alert_id: &e.alert.id,
             level: e.alert.level.as_str(),
             payload: &body,
-            created_at: &now,
+            created_at: &created_at,
+            epoch: e.alert.epoch,
         };
         outbox::insert(&mut *tx, &message).await?;
         for h in hooks.iter().filter(|h| accepts(h, e)) {

@@ -4,7 +4,14 @@
 //! `webhook-id` (at least once). Each delivery sends the body stored with it (the endpoint's
 //! format, rendered when the event was written) or else the outbox's contract body, the same
 //! bytes on every retry, signed with the endpoint's secret.
+//!
+//! Each endpoint is served by its own task, and sees each alert's messages in the order they
+//! were written: a message waits while an earlier one of its alert to that endpoint is still
+//! being retried ([`outbox::claim_due`]). A message is given up only after the retry policy's
+//! last attempt (about two days by default) or when its endpoint answers 410 Gone; either is
+//! logged as an error, counted as `outcome="failed"`, and shown by `GET /api/v1/webhooks`.
 
+use std::collections::HashMap;
 use std::time::Duration;
 
 use chrono::{DateTime, Utc};
@@ -14,11 +21,11 @@ use crate::store::outbox::{self, Attempt, DueDelivery};
 use crate::store::{self, Store, StoreError};
 use crate::webhooks::{deliver, next_retry, DeliveryOutcome, RetryPolicy};
 
-/// Deliveries claimed at a time: a node that dies holding them leaves them for at most
+/// Deliveries to one endpoint claimed at a time: a node that dies holding them leaves them for at most
 /// `CLAIM × timeout` (plus a margin) before another node, or this one restarted, retries them.
 const CLAIM: i64 = 4;
 
-/// Deliveries sent per pass at most.
+/// Deliveries sent to one endpoint per pass at most.
 const PASS_LIMIT: usize = 100;
 
 /// Settings of the worker.
@@ -43,7 +50,9 @@ impl WorkerConfig {
     }
 }
 
-/// Runs until shutdown: delivers due webhook messages every `poll`.
+/// Runs until shutdown: every `poll`, each endpoint with due messages gets a task of its own that
+/// delivers them ([`deliver_to`]). An endpoint that hangs or refuses holds up only its own
+/// messages, never another endpoint's alarms. At shutdown the tasks finish the POST in hand.
 pub async fn run(store: Store, config: WorkerConfig, shutdown: Shutdown) {
     let client = match reqwest::Client::builder().timeout(config.timeout).build() {
         Ok(c) => c,
@@ -52,9 +61,26 @@ pub async fn run(store: Store, config: WorkerConfig, shutdown: Shutdown) {
             return;
         }
     };
+    let mut busy: HashMap<String, tokio::task::JoinHandle<()>> = HashMap::new();
     while !shutdown.is_requested() {
-        if let Err(e) = deliver_due(&store, &client, &config, &shutdown).await {
-            tracing::warn!(error = %e, "webhook delivery pass failed");
+        busy.retain(|_, task| !task.is_finished());
+        match outbox::due_endpoints(store.reader(), &store::now()).await {
+            Ok(endpoints) => {
+                for id in endpoints {
+                    if busy.contains_key(&id) {
+                        continue;
+                    }
+                    let task = tokio::spawn(deliver_to(
+                        store.clone(),
+                        client.clone(),
+                        config.clone(),
+                        shutdown.clone(),
+                        id.clone(),
+                    ));
+                    busy.insert(id, task);
+                }
+            }
+            Err(e) => tracing::warn!(error = %e, "webhook delivery: due endpoints not read"),
         }
         if let Ok(n) = store::webhooks::pending(store.reader()).await {
             metrics::gauge!("cliffwatch_webhook_queue_depth").set(n as f64);
@@ -63,18 +89,41 @@ pub async fn run(store: Store, config: WorkerConfig, shutdown: Shutdown) {
             break;
         }
     }
+    for (_, task) in busy {
+        let _ = task.await;
+    }
     tracing::info!("webhook worker stopped");
 }
 
-/// Claims up to [`CLAIM`] due deliveries for this node (see [`outbox::claim_due`]): several
-/// nodes on one database never send the same message at the same time.
-async fn claim(store: &Store, timeout: Duration) -> Result<Vec<DueDelivery>, StoreError> {
+/// Delivers endpoint `webhook_id`'s due messages, claimed [`CLAIM`] at a time, until none is due,
+/// [`PASS_LIMIT`] were sent, shutdown, or the endpoint is gone.
+async fn deliver_to(
+    store: Store,
+    client: reqwest::Client,
+    config: WorkerConfig,
+    shutdown: Shutdown,
+    webhook_id: String,
+) {
+    if let Err(e) = deliver_due_to(&store, &client, &config, &shutdown, &webhook_id).await {
+        tracing::warn!(webhook = %webhook_id, error = %e, "webhook delivery pass failed");
+    }
+}
+
+/// Claims up to [`CLAIM`] deliveries due to one endpoint for this node (see
+/// [`outbox::claim_due`]): several nodes on one database never send the same message at the
+/// same time.
+async fn claim(
+    store: &Store,
+    webhook_id: &str,
+    timeout: Duration,
+) -> Result<Vec<DueDelivery>, StoreError> {
     let now = Utc::now();
     let lease = chrono::Duration::from_std(timeout * CLAIM as u32 + Duration::from_secs(5))
         .unwrap_or(chrono::Duration::minutes(5));
     let mut tx = store.begin_write_rows().await?;
     let due = outbox::claim_due(
         &mut tx,
+        webhook_id,
         &store::timestamp(now),
         &store::timestamp(now + lease),
         CLAIM,
@@ -84,63 +133,41 @@ async fn claim(store: &Store, timeout: Duration) -> Result<Vec<DueDelivery>, Sto
     Ok(due)
 }
 
-/// One pass: the deliveries due now, oldest first, claimed a few at a time. Returns how many
-/// attempts were made.
-pub async fn deliver_due(
+/// One pass over one endpoint: its deliveries due now, oldest first, claimed a few at a time.
+/// Returns how many attempts were made.
+pub async fn deliver_due_to(
     store: &Store,
     client: &reqwest::Client,
     config: &WorkerConfig,
     shutdown: &Shutdown,
+    webhook_id: &str,
 ) -> Result<usize, StoreError> {
-    // Nothing due (the usual case): no write transaction.
-    if outbox::due(store.reader(), &store::now(), 1)
-        .await?
-        .is_empty()
-    {
-        return Ok(0);
-    }
     let mut n = 0;
-    let mut gone: Vec<String> = Vec::new();
     while n < PASS_LIMIT && !shutdown.is_requested() {
-        let batch = claim(store, config.timeout).await?;
+        let batch = claim(store, webhook_id, config.timeout).await?;
         if batch.is_empty() {
             break;
         }
         for d in batch {
-            deliver_one(store, client, &config.retry, &d, &mut gone).await?;
+            let t = Utc::now();
+            let outcome = deliver(
+                client,
+                &d.url,
+                &d.secret,
+                &d.outbox_id,
+                d.payload.as_bytes(),
+                t,
+            )
+            .await;
+            record(store, &d, &outcome, &config.retry, t).await?;
             n += 1;
+            if outcome == DeliveryOutcome::Gone {
+                // its other deliveries failed with it; the claimed ones are not sent
+                return Ok(n);
+            }
         }
     }
     Ok(n)
-}
-
-/// Sends one claimed delivery and records the outcome; an endpoint disabled by a 410 earlier in
-/// the pass (`gone`) gets nothing more.
-async fn deliver_one(
-    store: &Store,
-    client: &reqwest::Client,
-    policy: &RetryPolicy,
-    d: &DueDelivery,
-    gone: &mut Vec<String>,
-) -> Result<(), StoreError> {
-    if gone.contains(&d.webhook_id) {
-        return Ok(());
-    }
-    let t = Utc::now();
-    let outcome = deliver(
-        client,
-        &d.url,
-        &d.secret,
-        &d.outbox_id,
-        d.payload.as_bytes(),
-        t,
-    )
-    .await;
-    record(store, d, &outcome, policy, t).await?;
-    if outcome == DeliveryOutcome::Gone {
-        gone.push(d.webhook_id.clone());
-    }
-    Ok(())
 }
 
 /// The stored outcome of attempt number `attempts` made at `t`.
@@ -197,15 +224,33 @@ async fn record(
     t: DateTime<Utc>,
 ) -> Result<(), StoreError> {
     let a = attempt(outcome, policy, d.attempts + 1, t);
-    let label = match outcome {
-        DeliveryOutcome::Delivered { .. } => "ok",
-        DeliveryOutcome::Retry { .. } => "retry",
-        DeliveryOutcome::Gone | DeliveryOutcome::Failed { .. } => "failed",
+    let label = match (outcome, a.state) {
+        (DeliveryOutcome::Delivered { .. }, _) => "ok",
+        (_, "pending") => "retry",
+        _ => "failed",
     };
     metrics::counter!("cliffwatch_webhook_deliveries_total", "outcome" => label).increment(1);
+    let reason = a.error.as_deref().unwrap_or("");
+    match label {
+        // the first failure of a message is worth a line; its retries are not
+        "retry" if a.attempts == 1 => tracing::warn!(
+            webhook = %d.webhook_id, url = %d.url, message = %d.outbox_id, reason,
+            "webhook delivery failed; retrying with backoff"
+        ),
+        "retry" => tracing::debug!(
+            webhook = %d.webhook_id, message = %d.outbox_id, attempts = a.attempts, reason,
+            "webhook delivery failed again"
+        ),
+        "failed" => tracing::error!(
+            webhook = %d.webhook_id, url = %d.url, message = %d.outbox_id, attempts = a.attempts,
+            reason, "webhook message given up: not delivered (GET /api/v1/webhooks counts it)"
+        ),
+        _ => {}
+    }
     let mut tx = store.begin_write_rows().await?;
     if *outcome == DeliveryOutcome::Gone {
-        tracing::warn!(webhook = %d.webhook_id, url = %d.url, "410 Gone: endpoint disabled");
+        tracing::error!(webhook = %d.webhook_id, url = %d.url,
+            "410 Gone: endpoint disabled, its pending messages given up");
         outbox::endpoint_gone(&mut tx, &d.webhook_id).await?;
     }
     outbox::record_attempt(&mut tx, &d.outbox_id, &d.webhook_id, &a).await?;

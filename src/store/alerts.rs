@@ -114,14 +114,17 @@ pub async fn get(db: impl AnyExecutor<'_>, id: &str) -> Result<Option<Alert>, St
     Ok(row.map(|a| finish(vec![a]).remove(0)))
 }
 
-/// The alerts raised by one epoch.
+/// The alerts that one epoch raised or escalated, as they are now (an alert that a later epoch
+/// left active is not repeated in that epoch's summary).
 pub async fn of_epoch(
     db: impl AnyExecutor<'_>,
     site: &str,
     epoch: i64,
 ) -> Result<Vec<Alert>, StoreError> {
     let rows: Vec<Alert> = sqlx::query_as(&format!(
-        "SELECT {COLUMNS} FROM alerts WHERE site_id = $1 AND epoch_id = $2 ORDER BY raised_at, id"
+        "SELECT {COLUMNS} FROM alerts WHERE site_id = $1 AND id IN (SELECT o.alert_id FROM \
+         webhook_outbox o WHERE o.epoch_id = $2 AND o.event_type IN ('alert.raised', 'alert.escalated')) \
+         ORDER BY raised_at, id"
     ))
     .bind(site)
     .bind(epoch)

@@ -262,6 +262,7 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("level", T),
             ("payload", T),
             ("created_at", T),
+            ("epoch_id", I),
         ],
     ),
     (

@@ -22,6 +22,8 @@ pub struct OutboxMessage<'a> {
     pub payload: &'a str,
     /// When it was written (store timestamp).
     pub created_at: &'a str,
+    /// The epoch whose analysis caused the event, if one did.
+    pub epoch: Option<i64>,
 }
 
 /// True when message `id` is in the outbox already (an event written twice is sent once).
@@ -36,8 +38,8 @@ pub async fn contains(db: &mut AnyConnection, id: &str) -> Result<bool, StoreErr
 /// Adds a message to the outbox.
 pub async fn insert(db: &mut AnyConnection, m: &OutboxMessage<'_>) -> Result<(), StoreError> {
     sqlx::query(
-        "INSERT INTO webhook_outbox (id, event_type, alert_id, level, payload, created_at) \
-         VALUES ($1, $2, $3, $4, $5, $6)",
+        "INSERT INTO webhook_outbox (id, event_type, alert_id, level, payload, created_at, epoch_id) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7)",
     )
     .bind(m.id)
     .bind(m.event_type)
@@ -45,6 +47,7 @@ pub async fn insert(db: &mut AnyConnection, m: &OutboxMessage<'_>) -> Result<(),
     .bind(m.level)
     .bind(m.payload)
     .bind(m.created_at)
+    .bind(m.epoch)
     .execute(&mut *db)
     .await?;
     Ok(())
@@ -89,40 +92,64 @@ pub struct DueDelivery {
     pub secret: String,
 }
 
-/// The deliveries due at `$1`, oldest first, at most `$2` (a macro, so that [`DUE`] and
-/// [`CLAIM_DUE`] are both constants).
-macro_rules! due_sql {
+/// Which deliveries are due at `$1`: pending, to enabled endpoints, and each only once every
+/// earlier message of its alert to the same endpoint is no longer pending, so that an endpoint
+/// sees each alert's events in the order they happened whatever the retries in between
+/// (`raised` before `escalated`). Earlier is by `created_at`, then id (the messages of one
+/// transaction are a microsecond apart). A macro, so that every query built on it is a constant.
+macro_rules! due_from {
     () => {
-        "SELECT d.outbox_id, d.webhook_id, d.attempts, COALESCE(d.payload, o.payload) AS payload, \
-     w.url, w.secret \
-     FROM webhook_deliveries d JOIN webhook_outbox o ON o.id = d.outbox_id \
+        " FROM webhook_deliveries d JOIN webhook_outbox o ON o.id = d.outbox_id \
      JOIN webhooks w ON w.id = d.webhook_id \
      WHERE d.state = 'pending' AND d.next_attempt_at <= $1 AND w.enabled = TRUE \
-     ORDER BY d.next_attempt_at, o.created_at, d.outbox_id LIMIT $2"
+     AND NOT EXISTS (SELECT 1 FROM webhook_deliveries d2 JOIN webhook_outbox o2 ON o2.id = d2.outbox_id \
+     WHERE d2.webhook_id = d.webhook_id AND d2.state = 'pending' AND o2.alert_id = o.alert_id \
+     AND (o2.created_at < o.created_at OR (o2.created_at = o.created_at AND o2.id < o.id)))"
     };
 }
 
-/// The deliveries due at `$1`, oldest first, at most `$2`.
-const DUE: &str = due_sql!();
+/// What a due delivery's POST needs.
+macro_rules! due_columns {
+    () => {
+        "SELECT d.outbox_id, d.webhook_id, d.attempts, COALESCE(d.payload, o.payload) AS payload, \
+     w.url, w.secret"
+    };
+}
 
-/// [`DUE`], the rows locked for this transaction and skipped by others (PostgreSQL).
-const CLAIM_DUE: &str = concat!(due_sql!(), " FOR UPDATE OF d SKIP LOCKED");
+/// The deliveries due at `$1` to endpoint `$3`, oldest first, at most `$2`.
+macro_rules! due_to {
+    () => {
+        concat!(
+            due_columns!(),
+            due_from!(),
+            " AND d.webhook_id = $3 ORDER BY d.next_attempt_at, o.created_at, d.outbox_id LIMIT $2"
+        )
+    };
+}
 
-/// At most `limit` pending deliveries due at `now` (store timestamp) to enabled endpoints,
-/// the longest due first.
-pub async fn due(
-    db: impl AnyExecutor<'_>,
-    now: &str,
-    limit: i64,
-) -> Result<Vec<DueDelivery>, StoreError> {
-    Ok(sqlx::query_as(DUE)
+/// The endpoints with a delivery due at `$1`.
+const DUE_ENDPOINTS: &str = concat!(
+    "SELECT DISTINCT d.webhook_id",
+    due_from!(),
+    " ORDER BY d.webhook_id"
+);
+
+/// The deliveries due at `$1` to endpoint `$3`, oldest first, at most `$2`.
+const DUE_TO: &str = due_to!();
+
+/// [`DUE_TO`], the rows locked for this transaction and skipped by others (PostgreSQL).
+const CLAIM_DUE_TO: &str = concat!(due_to!(), " FOR UPDATE OF d SKIP LOCKED");
+
+/// The endpoints that have a delivery due at `now` (store timestamp).
+pub async fn due_endpoints(db: impl AnyExecutor<'_>, now: &str) -> Result<Vec<String>, StoreError> {
+    Ok(sqlx::query_scalar(DUE_ENDPOINTS)
         .bind(now)
-        .bind(limit)
         .fetch_all(db)
         .await?)
 }
 
-/// Claims at most `limit` deliveries due at `now` for this node: their next attempt moves to
+/// Claims at most `limit` deliveries due at `now` to endpoint `webhook_id` for this node
+/// (oldest first, each alert's in order, see [`due_from`]): their next attempt moves to
 /// `lease_until` (store timestamps), so no other node (or pass) picks them while this one sends
 /// them; recording the attempt sets the real next attempt. A node that dies holding a claim
 /// leaves it to be retried when the lease ends (at least once). PostgreSQL: the rows are read
@@ -130,19 +157,22 @@ pub async fn due(
 /// transaction ([`crate::store::Store::begin_write_rows`]).
 pub async fn claim_due(
     db: &mut AnyConnection,
+    webhook_id: &str,
     now: &str,
     lease_until: &str,
     limit: i64,
 ) -> Result<Vec<DueDelivery>, StoreError> {
-    let due: Vec<DueDelivery> = if super::is_postgres(db) {
-        sqlx::query_as(CLAIM_DUE)
-            .bind(now)
-            .bind(limit)
-            .fetch_all(&mut *db)
-            .await?
+    let sql = if super::is_postgres(db) {
+        CLAIM_DUE_TO
     } else {
-        due(&mut *db, now, limit).await?
+        DUE_TO
     };
+    let due: Vec<DueDelivery> = sqlx::query_as(sql)
+        .bind(now)
+        .bind(limit)
+        .bind(webhook_id)
+        .fetch_all(&mut *db)
+        .await?;
     for d in &due {
         sqlx::query(
             "UPDATE webhook_deliveries SET next_attempt_at = $1 \

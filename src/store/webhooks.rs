@@ -63,39 +63,82 @@ pub struct NewWebhook {
     pub format: PayloadFormat,
 }
 
-/// A stored webhook endpoint (the secret is never returned).
-#[derive(Debug, Clone, Serialize, FromRow, ToSchema)]
+/// A stored webhook endpoint (the secret is never returned), with the state of its deliveries.
+#[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct Webhook {
     /// Identifier (UUID).
     pub id: String,
     /// Target URL.
     pub url: String,
     /// Lowest level delivered.
-    #[sqlx(try_from = "String")]
     pub min_level: AlertLevel,
     /// Body format.
-    #[sqlx(try_from = "String")]
     #[schema(schema_with = format_schema)]
     pub format: PayloadFormat,
     /// Where it was registered.
-    #[sqlx(try_from = "String")]
     pub source: WebhookSource,
     /// Creation time.
     pub created_at: String,
+    /// False once the endpoint answered 410 Gone: nothing more is sent to it (delete it and add
+    /// it again to resume).
+    pub enabled: bool,
+    /// Messages waiting for delivery or being retried.
+    pub pending_deliveries: i64,
+    /// Messages given up: retried to the policy's last attempt, or pending when the endpoint
+    /// answered 410 Gone. Each was logged as an error.
+    pub failed_deliveries: i64,
+    /// The latest reason a message was not delivered, while any is pending or failed.
+    pub last_error: Option<String>,
 }
 
-/// Every endpoint, newest first.
+#[derive(FromRow)]
+struct WebhookRow {
+    id: String,
+    url: String,
+    #[sqlx(try_from = "String")]
+    min_level: AlertLevel,
+    #[sqlx(try_from = "String")]
+    format: PayloadFormat,
+    #[sqlx(try_from = "String")]
+    source: WebhookSource,
+    created_at: String,
+    enabled: i64,
+    pending_deliveries: i64,
+    failed_deliveries: i64,
+    last_error: Option<String>,
+}
+
+/// Every endpoint, newest first, with the counts of its pending and failed deliveries.
 pub async fn list(db: impl AnyExecutor<'_>) -> Result<Vec<Webhook>, StoreError> {
-    let mut rows: Vec<Webhook> = sqlx::query_as(
-        "SELECT id, url, min_level, format, source, created_at FROM webhooks \
-         ORDER BY created_at DESC, id DESC",
+    let rows: Vec<WebhookRow> = sqlx::query_as(
+        "SELECT w.id, w.url, w.min_level, w.format, w.source, w.created_at, \
+         CAST(CASE WHEN w.enabled = TRUE THEN 1 ELSE 0 END AS BIGINT) AS enabled, \
+         (SELECT COUNT(*) FROM webhook_deliveries d WHERE d.webhook_id = w.id AND d.state = 'pending') \
+           AS pending_deliveries, \
+         (SELECT COUNT(*) FROM webhook_deliveries d WHERE d.webhook_id = w.id AND d.state = 'failed') \
+           AS failed_deliveries, \
+         (SELECT d.last_error FROM webhook_deliveries d WHERE d.webhook_id = w.id \
+           AND d.state <> 'delivered' AND d.last_error IS NOT NULL \
+           ORDER BY d.next_attempt_at DESC LIMIT 1) AS last_error \
+         FROM webhooks w ORDER BY w.created_at DESC, w.id DESC",
     )
     .fetch_all(db)
     .await?;
-    for r in &mut rows {
-        r.created_at = display_timestamp(&r.created_at);
-    }
-    Ok(rows)
+    Ok(rows
+        .into_iter()
+        .map(|r| Webhook {
+            id: r.id,
+            url: r.url,
+            min_level: r.min_level,
+            format: r.format,
+            source: r.source,
+            created_at: display_timestamp(&r.created_at),
+            enabled: r.enabled != 0,
+            pending_deliveries: r.pending_deliveries,
+            failed_deliveries: r.failed_deliveries,
+            last_error: r.last_error,
+        })
+        .collect())
 }
 
 /// Adds an endpoint; returns its id.

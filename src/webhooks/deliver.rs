@@ -15,7 +15,9 @@ pub enum DeliveryOutcome {
         /// HTTP status.
         status: u16,
     },
-    /// Transient (network error, timeout, 408, 429, 5xx): retry, after the server's `Retry-After` when given.
+    /// Not delivered (network error, timeout, any status but 2xx and 410): retry, after the
+    /// server's `Retry-After` when given. A 400 or 404 is often a proxy or a deploy in between,
+    /// and an alarm is not to be dropped on one answer.
     Retry {
         /// HTTP status (None for a network error or timeout).
         status: Option<u16>,
@@ -26,7 +28,7 @@ pub enum DeliveryOutcome {
     },
     /// 410 Gone: disable the endpoint, drop its pending messages.
     Gone,
-    /// Permanent failure (other 4xx, bad secret, unusable URL): do not retry this message.
+    /// Permanent failure (bad secret, unusable URL): do not retry this message.
     Failed {
         /// HTTP status, if any.
         status: Option<u16>,
@@ -40,13 +42,9 @@ pub fn classify(status: u16, retry_after: Option<&str>, now: DateTime<Utc>) -> D
     match status {
         200..=299 => DeliveryOutcome::Delivered { status },
         410 => DeliveryOutcome::Gone,
-        408 | 425 | 429 | 500..=599 => DeliveryOutcome::Retry {
+        _ => DeliveryOutcome::Retry {
             status: Some(status),
             retry_after: retry_after.and_then(|v| parse_retry_after(v, now)),
-            reason: format!("HTTP {status}"),
-        },
-        _ => DeliveryOutcome::Failed {
-            status: Some(status),
             reason: format!("HTTP {status}"),
         },
     }

@@ -101,6 +101,12 @@ pub struct WebhookData {
     pub observed_at: Option<String>,
     /// Summary.
     pub message: String,
+    /// Who acknowledged the alert (`alert.acknowledged` only).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub acknowledged_by: Option<String>,
+    /// The acknowledgement's comment, when one was given (`alert.acknowledged` only).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub comment: Option<String>,
 }
 
 /// The contract body `{"type", "timestamp", "data"}`.
@@ -123,6 +129,7 @@ impl WebhookPayload {
     /// Builds the body of an event.
     pub fn from_event(event: &AlertEvent) -> Self {
         let a = &event.alert;
+        let acknowledged = event.event_type == AlertEventType::Acknowledged;
         WebhookPayload {
             event_type: event.event_type.as_str().to_string(),
             timestamp: t(event.timestamp),
@@ -144,6 +151,8 @@ impl WebhookPayload {
                 epoch: a.epoch,
                 observed_at: a.observed_at.map(t),
                 message: a.message.clone(),
+                acknowledged_by: a.acknowledged_by.clone().filter(|_| acknowledged),
+                comment: a.comment.clone().filter(|_| acknowledged),
             },
         }
     }

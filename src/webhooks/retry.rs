@@ -26,7 +26,9 @@ impl Default for RetryPolicy {
         RetryPolicy {
             base_seconds: 5.0,
             max_delay_seconds: 3600.0,
-            max_attempts: 15,
+            // at least 45 h of retries (at most ~90 h) before a message is given up: a receiver
+            // down over a weekend night still gets every alarm
+            max_attempts: 100,
             max_retry_after_seconds: 86_400.0,
         }
     }

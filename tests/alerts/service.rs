@@ -223,9 +223,12 @@ async fn series_alerts_and_webhooks_survive_503_and_sigkill() {
     loop {
         let acked = receiver
             .accepted()
-            .values()
-            .any(|b| b["type"] == "alert.acknowledged" && b["data"]["alert_id"] == id);
-        if acked {
+            .into_values()
+            .find(|b| b["type"] == "alert.acknowledged" && b["data"]["alert_id"] == id);
+        if let Some(ack) = acked {
+            // who acknowledged, and why, reach the staff on duty with it
+            assert_eq!(ack["data"]["acknowledged_by"], "geologist", "{ack}");
+            assert_eq!(ack["data"]["comment"], "seen", "{ack}");
             for b in receiver.accepted().values() {
                 assert!(states_value(&b["data"]), "{b}");
             }

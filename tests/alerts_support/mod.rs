@@ -165,6 +165,9 @@ pub struct Receiver {
     pub fail_remaining: Arc<AtomicUsize>,
     /// When set, every request is answered 410 Gone.
     pub gone: Arc<std::sync::atomic::AtomicBool>,
+    /// When set, every request is answered only after a minute (longer than any POST timeout
+    /// of the tests).
+    pub hang: Arc<std::sync::atomic::AtomicBool>,
     /// The secret signatures are verified with.
     pub secret: String,
 }
@@ -186,6 +189,7 @@ impl Receiver {
             bad_signatures: Arc::default(),
             fail_remaining: Arc::new(AtomicUsize::new(fail_first)),
             gone: Arc::default(),
+            hang: Arc::default(),
             secret: secret.to_string(),
         };
         let state = rx.clone();
@@ -213,6 +217,10 @@ impl Receiver {
                     if !ok {
                         st.bad_signatures.fetch_add(1, Ordering::SeqCst);
                         return StatusCode::UNAUTHORIZED;
+                    }
+                    if st.hang.load(Ordering::SeqCst) {
+                        tokio::time::sleep(std::time::Duration::from_secs(60)).await;
+                        return StatusCode::OK;
                     }
                     if st.gone.load(Ordering::SeqCst) {
                         st.log.lock().unwrap().push(Received {

@@ -338,7 +338,7 @@ async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
     );
     assert_eq!(got[3].2["data"]["alert_id"], "kamo/T103/displacement_mm/17");
 
-    // 410 Gone: the endpoint is to be disabled; 404: permanent failure, no retry.
+    // 410 Gone: the endpoint is to be disabled; 404 (a proxy or a deploy in between): retried.
     let (url, _rx) = start(vec![(410, None)]).await;
     assert_eq!(
         deliver(&client, &url, SECRET, &id, &body, Utc::now()).await,
@@ -347,7 +347,7 @@ async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
     let (url, _rx) = start(vec![(404, None)]).await;
     assert!(matches!(
         deliver(&client, &url, SECRET, &id, &body, Utc::now()).await,
-        DeliveryOutcome::Failed {
+        DeliveryOutcome::Retry {
             status: Some(404),
             ..
         }

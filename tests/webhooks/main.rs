@@ -8,3 +8,4 @@ mod alerts_support;
 mod configured;
 mod delivery;
 mod format;
+mod order;
