@@ -454,18 +454,12 @@ fn analyse_point(
     let significant = !e.same_epoch && test.significant;
     let d_mm = d.norm();
     let sigma_mm = sigma_length(&d, &cov);
-    let dir = pc
-        .and_then(|c| c.direction)
-        .map(Vector3::from)
-        .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
+    let dir = pc.and_then(|c| c.direction).and_then(super::unit_direction);
     let (d_along, s_along) = match dir {
-        Some(v) => {
-            let n = v / v.norm();
-            (
-                Some(n.dot(&d)),
-                Some((n.transpose() * cov * n)[(0, 0)].max(0.0).sqrt()),
-            )
-        }
+        Some(n) => (
+            Some(n.dot(&d)),
+            Some((n.transpose() * cov * n)[(0, 0)].max(0.0).sqrt()),
+        ),
         None => (None, None),
     };
     let mut samples = samples_of(history.get(name), e.observed_at, config);

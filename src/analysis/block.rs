@@ -61,10 +61,10 @@ pub struct BlockMotion {
 }
 
 impl BlockMotion {
-    /// The translation along a direction (normalised here) and its σ, mm.
+    /// The translation along a direction (normalised here; an unusable one gives zeros) and its
+    /// σ, mm.
     pub fn along(&self, direction: [f64; 3]) -> (f64, f64) {
-        let u = Vector3::from(direction);
-        let u = if u.norm() > 0.0 { u / u.norm() } else { u };
+        let u = super::unit_direction(direction).unwrap_or_else(Vector3::zeros);
         let c = Matrix3::from(self.covariance_mm2);
         (
             u.dot(&Vector3::from(self.translation_mm)),

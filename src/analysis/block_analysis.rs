@@ -20,6 +20,10 @@ use super::failure::FailureForecast;
 use super::tracking::{track, Observed};
 use super::velocity::{days_between, Sample};
 
+/// The fewest members measured in an epoch (and in its reference epoch) from which a block has a
+/// motion in that epoch: a "block" of one point would only repeat that point's alerts.
+pub const MIN_BLOCK_POINTS: usize = 2;
+
 /// The analysis of one block group in one epoch: its members and the values its rules read.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BlockAnalysis {
@@ -30,7 +34,8 @@ pub struct BlockAnalysis {
     /// Raw and filtered values of the block's metrics (displacement at the block's centroid in
     /// mm, along the block's direction in mm, velocity in mm/day, time to failure in hours).
     pub readings: Readings,
-    /// The block's motion in this epoch (None when it could not be estimated).
+    /// The block's motion in this epoch (None when it could not be estimated, or fewer than
+    /// [`MIN_BLOCK_POINTS`] members were measured).
     #[serde(default)]
     pub motion: Option<BlockMotion>,
     /// Raw time-to-failure forecast of the block (inverse velocity of its translation).
@@ -125,6 +130,17 @@ fn analyse_block(
             })
         })
         .collect();
+    if current.len() < MIN_BLOCK_POINTS {
+        return BlockAnalysis {
+            group: g.name.clone(),
+            points: members,
+            readings: Readings::default(),
+            motion: None,
+            failure: None,
+            filtered: None,
+            filtered_failure: None,
+        };
+    }
     // The reference epoch itself: the block has not moved, exactly.
     if inputs.same_epoch {
         return at_reference_epoch(g, members, &current);
@@ -291,10 +307,7 @@ fn block_kinematics(
             significant,
         },
     );
-    let dir = g
-        .direction
-        .map(Vector3::from)
-        .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()));
+    let dir = g.direction.and_then(super::unit_direction);
     if let Some(v) = dir {
         let (a, sa) = b.along(v.into());
         readings.set(

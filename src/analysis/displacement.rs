@@ -203,6 +203,16 @@ pub(crate) fn sigma_length(d: &Vector3<f64>, cov: &Matrix3<f64>) -> f64 {
     (u.transpose() * cov * u)[(0, 0)].max(0.0).sqrt()
 }
 
+/// The unit vector of a direction of interest; `None` when it is not [`is_usable_direction`]
+/// (every reader of a direction goes through here, so a stored one that the API would now refuse
+/// reads as no direction).
+pub fn unit_direction(d: [f64; 3]) -> Option<Vector3<f64>> {
+    is_usable_direction(d).then(|| {
+        let v = Vector3::from(d);
+        v / v.norm()
+    })
+}
+
 /// Why a direction was refused: the API's message for one that fails [`is_usable_direction`].
 pub const UNUSABLE_DIRECTION: &str = "direction: three finite numbers, not all zero, whose squares add up to a finite non-zero number (a unit vector such as [0, -0.5, 0.866] is safest)";
 
@@ -211,4 +221,28 @@ pub const UNUSABLE_DIRECTION: &str = "direction: three finite numbers, not all z
 pub fn is_usable_direction(d: [f64; 3]) -> bool {
     let length = d.iter().map(|v| v * v).sum::<f64>().sqrt();
     d.iter().all(|v| v.is_finite()) && length.is_finite() && length >= f64::MIN_POSITIVE
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_direction_is_read_as_its_unit_vector_or_not_at_all() {
+        let u = unit_direction([0.0, -3.0, 4.0]).unwrap();
+        assert!((u - Vector3::new(0.0, -0.6, 0.8)).norm() < 1e-15);
+        // tiny but representable: still a direction
+        let u = unit_direction([1e-150, 0.0, 0.0]).unwrap();
+        assert!((u.x - 1.0).abs() < 1e-15, "{u}");
+        for bad in [
+            [0.0, 0.0, 0.0],
+            [f64::NAN, 1.0, 0.0],
+            [f64::INFINITY, 0.0, 0.0],
+            [1e308, 1e308, 0.0],
+            [1e-170, 0.0, 0.0],
+        ] {
+            assert_eq!(unit_direction(bad), None, "{bad:?}");
+            assert!(!is_usable_direction(bad), "{bad:?}");
+        }
+    }
 }

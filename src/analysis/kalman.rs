@@ -186,15 +186,9 @@ impl KalmanState {
         (n, (u.transpose() * c * u)[(0, 0)].max(0.0).sqrt())
     }
 
-    /// The state along a direction (normalised here; a zero direction gives zeros).
+    /// The state along a direction (normalised here; an unusable one gives zeros).
     pub fn along(&self, direction: [f64; 3]) -> Along {
-        let mut u = Vector3::from(direction);
-        let n = u.norm();
-        if n > 0.0 && n.is_finite() {
-            u /= n;
-        } else {
-            u = Vector3::zeros();
-        }
+        let u = super::unit_direction(direction).unwrap_or_else(Vector3::zeros);
         let proj = |derivative: usize| {
             let (v, c) = self.block(derivative);
             (u.dot(&v), (u.transpose() * c * u)[(0, 0)].max(0.0).sqrt())

@@ -49,11 +49,12 @@ pub use alerts::{
     AlertState, AlertStatus, Metric, Reading, Readings, Source,
 };
 pub use analyse::{analyse_epoch, DatumReport, EpochAnalysis, History};
-pub use block_analysis::BlockAnalysis;
+pub use block_analysis::{BlockAnalysis, MIN_BLOCK_POINTS};
 pub use congruence::CongruenceTest;
 pub use datum::DatumMethod;
 pub use displacement::{
-    is_usable_direction, DisplacementRecord, FilteredValues, PointAnalysis, UNUSABLE_DIRECTION,
+    is_usable_direction, unit_direction, DisplacementRecord, FilteredValues, PointAnalysis,
+    UNUSABLE_DIRECTION,
 };
 pub use epoch::{
     AnalysisConfig, DatumTransformation, EpochCoordinates, FailureConfig, GroupConfig, GroupKind,

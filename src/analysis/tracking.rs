@@ -79,9 +79,7 @@ pub fn track(
     let p = Vector3::from(now.position_mm());
     let pc = Matrix3::from(now.position_covariance_mm2());
     let (f_d, s_d) = now.length();
-    let dir = direction
-        .filter(|v| v.norm() > 0.0 && v.iter().all(|x| x.is_finite()))
-        .map(|v| v / v.norm());
+    let dir = direction.and_then(|v| super::unit_direction(v.into()));
     let u = dir.or_else(|| (p.norm() > 1e-9).then(|| p / p.norm()))?;
     let along = now.along(u.into());
     let sd = |k: usize| pc[(k, k)].max(0.0).sqrt();

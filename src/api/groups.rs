@@ -16,7 +16,7 @@ use super::AppState;
 use crate::analysis::{GroupConfig, GroupKind};
 use crate::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::series::{format_rows, SeriesFormat};
-use crate::store::{block_motions, groups};
+use crate::store::{block_motions, groups, points};
 
 /// Body of `PUT .../groups/{group}`.
 #[derive(Debug, Clone, Deserialize, ToSchema)]
@@ -38,7 +38,7 @@ pub struct GroupBody {
     pub process_noise: Option<f64>,
 }
 
-/// A stored group.
+/// A stored group, with what the site's measurements say of its members.
 #[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct Group {
     /// Group name.
@@ -51,20 +51,60 @@ pub struct Group {
     pub points: Vec<String>,
     /// Process noise of the block's filter (mm²/day⁵), when set.
     pub process_noise: Option<f64>,
+    /// The member points now: the declared list, else the points whose `group` names this group.
+    pub members: Vec<String>,
+    /// Members without coordinates in any epoch yet: misspelt, or not measured yet. The block has
+    /// a motion only in epochs that measure at least 2 of its members (and its reference epoch
+    /// those 2 too); with fewer it raises nothing and its points' own rules still apply.
+    pub unmeasured_points: Vec<String>,
 }
 
-impl From<GroupConfig> for Group {
-    fn from(g: GroupConfig) -> Self {
-        Group {
-            name: g.name,
-            kind: match g.kind {
-                GroupKind::Block => "block".into(),
-            },
-            direction: g.direction,
-            points: g.points,
-            process_noise: g.process_noise,
-        }
+/// The groups with their members and the members never measured.
+async fn describe(
+    state: &AppState,
+    site: &str,
+    configs: Vec<GroupConfig>,
+) -> Result<Vec<Group>, ApiError> {
+    if configs.is_empty() {
+        return Ok(Vec::new());
     }
+    let mut db = state.store.read().await?;
+    let point_configs = crate::service::analysis_inputs::point_configs(&mut db, site).await?;
+    let measured: std::collections::HashSet<String> = points::latest_coordinates(&mut db, site)
+        .await?
+        .into_iter()
+        .map(|c| c.point)
+        .collect();
+    Ok(configs
+        .into_iter()
+        .map(|g| {
+            let members = g.members(&point_configs);
+            let unmeasured_points = members
+                .iter()
+                .filter(|m| !measured.contains(*m))
+                .cloned()
+                .collect();
+            Group {
+                name: g.name,
+                kind: match g.kind {
+                    GroupKind::Block => "block".into(),
+                },
+                direction: g.direction,
+                points: g.points,
+                process_noise: g.process_noise,
+                members,
+                unmeasured_points,
+            }
+        })
+        .collect())
+}
+
+/// [`describe`] of one group.
+async fn describe_one(state: &AppState, site: &str, g: GroupConfig) -> Result<Group, ApiError> {
+    describe(state, site, vec![g])
+        .await?
+        .pop()
+        .ok_or_else(|| ApiError::internal("group vanished"))
 }
 
 fn invalid(message: String) -> ApiError {
@@ -125,7 +165,7 @@ pub async fn put(
     let stored = groups::get(state.store.reader(), &site, &group)
         .await?
         .ok_or_else(|| ApiError::internal("group vanished"))?;
-    Ok(axum::Json(Group::from(stored)))
+    Ok(axum::Json(describe_one(&state, &site, stored).await?))
 }
 
 /// `GET /api/v1/sites/{site}/groups`: the site's groups by name, a page of the contract's list
@@ -143,12 +183,12 @@ pub async fn list(
     let limit = page.limit()?;
     let mut all = groups::list(state.store.reader(), &site).await?;
     all.sort_by(|a, b| a.name.cmp(&b.name));
-    let fetched: Vec<Group> = all
+    let fetched: Vec<GroupConfig> = all
         .into_iter()
         .filter(|g| after.as_ref().is_none_or(|a| g.name.as_str() > a.as_str()))
         .take(limit as usize + 1)
-        .map(Group::from)
         .collect();
+    let fetched = describe(&state, &site, fetched).await?;
     Ok(axum::Json(Page::from_fetched(fetched, limit, |g| {
         g.name.clone()
     })))
@@ -166,7 +206,7 @@ pub async fn get_one(
     let g = groups::get(state.store.reader(), &site, &group)
         .await?
         .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no group '{group}'")))?;
-    Ok(axum::Json(Group::from(g)))
+    Ok(axum::Json(describe_one(&state, &site, g).await?))
 }
 
 /// `GET /api/v1/sites/{site}/groups/{group}/motion`: the block's motion series, oldest first, in

@@ -13,8 +13,9 @@ use crate::photogrammetry::Model;
 /// motions with the joint covariance of their points, forecasts weighed by the epochs' own errors;
 /// 3: the forecast's law fitted to the displacements in three dimensions; 4: time-to-failure
 /// rules read at 0.95 by default (the alert state is replayed with the series); 5: a block's
-/// motion series has its row at the reference epoch (zero), as its points' series do.
-pub const ANALYSIS_VERSION: i64 = 5;
+/// motion series has its row at the reference epoch (zero), as its points' series do; 6: a block
+/// needs 2 measured members for a motion (a one-point block repeated its point's alerts).
+pub const ANALYSIS_VERSION: i64 = 6;
 
 /// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]

@@ -254,6 +254,24 @@ async fn a_declared_block_raises_one_group_alert() {
         &before_motion,
         "block motion recomputed at start",
     );
+    // A block with a misspelt member and one measured point: stored, the misspelt name listed as
+    // unmeasured, and no motion (a one-point block would repeat its point's alerts).
+    let (s, g) = d
+        .send(
+            Method::PUT,
+            "/api/v1/sites/cliff/groups/B3",
+            Some(&json!({"kind": "block", "points": [block[0], "NOPE"]})),
+        )
+        .await;
+    assert_eq!(s, 200, "{g}");
+    assert_eq!(g["members"], json!([block[0], "NOPE"]), "{g}");
+    assert_eq!(g["unmeasured_points"], json!(["NOPE"]), "{g}");
+    let (s, m) = d.get("/api/v1/sites/cliff/groups/B3/motion").await;
+    assert_eq!(s, 200, "{m}");
+    assert_eq!(m["items"], json!([]), "{m}");
+    let (_, g1) = d.get("/api/v1/sites/cliff/groups/B1").await;
+    assert_eq!(g1["unmeasured_points"], json!([]), "{g1}");
+    assert_eq!(g1["members"].as_array().unwrap().len(), block.len(), "{g1}");
     // Unknown site and bad bodies.
     let (s, _) = d
         .send(
