@@ -27,7 +27,9 @@ pub struct AlertParams {
 
 /// `GET /api/v1/alerts`: newest first.
 #[utoipa::path(get, path = "/api/v1/alerts", params(("site" = Option<String>, Query), ("state" = Option<String>, Query, pattern = "^(open|acknowledged|resolved)$"), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
-    responses((status = 200, description = "alerts, newest first", body = crate::api::list::Page<crate::store::alerts::Alert>)))]
+    responses((status = 200, description = "alerts, newest first", body = crate::api::list::Page<crate::store::alerts::Alert>),
+        (status = 400, description = "bad state, page size or cursor", body = crate::api::schemas::ErrorBody),
+        (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
     State(state): State<AppState>,
     ApiQuery(q): ApiQuery<AlertParams>,
@@ -44,6 +46,10 @@ pub async fn list(
     };
     let cursor = page.cursor()?;
     let limit = page.limit()?;
+    // A misspelt site is named, not answered with an empty list that reads as "all quiet".
+    if let Some(site) = &q.site {
+        super::sites::find(&state, site).await?;
+    }
     let after = cursor.as_deref().and_then(|c| c.split_once('|'));
     let rows = alerts::list(
         state.store.reader(),

@@ -181,8 +181,14 @@ impl From<JsonRejection> for ApiError {
 }
 
 impl From<QueryRejection> for ApiError {
+    /// The message starts with the parameter at fault (`limit: invalid digit found in string`),
+    /// as the service's own query checks do.
     fn from(r: QueryRejection) -> Self {
-        ApiError::bad_request(r.body_text())
+        let text = r.body_text();
+        let text = text
+            .strip_prefix("Failed to deserialize query string: ")
+            .unwrap_or(&text);
+        ApiError::bad_request(text.to_owned())
     }
 }
 

@@ -111,7 +111,7 @@ async fn paper_epochs_upload_and_read_back() {
         .await;
     assert_eq!(page2["items"][0]["id"], items[4]["id"]);
     // A page size below 1 is refused, naming the parameter; above 1000 is read as 1000.
-    for limit in ["0", "-1"] {
+    for limit in ["0", "-1", "abc"] {
         let (status, body) = s
             .get(&format!("/api/v1/sites/paper/epochs?limit={limit}"))
             .await;
@@ -131,6 +131,16 @@ async fn paper_epochs_upload_and_read_back() {
         let r = s.client.get(s.url(path)).send().await.unwrap();
         assert_eq!(r.status().as_u16(), 400, "{path}");
     }
+    // A misspelt site is named, not answered with an empty list that reads as "all quiet".
+    let (status, body) = s.get("/api/v1/alerts?site=papr").await;
+    assert_eq!(status, 404, "{body}");
+    assert!(
+        body["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("'papr'"),
+        "{body}"
+    );
     let (status, page) = s.get("/api/v1/sites/paper/epochs?limit=5000").await;
     assert_eq!((status, page["items"].as_array().unwrap().len()), (200, 9));
 
