@@ -27,11 +27,29 @@ enum Command {
 }
 
 fn main() -> anyhow::Result<()> {
-    match Cli::parse().command {
+    let result = match Cli::parse().command {
         Command::Serve(args) => cli::serve::run(args),
         Command::Adjust(args) => cli::adjust::run(args),
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Backup(args) => cli::backup::run(args),
         Command::MigrateStore(args) => cli::migrate_store::run(args),
+    };
+    match result {
+        Err(e) if reader_went_away(&e) => Ok(()),
+        other => other,
     }
+}
+
+/// Whether the error is a write into a pipe whose reader has gone (`cliffwatch adjust … | head`):
+/// the reader took what it wanted, so the command ends quietly, as Unix tools do.
+fn reader_went_away(e: &anyhow::Error) -> bool {
+    use std::io::ErrorKind::BrokenPipe;
+    e.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == BrokenPipe)
+            || cause
+                .downcast_ref::<serde_json::Error>()
+                .is_some_and(|j| j.io_error_kind() == Some(BrokenPipe))
+    })
 }

@@ -187,6 +187,14 @@ pub async fn image(
                 "the image of station '{station}' is no longer in the watched directory"
             ))
         })?;
+    let too_large = tokio::fs::metadata(&path)
+        .await
+        .is_ok_and(|m| m.len() > crate::detect::decode::MAX_IMAGE_FILE_BYTES);
+    if too_large {
+        return Err(PageError::not_found(format!(
+            "the image of station '{station}' is too large to show"
+        )));
+    }
     let bytes = tokio::fs::read(&path).await.map_err(|e| {
         tracing::warn!(path = %path.display(), error = %e, "dashboard: image unreadable");
         PageError::not_found(format!("the image of station '{station}' cannot be read"))

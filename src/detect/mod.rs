@@ -20,7 +20,7 @@ pub(crate) mod re_pointing;
 pub(crate) mod target;
 pub mod threshold;
 
-pub use decode::{decode, decode_with_limit, GreyImage};
+pub use decode::{decode, decode_with_limit, GreyImage, MAX_IMAGE_FILE_BYTES};
 pub use error::DetectError;
 pub use target::{CentreMethod, DetectOptions, Polarity, Target};
 

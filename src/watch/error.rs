@@ -35,6 +35,16 @@ pub enum WatchError {
     /// An image of `epoch.json` has no file.
     #[error("no image file <{0}>.jpg|.png|.tif for station {0}")]
     MissingImage(String),
+    /// The station's image file is larger than any image the detection reads.
+    #[error("image of station {station}: {bytes} bytes; files above {max} bytes are not read")]
+    ImageFileTooLarge {
+        /// Station.
+        station: String,
+        /// The file's size.
+        bytes: u64,
+        /// The limit ([`crate::detect::decode::MAX_IMAGE_FILE_BYTES`]).
+        max: u64,
+    },
     /// A camera is invalid or lacks pixel size and image size.
     #[error("camera of station {station}: {reason}")]
     Camera {

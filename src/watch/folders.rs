@@ -52,7 +52,8 @@ pub fn content_hash(folder: &Path) -> std::io::Result<String> {
     for f in files {
         h.update(f.file_name().unwrap_or_default().as_encoded_bytes());
         h.update([0]);
-        h.update(std::fs::read(&f)?);
+        // streamed: an image file is not held in memory to be hashed
+        std::io::copy(&mut std::fs::File::open(&f)?, &mut h)?;
     }
     Ok(hex::encode(h.finalize()))
 }

@@ -155,6 +155,15 @@ pub(super) async fn detect_station(
     let camera = Camera::from_input(cam_in).map_err(|e: EpochError| cam_err(e.to_string()))?;
     let path =
         find_image(folder, &station).ok_or_else(|| WatchError::MissingImage(station.clone()))?;
+    let size = tokio::fs::metadata(&path).await?.len();
+    let max = crate::detect::decode::MAX_IMAGE_FILE_BYTES;
+    if size > max {
+        return Err(WatchError::ImageFileTooLarge {
+            station,
+            bytes: size,
+            max,
+        });
+    }
     let bytes = tokio::fs::read(&path).await?;
     let dopts = opts.detect.clone();
     let det = tokio::task::spawn_blocking(move || detect_bytes(&bytes, &dopts))

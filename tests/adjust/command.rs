@@ -84,3 +84,38 @@ fn the_adjust_command_prints_the_in_process_report() {
         );
     }
 }
+
+/// `cliffwatch adjust FILE | head -c 1`: the reader goes away after its first byte; the command
+/// ends quietly with success, as Unix tools do, instead of printing an error.
+#[test]
+fn a_reader_that_goes_away_ends_the_command_quietly() {
+    use std::io::Read;
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    cliffwatch(&[
+        "simulate".as_ref(),
+        "--scene".as_ref(),
+        "large".as_ref(),
+        "--seed".as_ref(),
+        "1".as_ref(),
+        "--out-dir".as_ref(),
+        dir.path().as_os_str(),
+    ]);
+    let epoch = dir.path().join("large-seed1.epoch.json");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cliffwatch"))
+        .arg("adjust")
+        .arg(&epoch)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = child.stdout.take().unwrap();
+    let mut first = [0u8; 1];
+    stdout.read_exact(&mut first).unwrap();
+    assert_eq!(&first, b"{");
+    drop(stdout);
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.is_empty(), "{stderr}");
+}

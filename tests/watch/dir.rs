@@ -144,6 +144,30 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
     assert!(err.contains("no image file"), "{err}");
 
+    // An image file larger than any the detection reads (sparse: no disk used) is refused
+    // without being read into memory.
+    write_epoch(&site, &epoch, "e7", "2026-11-27T09:00:00Z", false, 8);
+    let png = std::fs::read_dir(site.join("e7"))
+        .unwrap()
+        .flatten()
+        .find(|f| f.path().extension().is_some_and(|e| e == "png"))
+        .unwrap()
+        .path();
+    std::fs::File::options()
+        .write(true)
+        .open(&png)
+        .unwrap()
+        .set_len(cliffwatch::detect::MAX_IMAGE_FILE_BYTES + 1)
+        .unwrap();
+    let r = scan_once(&server.store, &opts).await;
+    let dest = r[0].as_ref().unwrap();
+    assert!(dest.starts_with(site.join(".failed")), "{dest:?}");
+    let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
+    assert!(
+        err.contains("files above 536870912 bytes are not read"),
+        "{err}"
+    );
+
     // A station that is not an identifier names no file of the folder (never `../`).
     write_epoch(&site, &epoch, "e5", "2026-11-24T09:00:00Z", false, 5);
     let json = site.join("e5/epoch.json");
