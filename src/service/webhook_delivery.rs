@@ -148,7 +148,14 @@ pub async fn deliver_due_to(
         if batch.is_empty() {
             break;
         }
-        for d in batch {
+        for (k, d) in batch.iter().enumerate() {
+            if shutdown.is_requested() {
+                // the claimed messages not sent yet are due again at once, not when the lease ends
+                let mut tx = store.begin_write_rows().await?;
+                outbox::release(&mut tx, &batch[k..], &store::now()).await?;
+                tx.commit().await?;
+                return Ok(n);
+            }
             let t = Utc::now();
             let outcome = deliver(
                 client,
@@ -159,7 +166,7 @@ pub async fn deliver_due_to(
                 t,
             )
             .await;
-            record(store, &d, &outcome, &config.retry, t).await?;
+            record(store, d, &outcome, &config.retry, t).await?;
             n += 1;
             if outcome == DeliveryOutcome::Gone {
                 // its other deliveries failed with it; the claimed ones are not sent

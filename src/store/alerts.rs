@@ -31,9 +31,16 @@ pub struct Alert {
     #[serde(skip)]
     #[sqlx(rename = "points")]
     points_json: String,
-    /// Its level.
+    /// Its level now (at resolution, the level it had when it resolved).
     #[sqlx(try_from = "String")]
     pub level: AlertLevel,
+    /// The highest level it ever reached (an alert that was a warning and resolved from watch
+    /// still says it was a warning).
+    #[sqlx(skip)]
+    pub peak_level: AlertLevel,
+    #[serde(skip)]
+    #[sqlx(rename = "peak_level")]
+    peak_level_text: Option<String>,
     /// Metric of the rule or a site-level kind.
     pub rule: String,
     /// Value that triggered it.
@@ -62,13 +69,19 @@ pub struct Alert {
     pub ack_comment: Option<String>,
 }
 
+/// The columns of [`Alert`]; the peak level is the highest level of its events (the table is
+/// read as `alerts`, unaliased).
 const COLUMNS: &str =
     "id, site_id, point, group_name, points AS points, level, rule, value, threshold, unit, epoch_id, \
-    observed_at, message, state, raised_at, updated_at, acknowledged_by, ack_comment";
+    observed_at, message, state, raised_at, updated_at, acknowledged_by, ack_comment, \
+    (SELECT o.level FROM webhook_outbox o WHERE o.alert_id = alerts.id AND o.level IS NOT NULL \
+     ORDER BY CASE o.level WHEN 'alarm' THEN 3 WHEN 'warning' THEN 2 ELSE 1 END DESC LIMIT 1) AS peak_level";
 
 fn finish(mut rows: Vec<Alert>) -> Vec<Alert> {
     for a in &mut rows {
         a.points = serde_json::from_str(&a.points_json).unwrap_or_default();
+        let peak = a.peak_level_text.as_deref().and_then(|l| l.parse().ok());
+        a.peak_level = peak.map_or(a.level, |p: AlertLevel| p.max(a.level));
         a.raised_at = display_timestamp(&a.raised_at);
         a.updated_at = display_timestamp(&a.updated_at);
         a.observed_at = a.observed_at.as_deref().map(display_timestamp);
@@ -386,8 +399,8 @@ pub async fn ever_public(
     limit: i64,
 ) -> Result<Vec<Alert>, StoreError> {
     let rows: Vec<Alert> = sqlx::query_as(&format!(
-        "SELECT {COLUMNS} FROM alerts a WHERE ($1 IS NULL OR site_id = $2) AND EXISTS \
-         (SELECT 1 FROM webhook_outbox o WHERE o.alert_id = a.id AND o.level IN ('warning', 'alarm')) \
+        "SELECT {COLUMNS} FROM alerts WHERE ($1 IS NULL OR site_id = $2) AND EXISTS \
+         (SELECT 1 FROM webhook_outbox o2 WHERE o2.alert_id = alerts.id AND o2.level IN ('warning', 'alarm')) \
          ORDER BY updated_at DESC, id DESC LIMIT $3"
     ))
     .bind(site)

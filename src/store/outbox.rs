@@ -187,6 +187,26 @@ pub async fn claim_due(
     Ok(due)
 }
 
+/// Gives back claimed deliveries that were not attempted: due again at `now` (store timestamp).
+pub async fn release(
+    db: &mut AnyConnection,
+    claimed: &[DueDelivery],
+    now: &str,
+) -> Result<(), StoreError> {
+    for d in claimed {
+        sqlx::query(
+            "UPDATE webhook_deliveries SET next_attempt_at = $1 \
+             WHERE outbox_id = $2 AND webhook_id = $3 AND state = 'pending'",
+        )
+        .bind(now)
+        .bind(&d.outbox_id)
+        .bind(&d.webhook_id)
+        .execute(&mut *db)
+        .await?;
+    }
+    Ok(())
+}
+
 /// The outcome of one delivery attempt as stored.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Attempt {

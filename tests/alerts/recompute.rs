@@ -125,6 +125,11 @@ async fn reference_change_reevaluates_alerts_without_resending_history() {
     let after = displacement_alerts(&d, "cliff").await;
     assert_eq!(after.len(), before.len());
     assert!(after.iter().all(|a| a["state"] == "resolved"), "{after:?}");
+    // a resolved alert still says how high it went
+    assert!(
+        after.iter().all(|a| a["peak_level"] == "warning"),
+        "{after:?}"
+    );
     let outbox_after = displacement_events(&data).await;
     let new: Vec<&(String, String)> = outbox_after
         .iter()
