@@ -116,6 +116,8 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
             if (b.reference_epochs, b.process_noise, b.confidence)
                 != (a.reference_epochs, a.process_noise, a.confidence)
             {
+                tracing::info!(site = %site.id, "analysis settings changed in the configuration \
+                    file: the site's series and alerts are recomputed");
                 raised += service::recompute::recompute_site(&mut tx, &a)
                     .await
                     .map_err(|e| ServeError::Site(site.id.clone(), e.to_string()))?;

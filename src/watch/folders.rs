@@ -33,7 +33,7 @@ pub fn ready_folders(dir: &Path) -> Vec<(String, PathBuf)> {
 }
 
 /// Files the watcher writes into a folder (not part of its content).
-const OUTPUT_FILES: [&str; 3] = ["READY", "error.txt", "identification.json"];
+const OUTPUT_FILES: [&str; 4] = ["READY", "error.txt", "identification.json", "duplicate.txt"];
 
 /// sha256 (hex) over the sorted names and bytes of the folder's files (`READY` and the watcher's own
 /// outputs excluded).

@@ -139,16 +139,26 @@ pub async fn take_folder(
     let site_dir = folder.parent().unwrap_or(Path::new(".")).to_path_buf();
     let hash = content_hash(folder)?;
     let legacy = std::fs::read_to_string(state_dir(&site_dir).join("ingested")).unwrap_or_default();
-    let seen = watch_state::folder_epoch(store.reader(), site, &hash)
+    let earlier = watch_state::folder_epoch(store.reader(), site, &hash)
         .await
-        .map_err(std::io::Error::other)?
-        .is_some()
+        .map_err(std::io::Error::other)?;
+    let seen = earlier.is_some()
         || legacy
             .lines()
             .any(|l| l.split_whitespace().next() == Some(hash.as_str()));
     if seen {
         tracing::warn!(site, folder = %folder.display(), "already ingested; not again");
-        return move_to(folder, ".done");
+        // The folder says so itself, next to the copy that was ingested in `.done/`.
+        let as_epoch = earlier.map_or(String::new(), |e| format!(" as epoch {e}"));
+        let dest = move_to(folder, ".done")?;
+        std::fs::write(
+            dest.join("duplicate.txt"),
+            format!(
+                "not ingested: a folder with the same files was ingested{as_epoch} before \
+                 (same content hash {hash})\n"
+            ),
+        )?;
+        return Ok(dest);
     }
     let done = free_destination(folder, ".done");
     let done_rel = format!(

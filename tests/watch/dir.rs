@@ -127,8 +127,14 @@ async fn watched_folders_are_detected_identified_ingested_once() {
         std::fs::copy(f.path(), again.join(f.file_name())).unwrap();
     }
     let r = scan_once(&server.store, &opts).await;
-    assert!(r[0].as_ref().unwrap().starts_with(site.join(".done")));
+    let dest = r[0].as_ref().unwrap();
+    assert!(dest.starts_with(site.join(".done")));
     assert_eq!(taken(&server.store).await, 2);
+    let note = std::fs::read_to_string(dest.join("duplicate.txt")).unwrap();
+    assert!(
+        note.starts_with("not ingested: a folder with the same files was ingested as epoch "),
+        "{note}"
+    );
 
     // broken: an image missing
     write_epoch(&site, &epoch, "e3", "2026-11-22T09:00:00Z", false, 3);
