@@ -173,17 +173,7 @@ pub async fn claim_due(
         .bind(webhook_id)
         .fetch_all(&mut *db)
         .await?;
-    for d in &due {
-        sqlx::query(
-            "UPDATE webhook_deliveries SET next_attempt_at = $1 \
-             WHERE outbox_id = $2 AND webhook_id = $3 AND state = 'pending'",
-        )
-        .bind(lease_until)
-        .bind(&d.outbox_id)
-        .bind(&d.webhook_id)
-        .execute(&mut *db)
-        .await?;
-    }
+    set_next_attempt(db, &due, lease_until).await?;
     Ok(due)
 }
 
@@ -193,12 +183,21 @@ pub async fn release(
     claimed: &[DueDelivery],
     now: &str,
 ) -> Result<(), StoreError> {
-    for d in claimed {
+    set_next_attempt(db, claimed, now).await
+}
+
+/// Moves the next attempt of the still pending `deliveries` to `at` (store timestamp).
+async fn set_next_attempt(
+    db: &mut AnyConnection,
+    deliveries: &[DueDelivery],
+    at: &str,
+) -> Result<(), StoreError> {
+    for d in deliveries {
         sqlx::query(
             "UPDATE webhook_deliveries SET next_attempt_at = $1 \
              WHERE outbox_id = $2 AND webhook_id = $3 AND state = 'pending'",
         )
-        .bind(now)
+        .bind(at)
         .bind(&d.outbox_id)
         .bind(&d.webhook_id)
         .execute(&mut *db)
