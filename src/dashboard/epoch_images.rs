@@ -21,6 +21,7 @@ use super::layout::seg;
 use super::PageError;
 use crate::api::AppState;
 use crate::store::epoch_report::EpochReport;
+use crate::watch::image_file::{read_image_file, ImageFileError};
 
 /// One station of a watched epoch as its report keeps it.
 #[derive(Debug, Clone, PartialEq)]
@@ -187,17 +188,14 @@ pub async fn image(
                 "the image of station '{station}' is no longer in the watched directory"
             ))
         })?;
-    let too_large = tokio::fs::metadata(&path)
-        .await
-        .is_ok_and(|m| m.len() > crate::detect::decode::MAX_IMAGE_FILE_BYTES);
-    if too_large {
-        return Err(PageError::not_found(format!(
+    let bytes = read_image_file(&path).await.map_err(|e| match e {
+        ImageFileError::TooLarge { .. } => PageError::not_found(format!(
             "the image of station '{station}' is too large to show"
-        )));
-    }
-    let bytes = tokio::fs::read(&path).await.map_err(|e| {
-        tracing::warn!(path = %path.display(), error = %e, "dashboard: image unreadable");
-        PageError::not_found(format!("the image of station '{station}' cannot be read"))
+        )),
+        ImageFileError::Io(e) => {
+            tracing::warn!(path = %path.display(), error = %e, "dashboard: image unreadable");
+            PageError::not_found(format!("the image of station '{station}' cannot be read"))
+        }
     })?;
     let made = tokio::task::spawn_blocking(move || preview(&bytes, PREVIEW_MAX_SIDE))
         .await

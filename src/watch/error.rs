@@ -42,7 +42,7 @@ pub enum WatchError {
         station: String,
         /// The file's size.
         bytes: u64,
-        /// The limit ([`crate::detect::decode::MAX_IMAGE_FILE_BYTES`]).
+        /// The limit ([`crate::detect::MAX_IMAGE_FILE_BYTES`]).
         max: u64,
     },
     /// A camera is invalid or lacks pixel size and image size.

@@ -24,13 +24,15 @@
 //! Watching: `notify` events and a periodic rescan (events can be lost, e.g. on network shares).
 //!
 //! The files: `folders.rs` (what the directory holds and where a folder moves), `stations.rs`
-//! (one station's image: detection and the counts of its targets), `naming.rs` (which detected
+//! (one station's image: detection and the counts of its targets), `image_file.rs` (reading an
+//! image file within the size limit), `naming.rs` (which detected
 //! target is which point), `ingest.rs` (one folder taken, the use case), `state.rs` (what the
 //! watcher keeps between epochs: the folders taken and the stations' orientations), and here the
 //! loop that scans.
 
 mod error;
 pub(crate) mod folders;
+pub(crate) mod image_file;
 pub(crate) mod ingest;
 mod naming;
 mod options;

@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use super::folders::find_image;
+use super::image_file::{read_image_file, ImageFileError};
 use super::{WatchError, WatchOptions};
 use crate::detect::detect_bytes;
 use crate::detect::identify::Seed;
@@ -155,16 +156,14 @@ pub(super) async fn detect_station(
     let camera = Camera::from_input(cam_in).map_err(|e: EpochError| cam_err(e.to_string()))?;
     let path =
         find_image(folder, &station).ok_or_else(|| WatchError::MissingImage(station.clone()))?;
-    let size = tokio::fs::metadata(&path).await?.len();
-    let max = crate::detect::decode::MAX_IMAGE_FILE_BYTES;
-    if size > max {
-        return Err(WatchError::ImageFileTooLarge {
-            station,
-            bytes: size,
+    let bytes = read_image_file(&path).await.map_err(|e| match e {
+        ImageFileError::TooLarge { bytes, max } => WatchError::ImageFileTooLarge {
+            station: station.clone(),
+            bytes,
             max,
-        });
-    }
-    let bytes = tokio::fs::read(&path).await?;
+        },
+        ImageFileError::Io(e) => WatchError::Io(e),
+    })?;
     let dopts = opts.detect.clone();
     let det = tokio::task::spawn_blocking(move || detect_bytes(&bytes, &dopts))
         .await
