@@ -387,6 +387,8 @@ struct PointInputs<'a> {
     observed_at: DateTime<Utc>,
     /// The reference epoch analysed against itself: every displacement is zero.
     same_epoch: bool,
+    /// The reference epoch's time relative to this epoch (days; > 0 when it lies later).
+    reference_t_days: f64,
     history: &'a History,
     config: &'a AnalysisConfig,
     /// 3 × the F quantile of the point test (`point_test`).
@@ -399,6 +401,7 @@ struct PointInputs<'a> {
 impl<'a> PointInputs<'a> {
     /// The epoch's shared inputs, with the tests' quantiles computed once (each is a bisection).
     fn new(
+        reference: &EpochCoordinates,
         current: &EpochCoordinates,
         same_epoch: bool,
         history: &'a History,
@@ -408,6 +411,7 @@ impl<'a> PointInputs<'a> {
             epoch: current.epoch,
             observed_at: current.observed_at,
             same_epoch,
+            reference_t_days: days_between(current.observed_at, reference.observed_at),
             history,
             config,
             critical3: 3.0
@@ -440,6 +444,9 @@ fn analyse_point(
         in_datum,
     } = point;
     let (config, history) = (e.config, e.history);
+    // The filter's input at the reference epoch itself: the difference's covariance as every
+    // epoch's carries it (the reference's errors twice), though the displacement is zero exactly.
+    let filter_cov = cov;
     if e.same_epoch {
         d = Vector3::zeros();
         cov = Matrix3::zeros();
@@ -469,16 +476,18 @@ fn analyse_point(
         sigma_mm: sigma_mm.max(1e-6),
     });
     let (kin, failure) = raw_kinematics(&samples, significant, config, e.z_vel, e.z_acc);
-    let tracked = if e.same_epoch {
+    // Filtered kinematics, also at the reference epoch when earlier epochs are analysed against
+    // it (a reference moved later): velocity and forecast do not depend on the reference.
+    let mut series = observed_of(history.get(name), e.observed_at, config);
+    let tracked = if e.same_epoch && series.is_empty() {
         None
     } else {
-        let mut series = observed_of(history.get(name), e.observed_at, config);
         series.push(Observed {
             t_days: 0.0,
             d_mm: d,
-            cov_mm2: cov,
+            cov_mm2: filter_cov,
         });
-        track(&series, dir, None, Some(shared), config)
+        track(&series, dir, None, Some(shared), e.reference_t_days, config)
     };
     let sd = |k: usize| cov[(k, k)].max(0.0).sqrt();
     let record = DisplacementRecord {
@@ -555,7 +564,7 @@ pub fn analyse_epoch(
         .map(|(_, c)| c)
         .collect();
     let in_datum: std::collections::HashSet<usize> = fit.datum.iter().copied().collect();
-    let epoch_wide = PointInputs::new(current, same_epoch, history, config);
+    let epoch_wide = PointInputs::new(reference, current, same_epoch, history, config);
     let out: Vec<PointAnalysis> = transformed
         .into_iter()
         .enumerate()
@@ -582,7 +591,7 @@ pub fn analyse_epoch(
             .iter()
             .map(|n| index.get(n.as_str()).copied())
             .collect::<Option<_>>()?;
-        (!same_epoch).then(|| MemberCovariance {
+        Some(MemberCovariance {
             joint_mm2: transformed_joint(&diffs, &fit, &idx),
             shared_mm2: transformed_joint(&reference_only, &fit, &idx),
         })
@@ -594,6 +603,7 @@ pub fn analyse_epoch(
         history,
         now: current.observed_at,
         same_epoch,
+        reference_t_days: epoch_wide.reference_t_days,
         config,
         z_vel: epoch_wide.z_vel,
         z_acc: epoch_wide.z_acc,

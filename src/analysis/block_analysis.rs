@@ -17,7 +17,7 @@ use super::block::{
 use super::displacement::{DisplacementRecord, PointAnalysis};
 use super::epoch::{AnalysisConfig, EpochCoordinates, GroupConfig, PointConfig};
 use super::failure::FailureForecast;
-use super::tracking::{track, Observed};
+use super::tracking::{track, Observed, Tracked};
 use super::velocity::{days_between, Sample};
 
 /// The fewest members measured in an epoch (and in its reference epoch) from which a block has a
@@ -64,6 +64,8 @@ pub(super) struct BlockInputs<'a> {
     pub now: DateTime<Utc>,
     /// This epoch is the reference epoch itself: every displacement is zero, exactly.
     pub same_epoch: bool,
+    /// The reference epoch's time relative to this epoch (days; > 0 when it lies later).
+    pub reference_t_days: f64,
     /// The site's analysis settings.
     pub config: &'a AnalysisConfig,
     /// Normal quantile of the velocity's significance test (at the site's confidence).
@@ -131,19 +133,7 @@ fn analyse_block(
         })
         .collect();
     if current.len() < MIN_BLOCK_POINTS {
-        return BlockAnalysis {
-            group: g.name.clone(),
-            points: members,
-            readings: Readings::default(),
-            motion: None,
-            failure: None,
-            filtered: None,
-            filtered_failure: None,
-        };
-    }
-    // The reference epoch itself: the block has not moved, exactly.
-    if inputs.same_epoch {
-        return at_reference_epoch(g, members, &current);
+        return BlockAnalysis::without_motion(g, members);
     }
     // This epoch's joint covariance of the members, when every member is present; the past
     // epochs' is taken with the same correlations (see `correlated_like`).
@@ -152,6 +142,11 @@ fn analyse_block(
         .flatten()
         .map(|m| (m.joint_mm2, m.shared_mm2))
         .unzip();
+    // The reference epoch itself: the block has not moved, exactly.
+    if inputs.same_epoch {
+        let joint = joint_now.as_ref().zip(shared_joint.as_ref());
+        return at_reference_epoch(g, members, &current, joint, positions, inputs);
+    }
     let motion = match &joint_now {
         Some(j) => estimate_block_correlated(&current, j, config.confidence),
         None => estimate_block(&current, config.confidence),
@@ -181,23 +176,53 @@ fn analyse_block(
         filtered_failure,
     } = kinematics;
     BlockAnalysis {
-        group: g.name.clone(),
-        points: members,
         readings,
         motion,
         failure,
         filtered,
         filtered_failure,
+        ..BlockAnalysis::without_motion(g, members)
     }
 }
 
 /// The block at the reference epoch: its motion zero and exactly known, its displacement 0 and
-/// not significant, so that its motion series starts where its points' series do.
+/// not significant, so that its motion series starts where its points' series do. When earlier
+/// epochs are analysed against it (a reference moved later in the series) and every member is
+/// measured (`joint`: the members' joint covariance and the reference's share of it), the
+/// filter runs as in any epoch, so the block's filtered velocity and forecast do not depend on
+/// where the reference lies.
 fn at_reference_epoch(
     g: &GroupConfig,
     members: Vec<String>,
     current: &[BlockPoint],
+    joint: Option<(&DMatrix<f64>, &DMatrix<f64>)>,
+    positions: &HashMap<&str, [f64; 3]>,
+    inputs: &BlockInputs,
 ) -> BlockAnalysis {
+    let tracked = joint.and_then(|(j, s)| {
+        let mut series = past_motions(&members, positions, inputs, Some(j));
+        if series.is_empty() {
+            return None;
+        }
+        // The filter's input: the translation's covariance as every epoch's difference carries
+        // it (the reference's errors twice), though the translation is zero exactly.
+        let b = estimate_block_correlated(current, j, inputs.config.confidence).ok()?;
+        series.push(Observed {
+            t_days: 0.0,
+            d_mm: Vector3::zeros(),
+            cov_mm2: Matrix3::from(b.covariance_mm2),
+        });
+        let dir = g.direction.and_then(super::unit_direction);
+        let shared = translation_share(current, j, s);
+        track(
+            &series,
+            dir,
+            g.process_noise,
+            shared,
+            inputs.reference_t_days,
+            inputs.config,
+        )
+    });
     let mut readings = Readings::default();
     let zero = Reading {
         value: Some(0.0),
@@ -208,14 +233,15 @@ fn at_reference_epoch(
     if g.direction.is_some() {
         readings.set(Metric::DisplacementAlongMm, Source::Raw, zero);
     }
+    if let Some(t) = &tracked {
+        set_filtered(&mut readings, t);
+    }
     BlockAnalysis {
-        group: g.name.clone(),
-        points: members,
         readings,
         motion: at_rest(current).ok(),
-        failure: None,
-        filtered: None,
-        filtered_failure: None,
+        filtered: tracked.map(|t| t.values),
+        filtered_failure: tracked.and_then(|t| t.failure),
+        ..BlockAnalysis::without_motion(g, members)
     }
 }
 
@@ -349,34 +375,16 @@ fn block_kinematics(
         Source::Raw,
         Reading::forecast(failure),
     );
-    let tracked = track(series, dir, g.process_noise, shared, config);
+    let tracked = track(
+        series,
+        dir,
+        g.process_noise,
+        shared,
+        inputs.reference_t_days,
+        config,
+    );
     if let Some(t) = &tracked {
-        let f = t.values;
-        readings.set(
-            Metric::DisplacementMm,
-            Source::Filtered,
-            Reading::new(Some(f.f_d_mm), Some(f.sigma_f_d_mm)),
-        );
-        if let Some((a, sa)) = t.along_mm {
-            readings.set(
-                Metric::DisplacementAlongMm,
-                Source::Filtered,
-                Reading::new(Some(a), Some(sa)),
-            );
-        }
-        readings.set(
-            Metric::VelocityMmPerDay,
-            Source::Filtered,
-            Reading::new(
-                Some(f.f_velocity_mm_per_day),
-                Some(f.sigma_f_velocity_mm_per_day),
-            ),
-        );
-        readings.set(
-            Metric::TimeToFailureHours,
-            Source::Filtered,
-            Reading::forecast(t.failure),
-        );
+        set_filtered(&mut readings, t);
     }
     BlockKinematics {
         readings,
@@ -384,6 +392,36 @@ fn block_kinematics(
         filtered: tracked.map(|t| t.values),
         filtered_failure: tracked.and_then(|t| t.failure),
     }
+}
+
+/// Sets the block's filtered readings from the filter's estimates `t`.
+fn set_filtered(readings: &mut Readings, t: &Tracked) {
+    let f = t.values;
+    readings.set(
+        Metric::DisplacementMm,
+        Source::Filtered,
+        Reading::new(Some(f.f_d_mm), Some(f.sigma_f_d_mm)),
+    );
+    if let Some((a, sa)) = t.along_mm {
+        readings.set(
+            Metric::DisplacementAlongMm,
+            Source::Filtered,
+            Reading::new(Some(a), Some(sa)),
+        );
+    }
+    readings.set(
+        Metric::VelocityMmPerDay,
+        Source::Filtered,
+        Reading::new(
+            Some(f.f_velocity_mm_per_day),
+            Some(f.sigma_f_velocity_mm_per_day),
+        ),
+    );
+    readings.set(
+        Metric::TimeToFailureHours,
+        Source::Filtered,
+        Reading::forecast(t.failure),
+    );
 }
 
 /// The joint covariance of a past epoch's member displacements (`past`, in the order of
@@ -409,6 +447,19 @@ fn correlated_like(joint_now: &DMatrix<f64>, past: &[BlockPoint]) -> Option<DMat
 }
 
 impl BlockAnalysis {
+    /// A block without a motion in this epoch: its members, no readings.
+    fn without_motion(g: &GroupConfig, members: Vec<String>) -> Self {
+        BlockAnalysis {
+            group: g.name.clone(),
+            points: members,
+            readings: Readings::default(),
+            motion: None,
+            failure: None,
+            filtered: None,
+            filtered_failure: None,
+        }
+    }
+
     /// The block's row of the motion series in a point's form (`point` is the group): the
     /// translation (mm) with its covariance (mm²), its length, the raw velocity (mm/day) and
     /// forecast (h) of the length, the filtered values. `None` without a motion this epoch.

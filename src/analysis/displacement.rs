@@ -86,7 +86,9 @@ pub struct FilteredValues {
     /// σ of `f_d_mm` in mm.
     pub sigma_f_d_mm: f64,
     /// Filtered rate of the displacement's length in mm/day (the velocity vector along the
-    /// displacement's direction, or along the direction of interest when one is set).
+    /// direction of the filtered motion since the reference, or since the filter window's first
+    /// epoch when that lies before a reference moved later; along the direction of interest when
+    /// one is set).
     pub f_velocity_mm_per_day: f64,
     /// σ of `f_velocity_mm_per_day` in mm/day.
     pub sigma_f_velocity_mm_per_day: f64,

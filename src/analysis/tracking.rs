@@ -10,11 +10,12 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::analyse::length_of;
 use super::displacement::FilteredValues;
 use super::epoch::AnalysisConfig;
 use super::epoch::ForecastMethod;
 use super::failure::{fit_law_to_displacements_3d, forecast_from_velocities, FailureForecast};
-use super::kalman::{filter, smooth, KalmanConfig, Measurement};
+use super::kalman::{filter, smooth, KalmanConfig, KalmanState, Measurement};
 use super::onset::accelerating;
 use super::stats::normal_quantile;
 use super::velocity::{window_slice, Sample};
@@ -22,6 +23,9 @@ use super::velocity::{window_slice, Sample};
 /// Smallest share of an epoch's variance taken as its own error (an epoch observed with fewer
 /// stations than the current one can have a covariance below the shared part).
 const OWN_SHARE_FLOOR: f64 = 0.25;
+
+/// Epochs closer in time than this (days, about 0.1 s) are the same instant.
+const ORIGIN_EPSILON_DAYS: f64 = 1e-6;
 
 /// One epoch of a subject's displacement series: days relative to the current epoch (≤ 0),
 /// displacement in mm and its covariance in mm².
@@ -48,7 +52,9 @@ pub struct Tracked {
 
 /// Runs the filter over `series` (oldest first, the current epoch last) with process noise
 /// `process_noise` (None: the configuration's). `direction`: the direction of interest (need not
-/// be normalised); the velocity is taken along it, else along the filtered displacement.
+/// be normalised); the velocity is taken along it, else along the subject's filtered motion since
+/// its origin ([`motion_since_origin`]; `reference_t_days`: the reference epoch's time relative
+/// to the current epoch, days).
 /// `shared_mm2`: the share of every epoch's covariance that all epochs have in common (the
 /// reference epoch's errors, mm²): the law's fit for the forecast has a free intercept, which
 /// absorbs a common error, so it weighs each epoch by the rest, its own error.
@@ -58,6 +64,7 @@ pub fn track(
     direction: Option<Vector3<f64>>,
     process_noise: Option<f64>,
     shared_mm2: Option<Matrix3<f64>>,
+    reference_t_days: f64,
     config: &AnalysisConfig,
 ) -> Option<Tracked> {
     let start = series.len().saturating_sub(config.filter_epochs.max(2));
@@ -79,8 +86,10 @@ pub fn track(
     let p = Vector3::from(now.position_mm());
     let pc = Matrix3::from(now.position_covariance_mm2());
     let (f_d, s_d) = now.length();
+    let (m, m_cov) = motion_since_origin(&states, reference_t_days);
+    let (m_len, m_sigma) = length_of(&m, &m_cov);
     let dir = direction.and_then(|v| super::unit_direction(v.into()));
-    let u = dir.or_else(|| (p.norm() > 1e-9).then(|| p / p.norm()))?;
+    let u = dir.or_else(|| (m_len > 1e-9).then(|| m / m_len))?;
     let along = now.along(u.into());
     let sd = |k: usize| pc[(k, k)].max(0.0).sqrt();
     let values = FilteredValues {
@@ -104,7 +113,7 @@ pub fn track(
     // accelerates is the forecast's own test (the onset against a straight line). The filter's
     // velocity is not asked to be significant too: along the depth of a long-range network its σ
     // (process noise included) held the forecast back until a day or two before failure.
-    let moving = f_d > z * s_d;
+    let moving = m_len > z * m_sigma;
     let failure = if moving {
         forecast_smoothed(&meas, &kc, u, shared_mm2, config)
     } else {
@@ -118,6 +127,38 @@ pub fn track(
         along_mm: dir.map(|_| (along.d_mm, along.sigma_d_mm)),
         failure,
     })
+}
+
+/// The subject's filtered motion at the current epoch (the last of `states`) since its origin,
+/// with its covariance (mm, mm²). The origin is the reference epoch, where the displacement is
+/// zero by definition, unless the window holds epochs before the reference (a reference moved
+/// later in the series, `reference_t_days` days from the current epoch): then the window's first
+/// filtered state, with its covariance added (their correlation left out: the test is
+/// conservative). So the direction of the motion, the velocity along it and whether the subject
+/// moves do not depend on where in the series the reference lies.
+fn motion_since_origin(
+    states: &[KalmanState],
+    reference_t_days: f64,
+) -> (Vector3<f64>, Matrix3<f64>) {
+    let pos = |s: &KalmanState| {
+        (
+            Vector3::from(s.position_mm()),
+            Matrix3::from(s.position_covariance_mm2()),
+        )
+    };
+    let Some(now) = states.last() else {
+        return (Vector3::zeros(), Matrix3::zeros());
+    };
+    let (p, pc) = pos(now);
+    match states.first() {
+        Some(first)
+            if states.len() > 1 && first.t_days < reference_t_days - ORIGIN_EPSILON_DAYS =>
+        {
+            let (p0, pc0) = pos(first);
+            (p - p0, pc + pc0)
+        }
+        _ => (p, pc),
+    }
 }
 
 /// The inverse-velocity forecast. By default, once the displacements along `u` show an onset

@@ -14,8 +14,10 @@ use crate::photogrammetry::Model;
 /// 3: the forecast's law fitted to the displacements in three dimensions; 4: time-to-failure
 /// rules read at 0.95 by default (the alert state is replayed with the series); 5: a block's
 /// motion series has its row at the reference epoch (zero), as its points' series do; 6: a block
-/// needs 2 measured members for a motion (a one-point block repeated its point's alerts).
-pub const ANALYSIS_VERSION: i64 = 6;
+/// needs 2 measured members for a motion (a one-point block repeated its point's alerts); 7:
+/// filtered velocity and forecast at a reference moved later in the series, and measured from the
+/// window's start rather than from that reference.
+pub const ANALYSIS_VERSION: i64 = 7;
 
 /// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]

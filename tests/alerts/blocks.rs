@@ -254,6 +254,34 @@ async fn a_declared_block_raises_one_group_alert() {
         &before_motion,
         "block motion recomputed at start",
     );
+    // The reference moved to the last epoch: the block's displacement from it is zero and its
+    // warning resolves, but its filtered velocity there is still the motion's.
+    let last_epoch = &after_motion["items"][2];
+    let (s, b) = d
+        .send(
+            Method::PUT,
+            "/api/v1/sites/cliff/reference",
+            Some(&json!({"epoch": last_epoch["epoch"]})),
+        )
+        .await;
+    assert_eq!(s, 200, "{b}");
+    let open = alerts(&d, "cliff").await;
+    assert!(
+        open.len() == 1 && open[0]["state"] == "resolved",
+        "{open:?}"
+    );
+    let (_, moved) = d.get("/api/v1/sites/cliff/groups/B1/motion").await;
+    let now = &moved["items"][2];
+    assert_eq!(now["epoch"], last_epoch["epoch"], "{moved}");
+    assert_eq!(num(now, "d_mm"), 0.0, "{now}");
+    let (v_before, v_now) = (
+        num(last_epoch, "f_velocity_mm_per_day"),
+        num(now, "f_velocity_mm_per_day"),
+    );
+    assert!(
+        (v_now - v_before).abs() < 0.1 * v_before.abs() && v_before > 5.0,
+        "{v_now} mm/day against {v_before} mm/day"
+    );
     // A block with a misspelt member and one measured point: stored, the misspelt name listed as
     // unmeasured, and no motion (a one-point block would repeat its point's alerts).
     let (s, g) = d

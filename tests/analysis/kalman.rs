@@ -547,10 +547,10 @@ fn shared_reference_error_leaves_the_forecast_and_narrows_its_sigma() {
         .collect();
     let config = AnalysisConfig::default();
     let dir = Some(Vector3::new(1.0, 0.0, 0.0));
-    let whole = track(&series, dir, None, None, &config)
+    let whole = track(&series, dir, None, None, -37.0, &config)
         .and_then(|t| t.failure)
         .expect("a forecast");
-    let own = track(&series, dir, None, Some(cov * 0.5), &config)
+    let own = track(&series, dir, None, Some(cov * 0.5), -37.0, &config)
         .and_then(|t| t.failure)
         .expect("a forecast");
     let truth_h = (law.failure_days - now) * 24.0;

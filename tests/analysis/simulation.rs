@@ -460,3 +460,96 @@ fn a_moved_stable_point_is_found_excluded_and_reported() {
     // epoch; what matters is that the alert is raised (above, every seed) and stays open.
     assert!(rate >= 0.3);
 }
+
+/// Velocity and time to failure are properties of the motion, not of the reference: with the
+/// reference moved to the last epoch (as staff may do after re-installing targets), the last
+/// epoch's filtered velocity and forecast of the accelerating block, and of its points, agree
+/// with those against the first epoch, and its velocity and time-to-failure alarms hold.
+#[test]
+fn velocity_and_forecast_do_not_depend_on_where_the_reference_lies() {
+    use cliffwatch::analysis::{analyse_series, GroupConfig, GroupKind, SeriesAnalysis};
+    for seed in 1..=3 {
+        let sc = MonitoringScenario {
+            seed,
+            ..Default::default()
+        };
+        let series = sc.generate();
+        let coords: Vec<_> = series
+            .epochs
+            .iter()
+            .map(|e| e.coordinates.clone())
+            .collect();
+        let block: Vec<String> = (1..=sc.block_points).map(|k| format!("B{k}")).collect();
+        let config = AnalysisConfig {
+            groups: vec![GroupConfig {
+                name: "B".into(),
+                kind: GroupKind::Block,
+                direction: None,
+                points: block.clone(),
+                process_noise: None,
+            }],
+            ..Default::default()
+        };
+        let mut rules = contract_rules();
+        for r in contract_rules() {
+            rules.push(AlertRule {
+                group: Some("B".into()),
+                ..r
+            });
+        }
+        let alerts = AlertConfig::new("kamo", rules);
+        let run = |reference| analyse_series(reference, &coords, &series.points, &config, &alerts);
+        let (first, last) = (run(&coords[0]), run(coords.last().unwrap()));
+        let last_epoch = coords.last().unwrap().epoch;
+        let filtered_at_end = |a: &SeriesAnalysis, subject: &str| {
+            a.records
+                .iter()
+                .chain(&a.block_records)
+                .find(|r| r.epoch == last_epoch && r.point == subject)
+                .and_then(|r| r.filtered)
+                .unwrap_or_else(|| panic!("seed {seed}: no filtered values of {subject}"))
+        };
+        for subject in block.iter().map(String::as_str).chain(["B"]) {
+            let (a, b) = (
+                filtered_at_end(&first, subject),
+                filtered_at_end(&last, subject),
+            );
+            let (va, sa) = (a.f_velocity_mm_per_day, a.sigma_f_velocity_mm_per_day);
+            let (vb, sb) = (b.f_velocity_mm_per_day, b.sigma_f_velocity_mm_per_day);
+            println!("seed {seed} {subject}: velocity {va:.2} ± {sa:.2} against the first epoch, {vb:.2} ± {sb:.2} against the last; time to failure {:?} / {:?} h",
+                a.f_time_to_failure_hours, b.f_time_to_failure_hours);
+            // The same data filtered, only the reference's share of the covariances differs.
+            assert!(va > 5.0 && vb > 5.0, "seed {seed} {subject}");
+            assert!((va - vb).abs() < 0.1 * va, "seed {seed} {subject}");
+            assert!((sa / sb - 1.0).abs() < 0.5, "seed {seed} {subject}");
+            let (ta, tb) = (a.f_time_to_failure_hours, b.f_time_to_failure_hours);
+            if subject == "B" {
+                let (ta, tb) = (ta.expect("forecast"), tb.expect("forecast"));
+                assert!(
+                    (ta - tb).abs() < 0.25 * ta.max(12.0),
+                    "seed {seed}: {ta} h / {tb} h"
+                );
+            }
+        }
+        // The block's velocity and time-to-failure alarms hold; its displacement alerts, measured
+        // from the new reference, are gone.
+        for analysis in [&first, &last] {
+            for kind in [AlertKind::VelocityMmPerDay, AlertKind::TimeToFailureHours] {
+                let alert = analysis.replayed.find_subject(None, Some("B"), kind);
+                assert_eq!(
+                    alert.map(|a| a.level),
+                    Some(AlertLevel::Alarm),
+                    "seed {seed}: {kind:?}"
+                );
+            }
+        }
+        assert!(first
+            .replayed
+            .find_subject(None, Some("B"), AlertKind::DisplacementMm)
+            .is_some());
+        assert!(last
+            .replayed
+            .find_subject(None, Some("B"), AlertKind::DisplacementMm)
+            .is_none());
+    }
+}
