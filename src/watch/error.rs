@@ -35,6 +35,17 @@ pub enum WatchError {
     /// An image of `epoch.json` has no file.
     #[error("no image file <{0}>.jpg|.png|.tif for station {0}")]
     MissingImage(String),
+    /// An image file of the folder names no station of `epoch.json`.
+    #[error("image file {0} names no station of epoch.json's images: list its station (with its camera) or remove the file")]
+    UnlistedImage(String),
+    /// A station has more than one image file.
+    #[error("station {station} has several image files ({files}): keep one")]
+    SeveralImages {
+        /// Station.
+        station: String,
+        /// The files, comma-separated.
+        files: String,
+    },
     /// The station's image file is larger than any image the detection reads.
     #[error("image of station {station}: {bytes} bytes; files above {max} bytes are not read")]
     ImageFileTooLarge {

@@ -105,6 +105,44 @@ pub(super) fn move_to(folder: &Path, sub: &str) -> std::io::Result<PathBuf> {
     move_folder(folder, free_destination(folder, sub))
 }
 
+/// Checks that every image file of `folder` (by its extension, in any case) belongs to one of
+/// `stations`, and that no station has more than one: an image the watcher would pass over
+/// (a station missing from `epoch.json`, a second file of a station) is refused rather than
+/// left unused in silence. Errors: [`WatchError::UnlistedImage`], [`WatchError::SeveralImages`].
+pub(super) fn check_image_files(
+    folder: &Path,
+    stations: &[String],
+) -> Result<(), super::WatchError> {
+    let mut per_station: std::collections::BTreeMap<&str, Vec<String>> = Default::default();
+    let mut files: Vec<(String, String)> = std::fs::read_dir(folder)?
+        .flatten()
+        .filter(|f| f.file_type().is_ok_and(|t| t.is_file()))
+        .filter_map(|f| {
+            let path = f.path();
+            let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+            let stem = path.file_stem()?.to_str()?.to_string();
+            let name = f.file_name().to_str()?.to_string();
+            IMAGE_EXTENSIONS
+                .contains(&ext.as_str())
+                .then_some((stem, name))
+        })
+        .collect();
+    files.sort();
+    for (stem, name) in files {
+        match stations.iter().find(|s| **s == stem) {
+            Some(s) => per_station.entry(s.as_str()).or_default().push(name),
+            None => return Err(super::WatchError::UnlistedImage(name)),
+        }
+    }
+    match per_station.into_iter().find(|(_, f)| f.len() > 1) {
+        Some((station, files)) => Err(super::WatchError::SeveralImages {
+            station: station.to_string(),
+            files: files.join(", "),
+        }),
+        None => Ok(()),
+    }
+}
+
 pub(super) fn find_image(folder: &Path, station: &str) -> Option<PathBuf> {
     IMAGE_EXTENSIONS
         .iter()

@@ -4,10 +4,12 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::folders::{content_hash, free_destination, move_folder, move_to, state_dir};
+use super::folders::{
+    check_image_files, content_hash, free_destination, move_folder, move_to, state_dir,
+};
 use super::naming::name_targets;
 use super::state::{load_orientations, save_state};
-use super::stations::detect_station;
+use super::stations::{detect_station, station_of};
 use super::{WatchError, WatchOptions};
 use crate::detect::identify::{resect_seeds, Seed};
 use crate::photogrammetry::input::epoch::ObservationInput;
@@ -57,6 +59,12 @@ pub(super) async fn process(
             known.insert(c.point, c.xyz);
         }
     }
+    let listed: Vec<String> = input
+        .images
+        .iter()
+        .map(station_of)
+        .collect::<Result<_, _>>()?;
+    check_image_files(folder, &listed)?;
     let previous = load_orientations(store, site, site_dir).await?;
     let mut stations = Vec::with_capacity(input.images.len());
     for image in &input.images {

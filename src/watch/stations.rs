@@ -133,6 +133,16 @@ impl StationCounts {
     }
 }
 
+/// The station of an image of `epoch.json` (its `station`, else its `id`), which names its file:
+/// an identifier, never a path (`../x`) out of the folder.
+pub(super) fn station_of(image: &ImageInput) -> Result<String, WatchError> {
+    let station = image.station.clone().unwrap_or_else(|| image.id.clone());
+    if !is_valid_identifier(&station) {
+        return Err(WatchError::BadStation(station));
+    }
+    Ok(station)
+}
+
 /// Decodes and searches one station's image (in `spawn_blocking`).
 pub(super) async fn detect_station(
     folder: &Path,
@@ -140,11 +150,7 @@ pub(super) async fn detect_station(
     cameras: &[CameraInput],
     opts: &WatchOptions,
 ) -> Result<StationData, WatchError> {
-    let station = image.station.clone().unwrap_or_else(|| image.id.clone());
-    // The station names the image's file: never a path (`../x`) out of the folder.
-    if !is_valid_identifier(&station) {
-        return Err(WatchError::BadStation(station));
-    }
+    let station = station_of(image)?;
     let cam_err = |reason: String| WatchError::Camera {
         station: station.clone(),
         reason,

@@ -150,6 +150,42 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
     assert!(err.contains("no image file"), "{err}");
 
+    // An image the watcher would leave unused is refused and named: a station missing from
+    // epoch.json, or a second file of a station.
+    for (folder, day, seed, extra, says) in [
+        ("e8", "2026-11-28", 9, "spare-photo.png", "names no station"),
+        (
+            "e9",
+            "2026-11-29",
+            10,
+            "{station}.JPG",
+            "has several image files",
+        ),
+    ] {
+        write_epoch(
+            &site,
+            &epoch,
+            folder,
+            &format!("{day}T09:00:00Z"),
+            false,
+            seed,
+        );
+        let png = std::fs::read_dir(site.join(folder))
+            .unwrap()
+            .flatten()
+            .find(|f| f.path().extension().is_some_and(|e| e == "png"))
+            .unwrap()
+            .path();
+        let station = png.file_stem().unwrap().to_str().unwrap();
+        let extra = extra.replace("{station}", station);
+        std::fs::copy(&png, site.join(folder).join(&extra)).unwrap();
+        let r = scan_once(&server.store, &opts).await;
+        let dest = r[0].as_ref().unwrap();
+        assert!(dest.starts_with(site.join(".failed")), "{dest:?}");
+        let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
+        assert!(err.contains(says) && err.contains(&extra), "{err}");
+    }
+
     // An image file larger than any the detection reads (sparse: no disk used) is refused
     // without being read into memory.
     write_epoch(&site, &epoch, "e7", "2026-11-27T09:00:00Z", false, 8);
