@@ -1,4 +1,4 @@
-//! `GET /api/v1/alerts`, `POST /api/v1/alerts/{id}/ack`.
+//! `GET /api/v1/alerts`, `GET /api/v1/alerts/{id}/events`, `POST /api/v1/alerts/{id}/ack`.
 
 use axum::extract::State;
 use axum::response::IntoResponse;
@@ -11,6 +11,7 @@ use super::AppState;
 use crate::analysis::AlertStatus;
 use crate::service;
 use crate::store::alerts;
+use crate::webhooks::WebhookPayload;
 
 /// Query of the alert list.
 #[derive(Debug, Default, Deserialize)]
@@ -103,4 +104,29 @@ pub async fn acknowledge(
         service::acknowledge::acknowledge(&state.store, &id, &body.by, body.comment.as_deref())
             .await?;
     Ok(axum::Json(alert))
+}
+
+/// An alert's history.
+#[derive(Debug, serde::Serialize, ToSchema)]
+pub struct AlertHistory {
+    /// Every event of the alert, oldest first, with the body its webhooks carried: raised,
+    /// escalated, acknowledged (who, and the comment), de-escalated, resolved. An acknowledgement
+    /// that a later escalation cleared stays here.
+    pub items: Vec<WebhookPayload>,
+}
+
+/// `GET /api/v1/alerts/{id}/events`: the alert's history, oldest first.
+#[utoipa::path(get, path = "/api/v1/alerts/{id}/events", params(("id" = String, Path)),
+    responses((status = 200, description = "the alert's events, oldest first", body = AlertHistory),
+              (status = 404, description = "unknown alert", body = crate::api::schemas::ErrorBody)))]
+pub async fn events(
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<String>,
+) -> Result<impl IntoResponse, ApiError> {
+    let db = state.store.reader();
+    if alerts::get(db, &id).await?.is_none() {
+        return Err(service::ServiceError::UnknownAlert(id).into());
+    }
+    let items = alerts::history(db, &id).await?;
+    Ok(axum::Json(AlertHistory { items }))
 }

@@ -85,6 +85,7 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/cap/feed.atom", get(cap::feed))
         .route("/api/v1/cap/alerts/{file}", get(cap::message))
         .route("/api/v1/alerts/{id}/ack", post(alerts::acknowledge))
+        .route("/api/v1/alerts/{id}/events", get(alerts::events))
         .route(
             "/api/v1/webhooks",
             post(webhooks::create).get(webhooks::list),

@@ -6,7 +6,8 @@
 //! ([`point_page`], `/sites/{site}/points/{point}`: plots of the series with ±2σ bands,
 //! thresholds, alert markers, velocity and inverse velocity) → epoch ([`epoch_page`],
 //! `/sites/{site}/epochs/{epoch}`: the adjustment report and the residuals of each image, and for
-//! a watched epoch its images with the detected targets drawn over them, [`epoch_images`]); the
+//! a watched epoch its images with the detected targets drawn over them, [`epoch_images`]), and
+//! alert ([`alert_page`], `/sites/{site}/alerts/{id}`: its history with every acknowledgement); the
 //! campaign report of a period ([`report_page`], `/sites/{site}/report?from=&to=`) prints on A4.
 //!
 //! Plots are drawn in the browser by the vendored uPlot from columnar JSON that
@@ -21,6 +22,7 @@
 
 pub(crate) mod acknowledge;
 pub(crate) mod alert_filter;
+pub(crate) mod alert_page;
 pub(crate) mod assets;
 pub mod downsample;
 pub(crate) mod epoch_images;
@@ -61,6 +63,7 @@ pub fn routes() -> Router<AppState> {
             get(epoch_images::image),
         )
         .route("/sites/{site}/report", get(report_page::report))
+        .route("/sites/{site}/alerts/{id}", get(alert_page::alert))
         .route("/dashboard/plot/{site}/{point}", get(plot_data::plot))
         .route("/dashboard/alerts/{id}/ack", post(acknowledge::acknowledge))
         .route("/signin", get(sign_in::form).post(sign_in::sign_in))

@@ -348,6 +348,27 @@ pub async fn events_of_point(
         .collect()
 }
 
+/// One alert's history: the body of each of its events as its webhooks carry it, oldest first
+/// (events recorded in one transaction by an older version share the recording time; their own
+/// times order them). A body that no longer parses is left out.
+pub async fn history(
+    db: impl AnyExecutor<'_>,
+    alert_id: &str,
+) -> Result<Vec<crate::webhooks::WebhookPayload>, StoreError> {
+    let rows: Vec<(String, String)> = sqlx::query_as(
+        "SELECT created_at, payload FROM webhook_outbox WHERE alert_id = $1 ORDER BY created_at, id",
+    )
+    .bind(alert_id)
+    .fetch_all(db)
+    .await?;
+    let mut items: Vec<(String, crate::webhooks::WebhookPayload)> = rows
+        .into_iter()
+        .filter_map(|(recorded, body)| Some((recorded, serde_json::from_str(&body).ok()?)))
+        .collect();
+    items.sort_by(|a, b| (&a.0, &a.1.timestamp).cmp(&(&b.0, &b.1.timestamp)));
+    Ok(items.into_iter().map(|(_, p)| p).collect())
+}
+
 /// The recorded changes of one alert (its outbox events) as the CAP feed reads them, oldest
 /// first: type, level after, and when each was recorded (UTC). Events recorded in one
 /// transaction share the recording time and are ordered by the time of their epoch.

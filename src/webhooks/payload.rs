@@ -71,7 +71,7 @@ pub fn accepts(endpoint: &WebhookEndpoint, event: &AlertEvent) -> bool {
 }
 
 /// `data` of the contract body.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct WebhookData {
     /// Alert id.
     pub alert_id: String,
@@ -110,7 +110,7 @@ pub struct WebhookData {
 }
 
 /// The contract body `{"type", "timestamp", "data"}`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct WebhookPayload {
     /// `alert.raised`, `alert.escalated`, …
     #[serde(rename = "type")]

@@ -241,6 +241,29 @@ async fn series_alerts_and_webhooks_survive_503_and_sigkill() {
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
 
+    // The alert's history: the bodies its webhook received, oldest first, the acknowledgement
+    // last (`accepted` keeps one body per webhook-id).
+    let (s, h) = daemon
+        .get(&format!("/api/v1/alerts/{}/events", id.replace('/', "%2F")))
+        .await;
+    assert_eq!(s, 200, "{h}");
+    let items = h["items"].as_array().unwrap();
+    let sent: Vec<Value> = receiver
+        .accepted()
+        .into_values()
+        .filter(|b| b["data"]["alert_id"] == id)
+        .collect();
+    assert_eq!(items.len(), sent.len(), "{h}");
+    for b in &sent {
+        assert!(items.contains(b), "{b} is not in {h}");
+    }
+    assert_eq!(items[0]["type"], "alert.raised", "{h}");
+    let last = items.last().unwrap();
+    assert_eq!(last["type"], "alert.acknowledged", "{h}");
+    assert_eq!(last["data"]["acknowledged_by"], "geologist", "{h}");
+    let (s, b) = daemon.get("/api/v1/alerts/nope/events").await;
+    assert_eq!(s, 404, "{b}");
+
     // Moving the reference recomputes the series: against epoch 6 the block moved 2.5 mm/day since.
     let (s, b) = daemon
         .send(

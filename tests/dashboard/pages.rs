@@ -323,6 +323,30 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
         e["error"]["message"].as_str().unwrap().contains("Aiko <b>"),
         "{e}"
     );
+    // The alert's page, linked from its row on the site page: its history, with who
+    // acknowledged and their comment (user text escaped).
+    let enc: String = id
+        .bytes()
+        .map(|b| match b {
+            b if b.is_ascii_alphanumeric() || b"-._~".contains(&b) => (b as char).to_string(),
+            b => format!("%{b:02X}"),
+        })
+        .collect();
+    let alert_path = format!("/sites/{SITE}/alerts/{enc}");
+    let (st, page) = html(&s, &alert_path).await;
+    assert_eq!(st, 200, "{page}");
+    for want in [
+        "alert.raised",
+        "alert.acknowledged",
+        "Aiko &lt;b&gt;",
+        "on my way",
+    ] {
+        assert!(page.contains(want), "{want} missing from {page}");
+    }
+    let (_, site_page) = html(&s, &format!("/sites/{SITE}")).await;
+    assert!(site_page.contains(&alert_path), "no link to {alert_path}");
+    let (st, _) = html(&s, &format!("/sites/{SITE}/alerts/nope")).await;
+    assert_eq!(st, 404);
     let (_, a) = s
         .get(&format!("/api/v1/alerts?site={SITE}&state=acknowledged"))
         .await;

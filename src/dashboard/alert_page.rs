@@ -1,0 +1,70 @@
+//! `GET /sites/{site}/alerts/{id}`: one alert and its history, oldest first: each event (raised,
+//! escalated, acknowledged, de-escalated, resolved) with its time, level, value, and who
+//! acknowledged with their comment, as its webhooks carried them
+//! ([`crate::store::alerts::history`]; the API's `GET /api/v1/alerts/{id}/events`). An
+//! acknowledgement that a later escalation cleared stays in the history.
+
+use axum::extract::{Path, State};
+use axum::response::Html;
+use axum::Extension;
+use maud::html;
+
+use super::layout::{level_badge, num, page, seg};
+use super::local_time::when;
+use super::{viewer, PageError};
+use crate::api::auth::Access;
+use crate::api::AppState;
+use crate::store::{alerts, sites};
+
+/// The alert page.
+pub async fn alert(
+    State(state): State<AppState>,
+    Path((site_id, id)): Path<(String, String)>,
+    access: Option<Extension<Access>>,
+) -> Result<Html<String>, PageError> {
+    let db = state.store.reader();
+    let Some(site) = sites::get(db, &site_id).await? else {
+        return Err(PageError::not_found(format!("no site '{site_id}'")));
+    };
+    let Some(a) = alerts::get(db, &id).await?.filter(|a| a.site == site.id) else {
+        return Err(PageError::not_found(format!(
+            "no alert '{id}' in site '{site_id}'"
+        )));
+    };
+    let history = alerts::history(db, &a.id).await?;
+    let tz = site.time_zone.as_deref();
+    let s = seg(&site.id);
+    let subject = match (&a.point, &a.group) {
+        (Some(p), _) => format!("point {p}"),
+        (None, Some(g)) => format!("group {g} ({})", a.points.join(", ")),
+        (None, None) => "site".to_string(),
+    };
+    let v = viewer(access.as_deref());
+    let body = html! {
+        h1 { (level_badge(Some(a.level))) " " (a.rule) " · " (subject) }
+        p { (a.message) }
+        p { "state: " (a.state) " · highest level: " (a.peak_level.as_str()) }
+        h2 { "History" }
+        table.history {
+            thead { tr { th { "event" } th { "at" } th { "level" } th.num { "value" } th { "epoch" } th { "acknowledged by" } th { "comment" } } }
+            tbody {
+                @for e in &history {
+                    tr {
+                        td { (e.event_type) }
+                        td { (when(&e.timestamp, tz)) }
+                        td { (level_badge(Some(e.data.level))) }
+                        td.num { (num(e.data.value, 2)) " " (e.data.unit) }
+                        td { @if let Some(k) = e.data.epoch { a href={ "/sites/" (s) "/epochs/" (k) } { (k) } } }
+                        td { (e.data.acknowledged_by.as_deref().unwrap_or("")) }
+                        td { @if let Some(c) = &e.data.comment { q { (c) } } }
+                    }
+                }
+            }
+        }
+    };
+    let crumbs = [
+        (site.name.clone(), format!("/sites/{s}")),
+        (a.id.clone(), format!("/sites/{s}/alerts/{}", seg(&a.id))),
+    ];
+    Ok(Html(page(&a.id, &crumbs, &v, body).into_string()))
+}
