@@ -34,10 +34,14 @@ pub async fn alert(
     let history = alerts::history(db, &a.id).await?;
     let tz = site.time_zone.as_deref();
     let s = seg(&site.id);
-    let subject = match (&a.point, &a.group) {
-        (Some(p), _) => format!("point {p}"),
-        (None, Some(g)) => format!("group {g} ({})", a.points.join(", ")),
-        (None, None) => "site".to_string(),
+    let subject = html! {
+        @if let Some(p) = &a.point {
+            "point " a href={ "/sites/" (s) "/points/" (seg(p)) } { (p) }
+        } @else if let Some(g) = &a.group {
+            "group " (g) " (" (a.points.join(", ")) ")"
+        } @else {
+            "site"
+        }
     };
     let v = viewer(access.as_deref());
     let body = html! {
@@ -50,7 +54,7 @@ pub async fn alert(
             tbody {
                 @for e in &history {
                     tr {
-                        td { (e.event_type) }
+                        td.event { (e.event_type.trim_start_matches("alert.")) }
                         td { (when(&e.timestamp, tz)) }
                         td { (level_badge(Some(e.data.level))) }
                         td.num { (num(e.data.value, 2)) " " (e.data.unit) }

@@ -263,6 +263,24 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
         .iter()
         .any(|a| a["id"] == json!(id) && a["acknowledged_by"] == json!("Aiko")));
     driver.screenshot("site.png").await;
+    // The alert's page, from the link of its row: its history ends with the acknowledgement.
+    driver
+        .script(&format!(
+            "document.getElementById('alert-{id}').querySelector('a[title=history]').click(); return true"
+        ))
+        .await;
+    let last = driver
+        .wait_for("return location.pathname.indexOf('/alerts/') > 0 && document.querySelector('table.history tbody tr:last-child') ? document.querySelector('table.history tbody tr:last-child').textContent : null")
+        .await;
+    let last = last.as_str().unwrap_or_default();
+    assert!(
+        last.starts_with("acknowledged") && last.contains("Aiko"),
+        "{last}"
+    );
+    let alert_path = driver.script("return location.pathname").await;
+    let alert_path = alert_path.as_str().unwrap().to_string();
+    driver.screenshot("alert.png").await;
+    driver.goto(&s.url(&format!("/sites/{SITE}"))).await;
 
     // A colleague acknowledged another alert since the page was loaded: the click is refused
     // (409) and the page says so and by whom, instead of looking like nothing happened.
@@ -348,6 +366,7 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
         format!("/sites/{SITE}/points/{moving}"),
         format!("/sites/{SITE}/epochs/{epoch}"),
         format!("/sites/{SITE}/report"),
+        alert_path.clone(),
     ]
     .into_iter()
     .enumerate()

@@ -336,8 +336,8 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
     let (st, page) = html(&s, &alert_path).await;
     assert_eq!(st, 200, "{page}");
     for want in [
-        "alert.raised",
-        "alert.acknowledged",
+        "<td class=\"event\">raised</td>",
+        "<td class=\"event\">acknowledged</td>",
         "Aiko &lt;b&gt;",
         "on my way",
     ] {
