@@ -118,7 +118,8 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
             {
                 tracing::info!(site = %site.id, "analysis settings changed in the configuration \
                     file: the site's series and alerts are recomputed");
-                raised += service::recompute::recompute_site(&mut tx, &a)
+                let cause = service::recompute::RecomputeCause::Settings;
+                raised += service::recompute::recompute_site(&mut tx, &a, &cause)
                     .await
                     .map_err(|e| ServeError::Site(site.id.clone(), e.to_string()))?;
             }

@@ -132,8 +132,9 @@ pub async fn reconcile(
     site: &str,
     replayed: &AlertState,
     now: DateTime<Utc>,
+    cause: &str,
 ) -> Result<usize, StoreError> {
     let current = alert_states::load(&mut *tx, site).await?;
-    let (state, events) = analysis::reconcile(&current, replayed, now);
+    let (state, events) = analysis::reconcile(&current, replayed, now, cause);
     save_and_record(tx, site, &state, &events).await
 }

@@ -257,7 +257,8 @@ async fn derive(
     if later > 0 || in_reference {
         // Out of order: later epochs' histories (velocities, forecasts) and, when this epoch is the
         // earliest without a set reference, the reference itself change. Recompute the series.
-        let raised = recompute::recompute_site(tx, site).await?;
+        let cause = recompute::RecomputeCause::EarlierEpoch(epoch);
+        let raised = recompute::recompute_site(tx, site, &cause).await?;
         return Ok(Derived {
             raised,
             ..Derived::default()

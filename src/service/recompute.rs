@@ -26,8 +26,14 @@ use super::ServiceError;
 ///    change now (raised, escalated, de-escalated, resolved) and never re-sends transitions staff
 ///    already received; open alerts keep their id and acknowledgement.
 ///
+/// `cause` says why (a resolved alert's message ends with it).
+///
 /// Returns how many alerts were raised.
-pub async fn recompute_site(tx: &mut Connection, site: &Site) -> Result<usize, ServiceError> {
+pub async fn recompute_site(
+    tx: &mut Connection,
+    site: &Site,
+    cause: &RecomputeCause,
+) -> Result<usize, ServiceError> {
     let site = sites::get(&mut *tx, &site.id)
         .await?
         .ok_or_else(|| ServiceError::UnknownSite(site.id.clone()))?;
@@ -63,7 +69,49 @@ pub async fn recompute_site(tx: &mut Connection, site: &Site) -> Result<usize, S
     for (id, reason) in &out.failures {
         epochs::set_analysis_outcome(tx, &site.id, *id, Some(reason)).await?;
     }
-    Ok(alert_outcome::reconcile(tx, &site.id, &out.replayed, Utc::now()).await?)
+    let cause = cause.to_string();
+    Ok(alert_outcome::reconcile(tx, &site.id, &out.replayed, Utc::now(), &cause).await?)
+}
+
+/// Why a site's series is recomputed; its text ends the message of an alert the recompute
+/// resolves.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RecomputeCause {
+    /// The reference epoch was set (`None`: back to the earliest epoch).
+    Reference(Option<i64>),
+    /// A block group was declared or replaced.
+    Group(String),
+    /// A point's role, group or direction changed.
+    Point(String),
+    /// An epoch arrived before epochs already analysed, or inside a reference of several epochs.
+    EarlierEpoch(i64),
+    /// The site's analysis settings changed in the configuration file.
+    Settings,
+    /// The stored series was derived by an older version.
+    NewerVersion,
+}
+
+impl std::fmt::Display for RecomputeCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RecomputeCause::Reference(Some(e)) => write!(f, "the reference was set to epoch {e}"),
+            RecomputeCause::Reference(None) => {
+                write!(f, "the reference was set back to the earliest epoch")
+            }
+            RecomputeCause::Group(g) => write!(f, "block group {g} was declared anew"),
+            RecomputeCause::Point(p) => write!(f, "the settings of point {p} changed"),
+            RecomputeCause::EarlierEpoch(e) => {
+                write!(
+                    f,
+                    "epoch {e} arrived after later ones and the series was recomputed"
+                )
+            }
+            RecomputeCause::Settings => write!(f, "the site's analysis settings changed"),
+            RecomputeCause::NewerVersion => {
+                write!(f, "the series was recomputed by a newer version")
+            }
+        }
+    }
 }
 
 /// Recomputes, once, every site whose stored series an older binary derived
@@ -76,7 +124,7 @@ pub async fn recompute_outdated(store: &Store) -> Result<usize, ServiceError> {
         let mut tx = store.begin_write_site(id).await?;
         if let Some(site) = sites::get(&mut *tx, id).await? {
             tracing::info!(site = %id, "recomputing the series derived by an older version");
-            raised += recompute_site(&mut tx, &site).await?;
+            raised += recompute_site(&mut tx, &site, &RecomputeCause::NewerVersion).await?;
         }
         tx.commit().await.map_err(StoreError::from)?;
         super::alert_outcome::count_raised(raised);

@@ -7,7 +7,7 @@ use crate::store::points::{self, Point, PointSettings};
 use crate::store::{epochs, groups, sites, Store, StoreError};
 
 use super::alert_outcome::count_raised;
-use super::recompute::recompute_site;
+use super::recompute::{recompute_site, RecomputeCause};
 use super::ServiceError;
 
 /// Sets the reference epoch of `site` (`None`: back to the earliest epoch) and recomputes its
@@ -30,7 +30,7 @@ pub async fn set_reference(
         }
     }
     sites::set_reference(&mut *tx, site, epoch).await?;
-    let raised = recompute_site(&mut tx, &s).await?;
+    let raised = recompute_site(&mut tx, &s, &RecomputeCause::Reference(epoch)).await?;
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
     Ok(())
@@ -47,7 +47,8 @@ pub async fn declare_group(
         .await?
         .ok_or_else(|| ServiceError::UnknownSite(site.to_string()))?;
     groups::put(&mut tx, site, group).await?;
-    let raised = recompute_site(&mut tx, &s).await?;
+    let cause = RecomputeCause::Group(group.name.clone());
+    let raised = recompute_site(&mut tx, &s, &cause).await?;
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
     Ok(())
@@ -81,7 +82,8 @@ pub async fn set_point(
     });
     let mut raised = 0;
     if before != after && epochs::count(&mut *tx, site).await? > 0 {
-        raised = recompute_site(&mut tx, &s).await?;
+        let cause = RecomputeCause::Point(point.to_string());
+        raised = recompute_site(&mut tx, &s, &cause).await?;
     }
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);

@@ -125,6 +125,13 @@ async fn reference_change_reevaluates_alerts_without_resending_history() {
     let after = displacement_alerts(&d, "cliff").await;
     assert_eq!(after.len(), before.len());
     assert!(after.iter().all(|a| a["state"] == "resolved"), "{after:?}");
+    assert!(
+        after.iter().all(|a| a["message"]
+            .as_str()
+            .unwrap()
+            .ends_with("resolved: the reference was set to epoch 5")),
+        "{after:?}"
+    );
     // a resolved alert still says how high it went
     assert!(
         after.iter().all(|a| a["peak_level"] == "warning"),

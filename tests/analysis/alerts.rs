@@ -316,7 +316,7 @@ fn reconcile_announces_only_the_net_change() {
 
     // Replayed at the same level: nothing to send, the acknowledgement stays.
     let (_, same) = feed(&cfg, &[(3.0, true), (6.5, true)]);
-    let (r, ev) = reconcile(&st, &same, now);
+    let (r, ev) = reconcile(&st, &same, now, "the reference was set to epoch 2");
     assert!(ev.is_empty(), "{ev:?}");
     let a = r.find(Some("T1"), AlertKind::DisplacementMm).expect("kept");
     assert_eq!(a.id, id);
@@ -327,7 +327,7 @@ fn reconcile_announces_only_the_net_change() {
 
     // Replayed at warning: one escalation, same id, open again.
     let (_, higher) = feed(&cfg, &[(11.0, true)]);
-    let (r, ev) = reconcile(&st, &higher, now);
+    let (r, ev) = reconcile(&st, &higher, now, "the reference was set to epoch 2");
     assert_eq!(ev.len(), 1);
     assert_eq!(ev[0].event_type, Escalated);
     assert_eq!(ev[0].alert.id, id);
@@ -341,17 +341,31 @@ fn reconcile_announces_only_the_net_change() {
 
     // Replayed with nothing: resolved once; the overdue campaign is still open.
     let (_, none) = feed(&cfg, &[(1.0, true)]);
-    let (r, ev) = reconcile(&st, &none, now);
+    let (r, ev) = reconcile(&st, &none, now, "the reference was set to epoch 2");
     assert_eq!(ev.len(), 1);
     assert_eq!(
         (ev[0].event_type, ev[0].alert.id.as_str()),
         (Resolved, id.as_str())
     );
+    // the message says why it resolved
+    assert!(
+        ev[0]
+            .alert
+            .message
+            .ends_with(" — resolved: the reference was set to epoch 2"),
+        "{}",
+        ev[0].alert.message
+    );
     assert_eq!(r.alerts.len(), 1);
     assert_eq!(r.alerts[0].rule, AlertKind::CampaignOverdue);
 
     // Nothing stored, the replay holds an alert: raised now.
-    let (r, ev) = reconcile(&AlertState::default(), &higher, now);
+    let (r, ev) = reconcile(
+        &AlertState::default(),
+        &higher,
+        now,
+        "the reference was set to epoch 2",
+    );
     assert_eq!(ev.len(), 1);
     assert_eq!(ev[0].event_type, Raised);
     assert_eq!(ev[0].alert.raised_at, now);

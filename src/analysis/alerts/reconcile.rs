@@ -14,11 +14,14 @@ use super::metric::AlertKind;
 /// level differs (an escalation clears the acknowledgement and needs a new one); an alert only in `replayed` is
 /// raised; an alert only in `current` is resolved. Intermediate transitions of the replay are
 /// not sent. `campaign_overdue` is not part of a replay (it depends on the clock, not on the
-/// series) and is kept as it is. The rules' memory is the replay's.
+/// series) and is kept as it is. The rules' memory is the replay's. `cause` says what made the
+/// series change (e.g. "the reference was set to epoch 7"); a resolved alert's message ends with
+/// it.
 pub fn reconcile(
     current: &AlertState,
     replayed: &AlertState,
     now: DateTime<Utc>,
+    cause: &str,
 ) -> (AlertState, Vec<AlertEvent>) {
     let mut out = AlertState {
         alerts: vec![],
@@ -83,7 +86,7 @@ pub fn reconcile(
             let mut a = c.clone();
             a.status = AlertStatus::Resolved;
             a.updated_at = now;
-            a.message = format!("{} — resolved after the series was recomputed", c.message);
+            a.message = format!("{} — resolved: {cause}", c.message);
             events.push(AlertEvent {
                 event_type: AlertEventType::Resolved,
                 timestamp: now,
