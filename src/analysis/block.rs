@@ -75,13 +75,7 @@ impl BlockMotion {
     /// 3-D length of the translation and its linearised σ, mm.
     pub fn length(&self) -> (f64, f64) {
         let t = Vector3::from(self.translation_mm);
-        let c = Matrix3::from(self.covariance_mm2);
-        let n = t.norm();
-        if n < 1e-9 {
-            return (n, (c.trace() / 3.0).max(0.0).sqrt());
-        }
-        let u = t / n;
-        (n, (u.transpose() * c * u)[(0, 0)].max(0.0).sqrt())
+        super::analyse::length_of(&t, &Matrix3::from(self.covariance_mm2))
     }
 }
 

@@ -178,12 +178,7 @@ impl KalmanState {
     /// 3-D length of the displacement and its linearised σ, mm (σ = √(trace/3) at the origin).
     pub fn length(&self) -> (f64, f64) {
         let (p, c) = self.block(0);
-        let n = p.norm();
-        if n < 1e-9 {
-            return (n, (c.trace() / 3.0).max(0.0).sqrt());
-        }
-        let u = p / n;
-        (n, (u.transpose() * c * u)[(0, 0)].max(0.0).sqrt())
+        super::analyse::length_of(&p, &c)
     }
 
     /// The state along a direction (normalised here; an unusable one gives zeros).
