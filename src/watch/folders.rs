@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 
 use sha2::{Digest, Sha256};
 
-const IMAGE_EXTENSIONS: [&str; 6] = ["jpg", "jpeg", "png", "tif", "tiff", "JPG"];
+/// Image file extensions the watcher reads, compared in lower case (`T1.JPG` is an image).
+const IMAGE_EXTENSIONS: [&str; 5] = ["jpg", "jpeg", "png", "tif", "tiff"];
 
 /// Folders `<dir>/<site>/<epoch>/` holding `READY` (names starting with `.` skipped), sorted.
 pub fn ready_folders(dir: &Path) -> Vec<(String, PathBuf)> {
@@ -114,21 +115,7 @@ pub(super) fn check_image_files(
     stations: &[String],
 ) -> Result<(), super::WatchError> {
     let mut per_station: std::collections::BTreeMap<&str, Vec<String>> = Default::default();
-    let mut files: Vec<(String, String)> = std::fs::read_dir(folder)?
-        .flatten()
-        .filter(|f| f.file_type().is_ok_and(|t| t.is_file()))
-        .filter_map(|f| {
-            let path = f.path();
-            let ext = path.extension()?.to_str()?.to_ascii_lowercase();
-            let stem = path.file_stem()?.to_str()?.to_string();
-            let name = f.file_name().to_str()?.to_string();
-            IMAGE_EXTENSIONS
-                .contains(&ext.as_str())
-                .then_some((stem, name))
-        })
-        .collect();
-    files.sort();
-    for (stem, name) in files {
+    for (stem, name) in image_files(folder)? {
         match stations.iter().find(|s| **s == stem) {
             Some(s) => per_station.entry(s.as_str()).or_default().push(name),
             None => return Err(super::WatchError::UnlistedImage(name)),
@@ -143,9 +130,32 @@ pub(super) fn check_image_files(
     }
 }
 
+/// The image files of `folder` as (stem, file name), sorted: regular files whose extension, in
+/// any case, is one of [`IMAGE_EXTENSIONS`].
+fn image_files(folder: &Path) -> std::io::Result<Vec<(String, String)>> {
+    let mut files: Vec<(String, String)> = std::fs::read_dir(folder)?
+        .flatten()
+        .filter(|f| f.file_type().is_ok_and(|t| t.is_file()))
+        .filter_map(|f| {
+            let path = f.path();
+            let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+            let stem = path.file_stem()?.to_str()?.to_string();
+            let name = f.file_name().to_str()?.to_string();
+            IMAGE_EXTENSIONS
+                .contains(&ext.as_str())
+                .then_some((stem, name))
+        })
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
+/// The image file of `station` in `folder` (`<station>.<extension>`, the extension in any
+/// case), the same file [`check_image_files`] counted for it.
 pub(super) fn find_image(folder: &Path, station: &str) -> Option<PathBuf> {
-    IMAGE_EXTENSIONS
-        .iter()
-        .map(|e| folder.join(format!("{station}.{e}")))
-        .find(|p| p.is_file())
+    image_files(folder)
+        .ok()?
+        .into_iter()
+        .find(|(stem, _)| stem == station)
+        .map(|(_, name)| folder.join(name))
 }

@@ -109,8 +109,15 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     assert_eq!(stations, 5, "orientations kept in the database");
     assert!(!site.join(".state/orientations.json").exists());
 
-    // epoch 2: no seeds, identified from the kept orientations
+    // epoch 2: no seeds, identified from the kept orientations; one image's extension in capitals
     write_epoch(&site, &epoch, "e2", "2026-11-21T09:00:00Z", false, 2);
+    let png = std::fs::read_dir(site.join("e2"))
+        .unwrap()
+        .flatten()
+        .find(|f| f.path().extension().is_some_and(|e| e == "png"))
+        .unwrap()
+        .path();
+    std::fs::rename(&png, png.with_extension("PNG")).unwrap();
     let r = scan_once(&server.store, &opts).await;
     let dest = r[0].as_ref().unwrap();
     let err = std::fs::read_to_string(dest.join("error.txt")).unwrap_or_default();
