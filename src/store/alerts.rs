@@ -349,24 +349,32 @@ pub async fn events_of_point(
 }
 
 /// One alert's history: the body of each of its events as its webhooks carry it, oldest first
-/// (events recorded in one transaction by an older version share the recording time; their own
-/// times order them). A body that no longer parses is left out.
+/// (events recorded in one transaction share the recording time; their own times order them).
+/// A body that no longer parses is left out.
 pub async fn history(
     db: impl AnyExecutor<'_>,
     alert_id: &str,
 ) -> Result<Vec<crate::webhooks::WebhookPayload>, StoreError> {
-    let rows: Vec<(String, String)> = sqlx::query_as(
-        "SELECT created_at, payload FROM webhook_outbox WHERE alert_id = $1 ORDER BY created_at, id",
-    )
-    .bind(alert_id)
-    .fetch_all(db)
-    .await?;
-    let mut items: Vec<(String, crate::webhooks::WebhookPayload)> = rows
+    let rows: Vec<(String, String)> =
+        sqlx::query_as("SELECT created_at, payload FROM webhook_outbox WHERE alert_id = $1")
+            .bind(alert_id)
+            .fetch_all(db)
+            .await?;
+    let items = rows
         .into_iter()
-        .filter_map(|(recorded, body)| Some((recorded, serde_json::from_str(&body).ok()?)))
+        .filter_map(|(recorded, body)| {
+            let payload: crate::webhooks::WebhookPayload = serde_json::from_str(&body).ok()?;
+            Some((recorded, payload.timestamp.clone(), payload))
+        })
         .collect();
-    items.sort_by(|a, b| (&a.0, &a.1.timestamp).cmp(&(&b.0, &b.1.timestamp)));
-    Ok(items.into_iter().map(|(_, p)| p).collect())
+    Ok(oldest_first(items))
+}
+
+/// Outbox items as (recording time, event time, item), oldest first: by recording time, then,
+/// for events recorded in one transaction, by the time of their epoch.
+fn oldest_first<T>(mut items: Vec<(String, String, T)>) -> Vec<T> {
+    items.sort_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
+    items.into_iter().map(|(_, _, item)| item).collect()
 }
 
 /// The recorded changes of one alert (its outbox events) as the CAP feed reads them, oldest
@@ -408,8 +416,7 @@ pub async fn changes_of(
             },
         ));
     }
-    changes.sort_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
-    Ok(changes.into_iter().map(|(_, _, c)| c).collect())
+    Ok(oldest_first(changes))
 }
 
 /// The alerts that ever reached `warning` or `alarm` (those the CAP feed carries), of one site

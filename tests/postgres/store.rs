@@ -230,6 +230,24 @@ async fn answers(s: &TestServer) -> BTreeMap<String, String> {
         .get(&format!("/api/v1/alerts?site={SITE}&limit=1000"))
         .await;
     assert_eq!(st, 200);
+    // Each alert's history (`store::alerts::history`), in order, keyed by the alert without its
+    // id; the events' times (wall clock for an acknowledgement) left out.
+    let mut histories = Vec::new();
+    for a in alerts["items"].as_array().unwrap() {
+        let path = format!("/api/v1/alerts/{}/events", a["id"].as_str().unwrap());
+        let (st, mut events) = s.get(&path).await;
+        assert_eq!(st, 200, "{path}: {events}");
+        for e in events["items"].as_array_mut().unwrap() {
+            e.as_object_mut().unwrap().remove("timestamp");
+            e["data"].as_object_mut().unwrap().remove("alert_id");
+        }
+        normalize(&mut events);
+        let mut key = a.clone();
+        normalize(&mut key);
+        histories.push(format!("{key}: {events}"));
+    }
+    histories.sort();
+    out.insert("alert histories".into(), histories.join("\n"));
     normalize(&mut alerts);
     let mut items: Vec<String> = alerts["items"]
         .as_array()
@@ -312,6 +330,11 @@ async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
     let alerts = &got["alerts"];
     assert!(alerts.contains("\"alarm\""), "no alarm: {alerts}");
     assert!(alerts.contains("\"acknowledged\""), "no acknowledgement");
+    let histories = &got["alert histories"];
+    assert!(
+        histories.contains("alert.raised") && histories.contains("alert.acknowledged"),
+        "{histories}"
+    );
     let series = &got[&format!(
         "/api/v1/sites/{SITE}/points/{}/displacements?limit=1000",
         name(POINTS - 1)
