@@ -14,7 +14,7 @@ use super::local_time::when;
 use super::{viewer, PageError};
 use crate::api::auth::Access;
 use crate::api::AppState;
-use crate::store::{alerts, sites};
+use crate::store::alerts;
 
 /// The alert page.
 pub async fn alert(
@@ -23,9 +23,7 @@ pub async fn alert(
     access: Option<Extension<Access>>,
 ) -> Result<Html<String>, PageError> {
     let db = state.store.reader();
-    let Some(site) = sites::get(db, &site_id).await? else {
-        return Err(PageError::not_found(format!("no site '{site_id}'")));
-    };
+    let site = super::site_or_404(db, &site_id).await?;
     let Some(a) = alerts::get(db, &id).await?.filter(|a| a.site == site.id) else {
         return Err(PageError::not_found(format!(
             "no alert '{id}' in site '{site_id}'"

@@ -30,9 +30,7 @@ pub(super) async fn load(
     site_id: &str,
     epoch: &str,
 ) -> Result<(sites::Site, i64, EpochListItem, EpochReport), PageError> {
-    let Some(site) = sites::get(db, site_id).await? else {
-        return Err(PageError::not_found(format!("no site '{site_id}'")));
-    };
+    let site = super::site_or_404(db, site_id).await?;
     let Ok(id) = epoch.parse::<i64>() else {
         return Err(PageError::not_found(format!("no epoch '{epoch}'")));
     };

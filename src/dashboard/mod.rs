@@ -128,6 +128,16 @@ impl IntoResponse for PageError {
     }
 }
 
+/// The site `site_id`, or the 404 page naming it.
+pub(crate) async fn site_or_404(
+    db: &crate::store::ReadPool,
+    site_id: &str,
+) -> Result<crate::store::sites::Site, PageError> {
+    crate::store::sites::get(db, site_id)
+        .await?
+        .ok_or_else(|| PageError::not_found(format!("no site '{site_id}'")))
+}
+
 /// The viewer of a request as the auth middleware let it in.
 pub fn viewer(access: Option<&crate::api::auth::Access>) -> layout::Viewer {
     let a = access.cloned().unwrap_or_default();

@@ -17,7 +17,7 @@ use super::local_time::when;
 use super::{viewer, PageError};
 use crate::api::auth::Access;
 use crate::api::AppState;
-use crate::store::{alerts, displacements, points, sites};
+use crate::store::{alerts, displacements, points};
 
 /// The point page.
 pub async fn point(
@@ -26,9 +26,7 @@ pub async fn point(
     access: Option<Extension<Access>>,
 ) -> Result<Html<String>, PageError> {
     let db = state.store.reader();
-    let Some(site) = sites::get(db, &site_id).await? else {
-        return Err(PageError::not_found(format!("no site '{site_id}'")));
-    };
+    let site = super::site_or_404(db, &site_id).await?;
     let Some(p) = points::get(db, &site.id, &point).await? else {
         return Err(PageError::not_found(format!(
             "no point '{point}' in site '{site_id}'"

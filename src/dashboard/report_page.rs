@@ -22,7 +22,7 @@ use crate::api::auth::Access;
 use crate::api::AppState;
 use crate::store::series_columns::unix_seconds;
 use crate::store::sites::Site;
-use crate::store::{alerts, displacements, epochs, points, sites, Store};
+use crate::store::{alerts, displacements, epochs, points, Store};
 
 /// The period of the report.
 #[derive(Debug, Deserialize)]
@@ -90,9 +90,7 @@ impl Report {
         to: Option<&str>,
     ) -> Result<Report, PageError> {
         let db = store.reader();
-        let Some(site) = sites::get(db, site_id).await? else {
-            return Err(PageError::not_found(format!("no site '{site_id}'")));
-        };
+        let site = super::site_or_404(db, site_id).await?;
         let until = to.map(|t| format!("{t}~"));
         let epochs: Vec<epochs::EpochListItem> =
             epochs::list(db, &site.id, until.as_deref(), 100_000)

@@ -20,7 +20,7 @@ use super::{viewer, PageError};
 use crate::analysis::{AlertLevel, PointRole};
 use crate::api::auth::Access;
 use crate::api::AppState;
-use crate::store::{alerts, displacements, epochs, points, sites};
+use crate::store::{alerts, displacements, epochs, points};
 
 /// Epochs listed on the site page (newest first).
 const EPOCHS_SHOWN: i64 = 30;
@@ -38,9 +38,7 @@ pub async fn site(
     let query = query.map_err(|e| PageError::bad_request(e.body_text()))?;
     let filter = AlertFilter::parse(&query.0).map_err(PageError::bad_request)?;
     let db = state.store.reader();
-    let Some(site) = sites::get(db, &site_id).await? else {
-        return Err(PageError::not_found(format!("no site '{site_id}'")));
-    };
+    let site = super::site_or_404(db, &site_id).await?;
     let mut pts = points::list(db, &site.id, None, 100_000).await?;
     pts.sort_by(|a, b| super::natural_order::natural_cmp(&a.name, &b.name));
     let coords = points::latest_coordinates(&mut *state.store.read().await?, &site.id).await?;
