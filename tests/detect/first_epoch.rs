@@ -87,6 +87,9 @@ struct Outcome {
 }
 
 fn run(seed: u64, shift: f64, turn_deg: f64, each: f64) -> Outcome {
+    run_with(seed, shift, turn_deg, each, 12.0)
+}
+fn run_with(seed: u64, shift: f64, turn_deg: f64, each: f64, margin: f64) -> Outcome {
     let s = scene(seed);
     let mut rng = ChaCha8Rng::seed_from_u64(1000 + seed);
     let stations: Vec<String> = s.truth.cameras.keys().cloned().collect();
@@ -110,7 +113,11 @@ fn run(seed: u64, shift: f64, turn_deg: f64, each: f64) -> Outcome {
         .collect();
     let known = approximations(&s.truth, shift, turn_deg, each, 7000 + seed);
     Outcome {
-        result: identify_first_epoch(&views, &known, &FirstEpochOptions::default()),
+        result: identify_first_epoch(&views, &known, &{
+            let mut o = FirstEpochOptions::default();
+            o.naming.margin = margin;
+            o
+        }),
         truth,
     }
 }
@@ -199,4 +206,56 @@ fn independent_errors_leave_targets_out_and_say_what_to_do() {
         // scenes are refused with the advice, and what is named is right (asserted above)
         assert!(refused >= 10, "{label}: {refused}");
     }
+}
+
+/// Over many scenes (200, or `CLIFFWATCH_IDENTIFY_SCENES`): the share of scenes with at least 26 of
+/// 28 named in every station, the refusals, and the wrong names, per kind of approximations.
+/// Returns (wrong station-names, scenes with ≥ 26 named, refused) and prints them.
+fn over_scenes(shift: f64, turn_deg: f64, each: f64, scenes: u64) -> (usize, usize, usize) {
+    let (mut wrong, mut enough, mut refused) = (0, 0, 0);
+    for seed in 1..=scenes {
+        let o = run(seed, shift, turn_deg, each);
+        let r = o.result.as_ref().unwrap();
+        let mut fewest = usize::MAX;
+        for (k, st) in r.stations.iter().enumerate() {
+            wrong += st
+                .matched
+                .iter()
+                .filter(|m| o.truth[k][m.blob].as_deref() != Some(m.point.as_str()))
+                .count();
+            fewest = fewest.min(st.matched.len());
+        }
+        enough += usize::from(fewest >= 26);
+        refused += usize::from(r.refusal().is_some());
+    }
+    eprintln!(
+        "offset {shift} m, turn {turn_deg}°, each {each} m, {scenes} scenes: ≥ 26 named in {enough}, \
+         refused {refused}, wrong station-names {wrong}"
+    );
+    (wrong, enough, refused)
+}
+
+#[test]
+fn map_grade_approximations_over_many_scenes() {
+    let scenes: u64 = std::env::var("CLIFFWATCH_IDENTIFY_SCENES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(200);
+    let share = |n: usize| n as f64 / scenes as f64;
+    // ±0.47 m rms and ±1.5 m maps: nearly every scene fully named, never wrongly
+    for (shift, turn) in [(0.45, 2.0), (1.45, 5.0)] {
+        let (wrong, enough, _) = over_scenes(shift, turn, 0.10, scenes);
+        assert_eq!(wrong, 0);
+        assert!(share(enough) >= 0.98, "{enough}/{scenes}");
+    }
+    // ±0.5 m rms with σ 0.15 m per point: close pairs are left out more often, never named wrongly
+    let (wrong, enough, _) = over_scenes(0.45, 2.0, 0.15, scenes);
+    assert_eq!(wrong, 0);
+    assert!(share(enough) >= 0.75, "{enough}/{scenes}");
+    // independent errors of 0.25 m, printed only: in 1000 scenes 2 named targets wrongly (one
+    // alone, one pair swapped; σ estimated at 0.22 m for 0.25 m), see docs/accuracy.md
+    over_scenes(0.0, 0.0, 0.25, scenes);
+    // independent errors of 0.5 m: every scene refused
+    let (wrong, _, refused) = over_scenes(0.0, 0.0, 0.5, scenes);
+    assert_eq!((wrong, refused as u64), (0, scenes));
 }
