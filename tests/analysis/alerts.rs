@@ -289,6 +289,36 @@ fn invalid_rules_are_reported() {
         r#"{"level": "severe", "metric": "displacement_mm", "above": 5}"#
     )
     .is_err());
+    // thresholds within ±1e9 in the metric's unit, hysteresis included
+    let rule = |json: &str| serde_json::from_str::<AlertRule>(json).expect("parses");
+    for (ok, json) in [
+        (
+            true,
+            r#"{"level": "watch", "metric": "displacement_mm", "above": 1e9}"#,
+        ),
+        (
+            false,
+            r#"{"level": "watch", "metric": "displacement_mm", "above": 1.5e9}"#,
+        ),
+        (
+            false,
+            r#"{"level": "watch", "metric": "velocity_mm_per_day", "below": -1e300}"#,
+        ),
+        (
+            false,
+            r#"{"level": "watch", "metric": "displacement_along_mm", "below": -5, "clear_above": 1e10}"#,
+        ),
+        (
+            true,
+            r#"{"level": "watch", "metric": "displacement_along_mm", "below": -5, "clear_above": -1}"#,
+        ),
+    ] {
+        let r = rule(json).validate();
+        assert_eq!(r.is_ok(), ok, "{json}: {r:?}");
+        if let Err(e) = r {
+            assert!(e.to_string().contains("±1e9"), "{e}");
+        }
+    }
 }
 
 /// After a recomputation only the net change is announced: an alert open before and after keeps

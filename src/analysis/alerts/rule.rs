@@ -22,6 +22,11 @@ pub const MAX_CONFIDENCE: f64 = 0.999_999;
 /// Largest `for_epochs` and `quiet_epochs` of a rule.
 pub const MAX_EPOCHS: u32 = 1000;
 
+/// Largest magnitude of a rule's thresholds (`above`, `below`, `clear_below`, `clear_above`) in
+/// the metric's unit: 10⁹ mm is 1000 km, 10⁹ h over 100 000 years. A JSON number beyond f64's
+/// range (1e400) cannot be read at all; the bound makes the documented range say so.
+pub const MAX_THRESHOLD: f64 = 1e9;
+
 /// One alert rule (contract JSON, plus optional fields).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct AlertRule {
@@ -31,15 +36,19 @@ pub struct AlertRule {
     pub metric: Metric,
     /// Triggers when the value is above this (unit of the metric).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0)]
     pub above: Option<f64>,
     /// Triggers when the value is below this (unit of the metric).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0)]
     pub below: Option<f64>,
     /// Hysteresis of an `above` rule: once active, clears only below this value.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0)]
     pub clear_below: Option<f64>,
     /// Hysteresis of a `below` rule: once active, clears only above this value.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0)]
     pub clear_above: Option<f64>,
     /// Restricts the rule to points of this group (all points and all declared blocks when
     /// absent); when the group is declared a block, the rule applies to the block's motion
@@ -101,9 +110,10 @@ pub const RULE_MEMBERS: [&str; 12] = [
 ];
 
 impl AlertRule {
-    /// Checks that exactly one of `above` / `below` is set, finite, and that the clear threshold lies on the
-    /// right side; that a `time_to_failure_hours` rule has a positive `below` and a `displacement_mm`
-    /// rule a threshold of at least 0.
+    /// Checks that exactly one of `above` / `below` is set, finite, and that the clear threshold
+    /// lies on the right side; that no threshold exceeds ±[`MAX_THRESHOLD`]; that a
+    /// `time_to_failure_hours` rule has a positive `below` and a `displacement_mm` rule a
+    /// threshold of at least 0.
     pub fn validate(&self) -> Result<(), AnalysisError> {
         let bad = |m: &str| {
             Err(AnalysisError::InvalidConfig(format!(
@@ -123,6 +133,13 @@ impl AlertRule {
                 }
             }
             _ => return bad("exactly one finite `above` or `below` is needed"),
+        }
+        if [self.above, self.below, self.clear_below, self.clear_above]
+            .into_iter()
+            .flatten()
+            .any(|x| !(x.abs() <= MAX_THRESHOLD))
+        {
+            return bad("above, below, clear_below and clear_above must lie within ±1e9");
         }
         if self.above.is_some() && self.clear_above.is_some() {
             return bad(
