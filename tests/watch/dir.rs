@@ -14,6 +14,16 @@ use cliffwatch::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
 use cliffwatch::watch::{scan_once, WatchOptions};
 use service_support::TestServer;
 
+/// The first station image (`.png`) that `folder` lists.
+fn first_png(folder: &Path) -> std::path::PathBuf {
+    std::fs::read_dir(folder)
+        .unwrap()
+        .flatten()
+        .find(|f| f.path().extension().is_some_and(|e| e == "png"))
+        .unwrap()
+        .path()
+}
+
 /// Writes `<dir>/<epoch>/` with one PNG per station (targets of 8 px where the scene observes them) and
 /// `epoch.json` keeping `seeds` observations per image (the corner-most ones).
 fn write_epoch(
@@ -111,12 +121,7 @@ async fn watched_folders_are_detected_identified_ingested_once() {
 
     // epoch 2: no seeds, identified from the kept orientations; one image's extension in capitals
     write_epoch(&site, &epoch, "e2", "2026-11-21T09:00:00Z", false, 2);
-    let png = std::fs::read_dir(site.join("e2"))
-        .unwrap()
-        .flatten()
-        .find(|f| f.path().extension().is_some_and(|e| e == "png"))
-        .unwrap()
-        .path();
+    let png = first_png(&site.join("e2"));
     std::fs::rename(&png, png.with_extension("PNG")).unwrap();
     let r = scan_once(&server.store, &opts).await;
     let dest = r[0].as_ref().unwrap();
@@ -145,12 +150,7 @@ async fn watched_folders_are_detected_identified_ingested_once() {
 
     // broken: an image missing
     write_epoch(&site, &epoch, "e3", "2026-11-22T09:00:00Z", false, 3);
-    let first = std::fs::read_dir(site.join("e3"))
-        .unwrap()
-        .flatten()
-        .find(|f| f.path().extension().is_some_and(|e| e == "png"))
-        .unwrap();
-    std::fs::remove_file(first.path()).unwrap();
+    std::fs::remove_file(first_png(&site.join("e3"))).unwrap();
     let r = scan_once(&server.store, &opts).await;
     let dest = r[0].as_ref().unwrap();
     assert!(dest.starts_with(site.join(".failed")), "{dest:?}");
@@ -177,12 +177,7 @@ async fn watched_folders_are_detected_identified_ingested_once() {
             false,
             seed,
         );
-        let png = std::fs::read_dir(site.join(folder))
-            .unwrap()
-            .flatten()
-            .find(|f| f.path().extension().is_some_and(|e| e == "png"))
-            .unwrap()
-            .path();
+        let png = first_png(&site.join(folder));
         let station = png.file_stem().unwrap().to_str().unwrap();
         let extra = extra.replace("{station}", station);
         std::fs::copy(&png, site.join(folder).join(&extra)).unwrap();
@@ -196,12 +191,7 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     // An image file larger than any the detection reads (sparse: no disk used) is refused
     // without being read into memory.
     write_epoch(&site, &epoch, "e7", "2026-11-27T09:00:00Z", false, 8);
-    let png = std::fs::read_dir(site.join("e7"))
-        .unwrap()
-        .flatten()
-        .find(|f| f.path().extension().is_some_and(|e| e == "png"))
-        .unwrap()
-        .path();
+    let png = first_png(&site.join("e7"));
     std::fs::File::options()
         .write(true)
         .open(&png)
