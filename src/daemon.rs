@@ -119,7 +119,7 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
                 tracing::info!(site = %site.id, "analysis settings changed in the configuration \
                     file: the site's series and alerts are recomputed");
                 let cause = service::recompute::RecomputeCause::Settings;
-                raised += service::recompute::recompute_site(&mut tx, &a, &cause)
+                raised += service::recompute::recompute_site(&mut tx, &a.id, &cause)
                     .await
                     .map_err(|e| ServeError::Site(site.id.clone(), e.to_string()))?;
             }

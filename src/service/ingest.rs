@@ -258,7 +258,7 @@ async fn derive(
         // Out of order: later epochs' histories (velocities, forecasts) and, when this epoch is the
         // earliest without a set reference, the reference itself change. Recompute the series.
         let cause = recompute::RecomputeCause::EarlierEpoch(epoch);
-        let raised = recompute::recompute_site(tx, site, &cause).await?;
+        let raised = recompute::recompute_site(tx, &site.id, &cause).await?;
         return Ok(Derived {
             raised,
             ..Derived::default()

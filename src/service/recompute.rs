@@ -6,7 +6,6 @@
 use chrono::Utc;
 
 use crate::analysis::analyse_series;
-use crate::store::sites::Site;
 use crate::store::{block_motions, displacements, epochs, sites, Connection, Store, StoreError};
 
 use super::alert_outcome;
@@ -26,17 +25,18 @@ use super::ServiceError;
 ///    change now (raised, escalated, de-escalated, resolved) and never re-sends transitions staff
 ///    already received; open alerts keep their id and acknowledgement.
 ///
+/// The site is read inside `tx`, so changes the caller made to it there (a new reference) count.
 /// `cause` says why (a resolved alert's message ends with it).
 ///
 /// Returns how many alerts were raised.
 pub async fn recompute_site(
     tx: &mut Connection,
-    site: &Site,
+    site_id: &str,
     cause: &RecomputeCause,
 ) -> Result<usize, ServiceError> {
-    let site = sites::get(&mut *tx, &site.id)
+    let site = sites::get(&mut *tx, site_id)
         .await?
-        .ok_or_else(|| ServiceError::UnknownSite(site.id.clone()))?;
+        .ok_or_else(|| ServiceError::UnknownSite(site_id.to_string()))?;
     sites::mark_current(&mut *tx, &site.id).await?;
     displacements::delete_site(tx, &site.id).await?;
     block_motions::delete_site(tx, &site.id).await?;
@@ -122,10 +122,8 @@ pub async fn recompute_outdated(store: &Store) -> Result<usize, ServiceError> {
     for id in &ids {
         let mut raised = 0;
         let mut tx = store.begin_write_site(id).await?;
-        if let Some(site) = sites::get(&mut *tx, id).await? {
-            tracing::info!(site = %id, "recomputing the series derived by an older version");
-            raised += recompute_site(&mut tx, &site, &RecomputeCause::NewerVersion).await?;
-        }
+        tracing::info!(site = %id, "recomputing the series derived by an older version");
+        raised += recompute_site(&mut tx, id, &RecomputeCause::NewerVersion).await?;
         tx.commit().await.map_err(StoreError::from)?;
         super::alert_outcome::count_raised(raised);
     }

@@ -18,9 +18,9 @@ pub async fn set_reference(
     epoch: Option<i64>,
 ) -> Result<(), ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
-    let s = sites::get(&mut *tx, site)
-        .await?
-        .ok_or_else(|| ServiceError::UnknownSite(site.to_string()))?;
+    if sites::get(&mut *tx, site).await?.is_none() {
+        return Err(ServiceError::UnknownSite(site.to_string()));
+    }
     if let Some(e) = epoch {
         if epochs::observed_at_raw(&mut *tx, site, e).await?.is_none() {
             return Err(ServiceError::UnknownEpoch {
@@ -30,7 +30,7 @@ pub async fn set_reference(
         }
     }
     sites::set_reference(&mut *tx, site, epoch).await?;
-    let raised = recompute_site(&mut tx, &s, &RecomputeCause::Reference(epoch)).await?;
+    let raised = recompute_site(&mut tx, site, &RecomputeCause::Reference(epoch)).await?;
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
     Ok(())
@@ -43,12 +43,12 @@ pub async fn declare_group(
     group: &GroupConfig,
 ) -> Result<(), ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
-    let s = sites::get(&mut *tx, site)
-        .await?
-        .ok_or_else(|| ServiceError::UnknownSite(site.to_string()))?;
+    if sites::get(&mut *tx, site).await?.is_none() {
+        return Err(ServiceError::UnknownSite(site.to_string()));
+    }
     groups::put(&mut tx, site, group).await?;
     let cause = RecomputeCause::Group(group.name.clone());
-    let raised = recompute_site(&mut tx, &s, &cause).await?;
+    let raised = recompute_site(&mut tx, site, &cause).await?;
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
     Ok(())
@@ -65,9 +65,9 @@ pub async fn set_point(
     settings: &PointSettings,
 ) -> Result<Point, ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
-    let s = sites::get(&mut *tx, site)
-        .await?
-        .ok_or_else(|| ServiceError::UnknownSite(site.to_string()))?;
+    if sites::get(&mut *tx, site).await?.is_none() {
+        return Err(ServiceError::UnknownSite(site.to_string()));
+    }
     let before = points::get(&mut *tx, site, point).await?;
     points::upsert(&mut *tx, site, point, settings).await?;
     let after = points::get(&mut *tx, site, point)
@@ -83,7 +83,7 @@ pub async fn set_point(
     let mut raised = 0;
     if before != after && epochs::count(&mut *tx, site).await? > 0 {
         let cause = RecomputeCause::Point(point.to_string());
-        raised = recompute_site(&mut tx, &s, &cause).await?;
+        raised = recompute_site(&mut tx, site, &cause).await?;
     }
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
