@@ -24,7 +24,8 @@ pub const MAX_EPOCHS: u32 = 1000;
 
 /// Largest magnitude of a rule's thresholds (`above`, `below`, `clear_below`, `clear_above`) in
 /// the metric's unit: 10⁹ mm is 1000 km, 10⁹ h over 100 000 years. A JSON number beyond f64's
-/// range (1e400) cannot be read at all; the bound makes the documented range say so.
+/// range (1e400) cannot be read at all; the bound makes the documented range say so. (utoipa's
+/// `minimum`/`maximum` take literals only: a test checks that the schema shows this value.)
 pub const MAX_THRESHOLD: f64 = 1e9;
 
 /// One alert rule (contract JSON, plus optional fields).
@@ -139,7 +140,9 @@ impl AlertRule {
             .flatten()
             .any(|x| !(x.abs() <= MAX_THRESHOLD))
         {
-            return bad("above, below, clear_below and clear_above must lie within ±1e9");
+            return bad(&format!(
+                "above, below, clear_below and clear_above must lie within ±{MAX_THRESHOLD:e}"
+            ));
         }
         if self.above.is_some() && self.clear_above.is_some() {
             return bad(
@@ -434,5 +437,25 @@ mod tests {
         ] {
             assert_eq!(rule(good).map_err(|e| e.to_string()), Ok(()), "{good}");
         }
+    }
+
+    /// The schema's bounds of the four thresholds are ±[`MAX_THRESHOLD`], the bound `validate`
+    /// checks.
+    #[test]
+    fn the_schema_shows_the_threshold_bound() {
+        use utoipa::PartialSchema;
+        let schema = serde_json::to_value(AlertRule::schema()).unwrap();
+        for member in ["above", "below", "clear_below", "clear_above"] {
+            let p = &schema["properties"][member];
+            assert_eq!(p["minimum"].as_f64(), Some(-MAX_THRESHOLD), "{member}: {p}");
+            assert_eq!(p["maximum"].as_f64(), Some(MAX_THRESHOLD), "{member}: {p}");
+        }
+        let rule = AlertRule {
+            above: Some(2.0 * MAX_THRESHOLD),
+            ..serde_json::from_str(r#"{"level": "watch", "metric": "displacement_mm", "above": 1}"#)
+                .unwrap()
+        };
+        let e = rule.validate().unwrap_err().to_string();
+        assert!(e.ends_with("must lie within ±1e9"), "{e}");
     }
 }
