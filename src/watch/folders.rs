@@ -1,6 +1,7 @@
 //! The watched directory on disk: which folders are ready, their content hash, their images,
 //! and where a folder moves once taken (`.done/`, `.failed/`).
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use sha2::{Digest, Sha256};
@@ -106,28 +107,35 @@ pub(super) fn move_to(folder: &Path, sub: &str) -> std::io::Result<PathBuf> {
     move_folder(folder, free_destination(folder, sub))
 }
 
-/// Checks that every image file of `folder` (by its extension, in any case) belongs to one of
-/// `stations`, and that no station has more than one: an image the watcher would pass over
-/// (a station missing from `epoch.json`, a second file of a station) is refused rather than
-/// left unused in silence. Errors: [`WatchError::UnlistedImage`], [`WatchError::SeveralImages`].
-pub(super) fn check_image_files(
+/// The image file of each station of `stations` found in `folder` (`<station>.<extension>`, the
+/// extension in any case). Every image file must belong to one of `stations`, and no station may
+/// have more than one: an image the watcher would pass over (a station missing from
+/// `epoch.json`, a second file of a station) is refused rather than left unused in silence.
+/// Errors: [`WatchError::UnlistedImage`], [`WatchError::SeveralImages`].
+///
+/// [`WatchError::UnlistedImage`]: super::WatchError::UnlistedImage
+/// [`WatchError::SeveralImages`]: super::WatchError::SeveralImages
+pub(super) fn station_images(
     folder: &Path,
     stations: &[String],
-) -> Result<(), super::WatchError> {
-    let mut per_station: std::collections::BTreeMap<&str, Vec<String>> = Default::default();
+) -> Result<BTreeMap<String, PathBuf>, super::WatchError> {
+    let mut per_station: BTreeMap<&str, Vec<String>> = BTreeMap::new();
     for (stem, name) in image_files(folder)? {
         match stations.iter().find(|s| **s == stem) {
             Some(s) => per_station.entry(s.as_str()).or_default().push(name),
             None => return Err(super::WatchError::UnlistedImage(name)),
         }
     }
-    match per_station.into_iter().find(|(_, f)| f.len() > 1) {
-        Some((station, files)) => Err(super::WatchError::SeveralImages {
-            station: station.to_string(),
-            files: files.join(", "),
-        }),
-        None => Ok(()),
-    }
+    per_station
+        .into_iter()
+        .map(|(station, mut files)| match files.len() {
+            1 => Ok((station.to_string(), folder.join(files.remove(0)))),
+            _ => Err(super::WatchError::SeveralImages {
+                station: station.to_string(),
+                files: files.join(", "),
+            }),
+        })
+        .collect()
 }
 
 /// The image files of `folder` as (stem, file name), sorted: regular files whose extension, in
@@ -148,14 +156,4 @@ fn image_files(folder: &Path) -> std::io::Result<Vec<(String, String)>> {
         .collect();
     files.sort();
     Ok(files)
-}
-
-/// The image file of `station` in `folder` (`<station>.<extension>`, the extension in any
-/// case), the same file [`check_image_files`] counted for it.
-pub(super) fn find_image(folder: &Path, station: &str) -> Option<PathBuf> {
-    image_files(folder)
-        .ok()?
-        .into_iter()
-        .find(|(stem, _)| stem == station)
-        .map(|(_, name)| folder.join(name))
 }

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::folders::{
-    check_image_files, content_hash, free_destination, move_folder, move_to, state_dir,
+    content_hash, free_destination, move_folder, move_to, state_dir, station_images,
 };
 use super::naming::name_targets;
 use super::state::{load_orientations, save_state};
@@ -64,11 +64,11 @@ pub(super) async fn process(
         .iter()
         .map(station_of)
         .collect::<Result<_, _>>()?;
-    check_image_files(folder, &listed)?;
+    let images = station_images(folder, &listed)?;
     let previous = load_orientations(store, site, site_dir).await?;
     let mut stations = Vec::with_capacity(input.images.len());
     for image in &input.images {
-        stations.push(detect_station(folder, image, &input.cameras, opts).await?);
+        stations.push(detect_station(&images, image, &input.cameras, opts).await?);
     }
     let (names, mut counts) = name_targets(&stations, &known, &previous, opts)?;
     for c in &mut counts {

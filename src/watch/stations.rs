@@ -1,9 +1,9 @@
 //! One station's image of a watched folder: its detection, and the counts and targets of its
 //! naming that `identification.json` and the epoch's report keep.
 
-use std::path::Path;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
 
-use super::folders::find_image;
 use super::image_file::{read_image_file, ImageFileError};
 use super::{WatchError, WatchOptions};
 use crate::detect::detect_bytes;
@@ -143,9 +143,10 @@ pub(super) fn station_of(image: &ImageInput) -> Result<String, WatchError> {
     Ok(station)
 }
 
-/// Decodes and searches one station's image (in `spawn_blocking`).
+/// Decodes and searches one station's image, found in `images` (station → file, from
+/// [`super::folders::station_images`]), in `spawn_blocking`.
 pub(super) async fn detect_station(
-    folder: &Path,
+    images: &BTreeMap<String, PathBuf>,
     image: &ImageInput,
     cameras: &[CameraInput],
     opts: &WatchOptions,
@@ -160,9 +161,10 @@ pub(super) async fn detect_station(
         .find(|c| c.id == image.camera)
         .ok_or_else(|| cam_err(format!("unknown camera {}", image.camera)))?;
     let camera = Camera::from_input(cam_in).map_err(|e: EpochError| cam_err(e.to_string()))?;
-    let path =
-        find_image(folder, &station).ok_or_else(|| WatchError::MissingImage(station.clone()))?;
-    let bytes = read_image_file(&path).await.map_err(|e| match e {
+    let path = images
+        .get(&station)
+        .ok_or_else(|| WatchError::MissingImage(station.clone()))?;
+    let bytes = read_image_file(path).await.map_err(|e| match e {
         ImageFileError::TooLarge { bytes, max } => WatchError::ImageFileTooLarge {
             station: station.clone(),
             bytes,
