@@ -6,7 +6,7 @@ use serde::Deserialize;
 use utoipa::ToSchema;
 
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
-use super::list::{Page, PageParams};
+use super::list::{Listing, Page, PageParams};
 use super::AppState;
 use crate::analysis::AlertStatus;
 use crate::service;
@@ -45,7 +45,7 @@ pub async fn list(
         limit: q.limit,
         cursor: q.cursor,
     };
-    let cursor = page.cursor()?;
+    let cursor = page.cursor(Listing::Alerts)?;
     let limit = page.limit()?;
     // A misspelt site is named, not answered with an empty list that reads as "all quiet".
     if let Some(site) = &q.site {
@@ -60,7 +60,9 @@ pub async fn list(
         limit + 1,
     )
     .await?;
-    let page = Page::from_fetched(rows, limit, |(raw, a)| format!("{raw}|{}", a.id));
+    let page = Page::from_fetched(rows, limit, Listing::Alerts, |(raw, a)| {
+        format!("{raw}|{}", a.id)
+    });
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, a)| a).collect(),
         next_cursor: page.next_cursor,

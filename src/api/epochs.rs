@@ -9,7 +9,7 @@ use axum::response::IntoResponse;
 use serde::Deserialize;
 
 use super::error::{ApiError, ApiPath, ApiQuery};
-use super::list::{Page, PageParams};
+use super::list::{Listing, Page, PageParams};
 use super::schemas::EpochSummary;
 use super::sites::find;
 use super::AppState;
@@ -230,10 +230,10 @@ pub async fn list(
     ApiQuery(page): ApiQuery<PageParams>,
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
-    let cursor = page.cursor()?;
+    let cursor = page.cursor(Listing::Epochs)?;
     let limit = page.limit()?;
     let rows = epochs::list(state.store.reader(), &site, cursor.as_deref(), limit + 1).await?;
-    let page = Page::from_fetched(rows, limit, |(raw, _)| raw.clone());
+    let page = Page::from_fetched(rows, limit, Listing::Epochs, |(raw, _)| raw.clone());
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, e)| e).collect(),
         next_cursor: page.next_cursor,

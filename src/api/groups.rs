@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
-use super::list::{encode, Page, PageParams};
+use super::list::{encode, Listing, Page, PageParams};
 use super::points::SeriesParams;
 use super::sites::find;
 use super::AppState;
@@ -179,7 +179,7 @@ pub async fn list(
     ApiQuery(page): ApiQuery<PageParams>,
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
-    let after = page.cursor()?;
+    let after = page.cursor(Listing::Groups)?;
     let limit = page.limit()?;
     let mut all = groups::list(state.store.reader(), &site).await?;
     all.sort_by(|a, b| a.name.cmp(&b.name));
@@ -189,9 +189,12 @@ pub async fn list(
         .take(limit as usize + 1)
         .collect();
     let fetched = describe(&state, &site, fetched).await?;
-    Ok(axum::Json(Page::from_fetched(fetched, limit, |g| {
-        g.name.clone()
-    })))
+    Ok(axum::Json(Page::from_fetched(
+        fetched,
+        limit,
+        Listing::Groups,
+        |g| g.name.clone(),
+    )))
 }
 
 /// `GET /api/v1/sites/{site}/groups/{group}`: one group.
@@ -249,7 +252,7 @@ pub async fn motion(
         let body = format_rows(&rows, format, g.direction, &group);
         return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], body).into_response());
     }
-    let after = page.cursor()?;
+    let after = page.cursor(Listing::Series)?;
     let mut rows = block_motions::series(
         db,
         &site,
@@ -267,10 +270,13 @@ pub async fn motion(
     out.extend_from_slice(b",\"next_cursor\":");
     // the cursor is the last row's stored time
     let next = match rows.last().filter(|_| more) {
-        Some(last) => Some(encode(&crate::store::timestamp(
-            crate::store::parse_timestamp(&last.observed_at)
-                .ok_or_else(|| ApiError::internal("stored time does not parse"))?,
-        ))),
+        Some(last) => Some(encode(
+            Listing::Series,
+            &crate::store::timestamp(
+                crate::store::parse_timestamp(&last.observed_at)
+                    .ok_or_else(|| ApiError::internal("stored time does not parse"))?,
+            ),
+        )),
         None => None,
     };
     serde_json::to_writer(&mut out, &next).map_err(ApiError::internal)?;

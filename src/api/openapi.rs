@@ -113,13 +113,17 @@ impl utoipa::Modify for CommonErrors {
     }
 }
 
-/// The page cursor: unpadded base64url ([`super::list::decode`] reads every string of this form).
+/// The page cursor: unpadded base64url ([`super::list::decode`] decodes every string of this
+/// form, and answers 400 unless the listing gave it).
 fn cursor_schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
     use utoipa::openapi::schema::{ObjectBuilder, Type};
     ObjectBuilder::new()
         .schema_type(Type::String)
         .pattern(Some(super::list::CURSOR_PATTERN))
-        .description(Some("opaque: the next_cursor of the previous page"))
+        .description(Some(
+            "opaque: the next_cursor of the previous page of the same listing (a cursor of \
+             another listing is a 400)",
+        ))
         .into()
 }
 

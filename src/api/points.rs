@@ -14,7 +14,7 @@ use serde_json::json;
 
 use super::epochs::time_bound;
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
-use super::list::{encode, Page, PageParams};
+use super::list::{encode, Listing, Page, PageParams};
 use super::sites::find;
 use super::AppState;
 use crate::analysis::{AlertLevel, PointRole};
@@ -54,10 +54,10 @@ pub async fn list(
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
     let db = state.store.reader();
-    let cursor = page.cursor()?;
+    let cursor = page.cursor(Listing::Points)?;
     let limit = page.limit()?;
     let pts = points::list(db, &site, cursor.as_deref(), limit + 1).await?;
-    let page = Page::from_fetched(pts, limit, |p| p.name.clone());
+    let page = Page::from_fetched(pts, limit, Listing::Points, |p| p.name.clone());
     let mut latest: HashMap<String, _> =
         points::latest_coordinates(&mut *state.store.read().await?, &site)
             .await?
@@ -235,7 +235,7 @@ pub async fn displacements(
         });
         return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], body).into_response());
     }
-    query.after = page.cursor()?;
+    query.after = page.cursor(Listing::Series)?;
     query.limit = Some(limit);
     let mut out = Vec::with_capacity(512 * limit as usize + 64);
     out.extend_from_slice(b"{\"items\":");
@@ -245,7 +245,7 @@ pub async fn displacements(
     let next = written
         .last_observed_at
         .filter(|_| written.more)
-        .map(|last| encode(&last));
+        .map(|last| encode(Listing::Series, &last));
     serde_json::to_writer(&mut out, &next).map_err(ApiError::internal)?;
     out.push(b'}');
     Ok(([(header::CONTENT_TYPE, "application/json")], out).into_response())

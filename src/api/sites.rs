@@ -7,7 +7,7 @@ use serde::Deserialize;
 use utoipa::ToSchema;
 
 use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
-use super::list::{Page, PageParams};
+use super::list::{Listing, Page, PageParams};
 use super::AppState;
 use crate::analysis::alerts::{MAX_CONFIDENCE, MIN_CONFIDENCE};
 use crate::analysis::AlertRule;
@@ -155,7 +155,7 @@ pub async fn list(
     State(state): State<AppState>,
     ApiQuery(page): ApiQuery<PageParams>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let cursor = page.cursor()?;
+    let cursor = page.cursor(Listing::Sites)?;
     let limit = page.limit()?;
     let after = cursor.as_deref().and_then(|c| c.split_once('|'));
     let items = sites::list(state.store.reader(), after, limit + 1).await?;
@@ -168,7 +168,9 @@ pub async fn list(
         );
     }
     let pairs: Vec<(String, Site)> = raw.into_iter().zip(items).collect();
-    let page = Page::from_fetched(pairs, limit, |(t, s)| format!("{t}|{}", s.id));
+    let page = Page::from_fetched(pairs, limit, Listing::Sites, |(t, s)| {
+        format!("{t}|{}", s.id)
+    });
     Ok(axum::Json(Page {
         items: page.items.into_iter().map(|(_, s)| s).collect(),
         next_cursor: page.next_cursor,

@@ -110,6 +110,35 @@ async fn paper_epochs_upload_and_read_back() {
         ))
         .await;
     assert_eq!(page2["items"][0]["id"], items[4]["id"]);
+    // A cursor is a position in its own listing only: another listing's, or a forged one, is a
+    // 400 that says so, not a page read from some other position.
+    let (_, points) = s.get("/api/v1/sites/paper/points?limit=2").await;
+    let point_cursor = points["next_cursor"].as_str().unwrap().to_string();
+    for (path, says) in [
+        (
+            format!("/api/v1/sites/paper/epochs?cursor={point_cursor}"),
+            "cursor: it belongs to the points listing, not to the epochs listing",
+        ),
+        (
+            format!("/api/v1/sites/paper/points/5/displacements?cursor={cursor}"),
+            "cursor: it belongs to the epochs listing, not to the series listing",
+        ),
+        (
+            "/api/v1/sites/paper/epochs?cursor=VDEwNQ".to_string(),
+            "cursor: not a next_cursor of this listing",
+        ),
+    ] {
+        let (status, body) = s.get(&path).await;
+        assert_eq!(status, 400, "{path}: {body}");
+        let message = body["error"]["message"].as_str().unwrap();
+        assert!(message.starts_with(says), "{path}: {message}");
+    }
+    let (status, next) = s
+        .get(&format!(
+            "/api/v1/sites/paper/points?limit=2&cursor={point_cursor}"
+        ))
+        .await;
+    assert_eq!(status, 200, "{next}");
     // A page size below 1 is refused, naming the parameter; above 1000 is read as 1000.
     for limit in ["0", "-1", "abc"] {
         let (status, body) = s

@@ -235,7 +235,7 @@ async fn assert_served_as_stored(
             let last = DateTime::parse_from_rfc3339(&items[items.len() - 1].observed_at)
                 .unwrap()
                 .with_timezone(&Utc);
-            cliffwatch::api::list::encode(&timestamp(last))
+            cliffwatch::api::list::encode(cliffwatch::api::list::Listing::Series, &timestamp(last))
         });
         let expected = serde_json::to_string(&cliffwatch::api::list::Page {
             items: items.to_vec(),
