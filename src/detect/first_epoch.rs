@@ -141,7 +141,7 @@ pub struct FirstEpoch {
     pub ambiguous: Vec<(String, String)>,
     /// Scatter σ per coordinate of the approximations about the images' geometry, m.
     pub approx_sigma_m: f64,
-    /// Median distance between neighbouring approximations, m.
+    /// The targets' median spacing as the images show it ([`naming::Naming::spacing_m`]), m.
     pub spacing_m: f64,
     /// rms misfit of the affine cameras per image coordinate in mm (perspective and noise).
     pub camera_misfit_mm: f64,
@@ -461,7 +461,6 @@ fn name_and_report(
             unmatched_blobs: unmatched,
         });
     }
-    let spacing_m = naming::median_spacing(&approx);
     Ok(FirstEpoch {
         stations,
         tracks: tracks.len(),
@@ -477,7 +476,7 @@ fn name_and_report(
             .map(|a| (names[a.best].clone(), names[a.rival].clone()))
             .collect(),
         approx_sigma_m: named.sigma_m,
-        spacing_m,
+        spacing_m: named.spacing_m,
         camera_misfit_mm: misfit_mm,
     })
 }
