@@ -23,11 +23,11 @@ pub struct NamingOptions {
     /// Least σ assumed for the approximations in m (their scatter is estimated from the data).
     pub min_sigma_m: f64,
     /// Largest σ of the approximations, as a share of the targets' median spacing
-    /// ([`Naming::spacing_m`]), at which names are given at all (default 0.3). Beyond it a neighbour's approximation lies
-    /// within about 3 σ of most targets, the assignment picks the nearer approximations and so
-    /// estimates σ too small, and the margin no longer protects against a wrong name (over 1000
-    /// simulated scenes with independent errors of 0.25 m, names went wrong in 2 scenes, both
-    /// between 0.35 and 0.4): no target is named.
+    /// ([`Naming::spacing_m`]), at which names are given at all (default 0.3). Beyond it a
+    /// neighbour's approximation lies within about 3 σ of most targets, the assignment picks the
+    /// nearer approximations and so estimates σ too small, and the margin no longer protects
+    /// against a wrong name (over 1000 simulated scenes with independent errors of 0.25 m, names
+    /// went wrong in 2 scenes, both between 0.35 and 0.4): no target is named.
     pub max_sigma_per_spacing: f64,
 }
 
