@@ -159,14 +159,21 @@ impl WebhookPayload {
 }
 
 /// Deterministic message id (`msg_` + 32 hex) of an event: the same event always gets the same
-/// `webhook-id`, so a rebuilt outbox row keeps it too.
+/// `webhook-id`, so a rebuilt outbox row keeps it too. The event time enters at full precision
+/// (nanoseconds), not at the body's seconds: an alert that de-escalates and escalates back to
+/// the same level within one second has two escalations, and each must keep its own message.
 pub fn message_id(event: &AlertEvent) -> String {
     let mut h = Sha256::new();
     h.update(event.alert.id.as_bytes());
     h.update(b"|");
     h.update(event.event_type.as_str().as_bytes());
     h.update(b"|");
-    h.update(t(event.timestamp).as_bytes());
+    h.update(
+        event
+            .timestamp
+            .to_rfc3339_opts(SecondsFormat::Nanos, true)
+            .as_bytes(),
+    );
     h.update(b"|");
     h.update(event.alert.level.as_str().as_bytes());
     let d = h.finalize();

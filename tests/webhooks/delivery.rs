@@ -173,6 +173,17 @@ fn endpoints_filter_by_minimum_level() {
     // The id is deterministic per event and differs between events.
     assert_eq!(message_id(&watch), message_id(&watch.clone()));
     assert_ne!(message_id(&watch), message_id(&de));
+    // Two escalations of one alert to the same level within one second are two messages (an
+    // alert that de-escalates and escalates back quickly must not lose the second).
+    let first = event(AlertEventType::Escalated, AlertLevel::Alarm);
+    let mut again = first.clone();
+    again.timestamp += chrono::Duration::milliseconds(300);
+    assert_eq!(
+        again.timestamp.timestamp(),
+        first.timestamp.timestamp(),
+        "the same second"
+    );
+    assert_ne!(message_id(&first), message_id(&again));
 }
 
 #[test]
