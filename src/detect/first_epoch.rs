@@ -143,6 +143,9 @@ pub struct FirstEpoch {
     pub approx_sigma_m: f64,
     /// The targets' median spacing as the images show it ([`naming::Naming::spacing_m`]), m.
     pub spacing_m: f64,
+    /// The scatter beyond which no target is named: `max_sigma_per_spacing` of the naming
+    /// options × `spacing_m`, m.
+    pub max_sigma_m: f64,
     /// rms misfit of the affine cameras per image coordinate in mm (perspective and noise).
     pub camera_misfit_mm: f64,
 }
@@ -185,13 +188,23 @@ impl FirstEpoch {
                 self.tracks
             ));
         } else {
-            let needed = 0.25 * self.spacing_m;
+            let (sigma, spacing, bound) = (self.approx_sigma_m, self.spacing_m, self.max_sigma_m);
             msg.push_str(&format!(
-                "The approximate coordinates scatter ±{:.2} m about the images' geometry while the \
-                 targets are about {:.2} m apart: names need approximations better than about \
-                 {needed:.2} m per coordinate, or more seeds.",
-                self.approx_sigma_m, self.spacing_m
+                "The approximate coordinates scatter ±{sigma:.2} m about the images' geometry \
+                 while the targets are about {spacing:.2} m apart: "
             ));
+            msg.push_str(&if sigma > bound {
+                format!(
+                    "beyond ±{bound:.2} m no target is named. Give approximations better than \
+                     ±{bound:.2} m per coordinate, or more seeds."
+                )
+            } else {
+                format!(
+                    "too many targets lie between two candidates. Give approximations better \
+                     than ±{sigma:.2} m per coordinate (names are refused beyond ±{bound:.2} m), \
+                     or more seeds."
+                )
+            });
             if !self.ambiguous.is_empty() {
                 let names: BTreeSet<&str> = self.ambiguous.iter().map(|a| a.0.as_str()).collect();
                 msg.push_str(&format!(
@@ -477,6 +490,7 @@ fn name_and_report(
             .collect(),
         approx_sigma_m: named.sigma_m,
         spacing_m: named.spacing_m,
+        max_sigma_m: opts.naming.max_sigma_per_spacing * named.spacing_m,
         camera_misfit_mm: misfit_mm,
     })
 }

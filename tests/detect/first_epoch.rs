@@ -198,7 +198,11 @@ fn independent_errors_leave_targets_out_and_say_what_to_do() {
             if let Some(msg) = o.result.as_ref().unwrap().refusal() {
                 refused += 1;
                 assert!(msg.contains("S1: ") && msg.contains("S5: "), "{msg}");
-                assert!(msg.contains("better than about"), "{msg}");
+                let r = o.result.as_ref().unwrap();
+                assert!(msg.contains("better than ±"), "{msg}");
+                // the advice quotes the bound the naming applies (0.3 of the spacing)
+                let bound = format!("±{:.2} m", 0.3 * r.spacing_m);
+                assert!(msg.contains(&bound), "{msg} should quote {bound}");
             }
         }
         eprintln!("independent {label}: fewest named per station {named:?}, refused {refused}/20");

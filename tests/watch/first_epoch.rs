@@ -336,7 +336,7 @@ async fn approximations_too_rough_are_refused_with_what_to_add() {
         "{err}"
     );
     assert!(
-        err.contains("better than about") && err.contains("Seed these targets"),
+        err.contains("better than ±") && err.contains("Seed these targets"),
         "{err}"
     );
     let (_, list) = server.get("/api/v1/sites/kamo/epochs").await;
