@@ -143,8 +143,7 @@ pub struct FirstEpoch {
     pub approx_sigma_m: f64,
     /// The targets' median spacing as the images show it ([`naming::Naming::spacing_m`]), m.
     pub spacing_m: f64,
-    /// The scatter beyond which no target is named: `max_sigma_per_spacing` of the naming
-    /// options × `spacing_m`, m.
+    /// The scatter beyond which no target is named ([`naming::Naming::max_sigma_m`]), m.
     pub max_sigma_m: f64,
     /// rms misfit of the affine cameras per image coordinate in mm (perspective and noise).
     pub camera_misfit_mm: f64,
@@ -490,7 +489,7 @@ fn name_and_report(
             .collect(),
         approx_sigma_m: named.sigma_m,
         spacing_m: named.spacing_m,
-        max_sigma_m: opts.naming.max_sigma_per_spacing * named.spacing_m,
+        max_sigma_m: named.max_sigma_m,
         camera_misfit_mm: misfit_mm,
     })
 }

@@ -68,6 +68,8 @@ pub struct Naming {
     /// Median distance between neighbouring tracks brought into the site frame by the map, m: the
     /// targets' spacing as the images show it.
     pub spacing_m: f64,
+    /// The scatter beyond which no target is named: `max_sigma_per_spacing` × `spacing_m`, m.
+    pub max_sigma_m: f64,
     /// The map from the affine frame to the site frame (m).
     pub map: Matrix3x4<f64>,
 }
@@ -347,14 +349,14 @@ fn refine_map(
 
 /// The names kept: a name whose best re-naming (see `rival`) is less than `opts.margin` times σ²
 /// worse is left out as ambiguous, and when most names are in doubt the map itself is not
-/// trusted and none is kept; nor when σ exceeds `opts.max_sigma_per_spacing` × `spacing`.
+/// trusted and none is kept; nor when σ exceeds `max_sigma` ([`Naming::max_sigma_m`]).
 /// Returns the kept names, the ambiguities and the unlisted tracks.
 fn leave_out_doubtful(
     names: &[Option<usize>],
     fixed: &[Option<usize>],
     pred: &[Vector3<f64>],
     cost: &[Vec<f64>],
-    (sigma, spacing): (f64, f64),
+    (sigma, max_sigma): (f64, f64),
     opts: &NamingOptions,
 ) -> (Vec<Option<usize>>, Vec<Ambiguity>, Vec<usize>) {
     let s2 = sigma * sigma;
@@ -388,7 +390,7 @@ fn leave_out_doubtful(
     let candidates = (0..names.len())
         .filter(|&k| fixed[k].is_none() && names[k].is_some())
         .count();
-    if 2 * ambiguous.len() > candidates || sigma > opts.max_sigma_per_spacing * spacing {
+    if 2 * ambiguous.len() > candidates || sigma > max_sigma {
         for k in 0..names.len() {
             if fixed[k].is_none() && out[k].is_some() {
                 out[k] = None;
@@ -443,14 +445,16 @@ pub fn name_tracks(
     // the targets' spacing as the images show it (the approximations' own is blurred by their
     // errors)
     let spacing_m = median_spacing(&pred);
+    let max_sigma_m = opts.max_sigma_per_spacing * spacing_m;
     let (out, ambiguous, unlisted) =
-        leave_out_doubtful(&names, fixed, &pred, &cost, (sigma, spacing_m), opts);
+        leave_out_doubtful(&names, fixed, &pred, &cost, (sigma, max_sigma_m), opts);
     Some(Naming {
         names: out,
         ambiguous,
         unlisted,
         sigma_m: sigma,
         spacing_m,
+        max_sigma_m,
         map,
     })
 }
