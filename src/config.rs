@@ -18,7 +18,21 @@ pub const DEFAULT_TOML: &str = include_str!("../config/default.toml");
 pub const DATABASE_FILE: &str = "cliffwatch.db";
 
 /// Everything the service can be configured with (see `config/default.toml`).
-#[derive(Debug, Clone, Serialize, Deserialize)]
+///
+/// Neither this nor [`TokenConfig`] or [`WebhookConfig`] implements `Debug`: they hold secrets
+/// (bearer tokens, webhook signing secrets, the database password), so none can reach a log
+/// through `{:?}` by accident.
+///
+/// ```compile_fail
+/// fn loggable<T: std::fmt::Debug>() {}
+/// loggable::<cliffwatch::config::Config>();
+/// ```
+///
+/// ```compile_fail
+/// fn loggable<T: std::fmt::Debug>() {}
+/// loggable::<cliffwatch::config::TokenConfig>();
+/// ```
+#[derive(Clone, Serialize, Deserialize)]
 pub struct Config {
     /// Address and port of the HTTP API, e.g. `127.0.0.1:8080`.
     pub listen: String,
@@ -139,7 +153,7 @@ pub enum Role {
 }
 
 /// One bearer token and its role.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Clone, Serialize, Deserialize)]
 pub struct TokenConfig {
     /// The secret token as sent in `Authorization: Bearer <token>`.
     pub token: String,
@@ -148,7 +162,7 @@ pub struct TokenConfig {
 }
 
 /// A webhook endpoint from the configuration file.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Clone, Serialize, Deserialize)]
 pub struct WebhookConfig {
     /// Target URL.
     pub url: String,

@@ -76,7 +76,8 @@ pub async fn queue_delivery(
 }
 
 /// A delivery that is due, with what its POST needs.
-#[derive(Debug, Clone, FromRow)]
+/// No `Debug`: it holds the signing secret, which must never reach a log.
+#[derive(Clone, FromRow)]
 pub struct DueDelivery {
     /// The message id (`webhook-id`).
     pub outbox_id: String,

@@ -42,7 +42,8 @@ crate::contract_names!(WebhookSource, "webhook source" {
 });
 
 /// A webhook endpoint as created (`POST /api/v1/webhooks`).
-#[derive(Debug, Clone, Deserialize, ToSchema)]
+/// No `Debug`: it holds the signing secret, which must never reach a log.
+#[derive(Clone, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewWebhook {
     /// Target URL: absolute, http or https, with a host.

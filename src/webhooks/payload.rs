@@ -38,7 +38,8 @@ crate::contract_names!(PayloadFormat, "webhook body format" {
 });
 
 /// A webhook endpoint (`POST /api/v1/webhooks` or `[[webhooks]]`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// No `Debug`: it holds the signing secret, which must never reach a log.
+#[derive(Clone, PartialEq, Serialize, Deserialize)]
 pub struct WebhookEndpoint {
     /// Endpoint id.
     pub id: String,
