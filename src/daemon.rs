@@ -110,14 +110,23 @@ async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeErr
             .map_err(|e| ServeError::Site(site.id.clone(), e.message))?;
         let before = store::sites::get(&mut *tx, &site.id).await?;
         store::sites::upsert(&mut tx, site).await?;
-        // Settings the analysis depends on changed: the series is recomputed (like a new
-        // reference epoch through the API).
+        // Settings the analysis or the alert rules depend on changed: the series and alerts are
+        // recomputed (like a new reference epoch through the API), so that an alert of a rule
+        // that is gone or no longer met resolves now instead of staying open.
         if let (Some(b), Some(a)) = (before, store::sites::get(&mut *tx, &site.id).await?) {
-            if (b.reference_epochs, b.process_noise, b.confidence)
-                != (a.reference_epochs, a.process_noise, a.confidence)
-            {
-                tracing::info!(site = %site.id, "analysis settings changed in the configuration \
-                    file: the site's series and alerts are recomputed");
+            if (
+                b.reference_epochs,
+                b.process_noise,
+                b.confidence,
+                &b.alert_rules,
+            ) != (
+                a.reference_epochs,
+                a.process_noise,
+                a.confidence,
+                &a.alert_rules,
+            ) {
+                tracing::info!(site = %site.id, "analysis settings or alert rules changed in the \
+                    configuration file: the site's series and alerts are recomputed");
                 let cause = service::recompute::RecomputeCause::Settings;
                 raised += service::recompute::recompute_site(&mut tx, &a.id, &cause)
                     .await

@@ -44,9 +44,9 @@ pub mod tracking;
 pub(crate) mod velocity;
 
 pub use alerts::{
-    acknowledge, analysis_failed, check_overdue, evaluate_alerts, may_acknowledge, reconcile,
-    resolve, Alert, AlertConfig, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertRule,
-    AlertState, AlertStatus, Metric, Reading, Readings, Source,
+    acknowledge, analysis_failed, campaign_arrived, check_overdue, evaluate_alerts,
+    may_acknowledge, reconcile, resolve, Alert, AlertConfig, AlertEvent, AlertEventType, AlertKind,
+    AlertLevel, AlertRule, AlertState, AlertStatus, Metric, Reading, Readings, Source,
 };
 pub use analyse::{analyse_epoch, DatumReport, EpochAnalysis, History};
 pub use block_analysis::{BlockAnalysis, MIN_BLOCK_POINTS};

@@ -82,6 +82,7 @@ pub async fn save_and_record(
     state: &AlertState,
     events: &[AlertEvent],
 ) -> Result<usize, StoreError> {
+    let (state, events) = &fresh_ids(tx, state, events).await?;
     alert_states::save(&mut *tx, site, state).await?;
     let raised = record_events(tx, events).await?;
     // The active alerts without an event this time: their rows follow the latest value too.
@@ -91,6 +92,51 @@ pub async fn save_and_record(
         }
     }
     Ok(raised)
+}
+
+/// Gives each newly raised alert whose id is already taken a fresh one: `<id>:<raise time in µs>`.
+/// An id names the subject, the rule and the epoch that raised it, and a recompute replays the
+/// series over the same epochs, so the replay can raise an alert under the id of one that was
+/// resolved before; saving it would reopen that row, keeping its old raising time and history,
+/// and `alert.raised` would go out for an id staff had seen resolved.
+async fn fresh_ids(
+    tx: &mut Connection,
+    state: &AlertState,
+    events: &[AlertEvent],
+) -> Result<(AlertState, Vec<AlertEvent>), StoreError> {
+    let mut state = state.clone();
+    let mut events = events.to_vec();
+    for i in 0..events.len() {
+        if events[i].event_type != AlertEventType::Raised
+            || alerts::get(&mut *tx, &events[i].alert.id).await?.is_none()
+        {
+            continue;
+        }
+        let old = events[i].alert.id.clone();
+        let new = format!("{old}:{}", events[i].timestamp.timestamp_micros());
+        for e in events[i..].iter_mut().filter(|e| e.alert.id == old) {
+            e.alert.id = new.clone();
+        }
+        for a in state.alerts.iter_mut().filter(|a| a.id == old) {
+            a.id = new.clone();
+        }
+    }
+    Ok((state, events))
+}
+
+/// An epoch arrived on a path that recomputed the whole series instead of evaluating the rules
+/// against it: resolves an open `campaign_overdue` ([`analysis::campaign_arrived`]).
+pub async fn campaign_arrived(
+    tx: &mut Connection,
+    site: &Site,
+    epoch: i64,
+    observed_at: DateTime<Utc>,
+    now: DateTime<Utc>,
+) -> Result<usize, StoreError> {
+    let state = alert_states::load(&mut *tx, &site.id).await?;
+    let (state, events) =
+        analysis::campaign_arrived(&alert_config(site), &state, epoch, observed_at, now);
+    save_and_record(tx, &site.id, &state, &events).await
 }
 
 /// Evaluates a site's rules against one epoch's analysis and records the outcome (state, alerts,

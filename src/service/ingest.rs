@@ -258,7 +258,12 @@ async fn derive(
         // Out of order: later epochs' histories (velocities, forecasts) and, when this epoch is the
         // earliest without a set reference, the reference itself change. Recompute the series.
         let cause = recompute::RecomputeCause::EarlierEpoch(epoch);
-        let raised = recompute::recompute_site(tx, &site.id, &cause).await?;
+        let mut raised = recompute::recompute_site(tx, &site.id, &cause).await?;
+        // The newest epoch, inside a reference of several: a campaign arrived on time after all
+        // (a recompute keeps `campaign_overdue` as it was; it depends on the clock).
+        if let (0, Some(t)) = (later, store::parse_timestamp(observed_at)) {
+            raised += alert_outcome::campaign_arrived(tx, site, epoch, t, Utc::now()).await?;
+        }
         return Ok(Derived {
             raised,
             ..Derived::default()

@@ -106,7 +106,9 @@ impl std::fmt::Display for RecomputeCause {
                     "epoch {e} arrived after later ones and the series was recomputed"
                 )
             }
-            RecomputeCause::Settings => write!(f, "the site's analysis settings changed"),
+            RecomputeCause::Settings => {
+                write!(f, "the site's analysis settings or alert rules changed")
+            }
             RecomputeCause::NewerVersion => {
                 write!(f, "the series was recomputed by a newer version")
             }

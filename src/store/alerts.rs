@@ -229,17 +229,20 @@ pub async fn save(
 }
 
 /// Brings an active alert's row up to the engine's latest evaluation: value, threshold, epoch,
-/// observation time and message (its state and `updated_at` change only with events, [`save`]).
+/// observation time, message and the points concerned (a later epoch can add stable points to
+/// `reference_unstable`, or points to a block's alert, without changing the level). Its state and
+/// `updated_at` change only with events, [`save`].
 pub async fn refresh(db: &mut AnyConnection, a: &crate::analysis::Alert) -> Result<(), StoreError> {
     sqlx::query(
         "UPDATE alerts SET value = $1, threshold = $2, epoch_id = $3, observed_at = $4, \
-         message = $5 WHERE id = $6",
+         message = $5, points = $6 WHERE id = $7",
     )
     .bind(a.value)
     .bind(a.threshold)
     .bind(a.epoch)
     .bind(a.observed_at.map(timestamp))
     .bind(&a.message)
+    .bind(serde_json::to_string(&a.points)?)
     .bind(&a.id)
     .execute(&mut *db)
     .await?;

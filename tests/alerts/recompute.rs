@@ -289,3 +289,71 @@ async fn stable_points_marked_after_the_epochs_give_the_series_of_marking_them_f
     assert_eq!(b["role"], "stable");
     assert_same_series_and_alerts(&d, "first", "after", &scene, 6).await;
 }
+
+/// A recompute that raises again, at the same epoch, an alert that was resolved before gives it a
+/// new id: the resolved alert stays resolved with its history, and `alert.raised` goes out for an
+/// id staff have not seen resolved.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_replayed_raise_never_reopens_a_resolved_alert() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), "");
+    let data = dir.path().join("data");
+    let scene = Scene { n: 16, stable: 8 };
+    let d = Daemon::start(&data, &config).await;
+    let rules = json!([{"level": "watch", "metric": "displacement_mm", "above": 20.0}]);
+    create_site(&d, "replay", rules).await;
+    mark_stable(&d, "replay", &scene).await;
+    let send = |k: usize, block_mm: f64| {
+        let body = scene.epoch(&day(k), 300 + k as u64, block_mm);
+        let d = &d;
+        async move {
+            let (s, b) = d
+                .send(Method::POST, "/api/v1/sites/replay/epochs", Some(&body))
+                .await;
+            assert_eq!(s, 201, "day {k}: {b}");
+        }
+    };
+    // The block 0, 40 and 13 mm from day 1: raised on day 2, resolved on day 3 (σ of a
+    // displacement ≈ 1.5 mm here: every margin is 4σ or more).
+    for (k, block_mm) in [(1, 0.0), (2, 40.0), (3, 13.0)] {
+        send(k, block_mm).await;
+    }
+    let before = alerts(&d, "replay").await;
+    assert_eq!(before.len(), scene.n - scene.stable, "{before:?}");
+    assert!(
+        before.iter().all(|a| a["state"] == "resolved"),
+        "{before:?}"
+    );
+    let resolved: BTreeMap<String, String> = before
+        .iter()
+        .map(|a| {
+            (
+                a["id"].as_str().unwrap().into(),
+                a["point"].as_str().unwrap().into(),
+            )
+        })
+        .collect();
+
+    // Day 0 arrives late with the block at −13 mm and becomes the reference: day 1 is 13 mm, day
+    // 2 53 mm and day 3 26 mm from it, so the replay raises on day 2 again and the alert stays
+    // open.
+    send(0, -13.0).await;
+    let after = alerts(&d, "replay").await;
+    for (id, point) in &resolved {
+        let old = after.iter().find(|a| a["id"] == id.as_str()).unwrap();
+        assert_eq!(old["state"], "resolved", "{point}: {old}");
+        let open: Vec<&Value> = after
+            .iter()
+            .filter(|a| a["point"] == point.as_str() && a["state"] == "open")
+            .collect();
+        assert_eq!(open.len(), 1, "{point}: {after:?}");
+        let new_id = open[0]["id"].as_str().unwrap();
+        assert!(new_id.starts_with(&format!("{id}:")), "{new_id} after {id}");
+        assert!(
+            open[0]["raised_at"].as_str().unwrap() > old["updated_at"].as_str().unwrap(),
+            "{point}: raised {} before the old alert's resolution {}",
+            open[0]["raised_at"],
+            old["updated_at"]
+        );
+    }
+}

@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
 
 use alerts_support::{
-    create_site, day, mark_stable, outbox_ids, watch_block_moving, write_config,
+    create_site, day, mark_stable, outbox_ids, upload_new, watch_block_moving, write_config,
     write_webhook_config, Daemon, Receiver, Scene,
 };
 use reqwest::Method;
@@ -361,6 +361,95 @@ async fn noise_only_raises_no_displacement_alert_at_5_sigma() {
         .all(|r| r["d_mm"].as_f64().unwrap() < threshold));
 }
 
+/// An alert rule removed from the configuration file: at the next start the site is recomputed
+/// and the alerts of that rule resolve instead of staying open for good.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_rule_removed_from_the_configuration_resolves_its_alerts() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let scene = Scene { n: 16, stable: 8 };
+    let config = |rules: &str| {
+        write_config(
+            dir.path(),
+            &format!("[[sites]]\nid = \"cfg\"\nalert_rules = [{rules}]\n"),
+        )
+    };
+    let displacement = |alerts: &Value, state: &str| {
+        alerts["items"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|a| a["rule"] == "displacement_mm" && a["state"] == state)
+            .count()
+    };
+    let rule = r#"{level = "watch", metric = "displacement_mm", above = 5.0}"#;
+    let daemon = Daemon::start(&data, &config(rule)).await;
+    mark_stable(&daemon, "cfg", &scene).await;
+    for k in 0..2 {
+        let body = scene.epoch(&day(k), 40 + k as u64, 10.0 * k as f64);
+        upload_new(&daemon, "cfg", &body).await;
+    }
+    let (_, alerts) = daemon.get("/api/v1/alerts?site=cfg&limit=1000").await;
+    let raised = displacement(&alerts, "open");
+    assert!(raised >= 4, "{alerts}");
+    daemon.kill9();
+
+    let daemon = Daemon::start(&data, &config("")).await;
+    let (_, alerts) = daemon.get("/api/v1/alerts?site=cfg&limit=1000").await;
+    assert_eq!(displacement(&alerts, "open"), 0, "{alerts}");
+    assert_eq!(displacement(&alerts, "resolved"), raised, "{alerts}");
+    let first = &alerts["items"][0];
+    assert!(
+        first["message"]
+            .as_str()
+            .unwrap()
+            .contains("alert rules changed"),
+        "{first}"
+    );
+}
+
+/// Stable points excluded from the datum by later epochs join the open `reference_unstable`
+/// alert: its row lists them all, not only the first.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn reference_unstable_lists_every_excluded_stable_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), "");
+    let data = dir.path().join("data");
+    let scene = Scene { n: 16, stable: 8 };
+    let daemon = Daemon::start(&data, &config).await;
+    create_site(&daemon, "drift", json!([])).await;
+    mark_stable(&daemon, "drift", &scene).await;
+    // Day 0 still; day 1: T008 moves with the block; day 2: T007 as well.
+    for (k, still) in [(0, 8), (1, 7), (2, 6)] {
+        let moving = Scene {
+            n: 16,
+            stable: still,
+        };
+        let (s, b) = daemon
+            .send(
+                Method::POST,
+                "/api/v1/sites/drift/epochs",
+                Some(&moving.epoch(&day(k), 900 + k as u64, 20.0 * k.min(1) as f64)),
+            )
+            .await;
+        assert_eq!(s, 201, "{b}");
+    }
+    let (_, alerts) = daemon.get("/api/v1/alerts?site=drift").await;
+    let unstable: Vec<&Value> = alerts["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["rule"] == "reference_unstable")
+        .collect();
+    assert_eq!(unstable.len(), 1, "{alerts}");
+    let points = unstable[0]["points"].as_array().unwrap();
+    let message = unstable[0]["message"].as_str().unwrap();
+    for p in ["T007", "T008"] {
+        assert!(points.contains(&json!(p)), "{p} missing: {}", unstable[0]);
+        assert!(message.contains(p), "{p} not in the message: {message}");
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn overdue_campaign_raises_a_site_level_alert() {
     let dir = tempfile::tempdir().unwrap();
@@ -402,6 +491,52 @@ async fn overdue_campaign_raises_a_site_level_alert() {
     assert!(alert["point"].is_null());
     assert_eq!(alert["level"], "watch");
     assert_eq!(alert["state"], "open");
+}
+
+/// The campaign that ends an overdue spell may be the second epoch of a reference of two (it is
+/// ingested by recomputing the site): it resolves `campaign_overdue` all the same.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_epoch_joining_the_reference_ends_an_overdue_campaign() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), "overdue_check_secs = 1");
+    let data = dir.path().join("data");
+    let scene = Scene { n: 16, stable: 8 };
+    let daemon = Daemon::start(&data, &config).await;
+    let site = json!({"id": "late2", "schedule_hours": 24, "reference_epochs": 2});
+    let (s, b) = daemon
+        .send(Method::POST, "/api/v1/sites", Some(&site))
+        .await;
+    assert_eq!(s, 201, "{b}");
+    let ago = |hours: i64| {
+        (chrono::Utc::now() - chrono::Duration::hours(hours))
+            .to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
+    };
+    // 40 h since the only campaign: more than 24 h × 1.25.
+    upload_new(&daemon, "late2", &scene.epoch(&ago(40), 61, 0.0)).await;
+    let overdue = |alerts: &Value, state: &str| {
+        alerts["items"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["rule"] == "campaign_overdue" && a["state"] == state)
+    };
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let (_, alerts) = daemon.get("/api/v1/alerts?site=late2").await;
+        if overdue(&alerts, "open") {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no campaign_overdue alert: {alerts}"
+        );
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    // The next campaign, an hour ago: the second epoch of the reference.
+    upload_new(&daemon, "late2", &scene.epoch(&ago(1), 62, 0.0)).await;
+    let (_, alerts) = daemon.get("/api/v1/alerts?site=late2").await;
+    assert!(overdue(&alerts, "resolved"), "{alerts}");
+    assert!(!overdue(&alerts, "open"), "{alerts}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -3,7 +3,7 @@
 
 use chrono::{DateTime, Utc};
 
-use super::alert::{AlertEvent, AlertEventType, AlertState, RuleMemory};
+use super::alert::{AlertEvent, AlertState, RuleMemory};
 use super::metric::{AlertKind, Metric};
 use super::readings::Readings;
 use super::rule::{AlertConfig, AlertRule};
@@ -255,18 +255,21 @@ fn reference_stability(
         now,
         events,
     );
-    if let Some(e) = events[before..]
-        .last_mut()
-        .filter(|e| e.alert.rule == AlertKind::ReferenceUnstable)
+    // The message names every stable point excluded since the alert was raised (its `points`).
+    if excluded.is_empty() {
+        return;
+    }
+    if let Some(a) = st
+        .alerts
+        .iter_mut()
+        .find(|a| a.rule == AlertKind::ReferenceUnstable && a.point.is_none())
     {
-        if e.event_type == AlertEventType::Raised {
-            e.alert.message = format!(
-                "site {site}: stable point(s) {} moved; excluded from the datum",
-                excluded.join(", ")
-            );
-            if let Some(a) = st.alerts.iter_mut().find(|a| a.id == e.alert.id) {
-                a.message = e.alert.message.clone();
-            }
+        a.message = format!(
+            "site {site}: stable point(s) {} moved; excluded from the datum",
+            a.points.join(", ")
+        );
+        for e in events[before..].iter_mut().filter(|e| e.alert.id == a.id) {
+            e.alert.message = a.message.clone();
         }
     }
 }

@@ -33,7 +33,7 @@ pub use alert::{
 pub use by_hand::{acknowledge, may_acknowledge, resolve};
 pub use evaluate::{analysis_failed, evaluate_alerts};
 pub use metric::{AlertKind, Metric, Source};
-pub use overdue::check_overdue;
+pub use overdue::{campaign_arrived, check_overdue};
 pub use readings::{Reading, Readings};
 pub use reconcile::reconcile;
 pub use rule::{

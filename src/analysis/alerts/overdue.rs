@@ -37,7 +37,9 @@ pub fn check_overdue(
                     Some(config.campaign_overdue_level),
                     None,
                     Some(last),
-                    format!("{}", now.timestamp()),
+                    // Microseconds: a raise, a resolve and a raise again within one second (a
+                    // backlog epoch that is still late) must not reuse the first alert's id.
+                    format!("{}", now.timestamp_micros()),
                 )
             },
             now,
@@ -52,5 +54,33 @@ pub fn check_overdue(
             events[0].alert.message = a.message.clone();
         }
     }
+    (st, events)
+}
+
+/// An epoch observed at `observed_at` arrived by a path that does not evaluate the rules against it
+/// alone (it joined a reference of several epochs, so the whole series was recomputed): resolves
+/// an open `campaign_overdue`, as [`super::evaluate_alerts`] does for every other epoch.
+pub fn campaign_arrived(
+    config: &AlertConfig,
+    state: &AlertState,
+    epoch: i64,
+    observed_at: DateTime<Utc>,
+    now: DateTime<Utc>,
+) -> (AlertState, Vec<AlertEvent>) {
+    let mut st = state.clone();
+    let mut events = vec![];
+    apply(
+        &config.site,
+        &mut st,
+        Update::site(
+            AlertKind::CampaignOverdue,
+            None,
+            Some(epoch),
+            Some(observed_at),
+            epoch.to_string(),
+        ),
+        now,
+        &mut events,
+    );
     (st, events)
 }
