@@ -149,11 +149,18 @@ pub async fn deliver_due_to(
             break;
         }
         for (k, d) in batch.iter().enumerate() {
-            if shutdown.is_requested() {
+            // Not enough of the claim left for one more attempt (recording stalled, say): give
+            // the rest back and claim afresh rather than send what another node may take over.
+            let lease_short = store::parse_timestamp(&d.lease_until)
+                .is_none_or(|end| Utc::now() + config.timeout > end);
+            if shutdown.is_requested() || lease_short {
                 // the claimed messages not sent yet are due again at once, not when the lease ends
                 let mut tx = store.begin_write_rows().await?;
                 outbox::release(&mut tx, &batch[k..], &store::now()).await?;
                 tx.commit().await?;
+                if lease_short && !shutdown.is_requested() {
+                    break;
+                }
                 return Ok(n);
             }
             let t = Utc::now();
@@ -255,12 +262,15 @@ async fn record(
         _ => {}
     }
     let mut tx = store.begin_write_rows().await?;
+    if !outbox::record_attempt(&mut tx, d, &a).await? {
+        tracing::warn!(webhook = %d.webhook_id, message = %d.outbox_id,
+            "webhook attempt not recorded: its claim ran out and another node took it over");
+    }
     if *outcome == DeliveryOutcome::Gone {
         tracing::error!(webhook = %d.webhook_id, url = %d.url,
             "410 Gone: endpoint disabled, its pending messages given up");
         outbox::endpoint_gone(&mut tx, &d.webhook_id).await?;
     }
-    outbox::record_attempt(&mut tx, &d.outbox_id, &d.webhook_id, &a).await?;
     tx.commit().await?;
     Ok(())
 }

@@ -91,6 +91,10 @@ pub struct DueDelivery {
     pub url: String,
     /// The endpoint's signing secret.
     pub secret: String,
+    /// Until when this node holds the claim (store timestamp; set by [`claim_due`]): the fence
+    /// of [`record_attempt`] and [`release`].
+    #[sqlx(skip)]
+    pub lease_until: String,
 }
 
 /// Which deliveries are due at `$1`: pending, to enabled endpoints, and each only once every
@@ -168,39 +172,43 @@ pub async fn claim_due(
     } else {
         DUE_TO
     };
-    let due: Vec<DueDelivery> = sqlx::query_as(sql)
+    let mut due: Vec<DueDelivery> = sqlx::query_as(sql)
         .bind(now)
         .bind(limit)
         .bind(webhook_id)
         .fetch_all(&mut *db)
         .await?;
-    set_next_attempt(db, &due, lease_until).await?;
+    for d in &mut due {
+        sqlx::query(
+            "UPDATE webhook_deliveries SET next_attempt_at = $1 \
+             WHERE outbox_id = $2 AND webhook_id = $3 AND state = 'pending'",
+        )
+        .bind(lease_until)
+        .bind(&d.outbox_id)
+        .bind(&d.webhook_id)
+        .execute(&mut *db)
+        .await?;
+        d.lease_until = lease_until.to_string();
+    }
     Ok(due)
 }
 
 /// Gives back claimed deliveries that were not attempted: due again at `now` (store timestamp).
+/// A delivery whose lease ran out and was claimed by another node is left to that node.
 pub async fn release(
     db: &mut AnyConnection,
     claimed: &[DueDelivery],
     now: &str,
 ) -> Result<(), StoreError> {
-    set_next_attempt(db, claimed, now).await
-}
-
-/// Moves the next attempt of the still pending `deliveries` to `at` (store timestamp).
-async fn set_next_attempt(
-    db: &mut AnyConnection,
-    deliveries: &[DueDelivery],
-    at: &str,
-) -> Result<(), StoreError> {
-    for d in deliveries {
+    for d in claimed {
         sqlx::query(
-            "UPDATE webhook_deliveries SET next_attempt_at = $1 \
-             WHERE outbox_id = $2 AND webhook_id = $3 AND state = 'pending'",
+            "UPDATE webhook_deliveries SET next_attempt_at = $1 WHERE outbox_id = $2 \
+             AND webhook_id = $3 AND state = 'pending' AND next_attempt_at = $4",
         )
-        .bind(at)
+        .bind(now)
         .bind(&d.outbox_id)
         .bind(&d.webhook_id)
+        .bind(&d.lease_until)
         .execute(&mut *db)
         .await?;
     }
@@ -224,16 +232,18 @@ pub struct Attempt {
     pub delivered_at: Option<String>,
 }
 
-/// Records an attempt at delivering `outbox_id` to `webhook_id`.
+/// Records an attempt at the claimed delivery `d`. Fenced by the claim's lease: `Ok(false)`, and
+/// nothing written, when the lease ran out and another node claimed the delivery since (its
+/// outcome is the one that counts), or the delivery is no longer pending.
 pub async fn record_attempt(
     db: &mut AnyConnection,
-    outbox_id: &str,
-    webhook_id: &str,
+    d: &DueDelivery,
     a: &Attempt,
-) -> Result<(), StoreError> {
-    sqlx::query(
+) -> Result<bool, StoreError> {
+    let done = sqlx::query(
         "UPDATE webhook_deliveries SET state = $1, attempts = $2, next_attempt_at = $3, \
-         last_status = $4, last_error = $5, delivered_at = $6 WHERE outbox_id = $7 AND webhook_id = $8",
+         last_status = $4, last_error = $5, delivered_at = $6 WHERE outbox_id = $7 AND webhook_id = $8 \
+         AND state = 'pending' AND next_attempt_at = $9",
     )
     .bind(a.state)
     .bind(a.attempts)
@@ -241,11 +251,12 @@ pub async fn record_attempt(
     .bind(a.status)
     .bind(&a.error)
     .bind(&a.delivered_at)
-    .bind(outbox_id)
-    .bind(webhook_id)
+    .bind(&d.outbox_id)
+    .bind(&d.webhook_id)
+    .bind(&d.lease_until)
     .execute(&mut *db)
     .await?;
-    Ok(())
+    Ok(done.rows_affected() == 1)
 }
 
 /// An endpoint answered 410 Gone: it is disabled and its pending deliveries fail.
@@ -262,4 +273,111 @@ pub async fn endpoint_gone(db: &mut AnyConnection, webhook_id: &str) -> Result<(
     .execute(&mut *db)
     .await?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::webhooks::{self, NewWebhook, WebhookSource};
+    use crate::store::{Store, StoreOptions};
+
+    fn at(secs: i64) -> String {
+        crate::store::timestamp(chrono::DateTime::UNIX_EPOCH + chrono::Duration::seconds(secs))
+    }
+
+    /// A node whose claim ran out while another node took the delivery over cannot overwrite the
+    /// other's outcome, nor give the delivery back.
+    #[tokio::test]
+    async fn an_expired_claim_neither_records_nor_releases() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
+            .await
+            .unwrap();
+        let mut tx = store.begin_write_rows().await.unwrap();
+        let hook = NewWebhook {
+            url: "http://127.0.0.1:9/hook".into(),
+            secret: "whsec_c2VjcmV0".into(),
+            min_level: None,
+            format: Default::default(),
+        };
+        let webhook = webhooks::insert(&mut *tx, &hook, WebhookSource::Api)
+            .await
+            .unwrap();
+        for sql in [
+            "INSERT INTO sites (id, name, created_at) VALUES ('s', 's', '1970-01-01T00:00:00Z')",
+            "INSERT INTO alerts (id, site_id, level, rule, message, state, raised_at, updated_at) \
+             VALUES ('a', 's', 'warning', 'displacement_mm', 'm', 'open', '1970-01-01T00:00:00Z', \
+             '1970-01-01T00:00:00Z')",
+        ] {
+            sqlx::query(sql).execute(&mut *tx).await.unwrap();
+        }
+        let message = OutboxMessage {
+            id: "msg_1",
+            event_type: "alert.raised",
+            alert_id: "a",
+            level: "warning",
+            payload: "{}",
+            created_at: &at(0),
+            epoch: None,
+        };
+        insert(&mut tx, &message).await.unwrap();
+        queue_delivery(&mut tx, "msg_1", &webhook, &at(0), None)
+            .await
+            .unwrap();
+        tx.commit().await.unwrap();
+
+        let claim = |now: i64, lease: i64| {
+            let store = store.clone();
+            let webhook = webhook.clone();
+            async move {
+                let mut tx = store.begin_write_rows().await.unwrap();
+                let due = claim_due(&mut tx, &webhook, &at(now), &at(lease), 4)
+                    .await
+                    .unwrap();
+                tx.commit().await.unwrap();
+                due
+            }
+        };
+        let a = claim(1, 10).await;
+        assert_eq!(a.len(), 1);
+        assert!(
+            claim(5, 15).await.is_empty(),
+            "claimed while A's lease runs"
+        );
+        let b = claim(20, 30).await;
+        assert_eq!(
+            b.len(),
+            1,
+            "A's lease ran out at 10: B takes the delivery over"
+        );
+
+        let outcome = |state: &'static str, next: i64| Attempt {
+            state,
+            attempts: 1,
+            next_attempt_at: at(next),
+            status: Some(200),
+            error: None,
+            delivered_at: None,
+        };
+        let mut tx = store.begin_write_rows().await.unwrap();
+        assert!(record_attempt(&mut tx, &b[0], &outcome("delivered", 21))
+            .await
+            .unwrap());
+        assert!(!record_attempt(&mut tx, &a[0], &outcome("pending", 60))
+            .await
+            .unwrap());
+        release(&mut tx, &a, &at(22)).await.unwrap();
+        tx.commit().await.unwrap();
+        let (state, next): (String, String) = sqlx::query_as(
+            "SELECT state, next_attempt_at FROM webhook_deliveries WHERE outbox_id = 'msg_1'",
+        )
+        .fetch_one(store.reader())
+        .await
+        .unwrap();
+        assert_eq!((state.as_str(), next), ("delivered", at(21)));
+        assert!(
+            claim(100, 110).await.is_empty(),
+            "delivered once, not again"
+        );
+    }
 }
