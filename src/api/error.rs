@@ -100,7 +100,12 @@ impl IntoResponse for ApiError {
 }
 
 impl From<StoreError> for ApiError {
+    /// 400 for a value the database cannot store (PostgreSQL refuses the NUL character in text),
+    /// 500 for everything else.
     fn from(e: StoreError) -> Self {
+        if e.is_data_exception() {
+            return ApiError::bad_request(format!("a value cannot be stored: {e}"));
+        }
         ApiError::internal(e)
     }
 }
@@ -138,7 +143,7 @@ impl From<ServiceError> for ApiError {
                 e.retry_after_secs = Some(o.retry_after_secs);
                 e
             }
-            ServiceError::Store(err) => ApiError::internal(err),
+            ServiceError::Store(err) => err.into(),
             ServiceError::Task(err) => ApiError::internal(err),
         }
     }

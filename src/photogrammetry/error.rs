@@ -11,6 +11,9 @@ pub enum EpochError {
     /// `observed_at` is not RFC 3339.
     #[error("observed_at '{0}' is not an RFC 3339 time")]
     BadTimestamp(String),
+    /// A label holding a control character (U+0000–U+001F, U+007F–U+009F).
+    #[error("label: control characters (U+0000–U+001F, U+007F–U+009F) are not allowed")]
+    BadLabel,
     /// An identifier outside `[A-Za-z0-9._-]{{1,64}}`.
     #[error("{0}: identifiers must match [A-Za-z0-9._-]{{1,64}}")]
     BadIdentifier(String),

@@ -6,8 +6,8 @@
 //! the daemon calls [`Store::checkpoint_wal`] every [`CHECKPOINT_INTERVAL`] from a connection of
 //! its own. A `PASSIVE` checkpoint takes no lock that writers or readers wait for; what it cannot
 //! copy yet (pages a reader still needs) it copies next time. Durability is unchanged: with
-//! `synchronous = NORMAL` a commit is durable once the WAL is, and the WAL is synced before its
-//! pages are copied either way.
+//! `synchronous = FULL` every commit syncs the WAL before it returns, and the WAL is synced
+//! before its pages are copied either way.
 
 use std::time::Duration;
 

@@ -103,12 +103,16 @@ pub enum WatchError {
 
 impl WatchError {
     /// Whether the failure lies with the database rather than the folder: then the folder stays
-    /// where it is and is taken again at the next scan, instead of moving to `.failed/`.
+    /// where it is and is taken again at the next scan, instead of moving to `.failed/`. A value
+    /// of the folder the database refuses ([`StoreError::is_data_exception`]) is the folder's
+    /// fault: taken again it would fail again, at every scan.
     pub fn is_transient(&self) -> bool {
-        matches!(
-            self,
-            WatchError::Store(_) | WatchError::Ingest(ServiceError::Store(_))
-        )
+        match self {
+            WatchError::Store(e) | WatchError::Ingest(ServiceError::Store(e)) => {
+                !e.is_data_exception()
+            }
+            _ => false,
+        }
     }
 }
 

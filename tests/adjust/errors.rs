@@ -123,6 +123,37 @@ fn unknown_camera_names_the_image() {
     );
 }
 
+/// Text PostgreSQL cannot store (NUL) or a log line should not hold: refused on both backends
+/// alike, before the adjustment.
+#[test]
+fn a_label_with_control_characters_is_refused() {
+    for label in ["a\u{0}b", "line\nbreak", "\u{1b}[31mred"] {
+        let mut e = base();
+        e.label = Some(label.into());
+        assert_eq!(
+            run(&e),
+            Err(AdjustError::Invalid(EpochError::BadLabel)),
+            "{label:?}"
+        );
+    }
+    let mut e = base();
+    e.label = Some("Kamo 2026-11 — campagne d'automne".into());
+    assert_eq!(run(&e), Ok(()));
+}
+
+#[test]
+fn a_station_outside_the_identifier_rule_names_its_image() {
+    let mut e = base();
+    e.images[1].station = Some("north\u{0}".into());
+    let id = e.images[1].id.clone();
+    assert_eq!(
+        run(&e),
+        Err(AdjustError::Invalid(EpochError::BadIdentifier(format!(
+            "station 'north\u{0}' of image '{id}'"
+        ))))
+    );
+}
+
 #[test]
 fn duplicate_observation_names_image_and_point() {
     let mut e = base();

@@ -374,6 +374,15 @@ async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
         assert_same(path, have, want);
     }
 
+    // Text PostgreSQL cannot store (NUL, which SQLite keeps): 400 naming the cause, not a 500;
+    // in an epoch's label it is refused on both backends (422) before the database.
+    let nul = json!({"id": "nul", "name": "a\u{0}b"});
+    let (st, body) = send(&pg, reqwest::Method::POST, "/api/v1/sites", nul).await;
+    assert_eq!(st, 400, "{body}");
+    assert!(body.to_string().contains("cannot be stored"), "{body}");
+    let (st, body) = send(&pg, reqwest::Method::GET, "/api/v1/sites/nul", Value::Null).await;
+    assert_eq!(st, 404, "the refused site was not created: {body}");
+
     // A restart on the same database: nothing lost, the migrations not applied twice.
     pg.stop().await;
     let pg_url = url.clone();

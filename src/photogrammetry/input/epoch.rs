@@ -20,8 +20,9 @@ pub struct EpochInput {
     /// When the images were taken (RFC 3339, UTC), unique within the site.
     #[schema(format = DateTime)]
     pub observed_at: String,
-    /// Free text label.
+    /// Free text label, without control characters.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(pattern = "^[^\\u0000-\\u001F\\u007F-\\u009F]*$")]
     pub label: Option<String>,
     /// Cameras (interior orientation) used by the images.
     #[serde(default)]
@@ -51,6 +52,7 @@ pub struct ImageInput {
     pub camera: String,
     /// The station (camera set-up position) name; defaults to the image id.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub station: Option<String>,
     /// Target observations.
     #[serde(default)]
@@ -242,6 +244,13 @@ impl EpochInput {
     /// adjustment, because earlier epochs of a site may supply the known points.
     pub fn validate(&self) -> Result<EpochProblem, EpochError> {
         let observed_at = self.observed_at()?;
+        if self
+            .label
+            .as_deref()
+            .is_some_and(|l| l.chars().any(char::is_control))
+        {
+            return Err(EpochError::BadLabel);
+        }
         if self.images.is_empty() {
             return Err(EpochError::Empty);
         }
@@ -252,6 +261,12 @@ impl EpochInput {
         for im in &self.images {
             if !is_valid_identifier(&im.id) {
                 return Err(EpochError::BadIdentifier(format!("image '{}'", im.id)));
+            }
+            if let Some(station) = im.station.as_deref().filter(|s| !is_valid_identifier(s)) {
+                return Err(EpochError::BadIdentifier(format!(
+                    "station '{station}' of image '{}'",
+                    im.id
+                )));
             }
             if !image_ids.insert(im.id.clone()) {
                 return Err(EpochError::DuplicateImage(im.id.clone()));
