@@ -316,18 +316,7 @@ pub fn analysis_failed(
     for e in &mut events {
         e.alert.message = text.clone();
     }
-    apply(
-        site,
-        &mut st,
-        Update::site(
-            AlertKind::CampaignOverdue,
-            None,
-            Some(epoch),
-            Some(observed_at),
-            epoch.to_string(),
-        ),
-        now,
-        &mut events,
-    );
+    let (st, arrived) = super::overdue::campaign_arrived(config, &st, epoch, observed_at, now);
+    events.extend(arrived);
     (st, events)
 }
