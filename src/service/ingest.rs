@@ -17,7 +17,7 @@ use crate::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochInpu
 use crate::store::block_motions;
 use crate::store::displacements::{self, Displacement};
 use crate::store::sites::Site;
-use crate::store::{self, epochs, groups, points, sites, Connection, Store};
+use crate::store::{self, epochs, groups, points, sites, watch_state, Connection, Store};
 
 use super::alert_outcome;
 use super::analysis_inputs::{
@@ -90,13 +90,31 @@ pub async fn ingest(
     ingest_with_identification(store, site_id, input, None).await
 }
 
-/// [`ingest`] of an epoch from the watched directory, storing with its report how each station's
-/// targets were identified (`identification`: per station method and counts).
-pub async fn ingest_with_identification(
+/// The watched folder an epoch comes from.
+pub struct WatchedFolder {
+    /// The folder's content hash ([`crate::watch::content_hash`]), recorded in the epoch's own
+    /// transaction: a daemon that dies right after the commit finds the folder taken on restart.
+    pub hash: String,
+    /// How each station's targets were identified (per station method and counts), stored with
+    /// the epoch's report.
+    pub identification: serde_json::Value,
+}
+
+/// [`ingest`] of an epoch from the watched directory `folder`.
+pub async fn ingest_watched(
     store: &Store,
     site_id: &str,
     input: EpochInput,
-    identification: Option<serde_json::Value>,
+    folder: &WatchedFolder,
+) -> Result<Ingested, ServiceError> {
+    ingest_with_identification(store, site_id, input, Some(folder)).await
+}
+
+async fn ingest_with_identification(
+    store: &Store,
+    site_id: &str,
+    input: EpochInput,
+    folder: Option<&WatchedFolder>,
 ) -> Result<Ingested, ServiceError> {
     let problem = input.validate()?;
     // The reads before the adjustment on one connection (one acquisition, and on PostgreSQL
@@ -154,9 +172,12 @@ pub async fn ingest_with_identification(
         input: &input,
         adjustment: &adjustment,
         control_points: &control,
-        identification: identification.as_ref(),
+        identification: folder.map(|f| &f.identification),
     };
     let epoch = epochs::insert(&mut tx, &record).await?;
+    if let Some(f) = folder {
+        watch_state::record_folder(&mut tx, &site.id, &f.hash, epoch).await?;
+    }
     let derived = derive(&mut tx, &site, epoch, &observed_at, &adjustment, history).await?;
     displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
     block_motions::insert(&mut tx, &site.id, &derived.block_motions).await?;

@@ -36,7 +36,9 @@ pub async fn orientations(
     Ok(out)
 }
 
-/// Stores (replaces) the orientation of `station` found with epoch `epoch`.
+/// Stores the orientation of `station` found with epoch `epoch`, replacing the stored one unless
+/// that was found with a later epoch (by observation time): a folder taken late, holding an older
+/// epoch, does not put back an older pose.
 pub async fn set_orientation(
     db: &mut AnyConnection,
     site: &str,
@@ -49,7 +51,9 @@ pub async fn set_orientation(
          VALUES ($1, $2, $3, $4, $5, $6, $7) \
          ON CONFLICT (site_id, station) DO UPDATE SET camera = excluded.camera, \
          rotation = excluded.rotation, center = excluded.center, epoch_id = excluded.epoch_id, \
-         updated_at = excluded.updated_at",
+         updated_at = excluded.updated_at \
+         WHERE COALESCE((SELECT e.observed_at FROM epochs e WHERE e.id = watch_orientations.epoch_id), '') \
+         <= (SELECT e.observed_at FROM epochs e WHERE e.id = excluded.epoch_id)",
     )
     .bind(site)
     .bind(station)

@@ -14,18 +14,18 @@ use super::{WatchError, WatchOptions};
 use crate::detect::identify::{resect_seeds, Seed};
 use crate::photogrammetry::input::epoch::ObservationInput;
 use crate::photogrammetry::{EpochInput, ImageOrientation};
-use crate::service::ingest::{ingest_with_identification, Ingested};
+use crate::service::ingest::{ingest_watched, Ingested, WatchedFolder};
 use crate::store::{points, watch_state, Store};
 
-/// Detects, identifies and ingests one folder (does not move it; writes its `identification.json`).
-/// `done` is where the folder will move, relative to the site's directory (kept in the report so the
-/// dashboard finds the images). Returns the ingestion and the orientations found per station
-/// (resected from the epoch's adjusted coordinates).
+/// Detects, identifies and ingests one folder of content hash `hash` (does not move it; writes its
+/// `identification.json`). `done` is where the folder will move, relative to the site's directory
+/// (kept in the report so the dashboard finds the images). Returns the ingestion and the
+/// orientations found per station (resected from this epoch's adjusted coordinates).
 pub(super) async fn process(
     store: &Store,
     site: &str,
     folder: &Path,
-    done: &str,
+    (hash, done): (&str, &str),
     opts: &WatchOptions,
 ) -> Result<(Ingested, BTreeMap<String, ImageOrientation>), WatchError> {
     let site_dir = folder.parent().unwrap_or(Path::new("."));
@@ -103,17 +103,19 @@ pub(super) async fn process(
             })
             .collect();
     }
-    let ingested =
-        ingest_with_identification(store, site, input, Some(serde_json::to_value(&counts)?))
-            .await?;
-    // the stations' orientations for the next epoch, from this epoch's adjusted coordinates
-    let mut db = store.read().await?;
-    let adjusted: BTreeMap<String, [f64; 3]> = points::latest_coordinates(&mut db, site)
-        .await?
-        .into_iter()
-        .map(|c| (c.point, c.xyz))
-        .collect();
-    drop(db);
+    let watched = WatchedFolder {
+        hash: hash.to_string(),
+        identification: serde_json::to_value(&counts)?,
+    };
+    let ingested = ingest_watched(store, site, input, &watched).await?;
+    // the stations' orientations for the next epoch, from this epoch's adjusted coordinates (not
+    // the site's latest: a folder taken late may hold an older epoch)
+    let adjusted: BTreeMap<String, [f64; 3]> =
+        points::epoch_coordinates(store.reader(), site, ingested.epoch)
+            .await?
+            .into_iter()
+            .map(|c| (c.point, c.xyz))
+            .collect();
     let mut found = BTreeMap::new();
     for (s, named) in stations.iter().zip(&names) {
         let measured: Vec<Seed> = named
@@ -173,7 +175,7 @@ pub async fn take_folder(
         ".done/{}",
         done.file_name().unwrap_or_default().to_string_lossy()
     );
-    match process(store, site, folder, &done_rel, opts).await {
+    match process(store, site, folder, (&hash, &done_rel), opts).await {
         Ok((ing, found)) => {
             save_state(store, site, &hash, ing.epoch, &found)
                 .await

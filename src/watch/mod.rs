@@ -6,7 +6,7 @@
 //! seeded alone, or stations that do not share 4 seeded targets, from their own seeds,
 //! [`crate::detect::identify`]); stations without seeds from the orientation the watcher kept from
 //! their previous epoch. The epoch is ingested exactly as an upload
-//! ([`crate::service::ingest::ingest_with_identification`]: the counts below are stored with its report),
+//! ([`crate::service::ingest::ingest_watched`]: the counts below are stored with its report),
 //! and the stations' orientations for the next epoch are resected from its adjusted coordinates.
 //! The folder then moves to `<site>/.done/` with `identification.json` (per station: method,
 //! detected, identified, ambiguous, unmatched, where the image is kept and every detection with its
@@ -17,9 +17,11 @@
 //! outputs excluded) is in the database ([`crate::store::watch_state`]) is never ingested
 //! again; the stations' orientations are kept there too, so the state is backed up and restored with
 //! the database. (Files `<site>/.state/ingested` and `<site>/.state/orientations.json` of earlier
-//! versions are still read, never written.) The state is written after the epoch's own transaction:
-//! when the daemon dies in between, the folder is taken again on restart and ingestion recognises
-//! the identical upload (same body hash), so it still becomes one epoch.
+//! versions are still read, never written.) The folder's hash is written in the epoch's own
+//! transaction, so a daemon that dies right after the commit finds the folder taken on restart
+//! (it moves to `.done/` with `duplicate.txt`). The orientations are written after it, each only
+//! when no later epoch's orientation of that station is stored: a folder taken late, holding an
+//! older epoch, leaves the newer poses.
 //!
 //! Watching: `notify` events and a periodic rescan (events can be lost, e.g. on network shares).
 //!

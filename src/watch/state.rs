@@ -51,7 +51,9 @@ impl StoredOrientation {
     }
 }
 
-/// Records the folder's hash and the stations' orientations in one transaction.
+/// Records the stations' orientations (each kept only when no newer epoch's is stored, see
+/// [`watch_state::set_orientation`]) and the folder's hash (already recorded in the epoch's
+/// transaction unless the same upload was stored before) in one transaction.
 pub(super) async fn save_state(
     store: &Store,
     site: &str,

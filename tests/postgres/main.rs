@@ -8,6 +8,9 @@ mod alerts_support;
 mod pg_support;
 #[path = "../plot_support/mod.rs"]
 mod plot_support;
+#[path = "../watch_support/mod.rs"]
+mod watch_support;
 
 mod nodes;
 mod store;
+mod watch;

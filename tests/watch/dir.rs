@@ -253,3 +253,63 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     assert!(!site.join(".failed/e4").exists());
     server.stop().await;
 }
+
+/// Epochs of 20 and 22 November, then a folder of 21 November taken last: the stations keep the
+/// orientations of 22 November, for the next folder to be named from the newest poses.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_folder_taken_late_leaves_the_newer_orientations() {
+    let server = TestServer::start(|_| {}).await;
+    server.create_site("kamo").await;
+    let watch = tempfile::tempdir().unwrap();
+    watch_support::folders_taken_out_of_order(&server.store, watch.path()).await;
+    server.stop().await;
+}
+
+/// The daemon died after an epoch's commit, before the watcher recorded its state: taken again on
+/// restart, the folder is known (its hash was written in the epoch's transaction) and moves to
+/// `.done/` as already ingested. It is not named again against coordinates that now include its
+/// own epoch, which made another body, a 409 and a move to `.failed/`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_folder_whose_epoch_committed_before_a_crash_is_not_failed() {
+    use cliffwatch::service::ingest::{ingest_watched, WatchedFolder};
+    let server = TestServer::start(|_| {}).await;
+    server.create_site("kamo").await;
+    let watch = tempfile::tempdir().unwrap();
+    let site = watch.path().join("kamo");
+    let epoch = watch_support::small_scene();
+    let opts = WatchOptions::new(watch.path().to_path_buf());
+    let at = "2026-11-20T09:00:00Z";
+    write_epoch(&site, &epoch, "e1", at, true, 1);
+    let folder = site.join("e1");
+    // what the first take committed: the epoch, with the folder's hash, and nothing else
+    let mut committed = epoch.clone();
+    committed.observed_at = at.into();
+    let watched = WatchedFolder {
+        hash: cliffwatch::watch::content_hash(&folder).unwrap(),
+        identification: serde_json::json!([]),
+    };
+    let first = ingest_watched(&server.store, "kamo", committed, &watched)
+        .await
+        .unwrap();
+    assert_eq!(
+        taken(&server.store).await,
+        1,
+        "hash recorded with the epoch"
+    );
+
+    let r = scan_once(&server.store, &opts).await;
+    let dest = r[0].as_ref().unwrap();
+    let err = std::fs::read_to_string(dest.join("error.txt")).unwrap_or_default();
+    assert!(dest.starts_with(site.join(".done")), "{dest:?}: {err}");
+    let note = std::fs::read_to_string(dest.join("duplicate.txt")).unwrap();
+    assert!(
+        note.contains(&format!("as epoch {}", first.epoch)),
+        "{note}"
+    );
+    let epochs: Vec<i64> = sqlx::query_scalar("SELECT id FROM epochs WHERE site_id = 'kamo'")
+        .fetch_all(server.store.reader())
+        .await
+        .unwrap();
+    assert_eq!(epochs, vec![first.epoch]);
+    server.stop().await;
+}

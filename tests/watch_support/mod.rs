@@ -105,3 +105,48 @@ pub fn write_epoch(
     std::fs::write(folder.join("READY"), "").unwrap();
     (folder, truth)
 }
+
+/// Takes folders of site `kamo` (created by the caller) from `watch_dir`: epochs of 20 and
+/// 22 November, then a folder of 21 November last. Asserts that each went to `.done/` and that
+/// every station keeps the orientation of 22 November (the newest epoch), not of the folder taken
+/// last.
+pub async fn folders_taken_out_of_order(store: &cliffwatch::store::Store, watch_dir: &Path) {
+    let site = watch_dir.join("kamo");
+    let epoch = small_scene();
+    let opts = cliffwatch::watch::WatchOptions::new(watch_dir.to_path_buf());
+    for (name, at, seeds, noise) in [
+        ("e20", "2026-11-20T09:00:00Z", true, 1),
+        ("e22", "2026-11-22T09:00:00Z", false, 2),
+        ("e21", "2026-11-21T09:00:00Z", true, 3),
+    ] {
+        write_epoch(&site, &epoch, name, at, seeds, noise);
+        let r = cliffwatch::watch::scan_once(store, &opts).await;
+        let dest = r[0].as_ref().unwrap();
+        let err = std::fs::read_to_string(dest.join("error.txt")).unwrap_or_default();
+        assert!(
+            dest.starts_with(site.join(".done")),
+            "{name}: {dest:?}: {err}"
+        );
+    }
+    let epochs: Vec<i64> =
+        sqlx::query_scalar("SELECT id FROM epochs WHERE site_id = 'kamo' ORDER BY observed_at")
+            .fetch_all(store.reader())
+            .await
+            .unwrap();
+    let kept: Vec<i64> =
+        sqlx::query_scalar("SELECT epoch_id FROM watch_orientations WHERE site_id = 'kamo'")
+            .fetch_all(store.reader())
+            .await
+            .unwrap();
+    assert_eq!(epochs.len(), 3);
+    assert_eq!(
+        kept.len(),
+        epoch.images.len(),
+        "one orientation per station"
+    );
+    assert!(
+        kept.iter().all(|e| *e == epochs[2]),
+        "orientations of epochs {kept:?}, the newest is {}",
+        epochs[2]
+    );
+}
