@@ -36,9 +36,6 @@ pub async fn record_events(
     let now = store::timestamp(start);
     let mut raised = 0;
     for (k, e) in events.iter().enumerate() {
-        // The messages of one transaction a microsecond apart, in the order of the events: the
-        // worker delivers each alert's messages in `created_at` order.
-        let created_at = store::timestamp(start + chrono::Duration::microseconds(k as i64));
         if e.event_type == AlertEventType::Raised {
             raised += 1;
         }
@@ -47,6 +44,7 @@ pub async fn record_events(
         if outbox::contains(&mut *tx, &id).await? {
             continue;
         }
+        let created_at = message_time(tx, &e.alert.id, start, k).await?;
         let body = serde_json::to_string(&WebhookPayload::from_event(e))?;
         let message = outbox::OutboxMessage {
             id: &id,
@@ -67,6 +65,25 @@ pub async fn record_events(
         }
     }
     Ok(raised)
+}
+
+/// The `created_at` of the `k`-th message of a transaction that started at `start`: the
+/// worker delivers each alert's messages in `created_at` order, so the messages of one
+/// transaction are a microsecond apart in the order of the events, and each comes after every
+/// earlier message of its alert even when that was written by a node whose clock runs ahead
+/// (the site's write lock orders the transactions, not the nodes' clocks).
+async fn message_time(
+    tx: &mut Connection,
+    alert_id: &str,
+    start: DateTime<Utc>,
+    k: usize,
+) -> Result<String, StoreError> {
+    let own = start + chrono::Duration::microseconds(k as i64);
+    let after_latest = outbox::latest_of_alert(&mut *tx, alert_id)
+        .await?
+        .and_then(|t| store::parse_timestamp(&t))
+        .map(|t| t + chrono::Duration::microseconds(1));
+    Ok(store::timestamp(after_latest.map_or(own, |t| t.max(own))))
 }
 
 /// Counts `n` alerts raised in a committed transaction (`cliffwatch_alerts_raised_total`).

@@ -35,6 +35,19 @@ pub async fn contains(db: &mut AnyConnection, id: &str) -> Result<bool, StoreErr
     Ok(found.is_some())
 }
 
+/// The time of the latest message of alert `alert_id` (store timestamp), if it has one.
+pub async fn latest_of_alert(
+    db: &mut AnyConnection,
+    alert_id: &str,
+) -> Result<Option<String>, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT MAX(created_at) FROM webhook_outbox WHERE alert_id = $1")
+            .bind(alert_id)
+            .fetch_one(&mut *db)
+            .await?,
+    )
+}
+
 /// Adds a message to the outbox.
 pub async fn insert(db: &mut AnyConnection, m: &OutboxMessage<'_>) -> Result<(), StoreError> {
     sqlx::query(
@@ -100,8 +113,9 @@ pub struct DueDelivery {
 /// Which deliveries are due at `$1`: pending, to enabled endpoints, and each only once every
 /// earlier message of its alert to the same endpoint is no longer pending, so that an endpoint
 /// sees each alert's events in the order they happened whatever the retries in between
-/// (`raised` before `escalated`). Earlier is by `created_at`, then id (the messages of one
-/// transaction are a microsecond apart). A macro, so that every query built on it is a constant.
+/// (`raised` before `escalated`). Earlier is by `created_at`, then id: the writer keeps each
+/// alert's `created_at` increasing whatever the nodes' clocks (`alert_outcome::message_time`),
+/// and the messages of one transaction are a microsecond apart. A macro, so that every query built on it is a constant.
 macro_rules! due_from {
     () => {
         " FROM webhook_deliveries d JOIN webhook_outbox o ON o.id = d.outbox_id \

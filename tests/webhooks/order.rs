@@ -131,3 +131,65 @@ async fn each_alert_arrives_in_order_and_a_hanging_endpoint_delays_no_other() {
     assert!(slow["pending_deliveries"].as_i64().unwrap() > 0, "{slow}");
     assert_eq!(slow["failed_deliveries"].as_i64(), Some(0), "{slow}");
 }
+
+/// A node whose clock runs an hour ahead wrote the alerts' `raised`; the `escalated` written
+/// afterwards (by a node with the right time) still comes after it in the outbox, the order the
+/// worker delivers each alert's events in.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_alert_event_follows_the_one_before_whatever_the_clocks() {
+    use sqlx::ConnectOptions;
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), "");
+    let data = dir.path().join("data");
+    let d = Daemon::start(&data, &config).await;
+    let site = "skewed";
+    create_site(
+        &d,
+        site,
+        json!([{"level": "watch", "metric": "displacement_mm", "above": 5.0},
+               {"level": "warning", "metric": "displacement_mm", "above": 10.0}]),
+    )
+    .await;
+    let scene = Scene { n: 16, stable: 8 };
+    mark_stable(&d, site, &scene).await;
+    for (k, block_mm) in [(0, 0.0), (1, 10.0)] {
+        upload_new(&d, site, &scene.epoch(&day(k), 900 + k as u64, block_mm)).await;
+    }
+    let mut db = sqlx::sqlite::SqliteConnectOptions::new()
+        .filename(data.join("cliffwatch.db"))
+        .busy_timeout(Duration::from_secs(10))
+        .connect()
+        .await
+        .unwrap();
+    let ahead = (chrono::Utc::now() + chrono::Duration::hours(1))
+        .to_rfc3339_opts(chrono::SecondsFormat::Micros, true);
+    let shifted = sqlx::query("UPDATE webhook_outbox SET created_at = $1")
+        .bind(&ahead)
+        .execute(&mut db)
+        .await
+        .unwrap()
+        .rows_affected();
+    assert_eq!(shifted, 8, "one raised per block point");
+    upload_new(&d, site, &scene.epoch(&day(2), 902, 20.0)).await;
+    let rows: Vec<(String, String, String)> = sqlx::query_as(
+        "SELECT alert_id, event_type, created_at FROM webhook_outbox ORDER BY alert_id, created_at",
+    )
+    .fetch_all(&mut db)
+    .await
+    .unwrap();
+    let mut per_alert: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for (alert, event, _) in &rows {
+        per_alert
+            .entry(alert.clone())
+            .or_default()
+            .push(event.clone());
+    }
+    assert_eq!(per_alert.len(), 8, "{rows:?}");
+    for (alert, events) in &per_alert {
+        assert_eq!(
+            events,
+            &["alert.raised", "alert.escalated"],
+            "{alert} in created_at order: {rows:?}"
+        );
+    }
+}
