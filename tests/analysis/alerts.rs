@@ -158,6 +158,36 @@ fn raise_escalate_deescalate_resolve_with_hysteresis() {
     assert_eq!(st.level_of("T1"), Some(Watch));
 }
 
+/// Hysteresis holds through an epoch whose value is not significant (a station missing, say):
+/// 6 mm that cannot be told from zero is still above `clear_below` 4 and does not clear the watch
+/// (clearing there would send `resolved` for a block that may be moving, and `raised` again next
+/// time); a value below the clear threshold clears, significant or not.
+#[test]
+fn a_value_that_is_not_significant_does_not_break_the_hysteresis() {
+    use AlertEventType::*;
+    use AlertLevel::*;
+    let (ev, st) = feed(
+        &contract_config(),
+        &[
+            (6.0, true),
+            (6.0, false),
+            (4.5, false),
+            (6.0, true),
+            (3.0, false),
+        ],
+    );
+    assert_eq!(ev[0], vec![(Raised, Watch)]);
+    assert_eq!(ev[1], vec![], "6 mm, not significant: still open");
+    assert_eq!(
+        ev[2],
+        vec![],
+        "4.5 mm, not significant: in the band, still open"
+    );
+    assert_eq!(ev[3], vec![]);
+    assert_eq!(ev[4], vec![(Resolved, Watch)], "3 mm < clear_below");
+    assert!(st.rules.is_empty(), "{:?}", st.rules);
+}
+
 #[test]
 fn not_significant_is_not_alertable() {
     let (ev, st) = feed(&contract_config(), &[(50.0, false), (50.0, false)]);

@@ -58,16 +58,14 @@ fn evaluate_subject(
             } else {
                 mem.streak = 0;
                 if mem.active {
-                    let cleared = match reading.value {
-                        Some(v) if ok => r.clears(v),
-                        _ => r.clears(f64::NAN).map(|_| true),
-                    };
-                    match cleared {
-                        Some(c) => {
-                            if c {
-                                mem = RuleMemory::default();
-                            }
-                        }
+                    // With a clear threshold the value decides, significant or not (the
+                    // hysteresis): past it the rule clears, short of it the rule stays active;
+                    // a value that is not significant does not clear an alarm on a block that
+                    // may still be moving. Without a clear threshold, or without a value, the
+                    // epoch counts as quiet.
+                    match reading.value.and_then(|v| r.clears(v)) {
+                        Some(true) => mem = RuleMemory::default(),
+                        Some(false) => {}
                         None => {
                             mem.quiet_epochs += 1;
                             if mem.quiet_epochs

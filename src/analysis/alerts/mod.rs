@@ -4,9 +4,9 @@
 //! apply per site and optionally per point group. For every point and metric there is at most one open
 //! alert; its level is the highest level whose rule is active, so it is raised, escalates, de-escalates and
 //! resolves as the rules switch. A rule becomes active when its threshold is crossed by a significant value
-//! (significance required by default); an active rule clears (hysteresis) only when the value falls below
-//! `clear_below` (above `clear_above` for `below` rules) or, without such a threshold, after
-//! `quiet_epochs` consecutive epochs without triggering. Site-level alerts: `reference_unstable` (the
+//! (significance required by default); an active rule clears (hysteresis) only when the value, significant
+//! or not, falls below `clear_below` (above `clear_above` for `below` rules) or, without such a threshold
+//! or without a value, after `quiet_epochs` consecutive epochs without triggering. Site-level alerts: `reference_unstable` (the
 //! congruence test excluded stable points) and `campaign_overdue` (no epoch within the schedule).
 //! Everything here is pure: the state goes in, the new state and the events come out.
 //!
