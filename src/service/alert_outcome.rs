@@ -125,7 +125,7 @@ async fn fresh_ids(
     let mut events = events.to_vec();
     for i in 0..events.len() {
         if events[i].event_type != AlertEventType::Raised
-            || alerts::get(&mut *tx, &events[i].alert.id).await?.is_none()
+            || !alerts::exists(&mut *tx, &events[i].alert.id).await?
         {
             continue;
         }

@@ -149,19 +149,17 @@ pub async fn deliver_due_to(
             break;
         }
         for (k, d) in batch.iter().enumerate() {
+            if shutdown.is_requested() {
+                give_back(store, &batch[k..]).await?;
+                return Ok(n);
+            }
             // Not enough of the claim left for one more attempt (recording stalled, say): give
             // the rest back and claim afresh rather than send what another node may take over.
-            let lease_short = store::parse_timestamp(&d.lease_until)
-                .is_none_or(|end| Utc::now() + config.timeout > end);
-            if shutdown.is_requested() || lease_short {
-                // the claimed messages not sent yet are due again at once, not when the lease ends
-                let mut tx = store.begin_write_rows().await?;
-                outbox::release(&mut tx, &batch[k..], &store::now()).await?;
-                tx.commit().await?;
-                if lease_short && !shutdown.is_requested() {
-                    break;
-                }
-                return Ok(n);
+            if store::parse_timestamp(&d.lease_until)
+                .is_none_or(|end| Utc::now() + config.timeout > end)
+            {
+                give_back(store, &batch[k..]).await?;
+                break;
             }
             let t = Utc::now();
             let outcome = deliver(
@@ -182,6 +180,14 @@ pub async fn deliver_due_to(
         }
     }
     Ok(n)
+}
+
+/// Gives back claimed deliveries not sent: due again at once, not when their lease ends.
+async fn give_back(store: &Store, unsent: &[DueDelivery]) -> Result<(), StoreError> {
+    let mut tx = store.begin_write_rows().await?;
+    outbox::release(&mut tx, unsent, &store::now()).await?;
+    tx.commit().await?;
+    Ok(())
 }
 
 /// The stored outcome of attempt number `attempts` made at `t`.

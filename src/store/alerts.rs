@@ -118,6 +118,15 @@ pub async fn list(
     Ok(raw.into_iter().zip(finish(rows)).collect())
 }
 
+/// Whether an alert with id `id` was ever stored (open, acknowledged or resolved).
+pub async fn exists(db: impl AnyExecutor<'_>, id: &str) -> Result<bool, StoreError> {
+    let found: Option<i64> = sqlx::query_scalar("SELECT 1 FROM alerts WHERE id = $1")
+        .bind(id)
+        .fetch_optional(db)
+        .await?;
+    Ok(found.is_some())
+}
+
 /// One alert.
 pub async fn get(db: impl AnyExecutor<'_>, id: &str) -> Result<Option<Alert>, StoreError> {
     let row: Option<Alert> = sqlx::query_as(&format!("SELECT {COLUMNS} FROM alerts WHERE id = $1"))

@@ -193,18 +193,33 @@ pub async fn claim_due(
         .fetch_all(&mut *db)
         .await?;
     for d in &mut due {
-        sqlx::query(
-            "UPDATE webhook_deliveries SET next_attempt_at = $1 \
-             WHERE outbox_id = $2 AND webhook_id = $3 AND state = 'pending'",
-        )
-        .bind(lease_until)
-        .bind(&d.outbox_id)
-        .bind(&d.webhook_id)
-        .execute(&mut *db)
-        .await?;
+        set_next_attempt(db, d, lease_until, None).await?;
         d.lease_until = lease_until.to_string();
     }
     Ok(due)
+}
+
+/// Moves the next attempt of pending delivery `d` to `at` (store timestamp); with `held`, only
+/// while `d` is still held under that lease (see [`release`]).
+async fn set_next_attempt(
+    db: &mut AnyConnection,
+    d: &DueDelivery,
+    at: &str,
+    held: Option<&str>,
+) -> Result<(), StoreError> {
+    const PENDING: &str = "UPDATE webhook_deliveries SET next_attempt_at = $1 \
+         WHERE outbox_id = $2 AND webhook_id = $3 AND state = 'pending'";
+    const HELD: &str = "UPDATE webhook_deliveries SET next_attempt_at = $1 \
+         WHERE outbox_id = $2 AND webhook_id = $3 AND state = 'pending' AND next_attempt_at = $4";
+    let query = sqlx::query(if held.is_some() { HELD } else { PENDING })
+        .bind(at)
+        .bind(&d.outbox_id)
+        .bind(&d.webhook_id);
+    match held {
+        Some(lease) => query.bind(lease).execute(&mut *db).await?,
+        None => query.execute(&mut *db).await?,
+    };
+    Ok(())
 }
 
 /// Gives back claimed deliveries that were not attempted: due again at `now` (store timestamp).
@@ -215,16 +230,7 @@ pub async fn release(
     now: &str,
 ) -> Result<(), StoreError> {
     for d in claimed {
-        sqlx::query(
-            "UPDATE webhook_deliveries SET next_attempt_at = $1 WHERE outbox_id = $2 \
-             AND webhook_id = $3 AND state = 'pending' AND next_attempt_at = $4",
-        )
-        .bind(now)
-        .bind(&d.outbox_id)
-        .bind(&d.webhook_id)
-        .bind(&d.lease_until)
-        .execute(&mut *db)
-        .await?;
+        set_next_attempt(db, d, now, Some(&d.lease_until)).await?;
     }
     Ok(())
 }
