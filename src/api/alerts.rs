@@ -72,12 +72,16 @@ pub async fn list(
 /// Body of an acknowledgement.
 #[derive(Debug, Deserialize, ToSchema)]
 pub struct AckBody {
-    /// Who acknowledges: 1 to 200 characters once trimmed.
-    #[schema(min_length = 1, max_length = 200, pattern = "\\S")]
+    /// Who acknowledges: 1 to 200 characters once trimmed, without the NUL character.
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = "^[^\\u0000]*[^\\s\\u0000][^\\u0000]*$"
+    )]
     pub by: String,
-    /// Comment: at most 2000 characters once trimmed; blank is none.
+    /// Comment: at most 2000 characters once trimmed, without the NUL character; blank is none.
     #[serde(default)]
-    #[schema(max_length = 2000)]
+    #[schema(max_length = 2000, pattern = "^[^\\u0000]*$")]
     pub comment: Option<String>,
 }
 

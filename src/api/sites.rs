@@ -28,6 +28,12 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
             ),
         ));
     }
+    if s.name.as_deref().is_some_and(|n| n.contains('\0')) {
+        return Err(ApiError::unprocessable(
+            "invalid_site",
+            "name: the NUL character (U+0000) is not allowed",
+        ));
+    }
     if let Some(c) = s.confidence {
         if !(MIN_CONFIDENCE..=MAX_CONFIDENCE).contains(&c) {
             return Err(ApiError::unprocessable(
@@ -189,6 +195,11 @@ pub async fn get_one(
 
 /// Reads a site or answers 404.
 pub async fn find(state: &AppState, site: &str) -> Result<Site, ApiError> {
+    // No site has an id outside the identifier rule: not asked of the database (PostgreSQL
+    // would refuse a NUL in it as a value it cannot hold, where the answer is "no such site").
+    if !is_valid_identifier(site) {
+        return Err(ApiError::not_found(format!("unknown site '{site}'")));
+    }
     sites::get(state.store.reader(), site)
         .await?
         .ok_or_else(|| ApiError::not_found(format!("unknown site '{site}'")))

@@ -9,7 +9,7 @@ use utoipa::ToSchema;
 #[serde(deny_unknown_fields)]
 pub struct SiteArea {
     /// Text naming the area (CAP `areaDesc`), e.g. "Route 42 below the Kamo cliff, km 3.2–3.6".
-    #[schema(min_length = 1, max_length = 500)]
+    #[schema(min_length = 1, max_length = 500, pattern = "^[^\\u0000]*$")]
     pub description: String,
     /// Closed ring of `[latitude, longitude]` pairs in degrees (WGS 84): at least 4 pairs, the
     /// last equal to the first.
@@ -52,6 +52,9 @@ impl SiteArea {
         let d = self.description.trim();
         if d.is_empty() || self.description.chars().count() > 500 {
             return Err("area.description: 1 to 500 characters".into());
+        }
+        if self.description.contains('\0') {
+            return Err("area.description: the NUL character (U+0000) is not allowed".into());
         }
         if let Some(ring) = &self.polygon {
             if !(4..=1000).contains(&ring.len()) {

@@ -31,6 +31,11 @@ pub async fn acknowledge(
             "by: a name of 1 to {MAX_NAME_CHARS} characters"
         )));
     }
+    if by.contains('\0') || comment.is_some_and(|c| c.contains('\0')) {
+        return Err(ServiceError::BadAcknowledgement(
+            "by, comment: the NUL character (U+0000) is not allowed".into(),
+        ));
+    }
     let comment = comment.map(str::trim).filter(|c| !c.is_empty());
     if comment.is_some_and(|c| c.chars().count() > MAX_COMMENT_CHARS) {
         return Err(ServiceError::BadAcknowledgement(format!(

@@ -26,8 +26,9 @@ pub struct NewSite {
     /// Identifier, `[A-Za-z0-9._-]{1,64}`.
     #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub id: String,
-    /// Display name (default: the id).
+    /// Display name (default: the id), without the NUL character.
     #[serde(default)]
+    #[schema(pattern = "^[^\\u0000]*$")]
     pub name: Option<String>,
     /// `orthogonal` (default) or `central`.
     #[serde(default)]

@@ -374,14 +374,28 @@ async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
         assert_same(path, have, want);
     }
 
-    // Text PostgreSQL cannot store (NUL, which SQLite keeps): 400 naming the cause, not a 500;
-    // in an epoch's label it is refused on both backends (422) before the database.
-    let nul = json!({"id": "nul", "name": "a\u{0}b"});
-    let (st, body) = send(&pg, reqwest::Method::POST, "/api/v1/sites", nul).await;
+    // Free text with NUL, which PostgreSQL cannot store: 422 before the database, as on SQLite
+    // (tests/service/api.rs).
+    pg.assert_nul_text_refused().await;
+    // A site id with NUL names no site (404, as on SQLite), not a value PostgreSQL refuses.
+    let (st, body) = send(
+        &pg,
+        reqwest::Method::GET,
+        "/api/v1/alerts?site=a%00b",
+        Value::Null,
+    )
+    .await;
+    assert_eq!(st, 404, "{body}");
+    // A NUL that reaches PostgreSQL is a 400 naming the cause, never a 500.
+    let (st, body) = send(
+        &pg,
+        reqwest::Method::GET,
+        "/api/v1/alerts/a%00b/events",
+        Value::Null,
+    )
+    .await;
     assert_eq!(st, 400, "{body}");
     assert!(body.to_string().contains("cannot be stored"), "{body}");
-    let (st, body) = send(&pg, reqwest::Method::GET, "/api/v1/sites/nul", Value::Null).await;
-    assert_eq!(st, 404, "the refused site was not created: {body}");
 
     // A restart on the same database: nothing lost, the migrations not applied twice.
     pg.stop().await;

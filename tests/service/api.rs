@@ -291,6 +291,14 @@ async fn same_body_is_idempotent_other_body_conflicts() {
     s.stop().await;
 }
 
+/// Free text with NUL: 422 naming the field (the same on PostgreSQL, tests/postgres/store.rs).
+#[tokio::test]
+async fn text_with_nul_is_refused() {
+    let server = TestServer::start(|_| {}).await;
+    server.assert_nul_text_refused().await;
+    server.stop().await;
+}
+
 #[tokio::test]
 async fn rejections_store_nothing() {
     let s = TestServer::start(|c| c.body_limit_bytes = 1 << 20).await;

@@ -230,6 +230,47 @@ impl TestServer {
         (status, r.json().await.unwrap_or(Value::Null))
     }
 
+    /// POSTs JSON; returns the status and the JSON answer.
+    pub async fn post(&self, path: &str, body: &Value) -> (u16, Value) {
+        let r = self
+            .client
+            .post(self.url(path))
+            .json(body)
+            .send()
+            .await
+            .unwrap();
+        let status = r.status().as_u16();
+        (status, r.json().await.unwrap_or(Value::Null))
+    }
+
+    /// Free text with the NUL character, which PostgreSQL cannot store and SQLite would: refused
+    /// with 422 naming the field on either backend, and nothing created.
+    pub async fn assert_nul_text_refused(&self) {
+        let area = serde_json::json!({"description": "below\u{0}the cliff",
+            "circle": {"latitude": 35.0, "longitude": 135.0, "radius_km": 1.0}});
+        for (body, field) in [
+            (serde_json::json!({"id": "nul", "name": "a\u{0}b"}), "name"),
+            (
+                serde_json::json!({"id": "nul", "area": area}),
+                "area.description",
+            ),
+        ] {
+            let (st, answer) = self.post("/api/v1/sites", &body).await;
+            assert_eq!(st, 422, "{answer}");
+            assert!(answer.to_string().contains(field), "{answer}");
+        }
+        let (st, answer) = self.get("/api/v1/sites/nul").await;
+        assert_eq!(st, 404, "the refused site was not created: {answer}");
+        for body in [
+            serde_json::json!({"by": "duty\u{0}officer"}),
+            serde_json::json!({"by": "duty officer", "comment": "seen\u{0}"}),
+        ] {
+            let (st, answer) = self.post("/api/v1/alerts/x:T1:r:1/ack", &body).await;
+            assert_eq!(st, 422, "{body}: {answer}");
+            assert!(answer.to_string().contains("U+0000"), "{answer}");
+        }
+    }
+
     /// Row counts of every table: what "the database holds".
     pub async fn snapshot(&self) -> Vec<(String, i64)> {
         snapshot(&self.store).await
