@@ -197,15 +197,8 @@ impl TestServer {
 
     /// POSTs an epoch; returns status and JSON answer.
     pub async fn upload(&self, site: &str, body: &Value) -> (u16, Value) {
-        let r = self
-            .client
-            .post(self.url(&format!("/api/v1/sites/{site}/epochs")))
-            .json(body)
-            .send()
+        self.post(&format!("/api/v1/sites/{site}/epochs"), body)
             .await
-            .unwrap();
-        let status = r.status().as_u16();
-        (status, r.json().await.unwrap_or(Value::Null))
     }
 
     /// POSTs an epoch already serialized (`body`, JSON) to `site` and reads the whole answer, as
