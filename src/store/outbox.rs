@@ -115,7 +115,8 @@ pub struct DueDelivery {
 /// sees each alert's events in the order they happened whatever the retries in between
 /// (`raised` before `escalated`). Earlier is by `created_at`, then id: the writer keeps each
 /// alert's `created_at` increasing whatever the nodes' clocks (`alert_outcome::message_time`),
-/// and the messages of one transaction are a microsecond apart. A macro, so that every query built on it is a constant.
+/// and the messages of one transaction are a microsecond apart. A macro, so that every query
+/// built on it is a constant.
 macro_rules! due_from {
     () => {
         " FROM webhook_deliveries d JOIN webhook_outbox o ON o.id = d.outbox_id \

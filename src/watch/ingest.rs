@@ -25,7 +25,8 @@ pub(super) async fn process(
     store: &Store,
     site: &str,
     folder: &Path,
-    (hash, done): (&str, &str),
+    hash: &str,
+    done: &str,
     opts: &WatchOptions,
 ) -> Result<(Ingested, BTreeMap<String, ImageOrientation>), WatchError> {
     let site_dir = folder.parent().unwrap_or(Path::new("."));
@@ -175,7 +176,7 @@ pub async fn take_folder(
         ".done/{}",
         done.file_name().unwrap_or_default().to_string_lossy()
     );
-    match process(store, site, folder, (&hash, &done_rel), opts).await {
+    match process(store, site, folder, &hash, &done_rel, opts).await {
         Ok((ing, found)) => {
             save_state(store, site, &hash, ing.epoch, &found)
                 .await
