@@ -38,7 +38,8 @@ pub async fn orientations(
 
 /// Stores the orientation of `station` found with epoch `epoch`, replacing the stored one unless
 /// that was found with a later epoch (by observation time): a folder taken late, holding an older
-/// epoch, does not put back an older pose.
+/// epoch, does not put back an older pose. Epoch ids are numbered per site: both epochs are
+/// looked up in `site`.
 pub async fn set_orientation(
     db: &mut AnyConnection,
     site: &str,
@@ -52,8 +53,10 @@ pub async fn set_orientation(
          ON CONFLICT (site_id, station) DO UPDATE SET camera = excluded.camera, \
          rotation = excluded.rotation, center = excluded.center, epoch_id = excluded.epoch_id, \
          updated_at = excluded.updated_at \
-         WHERE COALESCE((SELECT e.observed_at FROM epochs e WHERE e.id = watch_orientations.epoch_id), '') \
-         <= (SELECT e.observed_at FROM epochs e WHERE e.id = excluded.epoch_id)",
+         WHERE COALESCE((SELECT e.observed_at FROM epochs e \
+         WHERE e.site_id = watch_orientations.site_id AND e.id = watch_orientations.epoch_id), '') \
+         <= (SELECT e.observed_at FROM epochs e \
+         WHERE e.site_id = excluded.site_id AND e.id = excluded.epoch_id)",
     )
     .bind(site)
     .bind(station)

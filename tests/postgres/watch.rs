@@ -14,6 +14,7 @@ async fn a_folder_taken_late_leaves_the_newer_orientations_on_postgres() {
     let server = TestServer::start(move |c| c.database_url = Some(url)).await;
     assert_eq!(server.store.backend(), cliffwatch::store::Backend::Postgres);
     server.create_site("kamo").await;
+    server.create_site("kura").await;
     let watch = tempfile::tempdir().unwrap();
     watch_support::folders_taken_out_of_order(&server.store, watch.path()).await;
     server.stop().await;

@@ -260,6 +260,7 @@ async fn watched_folders_are_detected_identified_ingested_once() {
 async fn a_folder_taken_late_leaves_the_newer_orientations() {
     let server = TestServer::start(|_| {}).await;
     server.create_site("kamo").await;
+    server.create_site("kura").await;
     let watch = tempfile::tempdir().unwrap();
     watch_support::folders_taken_out_of_order(&server.store, watch.path()).await;
     server.stop().await;

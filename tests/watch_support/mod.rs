@@ -106,14 +106,26 @@ pub fn write_epoch(
     (folder, truth)
 }
 
-/// Takes folders of site `kamo` (created by the caller) from `watch_dir`: epochs of 20 and
-/// 22 November, then a folder of 21 November last. Asserts that each went to `.done/` and that
-/// every station keeps the orientation of 22 November (the newest epoch), not of the folder taken
-/// last.
+/// Takes folders of sites `kura` and `kamo` (both created by the caller) from `watch_dir`. First
+/// `kura`: its epochs 1 and 2, of 30 and 1 November, have the ids that `kamo`'s will have but run
+/// backwards in time. Then `kamo`: epochs of 20 and 22 November, then a folder of 21 November last.
+/// Asserts that each went to `.done/` and that every station of `kamo` keeps the orientation of
+/// 22 November (its newest epoch), neither that of the folder taken last nor one chosen by
+/// `kura`'s epochs of the same ids.
 pub async fn folders_taken_out_of_order(store: &cliffwatch::store::Store, watch_dir: &Path) {
-    let site = watch_dir.join("kamo");
     let epoch = small_scene();
     let opts = cliffwatch::watch::WatchOptions::new(watch_dir.to_path_buf());
+    let kura = watch_dir.join("kura");
+    for (name, at, seeds, noise) in [
+        ("k30", "2026-11-30T09:00:00Z", true, 4),
+        ("k01", "2026-11-01T09:00:00Z", false, 5),
+    ] {
+        write_epoch(&kura, &epoch, name, at, seeds, noise);
+        let r = cliffwatch::watch::scan_once(store, &opts).await;
+        let dest = r[0].as_ref().unwrap();
+        assert!(dest.starts_with(kura.join(".done")), "{name}: {dest:?}");
+    }
+    let site = watch_dir.join("kamo");
     for (name, at, seeds, noise) in [
         ("e20", "2026-11-20T09:00:00Z", true, 1),
         ("e22", "2026-11-22T09:00:00Z", false, 2),
