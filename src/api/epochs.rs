@@ -257,10 +257,34 @@ pub async fn get_one(
         .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no epoch {id}")))
 }
 
-/// Parses a time bound of a query (RFC 3339 or a date) into the store's format.
+/// Parses a time bound of a query (RFC 3339 or a date) into the store's format. A bound beyond
+/// the years 0000–9999 in UTC (which the store's four-digit years cannot write) is moved to the
+/// nearest end of that range: it bounds nothing, as it would not in time order.
 pub fn time_bound(s: &str, end_of_day: bool) -> Result<String, ApiError> {
+    Ok(timestamp(
+        parse_time_bound(s, end_of_day)?.clamp(stored_time_min(), stored_time_max()),
+    ))
+}
+
+/// The earliest time the store can write: 0000-01-01T00:00:00Z.
+fn stored_time_min() -> chrono::DateTime<chrono::Utc> {
+    chrono::NaiveDate::from_ymd_opt(0, 1, 1)
+        .and_then(|d| d.and_hms_opt(0, 0, 0))
+        .expect("a valid time")
+        .and_utc()
+}
+
+/// The latest time the store can write: 9999-12-31T23:59:59.999999Z.
+fn stored_time_max() -> chrono::DateTime<chrono::Utc> {
+    chrono::NaiveDate::from_ymd_opt(9999, 12, 31)
+        .and_then(|d| d.and_hms_micro_opt(23, 59, 59, 999_999))
+        .expect("a valid time")
+        .and_utc()
+}
+
+fn parse_time_bound(s: &str, end_of_day: bool) -> Result<chrono::DateTime<chrono::Utc>, ApiError> {
     if let Some(t) = parse_timestamp(s) {
-        return Ok(timestamp(t));
+        return Ok(t);
     }
     let date = chrono::NaiveDate::parse_from_str(s, "%Y-%m-%d")
         .map_err(|_| ApiError::bad_request(format!("'{s}' is not an RFC 3339 time or a date")))?;
@@ -270,5 +294,5 @@ pub fn time_bound(s: &str, end_of_day: bool) -> Result<String, ApiError> {
         date.and_hms_opt(0, 0, 0)
     }
     .expect("valid time of day");
-    Ok(timestamp(t.and_utc()))
+    Ok(t.and_utc())
 }

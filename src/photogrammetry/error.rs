@@ -11,6 +11,10 @@ pub enum EpochError {
     /// `observed_at` is not RFC 3339.
     #[error("observed_at '{0}' is not an RFC 3339 time")]
     BadTimestamp(String),
+    /// `observed_at` falls outside the years 0000–9999 once converted to UTC: RFC 3339 cannot
+    /// write it with a four-digit year, so it could not be stored or sorted.
+    #[error("observed_at '{0}' falls outside the years 0000–9999 in UTC")]
+    TimestampOutOfRange(String),
     /// A label holding a control character (U+0000–U+001F, U+007F–U+009F).
     #[error("label: control characters (U+0000–U+001F, U+007F–U+009F) are not allowed")]
     BadLabel,

@@ -389,6 +389,35 @@ async fn rejections_store_nothing() {
         assert_eq!(e["error"]["code"], "unsupported_media_type");
     }
 
+    // A time that its offset carries beyond the years 0000–9999 in UTC: 422 naming it. (Stored
+    // as "+10000-…", it sorted before every epoch, became the reference and emptied the series.)
+    for at in ["9999-12-31T23:30:00-01:00", "0000-01-01T00:30:00+01:00"] {
+        let mut far = good.clone();
+        far["observed_at"] = json!(at);
+        let (status, e) = s.upload("rej", &far).await;
+        assert_eq!(status, 422, "{at}: {e}");
+        let msg = e["error"]["message"].as_str().unwrap();
+        assert!(msg.contains(at) && msg.contains("0000–9999"), "{msg}");
+    }
+    // As query bounds the same times bound nothing: the whole series.
+    for bounds in [
+        "to=9999-12-31T23:30:00-01:00",
+        "from=0000-01-01T00:30:00%2B01:00",
+        "from=0000-01-01T00:30:00%2B01:00&to=9999-12-31T23:30:00-01:00",
+    ] {
+        let (status, page) = s
+            .get(&format!(
+                "/api/v1/sites/rej/points/5/displacements?{bounds}"
+            ))
+            .await;
+        assert_eq!(status, 200, "{bounds}: {page}");
+        assert_eq!(
+            page["items"].as_array().unwrap().len(),
+            1,
+            "{bounds}: {page}"
+        );
+    }
+
     let r = post(vec![b' '; (1 << 20) + 10]).await.unwrap();
     assert_eq!(r.status(), 413);
     let e: Value = r.json().await.unwrap();

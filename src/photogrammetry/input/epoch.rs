@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 
-use chrono::{DateTime, Utc};
+use chrono::{DateTime, Datelike, Utc};
 use serde::{Deserialize, Serialize};
 
 use crate::photogrammetry::error::EpochError;
@@ -230,11 +230,17 @@ fn bounded(value: f64, max: f64, item: &str, field: &str) -> Result<f64, EpochEr
 }
 
 impl EpochInput {
-    /// Parses the observation time.
+    /// Parses the observation time, in UTC within the years 0000–9999 (an offset can carry
+    /// `9999-12-31T23:30:00-01:00` into year 10 000, which RFC 3339 cannot write).
     pub fn observed_at(&self) -> Result<DateTime<Utc>, EpochError> {
-        DateTime::parse_from_rfc3339(&self.observed_at)
+        let t = DateTime::parse_from_rfc3339(&self.observed_at)
             .map(|t| t.with_timezone(&Utc))
-            .map_err(|_| EpochError::BadTimestamp(self.observed_at.clone()))
+            .map_err(|_| EpochError::BadTimestamp(self.observed_at.clone()))?;
+        if (0..=9999).contains(&t.year()) {
+            Ok(t)
+        } else {
+            Err(EpochError::TimestampOutOfRange(self.observed_at.clone()))
+        }
     }
 
     /// Validates the upload form into an [`EpochProblem`]: identifiers, finite numbers, known cameras,
