@@ -336,18 +336,29 @@ async fn column_count(
 /// Rows copied per table, in copy order.
 pub type Copied = Vec<(&'static str, u64)>;
 
-/// Copies every row of `from` into `to`, whose tables must be empty, in one transaction on `to`
-/// (nothing is written when anything fails). Stop the daemons of both first.
+/// Copies every row of `from` into `to`, whose tables must all be empty, in one transaction on
+/// `to` (nothing is written when anything fails). The source is read in one read transaction,
+/// one snapshot (PostgreSQL: repeatable read), so an epoch committed during the copy is copied
+/// whole or not at all. Stop the daemons of both first.
 pub async fn copy_all(from: &Store, to: &Store) -> Result<Copied, StoreError> {
-    let mut source = from.read().await?;
+    let mut read = from.read().await?;
+    let mut source = sqlx::Connection::begin(&mut *read).await?;
+    if from.backend() == Backend::Postgres {
+        sqlx::query("SET TRANSACTION ISOLATION LEVEL REPEATABLE READ, READ ONLY")
+            .execute(&mut *source)
+            .await?;
+    }
     let mut tx = to.begin_write().await?;
-    let existing: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM sites")
-        .fetch_one(&mut *tx)
-        .await?;
-    if existing > 0 {
-        return Err(StoreError::Corrupt(format!(
-            "the target holds {existing} site(s): migrate-store copies into an empty store only"
-        )));
+    for (table, _) in TABLES {
+        let existing: i64 = sqlx::query_scalar(&format!("SELECT COUNT(*) FROM {table}"))
+            .fetch_one(&mut *tx)
+            .await?;
+        if existing > 0 {
+            return Err(StoreError::Corrupt(format!(
+                "the target's table {table} holds {existing} row(s): migrate-store copies into \
+                 an empty store only"
+            )));
+        }
     }
     for (table, listed) in TABLES {
         let cols = columns(table, listed);
@@ -397,5 +408,6 @@ pub async fn copy_all(from: &Store, to: &Store) -> Result<Copied, StoreError> {
         copied.push((*table, rows.len() as u64));
     }
     tx.commit().await?;
+    source.rollback().await?;
     Ok(copied)
 }

@@ -459,6 +459,27 @@ async fn migrate_store_moves_an_installation_both_ways() {
         String::from_utf8_lossy(&out.stderr)
     );
 
+    // A target whose only rows are a webhook (registered by a daemon started on it) is not
+    // empty either: its hook would be merged with the source's and every alert sent twice.
+    let busy = format!("sqlite://{}", dir.path().join("busy.db").display());
+    let url = busy.clone();
+    let started = TestServer::start(move |c| c.database_url = Some(url)).await;
+    let (status, _) = started
+        .post(
+            "/api/v1/webhooks",
+            &json!({"url": "http://127.0.0.1:9/hook", "secret": "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw"}),
+        )
+        .await;
+    assert_eq!(status, 201);
+    started.stop().await;
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cliffwatch"))
+        .args(["migrate-store", "--from", &pg_url, "--to", &busy])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("table webhooks holds 1 row"), "{err}");
+
     migrate_store(&pg_url, &back);
     let url = back.clone();
     let returned = TestServer::start(move |c| c.database_url = Some(url)).await;
