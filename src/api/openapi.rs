@@ -52,7 +52,9 @@ impl utoipa::Modify for BearerAuth {
 /// list them: 400 (a query or path value that does not parse, a body that is not JSON, a bad
 /// cursor) on every operation with parameters or a body, 415 (a body that is not
 /// `application/json`), 413 (a body over the size limit) and 422 (JSON not of the schema) on every
-/// operation with a body.
+/// operation with a body; 401 and 403 ([`super::auth::authorize`]) with the bearer token as an
+/// alternative to none on every operation that needs a role; 408 (the request timeout) and 500
+/// (a failure of the database or a task) on every operation.
 struct CommonErrors;
 
 impl utoipa::Modify for CommonErrors {
@@ -69,17 +71,44 @@ impl utoipa::Modify for CommonErrors {
                 )
                 .build()
         };
-        for item in openapi.paths.paths.values_mut() {
-            for op in [
-                &mut item.get,
-                &mut item.put,
-                &mut item.post,
-                &mut item.delete,
-                &mut item.patch,
+        use axum::http::Method;
+        use utoipa::openapi::security::SecurityRequirement;
+        for (path, item) in openapi.paths.paths.iter_mut() {
+            for (method, op) in [
+                (Method::GET, &mut item.get),
+                (Method::PUT, &mut item.put),
+                (Method::POST, &mut item.post),
+                (Method::DELETE, &mut item.delete),
+                (Method::PATCH, &mut item.patch),
             ]
             .into_iter()
-            .flatten()
+            .filter_map(|(m, op)| Some((m, op.as_mut()?)))
             {
+                if let Some(role) = super::auth::required_role(&method, path) {
+                    // no token at all while the server has none configured
+                    op.security = Some(vec![
+                        SecurityRequirement::default(),
+                        SecurityRequirement::new("bearer", Vec::<String>::new()),
+                    ]);
+                    let responses = &mut op.responses.responses;
+                    responses.entry("401".into()).or_insert_with(|| {
+                        error(
+                            "the server has tokens and the request carries none, or an unknown one",
+                        )
+                        .into()
+                    });
+                    // every role reads, and only changes are checked for their origin
+                    if role > crate::config::Role::Read {
+                        let forbidden = format!(
+                            "the token's role is below {}, or a browser sent the change from \
+                             another site's page (Origin / Sec-Fetch-Site)",
+                            format!("{role:?}").to_lowercase()
+                        );
+                        responses
+                            .entry("403".into())
+                            .or_insert_with(|| error(&forbidden).into());
+                    }
+                }
                 for p in op.parameters.iter_mut().flatten() {
                     match p.name.as_str() {
                         "cursor" => p.schema = Some(cursor_schema()),
@@ -108,6 +137,13 @@ impl utoipa::Modify for CommonErrors {
                         .entry("415".into())
                         .or_insert_with(|| error("the body is not application/json").into());
                 }
+                responses.entry("408".into()).or_insert_with(|| {
+                    error("no answer within the request timeout (`request_timeout_secs`)").into()
+                });
+                responses.entry("500".into()).or_insert_with(|| {
+                    error("a failure of the database or of a task; details in the server log")
+                        .into()
+                });
             }
         }
     }

@@ -443,6 +443,122 @@ async fn rejections_store_nothing() {
     s.stop().await;
 }
 
+/// With tokens configured, every operation of the document is tried without a token and, if it
+/// changes something, with the read token: the answer is 401 or 403 and the document lists it for
+/// that operation, with the bearer scheme among its security alternatives.
+#[tokio::test]
+async fn the_document_lists_the_answers_of_authorization() {
+    let s = TestServer::start(|c| {
+        c.tokens = vec![TokenConfig {
+            token: "r".repeat(20),
+            role: Role::Read,
+        }]
+    })
+    .await;
+    let doc: Value = s
+        .client
+        .get(s.url("/api/v1/openapi.json"))
+        .bearer_auth("r".repeat(20))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    let mut tried = 0;
+    for (path, item) in doc["paths"].as_object().unwrap() {
+        let url = s.url(&path.replace(['{', '}'], ""));
+        for (method, op) in item.as_object().unwrap() {
+            if !["get", "put", "post", "delete", "patch"].contains(&method.as_str()) {
+                continue;
+            }
+            let m = reqwest::Method::from_bytes(method.to_uppercase().as_bytes()).unwrap();
+            if op.get("security").is_none() {
+                let r = s.client.request(m.clone(), &url).send().await.unwrap();
+                assert_ne!(r.status(), 401, "{method} {path} needs no token");
+                continue;
+            }
+            let security = op["security"].to_string();
+            assert!(
+                security.contains("bearer") && security.contains("{}"),
+                "{method} {path}: {security}"
+            );
+            let r = s.client.request(m.clone(), &url).send().await.unwrap();
+            assert_eq!(r.status(), 401, "{method} {path} without a token");
+            assert!(
+                op["responses"].get("401").is_some(),
+                "{method} {path} lists 401"
+            );
+            tried += 1;
+            if m != reqwest::Method::GET {
+                let r = s
+                    .client
+                    .request(m, &url)
+                    .bearer_auth("r".repeat(20))
+                    .send()
+                    .await
+                    .unwrap();
+                assert_eq!(r.status(), 403, "{method} {path} with the read token");
+                assert!(
+                    op["responses"].get("403").is_some(),
+                    "{method} {path} lists 403"
+                );
+            }
+        }
+        for (method, op) in item.as_object().unwrap() {
+            if let Some(responses) = op.get("responses") {
+                for code in ["408", "500"] {
+                    assert!(
+                        responses.get(code).is_some(),
+                        "{method} {path} lists {code}"
+                    );
+                }
+            }
+        }
+    }
+    assert!(tried > 20, "{tried} operations tried");
+    s.stop().await;
+}
+
+/// A request not answered within `request_timeout_secs` (here an upload whose body stalls) gets
+/// 408 with the error body, as the document says; nothing is stored.
+#[tokio::test]
+async fn a_request_over_the_time_limit_is_a_408_with_the_error_body() {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let s = TestServer::start(|c| {
+        c.request_timeout_secs = 1;
+        c.upload_queue_secs = 0.5;
+    })
+    .await;
+    s.create_site("slow").await;
+    let before = s.snapshot().await;
+    let body = serde_json::to_vec(&paper("paper-case3-seed101")).unwrap();
+    let host = s.base.trim_start_matches("http://");
+    let mut conn = tokio::net::TcpStream::connect(host).await.unwrap();
+    let head = format!(
+        "POST /api/v1/sites/slow/epochs HTTP/1.1\r\nHost: {host}\r\n\
+         Content-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
+        body.len()
+    );
+    conn.write_all(head.as_bytes()).await.unwrap();
+    conn.write_all(&body[..body.len() / 2]).await.unwrap();
+    let mut answer = Vec::new();
+    tokio::time::timeout(
+        std::time::Duration::from_secs(10),
+        conn.read_to_end(&mut answer),
+    )
+    .await
+    .expect("an answer before the rest of the body")
+    .unwrap();
+    let answer = String::from_utf8_lossy(&answer);
+    assert!(answer.starts_with("HTTP/1.1 408"), "{answer}");
+    let json = &answer[answer.find("\r\n\r\n").unwrap() + 4..];
+    let e: Value = serde_json::from_str(json).unwrap();
+    assert_eq!(e["error"]["code"], "timeout", "{e}");
+    assert_eq!(s.snapshot().await, before);
+    s.stop().await;
+}
+
 #[tokio::test]
 async fn tokens_and_roles() {
     let s = TestServer::start(|c| {
