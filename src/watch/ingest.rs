@@ -9,13 +9,22 @@ use super::folders::{
 };
 use super::naming::name_targets;
 use super::state::{load_orientations, save_state};
-use super::stations::{detect_station, station_of};
+use super::stations::{detect_station, station_of, StationCounts, StationData, StationNamed};
 use super::{WatchError, WatchOptions};
 use crate::detect::identify::{resect_seeds, Seed};
 use crate::photogrammetry::input::epoch::ObservationInput;
 use crate::photogrammetry::{EpochInput, ImageOrientation};
 use crate::service::ingest::{ingest_watched, Ingested, WatchedFolder};
 use crate::store::{points, watch_state, Store};
+
+/// A folder's targets detected and named: the upload form with the named observations, and what
+/// the resection of each station needs.
+struct Identified {
+    input: EpochInput,
+    stations: Vec<StationData>,
+    names: Vec<StationNamed>,
+    counts: Vec<StationCounts>,
+}
 
 /// Detects, identifies and ingests one folder of content hash `hash` (does not move it; writes its
 /// `identification.json`). `done` is where the folder will move, relative to the site's directory
@@ -29,6 +38,26 @@ pub(super) async fn process(
     done: &str,
     opts: &WatchOptions,
 ) -> Result<(Ingested, BTreeMap<String, ImageOrientation>), WatchError> {
+    let found = identify(store, site, folder, done, opts).await?;
+    let watched = WatchedFolder {
+        hash: hash.to_string(),
+        identification: serde_json::to_value(&found.counts)?,
+    };
+    let ingested = ingest_watched(store, site, found.input, &watched).await?;
+    let orientations =
+        resect_stations(store, site, ingested.epoch, &found.stations, &found.names).await?;
+    Ok((ingested, orientations))
+}
+
+/// Detects and names the targets of `folder` (writes its `identification.json`; `done` as in
+/// [`process`]).
+async fn identify(
+    store: &Store,
+    site: &str,
+    folder: &Path,
+    done: &str,
+    opts: &WatchOptions,
+) -> Result<Identified, WatchError> {
     let site_dir = folder.parent().unwrap_or(Path::new("."));
     if crate::store::sites::get(store.reader(), site)
         .await?
@@ -104,21 +133,32 @@ pub(super) async fn process(
             })
             .collect();
     }
-    let watched = WatchedFolder {
-        hash: hash.to_string(),
-        identification: serde_json::to_value(&counts)?,
-    };
-    let ingested = ingest_watched(store, site, input, &watched).await?;
-    // the stations' orientations for the next epoch, from this epoch's adjusted coordinates (not
-    // the site's latest: a folder taken late may hold an older epoch)
+    Ok(Identified {
+        input,
+        stations,
+        names,
+        counts,
+    })
+}
+
+/// The stations' orientations for the next epoch, resected from the adjusted coordinates of
+/// `epoch` (the folder's own: a folder taken late may hold an older epoch than the site's latest).
+/// A station whose resection fails is left out (logged).
+async fn resect_stations(
+    store: &Store,
+    site: &str,
+    epoch: i64,
+    stations: &[StationData],
+    names: &[StationNamed],
+) -> Result<BTreeMap<String, ImageOrientation>, WatchError> {
     let adjusted: BTreeMap<String, [f64; 3]> =
-        points::epoch_coordinates(store.reader(), site, ingested.epoch)
+        points::epoch_coordinates(store.reader(), site, epoch)
             .await?
             .into_iter()
             .map(|c| (c.point, c.xyz))
             .collect();
     let mut found = BTreeMap::new();
-    for (s, named) in stations.iter().zip(&names) {
+    for (s, named) in stations.iter().zip(names) {
         let measured: Vec<Seed> = named
             .iter()
             .filter(|(p, _)| adjusted.contains_key(p))
@@ -134,7 +174,51 @@ pub(super) async fn process(
             Err(e) => tracing::warn!(site, station = s.station, error = %e, "no orientation kept"),
         }
     }
-    Ok((ingested, found))
+    Ok(found)
+}
+
+/// Where `folder` will move in `.done/`: the path, and the same relative to the site's directory.
+fn done_destination(folder: &Path) -> (PathBuf, String) {
+    let done = free_destination(folder, ".done");
+    let relative = format!(
+        ".done/{}",
+        done.file_name().unwrap_or_default().to_string_lossy()
+    );
+    (done, relative)
+}
+
+/// The stations' orientations of a folder whose epoch `epoch` is stored, saved again: the daemon
+/// may have stopped between the epoch's commit and [`save_state`], which left them unsaved. The
+/// targets are detected and named again and the stations resected from that epoch's coordinates;
+/// an orientation stored from a later epoch stays ([`watch_state::set_orientation`]). A failure is
+/// logged: the folder is ingested all the same.
+async fn restore_orientations(
+    store: &Store,
+    site: &str,
+    folder: &Path,
+    hash: &str,
+    epoch: i64,
+    opts: &WatchOptions,
+) {
+    let (_, done) = done_destination(folder);
+    let restored = async {
+        let found = identify(store, site, folder, &done, opts).await?;
+        let orientations =
+            resect_stations(store, site, epoch, &found.stations, &found.names).await?;
+        save_state(store, site, hash, epoch, &orientations).await?;
+        Ok::<_, WatchError>(orientations.len())
+    };
+    match restored.await {
+        Ok(n) => tracing::info!(
+            site,
+            epoch,
+            stations = n,
+            "orientations of an ingested folder saved"
+        ),
+        Err(e) => {
+            tracing::warn!(site, epoch, error = %e, "orientations of an ingested folder not saved")
+        }
+    }
 }
 
 /// Takes one ready folder: skips it when its hash was ingested before, otherwise processes it; moves it
@@ -159,6 +243,9 @@ pub async fn take_folder(
             .any(|l| l.split_whitespace().next() == Some(hash.as_str()));
     if seen {
         tracing::warn!(site, folder = %folder.display(), "already ingested; not again");
+        if let Some(epoch) = earlier {
+            restore_orientations(store, site, folder, &hash, epoch, opts).await;
+        }
         // The folder says so itself, next to the copy that was ingested in `.done/`.
         let as_epoch = earlier.map_or(String::new(), |e| format!(" as epoch {e}"));
         let dest = move_to(folder, ".done")?;
@@ -171,11 +258,7 @@ pub async fn take_folder(
         )?;
         return Ok(dest);
     }
-    let done = free_destination(folder, ".done");
-    let done_rel = format!(
-        ".done/{}",
-        done.file_name().unwrap_or_default().to_string_lossy()
-    );
+    let (done, done_rel) = done_destination(folder);
     match process(store, site, folder, &hash, &done_rel, opts).await {
         Ok((ing, found)) => {
             save_state(store, site, &hash, ing.epoch, &found)

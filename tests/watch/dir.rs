@@ -269,7 +269,8 @@ async fn a_folder_taken_late_leaves_the_newer_orientations() {
 /// The daemon died after an epoch's commit, before the watcher recorded its state: taken again on
 /// restart, the folder is known (its hash was written in the epoch's transaction) and moves to
 /// `.done/` as already ingested. It is not named again against coordinates that now include its
-/// own epoch, which made another body, a 409 and a move to `.failed/`.
+/// own epoch, which made another body, a 409 and a move to `.failed/`. The stations'
+/// orientations, not saved before the crash, are saved then.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_folder_whose_epoch_committed_before_a_crash_is_not_failed() {
     use cliffwatch::service::ingest::{ingest_watched, WatchedFolder};
@@ -298,6 +299,16 @@ async fn a_folder_whose_epoch_committed_before_a_crash_is_not_failed() {
         "hash recorded with the epoch"
     );
 
+    let kept = || async {
+        sqlx::query_scalar::<_, i64>(
+            "SELECT epoch_id FROM watch_orientations WHERE site_id = 'kamo'",
+        )
+        .fetch_all(server.store.reader())
+        .await
+        .unwrap()
+    };
+    assert!(kept().await.is_empty(), "the crash left no orientation");
+
     let r = scan_once(&server.store, &opts).await;
     let dest = r[0].as_ref().unwrap();
     let err = std::fs::read_to_string(dest.join("error.txt")).unwrap_or_default();
@@ -306,6 +317,12 @@ async fn a_folder_whose_epoch_committed_before_a_crash_is_not_failed() {
     assert!(
         note.contains(&format!("as epoch {}", first.epoch)),
         "{note}"
+    );
+    // the stations' orientations, which the crash kept from being saved, are saved now
+    assert_eq!(
+        kept().await,
+        vec![first.epoch; epoch.images.len()],
+        "one orientation per station, from the folder's epoch"
     );
     let epochs: Vec<i64> = sqlx::query_scalar("SELECT id FROM epochs WHERE site_id = 'kamo'")
         .fetch_all(server.store.reader())
