@@ -259,7 +259,7 @@ pub async fn get_one(
 
 /// Parses a time bound of a query (RFC 3339 or a date) into the store's format. A bound beyond
 /// the years 0000–9999 in UTC (which the store's four-digit years cannot write) is moved to the
-/// nearest end of that range: it bounds nothing, as it would not in time order.
+/// nearest end of that range, where it excludes no stored time, as its true value would not.
 pub fn time_bound(s: &str, end_of_day: bool) -> Result<String, ApiError> {
     Ok(timestamp(
         parse_time_bound(s, end_of_day)?.clamp(stored_time_min(), stored_time_max()),
