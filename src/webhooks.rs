@@ -8,7 +8,7 @@
 //!   [`crate::analysis::AlertEvent`], per-endpoint level filtering, the Alertmanager webhook body (v4) and the
 //!   Alertmanager API v2 body (`POST /api/v2/alerts`); [`render`] gives the body of an endpoint's
 //!   [`PayloadFormat`].
-//! - [`retry`]: exponential backoff with jitter, `Retry-After`, attempt limit.
+//! - [`retry`]: exponential backoff with jitter, `Retry-After` as a floor, attempt limit.
 //! - [`deliver`]: one signed HTTP POST and the classification of its outcome (delivered, retry after,
 //!   gone on 410 → disable the endpoint, failed). The outbox worker (the service) stores the message id and
 //!   reuses it on every retry.
@@ -18,7 +18,7 @@ pub(crate) mod payload;
 pub(crate) mod retry;
 pub(crate) mod sign;
 
-pub use deliver::{deliver, DeliveryOutcome};
+pub use deliver::{client, deliver, loggable_origin, DeliveryOutcome};
 pub use payload::{
     accepts, alertmanager_alerts, alertmanager_body, message_id, render, AlertmanagerAlert,
     AlertmanagerBody, PayloadFormat, PostableAlert, WebhookData, WebhookEndpoint, WebhookPayload,

@@ -54,7 +54,7 @@ impl WorkerConfig {
 /// delivers them ([`deliver_to`]). An endpoint that hangs or refuses holds up only its own
 /// messages, never another endpoint's alarms. At shutdown the tasks finish the POST in hand.
 pub async fn run(store: Store, config: WorkerConfig, shutdown: Shutdown) {
-    let client = match reqwest::Client::builder().timeout(config.timeout).build() {
+    let client = match crate::webhooks::client(config.timeout) {
         Ok(c) => c,
         Err(e) => {
             tracing::error!(error = %e, "webhook client: worker not started");
@@ -254,7 +254,7 @@ async fn record(
     match label {
         // the first failure of a message is worth a line; its retries are not
         "retry" if a.attempts == 1 => tracing::warn!(
-            webhook = %d.webhook_id, url = %d.url, message = %d.outbox_id, reason,
+            webhook = %d.webhook_id, url = %crate::webhooks::loggable_origin(&d.url), message = %d.outbox_id, reason,
             "webhook delivery failed; retrying with backoff"
         ),
         "retry" => tracing::debug!(
@@ -262,7 +262,7 @@ async fn record(
             "webhook delivery failed again"
         ),
         "failed" => tracing::error!(
-            webhook = %d.webhook_id, url = %d.url, message = %d.outbox_id, attempts = a.attempts,
+            webhook = %d.webhook_id, url = %crate::webhooks::loggable_origin(&d.url), message = %d.outbox_id, attempts = a.attempts,
             reason, "webhook message given up: not delivered (GET /api/v1/webhooks counts it)"
         ),
         _ => {}
@@ -273,7 +273,7 @@ async fn record(
             "webhook attempt not recorded: its claim ran out and another node took it over");
     }
     if *outcome == DeliveryOutcome::Gone {
-        tracing::error!(webhook = %d.webhook_id, url = %d.url,
+        tracing::error!(webhook = %d.webhook_id, url = %crate::webhooks::loggable_origin(&d.url),
             "410 Gone: endpoint disabled, its pending messages given up");
         outbox::endpoint_gone(&mut tx, &d.webhook_id).await?;
     }

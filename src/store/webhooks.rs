@@ -200,8 +200,18 @@ pub async fn replace_configured(
             }
         }
     }
-    for (i, (id, _)) in existing.iter().enumerate() {
+    for (i, (id, url)) in existing.iter().enumerate() {
         if !kept[i] {
+            let pending: i64 = sqlx::query_scalar(
+                "SELECT COUNT(*) FROM webhook_deliveries WHERE webhook_id = $1 AND state = 'pending'",
+            )
+            .bind(id)
+            .fetch_one(&mut *db)
+            .await?;
+            if pending > 0 {
+                tracing::warn!(webhook = %id, url = %crate::webhooks::loggable_origin(url), pending,
+                    "webhook no longer configured: its undelivered messages are dropped");
+            }
             delete(&mut *db, id).await?;
         }
     }

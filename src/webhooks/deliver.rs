@@ -37,11 +37,46 @@ pub enum DeliveryOutcome {
     },
 }
 
-/// Classifies an HTTP status (and `Retry-After` header value) into an outcome.
-pub fn classify(status: u16, retry_after: Option<&str>, now: DateTime<Utc>) -> DeliveryOutcome {
+/// The HTTP client for deliveries: `timeout` per POST, and redirects not followed. A followed
+/// 301/302 turns the POST into a GET without the body, whose 2xx would count as delivered; a
+/// redirect also lets the receiver send the daemon to an address nobody configured.
+pub fn client(timeout: Duration) -> reqwest::Result<reqwest::Client> {
+    reqwest::Client::builder()
+        .timeout(timeout)
+        .redirect(reqwest::redirect::Policy::none())
+        .build()
+}
+
+/// What of a webhook URL may be logged: its scheme, host and port. The rest (user and
+/// password, path, query) often carries a capability token, such as a chat service's
+/// incoming-webhook path.
+pub fn loggable_origin(url: &str) -> String {
+    match url::Url::parse(url) {
+        Ok(u) => u.origin().ascii_serialization(),
+        Err(_) => "(unparsable URL)".into(),
+    }
+}
+
+/// Classifies an HTTP status (and the `Retry-After` and `Location` header values) into an
+/// outcome. A 3xx is retried with a reason naming where it pointed: the webhook's URL is to be
+/// configured as the final one.
+pub fn classify(
+    status: u16,
+    retry_after: Option<&str>,
+    location: Option<&str>,
+    now: DateTime<Utc>,
+) -> DeliveryOutcome {
     match status {
         200..=299 => DeliveryOutcome::Delivered { status },
         410 => DeliveryOutcome::Gone,
+        300..=399 => DeliveryOutcome::Retry {
+            status: Some(status),
+            retry_after: retry_after.and_then(|v| parse_retry_after(v, now)),
+            reason: format!(
+                "HTTP {status}: redirect to {} not followed; configure the webhook with the final URL",
+                location.unwrap_or("(no Location)")
+            ),
+        },
         _ => DeliveryOutcome::Retry {
             status: Some(status),
             retry_after: retry_after.and_then(|v| parse_retry_after(v, now)),
@@ -52,7 +87,7 @@ pub fn classify(status: u16, retry_after: Option<&str>, now: DateTime<Utc>) -> D
 
 /// POSTs `body` to `url` signed with `secret` as message `msg_id` (reuse it on every retry of one event),
 /// timestamped `now` (fresh per attempt, as Standard Webhooks expects), and classifies the outcome.
-/// The client's timeout applies (build it with one, e.g. 10 s).
+/// The client's timeout applies (build it with [`client`]).
 pub async fn deliver(
     client: &reqwest::Client,
     url: &str,
@@ -83,21 +118,28 @@ pub async fn deliver(
     match resp {
         Ok(r) => {
             let status = r.status().as_u16();
-            let ra = r
-                .headers()
-                .get("retry-after")
-                .and_then(|v| v.to_str().ok())
-                .map(str::to_string);
-            classify(status, ra.as_deref(), now)
+            let header = |name: &str| {
+                r.headers()
+                    .get(name)
+                    .and_then(|v| v.to_str().ok())
+                    .map(str::to_string)
+            };
+            classify(
+                status,
+                header("retry-after").as_deref(),
+                header("location").as_deref(),
+                now,
+            )
         }
+        // the error's text without the URL: the reason is stored and shown by the API
         Err(e) if e.is_builder() => DeliveryOutcome::Failed {
             status: None,
-            reason: e.to_string(),
+            reason: e.without_url().to_string(),
         },
         Err(e) => DeliveryOutcome::Retry {
             status: None,
             retry_after: None,
-            reason: e.to_string(),
+            reason: e.without_url().to_string(),
         },
     }
 }

@@ -1,5 +1,5 @@
 //! Retry policy: exponential backoff with "equal jitter" (delay uniform in [d/2, d] with
-//! d = min(cap, base·2^attempt)), `Retry-After` honoured (capped), a limit on attempts.
+//! d = min(cap, base·2^attempt)), `Retry-After` honoured as a floor (capped), a limit on attempts.
 
 use std::time::Duration;
 
@@ -78,7 +78,9 @@ pub fn backoff_delay<R: Rng + ?Sized>(policy: &RetryPolicy, attempt: u32, rng: &
 }
 
 /// When to retry after `attempts_made` failed attempts (≥ 1): `None` when the limit is reached. A server's
-/// `Retry-After` replaces the backoff (capped at `max_retry_after_seconds`).
+/// `Retry-After` (capped at `max_retry_after_seconds`) lengthens the backoff but never shortens it: a
+/// receiver answering `Retry-After: 0` or `1` on every attempt would otherwise use up all
+/// `max_attempts` within minutes and the message would be given up.
 pub fn next_retry<R: Rng + ?Sized>(
     policy: &RetryPolicy,
     attempts_made: u32,
@@ -88,11 +90,15 @@ pub fn next_retry<R: Rng + ?Sized>(
     if attempts_made >= policy.max_attempts {
         return None;
     }
+    let backoff = backoff_delay(policy, attempts_made.saturating_sub(1), rng);
     Some(match retry_after {
-        Some(ra) => ra.min(
-            Duration::try_from_secs_f64(policy.max_retry_after_seconds).unwrap_or(Duration::ZERO),
-        ),
-        None => backoff_delay(policy, attempts_made.saturating_sub(1), rng),
+        Some(ra) => ra
+            .min(
+                Duration::try_from_secs_f64(policy.max_retry_after_seconds)
+                    .unwrap_or(Duration::ZERO),
+            )
+            .max(backoff),
+        None => backoff,
     })
 }
 

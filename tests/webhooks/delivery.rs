@@ -215,6 +215,24 @@ fn backoff_stays_within_its_bounds() {
         next_retry(&policy, 3, Some(Duration::from_secs(99_999)), &mut rng),
         Some(Duration::from_secs(3600))
     );
+    // A shorter Retry-After never shortens the backoff (retry number 2: d = 8 s).
+    for ra in [0, 1, 3] {
+        let wait = next_retry(&policy, 3, Some(Duration::from_secs(ra)), &mut rng)
+            .expect("within the limit")
+            .as_secs_f64();
+        assert!((4.0..=8.0).contains(&wait), "Retry-After {ra}: {wait} s");
+    }
+    // A receiver answering `Retry-After: 1` to every attempt: under the default policy the
+    // message is still retried for at least 45 h before it is given up.
+    let default = RetryPolicy::default();
+    let mut total = 0.0;
+    let mut made = 1;
+    while let Some(wait) = next_retry(&default, made, Some(Duration::from_secs(1)), &mut rng) {
+        total += wait.as_secs_f64();
+        made += 1;
+    }
+    assert_eq!(made, default.max_attempts);
+    assert!(total >= 45.0 * 3600.0, "given up after {total} s");
     let now = Utc
         .with_ymd_and_hms(2015, 10, 21, 7, 28, 0)
         .single()
@@ -302,10 +320,7 @@ async fn start(script: Script) -> (String, Receiver) {
 #[tokio::test]
 async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
     let (url, rx) = start(vec![(503, None), (429, Some("1")), (500, None)]).await;
-    let client = reqwest::Client::builder()
-        .timeout(Duration::from_secs(5))
-        .build()
-        .expect("client");
+    let client = cliffwatch::webhooks::client(Duration::from_secs(5)).expect("client");
     let ev = event(AlertEventType::Raised, AlertLevel::Warning);
     let body = serde_json::to_vec(&WebhookPayload::from_event(&ev)).expect("body");
     let id = message_id(&ev);
@@ -495,4 +510,57 @@ fn each_format_renders_its_body() {
         serde_json::to_value(alertmanager_alerts(&ev, "")).unwrap()
     );
     assert_eq!(v2.as_array().map(Vec::len), Some(3));
+}
+
+/// A receiver answering 301 to the POST: the redirect is not followed (a followed 301 turns the
+/// POST into a body-less GET whose 200 would count as delivered); the attempt is retried and its
+/// reason names where the redirect pointed.
+#[tokio::test]
+async fn a_redirect_is_not_followed_and_is_retried() {
+    let followed = Arc::new(Mutex::new(0usize));
+    let count = followed.clone();
+    let app = Router::new()
+        .route(
+            "/old",
+            post(|| async { (StatusCode::MOVED_PERMANENTLY, [("location", "/new")]) }),
+        )
+        .route(
+            "/new",
+            axum::routing::any(move || {
+                *count.lock().expect("lock") += 1;
+                async { StatusCode::OK }
+            }),
+        );
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+        .await
+        .expect("bind");
+    let addr = listener.local_addr().expect("addr");
+    tokio::spawn(async move {
+        let _ = axum::serve(listener, app).await;
+    });
+    let client = cliffwatch::webhooks::client(Duration::from_secs(5)).expect("client");
+    let ev = event(AlertEventType::Raised, AlertLevel::Alarm);
+    let body = serde_json::to_vec(&WebhookPayload::from_event(&ev)).expect("body");
+    let out = deliver(
+        &client,
+        &format!("http://{addr}/old"),
+        SECRET,
+        &message_id(&ev),
+        &body,
+        Utc::now(),
+    )
+    .await;
+    match out {
+        DeliveryOutcome::Retry {
+            status: Some(301),
+            reason,
+            ..
+        } => assert!(reason.contains("redirect to /new not followed"), "{reason}"),
+        other => panic!("a 301 is retried, not {other:?}"),
+    }
+    assert_eq!(
+        *followed.lock().expect("lock"),
+        0,
+        "the redirect was followed"
+    );
 }
