@@ -36,8 +36,10 @@ impl Access {
     }
 }
 
-/// The role a request needs: reads `read`; uploads and acknowledgements `upload`; every other
-/// change `admin`. `None`: open (liveness, readiness, the dashboard's assets and sign-in).
+/// The role a request needs: reads `read`, except the webhook endpoints' list, `admin` (their
+/// URLs are often capabilities, such as a chat service's incoming-webhook URL); uploads and
+/// acknowledgements `upload`; every other change `admin`. `None`: open (liveness, readiness,
+/// the dashboard's assets and sign-in).
 pub fn required_role(method: &Method, path: &str) -> Option<Role> {
     if path == "/healthz"
         || path == "/readyz"
@@ -46,6 +48,9 @@ pub fn required_role(method: &Method, path: &str) -> Option<Role> {
         || path.starts_with("/assets/")
     {
         return None;
+    }
+    if path == "/api/v1/webhooks" || path.starts_with("/api/v1/webhooks/") {
+        return Some(Role::Admin);
     }
     if method == Method::GET || method == Method::HEAD || method == Method::OPTIONS {
         return Some(Role::Read);
@@ -91,6 +96,44 @@ fn is_cross_site_change(req: &Request, public_url: Option<&str>) -> bool {
     let public = public_url.and_then(origin_of);
     let same = host.as_deref() == Some(origin_host) || public.as_deref() == Some(origin.as_str());
     origin == "null" || !same
+}
+
+/// Whether the request's `Host` names this machine's loopback (`localhost`, `*.localhost`, a
+/// loopback address) or `public_url`'s host; a request without `Host` (not a browser) passes.
+/// Without tokens the server listens on loopback only, and this check stops DNS rebinding: a page
+/// of `attacker.example` whose name is re-pointed at 127.0.0.1 sends same-origin requests with
+/// `Host: attacker.example`, which the Origin check alone would let through.
+fn is_local_host(req: &Request, public_url: Option<&str>) -> bool {
+    let Some(host) = req.headers().get(header::HOST) else {
+        return true;
+    };
+    let Ok(host) = host.to_str() else {
+        return false;
+    };
+    let name = host_name(host).to_ascii_lowercase();
+    let public = public_url
+        .and_then(|u| url::Url::parse(u).ok())
+        .and_then(|u| {
+            u.host_str()
+                .map(|h| h.trim_matches(['[', ']']).to_ascii_lowercase())
+        });
+    name == "localhost"
+        || name.ends_with(".localhost")
+        || name
+            .parse::<std::net::IpAddr>()
+            .is_ok_and(|ip| ip.is_loopback())
+        || public.is_some_and(|p| p == name)
+}
+
+/// The name in a `Host` header value: without its port, and an IPv6 address without brackets.
+fn host_name(host: &str) -> &str {
+    if let Some(rest) = host.strip_prefix('[') {
+        return rest.split(']').next().unwrap_or("");
+    }
+    match host.rsplit_once(':') {
+        Some((name, port)) if port.bytes().all(|b| b.is_ascii_digit()) => name,
+        _ => host,
+    }
 }
 
 /// The origin (`scheme://host[:port]`, lower case, default port left out) of a URL, as browsers
@@ -164,6 +207,15 @@ pub async fn authorize(
     }
     let tokens = &state.config.tokens;
     if tokens.is_empty() {
+        let open = required_role(req.method(), req.uri().path()).is_none();
+        if !open && !is_local_host(&req, state.config.public_url.as_deref()) {
+            return Err(ApiError::new(
+                StatusCode::FORBIDDEN,
+                "forbidden",
+                "without tokens the server answers only requests addressed to a loopback name \
+                 (localhost, 127.0.0.1, [::1]) or to public_url's host (Host header)",
+            ));
+        }
         req.extensions_mut().insert(Access::default());
         return Ok(next.run(req).await);
     }

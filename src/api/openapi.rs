@@ -97,17 +97,29 @@ impl utoipa::Modify for CommonErrors {
                         )
                         .into()
                     });
-                    // every role reads, and only changes are checked for their origin
+                    // only changes are checked for their origin
+                    let mut forbidden = vec![];
                     if role > crate::config::Role::Read {
-                        let forbidden = format!(
-                            "the token's role is below {}, or a browser sent the change from \
-                             another site's page (Origin / Sec-Fetch-Site)",
+                        forbidden.push(format!(
+                            "the token's role is below {}",
                             format!("{role:?}").to_lowercase()
-                        );
-                        responses
-                            .entry("403".into())
-                            .or_insert_with(|| error(&forbidden).into());
+                        ));
                     }
+                    if method != Method::GET {
+                        forbidden.push(
+                            "a browser sent the change from another site's page (Origin / \
+                             Sec-Fetch-Site)"
+                                .into(),
+                        );
+                    }
+                    forbidden.push(
+                        "the server has no tokens and the Host header names neither a loopback \
+                         name nor public_url's host"
+                            .into(),
+                    );
+                    responses
+                        .entry("403".into())
+                        .or_insert_with(|| error(&forbidden.join("; or ")).into());
                 }
                 for p in op.parameters.iter_mut().flatten() {
                     match p.name.as_str() {

@@ -490,7 +490,8 @@ async fn the_document_lists_the_answers_of_authorization() {
                 "{method} {path} lists 401"
             );
             tried += 1;
-            if m != reqwest::Method::GET {
+            // every role reads, except the webhooks' list (their URLs are capabilities)
+            if m != reqwest::Method::GET || path == "/api/v1/webhooks" {
                 let r = s
                     .client
                     .request(m, &url)
@@ -614,6 +615,21 @@ async fn tokens_and_roles() {
         .await
         .unwrap();
     assert_eq!(r.status(), 200);
+    // The webhooks' list shows their URLs, often capabilities: admin only.
+    for (token, status) in [("r", 403), ("u", 403), ("a", 200)] {
+        let r = s
+            .client
+            .get(s.url("/api/v1/webhooks"))
+            .bearer_auth(token.repeat(20))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(
+            r.status(),
+            status,
+            "GET /api/v1/webhooks with the {token} token"
+        );
+    }
     assert_eq!(
         s.client
             .get(s.url("/healthz"))
@@ -623,6 +639,76 @@ async fn tokens_and_roles() {
             .status(),
         200
     );
+    s.stop().await;
+}
+
+/// Without tokens, a request is served only when its `Host` names the loopback or `public_url`'s
+/// host: a page whose DNS name was re-pointed at 127.0.0.1 (DNS rebinding) sends same-origin
+/// requests with its own name as `Host`, and must get nothing, neither a read nor a change.
+#[tokio::test]
+async fn without_tokens_only_local_host_names_are_served() {
+    let s = TestServer::start(|c| c.public_url = Some("https://cliff.example.org/".into())).await;
+    let port = s.base.rsplit(':').next().unwrap().to_string();
+    let hook = json!({"url": "https://attacker.example/x", "secret": format!("whsec_{}", "QUJD".repeat(8))});
+    let before = s.snapshot().await;
+    for host in [
+        "rebind.attacker.example",
+        "127.0.0.1.attacker.example",
+        "10.0.0.1",
+    ] {
+        let host = format!("{host}:{port}");
+        let r = s
+            .client
+            .get(s.url("/api/v1/sites"))
+            .header("host", &host)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 403, "GET with Host {host}");
+        let e: Value = r.json().await.unwrap();
+        assert!(
+            e["error"]["message"].as_str().unwrap().contains("loopback"),
+            "{e}"
+        );
+        let r = s
+            .client
+            .post(s.url("/api/v1/webhooks"))
+            .header("host", &host)
+            .header("origin", format!("http://{host}"))
+            .header("sec-fetch-site", "same-origin")
+            .json(&hook)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 403, "POST with Host {host}");
+        // liveness and the dashboard's assets expose nothing and stay open
+        let r = s
+            .client
+            .get(s.url("/healthz"))
+            .header("host", &host)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200, "/healthz with Host {host}");
+    }
+    assert_eq!(s.snapshot().await, before, "nothing stored");
+    for host in [
+        format!("localhost:{port}"),
+        format!("127.0.0.1:{port}"),
+        format!("127.1.2.3:{port}"),
+        format!("[::1]:{port}"),
+        "cliff.example.org".to_string(),
+        "CLIFF.example.org:443".to_string(),
+    ] {
+        let r = s
+            .client
+            .get(s.url("/api/v1/sites"))
+            .header("host", &host)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200, "GET with Host {host}");
+    }
     s.stop().await;
 }
 
