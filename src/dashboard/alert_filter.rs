@@ -64,6 +64,12 @@ impl AlertFilter {
         })
     }
 
+    /// Whether the filter shows the alerts not resolved (the default), which the store reads
+    /// apart ([`crate::store::alerts::list_active`]).
+    pub fn is_active(&self) -> bool {
+        self.state == "active"
+    }
+
     /// The state the store can select by (`None`: all states, filtered here).
     pub fn store_state(&self) -> Option<AlertStatus> {
         self.state.parse().ok()

@@ -59,7 +59,11 @@ pub async fn site(
             stable: roles.get(c.point.as_str()) == Some(&PointRole::Stable),
         })
         .collect();
-    let read = alerts::list(db, Some(&site.id), filter.store_state(), None, ALERTS_READ).await?;
+    let read = if filter.is_active() {
+        alerts::list_active(db, &site.id, ALERTS_READ).await?
+    } else {
+        alerts::list(db, Some(&site.id), filter.store_state(), None, ALERTS_READ).await?
+    };
     let truncated = read.len() as i64 == ALERTS_READ;
     let shown: Vec<alerts::Alert> = read
         .into_iter()
@@ -114,8 +118,8 @@ fn alerts_section(
                     thead { tr { th { "level" } th { "subject" } th { "rule" } th { "value" } th.wide { "epoch" } th { "state" } th { "acknowledge" } } }
                     tbody { @for a in shown { (alert_row(a, v, tz)) } }
                 }
-                @if truncated { p.note { "Only the newest " (ALERTS_READ) " alerts of this state were searched." } }
             }
+            @if truncated { p.note { "Only the newest " (ALERTS_READ) " alerts of this state were searched: older ones may match." } }
         }
     }
 }

@@ -9,7 +9,6 @@ use maud::html;
 use super::layout::{level_badge, page, seg};
 use super::local_time::when;
 use super::{viewer, PageError};
-use crate::analysis::AlertStatus;
 use crate::api::auth::Access;
 use crate::api::AppState;
 use crate::store::{alerts, epochs, points, sites};
@@ -24,10 +23,9 @@ pub async fn sites(
     let now = chrono::Utc::now();
     let mut rows = vec![];
     for s in &all {
-        let open = alerts::list(db, Some(&s.id), None, None, 10_000).await?;
-        let level = open
+        let level = alerts::list_active(db, &s.id, 10_000)
+            .await?
             .iter()
-            .filter(|(_, a)| a.state != AlertStatus::Resolved)
             .map(|(_, a)| a.level)
             .max();
         let last = epochs::list(db, &s.id, None, 1).await?.into_iter().next();

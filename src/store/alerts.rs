@@ -118,6 +118,26 @@ pub async fn list(
     Ok(raw.into_iter().zip(finish(rows)).collect())
 }
 
+/// The newest `limit` alerts of `site` that are not resolved (open or acknowledged), newest
+/// first, with their raw `raised_at`: however many resolved alerts are newer, an open alarm is
+/// among them.
+pub async fn list_active(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    limit: i64,
+) -> Result<Vec<(String, Alert)>, StoreError> {
+    let rows: Vec<Alert> = sqlx::query_as(&format!(
+        "SELECT {COLUMNS} FROM alerts WHERE site_id = $1 AND state <> 'resolved' \
+         ORDER BY raised_at DESC, id DESC LIMIT $2"
+    ))
+    .bind(site)
+    .bind(limit)
+    .fetch_all(db)
+    .await?;
+    let raw: Vec<String> = rows.iter().map(|a| a.raised_at.clone()).collect();
+    Ok(raw.into_iter().zip(finish(rows)).collect())
+}
+
 /// Whether an alert with id `id` was ever stored (open, acknowledged or resolved).
 pub async fn exists(db: impl AnyExecutor<'_>, id: &str) -> Result<bool, StoreError> {
     let found: Option<i64> = sqlx::query_scalar("SELECT 1 FROM alerts WHERE id = $1")

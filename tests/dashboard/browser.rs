@@ -230,6 +230,11 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
         .script("return document.querySelectorAll('.plots .uplot canvas').length")
         .await;
     assert!(canvases.as_u64().unwrap() >= 4, "{canvases} canvases");
+    // Time reads in UTC on the plots too, as everywhere on the dashboard.
+    let x_label = driver
+        .script("return document.querySelector('.plots .u-legend .u-series .u-label').textContent")
+        .await;
+    assert_eq!(x_label, json!("time (UTC)"));
     let forecast = driver
         .script("return document.querySelector('.forecast').textContent")
         .await;

@@ -820,3 +820,48 @@ async fn the_forecast_reads_in_utc_and_the_site_zone() {
     );
     s.stop().await;
 }
+
+/// An open alarm raised long ago stays on the site page (and sets the sites page's badge)
+/// however many alerts were raised and resolved since: the page once read the newest 500 alerts
+/// of every state and then dropped the resolved ones, and showed "No alert matches."
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_old_open_alarm_is_shown_under_many_newer_resolved_alerts() {
+    let s = TestServer::start(|_| {}).await;
+    s.create_site("busy").await;
+    let mut tx = s.store.begin_write().await.unwrap();
+    for k in 0..=600i64 {
+        let (id, level, state) = if k == 0 {
+            ("old-alarm".to_string(), "alarm", "open")
+        } else {
+            (format!("noise-{k}"), "watch", "resolved")
+        };
+        let t = format!("2026-01-{:02}T{:02}:00:00.000000Z", 1 + k / 24, k % 24);
+        sqlx::query(
+            "INSERT INTO alerts (id, site_id, level, rule, message, state, raised_at, updated_at) \
+             VALUES ($1, 'busy', $2, 'displacement_mm', 'm', $3, $4, $5)",
+        )
+        .bind(&id)
+        .bind(level)
+        .bind(state)
+        .bind(&t)
+        .bind(&t)
+        .execute(&mut *tx)
+        .await
+        .unwrap();
+    }
+    tx.commit().await.unwrap();
+    let (status, page) = html(&s, "/sites/busy").await;
+    assert_eq!(status, 200);
+    assert!(
+        page.contains("id=\"alert-old-alarm\""),
+        "the open alarm is not shown"
+    );
+    assert!(!page.contains("No alert matches."));
+    let (_, sites) = html(&s, "/").await;
+    let row = sites
+        .split("<tr>")
+        .find(|r| r.contains("/sites/busy\""))
+        .expect("the site's row");
+    assert!(row.contains("badge alarm"), "badge: {row}");
+    s.stop().await;
+}

@@ -68,7 +68,9 @@
       width: Math.max(240, el.clientWidth || 800),
       height: 240,
       scales: { x: { time: true } },
-      series: [{}].concat(series.map(function (s) {
+      // axis and legend in UTC, as every other time of the dashboard (not the browser's zone)
+      tzDate: function (ts) { return uPlot.tzDate(new Date(ts * 1e3), "Etc/UTC"); },
+      series: [{ label: "time (UTC)" }].concat(series.map(function (s) {
         return { label: s.label, stroke: s.stroke, width: s.width, dash: s.dash, spanGaps: true };
       })),
       plugins: [markers(events)]
