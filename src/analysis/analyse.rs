@@ -112,7 +112,10 @@ fn samples_of(
         .map(|r| Sample {
             t_days: days_between(now, r.observed_at),
             d_mm: r.d_mm,
-            sigma_mm: r.sigma_mm,
+            // The reference epoch's own row (0 ± 0: the datum, exact by definition) weighs as
+            // the current epoch's sample does: a σ of 0 made the fits' normal equations
+            // singular in rounding, and every raw velocity null until it left the window.
+            sigma_mm: r.sigma_mm.max(1e-6),
         })
         .collect()
 }
@@ -605,6 +608,7 @@ pub fn analyse_epoch(
         same_epoch,
         reference_t_days: epoch_wide.reference_t_days,
         config,
+        critical3: epoch_wide.critical3,
         z_vel: epoch_wide.z_vel,
         z_acc: epoch_wide.z_acc,
         joint_of: &joint_of,

@@ -708,6 +708,7 @@ fn either_source_fires_on_raw_or_filtered_and_clears_on_both() {
 /// `point` null, the group and its points; the block's own points are not alerted by it.
 #[test]
 fn block_rules_raise_group_alerts() {
+    use cliffwatch::analysis::block::{BlockModel, BlockMotion};
     use cliffwatch::analysis::{BlockAnalysis, Metric, Reading, Readings, Source};
     let rule: AlertRule = serde_json::from_str(
         r#"{"level": "warning", "metric": "displacement_mm", "above": 10, "group": "B1"}"#,
@@ -725,11 +726,22 @@ fn block_rules_raise_group_alerts() {
             significant: true,
         },
     );
+    let motion = BlockMotion {
+        model: BlockModel::Translation,
+        points: vec!["T1".into(), "T2".into()],
+        translation_mm: [12.0, 0.0, 0.0],
+        covariance_mm2: [[0.04, 0.0, 0.0], [0.0, 0.04, 0.0], [0.0, 0.0, 0.04]],
+        rotation_mrad: None,
+        sigma_rotation_mrad: None,
+        test_statistic: 1.0,
+        redundancy: 3,
+        rigid: true,
+    };
     a.blocks.push(BlockAnalysis {
         group: "B1".into(),
         points: vec!["T1".into(), "T2".into()],
         readings,
-        motion: None,
+        motion: Some(motion),
         failure: None,
         filtered: None,
         filtered_failure: None,
@@ -742,6 +754,24 @@ fn block_rules_raise_group_alerts() {
     assert_eq!(al.points, vec!["T1".to_string(), "T2".to_string()]);
     assert_eq!(al.value, Some(12.0));
     assert!(al.id.contains("group-B1"), "{}", al.id);
+    // Next epoch the block has no motion (too few members measured: fallen or hidden): its
+    // alert stays as it was, nothing resolves.
+    let mut b = analysis_sigma(3, 20.0, 0.1, true, Some("B1"), &[]);
+    b.blocks.push(BlockAnalysis {
+        group: "B1".into(),
+        points: vec!["T1".into(), "T2".into()],
+        readings: Readings::default(),
+        motion: None,
+        failure: None,
+        filtered: None,
+        filtered_failure: None,
+    });
+    let (kept, ev) = evaluate_alerts(&cfg, &st, &b, b.observed_at);
+    assert!(
+        ev.is_empty(),
+        "a block without a motion changed its alert: {ev:?}"
+    );
+    assert_eq!(kept, st);
     // Resolving it by hand resets the group's rule memory.
     let (st, _) = resolve(&st, &al.id, "ops", t0()).expect("resolve");
     assert!(st.rules.is_empty(), "{:?}", st.rules);

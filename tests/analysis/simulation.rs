@@ -6,8 +6,8 @@ use analysis_common as common;
 
 use cliffwatch::analysis::stats::beta_inc;
 use cliffwatch::analysis::{
-    AlertConfig, AlertEventType, AlertKind, AlertLevel, AlertRule, AnalysisConfig, DatumMethod,
-    Metric, PointRole,
+    analyse_epoch, AlertConfig, AlertEventType, AlertKind, AlertLevel, AlertRule, AnalysisConfig,
+    DatumMethod, History, Metric, PointRole,
 };
 use cliffwatch::simulate::monitoring::MonitoringScenario;
 
@@ -555,6 +555,47 @@ fn velocity_and_forecast_do_not_depend_on_where_the_reference_lies() {
             if back == 1 {
                 assert!(!displacement(&moved));
             }
+        }
+    }
+}
+
+/// The reference epoch analysed against itself enters the history as 0 ± 0 (the service stores
+/// that row). The first epoch after it still gets a raw velocity, the line through the
+/// reference's zero: d / Δt. (A σ of 0 once made every raw fit singular until the row left the
+/// window.)
+#[test]
+fn the_reference_row_leaves_raw_velocities_defined() {
+    let config = AnalysisConfig::default();
+    for seed in 1..=3 {
+        let series = MonitoringScenario {
+            seed,
+            ..Default::default()
+        }
+        .generate();
+        let reference = &series.epochs[0].coordinates;
+        let mut history = History::new();
+        let own = analyse_epoch(reference, reference, &series.points, &history, &config)
+            .expect("the reference against itself");
+        for r in own.records() {
+            assert_eq!(r.d_mm, 0.0, "{}", r.point);
+            history.entry(r.point.clone()).or_default().push(r);
+        }
+        let first = &series.epochs[1].coordinates;
+        let a =
+            analyse_epoch(reference, first, &series.points, &history, &config).expect("analysis");
+        let dt_days = (a.observed_at - reference.observed_at).num_seconds() as f64 / 86_400.0;
+        assert!(!a.points.is_empty());
+        for p in &a.points {
+            let r = &p.record;
+            let v = r
+                .velocity_mm_per_day
+                .unwrap_or_else(|| panic!("seed {seed} {}: no raw velocity", r.point));
+            let want = r.d_mm / dt_days;
+            assert!(
+                (v - want).abs() <= 1e-3 * want.abs() + 1e-9,
+                "seed {seed} {}: velocity {v} against d/Δt {want}",
+                r.point
+            );
         }
     }
 }

@@ -111,7 +111,7 @@ fn evaluate_subject(
 
 /// Evaluates the rules against one epoch's analysis: returns the new state and the events (in order).
 ///
-/// Points absent from the analysis keep their state. An open `campaign_overdue` resolves (an epoch
+/// Points absent from the analysis, and blocks without a motion, keep their state. An open `campaign_overdue` resolves (an epoch
 /// arrived); `reference_unstable` is raised when the congruence test excludes stable points (its `points`
 /// grow with later exclusions) and stays open until resolved by hand ([`super::resolve`]). Invalid rules (see [`AlertRule::validate`]) never
 /// trigger.
@@ -188,7 +188,10 @@ fn evaluate_rules(
             events,
         );
     }
-    for b in &analysis.blocks {
+    // A block without a motion this epoch (too few members measured: fallen, or hidden by
+    // dust) keeps its state, as an absent point does: its alarm must not resolve for want of
+    // a reading.
+    for b in analysis.blocks.iter().filter(|b| b.motion.is_some()) {
         let applicable: Vec<&AlertRule> = block_rules
             .iter()
             .chain(point_rules.iter())
