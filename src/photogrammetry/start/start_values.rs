@@ -379,20 +379,35 @@ pub fn start_values(
             seen_by[*p].push((i, k));
         }
     }
+    let ray = |i: usize, k: usize| {
+        let xy = images[i].observations[k].1;
+        let d = rotations[i].transpose() * Vector3::new(xy[0], xy[1], -images[i].c);
+        (centers[i], d.normalize())
+    };
     let mut points = Vec::with_capacity(known.len());
     for (p, k) in known.iter().enumerate() {
+        let kept = |ik: &&(usize, usize)| suspects.binary_search(ik).is_err();
         if let Some(k) = k {
+            // A known point that misfit nearly every resection (a target moved since its
+            // coordinates were taken) would start with fewer than two observations, and its
+            // normal block would be empty: its known coordinates are the outlier, not its
+            // observations. It starts from the intersection of all its rays, observations active.
+            let seen = seen_by[p].len();
+            if seen >= 2 && seen_by[p].iter().filter(kept).count() < 2 {
+                let all: Vec<_> = seen_by[p].iter().map(|&(i, k)| ray(i, k)).collect();
+                if let Some(x) = intersect_rays(&all) {
+                    suspects.retain(|ik| !seen_by[p].contains(ik));
+                    points.push(x);
+                    continue;
+                }
+            }
             points.push(*k);
             continue;
         }
         let rays: Vec<_> = seen_by[p]
             .iter()
-            .filter(|ik| suspects.binary_search(ik).is_err())
-            .map(|&(i, k)| {
-                let xy = images[i].observations[k].1;
-                let d = rotations[i].transpose() * Vector3::new(xy[0], xy[1], -images[i].c);
-                (centers[i], d.normalize())
-            })
+            .filter(kept)
+            .map(|&(i, k)| ray(i, k))
             .collect();
         points.push(intersect_rays(&rays).unwrap_or_else(Vector3::zeros));
     }
