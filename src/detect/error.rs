@@ -37,4 +37,15 @@ pub enum DetectError {
     /// An option is out of range.
     #[error("invalid detection option: {0}")]
     InvalidOptions(String),
+    /// The image holds far more bright (or dark) blobs than a photograph of targets can: noise,
+    /// texture or a crafted file. Refused before the work grows with their number.
+    #[error("{found} {what} above the threshold, more than the {limit} a target image can hold (noise, texture or a wrong polarity)")]
+    TooManyBlobs {
+        /// What was counted: "runs" (row segments) or "blobs" (candidate targets).
+        what: &'static str,
+        /// How many were found (at least).
+        found: usize,
+        /// The limit.
+        limit: usize,
+    },
 }

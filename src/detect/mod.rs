@@ -86,6 +86,15 @@ fn validate(o: &DetectOptions) -> Result<(), DetectError> {
     }
 }
 
+/// Most row segments above the threshold an image may hold (a 6000 × 4000 photograph of 100
+/// targets with clutter holds a few thousand): beyond, the connected components' memory would
+/// grow to gigabytes on a crafted image.
+pub const MAX_RUNS: usize = 2_000_000;
+
+/// Most candidate blobs an image may hold: identification compares detections pairwise, so a
+/// noise image of a million "targets" would hold the watcher for hours.
+pub const MAX_BLOBS: usize = 20_000;
+
 /// Detects and centres circular targets in a grey image.
 pub fn detect(img: &GreyImage, opts: &DetectOptions) -> Result<Detections, DetectError> {
     validate(opts)?;
@@ -93,6 +102,13 @@ pub fn detect(img: &GreyImage, opts: &DetectOptions) -> Result<Detections, Detec
     let bg = threshold::estimate_background(img, opts.background_cell_px);
     let runs = threshold::threshold_runs(img, &bg, opts.polarity, opts.threshold_sigma * bg.noise);
     let t1 = Instant::now();
+    if runs.len() > MAX_RUNS {
+        return Err(DetectError::TooManyBlobs {
+            what: "runs",
+            found: runs.len(),
+            limit: MAX_RUNS,
+        });
+    }
     let comps = components::components(&runs);
     let max_area = std::f64::consts::FRAC_PI_4 * (opts.max_diameter_px + 4.0).powi(2) * 1.2;
     let cands: Vec<_> = comps
@@ -105,6 +121,13 @@ pub fn detect(img: &GreyImage, opts: &DetectOptions) -> Result<Detections, Detec
                     || (c.fill() >= opts.fill_range.0 && c.fill() <= opts.fill_range.1))
         })
         .collect();
+    if cands.len() > MAX_BLOBS {
+        return Err(DetectError::TooManyBlobs {
+            what: "blobs",
+            found: cands.len(),
+            limit: MAX_BLOBS,
+        });
+    }
     let t2 = Instant::now();
     let mut targets: Vec<Target> = cands
         .par_iter()

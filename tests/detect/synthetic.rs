@@ -355,3 +355,33 @@ fn glint_touching_a_target_does_not_pull_its_centre() {
         assert!(r <= bound, "{d} px with touching glints: radial RMS {r}");
     }
 }
+
+/// An image of a dense grid of bright specks (noise, texture or a crafted file) is refused with
+/// a typed error before the work and memory grow with the specks' number; a photograph of
+/// targets stays far below the limits.
+#[test]
+fn an_image_of_countless_specks_is_refused() {
+    let opts = DetectOptions::default();
+    // 2 × 2 px squares on a 6 px grid: ~110 000 blobs, ~220 000 runs in 2000 × 2000 px.
+    let (w, h) = (2000u32, 2000u32);
+    let data: Vec<u16> = (0..h)
+        .flat_map(|r| (0..w).map(move |c| if r % 6 < 2 && c % 6 < 2 { 255 } else { 10 }))
+        .collect();
+    let img = GreyImage::new(w, h, 8, data).expect("image");
+    match detect(&img, &opts) {
+        Err(DetectError::TooManyBlobs { found, limit, .. }) => {
+            assert!(found > limit, "{found} ≤ {limit}")
+        }
+        other => panic!("countless specks: {:?}", other.map(|d| d.targets.len())),
+    }
+    // single bright pixels on every other row: over the limit of runs
+    let (w, h) = (8000u32, 2200u32);
+    let data: Vec<u16> = (0..h)
+        .flat_map(|r| (0..w).map(move |c| if r % 2 == 1 && c % 4 == 2 { 255 } else { 10 }))
+        .collect();
+    let img = GreyImage::new(w, h, 8, data).expect("image");
+    assert!(matches!(
+        detect(&img, &opts),
+        Err(DetectError::TooManyBlobs { what: "runs", .. })
+    ));
+}
