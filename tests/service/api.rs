@@ -650,6 +650,7 @@ async fn without_tokens_only_local_host_names_are_served() {
     let s = TestServer::start(|c| c.public_url = Some("https://cliff.example.org/".into())).await;
     let port = s.base.rsplit(':').next().unwrap().to_string();
     let hook = json!({"url": "https://attacker.example/x", "secret": format!("whsec_{}", "QUJD".repeat(8))});
+    let get = |path: &str, host: &str| s.client.get(s.url(path)).header("host", host).send();
     let before = s.snapshot().await;
     for host in [
         "rebind.attacker.example",
@@ -657,13 +658,7 @@ async fn without_tokens_only_local_host_names_are_served() {
         "10.0.0.1",
     ] {
         let host = format!("{host}:{port}");
-        let r = s
-            .client
-            .get(s.url("/api/v1/sites"))
-            .header("host", &host)
-            .send()
-            .await
-            .unwrap();
+        let r = get("/api/v1/sites", &host).await.unwrap();
         assert_eq!(r.status(), 403, "GET with Host {host}");
         let e: Value = r.json().await.unwrap();
         assert!(
@@ -682,13 +677,7 @@ async fn without_tokens_only_local_host_names_are_served() {
             .unwrap();
         assert_eq!(r.status(), 403, "POST with Host {host}");
         // liveness and the dashboard's assets expose nothing and stay open
-        let r = s
-            .client
-            .get(s.url("/healthz"))
-            .header("host", &host)
-            .send()
-            .await
-            .unwrap();
+        let r = get("/healthz", &host).await.unwrap();
         assert_eq!(r.status(), 200, "/healthz with Host {host}");
     }
     assert_eq!(s.snapshot().await, before, "nothing stored");
@@ -700,13 +689,7 @@ async fn without_tokens_only_local_host_names_are_served() {
         "cliff.example.org".to_string(),
         "CLIFF.example.org:443".to_string(),
     ] {
-        let r = s
-            .client
-            .get(s.url("/api/v1/sites"))
-            .header("host", &host)
-            .send()
-            .await
-            .unwrap();
+        let r = get("/api/v1/sites", &host).await.unwrap();
         assert_eq!(r.status(), 200, "GET with Host {host}");
     }
     s.stop().await;

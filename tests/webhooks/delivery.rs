@@ -307,6 +307,11 @@ async fn start(script: Script) -> (String, Receiver) {
     let app = Router::new()
         .route("/hook", post(hook))
         .with_state(r.clone());
+    (format!("http://{}/hook", serve(app).await), r)
+}
+
+/// Serves `app` on a free loopback port; its address.
+async fn serve(app: Router) -> std::net::SocketAddr {
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
         .await
         .expect("bind");
@@ -314,7 +319,7 @@ async fn start(script: Script) -> (String, Receiver) {
     tokio::spawn(async move {
         let _ = axum::serve(listener, app).await;
     });
-    (format!("http://{addr}/hook"), r)
+    addr
 }
 
 #[tokio::test]
@@ -531,13 +536,7 @@ async fn a_redirect_is_not_followed_and_is_retried() {
                 async { StatusCode::OK }
             }),
         );
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
-        .await
-        .expect("bind");
-    let addr = listener.local_addr().expect("addr");
-    tokio::spawn(async move {
-        let _ = axum::serve(listener, app).await;
-    });
+    let addr = serve(app).await;
     let client = cliffwatch::webhooks::client(Duration::from_secs(5)).expect("client");
     let ev = event(AlertEventType::Raised, AlertLevel::Alarm);
     let body = serde_json::to_vec(&WebhookPayload::from_event(&ev)).expect("body");
