@@ -80,7 +80,7 @@ pub async fn delete(
     ApiPath(id): ApiPath<String>,
 ) -> Result<impl IntoResponse, ApiError> {
     let mut tx = state.store.begin_write().await?;
-    if !webhooks::delete(&mut tx, &id).await? {
+    if webhooks::delete(&mut tx, &id).await?.is_none() {
         return Err(ApiError::not_found(format!("unknown webhook '{id}'")));
     }
     tx.commit().await.map_err(StoreError::from)?;

@@ -202,33 +202,29 @@ pub async fn replace_configured(
     }
     for (i, (id, url)) in existing.iter().enumerate() {
         if !kept[i] {
-            let pending: i64 = sqlx::query_scalar(
-                "SELECT COUNT(*) FROM webhook_deliveries WHERE webhook_id = $1 AND state = 'pending'",
-            )
-            .bind(id)
-            .fetch_one(&mut *db)
-            .await?;
+            let pending = delete(&mut *db, id).await?.unwrap_or(0);
             if pending > 0 {
                 tracing::warn!(webhook = %id, url = %crate::webhooks::loggable_origin(url), pending,
-                    "webhook no longer configured: its undelivered messages are dropped");
+                    "webhook no longer configured: its undelivered messages were dropped");
             }
-            delete(&mut *db, id).await?;
         }
     }
     Ok(())
 }
 
-/// Deletes an endpoint (its pending deliveries are dropped); `Ok(false)` when unknown.
-pub async fn delete(db: &mut AnyConnection, id: &str) -> Result<bool, StoreError> {
-    sqlx::query("DELETE FROM webhook_deliveries WHERE webhook_id = $1 AND state = 'pending'")
-        .bind(id)
-        .execute(&mut *db)
-        .await?;
+/// Deletes an endpoint and drops its pending deliveries: how many were dropped, `None` when the
+/// endpoint is unknown.
+pub async fn delete(db: &mut AnyConnection, id: &str) -> Result<Option<u64>, StoreError> {
+    let dropped =
+        sqlx::query("DELETE FROM webhook_deliveries WHERE webhook_id = $1 AND state = 'pending'")
+            .bind(id)
+            .execute(&mut *db)
+            .await?;
     let done = sqlx::query("DELETE FROM webhooks WHERE id = $1")
         .bind(id)
         .execute(&mut *db)
         .await?;
-    Ok(done.rows_affected() == 1)
+    Ok((done.rows_affected() == 1).then_some(dropped.rows_affected()))
 }
 
 /// Number of pending deliveries (the `/metrics` queue depth).

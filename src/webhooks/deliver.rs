@@ -69,18 +69,16 @@ pub fn classify(
     match status {
         200..=299 => DeliveryOutcome::Delivered { status },
         410 => DeliveryOutcome::Gone,
-        300..=399 => DeliveryOutcome::Retry {
-            status: Some(status),
-            retry_after: retry_after.and_then(|v| parse_retry_after(v, now)),
-            reason: format!(
-                "HTTP {status}: redirect to {} not followed; configure the webhook with the final URL",
-                location.unwrap_or("(no Location)")
-            ),
-        },
         _ => DeliveryOutcome::Retry {
             status: Some(status),
             retry_after: retry_after.and_then(|v| parse_retry_after(v, now)),
-            reason: format!("HTTP {status}"),
+            reason: match status {
+                300..=399 => format!(
+                    "HTTP {status}: redirect to {} not followed; configure the webhook with the final URL",
+                    location.unwrap_or("(no Location)")
+                ),
+                _ => format!("HTTP {status}"),
+            },
         },
     }
 }
