@@ -45,7 +45,7 @@ async fn alerts(d: &Daemon, site: &str) -> Vec<Value> {
 }
 
 /// The displacement alerts of a site (a `reference_unstable` alert may come and go with the
-/// reference: the congruence test has a 1 % false-alarm rate per epoch).
+/// reference: the congruence test excludes a still point by chance now and then).
 async fn displacement_alerts(d: &Daemon, site: &str) -> Vec<Value> {
     alerts(d, site)
         .await

@@ -282,27 +282,126 @@ fn site_level_alerts() {
     assert!(ev[0].alert.point.is_none());
     let (st, ev) = check_overdue(&cfg, &st, Some(last), last + Duration::hours(40));
     assert!(ev.is_empty(), "raised once");
-    // An epoch with an unstable reference: overdue resolves, reference_unstable raised.
+    // An epoch excluding a stable point: overdue resolves; one exclusion is not yet a finding.
     let a = analysis(2, 1.0, false, None, &["R3"]);
     let (st, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
     let kinds: Vec<_> = ev.iter().map(|e| (e.alert.rule, e.event_type)).collect();
-    assert!(kinds.contains(&(AlertKind::ReferenceUnstable, AlertEventType::Raised)));
-    assert!(kinds.contains(&(AlertKind::CampaignOverdue, AlertEventType::Resolved)));
+    assert_eq!(
+        kinds,
+        vec![(AlertKind::CampaignOverdue, AlertEventType::Resolved)]
+    );
+    // Excluded again in the next epoch: confirmed, reference_unstable raised naming it.
+    let a = analysis(3, 1.0, false, None, &["R3"]);
+    let (st, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
+    assert_eq!(ev.len(), 1, "{ev:?}");
+    assert_eq!(ev[0].alert.rule, AlertKind::ReferenceUnstable);
+    assert_eq!(ev[0].event_type, AlertEventType::Raised);
     let ru = st.find(None, AlertKind::ReferenceUnstable).expect("open");
     assert_eq!(ru.points, vec!["R3".to_string()]);
     assert_eq!(ru.level, AlertLevel::Warning);
-    // Congruent again: stays open (no flapping) until resolved by hand.
-    let a = analysis(3, 1.0, false, None, &[]);
-    let (st, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
-    assert!(ev.is_empty());
-    let id = st
-        .find(None, AlertKind::ReferenceUnstable)
-        .expect("open")
-        .id
-        .clone();
+    // Resolved by hand: gone, its memory too, so that it takes two exclusions again.
+    let id = ru.id.clone();
     let (st, ev) = resolve(&st, &id, "ops", t0()).expect("resolve");
     assert_eq!(ev.event_type, AlertEventType::Resolved);
-    assert!(st.alerts.is_empty());
+    assert!(st.find(None, AlertKind::ReferenceUnstable).is_none());
+    let a = analysis(4, 1.0, false, None, &["R3"]);
+    let (st, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
+    assert!(ev.is_empty(), "{ev:?}");
+    let a = analysis(5, 1.0, false, None, &["R3"]);
+    let (st, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
+    assert_eq!(ev[0].event_type, AlertEventType::Raised, "{ev:?}");
+    assert!(st.find(None, AlertKind::ReferenceUnstable).is_some());
+}
+
+/// The epoch `epoch` whose stable-point datum kept `kept` and excluded `excluded`.
+fn datum_epoch(epoch: i64, kept: &[&str], excluded: &[&str]) -> EpochAnalysis {
+    let mut a = analysis(epoch, 1.0, false, None, excluded);
+    a.datum.points = kept.iter().map(|s| s.to_string()).collect();
+    a
+}
+
+/// The `reference_unstable` events of a run of epochs, one entry per epoch: (raised / resolved
+/// or none, the points the open alert names after it).
+fn reference_run(
+    cfg: &AlertConfig,
+    epochs: &[EpochAnalysis],
+) -> Vec<(Option<AlertEventType>, Vec<String>)> {
+    let mut st = AlertState::default();
+    let mut out = vec![];
+    for a in epochs {
+        let (next, ev) = evaluate_alerts(cfg, &st, a, a.observed_at);
+        st = next;
+        let e = ev
+            .iter()
+            .find(|e| e.alert.rule == AlertKind::ReferenceUnstable)
+            .map(|e| e.event_type);
+        let points = st
+            .find(None, AlertKind::ReferenceUnstable)
+            .map(|a| a.points.clone())
+            .unwrap_or_default();
+        out.push((e, points));
+    }
+    out
+}
+
+/// `reference_unstable` names a stable point excluded in 2 of its last 3 tested epochs; a single
+/// exclusion (the test's 1 % by chance) raises nothing; epochs that do not test the point
+/// (not measured, or an IWST datum) neither count nor clear; a confirmed point clears after
+/// `reference_quiet_epochs` epochs kept in the datum, and the alert resolves when none is left.
+#[test]
+fn reference_unstable_is_confirmed_and_clears_after_quiet_epochs() {
+    use AlertEventType::*;
+    let mut cfg = contract_config();
+    cfg.reference_quiet_epochs = 3;
+    let all = ["R1", "R2", "R3", "R4"];
+    let without = |p: &str| all.iter().copied().filter(|q| *q != p).collect::<Vec<_>>();
+    // One exclusion, then two epochs kept: never raised.
+    let run = reference_run(
+        &cfg,
+        &[
+            datum_epoch(1, &without("R3"), &["R3"]),
+            datum_epoch(2, &all, &[]),
+            datum_epoch(3, &all, &[]),
+            datum_epoch(4, &without("R3"), &["R3"]),
+        ],
+    );
+    assert!(run.iter().all(|(e, _)| e.is_none()), "{run:?}");
+    // Excluded, kept once, excluded: 2 of 3, raised at the second exclusion.
+    let mut epochs = vec![
+        datum_epoch(1, &without("R3"), &["R3"]),
+        datum_epoch(2, &all, &[]),
+        datum_epoch(3, &without("R3"), &["R3"]),
+    ];
+    // Not measured (R3 absent from the datum and not excluded), and an IWST epoch: no change.
+    epochs.push(datum_epoch(4, &without("R3"), &[]));
+    let mut iwst = datum_epoch(5, &all, &[]);
+    iwst.datum.method = DatumMethod::Iwst;
+    epochs.push(iwst);
+    // R2 excluded twice in a row joins; then both are kept: R3 clears after its 3rd epoch kept
+    // (epoch 8), R2 after its own (epoch 10), and only then does the alert resolve.
+    epochs.push(datum_epoch(6, &without("R2"), &["R2"]));
+    epochs.push(datum_epoch(7, &without("R2"), &["R2"]));
+    for e in 8..=11 {
+        epochs.push(datum_epoch(e, &all, &[]));
+    }
+    let run = reference_run(&cfg, &epochs);
+    let r3 = vec!["R3".to_string()];
+    let both = vec!["R2".to_string(), "R3".to_string()];
+    let r2 = vec!["R2".to_string()];
+    let expected = vec![
+        (None, vec![]),
+        (None, vec![]),
+        (Some(Raised), r3.clone()),
+        (None, r3.clone()),
+        (None, r3.clone()),
+        (None, r3),
+        (None, both),
+        (None, r2.clone()),
+        (None, r2),
+        (Some(Resolved), vec![]),
+        (None, vec![]),
+    ];
+    assert_eq!(run, expected);
 }
 
 #[test]

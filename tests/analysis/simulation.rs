@@ -363,12 +363,25 @@ fn noise_only_gives_no_alerts_and_the_nominal_false_positive_rate() {
     assert!(all.0 >= lo && all.0 <= hi, "{} outside {lo}..={hi}", all.0);
 }
 
-/// One stable point moved by 5σ: the congruence test finds it, it is excluded, `reference_unstable` is
-/// raised naming it, and the other displacements equal those of a datum without it.
+/// One stable point moved by 5σ or 10σ: the congruence test finds it, it is excluded,
+/// `reference_unstable` is raised naming it once it is excluded in 2 of 3 epochs, and stays open,
+/// and the other displacements equal those of a datum without it. At 5σ the test's power is
+/// about one half per epoch, less on a seed whose reference epoch erred against the move: the
+/// alert may then stay silent (at most 2 of 5 seeds); at 10σ it is raised on every seed.
 #[test]
 fn a_moved_stable_point_is_found_excluded_and_reported() {
+    for (n_sigma, min_rate, max_not_raised) in [(5.0, 0.3, 2), (10.0, 0.9, 0)] {
+        moved_stable_point(n_sigma, min_rate, max_not_raised);
+    }
+}
+
+/// [`a_moved_stable_point_is_found_excluded_and_reported`] for a move of `n_sigma` σ along X:
+/// R3 excluded in at least `min_rate` of the epochs after the move, the alert missing on at most
+/// `max_not_raised` of the seeds.
+fn moved_stable_point(n_sigma: f64, min_rate: f64, max_not_raised: usize) {
     let mut found = (0usize, 0usize);
-    for seed in [21, 22, 23, 24, 25] {
+    let mut not_raised = vec![];
+    for seed in 21..=25 {
         let base = MonitoringScenario {
             seed,
             creep_mm_per_day: 0.0,
@@ -382,7 +395,7 @@ fn a_moved_stable_point_is_found_excluded_and_reported() {
         let c1 = &s0.epochs[1].coordinates.points[k].covariance_m2;
         let sigma_x_mm = ((c[0][0] + c1[0][0]) * 1e6).sqrt();
         let sc = MonitoringScenario {
-            moved_stable: Some((k, 5, [5.0 * sigma_x_mm, 0.0, 0.0])),
+            moved_stable: Some((k, 5, [n_sigma * sigma_x_mm, 0.0, 0.0])),
             ..base
         };
         let series = sc.generate();
@@ -401,8 +414,8 @@ fn a_moved_stable_point_is_found_excluded_and_reported() {
             .iter()
             .map(|s| s.analysis.datum.excluded.join("+"))
             .collect();
-        println!("seed {seed}: excluded per epoch {excluded:?}");
-        // The first raising after the move (a false alarm before it, at the test's 1 % level, may occur).
+        println!("{n_sigma}σ, seed {seed}: excluded per epoch {excluded:?}");
+        // The first raising (a false alarm before the move is possible, if rare).
         let raised = steps.iter().flat_map(|s| &s.events).find(|e| {
             e.alert.rule == AlertKind::ReferenceUnstable && e.event_type == AlertEventType::Raised
         });
@@ -434,7 +447,21 @@ fn a_moved_stable_point_is_found_excluded_and_reported() {
                 );
             }
         }
-        let raised = raised.expect("reference_unstable raised");
+        let Some(raised) = raised else {
+            // Not confirmed: then R3 was never excluded in 2 of 3 consecutive epochs.
+            let flags: Vec<bool> = steps
+                .iter()
+                .map(|s| !s.analysis.datum.excluded.is_empty())
+                .collect();
+            assert!(
+                flags
+                    .windows(3)
+                    .all(|w| w.iter().filter(|&&f| f).count() < 2),
+                "seed {seed}: confirmed but not raised: {flags:?}"
+            );
+            not_raised.push(seed);
+            continue;
+        };
         if raised.alert.epoch >= Some(6) {
             assert_eq!(raised.alert.points, vec!["R3".to_string()]);
         } else {
@@ -444,21 +471,90 @@ fn a_moved_stable_point_is_found_excluded_and_reported() {
             );
         }
         assert_eq!(raised.alert.level, AlertLevel::Warning);
+        // Raised, it stays open to the end: R3 is still moved, and passing the test about every
+        // other epoch must not resolve it.
+        let resolved: Vec<_> = steps
+            .iter()
+            .flat_map(|s| &s.events)
+            .filter(|e| {
+                e.alert.rule == AlertKind::ReferenceUnstable
+                    && e.event_type == AlertEventType::Resolved
+                    && e.alert.epoch > raised.alert.epoch
+            })
+            .map(|e| e.alert.epoch)
+            .collect();
+        assert!(resolved.is_empty(), "seed {seed}: resolved at {resolved:?}");
         println!(
-            "seed {seed}: reference_unstable raised at epoch {:?}: {}",
+            "{n_sigma}σ, seed {seed}: reference_unstable raised at epoch {:?}: {}",
             raised.alert.epoch, raised.alert.message
         );
     }
     let rate = found.0 as f64 / found.1 as f64;
     println!(
-        "R3 (moved 5σ along X) excluded in {}/{} epochs after the move ({:.0} %)",
+        "R3 (moved {n_sigma}σ along X) excluded in {}/{} epochs after the move ({:.0} %); not raised: seeds {not_raised:?}",
         found.0,
         found.1,
         100.0 * rate
     );
-    // The global test's power for a 5σ offset of one of 8 points (h = 17, α = 1 %) is about one half per
-    // epoch; what matters is that the alert is raised (above, every seed) and stays open.
-    assert!(rate >= 0.3);
+    assert!(
+        rate >= min_rate,
+        "{n_sigma}σ: excluded in {rate:.2} of the epochs"
+    );
+    assert!(
+        not_raised.len() <= max_not_raised,
+        "{n_sigma}σ: not raised on seeds {not_raised:?}"
+    );
+}
+
+/// Stable points that do not move: the congruence test excludes one now and then (its α is 1 %
+/// per epoch, and the reference epoch's errors, common to every epoch, make exclusions of one
+/// point cluster), but `reference_unstable`, which needs a point excluded in 2 of 3 epochs, is
+/// raised at most once in 1000 epochs (20 seeds × 200 epochs).
+#[test]
+fn still_stable_points_rarely_raise_reference_unstable() {
+    let (mut epochs, mut excluding, mut raised) = (0usize, 0usize, 0usize);
+    for seed in 31..=50 {
+        let series = MonitoringScenario {
+            seed,
+            epochs: 201,
+            creep_mm_per_day: 0.0,
+            acceleration_start_days: None,
+            ..Default::default()
+        }
+        .generate();
+        let steps = common::run(
+            &series,
+            &series.points,
+            &AnalysisConfig::default(),
+            &AlertConfig::new("s", vec![]),
+        );
+        let ex = steps
+            .iter()
+            .filter(|s| !s.analysis.datum.excluded.is_empty())
+            .count();
+        let r = steps
+            .iter()
+            .flat_map(|s| &s.events)
+            .filter(|e| {
+                e.alert.rule == AlertKind::ReferenceUnstable
+                    && e.event_type == AlertEventType::Raised
+            })
+            .count();
+        println!("seed {seed}: {ex} epochs with an exclusion, {r} raised");
+        epochs += steps.len();
+        excluding += ex;
+        raised += r;
+    }
+    println!(
+        "all seeds: {excluding}/{epochs} epochs with an exclusion ({:.2} %), reference_unstable raised {raised} times",
+        100.0 * excluding as f64 / epochs as f64
+    );
+    // The exclusions happen (the test is not blind); the alert stays rare.
+    assert!(excluding > 0);
+    assert!(
+        raised * 1000 <= epochs,
+        "{raised} raised in {epochs} epochs"
+    );
 }
 
 /// Velocity and time to failure are properties of the motion, not of the reference: with the

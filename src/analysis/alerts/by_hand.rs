@@ -58,7 +58,8 @@ pub fn acknowledge(
 }
 
 /// Resolves an alert by hand (e.g. after a stable point was re-surveyed). Its rules are reset, so it is
-/// raised again by the next epoch whose values still cross a threshold.
+/// raised again by the next epoch whose values still cross a threshold (for `reference_unstable`:
+/// once a stable point is excluded in 2 of 3 epochs again).
 pub fn resolve(
     state: &AlertState,
     alert_id: &str,
@@ -73,14 +74,12 @@ pub fn resolve(
         .ok_or_else(|| AnalysisError::UnknownAlert(alert_id.to_string()))?;
     let mut alert = st.alerts.remove(i);
     let subject = match (&alert.point, &alert.group) {
-        (Some(p), _) => Some(Subject::Point(p)),
-        (None, Some(g)) => Some(Subject::Group(g)),
-        _ => None,
+        (Some(p), _) => Subject::Point(p),
+        (None, Some(g)) => Subject::Group(g),
+        _ => Subject::Site,
     };
-    if let Some(subject) = subject {
-        let prefix = format!("{}{}:", subject.memory_prefix(), alert.rule.as_str());
-        st.rules.retain(|k, _| !k.starts_with(&prefix));
-    }
+    let prefix = format!("{}{}:", subject.memory_prefix(), alert.rule.as_str());
+    st.rules.retain(|k, _| !k.starts_with(&prefix));
     alert.status = AlertStatus::Resolved;
     alert.acknowledged_by.get_or_insert_with(|| by.to_string());
     alert.updated_at = now;

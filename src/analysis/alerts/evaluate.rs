@@ -9,6 +9,7 @@ use super::readings::Readings;
 use super::rule::{AlertConfig, AlertRule};
 use super::transition::{apply, fmt_time, Subject, Update};
 use crate::analysis::analyse::EpochAnalysis;
+use crate::analysis::datum::DatumMethod;
 
 /// A point or block with the values its rules read.
 struct SubjectReadings<'a> {
@@ -112,8 +113,9 @@ fn evaluate_subject(
 /// Evaluates the rules against one epoch's analysis: returns the new state and the events (in order).
 ///
 /// Points absent from the analysis, and blocks without a motion, keep their state. An open `campaign_overdue` resolves (an epoch
-/// arrived); `reference_unstable` is raised when the congruence test excludes stable points (its `points`
-/// grow with later exclusions) and stays open until resolved by hand ([`super::resolve`]). Invalid rules (see [`AlertRule::validate`]) never
+/// arrived); `reference_unstable` names the stable points the congruence test excluded in 2 of
+/// their last 3 tested epochs, until each has been kept in the datum for `reference_quiet_epochs`
+/// epochs (see `reference_stability`). Invalid rules (see [`AlertRule::validate`]) never
 /// trigger.
 pub fn evaluate_alerts(
     config: &AlertConfig,
@@ -216,10 +218,32 @@ fn evaluate_rules(
     }
 }
 
-/// The site-level `reference_unstable` alert: raised when the congruence test excluded stable
-/// points from the datum. It does not resolve by itself (a moved reference point does not move
-/// back, and the test's power near its threshold would make it flap): staff resolve it by hand
-/// once the point's role was changed.
+/// Epochs, counting the current one, within which a stable point must be excluded twice before
+/// `reference_unstable` names it: 2 of the last 3 epochs in which the point was tested. A single
+/// exclusion is what the congruence test's α (1 %) produces by chance; two within three epochs
+/// happen by chance about once in 10⁴ epochs, while a point moved by 5σ (excluded about every
+/// other epoch) is confirmed within a few epochs.
+pub const REFERENCE_CONFIRM_EPOCHS: u32 = 3;
+
+/// Key of a stable point's memory in [`AlertState::rules`] for `reference_unstable`.
+fn reference_key(point: &str) -> String {
+    format!(
+        "{}{}:{point}",
+        Subject::Site.memory_prefix(),
+        AlertKind::ReferenceUnstable.as_str()
+    )
+}
+
+/// The site-level `reference_unstable` alert: names the stable points the congruence test
+/// excluded from the datum in 2 of their last [`REFERENCE_CONFIRM_EPOCHS`] tested epochs
+/// (confirmed). A confirmed point is cleared after `reference_quiet_epochs` consecutive epochs in
+/// which it was tested and kept in the datum; an epoch that does not test it (the point not
+/// measured, or an IWST datum) leaves it as it is. The alert is open while any point is confirmed;
+/// its `points` and message name those points. Changing a point's role replays the series
+/// without it as a stable point, so its alert resolves then.
+///
+/// A point's memory ([`RuleMemory`]): `quiet_epochs` counts its tested epochs since its last
+/// exclusion; `active` says it is confirmed.
 fn reference_stability(
     config: &AlertConfig,
     st: &mut AlertState,
@@ -229,20 +253,53 @@ fn reference_stability(
     events: &mut Vec<AlertEvent>,
 ) {
     let site = config.site.as_str();
-    let excluded = &analysis.datum.excluded;
-    let first = analysis.datum.congruence.first();
-    let open_unstable = st.find(None, AlertKind::ReferenceUnstable).map(|a| a.level);
+    let datum = &analysis.datum;
+    for p in &datum.excluded {
+        let key = reference_key(p);
+        let mem = match st.rules.get(&key) {
+            Some(m) => RuleMemory {
+                active: m.active || m.quiet_epochs + 2 <= REFERENCE_CONFIRM_EPOCHS,
+                quiet_epochs: 0,
+                streak: 0,
+            },
+            None => RuleMemory::default(),
+        };
+        st.rules.insert(key, mem);
+    }
+    if datum.method == DatumMethod::StablePoints {
+        for p in &datum.points {
+            let key = reference_key(p);
+            let Some(mut mem) = st.rules.get(&key).copied() else {
+                continue;
+            };
+            mem.quiet_epochs += 1;
+            let expired = if mem.active {
+                mem.quiet_epochs >= config.reference_quiet_epochs.max(1)
+            } else {
+                mem.quiet_epochs + 1 >= REFERENCE_CONFIRM_EPOCHS
+            };
+            if expired {
+                st.rules.remove(&key);
+            } else {
+                st.rules.insert(key, mem);
+            }
+        }
+    }
+    let prefix = reference_key("");
+    let confirmed: Vec<String> = st
+        .rules
+        .iter()
+        .filter(|(k, m)| m.active && k.starts_with(&prefix))
+        .map(|(k, _)| k[prefix.len()..].to_string())
+        .collect();
+    let first = datum.congruence.first();
     let before = events.len();
     apply(
         site,
         st,
         Update {
-            points: excluded.clone(),
-            level: if excluded.is_empty() {
-                open_unstable
-            } else {
-                Some(config.reference_unstable_level)
-            },
+            points: confirmed.clone(),
+            level: (!confirmed.is_empty()).then_some(config.reference_unstable_level),
             value: first.map(|t| t.statistic),
             threshold: first.map(|t| t.critical),
             ..Update::site(
@@ -256,20 +313,22 @@ fn reference_stability(
         now,
         events,
     );
-    // The message names every stable point excluded since the alert was raised (its `points`).
-    if excluded.is_empty() {
+    if confirmed.is_empty() {
         return;
     }
+    // The alert names the points confirmed now (a cleared point leaves it).
     if let Some(a) = st
         .alerts
         .iter_mut()
         .find(|a| a.rule == AlertKind::ReferenceUnstable && a.point.is_none())
     {
+        a.points = confirmed;
         a.message = format!(
             "site {site}: stable point(s) {} moved; excluded from the datum",
             a.points.join(", ")
         );
         for e in events[before..].iter_mut().filter(|e| e.alert.id == a.id) {
+            e.alert.points = a.points.clone();
             e.alert.message = a.message.clone();
         }
     }

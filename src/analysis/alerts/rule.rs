@@ -311,6 +311,9 @@ fn default_quiet() -> u32 {
 fn default_unstable() -> AlertLevel {
     AlertLevel::Warning
 }
+fn default_reference_quiet() -> u32 {
+    10
+}
 fn default_overdue() -> AlertLevel {
     AlertLevel::Watch
 }
@@ -338,6 +341,11 @@ pub struct AlertConfig {
     /// Level of `reference_unstable` (default warning).
     #[serde(default = "default_unstable")]
     pub reference_unstable_level: AlertLevel,
+    /// Consecutive epochs a confirmed moved stable point must be kept in the datum by the
+    /// congruence test before `reference_unstable` stops naming it (default 10; long, because a
+    /// point moved by a few σ passes the test about every other epoch).
+    #[serde(default = "default_reference_quiet")]
+    pub reference_quiet_epochs: u32,
     /// Level of `campaign_overdue` (default watch).
     #[serde(default = "default_overdue")]
     pub campaign_overdue_level: AlertLevel,
@@ -364,6 +372,7 @@ impl AlertConfig {
             rules,
             quiet_epochs: 1,
             reference_unstable_level: AlertLevel::Warning,
+            reference_quiet_epochs: default_reference_quiet(),
             campaign_overdue_level: AlertLevel::Watch,
             analysis_failed_level: AlertLevel::Warning,
             schedule_hours: None,
