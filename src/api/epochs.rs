@@ -14,7 +14,7 @@ use super::schemas::EpochSummary;
 use super::sites::find;
 use super::AppState;
 use crate::photogrammetry::input::epoch::CameraInput;
-use crate::photogrammetry::input::epoch_csv::epoch_from_csv;
+use crate::photogrammetry::input::epoch_csv::{csv_camera, epoch_from_csv};
 use crate::photogrammetry::EpochInput;
 use crate::service::{ingest, ServiceError};
 use crate::store::{alerts, displacements, epochs, parse_timestamp, timestamp, Store, StoreError};
@@ -70,15 +70,17 @@ pub async fn read_limited(
 pub struct UploadParams {
     /// Observation time of a CSV upload (RFC 3339).
     pub observed_at: Option<String>,
+    /// Camera of a CSV upload's images: needed when the site has several.
+    pub camera: Option<String>,
 }
 
 /// `POST /api/v1/sites/{site}/epochs`: validates, adjusts and stores an epoch; 201 with its
 /// summary, 200 when the same body was stored before, 409 for another body at the same time.
-#[utoipa::path(post, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("observed_at" = Option<String>, Query, description = "CSV uploads only")),
+#[utoipa::path(post, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("observed_at" = Option<String>, Query, description = "CSV uploads only"), ("camera" = Option<String>, Query, pattern = "^[A-Za-z0-9._-]{1,64}$", description = "CSV uploads only: the camera of the images, needed when the site has several")),
     request_body(description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)", content((crate::photogrammetry::EpochInput = "application/json"), (String = "text/csv"))),
     responses((status = 201, description = "stored; the epoch summary", body = crate::api::schemas::EpochSummary), (status = 200, description = "the same body was stored before", body = crate::api::schemas::EpochSummary),
         (status = 400, description = "not JSON/CSV", body = crate::api::schemas::ErrorBody), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 409, description = "another body for this observed_at, or a CSV upload to a site without cameras yet (upload a JSON epoch first)", body = crate::api::schemas::ErrorBody),
-        (status = 413, description = "body too large", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid or cannot be adjusted", body = crate::api::schemas::ErrorBody),
+        (status = 413, description = "body too large", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid or cannot be adjusted; a CSV upload to a site of several cameras without `camera`, or naming none of them", body = crate::api::schemas::ErrorBody),
         (status = 503, description = "every upload slot of the node stayed busy for `upload_queue_secs`; nothing stored, retry after the `Retry-After` header's seconds", body = crate::api::schemas::ErrorBody, headers(("Retry-After" = u64, description = "seconds to wait before retrying")))))]
 pub async fn upload(
     State(state): State<AppState>,
@@ -133,6 +135,9 @@ fn parse_epoch(bytes: &[u8]) -> Result<EpochInput, ApiError> {
     let input = parsed.map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner();
+        // A number beyond f64 (`1e400`) is valid JSON that serde_json reports as a syntax
+        // error; it is a value out of range, named with its field like any other.
+        let out_of_range = inner.to_string().starts_with("number out of range");
         match inner.classify() {
             serde_json::error::Category::Data => ApiError::unprocessable(
                 "invalid_epoch",
@@ -142,6 +147,9 @@ fn parse_epoch(bytes: &[u8]) -> Result<EpochInput, ApiError> {
                     format!("{path}: {inner}")
                 },
             ),
+            serde_json::error::Category::Syntax if out_of_range => {
+                ApiError::unprocessable("invalid_epoch", format!("{path}: {inner}"))
+            }
             _ => ApiError::bad_request(format!("the body is not JSON: {inner}")),
         }
     })?;
@@ -163,7 +171,7 @@ async fn upload_inner(
     // An unknown site is named before anything is said about the body (ingestion checks again
     // under the site's lock).
     find(state, site).await?;
-    let _slot = state.uploads.enter().await.map_err(ServiceError::from)?;
+    let slot = state.uploads.enter().await.map_err(ServiceError::from)?;
     let input: EpochInput = if upload_is_csv(headers)? {
         let text = std::str::from_utf8(&bytes)
             .map_err(|_| ApiError::bad_request("the CSV is not UTF-8"))?;
@@ -176,11 +184,12 @@ async fn upload_inner(
             .map(serde_json::from_value)
             .collect::<Result<_, _>>()
             .map_err(StoreError::from)?;
-        epoch_from_csv(text, &observed_at, cameras)?
+        let camera = csv_camera(cameras, params.camera.as_deref())?;
+        epoch_from_csv(text, &observed_at, camera)?
     } else {
         parse_epoch(&bytes)?
     };
-    let done = ingest::ingest(&state.store, site, input).await?;
+    let done = ingest::ingest(&state.store, site, input, slot).await?;
     let summary = summary(&state.store, &done.site, done.epoch, false)
         .await?
         .ok_or_else(|| ApiError::internal("stored epoch not found"))?;

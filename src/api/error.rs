@@ -157,6 +157,7 @@ impl From<CsvError> for ApiError {
             CsvError::InvalidLine { .. } => ApiError::unprocessable("invalid_epoch", e.to_string()),
             // The site's state, not the body, is at fault: a JSON epoch must come first.
             CsvError::NoCameras => ApiError::new(StatusCode::CONFLICT, "no_cameras", e.to_string()),
+            CsvError::Camera(_) => ApiError::unprocessable("invalid_epoch", e.to_string()),
         }
     }
 }

@@ -8,6 +8,17 @@ pub enum EpochError {
     /// No images.
     #[error("the epoch has no images")]
     Empty,
+    /// More images or cameras than one epoch may hold (the adjustment's dense camera block
+    /// grows with the square of their number).
+    #[error("{what}: {count} given, at most {limit}")]
+    TooMany {
+        /// `images` or `cameras`.
+        what: &'static str,
+        /// How many were given.
+        count: usize,
+        /// The limit.
+        limit: usize,
+    },
     /// `observed_at` is not RFC 3339.
     #[error("observed_at '{0}' is not an RFC 3339 time")]
     BadTimestamp(String),

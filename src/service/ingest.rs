@@ -19,6 +19,7 @@ use crate::store::displacements::{self, Displacement};
 use crate::store::sites::Site;
 use crate::store::{self, epochs, groups, points, sites, watch_state, Connection, Store};
 
+use super::admission::UploadSlot;
 use super::alert_outcome;
 use super::analysis_inputs::{
     analysis_config, history, point_configs, reference_coordinates, reference_epoch,
@@ -81,13 +82,16 @@ async fn stable_and_block_points(
     Ok(names)
 }
 
-/// Ingests one epoch of the upload form into a site.
+/// Ingests one epoch of the upload form into a site, holding the upload `slot` until the
+/// adjustment has ended: a caller that gives up (the request timed out) frees the slot only once
+/// the CPU work it started is over, so admission counts the work really running.
 pub async fn ingest(
     store: &Store,
     site_id: &str,
     input: EpochInput,
+    slot: UploadSlot,
 ) -> Result<Ingested, ServiceError> {
-    ingest_with_identification(store, site_id, input, None).await
+    ingest_with_identification(store, site_id, input, None, Some(slot)).await
 }
 
 /// The watched folder an epoch comes from.
@@ -107,7 +111,7 @@ pub async fn ingest_watched(
     input: EpochInput,
     folder: &WatchedFolder,
 ) -> Result<Ingested, ServiceError> {
-    ingest_with_identification(store, site_id, input, Some(folder)).await
+    ingest_with_identification(store, site_id, input, Some(folder), None).await
 }
 
 async fn ingest_with_identification(
@@ -115,6 +119,7 @@ async fn ingest_with_identification(
     site_id: &str,
     input: EpochInput,
     folder: Option<&WatchedFolder>,
+    slot: Option<UploadSlot>,
 ) -> Result<Ingested, ServiceError> {
     let problem = input.validate()?;
     // The reads before the adjustment on one connection (one acquisition, and on PostgreSQL
@@ -145,8 +150,13 @@ async fn ingest_with_identification(
     };
     drop(db);
     let started = Instant::now();
-    let adjustment =
-        tokio::task::spawn_blocking(move || adjust_problem(&problem, &options)).await?;
+    // The slot goes with the blocking task and comes back when it ends (a dropped caller
+    // leaves it with the task).
+    let (adjustment, _slot) = tokio::task::spawn_blocking(move || {
+        let adjustment = adjust_problem(&problem, &options);
+        (adjustment, slot)
+    })
+    .await?;
     metrics::histogram!("cliffwatch_adjustment_seconds").record(started.elapsed().as_secs_f64());
     let outcome = if adjustment.is_ok() { "ok" } else { "failed" };
     metrics::counter!("cliffwatch_adjustments_total", "outcome" => outcome).increment(1);

@@ -368,6 +368,36 @@ async fn rejections_store_nothing() {
         msg.starts_with("cameras[0].calibrate_C: unknown field"),
         "{msg}"
     );
+    // A number beyond f64 is valid JSON: 422 naming its field, not 400.
+    let mut huge = good.clone();
+    huge["observed_at"] = json!("2001-05-03T00:00:00Z");
+    huge["cameras"][0]["c_mm"] = json!(12345.678);
+    let text = serde_json::to_string(&huge)
+        .unwrap()
+        .replace("12345.678", "1e400");
+    let r = post(text.into_bytes()).await.unwrap();
+    assert_eq!(r.status(), 422);
+    let e: Value = r.json().await.unwrap();
+    let msg = e["error"]["message"].as_str().unwrap();
+    assert!(
+        msg.starts_with("cameras[0].c_mm: number out of range"),
+        "{msg}"
+    );
+    // More images than an epoch holds (the camera block is dense): 422 with the counts.
+    let mut many = good.clone();
+    many["observed_at"] = json!("2001-05-04T00:00:00Z");
+    let image = good["images"][0].clone();
+    many["images"] = (0..201)
+        .map(|k| {
+            let mut im = image.clone();
+            im["id"] = json!(format!("I{k}"));
+            im
+        })
+        .collect();
+    let (status, e) = s.upload("rej", &many).await;
+    assert_eq!(status, 422, "{e}");
+    let msg = e["error"]["message"].as_str().unwrap();
+    assert!(msg.contains("images: 201 given, at most 200"), "{msg}");
     // A body that is neither JSON nor CSV by its content type: 415, whatever it holds.
     let mut other = good.clone();
     other["observed_at"] = json!("2001-06-01T00:00:00Z");
@@ -836,7 +866,7 @@ async fn csv_upload_uses_the_site_cameras() {
         .client
         .post(&url)
         .header("content-type", "text/csv")
-        .body(text)
+        .body(text.clone())
         .send()
         .await
         .unwrap();
@@ -883,6 +913,37 @@ async fn csv_upload_uses_the_site_cameras() {
         .await
         .unwrap();
     assert_eq!(r.status(), 400, "not CSV (not text) at all");
+    // A second camera, brought by a JSON epoch: a CSV upload must now name its camera (the
+    // first by name, "a-zoom", is not the one its images were taken with).
+    let mut third = paper(PAPER[8]);
+    let cam = third["cameras"][0]["id"].as_str().unwrap().to_string();
+    let mut zoom = third["cameras"][0].clone();
+    zoom["id"] = json!("a-zoom");
+    zoom["c_mm"] = json!(800.0);
+    third["cameras"].as_array_mut().unwrap().push(zoom);
+    assert_eq!(s.upload("csv", &third).await.0, 201);
+    let at = "observed_at=2000-03-25T00:00:00Z";
+    for (query, want) in [
+        (String::new(), 422),
+        ("&camera=nikon".to_string(), 422),
+        (format!("&camera={cam}"), 201),
+    ] {
+        let r = s
+            .client
+            .post(s.url(&format!("/api/v1/sites/csv/epochs?{at}{query}")))
+            .header("content-type", "text/csv")
+            .body(text.clone())
+            .send()
+            .await
+            .unwrap();
+        let status = r.status();
+        let body: Value = r.json().await.unwrap();
+        assert_eq!(status, want, "{query}: {body}");
+        if want == 422 {
+            let m = body["error"]["message"].as_str().unwrap();
+            assert!(m.contains("a-zoom") && m.contains(&cam), "{m}");
+        }
+    }
     s.stop().await;
 }
 

@@ -24,13 +24,13 @@ pub struct EpochInput {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(pattern = "^[^\\u0000-\\u001F\\u007F-\\u009F]*$")]
     pub label: Option<String>,
-    /// Cameras (interior orientation) used by the images.
+    /// Cameras (interior orientation) used by the images, at most [`MAX_CAMERAS`].
     #[serde(default)]
-    #[schema(required = true, min_items = 1)]
+    #[schema(required = true, min_items = 1, max_items = 200)]
     pub cameras: Vec<CameraInput>,
-    /// Images with their target observations.
+    /// Images with their target observations, at most [`MAX_IMAGES`].
     #[serde(default)]
-    #[schema(required = true, min_items = 1)]
+    #[schema(required = true, min_items = 1, max_items = 200)]
     pub images: Vec<ImageInput>,
     /// Points with known coordinates, weighted by `sigma_m`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -201,6 +201,11 @@ pub fn is_valid_identifier(s: &str) -> bool {
 
 /// Largest accepted magnitude of an image coordinate: 10 m in mm or 10⁷ pixels, beyond any sensor.
 pub const MAX_IMAGE_COORDINATE: f64 = 1e7;
+/// Most images of one epoch (the OpenAPI schema's `maxItems` says the same). The normal
+/// equations hold a dense block of 6 parameters per image: 200 images make it 1200 × 1200.
+pub const MAX_IMAGES: usize = 200;
+/// Most cameras of one epoch (the OpenAPI schema's `maxItems` says the same).
+pub const MAX_CAMERAS: usize = 200;
 /// Largest accepted magnitude of an object coordinate in m (UTM northings are below 10⁷).
 pub const MAX_OBJECT_COORDINATE_M: f64 = 1e8;
 
@@ -259,6 +264,14 @@ impl EpochInput {
         }
         if self.images.is_empty() {
             return Err(EpochError::Empty);
+        }
+        for (what, count, limit) in [
+            ("images", self.images.len(), MAX_IMAGES),
+            ("cameras", self.cameras.len(), MAX_CAMERAS),
+        ] {
+            if count > limit {
+                return Err(EpochError::TooMany { what, count, limit });
+            }
         }
         let (cameras, camera_index) = self.validate_cameras()?;
         let mut names = PointNames::default();

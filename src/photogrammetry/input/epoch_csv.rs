@@ -1,9 +1,11 @@
 //! The CSV form of an upload (`image,point,x_mm,y_mm` a line): turned into the JSON upload
 //! form ([`EpochInput`]) with the site's cameras.
 
+use std::collections::HashMap;
+
 use thiserror::Error;
 
-use super::epoch::CameraInput;
+use super::epoch::{CameraInput, MAX_IMAGES};
 use crate::photogrammetry::EpochInput;
 
 /// Why a CSV upload cannot be read.
@@ -28,17 +30,54 @@ pub enum CsvError {
     /// The site has no cameras yet (upload one JSON epoch first).
     #[error("the site has no cameras yet: upload a JSON epoch first")]
     NoCameras,
+    /// The camera of the CSV's images is not clear: the site has several and none was named,
+    /// or the one named is not among them.
+    #[error("{0}")]
+    Camera(String),
+}
+
+/// The camera of a CSV upload's images: the one named (`?camera=`), else the site's only
+/// camera. Several cameras and none named is [`CsvError::Camera`]: taking one of them would
+/// give the images another camera's principal distance and pixel size without a word.
+pub fn csv_camera(
+    mut cameras: Vec<CameraInput>,
+    named: Option<&str>,
+) -> Result<CameraInput, CsvError> {
+    let ids = || {
+        cameras
+            .iter()
+            .map(|c| c.id.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    match named {
+        _ if cameras.is_empty() => Err(CsvError::NoCameras),
+        Some(id) => match cameras.iter().position(|c| c.id == id) {
+            Some(k) => Ok(cameras.swap_remove(k)),
+            None => Err(CsvError::Camera(format!(
+                "camera '{id}': the site's cameras are {}",
+                ids()
+            ))),
+        },
+        None if cameras.len() == 1 => Ok(cameras.remove(0)),
+        None => Err(CsvError::Camera(format!(
+            "the site has {} cameras ({}): name the images' camera with ?camera=",
+            cameras.len(),
+            ids()
+        ))),
+    }
 }
 
 /// Builds an upload from the CSV form (`image,point,x_mm,y_mm` a line, optional header), the
-/// observation time and the site's cameras (every image uses the first camera).
+/// observation time and the camera of every image (see [`csv_camera`]).
 pub fn epoch_from_csv(
     text: &str,
     observed_at: &str,
-    cameras: Vec<CameraInput>,
+    camera: CameraInput,
 ) -> Result<EpochInput, CsvError> {
     use super::epoch::{ImageInput, ObservationInput};
-    let camera = cameras.first().ok_or(CsvError::NoCameras)?.id.clone();
+    let cameras = vec![camera];
+    let camera = cameras[0].id.clone();
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         // Each line's field count is checked below, with the line's number and a 422.
@@ -47,6 +86,7 @@ pub fn epoch_from_csv(
         .comment(Some(b'#'))
         .from_reader(text.as_bytes());
     let mut images: Vec<ImageInput> = Vec::new();
+    let mut index: HashMap<String, usize> = HashMap::new();
     for (i, record) in reader.records().enumerate() {
         let line = i + 1;
         let record = record.map_err(|e| CsvError::Malformed {
@@ -86,14 +126,26 @@ pub fn epoch_from_csv(
             col: None,
             row: None,
         };
-        match images.iter_mut().find(|im| im.id == record[0]) {
-            Some(im) => im.observations.push(obs),
-            None => images.push(ImageInput {
-                id: record[0].to_string(),
-                camera: camera.clone(),
-                station: None,
-                observations: vec![obs],
-            }),
+        match index.get(&record[0]) {
+            Some(&k) => images[k].observations.push(obs),
+            None if images.len() == MAX_IMAGES => {
+                return Err(CsvError::InvalidLine {
+                    line,
+                    reason: format!(
+                        "image '{}': an epoch holds at most {MAX_IMAGES} images",
+                        &record[0]
+                    ),
+                });
+            }
+            None => {
+                index.insert(record[0].to_string(), images.len());
+                images.push(ImageInput {
+                    id: record[0].to_string(),
+                    camera: camera.clone(),
+                    station: None,
+                    observations: vec![obs],
+                });
+            }
         }
     }
     Ok(EpochInput {
@@ -116,16 +168,61 @@ mod tests {
         let e = epoch_from_csv(
             "image,point,x_mm,y_mm\nA,1,0.5,0.25\nA,2,1,2\nB,1,3,4\n",
             "2026-01-01T00:00:00Z",
-            vec![cam.clone()],
+            cam.clone(),
         )
         .unwrap();
         assert_eq!(e.images.len(), 2);
         assert_eq!(e.images[0].observations.len(), 2);
-        assert!(epoch_from_csv("A,1,x,2", "2026-01-01T00:00:00Z", vec![]).is_err());
+        assert!(epoch_from_csv("A,1,x,2", "2026-01-01T00:00:00Z", cam.clone()).is_err());
         // without a header the columns are image,point,x_mm,y_mm
-        let e =
-            epoch_from_csv("A,1,0.5,0.25\n", "2026-01-01T00:00:00Z", vec![cam.clone()]).unwrap();
+        let e = epoch_from_csv("A,1,0.5,0.25\n", "2026-01-01T00:00:00Z", cam.clone()).unwrap();
         assert_eq!(e.images[0].observations[0].x_mm, Some(0.5));
+    }
+
+    #[test]
+    fn the_camera_is_the_one_named_or_the_only_one() {
+        let cam = |id: &str| -> CameraInput {
+            serde_json::from_str(&format!(r#"{{"id": "{id}", "c_mm": 300.0}}"#)).unwrap()
+        };
+        assert!(matches!(csv_camera(vec![], None), Err(CsvError::NoCameras)));
+        assert_eq!(csv_camera(vec![cam("b")], None).unwrap().id, "b");
+        let two = || vec![cam("b"), cam("a")];
+        // Several and none named: refused, naming them (not the first by name, as before).
+        match csv_camera(two(), None) {
+            Err(CsvError::Camera(m)) => {
+                assert!(m.contains("b, a") && m.contains("?camera="), "{m}")
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(csv_camera(two(), Some("b")).unwrap().id, "b");
+        assert_eq!(csv_camera(two(), Some("a")).unwrap().id, "a");
+        match csv_camera(two(), Some("c")) {
+            Err(CsvError::Camera(m)) => assert!(m.contains("camera 'c'"), "{m}"),
+            other => panic!("{other:?}"),
+        }
+        let e = epoch_from_csv("A,1,0.5,0.25\n", "2026-01-01T00:00:00Z", cam("a")).unwrap();
+        assert_eq!(e.cameras.len(), 1);
+        assert_eq!(e.images[0].camera, "a");
+    }
+
+    #[test]
+    fn more_images_than_an_epoch_holds_are_refused_at_the_line() {
+        let cam: CameraInput = serde_json::from_str(r#"{"id": "cam", "c_mm": 300.0}"#).unwrap();
+        let text: String = (0..=MAX_IMAGES)
+            .map(|k| format!("I{k},1,0.5,0.25\n"))
+            .collect();
+        match epoch_from_csv(&text, "2026-01-01T00:00:00Z", cam.clone()) {
+            Err(CsvError::InvalidLine { line, reason }) => {
+                assert_eq!(line, MAX_IMAGES + 1);
+                assert!(reason.contains("I200"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
+        let text: String = (0..MAX_IMAGES)
+            .map(|k| format!("I{k},1,0.5,0.25\n"))
+            .collect();
+        let e = epoch_from_csv(&text, "2026-01-01T00:00:00Z", cam).unwrap();
+        assert_eq!(e.images.len(), MAX_IMAGES);
     }
 
     #[test]
@@ -137,7 +234,7 @@ mod tests {
             "image,point,xmm,ymm",
         ] {
             let text = format!("{header}\nA,1,0.5,0.25\n");
-            match epoch_from_csv(&text, "2026-01-01T00:00:00Z", vec![cam.clone()]) {
+            match epoch_from_csv(&text, "2026-01-01T00:00:00Z", cam.clone()) {
                 Err(CsvError::InvalidLine { line: 1, reason }) => {
                     assert!(reason.contains(header), "{reason}")
                 }
