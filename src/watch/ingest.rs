@@ -80,15 +80,13 @@ async fn identify(
     for c in &input.control {
         known.insert(c.point.clone(), [c.X, c.Y, c.Z]);
     }
-    let stored = match store.read().await {
-        Ok(mut db) => points::latest_coordinates(&mut db, site).await,
-        Err(e) => Err(e),
-    };
-    if let Ok(stored) = stored {
-        for c in stored {
-            known.insert(c.point, c.xyz);
-        }
+    // A failed read is the database's fault, not the folder's: it stays for the next scan
+    // (naming without the site's points would send it to `.failed/` for the wrong reason).
+    let mut db = store.read().await?;
+    for c in points::latest_coordinates(&mut db, site).await? {
+        known.insert(c.point, c.xyz);
     }
+    drop(db);
     let listed: Vec<String> = input
         .images
         .iter()
@@ -232,7 +230,23 @@ pub async fn take_folder(
     opts: &WatchOptions,
 ) -> std::io::Result<PathBuf> {
     let site_dir = folder.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let hash = content_hash(folder)?;
+    // Hashing reads every file (images of up to 512 MiB): a blocking thread's work. A file that
+    // cannot be read fails the folder, with the reason, instead of failing every scan.
+    let to_hash = folder.to_path_buf();
+    let hash = match tokio::task::spawn_blocking(move || content_hash(&to_hash))
+        .await
+        .map_err(std::io::Error::other)?
+    {
+        Ok(hash) => hash,
+        Err(e) => {
+            tracing::warn!(site, folder = %folder.display(), error = %e, "watched folder unreadable");
+            std::fs::write(
+                folder.join("error.txt"),
+                format!("a file of the folder cannot be read: {e}\n"),
+            )?;
+            return move_to(folder, ".failed");
+        }
+    };
     let legacy = std::fs::read_to_string(state_dir(&site_dir).join("ingested")).unwrap_or_default();
     let earlier = watch_state::folder_epoch(store.reader(), site, &hash)
         .await

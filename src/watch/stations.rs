@@ -180,6 +180,17 @@ pub(super) async fn detect_station(
             station: station.clone(),
             source,
         })?;
+    // The image must be the size the camera declares: the image centre, and so every
+    // coordinate in mm, comes from the declared size (a portrait or downscaled export would
+    // shift or scale all of them without a word).
+    if let (Some(w), Some(h)) = (cam_in.width_px, cam_in.height_px) {
+        if (w, h) != (det.width, det.height) {
+            return Err(cam_err(format!(
+                "the image is {} × {} px, camera {} declares {w} × {h} px",
+                det.width, det.height, cam_in.id
+            )));
+        }
+    }
     let mut blobs = Vec::with_capacity(det.targets.len());
     for t in &det.targets {
         blobs.push(

@@ -207,6 +207,29 @@ async fn watched_folders_are_detected_identified_ingested_once() {
         "{err}"
     );
 
+    // An image of another size than its camera declares (a portrait or downscaled export):
+    // refused, naming both sizes, not measured from the wrong centre.
+    write_epoch(&site, &epoch, "e10", "2026-11-30T09:00:00Z", false, 11);
+    let json = site.join("e10/epoch.json");
+    let mut upload: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let (w, h) = (
+        upload["cameras"][0]["width_px"].clone(),
+        upload["cameras"][0]["height_px"].clone(),
+    );
+    upload["cameras"][0]["width_px"] = h.clone();
+    upload["cameras"][0]["height_px"] = w.clone();
+    std::fs::write(&json, upload.to_string()).unwrap();
+    let r = scan_once(&server.store, &opts).await;
+    let dest = r[0].as_ref().unwrap();
+    assert!(dest.starts_with(site.join(".failed")), "{dest:?}");
+    let err = std::fs::read_to_string(dest.join("error.txt")).unwrap();
+    assert!(
+        err.contains(&format!("the image is {w} × {h} px"))
+            && err.contains(&format!("declares {h} × {w} px")),
+        "{err}"
+    );
+
     // A station that is not an identifier names no file of the folder (never `../`).
     write_epoch(&site, &epoch, "e5", "2026-11-24T09:00:00Z", false, 5);
     let json = site.join("e5/epoch.json");
