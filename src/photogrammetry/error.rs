@@ -26,6 +26,19 @@ pub enum EpochError {
     /// write it with a four-digit year, so it could not be stored or sorted.
     #[error("observed_at '{0}' falls outside the years 0000–9999 in UTC")]
     TimestampOutOfRange(String),
+    /// `observed_at` lies further after the server's clock than an epoch may
+    /// ([`crate::service::ingest::MAX_DAYS_AHEAD`]): a mistyped year or a camera clock set wrong.
+    #[error(
+        "observed_at '{observed_at}' lies more than {days} days after the server's clock ({now})"
+    )]
+    TimestampAhead {
+        /// The time given.
+        observed_at: String,
+        /// The server's clock, RFC 3339.
+        now: String,
+        /// The tolerance in days.
+        days: i64,
+    },
     /// A label holding a control character (U+0000–U+001F, U+007F–U+009F).
     #[error("label: control characters (U+0000–U+001F, U+007F–U+009F) are not allowed")]
     BadLabel,

@@ -13,7 +13,7 @@ use chrono::Utc;
 use sha2::{Digest, Sha256};
 
 use crate::analysis::{self, EpochCoordinates, GroupKind, History};
-use crate::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochInput};
+use crate::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochError, EpochInput};
 use crate::store::block_motions;
 use crate::store::displacements::{self, Displacement};
 use crate::store::sites::Site;
@@ -114,6 +114,13 @@ pub async fn ingest_watched(
     ingest_with_identification(store, site_id, input, Some(folder), None).await
 }
 
+/// How far after the server's clock an epoch's `observed_at` may lie, in days. An epoch from
+/// the future (a mistyped year, a camera clock set wrong) would sort after every real epoch to
+/// come: each of them would then arrive "earlier", recompute the site, and be announced only as
+/// the net change up to that future epoch. A year's tolerance keeps clock skew and time zones far
+/// inside it and catches a wrong year.
+pub const MAX_DAYS_AHEAD: i64 = 366;
+
 async fn ingest_with_identification(
     store: &Store,
     site_id: &str,
@@ -122,6 +129,15 @@ async fn ingest_with_identification(
     slot: Option<UploadSlot>,
 ) -> Result<Ingested, ServiceError> {
     let problem = input.validate()?;
+    let now = Utc::now();
+    if problem.observed_at > now + chrono::Duration::days(MAX_DAYS_AHEAD) {
+        return Err(EpochError::TimestampAhead {
+            observed_at: input.observed_at.clone(),
+            now: store::timestamp(now),
+            days: MAX_DAYS_AHEAD,
+        }
+        .into());
+    }
     // The reads before the adjustment on one connection (one acquisition, and on PostgreSQL
     // one connection check, instead of one per read).
     let mut db = store.read().await?;

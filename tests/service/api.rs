@@ -368,6 +368,18 @@ async fn rejections_store_nothing() {
         msg.starts_with("cameras[0].calibrate_C: unknown field"),
         "{msg}"
     );
+    // An epoch more than a year after the server's clock (a mistyped year): 422 naming it.
+    let mut ahead = good.clone();
+    let at = (chrono::Utc::now() + chrono::Duration::days(367))
+        .to_rfc3339_opts(chrono::SecondsFormat::Secs, true);
+    ahead["observed_at"] = json!(at);
+    let (status, e) = s.upload("rej", &ahead).await;
+    assert_eq!(status, 422, "{e}");
+    let msg = e["error"]["message"].as_str().unwrap();
+    assert!(
+        msg.contains(&at) && msg.contains("after the server's clock"),
+        "{msg}"
+    );
     // A number beyond f64 is valid JSON: 422 naming its field, not 400.
     let mut huge = good.clone();
     huge["observed_at"] = json!("2001-05-03T00:00:00Z");
