@@ -239,12 +239,11 @@ pub async fn take_folder(
     {
         Ok(hash) => hash,
         Err(e) => {
-            tracing::warn!(site, folder = %folder.display(), error = %e, "watched folder unreadable");
-            std::fs::write(
-                folder.join("error.txt"),
-                format!("a file of the folder cannot be read: {e}\n"),
-            )?;
-            return move_to(folder, ".failed");
+            return fail_folder(
+                site,
+                folder,
+                &format!("a file of the folder cannot be read: {e}"),
+            )
         }
     };
     let legacy = std::fs::read_to_string(state_dir(&site_dir).join("ingested")).unwrap_or_default();
@@ -285,10 +284,13 @@ pub async fn take_folder(
                 "watched folder not taken: the database failed; taken again at the next scan");
             Ok(folder.to_path_buf())
         }
-        Err(e) => {
-            tracing::warn!(site, folder = %folder.display(), error = %e, "watched folder failed");
-            std::fs::write(folder.join("error.txt"), format!("{e}\n"))?;
-            move_to(folder, ".failed")
-        }
+        Err(e) => fail_folder(site, folder, &e.to_string()),
     }
+}
+
+/// Moves `folder` to `.failed/` with `reason` in its `error.txt`; returns where it went.
+fn fail_folder(site: &str, folder: &Path, reason: &str) -> std::io::Result<PathBuf> {
+    tracing::warn!(site, folder = %folder.display(), error = %reason, "watched folder failed");
+    std::fs::write(folder.join("error.txt"), format!("{reason}\n"))?;
+    move_to(folder, ".failed")
 }

@@ -220,9 +220,10 @@ fn evaluate_rules(
 
 /// Epochs, counting the current one, within which a stable point must be excluded twice before
 /// `reference_unstable` names it: 2 of the last 3 epochs in which the point was tested. A single
-/// exclusion is what the congruence test's α (1 %) produces by chance; two within three epochs
-/// happen by chance about once in 10⁴ epochs, while a point moved by 5σ (excluded about every
-/// other epoch) is confirmed within a few epochs.
+/// exclusion is what the congruence test's α (1 %) produces by chance; on simulated still
+/// networks the confirmation was reached once in 4000 epochs, while a point moved by 10σ was
+/// confirmed at the 2nd epoch of its move and one moved by 5σ on 3 of 5 seeds
+/// (`docs/accuracy.md`, "Reference stability").
 pub const REFERENCE_CONFIRM_EPOCHS: u32 = 3;
 
 /// Key of a stable point's memory in [`AlertState::rules`] for `reference_unstable`.

@@ -1,5 +1,5 @@
 //! The CSV form of an upload (`image,point,x_mm,y_mm` a line): turned into the JSON upload
-//! form ([`EpochInput`]) with the site's cameras.
+//! form ([`EpochInput`]) with the camera of its images ([`csv_camera`]).
 
 use std::collections::HashMap;
 
@@ -76,8 +76,7 @@ pub fn epoch_from_csv(
     camera: CameraInput,
 ) -> Result<EpochInput, CsvError> {
     use super::epoch::{ImageInput, ObservationInput};
-    let cameras = vec![camera];
-    let camera = cameras[0].id.clone();
+    let camera_id = camera.id.clone();
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         // Each line's field count is checked below, with the line's number and a 422.
@@ -141,7 +140,7 @@ pub fn epoch_from_csv(
                 index.insert(record[0].to_string(), images.len());
                 images.push(ImageInput {
                     id: record[0].to_string(),
-                    camera: camera.clone(),
+                    camera: camera_id.clone(),
                     station: None,
                     observations: vec![obs],
                 });
@@ -151,7 +150,7 @@ pub fn epoch_from_csv(
     Ok(EpochInput {
         observed_at: observed_at.to_string(),
         label: None,
-        cameras,
+        cameras: vec![camera],
         images,
         control: Vec::new(),
         approx: Vec::new(),
