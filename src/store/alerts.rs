@@ -314,7 +314,8 @@ pub struct AlertEvent {
 }
 
 /// `LIKE` pattern of `point` as a member of an alert's `points` (a JSON array; `%`, `_` and
-/// the backslash escaped with a backslash).
+/// the backslash escaped with a backslash). A prefilter only: SQLite's `LIKE` ignores the case of
+/// ASCII letters, so [`concerns`] decides.
 fn member_pattern(point: &str) -> String {
     format!(
         "%\"{}\"%",
@@ -325,6 +326,13 @@ fn member_pattern(point: &str) -> String {
     )
 }
 
+/// Whether the alert of `alert_point` and `points` (its JSON array of points) concerns `point`:
+/// as its point or one of its points, exactly (point names are case-sensitive).
+fn concerns(point: &str, alert_point: Option<&str>, points: &str) -> bool {
+    alert_point == Some(point)
+        || serde_json::from_str::<Vec<String>>(points).is_ok_and(|ps| ps.iter().any(|p| p == point))
+}
+
 /// The epochs at which the alerts concerning `point` (as the point of the alert or one of its
 /// points) were last raised or changed, each once, in no order: epochs a plot of the point keeps.
 pub async fn epochs_of_point(
@@ -332,15 +340,23 @@ pub async fn epochs_of_point(
     site: &str,
     point: &str,
 ) -> Result<Vec<i64>, StoreError> {
-    Ok(sqlx::query_scalar(
-        "SELECT DISTINCT epoch_id FROM alerts WHERE site_id = $1 AND epoch_id IS NOT NULL \
+    let rows: Vec<(i64, Option<String>, String)> = sqlx::query_as(
+        "SELECT epoch_id, point, points FROM alerts WHERE site_id = $1 AND epoch_id IS NOT NULL \
          AND (point = $2 OR points LIKE $3 ESCAPE '\\')",
     )
     .bind(site)
     .bind(point)
     .bind(member_pattern(point))
     .fetch_all(db)
-    .await?)
+    .await?;
+    let mut epochs: Vec<i64> = rows
+        .into_iter()
+        .filter(|(_, p, ps)| concerns(point, p.as_deref(), ps))
+        .map(|(e, _, _)| e)
+        .collect();
+    epochs.sort_unstable();
+    epochs.dedup();
+    Ok(epochs)
 }
 
 /// The recorded changes of the alerts that concern `point` (as the point of the alert or one of
@@ -350,9 +366,20 @@ pub async fn events_of_point(
     site: &str,
     point: &str,
 ) -> Result<Vec<AlertEvent>, StoreError> {
-    let rows: Vec<(String, String, Option<String>, String, String)> = sqlx::query_as(
-        "SELECT o.event_type, o.alert_id, o.level, o.payload, o.created_at FROM webhook_outbox o \
-         JOIN alerts a ON a.id = o.alert_id \
+    /// A recorded change with the alert's point and points, to tell whether it concerns `point`.
+    #[derive(sqlx::FromRow)]
+    struct EventRow {
+        event_type: String,
+        alert_id: String,
+        level: Option<String>,
+        payload: String,
+        created_at: String,
+        point: Option<String>,
+        points: String,
+    }
+    let rows: Vec<EventRow> = sqlx::query_as(
+        "SELECT o.event_type, o.alert_id, o.level, o.payload, o.created_at, a.point, a.points \
+         FROM webhook_outbox o JOIN alerts a ON a.id = o.alert_id \
          WHERE a.site_id = $1 AND (a.point = $2 OR a.points LIKE $3 ESCAPE '\\') ORDER BY o.created_at",
     )
     .bind(site)
@@ -361,7 +388,16 @@ pub async fn events_of_point(
     .fetch_all(db)
     .await?;
     rows.into_iter()
-        .map(|(event_type, alert_id, level, payload, created)| {
+        .filter(|r| concerns(point, r.point.as_deref(), &r.points))
+        .map(|r| {
+            let EventRow {
+                event_type,
+                alert_id,
+                level,
+                payload,
+                created_at: created,
+                ..
+            } = r;
             let event_type: AlertEventType = event_type.parse()?;
             let observed = serde_json::from_str::<serde_json::Value>(&payload)
                 .ok()
@@ -469,4 +505,75 @@ pub async fn ever_public(
     .fetch_all(db)
     .await?;
     Ok(finish(rows))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::{Store, StoreOptions};
+
+    /// Point names are case-sensitive: an alert on `A1` (as its point or in its points) is not
+    /// one of point `a1`'s, though SQLite's `LIKE` ignores case.
+    #[tokio::test]
+    async fn the_alerts_of_a_point_match_its_name_exactly() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
+            .await
+            .unwrap();
+        let mut tx = store.begin_write().await.unwrap();
+        sqlx::query("INSERT INTO sites (id, name, created_at) VALUES ('s', 's', '2026-01-01')")
+            .execute(&mut *tx)
+            .await
+            .unwrap();
+        for (id, epoch, point, points) in [
+            ("a", 1, None, r#"["A1","B2"]"#),
+            ("b", 2, Some("A1"), "[]"),
+            ("c", 3, None, r#"["a1"]"#),
+        ] {
+            sqlx::query(
+                "INSERT INTO alerts (id, site_id, point, points, level, rule, epoch_id, message, \
+                 state, raised_at, updated_at) VALUES ($1, 's', $2, $3, 'watch', 'r', $4, 'm', \
+                 'open', '2026-01-01', '2026-01-01')",
+            )
+            .bind(id)
+            .bind(point)
+            .bind(points)
+            .bind(epoch)
+            .execute(&mut *tx)
+            .await
+            .unwrap();
+            sqlx::query(
+                "INSERT INTO webhook_outbox (id, event_type, alert_id, level, payload, created_at) \
+                 VALUES ($1, 'alert.raised', $1, 'watch', '{}', '2026-01-01')",
+            )
+            .bind(id)
+            .execute(&mut *tx)
+            .await
+            .unwrap();
+        }
+        tx.commit().await.unwrap();
+        let mut upper = epochs_of_point(store.reader(), "s", "A1").await.unwrap();
+        upper.sort_unstable();
+        assert_eq!(upper, [1, 2]);
+        assert_eq!(
+            epochs_of_point(store.reader(), "s", "a1").await.unwrap(),
+            [3]
+        );
+        let events = |p: &'static str| {
+            let store = store.clone();
+            async move {
+                let mut ids: Vec<String> = events_of_point(store.reader(), "s", p)
+                    .await
+                    .unwrap()
+                    .into_iter()
+                    .map(|e| e.alert_id)
+                    .collect();
+                ids.sort();
+                ids
+            }
+        };
+        assert_eq!(events("A1").await, ["a", "b"]);
+        assert_eq!(events("a1").await, ["c"]);
+        assert!(events("B").await.is_empty());
+    }
 }
