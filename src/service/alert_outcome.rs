@@ -61,6 +61,7 @@ pub async fn record_events(
                 PayloadFormat::Standard => None,
                 _ => Some(render(e, h, "")?),
             };
+            // false: a 410 disabled the endpoint since `hooks` was read
             outbox::queue_delivery(&mut *tx, &id, &h.id, &now, own_body.as_deref()).await?;
         }
     }

@@ -67,25 +67,39 @@ pub async fn insert(db: &mut AnyConnection, m: &OutboxMessage<'_>) -> Result<(),
 }
 
 /// Queues message `outbox_id` for endpoint `webhook_id`, due at `at` (store timestamp), with
-/// the endpoint's own body when it is not the contract's (`None`: the outbox's body).
+/// the endpoint's own body when it is not the contract's (`None`: the outbox's body). Only while
+/// the endpoint is enabled: `Ok(false)`, and nothing queued, once a 410 has disabled it, even
+/// when the caller read it as enabled earlier in its transaction. PostgreSQL: the endpoint's row
+/// is read `FOR SHARE`, so an [`endpoint_gone`] running at the same time either comes first
+/// (nothing queued) or waits for this transaction and then fails what it queued.
 pub async fn queue_delivery(
     db: &mut AnyConnection,
     outbox_id: &str,
     webhook_id: &str,
     at: &str,
     payload: Option<&str>,
-) -> Result<(), StoreError> {
-    sqlx::query(
+) -> Result<bool, StoreError> {
+    const QUEUE: &str =
         "INSERT INTO webhook_deliveries (outbox_id, webhook_id, state, next_attempt_at, payload) \
-         VALUES ($1, $2, 'pending', $3, $4)",
-    )
-    .bind(outbox_id)
-    .bind(webhook_id)
-    .bind(at)
-    .bind(payload)
-    .execute(&mut *db)
-    .await?;
-    Ok(())
+         SELECT $1, id, 'pending', $3, $4 FROM webhooks WHERE id = $2 AND enabled = TRUE";
+    const QUEUE_LOCKED: &str = concat!(
+        "INSERT INTO webhook_deliveries (outbox_id, webhook_id, state, next_attempt_at, payload) \
+         SELECT $1, id, 'pending', $3, $4 FROM webhooks WHERE id = $2 AND enabled = TRUE",
+        " FOR SHARE"
+    );
+    let sql = if super::is_postgres(db) {
+        QUEUE_LOCKED
+    } else {
+        QUEUE
+    };
+    let done = sqlx::query(sql)
+        .bind(outbox_id)
+        .bind(webhook_id)
+        .bind(at)
+        .bind(payload)
+        .execute(&mut *db)
+        .await?;
+    Ok(done.rows_affected() == 1)
 }
 
 /// A delivery that is due, with what its POST needs.
@@ -342,9 +356,9 @@ mod tests {
             epoch: None,
         };
         insert(&mut tx, &message).await.unwrap();
-        queue_delivery(&mut tx, "msg_1", &webhook, &at(0), None)
+        assert!(queue_delivery(&mut tx, "msg_1", &webhook, &at(0), None)
             .await
-            .unwrap();
+            .unwrap());
         tx.commit().await.unwrap();
 
         let claim = |now: i64, lease: i64| {
@@ -400,5 +414,60 @@ mod tests {
             claim(100, 110).await.is_empty(),
             "delivered once, not again"
         );
+    }
+
+    /// An endpoint disabled by a 410 gets nothing more queued, even for a transaction that read
+    /// it as enabled: no delivery is left pending that the worker would never attempt.
+    #[tokio::test]
+    async fn nothing_is_queued_for_a_gone_endpoint() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
+            .await
+            .unwrap();
+        let mut tx = store.begin_write_rows().await.unwrap();
+        let hook = NewWebhook {
+            url: "http://127.0.0.1:9/hook".into(),
+            secret: "whsec_c2VjcmV0".into(),
+            min_level: None,
+            format: Default::default(),
+        };
+        let webhook = webhooks::insert(&mut *tx, &hook, WebhookSource::Api)
+            .await
+            .unwrap();
+        for sql in [
+            "INSERT INTO sites (id, name, created_at) VALUES ('s', 's', '1970-01-01T00:00:00Z')",
+            "INSERT INTO alerts (id, site_id, level, rule, message, state, raised_at, updated_at) \
+             VALUES ('a', 's', 'warning', 'displacement_mm', 'm', 'open', '1970-01-01T00:00:00Z', \
+             '1970-01-01T00:00:00Z')",
+        ] {
+            sqlx::query(sql).execute(&mut *tx).await.unwrap();
+        }
+        for id in ["msg_1", "msg_2"] {
+            let message = OutboxMessage {
+                id,
+                event_type: "alert.raised",
+                alert_id: "a",
+                level: "warning",
+                payload: "{}",
+                created_at: &at(0),
+                epoch: None,
+            };
+            insert(&mut tx, &message).await.unwrap();
+        }
+        assert!(queue_delivery(&mut tx, "msg_1", &webhook, &at(0), None)
+            .await
+            .unwrap());
+        endpoint_gone(&mut tx, &webhook).await.unwrap();
+        assert!(!queue_delivery(&mut tx, "msg_2", &webhook, &at(0), None)
+            .await
+            .unwrap());
+        tx.commit().await.unwrap();
+        let states: Vec<(String, String)> =
+            sqlx::query_as("SELECT outbox_id, state FROM webhook_deliveries ORDER BY outbox_id")
+                .fetch_all(store.reader())
+                .await
+                .unwrap();
+        assert_eq!(states, [("msg_1".to_string(), "failed".to_string())]);
+        assert_eq!(webhooks::pending(store.reader()).await.unwrap(), 0);
     }
 }
