@@ -118,16 +118,22 @@ impl std::fmt::Display for RecomputeCause {
 
 /// Recomputes, once, every site whose stored series an older binary derived
 /// ([`sites::ANALYSIS_VERSION`]: e.g. rows without the filtered values), one write transaction per
-/// site; called at start. Returns how many sites were recomputed.
+/// site, skipping a site another node has recomputed meanwhile; called at start. Returns how many
+/// sites this call recomputed.
 pub async fn recompute_outdated(store: &Store) -> Result<usize, ServiceError> {
-    let ids = sites::outdated(store.reader()).await?;
-    for id in &ids {
-        let mut raised = 0;
+    let mut recomputed = 0;
+    for id in &sites::outdated(store.reader()).await? {
         let mut tx = store.begin_write_site(id).await?;
+        // Asked again under the site's lock: another node starting at the same time may have
+        // recomputed it meanwhile.
+        if !sites::is_outdated(&mut *tx, id).await? {
+            continue;
+        }
         tracing::info!(site = %id, "recomputing the series derived by an older version");
-        raised += recompute_site(&mut tx, id, &RecomputeCause::NewerVersion).await?;
+        let raised = recompute_site(&mut tx, id, &RecomputeCause::NewerVersion).await?;
         tx.commit().await.map_err(StoreError::from)?;
         super::alert_outcome::count_raised(raised);
+        recomputed += 1;
     }
-    Ok(ids.len())
+    Ok(recomputed)
 }

@@ -327,7 +327,8 @@ impl Store {
         Ok(store)
     }
 
-    /// Opens a PostgreSQL database and applies its migrations. Writes go through a pool of
+    /// Opens a PostgreSQL database, applies its migrations and packs the series of sites stored
+    /// before migration 20261125000300 ([`series_blocks::backfill`]). Writes go through a pool of
     /// [`StoreOptions::write_connections`]; the advisory locks of [`Store::begin_write_site`]
     /// decide which of them may run side by side.
     async fn open_postgres(url: &str, options: &StoreOptions) -> Result<Store, StoreError> {
@@ -354,14 +355,16 @@ impl Store {
             .max_connections(options.write_connections.max(1))
             .acquire_timeout(Duration::from_secs(60))
             .connect_lazy_with(PgConnectOptions::from_url(&parsed)?);
-        Ok(Store {
+        let store = Store {
             backend: Backend::Postgres,
             read,
             write,
             sqlite_read: None,
             postgres_read: Some(postgres_read),
             checkpointer: None,
-        })
+        };
+        series_blocks::backfill(&store).await?;
+        Ok(store)
     }
 
     /// Which database this is.

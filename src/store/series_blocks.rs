@@ -85,8 +85,9 @@ pub async fn rebuild(db: &mut AnyConnection, site: &str) -> Result<(), StoreErro
 }
 
 /// Packs every site that has displacements but no `series_seals` row (databases from before
-/// migration 20261122000700), one write transaction per site. Called by [`Store::open`]; a
-/// no-op afterwards (two index probes per site).
+/// migration 20261122000700 on SQLite, 20261125000300 on PostgreSQL, which dropped the blocks), one
+/// write transaction per site; returns how many it packed. Called when a store is opened; a no-op
+/// afterwards (two index probes per site).
 pub async fn backfill(store: &Store) -> Result<usize, StoreError> {
     let sites: Vec<String> = sqlx::query_scalar(
         "SELECT s.id FROM sites s WHERE NOT EXISTS (SELECT 1 FROM series_seals x WHERE x.site_id = s.id) \
@@ -94,12 +95,24 @@ pub async fn backfill(store: &Store) -> Result<usize, StoreError> {
     )
     .fetch_all(store.reader())
     .await?;
+    let mut packed = 0;
     for site in &sites {
         let mut tx = store.begin_write_site(site).await?;
+        // Asked again under the site's lock: another node opening the same PostgreSQL database
+        // may have packed it meanwhile.
+        let sealed: Option<String> =
+            sqlx::query_scalar("SELECT site_id FROM series_seals WHERE site_id = $1")
+                .bind(site)
+                .fetch_optional(&mut *tx)
+                .await?;
+        if sealed.is_some() {
+            continue;
+        }
         rebuild(&mut tx, site).await?;
         tx.commit().await?;
+        packed += 1;
     }
-    Ok(sites.len())
+    Ok(packed)
 }
 
 /// Seals the site's epochs after `sealed_until` in groups of [`BLOCK_EPOCHS`]: every point's rows

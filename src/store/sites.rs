@@ -280,6 +280,16 @@ pub async fn outdated(db: impl AnyExecutor<'_>) -> Result<Vec<String>, StoreErro
     )
 }
 
+/// Whether the stored series of `site` was derived by an older binary (see [`ANALYSIS_VERSION`]).
+pub async fn is_outdated(db: impl AnyExecutor<'_>, site: &str) -> Result<bool, StoreError> {
+    let version: Option<i64> =
+        sqlx::query_scalar("SELECT analysis_version FROM sites WHERE id = $1")
+            .bind(site)
+            .fetch_optional(db)
+            .await?;
+    Ok(version.is_some_and(|v| v < ANALYSIS_VERSION))
+}
+
 /// Marks the site's stored series as derived by this binary ([`ANALYSIS_VERSION`]).
 pub async fn mark_current(db: impl AnyExecutor<'_>, site: &str) -> Result<(), StoreError> {
     sqlx::query("UPDATE sites SET analysis_version = $1 WHERE id = $2")
