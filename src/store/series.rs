@@ -111,10 +111,10 @@ pub struct Written {
 /// `$block`, a tail row its time and values. The union is merged on the two primary keys
 /// (`EXPLAIN QUERY PLAN`: `MERGE (UNION ALL)`, no sort).
 macro_rules! series_sql {
-    ($block:literal) => {
+    ($($block:tt)+) => {
         concat!(
             "SELECT last_at, ",
-            $block,
+            $($block)+,
             ", NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
             NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
             NULL, NULL, NULL, NULL, NULL, NULL, NULL FROM series_blocks \
@@ -134,16 +134,31 @@ macro_rules! series_sql {
     };
 }
 
+/// The blocks' column of [`EXTREMES_SQL`]: each block's extremes, the point's last block whole.
+macro_rules! extremes_column {
+    () => {
+        "CASE WHEN last_at = (SELECT MAX(b.last_at) FROM series_blocks b \
+         WHERE b.site_id = $1 AND b.point = $2) THEN data ELSE extremes END"
+    };
+}
+
 /// Every row of the series: each block's packed rows, then the tail rows.
 pub(super) const SQL: &str = series_sql!("data");
 
 /// The series as a coarse plot reads it: each block's extremes
 /// ([`series_record::extremes`]) but the point's last block whole, then the tail rows, so the
 /// last epochs are all there.
-pub(super) const EXTREMES_SQL: &str = series_sql!(
-    "CASE WHEN last_at = (SELECT MAX(b.last_at) FROM series_blocks b \
-     WHERE b.site_id = $1 AND b.point = $2) THEN data ELSE extremes END"
-);
+pub(super) const EXTREMES_SQL: &str = series_sql!(extremes_column!());
+
+/// [`SQL`] and [`EXTREMES_SQL`] with at most `$12` rows, for PostgreSQL, which reads them all
+/// before the writers see one ([`super::series_postgres`]). Each row gives at least one record in
+/// the range (a block is read only when its last record is after the cursor and `from`), so a
+/// page of `limit` records needs at most `limit + 1` rows, however long the rest of the series.
+pub(super) const SQL_LIMITED: &str = concat!(series_sql!("data"), " LIMIT $12");
+
+/// [`EXTREMES_SQL`] with at most `$12` rows (see [`SQL_LIMITED`]).
+pub(super) const EXTREMES_SQL_LIMITED: &str =
+    concat!(series_sql!(extremes_column!()), " LIMIT $12");
 
 /// Where the rows of a series come from.
 pub(super) enum Source {

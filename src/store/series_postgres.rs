@@ -5,7 +5,9 @@
 
 use sqlx::{AnyPool, Row};
 
-use super::series::{count_params, params, SeriesQuery, COUNT_SQL, EXTREMES_SQL, SQL};
+use super::series::{
+    count_params, params, SeriesQuery, COUNT_SQL, EXTREMES_SQL_LIMITED, SQL_LIMITED,
+};
 use super::series_record::{self, Filtered, Record};
 use super::sqlite_raw::Param;
 use super::StoreError;
@@ -23,9 +25,10 @@ pub async fn count(pool: &AnyPool, q: &SeriesQuery) -> Result<usize, StoreError>
     Ok(usize::try_from(n).unwrap_or(0))
 }
 
-/// Every row of `q` in time order as packed records, one after the other (no limit: the
-/// writers stop at theirs); with `extremes`, each block's extremes but the last block's
-/// ([`EXTREMES_SQL`]).
+/// The rows of `q` in time order as packed records, one after the other: all of them, or with
+/// `q.limit` enough rows for `limit + 1` records (the writers stop at theirs and tell by the one
+/// more whether more follow; [`SQL_LIMITED`]); with `extremes`, each block's extremes but the last
+/// block's ([`EXTREMES_SQL_LIMITED`]).
 pub async fn packed_records(
     pool: &AnyPool,
     q: &SeriesQuery,
@@ -34,13 +37,19 @@ pub async fn packed_records(
     let from = q.from.as_deref().unwrap_or("");
     let to = q.to.as_deref().unwrap_or(super::TEXT_MAX);
     let after = q.after.as_deref().unwrap_or("");
-    let mut query = sqlx::query(if extremes { EXTREMES_SQL } else { SQL });
+    let mut query = sqlx::query(if extremes {
+        EXTREMES_SQL_LIMITED
+    } else {
+        SQL_LIMITED
+    });
     for p in params(q) {
         query = match p {
             Param::Text(t) => query.bind(t),
             Param::Int(i) => query.bind(i),
         };
     }
+    let rows_needed = q.limit.map_or(i64::MAX, |l| l.max(0).saturating_add(1));
+    query = query.bind(rows_needed);
     let rows = query.fetch_all(pool).await?;
     let mut out = Vec::new();
     let cut = |what: &str| StoreError::Block(format!("series of {}/{}: {what}", q.site, q.point));

@@ -119,6 +119,31 @@ pub async fn long_history_plot(store: &Store, base: &str) {
     let index_of = |e: i64| full.epoch.iter().position(|&x| x == e).unwrap();
     let cols = ["dx", "dy", "dz", "d"];
     let client = reqwest::Client::new();
+    // The JSON pages, whose limits cut the packed blocks anywhere: every epoch once, in order.
+    let mut paged = Vec::new();
+    let mut cursor: Option<String> = None;
+    loop {
+        let mut url = format!("{base}/api/v1/sites/{SITE}/points/T001/displacements?limit=300");
+        if let Some(c) = &cursor {
+            url.push_str(&format!("&cursor={c}"));
+        }
+        let page: Value = client.get(url).send().await.unwrap().json().await.unwrap();
+        let items = page["items"].as_array().unwrap();
+        assert!(items.len() <= 300);
+        paged.extend(items.iter().map(|i| i["epoch"].as_i64().unwrap()));
+        match page["next_cursor"].as_str() {
+            Some(c) => {
+                assert_eq!(
+                    items.len(),
+                    300,
+                    "a page short of its limit says more follow"
+                );
+                cursor = Some(c.to_string());
+            }
+            None => break,
+        }
+    }
+    assert_eq!(paged, full.epoch, "the pages of 300");
     for width in [100usize, 200] {
         let plot: Value = client
             .get(format!("{base}/dashboard/plot/{SITE}/T001?width={width}"))
