@@ -3,6 +3,7 @@
 //! empty. Each table's columns are listed here with their kind, and checked against the two
 //! databases before anything is copied, so a column added later cannot be dropped silently.
 
+use futures_util::TryStreamExt;
 use sqlx::{AnyConnection, Row};
 
 use super::{Backend, Store, StoreError};
@@ -333,13 +334,18 @@ async fn column_count(
         .await?)
 }
 
+/// Rows read from the source and inserted into the target at a time: what is held in memory
+/// (a few MB even for the packed series blocks), whatever the size of the installation.
+const COPY_CHUNK_ROWS: usize = 500;
+
 /// Rows copied per table, in copy order.
 pub type Copied = Vec<(&'static str, u64)>;
 
 /// Copies every row of `from` into `to`, whose tables must all be empty, in one transaction on
 /// `to` (nothing is written when anything fails). The source is read in one read transaction,
 /// one snapshot (PostgreSQL: repeatable read), so an epoch committed during the copy is copied
-/// whole or not at all. Stop the daemons of both first.
+/// whole or not at all. Each table is streamed, [`COPY_CHUNK_ROWS`] rows per multi-row insert, so
+/// memory stays flat however large the installation. Stop the daemons of both first.
 pub async fn copy_all(from: &Store, to: &Store) -> Result<Copied, StoreError> {
     let mut read = from.read().await?;
     let mut source = sqlx::Connection::begin(&mut *read).await?;
@@ -383,29 +389,53 @@ pub async fn copy_all(from: &Store, to: &Store) -> Result<Copied, StoreError> {
             })
             .collect();
         let names: Vec<&str> = cols.iter().map(|(c, _)| *c).collect();
-        let placeholders: Vec<String> = (1..=cols.len()).map(|i| format!("${i}")).collect();
-        let insert = format!(
-            "INSERT INTO {table} ({}) VALUES ({})",
+        let per_insert = super::rows_per_insert(cols.len()).min(COPY_CHUNK_ROWS);
+        let full_insert = format!(
+            "INSERT INTO {table} ({}) VALUES {}",
             names.join(", "),
-            placeholders.join(", ")
+            super::values_list(&tx, per_insert, cols.len())
         );
-        let rows = sqlx::query(&format!("SELECT {} FROM {table}", select.join(", ")))
-            .fetch_all(&mut *source)
-            .await?;
-        for row in &rows {
-            let mut q = sqlx::query(&insert);
-            for (i, (_, kind)) in cols.iter().enumerate() {
-                q = match kind {
-                    T => q.bind(row.try_get::<Option<String>, _>(i)?),
-                    I => q.bind(row.try_get::<Option<i64>, _>(i)?),
-                    F => q.bind(row.try_get::<Option<f64>, _>(i)?),
-                    B => q.bind(row.try_get::<Option<i64>, _>(i)?.map(|v| v != 0)),
-                    X => q.bind(row.try_get::<Option<Vec<u8>>, _>(i)?),
+        let read_all = format!("SELECT {} FROM {table}", select.join(", "));
+        let mut rows = sqlx::query(&read_all).fetch(&mut *source);
+        let mut chunk = Vec::with_capacity(per_insert);
+        let mut n = 0u64;
+        loop {
+            let row = rows.try_next().await?;
+            let done = row.is_none();
+            chunk.extend(row);
+            if chunk.len() == per_insert || (done && !chunk.is_empty()) {
+                let partial;
+                let sql = if chunk.len() == per_insert {
+                    &full_insert
+                } else {
+                    partial = format!(
+                        "INSERT INTO {table} ({}) VALUES {}",
+                        names.join(", "),
+                        super::values_list(&tx, chunk.len(), cols.len())
+                    );
+                    &partial
                 };
+                let mut q = sqlx::query(sql);
+                for row in &chunk {
+                    for (i, (_, kind)) in cols.iter().enumerate() {
+                        q = match kind {
+                            T => q.bind(row.try_get::<Option<String>, _>(i)?),
+                            I => q.bind(row.try_get::<Option<i64>, _>(i)?),
+                            F => q.bind(row.try_get::<Option<f64>, _>(i)?),
+                            B => q.bind(row.try_get::<Option<i64>, _>(i)?.map(|v| v != 0)),
+                            X => q.bind(row.try_get::<Option<Vec<u8>>, _>(i)?),
+                        };
+                    }
+                }
+                q.execute(&mut *tx).await?;
+                n += chunk.len() as u64;
+                chunk.clear();
             }
-            q.execute(&mut *tx).await?;
+            if done {
+                break;
+            }
         }
-        copied.push((*table, rows.len() as u64));
+        copied.push((*table, n));
     }
     tx.commit().await?;
     source.rollback().await?;
