@@ -64,11 +64,12 @@ pub async fn list(
             .into_iter()
             .map(|c| (c.point.clone(), c))
             .collect();
-    let mut disp: HashMap<String, Displacement> = displacements::latest(db, &site)
-        .await?
-        .into_iter()
-        .map(|d| (d.point.clone(), d))
-        .collect();
+    let mut disp: HashMap<String, Displacement> =
+        displacements::latest(&mut *state.store.read().await?, &site)
+            .await?
+            .into_iter()
+            .map(|d| (d.point.clone(), d))
+            .collect();
     let mut levels = alerts::active_levels(db, &site).await?;
     let items: Vec<PointItem> = page
         .items

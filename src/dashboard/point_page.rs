@@ -36,7 +36,7 @@ pub async fn point(
         .await?
         .get(&p.name)
         .copied();
-    let latest = displacements::latest(db, &site.id)
+    let latest = displacements::latest(&mut *state.store.read().await?, &site.id)
         .await?
         .into_iter()
         .find(|d| d.point == p.name);

@@ -42,11 +42,12 @@ pub async fn site(
     let mut pts = points::list(db, &site.id, None, 100_000).await?;
     pts.sort_by(|a, b| super::natural_order::natural_cmp(&a.name, &b.name));
     let coords = points::latest_coordinates(&mut *state.store.read().await?, &site.id).await?;
-    let latest: HashMap<String, displacements::Displacement> = displacements::latest(db, &site.id)
-        .await?
-        .into_iter()
-        .map(|d| (d.point.clone(), d))
-        .collect();
+    let latest: HashMap<String, displacements::Displacement> =
+        displacements::latest(&mut *state.store.read().await?, &site.id)
+            .await?
+            .into_iter()
+            .map(|d| (d.point.clone(), d))
+            .collect();
     let levels = alerts::active_levels(db, &site.id).await?;
     let roles: HashMap<&str, PointRole> = pts.iter().map(|p| (p.name.as_str(), p.role)).collect();
     let plan: Vec<PlanPoint> = coords

@@ -352,17 +352,25 @@ pub async fn of_epoch(
     Ok(display(rows))
 }
 
-/// The latest displacement of every point of the site (one index seek per point).
-pub async fn latest(db: impl AnyExecutor<'_>, site: &str) -> Result<Vec<Displacement>, StoreError> {
+/// The latest displacement of every point of the site: one index seek per point however long
+/// the history, on SQLite with the points as the outer loop of the `CROSS JOIN`, on PostgreSQL
+/// with each point's newest row read `LATERAL`ly (as [`super::points::latest_coordinates`]).
+pub async fn latest(db: &mut AnyConnection, site: &str) -> Result<Vec<Displacement>, StoreError> {
     let cols = select_list(COLUMNS, "d.");
-    let rows: Vec<Displacement> = sqlx::query_as(&format!(
-        "SELECT {cols} FROM points p CROSS JOIN displacements d \
-         WHERE p.site_id = $1 AND d.site_id = p.site_id AND d.point = p.name AND d.observed_at = \
-         (SELECT MAX(d2.observed_at) FROM displacements d2 WHERE d2.site_id = p.site_id AND d2.point = p.name)"
-    ))
-    .bind(site)
-    .fetch_all(db)
-    .await?;
+    let sql = if super::is_postgres(db) {
+        format!(
+            "SELECT {cols} FROM points p CROSS JOIN LATERAL (SELECT * FROM displacements d2 \
+             WHERE d2.site_id = p.site_id AND d2.point = p.name ORDER BY d2.observed_at DESC LIMIT 1) d \
+             WHERE p.site_id = $1"
+        )
+    } else {
+        format!(
+            "SELECT {cols} FROM points p CROSS JOIN displacements d \
+             WHERE p.site_id = $1 AND d.site_id = p.site_id AND d.point = p.name AND d.observed_at = \
+             (SELECT MAX(d2.observed_at) FROM displacements d2 WHERE d2.site_id = p.site_id AND d2.point = p.name)"
+        )
+    };
+    let rows: Vec<Displacement> = sqlx::query_as(&sql).bind(site).fetch_all(db).await?;
     Ok(display(rows))
 }
 
