@@ -8,6 +8,8 @@
 //! their previous epoch. The epoch is ingested exactly as an upload
 //! ([`crate::service::ingest::ingest_watched`]: the counts below are stored with its report),
 //! and the stations' orientations for the next epoch are resected from its adjusted coordinates.
+//! A folder is taken once `READY` is there and its files have stopped changing for
+//! [`WatchOptions::settle`] ([`Settling`]): a copy may write `READY` before the rest.
 //! The folder then moves to `<site>/.done/` with `identification.json` (per station: method,
 //! detected, identified, ambiguous, unmatched, where the image is kept and every detection with its
 //! name, which the report keeps too, so the dashboard can draw them over the image) or, with
@@ -28,7 +30,7 @@
 //! The files: `folders.rs` (what the directory holds and where a folder moves), `stations.rs`
 //! (one station's image: detection and the counts of its targets), `image_file.rs` (reading an
 //! image file within the size limit), `naming.rs` (which detected
-//! target is which point), `ingest.rs` (one folder taken, the use case), `state.rs` (what the
+//! target is which point), `settle.rs` (when a ready folder has stopped changing), `ingest.rs` (one folder taken, the use case), `state.rs` (what the
 //! watcher keeps between epochs: the folders taken and the stations' orientations), and here the
 //! loop that scans.
 
@@ -38,6 +40,7 @@ pub(crate) mod image_file;
 pub(crate) mod ingest;
 mod naming;
 mod options;
+mod settle;
 mod state;
 mod stations;
 
@@ -48,16 +51,28 @@ pub use error::WatchError;
 pub use folders::{content_hash, ready_folders};
 pub use ingest::take_folder;
 pub use options::WatchOptions;
+pub use settle::{Settled, Settling};
 
 use crate::shutdown::Shutdown;
 use crate::store::Store;
 
-/// Takes every ready folder once (sequentially). Several nodes may watch one shared directory:
-/// each folder is claimed ([`Store::try_job_lock`] on its site and name) and held until it has
-/// moved to `.done/` or `.failed/`; a folder another node holds, or has already moved, is left.
+/// Takes every ready folder once (sequentially), at once, whether or not its files are still
+/// changing ([`run`] waits for them to settle first). Several nodes may watch one shared
+/// directory: each folder is claimed ([`Store::try_job_lock`] on its site and name) and held until
+/// it has moved to `.done/` or `.failed/`; a folder another node holds, or has already moved, is
+/// left.
 pub async fn scan_once(store: &Store, opts: &WatchOptions) -> Vec<std::io::Result<PathBuf>> {
+    take_all(store, opts, ready_folders(&opts.dir)).await
+}
+
+/// Takes each of `ready` (`(site, folder)`) as [`scan_once`] does.
+async fn take_all(
+    store: &Store,
+    opts: &WatchOptions,
+    ready: Vec<(String, PathBuf)>,
+) -> Vec<std::io::Result<PathBuf>> {
     let mut out = Vec::new();
-    for (site, folder) in ready_folders(&opts.dir) {
+    for (site, folder) in ready {
         let name = folder.file_name().unwrap_or_default().to_string_lossy();
         let claim = match store.try_job_lock(&format!("watch {site}/{name}")).await {
             Ok(Some(claim)) => claim,
@@ -75,8 +90,9 @@ pub async fn scan_once(store: &Store, opts: &WatchOptions) -> Vec<std::io::Resul
     out
 }
 
-/// Watches `opts.dir` until shutdown: a scan at start, on every file-system event and every
-/// `opts.rescan`.
+/// Watches `opts.dir` until shutdown: a scan at start, on every file-system event, every
+/// `opts.rescan`, and when a ready folder whose files were still changing may have settled
+/// ([`Settling`], `opts.settle`).
 pub async fn run(store: Store, opts: WatchOptions, shutdown: Shutdown) -> Result<(), WatchError> {
     use notify::Watcher;
     let (tx, mut rx) = tokio::sync::mpsc::channel::<()>(16);
@@ -88,17 +104,36 @@ pub async fn run(store: Store, opts: WatchOptions, shutdown: Shutdown) -> Result
         tracing::warn!(error = %e, "file-system events unavailable; rescanning only");
     }
     let mut tick = tokio::time::interval(opts.rescan);
+    let mut settling = Settling::default();
+    let mut next_check: Option<tokio::time::Instant> = None;
     loop {
+        let settled = async {
+            match next_check {
+                Some(at) => tokio::time::sleep_until(at).await,
+                None => std::future::pending().await,
+            }
+        };
         tokio::select! {
             _ = shutdown.requested() => return Ok(()),
             _ = tick.tick() => {}
+            _ = settled => {}
             Some(()) = rx.recv() => {
                 // let the writer finish its burst of events
                 tokio::time::sleep(Duration::from_millis(200)).await;
                 while rx.try_recv().is_ok() {}
             }
         }
-        for r in scan_once(&store, &opts).await {
+        let dir = opts.dir.clone();
+        let settle = opts.settle;
+        let (returned, decided) = tokio::task::spawn_blocking(move || {
+            let decided = settling.take(ready_folders(&dir), settle, std::time::Instant::now());
+            (settling, decided)
+        })
+        .await
+        .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
+        settling = returned;
+        next_check = decided.next_check.map(tokio::time::Instant::from_std);
+        for r in take_all(&store, &opts, decided.ready).await {
             if let Err(e) = r {
                 tracing::warn!(error = %e, "watched folder could not be moved");
             }

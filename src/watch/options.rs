@@ -14,6 +14,9 @@ pub struct WatchOptions {
     pub dir: PathBuf,
     /// Period of the rescan.
     pub rescan: Duration,
+    /// How long a ready folder's entries must stay the same before it is taken (the files of a
+    /// copy that wrote `READY` first are still arriving); zero: at once.
+    pub settle: Duration,
     /// Detection options.
     pub detect: DetectOptions,
     /// Identification options (a station from its previous orientation, or alone from its seeds).
@@ -23,11 +26,12 @@ pub struct WatchOptions {
 }
 
 impl WatchOptions {
-    /// Defaults for `dir`: rescan every 30 s.
+    /// Defaults for `dir`: rescan every 30 s, take a folder once it has not changed for 2 s.
     pub fn new(dir: PathBuf) -> Self {
         Self {
             dir,
             rescan: Duration::from_secs(30),
+            settle: Duration::from_secs(2),
             detect: DetectOptions::default(),
             identify: IdentifyOptions::default(),
             first_epoch: FirstEpochOptions::default(),
