@@ -126,6 +126,41 @@ fn unknown_camera_names_the_image() {
     );
 }
 
+/// A σ so small that its weight overflows is refused with its bounds, naming the camera or the
+/// control point (it failed as "singular normal equations" before).
+#[test]
+fn a_vanishing_sigma_names_its_camera_or_control_point() {
+    let mut e = base();
+    e.cameras[0].sigma_mm = Some(1e-300);
+    match run(&e) {
+        Err(AdjustError::Invalid(EpochError::OutOfRange { item, field, .. })) => {
+            assert_eq!(
+                (item, field.as_str()),
+                (format!("camera '{}'", e.cameras[0].id), "sigma_mm")
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    let mut e = base();
+    let a = e.approx[0].clone();
+    e.control = vec![ControlInput {
+        point: a.point.clone(),
+        X: a.X,
+        Y: a.Y,
+        Z: a.Z,
+        sigma_m: Some(1e-300),
+    }];
+    match run(&e) {
+        Err(AdjustError::Invalid(EpochError::OutOfRange { item, field, .. })) => {
+            assert_eq!(
+                (item, field.as_str()),
+                (format!("control point '{}'", a.point), "sigma_m")
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
 /// Text PostgreSQL cannot store (NUL) or a log line should not hold: refused on both backends
 /// alike, before the adjustment.
 #[test]

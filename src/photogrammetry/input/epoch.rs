@@ -102,9 +102,10 @@ pub struct ControlInput {
     /// Z in m.
     #[schema(minimum = -1e8, maximum = 1e8)]
     pub Z: f64,
-    /// Standard deviation of each coordinate in m (default 0.001 m).
+    /// Standard deviation of each coordinate in m (default 0.001 m), at least
+    /// [`MIN_CONTROL_SIGMA_M`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(exclusive_minimum = 0.0)]
+    #[schema(minimum = 1e-9)]
     pub sigma_m: Option<f64>,
 }
 
@@ -126,6 +127,10 @@ pub struct ApproxInput {
     #[schema(minimum = -1e8, maximum = 1e8)]
     pub Z: f64,
 }
+
+/// Smallest σ of a control coordinate in m (1 nm): a smaller one made weights (σ⁻²) the normal
+/// equations cannot hold; a point meant to be fixed is well served by it.
+pub const MIN_CONTROL_SIGMA_M: f64 = 1e-9;
 
 /// Default σ of a control coordinate when `sigma_m` is absent, in m.
 pub const DEFAULT_CONTROL_SIGMA_M: f64 = 0.001;
@@ -337,11 +342,11 @@ impl EpochInput {
                 &item,
                 "sigma_m",
             )?;
-            if sigma_m <= 0.0 {
+            if sigma_m < MIN_CONTROL_SIGMA_M {
                 return Err(EpochError::OutOfRange {
                     item,
                     field: "sigma_m".into(),
-                    reason: "must be positive".into(),
+                    reason: format!("must be at least {MIN_CONTROL_SIGMA_M} m"),
                 });
             }
             if !seen_control.insert(c.point.clone()) {

@@ -21,9 +21,9 @@ pub struct CameraInput {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(inline, value_type = Option<Vec<InteriorName>>)]
     pub calibrate: Option<Vec<String>>,
-    /// Pixel size in mm (needed for pixel observations).
+    /// Pixel size in mm (needed for pixel observations), at least [`MIN_PIXEL_SIZE_MM`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(exclusive_minimum = 0.0, maximum = 1.0)]
+    #[schema(minimum = 1e-4, maximum = 1.0)]
     pub pixel_size_mm: Option<f64>,
     /// Image width in pixels.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -62,9 +62,10 @@ pub struct CameraInput {
     #[schema(minimum = -1000.0, maximum = 1000.0)]
     pub p2: f64,
     /// A-priori standard deviation of one image coordinate in mm
-    /// (default 0.5 px when the pixel size is known, else 0.002 mm).
+    /// (default 0.5 px when the pixel size is known, else 0.002 mm), at least
+    /// [`MIN_SIGMA_MM`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(exclusive_minimum = 0.0, maximum = 1000.0)]
+    #[schema(minimum = 1e-6, maximum = 1000.0)]
     pub sigma_mm: Option<f64>,
 }
 
@@ -104,6 +105,15 @@ pub struct Camera {
     /// A-priori σ of one image coordinate in mm.
     pub sigma_mm: f64,
 }
+
+/// Smallest a-priori σ of an image coordinate in mm (1 nm, a thousandth of the smallest pixels'
+/// centring precision): below it the weights (σ⁻²) leave the range the normal equations can be
+/// solved in, and the adjustment failed with a misleading "singular" or did not converge.
+pub const MIN_SIGMA_MM: f64 = 1e-6;
+
+/// Smallest pixel size in mm (0.1 µm, a fifth of the smallest sensor pixels made): its default σ
+/// (half a pixel) stays above [`MIN_SIGMA_MM`].
+pub const MIN_PIXEL_SIZE_MM: f64 = 1e-4;
 
 /// Default a-priori σ in mm when neither `sigma_mm` nor the pixel size is given.
 pub const DEFAULT_SIGMA_MM: f64 = 0.002;
@@ -153,11 +163,11 @@ impl Camera {
             }
         }
         let pixel_size_mm = match c.pixel_size_mm {
-            Some(p) if !(p.is_finite() && p > 0.0 && p <= 1.0) => {
+            Some(p) if !(p.is_finite() && (MIN_PIXEL_SIZE_MM..=1.0).contains(&p)) => {
                 return Err(EpochError::OutOfRange {
                     item,
                     field: "pixel_size_mm".into(),
-                    reason: "must be a positive number of at most 1 mm".into(),
+                    reason: format!("must be from {MIN_PIXEL_SIZE_MM} to 1 mm"),
                 })
             }
             p => p,
@@ -174,11 +184,11 @@ impl Camera {
             }
         };
         let sigma_mm = match c.sigma_mm {
-            Some(s) if !(s.is_finite() && s > 0.0 && s <= 1e3) => {
+            Some(s) if !(s.is_finite() && (MIN_SIGMA_MM..=1e3).contains(&s)) => {
                 return Err(EpochError::OutOfRange {
                     item,
                     field: "sigma_mm".into(),
-                    reason: "must be a positive number".into(),
+                    reason: format!("must be from {MIN_SIGMA_MM} to 1000 mm"),
                 })
             }
             Some(s) => s,
