@@ -7,8 +7,8 @@
 //! - `series_87600/*`: the displacement time series of one point of a site with 87 600 epochs
 //!   (10 years hourly) × 30 points: as CSV (whole series, streamed), the CSV's store part alone
 //!   (read and format, no HTTP), one JSON page of 1000, and every JSON page following the cursor;
-//! - `series_87600_postgres/csv_all_store_only`: the same store part on PostgreSQL (a throwaway
-//!   cluster, `tests/pg_support`);
+//! - `series_87600_postgres/*`: the same store part, the JSON page and every JSON page on
+//!   PostgreSQL (a throwaway cluster, `tests/pg_support`);
 //! - `dashboard/*`: server time of the site page (30 points) and of the point page's plot data
 //!   (downsampled to 800 px) on a site of 87 600 epochs and on one of 40, and the weight of each
 //!   page with its embedded assets, gzip (printed);
@@ -255,8 +255,55 @@ fn series_postgres(c: &mut Criterion) {
     g.bench_function("csv_all_store_only", |b| {
         b.iter(|| rt.block_on(csv_store_only(&server)))
     });
+    g.bench_function("json_page_1000", |b| {
+        b.iter(|| rt.block_on(json_page_1000(&server)))
+    });
+    g.sample_size(10);
+    g.bench_function("json_all_pages", |b| {
+        b.iter(|| rt.block_on(json_all_pages(&server)))
+    });
     g.finish();
     let _ = rt.block_on(server.stop());
+}
+
+/// One JSON page of 1000 rows of `long`/T017 from 2020 on, the client reads every byte.
+async fn json_page_1000(server: &TestServer) {
+    let url = server.url("/api/v1/sites/long/points/T017/displacements?limit=1000&from=2020-01-01");
+    let body = server
+        .client
+        .get(&url)
+        .send()
+        .await
+        .unwrap()
+        .bytes()
+        .await
+        .unwrap();
+    assert!(body.len() > 1000);
+}
+
+/// The whole series of `long`/T017 as JSON: every page of 1000 (the contract's largest),
+/// following the cursor, each parsed by the client.
+async fn json_all_pages(server: &TestServer) {
+    let first = server.url("/api/v1/sites/long/points/T017/displacements?limit=1000");
+    let mut url = first.clone();
+    let mut rows = 0;
+    loop {
+        let page: serde_json::Value = server
+            .client
+            .get(&url)
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        rows += page["items"].as_array().unwrap().len();
+        match page["next_cursor"].as_str() {
+            Some(c) => url = format!("{first}&cursor={c}"),
+            None => break,
+        }
+    }
+    assert_eq!(rows, 87_600);
 }
 
 fn series(c: &mut Criterion) {
@@ -264,8 +311,6 @@ fn series(c: &mut Criterion) {
     let server = rt.block_on(TestServer::start(|_| {}));
     rt.block_on(fill_history(&server, "long", 87_600, 30));
     let csv = server.url("/api/v1/sites/long/points/T017/displacements?format=csv");
-    let json =
-        server.url("/api/v1/sites/long/points/T017/displacements?limit=1000&from=2020-01-01");
     let mut g = c.benchmark_group("service/series_87600");
     g.sample_size(20).measurement_time(Duration::from_secs(10));
     g.bench_function("csv_all", |b| {
@@ -285,51 +330,16 @@ fn series(c: &mut Criterion) {
         })
     });
     g.bench_function("json_page_1000", |b| {
-        b.iter(|| {
-            rt.block_on(async {
-                server
-                    .client
-                    .get(&json)
-                    .send()
-                    .await
-                    .unwrap()
-                    .bytes()
-                    .await
-                    .unwrap()
-            })
-        })
+        b.iter(|| rt.block_on(json_page_1000(&server)))
     });
     // the store's part of the CSV alone (no HTTP): read, format in batches, collect the chunks
     g.bench_function("csv_all_store_only", |b| {
         b.iter(|| rt.block_on(csv_store_only(&server)))
     });
     // the whole series as JSON: every page of 1000 (the contract's largest), following the cursor
-    let first = server.url("/api/v1/sites/long/points/T017/displacements?limit=1000");
     g.sample_size(10);
     g.bench_function("json_all_pages", |b| {
-        b.iter(|| {
-            rt.block_on(async {
-                let mut url = first.clone();
-                let mut rows = 0;
-                loop {
-                    let page: serde_json::Value = server
-                        .client
-                        .get(&url)
-                        .send()
-                        .await
-                        .unwrap()
-                        .json()
-                        .await
-                        .unwrap();
-                    rows += page["items"].as_array().unwrap().len();
-                    match page["next_cursor"].as_str() {
-                        Some(c) => url = format!("{first}&cursor={c}"),
-                        None => break,
-                    }
-                }
-                assert_eq!(rows, 87_600);
-            })
-        })
+        b.iter(|| rt.block_on(json_all_pages(&server)))
     });
     g.finish();
     let _ = rt.block_on(server.stop());

@@ -106,20 +106,47 @@ pub struct Written {
     pub more: bool,
 }
 
-/// [`SQL`] with the blocks' column chosen: the blocks overlapping the range, then the tail rows
-/// in it, in time order (one statement: one snapshot). A block row has its last time and
-/// `$block`, a tail row its time and values. The union is merged on the two primary keys
-/// (`EXPLAIN QUERY PLAN`: `MERGE (UNION ALL)`, no sort).
-macro_rules! series_sql {
-    ($($block:tt)+) => {
+/// The 31 empty columns of a block row (where a tail row has its values).
+macro_rules! block_row_nulls {
+    () => {
+        "NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
+         NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL"
+    };
+}
+
+/// The point's packed blocks that overlap the range, with their column `$col`: a block row has
+/// its last time and `$col`.
+macro_rules! blocks_in_range {
+    ($($col:tt)+) => {
         concat!(
-            "SELECT last_at, ",
-            $($block)+,
-            ", NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
-            NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, \
-            NULL, NULL, NULL, NULL, NULL, NULL, NULL FROM series_blocks \
-            WHERE site_id = $1 AND point = $2 AND last_at >= $3 AND last_at > $4 AND first_at <= $5 \
-            UNION ALL \
+            "SELECT last_at, ", $($col)+, ", ", block_row_nulls!(), " FROM series_blocks \
+             WHERE site_id = $1 AND point = $2 AND last_at >= $3 AND last_at > $4 AND first_at <= $5"
+        )
+    };
+}
+
+/// [`blocks_in_range`] but only the blocks that can hold the first `$13` records: those with
+/// fewer than `$13` records in the blocks before them (PostgreSQL: a window over the blocks' row
+/// counts, read from the index and the small heap rows, not from the blocks' data).
+macro_rules! blocks_in_range_cut {
+    ($($col:tt)+) => {
+        concat!(
+            "SELECT last_at, ", $($col)+, ", ", block_row_nulls!(), " FROM (SELECT last_at, extremes, data, \
+             SUM(n_rows) OVER (ORDER BY last_at) - n_rows AS records_before FROM series_blocks \
+             WHERE site_id = $1 AND point = $2 AND last_at >= $3 AND last_at > $4 AND first_at <= $5) AS blocks \
+             WHERE records_before < $13"
+        )
+    };
+}
+
+/// The series: the block rows of `$blocks`, then the tail rows in the range, in time order (one
+/// statement: one snapshot). A tail row has its time and values. The union is merged on the two
+/// primary keys (`EXPLAIN QUERY PLAN`: `MERGE (UNION ALL)`, no sort).
+macro_rules! series_sql {
+    ($($blocks:tt)+) => {
+        concat!(
+            $($blocks)+,
+            " UNION ALL \
             SELECT observed_at, NULL, epoch_id, reference_epoch, dx_mm, dy_mm, dz_mm, d_mm, \
             sigma_dx_mm, sigma_dy_mm, sigma_dz_mm, sigma_mm, significant, velocity_mm_per_day, \
             time_to_failure_hours, cov_dxdy_mm2, cov_dxdz_mm2, cov_dydz_mm2, time_to_failure_sigma_hours, \
@@ -143,22 +170,28 @@ macro_rules! extremes_column {
 }
 
 /// Every row of the series: each block's packed rows, then the tail rows.
-pub(super) const SQL: &str = series_sql!("data");
+pub(super) const SQL: &str = series_sql!(blocks_in_range!("data"));
 
 /// The series as a coarse plot reads it: each block's extremes
 /// ([`series_record::extremes`]) but the point's last block whole, then the tail rows, so the
 /// last epochs are all there.
-pub(super) const EXTREMES_SQL: &str = series_sql!(extremes_column!());
+pub(super) const EXTREMES_SQL: &str = series_sql!(blocks_in_range!(extremes_column!()));
 
-/// [`SQL`] and [`EXTREMES_SQL`] with at most `$12` rows, for PostgreSQL, which reads them all
-/// before the writers see one ([`super::series_postgres`]). Each row gives at least one record in
-/// the range (a block is read only when its last record is after the cursor and `from`), so a
-/// page of `limit` records needs at most `limit + 1` rows, however long the rest of the series.
-pub(super) const SQL_LIMITED: &str = concat!(series_sql!("data"), " LIMIT $12");
+/// [`SQL`] for a page, on PostgreSQL, which sends every row of a statement before the writers
+/// see one ([`super::series_postgres`]): the blocks that can hold the first `$13` records
+/// ([`blocks_in_range_cut`]), and at most `$12` rows. Each row gives at least one record in the
+/// range (a block is read only when its last record is after the cursor and `from`), and only
+/// the first block can hold records before them, so a page of `limit` records needs `limit + 1`
+/// rows and the blocks before which fewer than `limit + 1 + BLOCK_EPOCHS` records lie, however
+/// long the rest of the series.
+pub(super) const SQL_LIMITED: &str =
+    concat!(series_sql!(blocks_in_range_cut!("data")), " LIMIT $12");
 
-/// [`EXTREMES_SQL`] with at most `$12` rows (see [`SQL_LIMITED`]).
-pub(super) const EXTREMES_SQL_LIMITED: &str =
-    concat!(series_sql!(extremes_column!()), " LIMIT $12");
+/// [`EXTREMES_SQL`] for a page (see [`SQL_LIMITED`]).
+pub(super) const EXTREMES_SQL_LIMITED: &str = concat!(
+    series_sql!(blocks_in_range_cut!(extremes_column!())),
+    " LIMIT $12"
+);
 
 /// Where the rows of a series come from.
 pub(super) enum Source {

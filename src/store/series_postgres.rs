@@ -26,9 +26,9 @@ pub async fn count(pool: &AnyPool, q: &SeriesQuery) -> Result<usize, StoreError>
 }
 
 /// The rows of `q` in time order as packed records, one after the other: all of them, or with
-/// `q.limit` enough rows for `limit + 1` records (the writers stop at theirs and tell by the one
-/// more whether more follow; [`SQL_LIMITED`]); with `extremes`, each block's extremes but the last
-/// block's ([`EXTREMES_SQL_LIMITED`]).
+/// `q.limit` the rows and blocks that hold the first `limit + 1` records (the writers stop at
+/// theirs and tell by the one more whether more follow; [`SQL_LIMITED`]); with `extremes`, each
+/// block's extremes but the last block's ([`EXTREMES_SQL_LIMITED`]).
 pub async fn packed_records(
     pool: &AnyPool,
     q: &SeriesQuery,
@@ -48,8 +48,13 @@ pub async fn packed_records(
             Param::Int(i) => query.bind(i),
         };
     }
-    let rows_needed = q.limit.map_or(i64::MAX, |l| l.max(0).saturating_add(1));
-    query = query.bind(rows_needed);
+    // limit + 1 records: at most that many rows, from blocks with fewer records before them
+    // than that plus one block (the first block may hold records before the range)
+    let records = q.limit.map_or(i64::MAX, |l| l.max(0).saturating_add(1));
+    let block_records = super::series_blocks::BLOCK_EPOCHS as i64;
+    query = query
+        .bind(records)
+        .bind(records.saturating_add(block_records));
     let rows = query.fetch_all(pool).await?;
     let mut out = Vec::new();
     let cut = |what: &str| StoreError::Block(format!("series of {}/{}: {what}", q.site, q.point));
