@@ -270,9 +270,13 @@ pub async fn get_one(
 /// the years 0000–9999 in UTC (which the store's four-digit years cannot write) is moved to the
 /// nearest end of that range, where it excludes no stored time, as its true value would not.
 pub fn time_bound(s: &str, end_of_day: bool) -> Result<String, ApiError> {
-    Ok(timestamp(
-        parse_time_bound(s, end_of_day)?.clamp(stored_time_min(), stored_time_max()),
-    ))
+    Ok(stored_bound(parse_time_bound(s, end_of_day)?))
+}
+
+/// `t` as a time bound in the store's format, moved into the years 0000–9999 as
+/// [`time_bound`] does.
+pub fn stored_bound(t: chrono::DateTime<chrono::Utc>) -> String {
+    timestamp(t.clamp(stored_time_min(), stored_time_max()))
 }
 
 /// The earliest time the store can write: 0000-01-01T00:00:00Z.

@@ -1,6 +1,7 @@
-//! Times as the pages show them: in UTC and, when the site has one, in its time zone.
+//! Times as the pages show them: in UTC and, when the site has one, in its time zone; the days
+//! of a page's period in that zone.
 
-use chrono::{DateTime, Utc};
+use chrono::{DateTime, NaiveDate, Utc};
 use chrono_tz::Tz;
 use maud::{html, Markup};
 
@@ -47,9 +48,79 @@ fn local_text(utc: DateTime<Utc>, zone: Tz) -> String {
     }
 }
 
+/// A `from` / `to` bound of a page as the stored time bound: an RFC 3339 time as it is; a date
+/// (`2026-11-01`) from its first instant, or to its last (`end`), in the site's zone `tz` (an IANA
+/// name; UTC without one), so that a report "from 1 to 30 November" for a site in Japan holds
+/// the epochs of those days in Japan. `Err`: the message naming the text at fault.
+pub fn day_bound(s: &str, end: bool, tz: Option<&str>) -> Result<String, String> {
+    let zone = tz.and_then(|z| z.parse::<Tz>().ok());
+    let (Some(zone), Ok(date)) = (zone, NaiveDate::parse_from_str(s, "%Y-%m-%d")) else {
+        return crate::api::epochs::time_bound(s, end).map_err(|e| e.message);
+    };
+    let day_start = |d: NaiveDate| -> Option<DateTime<Utc>> {
+        // the first hour that exists: a change to summer time may skip midnight
+        (0..=3).find_map(|h| {
+            d.and_hms_opt(h, 0, 0)?
+                .and_local_timezone(zone)
+                .earliest()
+                .map(|t| t.with_timezone(&Utc))
+        })
+    };
+    let t = if end {
+        date.succ_opt()
+            .and_then(day_start)
+            .map(|next| next - chrono::Duration::microseconds(1))
+    } else {
+        day_start(date)
+    };
+    match t {
+        Some(t) => Ok(crate::api::epochs::stored_bound(t)),
+        None => crate::api::epochs::time_bound(s, end).map_err(|e| e.message),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_date_bound_is_a_day_of_the_site_zone() {
+        let tokyo = Some("Asia/Tokyo");
+        assert_eq!(
+            day_bound("2026-11-01", false, tokyo).unwrap(),
+            "2026-10-31T15:00:00.000000Z"
+        );
+        assert_eq!(
+            day_bound("2026-11-30", true, tokyo).unwrap(),
+            "2026-11-30T14:59:59.999999Z"
+        );
+        assert_eq!(
+            day_bound("2026-11-01", false, None).unwrap(),
+            "2026-11-01T00:00:00.000000Z"
+        );
+        assert_eq!(
+            day_bound("2026-11-30", true, None).unwrap(),
+            "2026-11-30T23:59:59.999999Z"
+        );
+        // a time is a time whatever the zone
+        assert_eq!(
+            day_bound("2026-11-01T03:00:00Z", false, tokyo).unwrap(),
+            "2026-11-01T03:00:00.000000Z"
+        );
+        // a day of 23 hours (summer time begins at 02:00 in Zurich)
+        let zurich = Some("Europe/Zurich");
+        assert_eq!(
+            day_bound("2026-03-29", false, zurich).unwrap(),
+            "2026-03-28T23:00:00.000000Z"
+        );
+        assert_eq!(
+            day_bound("2026-03-29", true, zurich).unwrap(),
+            "2026-03-29T21:59:59.999999Z"
+        );
+        assert!(day_bound("yesterday", false, tokyo)
+            .unwrap_err()
+            .contains("yesterday"));
+    }
 
     #[test]
     fn utc_and_the_site_zone_with_its_date_when_it_differs() {

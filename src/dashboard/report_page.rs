@@ -13,7 +13,7 @@ use maud::{html, Markup};
 use serde::Deserialize;
 
 use super::layout::{level_badge, num, page, seg, with_sigma};
-use super::local_time::when;
+use super::local_time::{day_bound, when};
 use super::plan_svg::{face_plan, PlanPoint};
 use super::time_plot_svg::time_plot;
 use super::{viewer, PageError};
@@ -43,8 +43,13 @@ pub async fn report(
     Query(period): Query<Period>,
     access: Option<Extension<Access>>,
 ) -> Result<Html<String>, PageError> {
-    let (from, to) = (bound(&period.from, false)?, bound(&period.to, true)?);
-    let r = Report::read(&state.store, &site_id, from.as_deref(), to.as_deref()).await?;
+    let site = super::site_or_404(state.store.reader(), &site_id).await?;
+    let zone = site.time_zone.as_deref();
+    let (from, to) = (
+        bound(&period.from, false, zone)?,
+        bound(&period.to, true, zone)?,
+    );
+    let r = Report::read(&state.store, site, from.as_deref(), to.as_deref()).await?;
     let v = viewer(access.as_deref());
     let s = seg(&r.site.id);
     let crumbs = [
@@ -55,13 +60,14 @@ pub async fn report(
     Ok(Html(page(&title, &crumbs, &v, r.render()).into_string()))
 }
 
-/// A `from` / `to` parameter as the stored time bound (`end`: the last instant of a date).
-fn bound(s: &Option<String>, end: bool) -> Result<Option<String>, PageError> {
+/// A `from` / `to` parameter as the stored time bound (`end`: the last instant of a date), a
+/// date being a day of the site's zone `tz` ([`day_bound`]).
+fn bound(s: &Option<String>, end: bool, tz: Option<&str>) -> Result<Option<String>, PageError> {
     s.as_deref()
         .filter(|s| !s.is_empty())
-        .map(|s| crate::api::epochs::time_bound(s, end))
+        .map(|s| day_bound(s, end, tz))
         .transpose()
-        .map_err(|e| PageError::bad_request(e.message))
+        .map_err(PageError::bad_request)
 }
 
 /// What the report shows, read from the store.
@@ -82,15 +88,14 @@ struct Report {
 }
 
 impl Report {
-    /// Reads the report of `site_id` between the stored time bounds `from` and `to`.
+    /// Reads the report of `site` between the stored time bounds `from` and `to`.
     async fn read(
         store: &Store,
-        site_id: &str,
+        site: Site,
         from: Option<&str>,
         to: Option<&str>,
     ) -> Result<Report, PageError> {
         let db = store.reader();
-        let site = super::site_or_404(db, site_id).await?;
         let until = to.map(|t| format!("{t}~"));
         let epochs: Vec<epochs::EpochListItem> =
             epochs::list(db, &site.id, until.as_deref(), 100_000)
