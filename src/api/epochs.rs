@@ -172,9 +172,9 @@ async fn upload_inner(
     // under the site's lock).
     find(state, site).await?;
     let slot = state.uploads.enter().await.map_err(ServiceError::from)?;
+    // Parsing a body of up to `body_limit_bytes` is CPU work: on a blocking thread, as the
+    // adjustment is.
     let input: EpochInput = if upload_is_csv(headers)? {
-        let text = std::str::from_utf8(&bytes)
-            .map_err(|_| ApiError::bad_request("the CSV is not UTF-8"))?;
         let observed_at = params.observed_at.ok_or_else(|| {
             ApiError::unprocessable("invalid_epoch", "a CSV upload needs ?observed_at=")
         })?;
@@ -185,9 +185,17 @@ async fn upload_inner(
             .collect::<Result<_, _>>()
             .map_err(StoreError::from)?;
         let camera = csv_camera(cameras, params.camera.as_deref())?;
-        epoch_from_csv(text, &observed_at, camera)?
+        tokio::task::spawn_blocking(move || {
+            let text = std::str::from_utf8(&bytes)
+                .map_err(|_| ApiError::bad_request("the CSV is not UTF-8"))?;
+            Ok::<_, ApiError>(epoch_from_csv(text, &observed_at, camera)?)
+        })
+        .await
+        .map_err(ApiError::internal)??
     } else {
-        parse_epoch(&bytes)?
+        tokio::task::spawn_blocking(move || parse_epoch(&bytes))
+            .await
+            .map_err(ApiError::internal)??
     };
     let done = ingest::ingest(&state.store, site, input, slot).await?;
     let summary = summary(&state.store, &done.site, done.epoch, false)
