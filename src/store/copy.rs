@@ -390,11 +390,14 @@ pub async fn copy_all(from: &Store, to: &Store) -> Result<Copied, StoreError> {
             .collect();
         let names: Vec<&str> = cols.iter().map(|(c, _)| *c).collect();
         let per_insert = super::rows_per_insert(cols.len()).min(COPY_CHUNK_ROWS);
-        let full_insert = format!(
-            "INSERT INTO {table} ({}) VALUES {}",
-            names.join(", "),
-            super::values_list(&tx, per_insert, cols.len())
-        );
+        let insert_of = |db: &AnyConnection, rows: usize| {
+            format!(
+                "INSERT INTO {table} ({}) VALUES {}",
+                names.join(", "),
+                super::values_list(db, rows, cols.len())
+            )
+        };
+        let full_insert = insert_of(&tx, per_insert);
         let read_all = format!("SELECT {} FROM {table}", select.join(", "));
         let mut rows = sqlx::query(&read_all).fetch(&mut *source);
         let mut chunk = Vec::with_capacity(per_insert);
@@ -404,18 +407,8 @@ pub async fn copy_all(from: &Store, to: &Store) -> Result<Copied, StoreError> {
             let done = row.is_none();
             chunk.extend(row);
             if chunk.len() == per_insert || (done && !chunk.is_empty()) {
-                let partial;
-                let sql = if chunk.len() == per_insert {
-                    &full_insert
-                } else {
-                    partial = format!(
-                        "INSERT INTO {table} ({}) VALUES {}",
-                        names.join(", "),
-                        super::values_list(&tx, chunk.len(), cols.len())
-                    );
-                    &partial
-                };
-                let mut q = sqlx::query(sql);
+                let last = (chunk.len() < per_insert).then(|| insert_of(&tx, chunk.len()));
+                let mut q = sqlx::query(last.as_deref().unwrap_or(&full_insert));
                 for row in &chunk {
                     for (i, (_, kind)) in cols.iter().enumerate() {
                         q = match kind {

@@ -320,10 +320,8 @@ mod tests {
         crate::store::timestamp(chrono::DateTime::UNIX_EPOCH + chrono::Duration::seconds(secs))
     }
 
-    /// A node whose claim ran out while another node took the delivery over cannot overwrite the
-    /// other's outcome, nor give the delivery back.
-    #[tokio::test]
-    async fn an_expired_claim_neither_records_nor_releases() {
+    /// A store holding one endpoint (its id returned) and alert `a` of site `s`.
+    async fn store_with_endpoint_and_alert() -> (tempfile::TempDir, Store, String) {
         let dir = tempfile::tempdir().unwrap();
         let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
             .await
@@ -346,6 +344,16 @@ mod tests {
         ] {
             sqlx::query(sql).execute(&mut *tx).await.unwrap();
         }
+        tx.commit().await.unwrap();
+        (dir, store, webhook)
+    }
+
+    /// A node whose claim ran out while another node took the delivery over cannot overwrite the
+    /// other's outcome, nor give the delivery back.
+    #[tokio::test]
+    async fn an_expired_claim_neither_records_nor_releases() {
+        let (_dir, store, webhook) = store_with_endpoint_and_alert().await;
+        let mut tx = store.begin_write_rows().await.unwrap();
         let message = OutboxMessage {
             id: "msg_1",
             event_type: "alert.raised",
@@ -420,28 +428,8 @@ mod tests {
     /// it as enabled: no delivery is left pending that the worker would never attempt.
     #[tokio::test]
     async fn nothing_is_queued_for_a_gone_endpoint() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
-            .await
-            .unwrap();
+        let (_dir, store, webhook) = store_with_endpoint_and_alert().await;
         let mut tx = store.begin_write_rows().await.unwrap();
-        let hook = NewWebhook {
-            url: "http://127.0.0.1:9/hook".into(),
-            secret: "whsec_c2VjcmV0".into(),
-            min_level: None,
-            format: Default::default(),
-        };
-        let webhook = webhooks::insert(&mut *tx, &hook, WebhookSource::Api)
-            .await
-            .unwrap();
-        for sql in [
-            "INSERT INTO sites (id, name, created_at) VALUES ('s', 's', '1970-01-01T00:00:00Z')",
-            "INSERT INTO alerts (id, site_id, level, rule, message, state, raised_at, updated_at) \
-             VALUES ('a', 's', 'warning', 'displacement_mm', 'm', 'open', '1970-01-01T00:00:00Z', \
-             '1970-01-01T00:00:00Z')",
-        ] {
-            sqlx::query(sql).execute(&mut *tx).await.unwrap();
-        }
         for id in ["msg_1", "msg_2"] {
             let message = OutboxMessage {
                 id,
