@@ -113,12 +113,13 @@ pub async fn list(
 ) -> Result<Vec<(String, EpochListItem)>, StoreError> {
     let rows: Vec<EpochListItem> = sqlx::query_as(
         "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, dropped_observations, created_at \
-         FROM epochs WHERE site_id = $1 AND ($2 IS NULL OR observed_at < $3) \
-         ORDER BY observed_at DESC LIMIT $4",
+         FROM epochs WHERE site_id = $1 AND observed_at < $2 \
+         ORDER BY observed_at DESC LIMIT $3",
     )
     .bind(site)
-    .bind(before)
-    .bind(before)
+    // A range from the cursor (or from the end) that the index on (site_id, observed_at) reads
+    // directly, however deep the page.
+    .bind(before.unwrap_or(super::TEXT_MAX))
     .bind(limit)
     .fetch_all(db)
     .await?;

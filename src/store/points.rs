@@ -85,11 +85,11 @@ pub async fn list(
 ) -> Result<Vec<Point>, StoreError> {
     let rows: Vec<PointRow> = sqlx::query_as(
         "SELECT name, role, grp, dir_x, dir_y, dir_z FROM points WHERE site_id = $1 \
-         AND ($2 IS NULL OR name > $3) ORDER BY name LIMIT $4",
+         AND name > $2 ORDER BY name LIMIT $3",
     )
     .bind(site)
-    .bind(after)
-    .bind(after)
+    // A range from the cursor that the primary key reads directly; every name is longer than "".
+    .bind(after.unwrap_or(""))
     .bind(limit)
     .fetch_all(db)
     .await?;
