@@ -92,6 +92,11 @@ pub struct Config {
     /// How often sites with `schedule_hours` are checked for an overdue campaign, in seconds.
     #[serde(default = "default_overdue_check_secs")]
     pub overdue_check_secs: u64,
+    /// Days a finished webhook delivery (delivered or given up) is kept after its last attempt,
+    /// then deleted; 0 keeps every one. Pending deliveries and the alerts' events are never
+    /// deleted.
+    #[serde(default = "default_webhook_delivery_retention_days")]
+    pub webhook_delivery_retention_days: u64,
     /// The CAP feed's `sender` (no spaces, commas, `<` or `&`), e.g. `cliffwatch@agency.example`.
     #[serde(default = "default_cap_sender")]
     pub cap_sender: String,
@@ -119,6 +124,9 @@ fn default_webhook_timeout_secs() -> u64 {
 }
 fn default_overdue_check_secs() -> u64 {
     300
+}
+fn default_webhook_delivery_retention_days() -> u64 {
+    90
 }
 fn default_cap_sender() -> String {
     "cliffwatch@localhost".into()

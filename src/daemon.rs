@@ -1,8 +1,9 @@
 //! The daemon: opens the database, applies the configuration, and runs its parts under one
 //! shutdown signal ([`crate::shutdown`]): the HTTP server ([`crate::api`] and the dashboard), the
 //! watched directory ([`crate::watch`]), the webhook delivery worker
-//! ([`service::webhook_delivery`]), the campaign check ([`service::overdue`]) and, on SQLite, the
-//! WAL checkpoints ([`store::wal_checkpoint`]).
+//! ([`service::webhook_delivery`]), the campaign check ([`service::overdue`]), the deliveries'
+//! retention ([`service::retention`]) and, on SQLite, the WAL checkpoints
+//! ([`store::wal_checkpoint`]).
 //!
 //! On shutdown the listener stops accepting, in-flight requests (uploads included) finish within
 //! the grace period, the background parts stop, and the database is closed.
@@ -204,6 +205,14 @@ impl Bound {
             Duration::from_secs(state.config.overdue_check_secs.max(1)),
             stop.clone(),
         )));
+        let retention_days = state.config.webhook_delivery_retention_days;
+        if retention_days > 0 {
+            parts.push(tokio::spawn(service::retention::run(
+                store.clone(),
+                Duration::from_secs(retention_days.saturating_mul(86_400)),
+                stop.clone(),
+            )));
+        }
         if store.backend() == store::Backend::Sqlite {
             parts.push(tokio::spawn(checkpoint_wal(store.clone(), stop.clone())));
         }

@@ -10,6 +10,7 @@
 //! - [`acknowledge`]: staff acknowledge an alert.
 //! - [`overdue`]: the campaign schedule check.
 //! - [`webhook_delivery`]: the outbox worker.
+//! - [`retention`]: finished webhook deliveries deleted after their retention period.
 //!
 //! Admission: [`admission`] bounds the uploads a node processes at once.
 //!
@@ -24,6 +25,7 @@ pub(crate) mod error;
 pub mod ingest;
 pub(crate) mod overdue;
 pub mod recompute;
+pub(crate) mod retention;
 pub(crate) mod site_settings;
 pub(crate) mod webhook_delivery;
 

@@ -310,18 +310,41 @@ pub async fn endpoint_gone(db: &mut AnyConnection, webhook_id: &str) -> Result<(
     Ok(())
 }
 
+/// Deletes at most `limit` deliveries that finished (delivered or given up) before `before`
+/// (store format); pending ones are kept however old. Returns how many went. Their outbox
+/// messages stay: they are the alerts' event history (the CAP feed reads their levels).
+pub async fn prune_finished(
+    db: &mut AnyConnection,
+    before: &str,
+    limit: i64,
+) -> Result<u64, StoreError> {
+    // A finished delivery's next_attempt_at is the time of its last attempt (or, for one failed
+    // by a 410, of its last scheduled retry): the index on (state, next_attempt_at) finds them.
+    let done = sqlx::query(
+        "DELETE FROM webhook_deliveries WHERE (outbox_id, webhook_id) IN \
+         (SELECT outbox_id, webhook_id FROM webhook_deliveries \
+          WHERE state IN ('delivered', 'failed') AND next_attempt_at < $1 LIMIT $2)",
+    )
+    .bind(before)
+    .bind(limit)
+    .execute(&mut *db)
+    .await?;
+    Ok(done.rows_affected())
+}
+
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::store::webhooks::{self, NewWebhook, WebhookSource};
     use crate::store::{Store, StoreOptions};
 
-    fn at(secs: i64) -> String {
+    /// The store timestamp `secs` seconds after 1970.
+    pub(crate) fn at(secs: i64) -> String {
         crate::store::timestamp(chrono::DateTime::UNIX_EPOCH + chrono::Duration::seconds(secs))
     }
 
     /// A store holding one endpoint (its id returned) and alert `a` of site `s`.
-    async fn store_with_endpoint_and_alert() -> (tempfile::TempDir, Store, String) {
+    pub(crate) async fn store_with_endpoint_and_alert() -> (tempfile::TempDir, Store, String) {
         let dir = tempfile::tempdir().unwrap();
         let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
             .await
@@ -457,5 +480,59 @@ mod tests {
                 .unwrap();
         assert_eq!(states, [("msg_1".to_string(), "failed".to_string())]);
         assert_eq!(webhooks::pending(store.reader()).await.unwrap(), 0);
+    }
+
+    /// Finished deliveries older than the cut go, in batches; pending ones stay however old, and
+    /// so does every outbox message.
+    #[tokio::test]
+    async fn only_finished_deliveries_before_the_cut_are_pruned() {
+        let (_dir, store, webhook) = store_with_endpoint_and_alert().await;
+        let mut tx = store.begin_write_rows().await.unwrap();
+        // (message, state, time of its last attempt or next one)
+        let rows = [
+            ("old_delivered_1", "delivered", 10),
+            ("old_delivered_2", "delivered", 20),
+            ("old_failed", "failed", 30),
+            ("old_pending", "pending", 40),
+            ("new_delivered", "delivered", 200),
+            ("new_failed", "failed", 300),
+        ];
+        for (id, state, t) in rows {
+            let message = OutboxMessage {
+                id,
+                event_type: "alert.raised",
+                alert_id: "a",
+                level: "warning",
+                payload: "{}",
+                created_at: &at(0),
+                epoch: None,
+            };
+            insert(&mut tx, &message).await.unwrap();
+            assert!(queue_delivery(&mut tx, id, &webhook, &at(t), None)
+                .await
+                .unwrap());
+            sqlx::query("UPDATE webhook_deliveries SET state = $1 WHERE outbox_id = $2")
+                .bind(state)
+                .bind(id)
+                .execute(&mut *tx)
+                .await
+                .unwrap();
+        }
+        // Two per batch: the three old finished ones take two batches.
+        assert_eq!(prune_finished(&mut tx, &at(100), 2).await.unwrap(), 2);
+        assert_eq!(prune_finished(&mut tx, &at(100), 2).await.unwrap(), 1);
+        assert_eq!(prune_finished(&mut tx, &at(100), 2).await.unwrap(), 0);
+        tx.commit().await.unwrap();
+        let left: Vec<String> =
+            sqlx::query_scalar("SELECT outbox_id FROM webhook_deliveries ORDER BY outbox_id")
+                .fetch_all(store.reader())
+                .await
+                .unwrap();
+        assert_eq!(left, ["new_delivered", "new_failed", "old_pending"]);
+        let messages: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM webhook_outbox")
+            .fetch_one(store.reader())
+            .await
+            .unwrap();
+        assert_eq!(messages, 6);
     }
 }

@@ -86,7 +86,8 @@ pub struct Webhook {
     /// Messages waiting for delivery or being retried.
     pub pending_deliveries: i64,
     /// Messages given up: retried to the policy's last attempt, or pending when the endpoint
-    /// answered 410 Gone. Each was logged as an error.
+    /// answered 410 Gone. Each was logged as an error. Counted until the deliveries' retention
+    /// (`webhook_delivery_retention_days`, 90 by default) deletes them.
     pub failed_deliveries: i64,
     /// The latest reason a message was not delivered, while any is pending or failed.
     pub last_error: Option<String>,
