@@ -126,6 +126,19 @@ pub enum AdjustError {
         /// Number of images that observe it.
         images: usize,
     },
+    /// A point observed in several images, all taken from one station: its rays coincide.
+    #[error(
+        "point '{point}' is observed only from station '{station}' ({images} images); its depth \
+         needs images from at least 2 stations"
+    )]
+    PointFromOneStation {
+        /// Point name.
+        point: String,
+        /// The one station.
+        station: String,
+        /// Number of images that observe it.
+        images: usize,
+    },
     /// An image whose known points are degenerate (collinear) so no start can be found.
     #[error("image '{image}': no start values: {reason}")]
     NoStart {

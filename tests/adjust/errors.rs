@@ -65,6 +65,39 @@ fn point_in_one_image_only_names_the_point() {
     }
 }
 
+/// A point seen in two images from one station has no depth: the epoch is refused naming the
+/// point and the station. The same two images from two stations adjust.
+#[test]
+fn point_seen_from_one_station_only_names_point_and_station() {
+    let mut e = base();
+    assert!(e.images.len() >= 3);
+    let point = e.images[0].observations[0].point.clone();
+    for im in &mut e.images[2..] {
+        im.observations.retain(|o| o.point != point);
+    }
+    assert!(
+        run(&e).is_ok(),
+        "two stations (images '{}' and '{}') see '{point}'",
+        e.images[0].id,
+        e.images[1].id
+    );
+
+    e.images[0].station = Some("S1".into());
+    e.images[1].station = Some("S1".into());
+    match run(&e) {
+        Err(AdjustError::PointFromOneStation {
+            point: p,
+            station,
+            images,
+        }) => {
+            assert_eq!(p, point);
+            assert_eq!(station, "S1");
+            assert_eq!(images, 2);
+        }
+        other => panic!("expected PointFromOneStation, got {other:?}"),
+    }
+}
+
 #[test]
 fn nan_coordinates_name_the_image_and_point() {
     let mut e = base();

@@ -50,18 +50,30 @@ pub(super) enum Datum {
     Control,
 }
 
+/// Every point needs rays from two stations: two images from one station (two exposures, or
+/// two pointings of one set-up) see it along one line, which leaves its depth undetermined.
 fn check_geometry(problem: &EpochProblem) -> Result<(), AdjustError> {
-    let mut count = vec![0usize; problem.points.len()];
+    let mut seen: Vec<Vec<&str>> = vec![Vec::new(); problem.points.len()];
     for im in &problem.images {
         for o in &im.observations {
-            count[o.point] += 1;
+            seen[o.point].push(im.station.as_str());
         }
     }
-    for (p, &n) in count.iter().enumerate() {
-        if n < 2 {
+    for (p, stations) in seen.iter_mut().enumerate() {
+        let images = stations.len();
+        if images < 2 {
             return Err(AdjustError::PointInTooFewImages {
                 point: problem.points[p].clone(),
-                images: n,
+                images,
+            });
+        }
+        stations.sort_unstable();
+        stations.dedup();
+        if let [station] = stations.as_slice() {
+            return Err(AdjustError::PointFromOneStation {
+                point: problem.points[p].clone(),
+                station: (*station).to_string(),
+                images,
             });
         }
     }
