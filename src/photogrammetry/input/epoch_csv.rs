@@ -68,6 +68,28 @@ pub fn csv_camera(
     }
 }
 
+/// The 1-based line of `text` where the record read from byte `offset` on starts. The `csv`
+/// crate's position is where it began reading, before the comment lines (`#`) and empty lines
+/// it skipped, and its line count leaves comment lines out; both are stepped over here.
+fn line_at(text: &str, offset: u64) -> usize {
+    let bytes = text.as_bytes();
+    let mut at = usize::try_from(offset).map_or(bytes.len(), |o| o.min(bytes.len()));
+    loop {
+        match bytes[at..] {
+            [b'#', ..] => {
+                at = bytes[at..]
+                    .iter()
+                    .position(|&b| b == b'\n')
+                    .map_or(bytes.len(), |k| at + k + 1);
+            }
+            [b'\r', b'\n', ..] => at += 2,
+            [b'\n' | b'\r', ..] => at += 1,
+            _ => break,
+        }
+    }
+    1 + bytes[..at].iter().filter(|&&b| b == b'\n').count()
+}
+
 /// Builds an upload from the CSV form (`image,point,x_mm,y_mm` a line, optional header), the
 /// observation time and the camera of every image (see [`csv_camera`]).
 pub fn epoch_from_csv(
@@ -87,11 +109,13 @@ pub fn epoch_from_csv(
     let mut images: Vec<ImageInput> = Vec::new();
     let mut index: HashMap<String, usize> = HashMap::new();
     for (i, record) in reader.records().enumerate() {
-        let line = i + 1;
+        // The line in the file, counting comments, blank lines and quoted line breaks: the one an
+        // editor shows.
         let record = record.map_err(|e| CsvError::Malformed {
-            line,
+            line: e.position().map_or(i + 1, |p| line_at(text, p.byte())),
             reason: e.to_string(),
         })?;
+        let line = record.position().map_or(i + 1, |p| line_at(text, p.byte()));
         if record.len() != 4 {
             return Err(CsvError::InvalidLine {
                 line,
@@ -239,6 +263,25 @@ mod tests {
                 }
                 other => panic!("{header}: {other:?}"),
             }
+        }
+    }
+
+    /// An error names the line of the file, comments and blank lines included.
+    #[test]
+    fn an_error_names_the_line_of_the_file() {
+        let cam: CameraInput = serde_json::from_str(r#"{"id": "cam", "c_mm": 300.0}"#).unwrap();
+        let text = "# campaign 12\nimage,point,x_mm,y_mm\n\nA,1,0.5,0.25\n# B follows\nB,1,0.5,x\n";
+        match epoch_from_csv(text, "2026-01-01T00:00:00Z", cam.clone()) {
+            Err(CsvError::InvalidLine { line, reason }) => {
+                assert_eq!(line, 6, "{reason}");
+                assert!(reason.contains("'x'"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
+        let text = "# header next\nimage,point,x_mm,y_mm\n\nA,1,0.5\n";
+        match epoch_from_csv(text, "2026-01-01T00:00:00Z", cam) {
+            Err(CsvError::InvalidLine { line, .. }) => assert_eq!(line, 4),
+            other => panic!("{other:?}"),
         }
     }
 }
