@@ -98,7 +98,15 @@ async fn identify(
     for image in &input.images {
         stations.push(detect_station(&images, image, &input.cameras, opts).await?);
     }
-    let (names, mut counts) = name_targets(&stations, &known, &previous, opts)?;
+    // Matching across stations and the assignments are CPU work: a blocking thread.
+    let naming_opts = opts.clone();
+    let (stations, named) = tokio::task::spawn_blocking(move || {
+        let named = name_targets(&stations, &known, &previous, &naming_opts);
+        (stations, named)
+    })
+    .await
+    .map_err(|e| WatchError::Task(e.to_string()))?;
+    let (names, mut counts) = named?;
     for c in &mut counts {
         c.folder = done.to_string();
     }
@@ -155,24 +163,37 @@ async fn resect_stations(
             .into_iter()
             .map(|c| (c.point, c.xyz))
             .collect();
-    let mut found = BTreeMap::new();
-    for (s, named) in stations.iter().zip(names) {
-        let measured: Vec<Seed> = named
-            .iter()
-            .filter(|(p, _)| adjusted.contains_key(p))
-            .map(|(p, blob)| Seed {
-                point: p.clone(),
-                xy_mm: s.blobs[*blob],
-            })
-            .collect();
-        match resect_seeds(&measured, &adjusted, &s.camera) {
-            Ok((o, _)) => {
-                found.insert(s.station.clone(), o);
+    let measured: Vec<(String, Vec<Seed>, _)> = stations
+        .iter()
+        .zip(names)
+        .map(|(s, named)| {
+            let seeds = named
+                .iter()
+                .filter(|(p, _)| adjusted.contains_key(p))
+                .map(|(p, blob)| Seed {
+                    point: p.clone(),
+                    xy_mm: s.blobs[*blob],
+                })
+                .collect();
+            (s.station.clone(), seeds, s.camera.clone())
+        })
+        .collect();
+    // The resections are least-squares fits: a blocking thread.
+    let site = site.to_string();
+    tokio::task::spawn_blocking(move || {
+        let mut found = BTreeMap::new();
+        for (station, seeds, camera) in &measured {
+            match resect_seeds(seeds, &adjusted, camera) {
+                Ok((o, _)) => {
+                    found.insert(station.clone(), o);
+                }
+                Err(e) => tracing::warn!(site, station, error = %e, "no orientation kept"),
             }
-            Err(e) => tracing::warn!(site, station = s.station, error = %e, "no orientation kept"),
         }
-    }
-    Ok(found)
+        found
+    })
+    .await
+    .map_err(|e| WatchError::Task(e.to_string()))
 }
 
 /// Where `folder` will move in `.done/`: the path, and the same relative to the site's directory.
