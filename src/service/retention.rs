@@ -62,8 +62,8 @@ pub async fn run(store: Store, retention: Duration, shutdown: Shutdown) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::store::outbox::tests::{at, store_with_endpoint_and_alert};
-    use crate::store::outbox::{insert, queue_delivery, OutboxMessage};
+    use crate::store::outbox::queue_delivery;
+    use crate::store::outbox::tests::{at, insert_message, store_with_endpoint_and_alert};
 
     /// With 90 days' retention, a delivery made 100 days ago goes and one made 10 days ago
     /// stays.
@@ -74,16 +74,7 @@ mod tests {
         let now = DateTime::UNIX_EPOCH + chrono::Duration::seconds(1000 * day);
         let mut tx = store.begin_write_rows().await.unwrap();
         for (id, t) in [("m_100_days", 900 * day), ("m_10_days", 990 * day)] {
-            let message = OutboxMessage {
-                id,
-                event_type: "alert.raised",
-                alert_id: "a",
-                level: "warning",
-                payload: "{}",
-                created_at: &at(t),
-                epoch: None,
-            };
-            insert(&mut tx, &message).await.unwrap();
+            insert_message(&mut tx, id, t).await;
             assert!(queue_delivery(&mut tx, id, &webhook, &at(t), None)
                 .await
                 .unwrap());

@@ -371,22 +371,27 @@ pub(crate) mod tests {
         (dir, store, webhook)
     }
 
+    /// Outbox message `id` of alert `a`, created `t` seconds after 1970.
+    pub(crate) async fn insert_message(tx: &mut AnyConnection, id: &str, t: i64) {
+        let message = OutboxMessage {
+            id,
+            event_type: "alert.raised",
+            alert_id: "a",
+            level: "warning",
+            payload: "{}",
+            created_at: &at(t),
+            epoch: None,
+        };
+        insert(tx, &message).await.unwrap();
+    }
+
     /// A node whose claim ran out while another node took the delivery over cannot overwrite the
     /// other's outcome, nor give the delivery back.
     #[tokio::test]
     async fn an_expired_claim_neither_records_nor_releases() {
         let (_dir, store, webhook) = store_with_endpoint_and_alert().await;
         let mut tx = store.begin_write_rows().await.unwrap();
-        let message = OutboxMessage {
-            id: "msg_1",
-            event_type: "alert.raised",
-            alert_id: "a",
-            level: "warning",
-            payload: "{}",
-            created_at: &at(0),
-            epoch: None,
-        };
-        insert(&mut tx, &message).await.unwrap();
+        insert_message(&mut tx, "msg_1", 0).await;
         assert!(queue_delivery(&mut tx, "msg_1", &webhook, &at(0), None)
             .await
             .unwrap());
@@ -454,16 +459,7 @@ pub(crate) mod tests {
         let (_dir, store, webhook) = store_with_endpoint_and_alert().await;
         let mut tx = store.begin_write_rows().await.unwrap();
         for id in ["msg_1", "msg_2"] {
-            let message = OutboxMessage {
-                id,
-                event_type: "alert.raised",
-                alert_id: "a",
-                level: "warning",
-                payload: "{}",
-                created_at: &at(0),
-                epoch: None,
-            };
-            insert(&mut tx, &message).await.unwrap();
+            insert_message(&mut tx, id, 0).await;
         }
         assert!(queue_delivery(&mut tx, "msg_1", &webhook, &at(0), None)
             .await
@@ -498,16 +494,7 @@ pub(crate) mod tests {
             ("new_failed", "failed", 300),
         ];
         for (id, state, t) in rows {
-            let message = OutboxMessage {
-                id,
-                event_type: "alert.raised",
-                alert_id: "a",
-                level: "warning",
-                payload: "{}",
-                created_at: &at(0),
-                epoch: None,
-            };
-            insert(&mut tx, &message).await.unwrap();
+            insert_message(&mut tx, id, 0).await;
             assert!(queue_delivery(&mut tx, id, &webhook, &at(t), None)
                 .await
                 .unwrap());
