@@ -511,22 +511,27 @@ pub async fn ever_public(
     site: Option<&str>,
     limit: i64,
 ) -> Result<Vec<Alert>, StoreError> {
-    // Only the filter given, so that one site's feed reads that site's alerts alone.
-    let (site_filter, limit_param) = match site {
-        Some(_) => ("site_id = $1 AND", "$2"),
-        None => ("", "$1"),
-    };
-    let sql = format!(
-        "SELECT {COLUMNS} FROM alerts WHERE {site_filter} EXISTS \
-         (SELECT 1 FROM webhook_outbox o2 WHERE o2.alert_id = alerts.id AND o2.level IN ('warning', 'alarm')) \
-         ORDER BY updated_at DESC, id DESC LIMIT {limit_param}"
-    );
+    let sql = ever_public_sql(site.is_some());
     let mut query = sqlx::query_as::<_, Alert>(&sql);
     if let Some(site) = site {
         query = query.bind(site);
     }
     let rows: Vec<Alert> = query.bind(limit).fetch_all(db).await?;
     Ok(finish(rows))
+}
+
+/// The query of [`ever_public`] with only the filter given, so that one site's feed reads that
+/// site's alerts alone (`alerts_by_site_update`), newest first without a sort.
+fn ever_public_sql(site: bool) -> String {
+    let (site_filter, limit_param) = match site {
+        true => ("site_id = $1 AND", "$2"),
+        false => ("", "$1"),
+    };
+    format!(
+        "SELECT {COLUMNS} FROM alerts WHERE {site_filter} EXISTS \
+         (SELECT 1 FROM webhook_outbox o2 WHERE o2.alert_id = alerts.id AND o2.level IN ('warning', 'alarm')) \
+         ORDER BY updated_at DESC, id DESC LIMIT {limit_param}"
+    )
 }
 
 #[cfg(test)]
@@ -684,6 +689,31 @@ mod tests {
                     "site {site:?}, state {state:?}: {plan:?}"
                 );
             }
+        }
+    }
+
+    /// The CAP feed reads its alerts newest first straight from an index: one site's from
+    /// `alerts_by_site_update`, all sites' from `alerts_by_update`; no sort of the alerts.
+    #[tokio::test]
+    async fn the_cap_feed_reads_alerts_in_index_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
+            .await
+            .unwrap();
+        for (site, index, text_params) in [
+            (
+                true,
+                "SEARCH alerts USING INDEX alerts_by_site_update (site_id=?)",
+                1,
+            ),
+            (false, "SCAN alerts USING INDEX alerts_by_update", 0),
+        ] {
+            let plan = explain(&store, &ever_public_sql(site), text_params).await;
+            assert!(
+                plan.iter().any(|line| line == index)
+                    && !plan.iter().any(|line| line.contains("TEMP B-TREE")),
+                "site {site}: {plan:?}"
+            );
         }
     }
 
