@@ -10,3 +10,4 @@ mod command;
 mod errors;
 mod paper;
 mod scenes;
+mod sigma0;

@@ -390,7 +390,7 @@ fn solve_or_retry(
     {
         let dof = dof_of(&solved.bundle).max(1) as f64;
         return Err(AdjustError::Inconsistent {
-            sigma0_mm: problem.cameras[0].sigma_mm * (solved.outcome.cost / dof).sqrt(),
+            sigma0_mm: problem.reference_sigma_mm() * (solved.outcome.cost / dof).sqrt(),
             outliers: solved.outliers,
         });
     }

@@ -110,7 +110,8 @@ pub struct AdjustmentReport {
     pub converged: bool,
     /// Gauss–Newton/LM iterations of the final adjustment.
     pub iterations: usize,
-    /// A-posteriori σ0 = √(vᵀPv/dof) in image mm.
+    /// A-posteriori σ0 = √(vᵀPv/dof) in image mm, expressed in the observations' quadratic-mean
+    /// a-priori σ (`EpochProblem::reference_sigma_mm`).
     pub sigma0_mm: f64,
     /// Degrees of freedom (redundancy).
     pub dof: i64,

@@ -106,7 +106,7 @@ pub(super) fn site_result(s: Solution) -> Result<Adjustment, AdjustError> {
     if !outcome.converged {
         return Err(AdjustError::NoConvergence {
             iterations: outcome.iterations,
-            sigma0_mm: problem.cameras[0].sigma_mm * (outcome.cost / dof as f64).sqrt(),
+            sigma0_mm: problem.reference_sigma_mm() * (outcome.cost / dof as f64).sqrt(),
         });
     }
     let variance_factor = outcome.cost / dof as f64;
@@ -116,7 +116,7 @@ pub(super) fn site_result(s: Solution) -> Result<Adjustment, AdjustError> {
             "global test failed: variance factor {variance_factor:.2} exceeds {limit:.2} (99.9 %): the a-priori σ is too optimistic, or a gross or model error remains"
         ));
     }
-    let sigma0_mm = problem.cameras[0].sigma_mm * variance_factor.sqrt();
+    let sigma0_mm = problem.reference_sigma_mm() * variance_factor.sqrt();
     let to_site = ToSite {
         frame: &frame,
         // Free network: the similarity onto the start coordinates gives the inner-constraint datum.

@@ -194,6 +194,22 @@ impl EpochProblem {
     pub fn observation_count(&self) -> usize {
         self.images.iter().map(|i| i.observations.len()).sum()
     }
+
+    /// The a-priori σ that σ0 is expressed in, in image mm: the quadratic mean of the
+    /// observations' a-priori σ (each its camera's `sigma_mm`), so that σ0 = this × √(vᵀPv/dof)
+    /// is the typical a-posteriori σ of one image coordinate whatever the order of the cameras.
+    /// With one camera, or cameras of one σ, it is that σ.
+    pub fn reference_sigma_mm(&self) -> f64 {
+        let (sum, n) = self.images.iter().fold((0.0, 0usize), |(sum, n), image| {
+            let sigma = self.cameras[image.camera].sigma_mm;
+            let k = image.observations.len();
+            (sum + sigma * sigma * k as f64, n + k)
+        });
+        if n == 0 {
+            return self.cameras.first().map_or(f64::NAN, |c| c.sigma_mm);
+        }
+        (sum / n as f64).sqrt()
+    }
 }
 
 /// True when `s` is a valid user identifier (`[A-Za-z0-9._-]{1,64}`).
