@@ -33,7 +33,8 @@ pub async fn record_events(
     }
     let hooks = webhooks::enabled_endpoints(&mut *tx).await?;
     let start = Utc::now();
-    let now = store::timestamp(start);
+    // due at once on the clock the delivery worker reads (the database's on PostgreSQL)
+    let due = store::timestamp(store::clock(&mut *tx).await?);
     let mut raised = 0;
     for (k, e) in events.iter().enumerate() {
         if e.event_type == AlertEventType::Raised {
@@ -62,7 +63,7 @@ pub async fn record_events(
                 _ => Some(render(e, h, "")?),
             };
             // false: a 410 disabled the endpoint since `hooks` was read
-            outbox::queue_delivery(&mut *tx, &id, &h.id, &now, own_body.as_deref()).await?;
+            outbox::queue_delivery(&mut *tx, &id, &h.id, &due, own_body.as_deref()).await?;
         }
     }
     Ok(raised)

@@ -12,7 +12,7 @@
 //! logged as an error, counted as `outcome="failed"`, and shown by `GET /api/v1/webhooks`.
 
 use std::collections::HashMap;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use chrono::{DateTime, Utc};
 
@@ -64,7 +64,11 @@ pub async fn run(store: Store, config: WorkerConfig, shutdown: Shutdown) {
     let mut busy: HashMap<String, tokio::task::JoinHandle<()>> = HashMap::new();
     while !shutdown.is_requested() {
         busy.retain(|_, task| !task.is_finished());
-        match outbox::due_endpoints(store.reader(), &store::now()).await {
+        let due = match store.clock().await {
+            Ok(now) => outbox::due_endpoints(store.reader(), &store::timestamp(now)).await,
+            Err(e) => Err(e),
+        };
+        match due {
             Ok(endpoints) => {
                 for id in endpoints {
                     if busy.contains_key(&id) {
@@ -109,28 +113,58 @@ async fn deliver_to(
     }
 }
 
+/// Deliveries claimed by this node. The lease is stored on the store's clock ([`Store::clock`])
+/// and timed here on this node's monotonic clock, so no node's wall clock decides when a claim
+/// ends: a node whose clock runs ahead cannot take over a live claim.
+struct Claim {
+    due: Vec<DueDelivery>,
+    /// The store's clock when the claim was made, and this node's instant then.
+    clock: DateTime<Utc>,
+    clock_read: Instant,
+    /// The lease's end on this node's monotonic clock, counted from before the store's clock
+    /// was read, so it comes no later than the stored lease's end.
+    lease_end: Instant,
+}
+
+impl Claim {
+    /// The store's clock now, as far as this node can tell (its clock at the claim plus the
+    /// monotonic time since): the time stored with an attempt.
+    fn now(&self) -> DateTime<Utc> {
+        self.clock + chrono::Duration::from_std(self.clock_read.elapsed()).unwrap_or_default()
+    }
+
+    /// Whether an attempt of at most `timeout` still ends before the lease does.
+    fn has_time_for(&self, timeout: Duration) -> bool {
+        Instant::now() + timeout <= self.lease_end
+    }
+}
+
 /// Claims up to [`CLAIM`] deliveries due to one endpoint for this node (see
 /// [`outbox::claim_due`]): several nodes on one database never send the same message at the
 /// same time.
-async fn claim(
-    store: &Store,
-    webhook_id: &str,
-    timeout: Duration,
-) -> Result<Vec<DueDelivery>, StoreError> {
-    let now = Utc::now();
-    let lease = chrono::Duration::from_std(timeout * CLAIM as u32 + Duration::from_secs(5))
-        .unwrap_or(chrono::Duration::minutes(5));
+async fn claim(store: &Store, webhook_id: &str, timeout: Duration) -> Result<Claim, StoreError> {
+    let lease = timeout * CLAIM as u32 + Duration::from_secs(5);
+    let started = Instant::now();
+    let clock = store.clock().await?;
+    let clock_read = Instant::now();
+    let lease_until =
+        clock + chrono::Duration::from_std(lease).unwrap_or(chrono::Duration::minutes(5));
     let mut tx = store.begin_write_rows().await?;
     let due = outbox::claim_due(
         &mut tx,
         webhook_id,
-        &store::timestamp(now),
-        &store::timestamp(now + lease),
+        &store::timestamp(clock),
+        &store::timestamp(lease_until),
         CLAIM,
     )
     .await?;
     tx.commit().await?;
-    Ok(due)
+    Ok(Claim {
+        due,
+        clock,
+        clock_read,
+        lease_end: started + lease,
+    })
 }
 
 /// One pass over one endpoint: its deliveries due now, oldest first, claimed a few at a time.
@@ -144,34 +178,34 @@ pub async fn deliver_due_to(
 ) -> Result<usize, StoreError> {
     let mut n = 0;
     while n < PASS_LIMIT && !shutdown.is_requested() {
-        let batch = claim(store, webhook_id, config.timeout).await?;
+        let claim = claim(store, webhook_id, config.timeout).await?;
+        let batch = &claim.due;
         if batch.is_empty() {
             break;
         }
         for (k, d) in batch.iter().enumerate() {
             if shutdown.is_requested() {
-                give_back(store, &batch[k..]).await?;
+                give_back(store, &batch[k..], claim.now()).await?;
                 return Ok(n);
             }
             // Not enough of the claim left for one more attempt (recording stalled, say): give
             // the rest back and claim afresh rather than send what another node may take over.
-            if store::parse_timestamp(&d.lease_until)
-                .is_none_or(|end| Utc::now() + config.timeout > end)
-            {
-                give_back(store, &batch[k..]).await?;
+            if !claim.has_time_for(config.timeout) {
+                give_back(store, &batch[k..], claim.now()).await?;
                 break;
             }
-            let t = Utc::now();
+            let started = claim.now();
+            // signed with this node's time, which the receiver checks against its own
             let outcome = deliver(
                 client,
                 &d.url,
                 &d.secret,
                 &d.outbox_id,
                 d.payload.as_bytes(),
-                t,
+                Utc::now(),
             )
             .await;
-            record(store, d, &outcome, &config.retry, t).await?;
+            record(store, d, &outcome, &config.retry, started).await?;
             n += 1;
             if outcome == DeliveryOutcome::Gone {
                 // its other deliveries failed with it; the claimed ones are not sent
@@ -182,15 +216,20 @@ pub async fn deliver_due_to(
     Ok(n)
 }
 
-/// Gives back claimed deliveries not sent: due again at once, not when their lease ends.
-async fn give_back(store: &Store, unsent: &[DueDelivery]) -> Result<(), StoreError> {
+/// Gives back claimed deliveries not sent: due again at `now` (the store's clock), not when
+/// their lease ends.
+async fn give_back(
+    store: &Store,
+    unsent: &[DueDelivery],
+    now: DateTime<Utc>,
+) -> Result<(), StoreError> {
     let mut tx = store.begin_write_rows().await?;
-    outbox::release(&mut tx, unsent, &store::now()).await?;
+    outbox::release(&mut tx, unsent, &store::timestamp(now)).await?;
     tx.commit().await?;
     Ok(())
 }
 
-/// The stored outcome of attempt number `attempts` made at `t`.
+/// The stored outcome of attempt number `attempts` made at `t` (the store's clock).
 fn attempt(
     outcome: &DeliveryOutcome,
     policy: &RetryPolicy,

@@ -460,6 +460,11 @@ impl Store {
         Ok(held.then_some(JobLock { _tx: Some(tx) }))
     }
 
+    /// The store's clock ([`clock`]), read on a connection of the read pool.
+    pub async fn clock(&self) -> Result<DateTime<Utc>, StoreError> {
+        clock(&mut *self.read().await?).await
+    }
+
     /// Readiness: the database answers and every embedded migration is applied.
     pub async fn ready(&self) -> Result<bool, StoreError> {
         let applied: i64 =
@@ -591,6 +596,23 @@ pub fn timestamp(t: DateTime<Utc>) -> String {
 /// The current time in the store's format.
 pub fn now() -> String {
     timestamp(Utc::now())
+}
+
+/// The clock that webhook deliveries' due times and leases are written and compared with, the
+/// same for every node: on PostgreSQL the database server's (`clock_timestamp()`), so nodes
+/// whose clocks disagree never read a live claim as expired nor a new delivery as not yet due;
+/// on SQLite (one node) this node's.
+pub async fn clock(db: &mut AnyConnection) -> Result<DateTime<Utc>, StoreError> {
+    if !is_postgres(db) {
+        return Ok(Utc::now());
+    }
+    let micros: i64 = sqlx::query_scalar(
+        "SELECT CAST(EXTRACT(EPOCH FROM clock_timestamp()) * 1000000 AS BIGINT)",
+    )
+    .fetch_one(&mut *db)
+    .await?;
+    DateTime::from_timestamp_micros(micros)
+        .ok_or_else(|| StoreError::Corrupt(format!("database clock out of range: {micros} µs")))
 }
 
 /// Parses a stored time.

@@ -11,6 +11,7 @@ mod plot_support;
 #[path = "../watch_support/mod.rs"]
 mod watch_support;
 
+mod clocks;
 mod nodes;
 mod store;
 mod watch;

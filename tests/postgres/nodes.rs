@@ -33,7 +33,7 @@ fn site_id(s: usize) -> String {
 }
 
 /// Epoch `k` of site `s`: day `k`, its own noise.
-fn epoch(s: usize, k: usize) -> Value {
+pub(super) fn epoch(s: usize, k: usize) -> Value {
     synthetic_epoch(
         4,
         POINTS,
@@ -60,7 +60,13 @@ async fn send(
     Ok((status, r.json().await.unwrap_or(Value::Null)))
 }
 
-async fn call(client: &Client, base: &str, method: Method, path: &str, body: Value) -> Value {
+pub(super) async fn call(
+    client: &Client,
+    base: &str,
+    method: Method,
+    path: &str,
+    body: Value,
+) -> Value {
     let (st, b) = send(client, base, method.clone(), path, Some(&body))
         .await
         .unwrap();
@@ -69,7 +75,7 @@ async fn call(client: &Client, base: &str, method: Method, path: &str, body: Val
 }
 
 /// A site with the contract's displacement rules, 8 stable points and block B1.
-async fn set_up_site(client: &Client, base: &str, site: &str) {
+pub(super) async fn set_up_site(client: &Client, base: &str, site: &str) {
     let rules = json!([
         {"level": "watch", "metric": "displacement_mm", "above": 5.0, "clear_below": 4.0},
         {"level": "warning", "metric": "displacement_mm", "above": 10.0},
@@ -335,7 +341,7 @@ fn node_config(dir: &std::path::Path, database_url: Option<&str>) -> std::path::
 }
 
 /// Pending deliveries of a database.
-async fn pending(url: &str) -> i64 {
+pub(super) async fn pending(url: &str) -> i64 {
     let pool = sqlx::any::AnyPoolOptions::new()
         .max_connections(1)
         .connect(url)

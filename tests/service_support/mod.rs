@@ -322,6 +322,15 @@ pub fn free_port() -> u16 {
 impl Daemon {
     /// Starts `cliffwatch serve` on `data_dir` with `config`; waits for `/readyz`.
     pub async fn start(data_dir: &std::path::Path, config: &std::path::Path) -> Daemon {
+        Self::start_with_env(data_dir, config, &[]).await
+    }
+
+    /// [`Daemon::start`] with extra environment variables for the process.
+    pub async fn start_with_env(
+        data_dir: &std::path::Path,
+        config: &std::path::Path,
+        env: &[(&str, &str)],
+    ) -> Daemon {
         let port = free_port();
         // Absent only in examples, which include this module but start no daemon.
         let Some(binary) = option_env!("CARGO_BIN_EXE_cliffwatch") else {
@@ -335,6 +344,7 @@ impl Daemon {
             .arg("--config")
             .arg(config)
             .env("RUST_LOG", "warn")
+            .envs(env.iter().copied())
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::inherit())
             .spawn()

@@ -1,0 +1,164 @@
+//! Nodes whose wall clocks disagree: webhook leases and due times are read on the database's
+//! clock, so a node whose clock runs ahead takes over no live claim, and a node whose clock runs
+//! behind does not hold back a message another node queued. The skewed nodes run under
+//! libfaketime (Debian's `faketime`), their clocks 10 minutes off; the database's is true.
+
+use crate::alerts_support::{self, service_support::Daemon, Receiver};
+use crate::nodes::{call, epoch, pending, set_up_site};
+use crate::pg_support;
+
+use std::time::{Duration, Instant};
+
+use reqwest::{Client, Method};
+use serde_json::json;
+
+const SITE: &str = "cliff-1";
+
+/// libfaketime's preload library; a missing one fails the test (`.ci/run` installs it).
+fn faketime_library() -> &'static str {
+    const LIB: &str = "/usr/lib/x86_64-linux-gnu/faketime/libfaketime.so.1";
+    assert!(
+        std::path::Path::new(LIB).exists(),
+        "{LIB} missing: install Debian's `faketime`, as .ci/run does"
+    );
+    LIB
+}
+
+/// The environment of a node whose wall clock is `offset` off (`-10m`, `+10m`); its monotonic
+/// clock, which times its sleeps and claims, stays true.
+fn skewed(offset: &'static str) -> [(&'static str, &'static str); 3] {
+    [
+        ("LD_PRELOAD", faketime_library()),
+        ("FAKETIME", offset),
+        ("FAKETIME_DONT_FAKE_MONOTONIC", "1"),
+    ]
+}
+
+/// How far a node's wall clock is off, in seconds, read from its answers' `date` header.
+async fn clock_offset(node: &Daemon) -> i64 {
+    let r = node.client.get(node.url("/readyz")).send().await.unwrap();
+    let date = r.headers()["date"].to_str().unwrap().to_string();
+    let theirs = chrono::DateTime::parse_from_rfc2822(&date).unwrap();
+    theirs.timestamp() - chrono::Utc::now().timestamp()
+}
+
+/// Asserts that `node`'s clock is `minutes` off (libfaketime took), to a few seconds.
+async fn assert_skewed(node: &Daemon, minutes: i64) {
+    let off = clock_offset(node).await;
+    assert!(
+        (off - 60 * minutes).abs() <= 5,
+        "the node's clock is {off} s off, not {minutes} min"
+    );
+}
+
+/// A node's configuration: the shared database, webhooks looked for every `poll_ms`.
+fn config(dir: &std::path::Path, url: &str, poll_ms: u64) -> std::path::PathBuf {
+    let path = dir.join("cliffwatch.toml");
+    std::fs::write(
+        &path,
+        format!(
+            "database_url = \"{url}\"\nwebhook_poll_ms = {poll_ms}\nwebhook_timeout_secs = 1\n\
+             [webhook_retry]\nbase_seconds = 0.2\nmax_delay_seconds = 1.0\nmax_attempts = 50\n"
+        ),
+    )
+    .unwrap();
+    path
+}
+
+/// Uploads epochs `ks` through a node with a true clock whose delivery worker does not look
+/// again for an hour, then kills it: the alert messages stay queued for another node.
+async fn queue_through_true_node(dir: &std::path::Path, url: &str, ks: std::ops::Range<usize>) {
+    let node = Daemon::start(dir, &config(dir, url, 3_600_000)).await;
+    let path = format!("/api/v1/sites/{SITE}/epochs");
+    for k in ks {
+        let (st, r) = node.send(Method::POST, &path, Some(&epoch(0, k))).await;
+        assert_eq!(st, 201, "epoch {k}: {r}");
+    }
+    node.kill9();
+    assert!(pending(url).await > 0, "the uploads queued alert messages");
+}
+
+/// Waits until nothing is pending; returns how long that took.
+async fn until_delivered(url: &str, limit: Duration) -> Duration {
+    let start = Instant::now();
+    while pending(url).await > 0 {
+        assert!(start.elapsed() < limit, "still pending after {limit:?}");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    start.elapsed()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn node_clocks_decide_no_webhook_lease() {
+    sqlx::any::install_default_drivers();
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("clocks");
+    let dir = tempfile::tempdir().unwrap();
+    let rx = Receiver::start(0).await;
+    let client = Client::new();
+    {
+        let node = Daemon::start(dir.path(), &config(dir.path(), &url, 3_600_000)).await;
+        set_up_site(&client, &node.base, SITE).await;
+        call(
+            &client,
+            &node.base,
+            Method::POST,
+            "/api/v1/webhooks",
+            json!({"url": rx.url, "secret": alerts_support::SECRET, "min_level": "watch"}),
+        )
+        .await;
+        node.kill9();
+    }
+
+    // 1. A claim held by another node: its lease, 8 s on the database's clock, is what a claim
+    //    writes. A node 10 minutes ahead must leave it until the lease ends.
+    queue_through_true_node(dir.path(), &url, 0..6).await;
+    let pool = sqlx::any::AnyPoolOptions::new()
+        .max_connections(1)
+        .connect(&url)
+        .await
+        .unwrap();
+    sqlx::query(
+        "UPDATE webhook_deliveries SET next_attempt_at = to_char(clock_timestamp() \
+         AT TIME ZONE 'UTC' + interval '8 seconds', 'YYYY-MM-DD\"T\"HH24:MI:SS.US\"Z\"') \
+         WHERE state = 'pending'",
+    )
+    .execute(&pool)
+    .await
+    .unwrap();
+    pool.close().await;
+    let claimed_at = Instant::now();
+    let ahead =
+        Daemon::start_with_env(dir.path(), &config(dir.path(), &url, 50), &skewed("+10m")).await;
+    assert_skewed(&ahead, 10).await;
+    tokio::time::sleep(Duration::from_secs(4).saturating_sub(claimed_at.elapsed())).await;
+    assert!(
+        rx.log.lock().unwrap().is_empty(),
+        "a node 10 minutes ahead took over a claim whose lease runs to 8 s"
+    );
+    until_delivered(&url, Duration::from_secs(30)).await;
+    assert!(
+        claimed_at.elapsed() >= Duration::from_secs(8),
+        "delivered before the lease ended"
+    );
+    let watch = rx.accepted();
+    assert!(!watch.is_empty(), "the watch alert was announced");
+    ahead.kill9();
+
+    // 2. A message queued by a node with a true clock is due at once for a node 10 minutes
+    //    behind, not in 10 minutes.
+    queue_through_true_node(dir.path(), &url, 6..9).await;
+    let behind =
+        Daemon::start_with_env(dir.path(), &config(dir.path(), &url, 50), &skewed("-10m")).await;
+    assert_skewed(&behind, -10).await;
+    let took = until_delivered(&url, Duration::from_secs(20)).await;
+    assert!(
+        rx.accepted().len() > watch.len(),
+        "the warning was announced"
+    );
+    eprintln!("delivered by the node 10 minutes behind in {took:?}");
+    assert_eq!(
+        rx.bad_signatures.load(std::sync::atomic::Ordering::SeqCst),
+        0
+    );
+}
