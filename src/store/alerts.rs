@@ -543,10 +543,7 @@ mod tests {
     /// one of point `a1`'s, though SQLite's `LIKE` ignores case.
     #[tokio::test]
     async fn the_alerts_of_a_point_match_its_name_exactly() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
-            .await
-            .unwrap();
+        let (_dir, store) = empty_store().await;
         let mut tx = store.begin_write().await.unwrap();
         sqlx::query("INSERT INTO sites (id, name, created_at) VALUES ('s', 's', '2026-01-01')")
             .execute(&mut *tx)
@@ -608,10 +605,7 @@ mod tests {
     /// give, and reads an index from the cursor on: no scan of the table and no sort.
     #[tokio::test]
     async fn each_alert_filter_pages_in_order_through_its_own_index() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
-            .await
-            .unwrap();
+        let (_dir, store) = empty_store().await;
         let mut tx = store.begin_write().await.unwrap();
         for site in ["s1", "s2"] {
             sqlx::query("INSERT INTO sites (id, name, created_at) VALUES ($1, $1, '2026-01-01')")
@@ -696,10 +690,7 @@ mod tests {
     /// `alerts_by_site_update`, all sites' from `alerts_by_update`; no sort of the alerts.
     #[tokio::test]
     async fn the_cap_feed_reads_alerts_in_index_order() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
-            .await
-            .unwrap();
+        let (_dir, store) = empty_store().await;
         for (site, index, text_params) in [
             (
                 true,
@@ -715,6 +706,15 @@ mod tests {
                 "site {site}: {plan:?}"
             );
         }
+    }
+
+    /// An empty store in a temporary directory (kept while the directory lives).
+    async fn empty_store() -> (tempfile::TempDir, Store) {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(&dir.path().join("t.db"), &StoreOptions::default())
+            .await
+            .unwrap();
+        (dir, store)
     }
 
     /// The top level of SQLite's query plan of `sql` (`text_params` text parameters, then an
