@@ -110,7 +110,7 @@ async fn node_clocks_decide_no_webhook_lease() {
         node.kill9();
     }
 
-    // 1. A claim held by another node: its lease, 8 s on the database's clock, is what a claim
+    // 1. A claim held by another node: its lease, 12 s on the database's clock, is what a claim
     //    writes. A node 10 minutes ahead must leave it until the lease ends.
     queue_through_true_node(dir.path(), &url, 0..6).await;
     let pool = sqlx::any::AnyPoolOptions::new()
@@ -118,27 +118,32 @@ async fn node_clocks_decide_no_webhook_lease() {
         .connect(&url)
         .await
         .unwrap();
+    let claimed_at = Instant::now();
     sqlx::query(
         "UPDATE webhook_deliveries SET next_attempt_at = to_char(clock_timestamp() \
-         AT TIME ZONE 'UTC' + interval '8 seconds', 'YYYY-MM-DD\"T\"HH24:MI:SS.US\"Z\"') \
+         AT TIME ZONE 'UTC' + interval '12 seconds', 'YYYY-MM-DD\"T\"HH24:MI:SS.US\"Z\"') \
          WHERE state = 'pending'",
     )
     .execute(&pool)
     .await
     .unwrap();
     pool.close().await;
-    let claimed_at = Instant::now();
     let ahead =
         Daemon::start_with_env(dir.path(), &config(dir.path(), &url, 50), &skewed("+10m")).await;
     assert_skewed(&ahead, 10).await;
-    tokio::time::sleep(Duration::from_secs(4).saturating_sub(claimed_at.elapsed())).await;
+    tokio::time::sleep(Duration::from_secs(6).saturating_sub(claimed_at.elapsed())).await;
+    let looked = claimed_at.elapsed();
+    assert!(
+        looked < Duration::from_secs(11),
+        "the node took {looked:?} to start: too late to tell"
+    );
     assert!(
         rx.log.lock().unwrap().is_empty(),
-        "a node 10 minutes ahead took over a claim whose lease runs to 8 s"
+        "a node 10 minutes ahead took over a claim whose lease runs to 12 s (after {looked:?})"
     );
     until_delivered(&url, Duration::from_secs(30)).await;
     assert!(
-        claimed_at.elapsed() >= Duration::from_secs(8),
+        claimed_at.elapsed() >= Duration::from_secs(12),
         "delivered before the lease ended"
     );
     let watch = rx.accepted();
