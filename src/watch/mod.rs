@@ -1,7 +1,8 @@
 //! The watched directory of the contract: `<watch_dir>/<site>/<epoch>/` holds one image per station
 //! (`<station>.jpg|.png|.tif`) and an `epoch.json` in the upload form; the folder is taken when `READY`
 //! appears. Each image is decoded and searched for targets, and the targets are named, on
-//! blocking threads (`spawn_blocking`). They are identified: stations with ≥ 4 seed observations in `epoch.json` together, by multi-view matching
+//! blocking threads (`spawn_blocking`). They are identified: stations with ≥ 4 seed
+//! observations in `epoch.json` together, by multi-view matching
 //! that needs the approximations only to name the targets ([`crate::detect::first_epoch`]; a station
 //! seeded alone, or stations that do not share 4 seeded targets, from their own seeds,
 //! [`crate::detect::identify`]); stations without seeds from the orientation the watcher kept from

@@ -4,7 +4,7 @@
 //! libfaketime (Debian's `faketime`), their clocks 10 minutes off; the database's is true.
 
 use crate::alerts_support::{self, service_support::Daemon, Receiver};
-use crate::nodes::{call, epoch, pending, set_up_site};
+use crate::nodes::{call, epoch, pending, polling_node_config, set_up_site, until_delivered};
 use crate::pg_support;
 
 use std::time::{Duration, Instant};
@@ -53,16 +53,7 @@ async fn assert_skewed(node: &Daemon, minutes: i64) {
 
 /// A node's configuration: the shared database, webhooks looked for every `poll_ms`.
 fn config(dir: &std::path::Path, url: &str, poll_ms: u64) -> std::path::PathBuf {
-    let path = dir.join("cliffwatch.toml");
-    std::fs::write(
-        &path,
-        format!(
-            "database_url = \"{url}\"\nwebhook_poll_ms = {poll_ms}\nwebhook_timeout_secs = 1\n\
-             [webhook_retry]\nbase_seconds = 0.2\nmax_delay_seconds = 1.0\nmax_attempts = 50\n"
-        ),
-    )
-    .unwrap();
-    path
+    polling_node_config(dir, Some(url), poll_ms)
 }
 
 /// Uploads epochs `ks` through a node with a true clock whose delivery worker does not look
@@ -76,16 +67,6 @@ async fn queue_through_true_node(dir: &std::path::Path, url: &str, ks: std::ops:
     }
     node.kill9();
     assert!(pending(url).await > 0, "the uploads queued alert messages");
-}
-
-/// Waits until nothing is pending; returns how long that took.
-async fn until_delivered(url: &str, limit: Duration) -> Duration {
-    let start = Instant::now();
-    while pending(url).await > 0 {
-        assert!(start.elapsed() < limit, "still pending after {limit:?}");
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    }
-    start.elapsed()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

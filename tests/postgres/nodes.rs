@@ -323,8 +323,17 @@ async fn twenty_uploaders_three_nodes_five_sites() {
 }
 
 /// A daemon's configuration: the database, fast webhook retries, a short delivery time limit
-/// (the lease of a claimed delivery is 4 × 1 s + 5 s).
+/// (the lease of a claimed delivery is 4 × 1 s + 5 s), due deliveries looked for every 50 ms.
 fn node_config(dir: &std::path::Path, database_url: Option<&str>) -> std::path::PathBuf {
+    polling_node_config(dir, database_url, 50)
+}
+
+/// [`node_config`], due deliveries looked for every `poll_ms`.
+pub(super) fn polling_node_config(
+    dir: &std::path::Path,
+    database_url: Option<&str>,
+    poll_ms: u64,
+) -> std::path::PathBuf {
     let path = dir.join("cliffwatch.toml");
     let db = database_url
         .map(|u| format!("database_url = \"{u}\"\n"))
@@ -332,7 +341,7 @@ fn node_config(dir: &std::path::Path, database_url: Option<&str>) -> std::path::
     std::fs::write(
         &path,
         format!(
-            "{db}webhook_poll_ms = 50\nwebhook_timeout_secs = 1\n\
+            "{db}webhook_poll_ms = {poll_ms}\nwebhook_timeout_secs = 1\n\
              [webhook_retry]\nbase_seconds = 0.2\nmax_delay_seconds = 1.0\nmax_attempts = 50\n"
         ),
     )
@@ -355,15 +364,17 @@ pub(super) async fn pending(url: &str) -> i64 {
     n
 }
 
-async fn wait_delivered(url: &str) {
-    let deadline = Instant::now() + Duration::from_secs(90);
+/// Waits until nothing is pending in database `url`, at most `limit`; returns how long that took.
+pub(super) async fn until_delivered(url: &str, limit: Duration) -> Duration {
+    let start = Instant::now();
     while pending(url).await > 0 {
         assert!(
-            Instant::now() < deadline,
-            "deliveries still pending in {url}"
+            start.elapsed() < limit,
+            "deliveries still pending in {url} after {limit:?}"
         );
-        tokio::time::sleep(Duration::from_millis(200)).await;
+        tokio::time::sleep(Duration::from_millis(100)).await;
     }
+    start.elapsed()
 }
 
 /// The alert events a receiver accepted, without ids and wall-clock times.
@@ -483,8 +494,8 @@ async fn a_node_killed_mid_series_changes_nothing() {
         "sqlite://{}/cliffwatch.db?mode=ro",
         dirs[2].path().display()
     );
-    wait_delivered(&url).await;
-    wait_delivered(&sqlite_url).await;
+    until_delivered(&url, Duration::from_secs(90)).await;
+    until_delivered(&sqlite_url, Duration::from_secs(90)).await;
     let (have, want) = (events(&to_nodes), events(&to_single));
     assert!(
         want.iter().any(|e| e.contains("\"alarm\"")),
