@@ -97,6 +97,11 @@ pub struct Config {
     /// deleted.
     #[serde(default = "default_webhook_delivery_retention_days")]
     pub webhook_delivery_retention_days: u64,
+    /// Days an epoch's raw observations (image coordinates and residuals) are kept after its
+    /// observation time, then deleted (checked hourly); 0 (default) keeps them for ever. The
+    /// epoch, its report, coordinates, covariances and displacements are never deleted.
+    #[serde(default)]
+    pub observation_retention_days: u64,
     /// The CAP feed's `sender` (no spaces, commas, `<` or `&`), e.g. `cliffwatch@agency.example`.
     #[serde(default = "default_cap_sender")]
     pub cap_sender: String,

@@ -205,11 +205,11 @@ impl Bound {
             Duration::from_secs(state.config.overdue_check_secs.max(1)),
             stop.clone(),
         )));
-        let retention_days = state.config.webhook_delivery_retention_days;
-        if retention_days > 0 {
+        let retention = service::retention::Retention::from_config(&state.config);
+        if retention.any() {
             parts.push(tokio::spawn(service::retention::run(
                 store.clone(),
-                Duration::from_secs(retention_days.saturating_mul(86_400)),
+                retention,
                 stop.clone(),
             )));
         }

@@ -130,6 +130,11 @@ pub async fn epoch(
             }
         }
         h2 { "Image residuals" }
+        @if let Some(pruned) = &item.observations_pruned_at {
+            p.note { "The image observations of this epoch were deleted "
+                     (when(pruned, site.time_zone.as_deref()))
+                     " (observation retention); the report above is kept." }
+        }
         div.residuals {
             @for ((_, image), rows) in &by_image {
                 figure { figcaption { "image " (image) } (residual_plot(rows)) }

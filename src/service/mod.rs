@@ -10,7 +10,8 @@
 //! - [`acknowledge`]: staff acknowledge an alert.
 //! - [`overdue`]: the campaign schedule check.
 //! - [`webhook_delivery`]: the outbox worker.
-//! - [`retention`]: finished webhook deliveries deleted after their retention period.
+//! - [`retention`]: finished webhook deliveries and old epochs' observations deleted after
+//!   their retention periods.
 //!
 //! Admission: [`admission`] bounds the uploads a node processes at once.
 //!
@@ -25,7 +26,7 @@ pub(crate) mod error;
 pub mod ingest;
 pub(crate) mod overdue;
 pub mod recompute;
-pub(crate) mod retention;
+pub mod retention;
 pub(crate) mod site_settings;
 pub(crate) mod webhook_delivery;
 

@@ -1,20 +1,63 @@
-//! What the store lets go: finished webhook deliveries (delivered or given up) once they are
-//! older than `webhook_delivery_retention_days`. Pending deliveries are never deleted, and the
-//! outbox messages stay as the alerts' event history. Run periodically by the daemon.
+//! What the store lets go, each after its own retention period (0 days: kept for ever):
+//! - finished webhook deliveries (delivered or given up) older than
+//!   `webhook_delivery_retention_days`. Pending deliveries are never deleted, and the outbox
+//!   messages stay as the alerts' event history.
+//! - the raw observations (image coordinates and residuals) of epochs observed more than
+//!   `observation_retention_days` ago, the largest table of a long-running site. The epoch, its
+//!   report, coordinates, covariances and displacements stay, so series, alerts and reference
+//!   changes are unaffected; the epoch records when they went (`observations_pruned_at`).
+//!
+//! Run periodically by the daemon.
 
 use std::time::Duration;
 
 use chrono::{DateTime, Utc};
 
 use crate::shutdown::Shutdown;
-use crate::store::{self, outbox, Store, StoreError};
+use crate::store::{self, epochs, outbox, Store, StoreError};
 
 /// Deliveries deleted per transaction, so that a first pass over years of history holds the
 /// write lock for milliseconds at a time, not for the whole deletion.
 const BATCH: i64 = 1000;
 
+/// Epochs whose observations are deleted per transaction (a few hundred rows each).
+const EPOCH_BATCH: i64 = 50;
+
 /// How often the pass runs.
 const EVERY: Duration = Duration::from_secs(3600);
+
+/// What is kept how long; `None`: for ever.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Retention {
+    /// Finished webhook deliveries, after their last attempt.
+    pub deliveries: Option<Duration>,
+    /// Epochs' observations, after the epoch's observation time.
+    pub observations: Option<Duration>,
+}
+
+impl Retention {
+    /// The periods of the configuration's `webhook_delivery_retention_days` and
+    /// `observation_retention_days` (0: none).
+    pub fn from_config(config: &crate::config::Config) -> Retention {
+        let days = |d: u64| (d > 0).then(|| Duration::from_secs(d.saturating_mul(86_400)));
+        Retention {
+            deliveries: days(config.webhook_delivery_retention_days),
+            observations: days(config.observation_retention_days),
+        }
+    }
+
+    /// Whether anything is ever deleted.
+    pub fn any(&self) -> bool {
+        self.deliveries.is_some() || self.observations.is_some()
+    }
+}
+
+/// The store time `retention` before `now`; `None` when that is before the calendar's start
+/// (nothing is old enough).
+fn cut(retention: Duration, now: DateTime<Utc>) -> Option<String> {
+    let keep = chrono::Duration::from_std(retention).unwrap_or(chrono::Duration::MAX);
+    now.checked_sub_signed(keep).map(store::timestamp)
+}
 
 /// Deletes every finished delivery whose last attempt is older than `retention` at `now`, in
 /// transactions of [`BATCH`]. Returns how many went.
@@ -23,11 +66,9 @@ pub async fn prune_deliveries(
     retention: Duration,
     now: DateTime<Utc>,
 ) -> Result<u64, StoreError> {
-    let keep = chrono::Duration::from_std(retention).unwrap_or(chrono::Duration::MAX);
-    let Some(cut) = now.checked_sub_signed(keep) else {
+    let Some(cut) = cut(retention, now) else {
         return Ok(0);
     };
-    let cut = store::timestamp(cut);
     let mut pruned = 0;
     loop {
         let mut tx = store.begin_write_rows().await?;
@@ -40,11 +81,43 @@ pub async fn prune_deliveries(
     }
 }
 
-/// Runs [`prune_deliveries`] at start and every hour until shutdown. Any node may: a deletion
-/// that another node made first deletes nothing.
-pub async fn run(store: Store, retention: Duration, shutdown: Shutdown) {
+/// Deletes the observations of every epoch observed more than `retention` before `now`, marking
+/// each epoch as pruned at `now`, in transactions of [`EPOCH_BATCH`] epochs. Returns how many
+/// epochs lost theirs.
+pub async fn prune_observations(
+    store: &Store,
+    retention: Duration,
+    now: DateTime<Utc>,
+) -> Result<u64, StoreError> {
+    let Some(cut) = cut(retention, now) else {
+        return Ok(0);
+    };
+    let pruned_at = store::timestamp(now);
+    let mut pruned = 0;
     loop {
-        match prune_deliveries(&store, retention, Utc::now()).await {
+        let mut tx = store.begin_write_rows().await?;
+        let n = epochs::prune_observations(&mut tx, &cut, &pruned_at, EPOCH_BATCH).await?;
+        tx.commit().await?;
+        pruned += n;
+        if n < EPOCH_BATCH as u64 {
+            return Ok(pruned);
+        }
+    }
+}
+
+/// One pass of every retention in force, at the store's clock. The observations' pass runs on
+/// one node at a time ([`Store::try_job_lock`]); the deliveries' on any (a deletion another node
+/// made first deletes nothing).
+async fn prune_once(store: &Store, retention: Retention) {
+    let now = match store.clock().await {
+        Ok(now) => now,
+        Err(e) => {
+            tracing::warn!(error = %e, "retention: reading the store's clock failed");
+            return;
+        }
+    };
+    if let Some(keep) = retention.deliveries {
+        match prune_deliveries(store, keep, now).await {
             Ok(0) => {}
             Ok(n) => {
                 metrics::counter!("cliffwatch_webhook_deliveries_pruned_total").increment(n);
@@ -52,11 +125,34 @@ pub async fn run(store: Store, retention: Duration, shutdown: Shutdown) {
             }
             Err(e) => tracing::warn!(error = %e, "pruning finished webhook deliveries failed"),
         }
+    }
+    if let Some(keep) = retention.observations {
+        let pass = async {
+            match store.try_job_lock("observation retention").await? {
+                Some(_held) => prune_observations(store, keep, now).await,
+                None => Ok(0),
+            }
+        };
+        match pass.await {
+            Ok(0) => {}
+            Ok(n) => {
+                metrics::counter!("cliffwatch_epoch_observations_pruned_total").increment(n);
+                tracing::info!(epochs = n, "deleted the observations of old epochs");
+            }
+            Err(e) => tracing::warn!(error = %e, "deleting old epochs' observations failed"),
+        }
+    }
+}
+
+/// Runs the retentions in force at start and every hour until shutdown.
+pub async fn run(store: Store, retention: Retention, shutdown: Shutdown) {
+    loop {
+        prune_once(&store, retention).await;
         if shutdown.sleep(EVERY).await {
             break;
         }
     }
-    tracing::info!("webhook delivery retention stopped");
+    tracing::info!("retention stopped");
 }
 
 #[cfg(test)]

@@ -137,6 +137,7 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("cameras", T),
             ("report", T),
             ("created_at", T),
+            ("observations_pruned_at", T),
         ],
     ),
     (

@@ -75,6 +75,10 @@ pub struct EpochListItem {
     pub dropped_observations: i64,
     /// Time of ingestion (RFC 3339).
     pub created_at: String,
+    /// When the observation retention deleted the epoch's observations (image coordinates and
+    /// residuals; RFC 3339), null while they are kept. The adjustment report, coordinates,
+    /// covariances and displacements stay.
+    pub observations_pruned_at: Option<String>,
 }
 
 /// Identity of a stored epoch: id and body hash.
@@ -112,8 +116,8 @@ pub async fn list(
     limit: i64,
 ) -> Result<Vec<(String, EpochListItem)>, StoreError> {
     let rows: Vec<EpochListItem> = sqlx::query_as(
-        "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, dropped_observations, created_at \
-         FROM epochs WHERE site_id = $1 AND observed_at < $2 \
+        "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, dropped_observations, created_at, \
+         observations_pruned_at FROM epochs WHERE site_id = $1 AND observed_at < $2 \
          ORDER BY observed_at DESC LIMIT $3",
     )
     .bind(site)
@@ -129,6 +133,7 @@ pub async fn list(
             let raw = r.observed_at.clone();
             r.observed_at = display_timestamp(&raw);
             r.created_at = display_timestamp(&r.created_at);
+            r.observations_pruned_at = r.observations_pruned_at.as_deref().map(display_timestamp);
             (raw, r)
         })
         .collect())
@@ -157,7 +162,8 @@ pub async fn get(
         report: String,
     }
     let row: Option<Row> = sqlx::query_as(
-        "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, dropped_observations, created_at, report \
+        "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, dropped_observations, created_at, \
+         observations_pruned_at, report \
          FROM epochs WHERE site_id = $1 AND id = $2",
     )
     .bind(site)
@@ -169,6 +175,11 @@ pub async fn get(
         Some(mut r) => {
             r.item.observed_at = display_timestamp(&r.item.observed_at);
             r.item.created_at = display_timestamp(&r.item.created_at);
+            r.item.observations_pruned_at = r
+                .item
+                .observations_pruned_at
+                .as_deref()
+                .map(display_timestamp);
             let report: EpochReport = serde_json::from_str(&r.report)?;
             Ok(Some((r.item, report)))
         }
@@ -205,6 +216,39 @@ pub async fn residuals(
     .bind(id)
     .fetch_all(db)
     .await?)
+}
+
+/// Deletes the observations (image coordinates and residuals) of at most `limit` epochs observed
+/// before `cut`, oldest first, that still hold them, and marks each as pruned at `pruned_at`
+/// (both store format). Epochs, reports, coordinates, covariances and displacements stay.
+/// Returns the epochs pruned; an epoch another pass marked first is not counted.
+pub async fn prune_observations(
+    db: &mut AnyConnection,
+    cut: &str,
+    pruned_at: &str,
+    limit: i64,
+) -> Result<u64, StoreError> {
+    // Marked first and deleted by the marked ids, so that an epoch stored meanwhile (on
+    // PostgreSQL) is never marked without its observations deleted.
+    let marked: Vec<(String, i64)> = sqlx::query_as(
+        "UPDATE epochs SET observations_pruned_at = $1 WHERE observations_pruned_at IS NULL \
+         AND (site_id, id) IN (SELECT site_id, id FROM epochs \
+         WHERE observations_pruned_at IS NULL AND observed_at < $2 ORDER BY observed_at LIMIT $3) \
+         RETURNING site_id, id",
+    )
+    .bind(pruned_at)
+    .bind(cut)
+    .bind(limit)
+    .fetch_all(&mut *db)
+    .await?;
+    for (site, id) in &marked {
+        sqlx::query("DELETE FROM observations WHERE site_id = $1 AND epoch_id = $2")
+            .bind(site)
+            .bind(id)
+            .execute(&mut *db)
+            .await?;
+    }
+    Ok(marked.len() as u64)
 }
 
 /// The residual of one stored observation, as `GET .../epochs/{epoch}` lists it.

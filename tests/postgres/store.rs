@@ -166,6 +166,16 @@ async fn run_scenario(s: &TestServer) {
     )
     .await;
     assert_eq!(st, 200, "{b}");
+    // Observation retention of 3 days on 8 November at noon: the epochs of 1 to 5 November lose
+    // their observations (the same rows and answers on every backend, and after a move).
+    let now = chrono::DateTime::parse_from_rfc3339("2026-11-08T12:00:00Z")
+        .unwrap()
+        .to_utc();
+    let keep = std::time::Duration::from_secs(3 * 86_400);
+    let pruned = cliffwatch::service::retention::prune_observations(&s.store, keep, now)
+        .await
+        .unwrap();
+    assert_eq!(pruned, 5);
 }
 
 /// Removes what differs between two runs by construction: wall-clock times and random ids;
@@ -336,6 +346,13 @@ async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
     let got = answers(&pg).await;
 
     // What the scenario must have produced at all (so that equal answers mean something).
+    let list = &got[&format!("/api/v1/sites/{SITE}/epochs?limit=100")];
+    assert_eq!(
+        list.matches("\"observations_pruned_at\": \"2026-11-08T12:00:00Z\"")
+            .count(),
+        5,
+        "{list}"
+    );
     let alerts = &got["alerts"];
     assert!(alerts.contains("\"alarm\""), "no alarm: {alerts}");
     assert!(alerts.contains("\"acknowledged\""), "no acknowledgement");

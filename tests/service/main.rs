@@ -9,5 +9,6 @@ mod api;
 mod concurrency;
 mod crash;
 mod joint_covariance;
+mod retention;
 mod series;
 mod wal;
