@@ -102,6 +102,11 @@ pub struct Config {
     /// epoch, its report, coordinates, covariances and displacements are never deleted.
     #[serde(default)]
     pub observation_retention_days: u64,
+    /// Days a folder the watched directory took (`<site>/.done/<folder>`: its images and the
+    /// watcher's files) is kept after it was last written, then deleted (checked hourly); 0
+    /// (default) keeps them for ever. `.failed/` folders are never deleted.
+    #[serde(default)]
+    pub watch_done_retention_days: u64,
     /// The CAP feed's `sender` (no spaces, commas, `<` or `&`), e.g. `cliffwatch@agency.example`.
     #[serde(default = "default_cap_sender")]
     pub cap_sender: String,

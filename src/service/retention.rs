@@ -6,15 +6,20 @@
 //!   `observation_retention_days` ago, the largest table of a long-running site. The epoch, its
 //!   report, coordinates, covariances and displacements stay, so series, alerts and reference
 //!   changes are unaffected; the epoch records when they went (`observations_pruned_at`).
+//! - the folders the watched directory took (`<site>/.done/<folder>`, the images) last written
+//!   more than `watch_done_retention_days` ago. `.failed/` folders stay for staff to look at;
+//!   the epoch pages then draw the detections without the image.
 //!
 //! Run periodically by the daemon.
 
-use std::time::Duration;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, SystemTime};
 
 use chrono::{DateTime, Utc};
 
 use crate::shutdown::Shutdown;
 use crate::store::{self, epochs, outbox, Store, StoreError};
+use crate::watch::folders;
 
 /// Deliveries deleted per transaction, so that a first pass over years of history holds the
 /// write lock for milliseconds at a time, not for the whole deletion.
@@ -27,28 +32,33 @@ const EPOCH_BATCH: i64 = 50;
 const EVERY: Duration = Duration::from_secs(3600);
 
 /// What is kept how long; `None`: for ever.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct Retention {
     /// Finished webhook deliveries, after their last attempt.
     pub deliveries: Option<Duration>,
     /// Epochs' observations, after the epoch's observation time.
     pub observations: Option<Duration>,
+    /// The watched directory's taken folders (`<site>/.done/<folder>`), after they were last
+    /// written, with the watched directory.
+    pub done_folders: Option<(Duration, PathBuf)>,
 }
 
 impl Retention {
-    /// The periods of the configuration's `webhook_delivery_retention_days` and
-    /// `observation_retention_days` (0: none).
+    /// The periods of the configuration's `webhook_delivery_retention_days`,
+    /// `observation_retention_days` and `watch_done_retention_days` (0: none; the last only with
+    /// a `watch_dir`).
     pub fn from_config(config: &crate::config::Config) -> Retention {
         let days = |d: u64| (d > 0).then(|| Duration::from_secs(d.saturating_mul(86_400)));
         Retention {
             deliveries: days(config.webhook_delivery_retention_days),
             observations: days(config.observation_retention_days),
+            done_folders: days(config.watch_done_retention_days).zip(config.watch_dir.clone()),
         }
     }
 
     /// Whether anything is ever deleted.
     pub fn any(&self) -> bool {
-        self.deliveries.is_some() || self.observations.is_some()
+        self.deliveries.is_some() || self.observations.is_some() || self.done_folders.is_some()
     }
 }
 
@@ -105,10 +115,30 @@ pub async fn prune_observations(
     }
 }
 
+/// Deletes every taken folder of the watched directory `dir` last written more than `retention`
+/// before `now` ([`folders::done_folders_before`]). Returns how many went; a folder that cannot
+/// be deleted is logged and left for the next pass, one already gone (another node) is skipped.
+pub fn prune_done_folders(dir: &Path, retention: Duration, now: SystemTime) -> usize {
+    let Some(cut) = now.checked_sub(retention) else {
+        return 0;
+    };
+    let mut pruned = 0;
+    for folder in folders::done_folders_before(dir, cut) {
+        match std::fs::remove_dir_all(&folder) {
+            Ok(()) => pruned += 1,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => {
+                tracing::warn!(folder = %folder.display(), error = %e, "deleting a taken folder failed")
+            }
+        }
+    }
+    pruned
+}
+
 /// One pass of every retention in force, at the store's clock. The observations' pass runs on
 /// one node at a time ([`Store::try_job_lock`]); the deliveries' on any (a deletion another node
 /// made first deletes nothing).
-async fn prune_once(store: &Store, retention: Retention) {
+async fn prune_once(store: &Store, retention: &Retention) {
     let now = match store.clock().await {
         Ok(now) => now,
         Err(e) => {
@@ -142,12 +172,33 @@ async fn prune_once(store: &Store, retention: Retention) {
             Err(e) => tracing::warn!(error = %e, "deleting old epochs' observations failed"),
         }
     }
+    if let Some((keep, dir)) = retention.done_folders.clone() {
+        let pass = async {
+            let Some(_held) = store.try_job_lock("watch retention").await? else {
+                return Ok(0);
+            };
+            tokio::task::spawn_blocking(move || prune_done_folders(&dir, keep, SystemTime::now()))
+                .await
+                .map_err(|e| StoreError::Io(std::io::Error::other(e)))
+        };
+        match pass.await {
+            Ok(0) => {}
+            Ok(n) => {
+                metrics::counter!("cliffwatch_watch_folders_pruned_total").increment(n as u64);
+                tracing::info!(
+                    folders = n,
+                    "deleted old taken folders of the watched directory"
+                );
+            }
+            Err(e) => tracing::warn!(error = %e, "deleting old taken folders failed"),
+        }
+    }
 }
 
 /// Runs the retentions in force at start and every hour until shutdown.
 pub async fn run(store: Store, retention: Retention, shutdown: Shutdown) {
     loop {
-        prune_once(&store, retention).await;
+        prune_once(&store, &retention).await;
         if shutdown.sleep(EVERY).await {
             break;
         }

@@ -34,6 +34,46 @@ pub fn ready_folders(dir: &Path) -> Vec<(String, PathBuf)> {
     out
 }
 
+/// The taken folders `<dir>/<site>/.done/<folder>` last written before `cut`: the newest
+/// modification time of the folder and of the entries directly in it counts (the watcher writes
+/// `identification.json` or `duplicate.txt` into a folder when it takes it). Symbolic links and
+/// folders whose times cannot be read are left out. Sorted.
+pub fn done_folders_before(dir: &Path, cut: std::time::SystemTime) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let Ok(sites) = std::fs::read_dir(dir) else {
+        return out;
+    };
+    for site in sites.flatten() {
+        let is_site = site.file_type().is_ok_and(|t| t.is_dir());
+        if !is_site || site.file_name().to_string_lossy().starts_with('.') {
+            continue;
+        }
+        let Ok(done) = std::fs::read_dir(site.path().join(".done")) else {
+            continue;
+        };
+        for folder in done.flatten() {
+            if !folder.file_type().is_ok_and(|t| t.is_dir()) {
+                continue;
+            }
+            if last_written(&folder.path()).is_some_and(|t| t < cut) {
+                out.push(folder.path());
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// The newest modification time of `folder` and the entries directly in it (not following links).
+fn last_written(folder: &Path) -> Option<std::time::SystemTime> {
+    let mut newest = std::fs::symlink_metadata(folder).ok()?.modified().ok()?;
+    for entry in std::fs::read_dir(folder).ok()? {
+        let modified = entry.ok()?.metadata().ok()?.modified().ok()?;
+        newest = newest.max(modified);
+    }
+    Some(newest)
+}
+
 /// Files the watcher writes into a folder (not part of its content).
 const OUTPUT_FILES: [&str; 4] = ["READY", "error.txt", "identification.json", "duplicate.txt"];
 
@@ -156,4 +196,50 @@ fn image_files(folder: &Path) -> std::io::Result<Vec<(String, String)>> {
         .collect();
     files.sort();
     Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::{Duration, SystemTime};
+
+    /// Sets the modification time of `path` (file or folder) to `t`.
+    fn touch(path: &Path, t: SystemTime) {
+        std::fs::File::open(path).unwrap().set_modified(t).unwrap();
+    }
+
+    /// A folder with one image, everything in it written at `t`.
+    fn folder(path: &Path, t: SystemTime) {
+        std::fs::create_dir_all(path).unwrap();
+        std::fs::write(path.join("S1.jpg"), b"jpeg").unwrap();
+        touch(&path.join("S1.jpg"), t);
+        touch(path, t);
+    }
+
+    /// With a cut 30 days back, a taken folder written 40 days ago is found; one written 10 days
+    /// ago, one whose watcher's file is newer than its images, a failed folder, a folder waiting
+    /// to be taken and a link to an old folder are not.
+    #[test]
+    fn done_folders_are_found_by_their_last_write() {
+        let dir = tempfile::tempdir().unwrap();
+        let now = SystemTime::now();
+        let days = |d: u64| now - Duration::from_secs(d * 86_400);
+        let site = dir.path().join("cliff");
+        folder(&site.join(".done/old"), days(40));
+        folder(&site.join(".done/recent"), days(10));
+        folder(&site.join(".done/taken_late"), days(40));
+        std::fs::write(site.join(".done/taken_late/identification.json"), b"{}").unwrap();
+        touch(&site.join(".done/taken_late"), days(40));
+        folder(&site.join(".failed/old"), days(40));
+        folder(&site.join("waiting"), days(40));
+        folder(&dir.path().join("elsewhere"), days(40));
+        std::os::unix::fs::symlink(dir.path().join("elsewhere"), site.join(".done/link")).unwrap();
+        touch(&site.join(".done"), days(40));
+        assert_eq!(
+            done_folders_before(dir.path(), days(30)),
+            [site.join(".done/old")]
+        );
+        assert!(done_folders_before(dir.path(), days(50)).is_empty());
+        assert!(done_folders_before(&dir.path().join("missing"), now).is_empty());
+    }
 }

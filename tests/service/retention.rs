@@ -209,3 +209,51 @@ fn strip_pruned(v: &mut Value) {
         _ => {}
     }
 }
+
+/// Sets the modification time of `path` (file or folder) `days` days back.
+fn age(path: &std::path::Path, days: u64) {
+    let t = std::time::SystemTime::now() - Duration::from_secs(days * 86_400);
+    std::fs::File::open(path).unwrap().set_modified(t).unwrap();
+}
+
+/// A folder holding one image, all of it last written `days` days ago.
+fn old_folder(path: &std::path::Path, days: u64) {
+    std::fs::create_dir_all(path).unwrap();
+    std::fs::write(path.join("S1.jpg"), b"jpeg").unwrap();
+    age(&path.join("S1.jpg"), days);
+    age(path, days);
+}
+
+/// A daemon watching a directory with `watch_done_retention_days = 30` deletes, in its pass at
+/// start, the taken folder last written 40 days ago, and keeps the one of 10 days, the failed
+/// folder and the folder not yet taken.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn old_taken_folders_of_the_watched_directory_go() {
+    let watch = tempfile::tempdir().unwrap();
+    let site = watch.path().join(SITE);
+    let (old, recent) = (site.join(".done/2024-06-01"), site.join(".done/2026-11-20"));
+    let (failed, waiting) = (site.join(".failed/2024-06-02"), site.join("2024-06-03"));
+    old_folder(&old, 40);
+    old_folder(&recent, 10);
+    old_folder(&failed, 40);
+    old_folder(&waiting, 40);
+    let dir = watch.path().to_path_buf();
+    let server = TestServer::start(move |c| {
+        c.watch_dir = Some(dir);
+        c.watch_done_retention_days = 30;
+    })
+    .await;
+    let start = Instant::now();
+    while old.exists() {
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "{} still there",
+            old.display()
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    for kept in [&recent, &failed, &waiting] {
+        assert!(kept.join("S1.jpg").is_file(), "{} deleted", kept.display());
+    }
+    server.stop().await;
+}
