@@ -52,6 +52,18 @@ fn describe() {
         "cliffwatch_webhook_queue_depth",
         "pending webhook deliveries"
     );
+    metrics::describe_counter!(
+        "cliffwatch_webhook_deliveries_pruned_total",
+        "finished webhook deliveries deleted by the retention"
+    );
+    metrics::describe_counter!(
+        "cliffwatch_epoch_observations_pruned_total",
+        "epochs whose observations the retention deleted"
+    );
+    metrics::describe_counter!(
+        "cliffwatch_watch_folders_pruned_total",
+        "taken folders of the watched directory the retention deleted"
+    );
 }
 
 /// `GET /healthz`: the process answers.
