@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
 use chrono::{DateTime, Utc};
+use sqlx::AnyConnection;
 
 use crate::shutdown::Shutdown;
 use crate::store::{self, epochs, outbox, Store, StoreError};
@@ -69,6 +70,49 @@ fn cut(retention: Duration, now: DateTime<Utc>) -> Option<String> {
     now.checked_sub_signed(keep).map(store::timestamp)
 }
 
+/// Rows the retention deletes in batches, each in a write transaction of its own.
+enum Prunable<'a> {
+    /// Finished deliveries whose last attempt was before `cut` (store time).
+    Deliveries { cut: &'a str },
+    /// The observations of epochs observed before `cut`, the epochs marked at `pruned_at`.
+    Observations { cut: &'a str, pruned_at: &'a str },
+}
+
+impl Prunable<'_> {
+    /// Most items one transaction deletes.
+    fn batch(&self) -> i64 {
+        match self {
+            Prunable::Deliveries { .. } => BATCH,
+            Prunable::Observations { .. } => EPOCH_BATCH,
+        }
+    }
+
+    /// Deletes one batch in `tx`; returns how many items went.
+    async fn delete_batch(&self, tx: &mut AnyConnection) -> Result<u64, StoreError> {
+        match *self {
+            Prunable::Deliveries { cut } => outbox::prune_finished(tx, cut, BATCH).await,
+            Prunable::Observations { cut, pruned_at } => {
+                epochs::prune_observations(tx, cut, pruned_at, EPOCH_BATCH).await
+            }
+        }
+    }
+
+    /// Deletes every batch, one transaction each, until one holds fewer than
+    /// [`Prunable::batch`]. Returns how many items went.
+    async fn delete_all(&self, store: &Store) -> Result<u64, StoreError> {
+        let mut pruned = 0;
+        loop {
+            let mut tx = store.begin_write_rows().await?;
+            let n = self.delete_batch(&mut tx).await?;
+            tx.commit().await?;
+            pruned += n;
+            if n < self.batch() as u64 {
+                return Ok(pruned);
+            }
+        }
+    }
+}
+
 /// Deletes every finished delivery whose last attempt is older than `retention` at `now`, in
 /// transactions of [`BATCH`]. Returns how many went.
 pub async fn prune_deliveries(
@@ -79,16 +123,7 @@ pub async fn prune_deliveries(
     let Some(cut) = cut(retention, now) else {
         return Ok(0);
     };
-    let mut pruned = 0;
-    loop {
-        let mut tx = store.begin_write_rows().await?;
-        let n = outbox::prune_finished(&mut tx, &cut, BATCH).await?;
-        tx.commit().await?;
-        pruned += n;
-        if n < BATCH as u64 {
-            return Ok(pruned);
-        }
-    }
+    Prunable::Deliveries { cut: &cut }.delete_all(store).await
 }
 
 /// Deletes the observations of every epoch observed more than `retention` before `now`, marking
@@ -103,16 +138,11 @@ pub async fn prune_observations(
         return Ok(0);
     };
     let pruned_at = store::timestamp(now);
-    let mut pruned = 0;
-    loop {
-        let mut tx = store.begin_write_rows().await?;
-        let n = epochs::prune_observations(&mut tx, &cut, &pruned_at, EPOCH_BATCH).await?;
-        tx.commit().await?;
-        pruned += n;
-        if n < EPOCH_BATCH as u64 {
-            return Ok(pruned);
-        }
-    }
+    let what = Prunable::Observations {
+        cut: &cut,
+        pruned_at: &pruned_at,
+    };
+    what.delete_all(store).await
 }
 
 /// Deletes every taken folder of the watched directory `dir` last written more than `retention`
