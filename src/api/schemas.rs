@@ -55,7 +55,8 @@ pub struct EpochSummary {
     pub report: EpochReport,
     /// The global test of the variance factor.
     pub global_test: GlobalTest,
-    /// Residuals per observation; detail view only.
+    /// Residuals per observation; detail view only, empty once the observation retention deleted
+    /// the observations (`observations_pruned_at`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub residuals: Option<Vec<StoredResidual>>,
     /// Displacements of this epoch against the reference epoch.
