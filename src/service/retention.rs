@@ -177,14 +177,12 @@ async fn prune_once(store: &Store, retention: &Retention) {
         }
     };
     if let Some(keep) = retention.deliveries {
-        match prune_deliveries(store, keep, now).await {
-            Ok(0) => {}
-            Ok(n) => {
-                metrics::counter!("cliffwatch_webhook_deliveries_pruned_total").increment(n);
-                tracing::info!(deliveries = n, "pruned finished webhook deliveries");
-            }
-            Err(e) => tracing::warn!(error = %e, "pruning finished webhook deliveries failed"),
-        }
+        let pass = prune_deliveries(store, keep, now).await;
+        record(
+            pass,
+            "cliffwatch_webhook_deliveries_pruned_total",
+            "finished webhook deliveries",
+        );
     }
     if let Some(keep) = retention.observations {
         let pass = async {
@@ -193,14 +191,11 @@ async fn prune_once(store: &Store, retention: &Retention) {
                 None => Ok(0),
             }
         };
-        match pass.await {
-            Ok(0) => {}
-            Ok(n) => {
-                metrics::counter!("cliffwatch_epoch_observations_pruned_total").increment(n);
-                tracing::info!(epochs = n, "deleted the observations of old epochs");
-            }
-            Err(e) => tracing::warn!(error = %e, "deleting old epochs' observations failed"),
-        }
+        record(
+            pass.await,
+            "cliffwatch_epoch_observations_pruned_total",
+            "the observations of old epochs",
+        );
     }
     if let Some((keep, dir)) = retention.done_folders.clone() {
         let pass = async {
@@ -209,19 +204,26 @@ async fn prune_once(store: &Store, retention: &Retention) {
             };
             tokio::task::spawn_blocking(move || prune_done_folders(&dir, keep, SystemTime::now()))
                 .await
+                .map(|n| n as u64)
                 .map_err(|e| StoreError::Io(std::io::Error::other(e)))
         };
-        match pass.await {
-            Ok(0) => {}
-            Ok(n) => {
-                metrics::counter!("cliffwatch_watch_folders_pruned_total").increment(n as u64);
-                tracing::info!(
-                    folders = n,
-                    "deleted old taken folders of the watched directory"
-                );
-            }
-            Err(e) => tracing::warn!(error = %e, "deleting old taken folders failed"),
+        record(
+            pass.await,
+            "cliffwatch_watch_folders_pruned_total",
+            "old taken folders of the watched directory",
+        );
+    }
+}
+
+/// Counts on `counter` and logs what one retention pass deleted (`what`), or why it failed.
+fn record(pass: Result<u64, StoreError>, counter: &'static str, what: &str) {
+    match pass {
+        Ok(0) => {}
+        Ok(n) => {
+            metrics::counter!(counter).increment(n);
+            tracing::info!(deleted = n, "retention: deleted {what}");
         }
+        Err(e) => tracing::warn!(error = %e, "retention: deleting {what} failed"),
     }
 }
 

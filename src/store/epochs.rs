@@ -81,6 +81,19 @@ pub struct EpochListItem {
     pub observations_pruned_at: Option<String>,
 }
 
+impl EpochListItem {
+    /// The item as read, its times (store form) in the API's form ([`display_timestamp`]).
+    fn displayed(mut self) -> EpochListItem {
+        self.observed_at = display_timestamp(&self.observed_at);
+        self.created_at = display_timestamp(&self.created_at);
+        self.observations_pruned_at = self
+            .observations_pruned_at
+            .as_deref()
+            .map(display_timestamp);
+        self
+    }
+}
+
 /// Identity of a stored epoch: id and body hash.
 #[derive(Debug, Clone, FromRow)]
 pub struct EpochKey {
@@ -129,13 +142,7 @@ pub async fn list(
     .await?;
     Ok(rows
         .into_iter()
-        .map(|mut r| {
-            let raw = r.observed_at.clone();
-            r.observed_at = display_timestamp(&raw);
-            r.created_at = display_timestamp(&r.created_at);
-            r.observations_pruned_at = r.observations_pruned_at.as_deref().map(display_timestamp);
-            (raw, r)
-        })
+        .map(|r| (r.observed_at.clone(), r.displayed()))
         .collect())
 }
 
@@ -172,16 +179,9 @@ pub async fn get(
     .await?;
     match row {
         None => Ok(None),
-        Some(mut r) => {
-            r.item.observed_at = display_timestamp(&r.item.observed_at);
-            r.item.created_at = display_timestamp(&r.item.created_at);
-            r.item.observations_pruned_at = r
-                .item
-                .observations_pruned_at
-                .as_deref()
-                .map(display_timestamp);
+        Some(r) => {
             let report: EpochReport = serde_json::from_str(&r.report)?;
-            Ok(Some((r.item, report)))
+            Ok(Some((r.item.displayed(), report)))
         }
     }
 }

@@ -12,15 +12,8 @@ const IMAGE_EXTENSIONS: [&str; 5] = ["jpg", "jpeg", "png", "tif", "tiff"];
 /// Folders `<dir>/<site>/<epoch>/` holding `READY` (names starting with `.` skipped), sorted.
 pub fn ready_folders(dir: &Path) -> Vec<(String, PathBuf)> {
     let mut out = Vec::new();
-    let Ok(sites) = std::fs::read_dir(dir) else {
-        return out;
-    };
-    for site in sites.flatten() {
-        let name = site.file_name().to_string_lossy().into_owned();
-        if name.starts_with('.') || !site.path().is_dir() {
-            continue;
-        }
-        let Ok(epochs) = std::fs::read_dir(site.path()) else {
+    for (name, site) in site_dirs(dir) {
+        let Ok(epochs) = std::fs::read_dir(&site) else {
             continue;
         };
         for e in epochs.flatten() {
@@ -34,21 +27,27 @@ pub fn ready_folders(dir: &Path) -> Vec<(String, PathBuf)> {
     out
 }
 
-/// The taken folders `<dir>/<site>/.done/<folder>` last written before `cut`: the newest
-/// modification time of the folder and of the entries directly in it counts (the watcher writes
-/// `identification.json` or `duplicate.txt` into a folder when it takes it). Symbolic links and
-/// folders whose times cannot be read are left out. Sorted.
+/// The sites' directories `<dir>/<site>/` (names starting with `.` skipped), with their names.
+fn site_dirs(dir: &Path) -> Vec<(String, PathBuf)> {
+    let Ok(sites) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    sites
+        .flatten()
+        .map(|site| (site.file_name().to_string_lossy().into_owned(), site.path()))
+        .filter(|(name, path)| !name.starts_with('.') && path.is_dir())
+        .collect()
+}
+
+/// The taken folders `<dir>/<site>/.done/<folder>` (of the sites [`ready_folders`] watches)
+/// last written before `cut`: the newest modification time of the folder and of the entries
+/// directly in it counts (the watcher writes `identification.json` or `duplicate.txt` into a
+/// folder when it takes it). Symbolic links in `.done/` and folders whose times cannot be read
+/// are left out. Sorted.
 pub fn done_folders_before(dir: &Path, cut: std::time::SystemTime) -> Vec<PathBuf> {
     let mut out = Vec::new();
-    let Ok(sites) = std::fs::read_dir(dir) else {
-        return out;
-    };
-    for site in sites.flatten() {
-        let is_site = site.file_type().is_ok_and(|t| t.is_dir());
-        if !is_site || site.file_name().to_string_lossy().starts_with('.') {
-            continue;
-        }
-        let Ok(done) = std::fs::read_dir(site.path().join(".done")) else {
+    for (_, site) in site_dirs(dir) {
+        let Ok(done) = std::fs::read_dir(site.join(".done")) else {
             continue;
         };
         for folder in done.flatten() {
