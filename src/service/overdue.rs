@@ -35,7 +35,9 @@ pub async fn check_all(store: &Store, now: DateTime<Utc>) -> Result<usize, Store
 }
 
 /// Runs [`check_all`] every `every` until shutdown; with several nodes on one database, one
-/// node at a time ([`Store::try_job_lock`]), the others skip the pass.
+/// node at a time ([`Store::try_job_lock`]), the others skip the pass. The time checked against
+/// is the store's clock ([`Store::clock`]), so a node whose clock runs ahead raises no campaign
+/// early and one whose clock runs behind none late.
 pub async fn run(store: Store, every: Duration, shutdown: Shutdown) {
     loop {
         match check_once(&store).await {
@@ -52,7 +54,7 @@ pub async fn run(store: Store, every: Duration, shutdown: Shutdown) {
 
 async fn check_once(store: &Store) -> Result<usize, StoreError> {
     match store.try_job_lock("campaign schedule").await? {
-        Some(_held) => check_all(store, Utc::now()).await,
+        Some(_held) => check_all(store, store.clock().await?).await,
         None => Ok(0),
     }
 }

@@ -1,9 +1,10 @@
-//! Nodes whose wall clocks disagree: webhook leases and due times are read on the database's
-//! clock, so a node whose clock runs ahead takes over no live claim, and a node whose clock runs
-//! behind does not hold back a message another node queued. The skewed nodes run under
-//! libfaketime (Debian's `faketime`), their clocks 10 minutes off; the database's is true.
+//! Nodes whose wall clocks disagree: webhook leases and due times, and the campaign schedule, are
+//! read on the database's clock. So a node whose clock runs ahead takes over no live claim and
+//! raises no overdue campaign early, and a node whose clock runs behind neither holds back a
+//! message another node queued nor misses an overdue campaign. The skewed nodes run under
+//! libfaketime (Debian's `faketime`), their clocks 10 or 30 minutes off; the database's is true.
 
-use crate::alerts_support::{self, service_support::Daemon, Receiver};
+use crate::alerts_support::{self, service_support::Daemon, Receiver, Scene};
 use crate::nodes::{call, epoch, pending, polling_node_config, set_up_site, until_delivered};
 use crate::pg_support;
 
@@ -147,4 +148,107 @@ async fn node_clocks_decide_no_webhook_lease() {
         rx.bad_signatures.load(std::sync::atomic::Ordering::SeqCst),
         0
     );
+}
+
+/// The open `campaign_overdue` alerts of `site`, read through `node`.
+async fn overdue_alerts(node: &Daemon, site: &str) -> usize {
+    let (st, alerts) = node.get(&format!("/api/v1/alerts?site={site}")).await;
+    assert_eq!(st, 200, "{alerts}");
+    alerts["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["rule"] == "campaign_overdue")
+        .count()
+}
+
+/// Waits until `node` has raised `campaign_overdue` on `site`; fails after 20 s.
+async fn until_overdue(node: &Daemon, site: &str, why: &str) {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while overdue_alerts(node, site).await == 0 {
+        assert!(Instant::now() < deadline, "{why}");
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+}
+
+/// The campaign schedule (one hour, so overdue after 75 min) is checked on the database's clock:
+/// a node 30 minutes behind raises a campaign 90 min old, which its own clock puts at 60 min, and
+/// a node 30 minutes ahead does not raise one 60 min old, which its own clock puts at 90 min.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn node_clocks_decide_no_overdue_campaign() {
+    sqlx::any::install_default_drivers();
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("schedule");
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("cliffwatch.toml");
+    std::fs::write(
+        &config,
+        format!("database_url = \"{url}\"\noverdue_check_secs = 1\n"),
+    )
+    .unwrap();
+    let scene = Scene { n: 16, stable: 8 };
+    let ago = |minutes: i64| {
+        (chrono::Utc::now() - chrono::Duration::minutes(minutes))
+            .to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
+    };
+
+    // 1. A node 30 minutes behind, sites whose last campaigns are 90 and 60 min old.
+    let behind = Daemon::start_with_env(dir.path(), &config, &skewed("-30m")).await;
+    assert_skewed(&behind, -30).await;
+    for (site, minutes) in [("late", 90), ("on-time", 60)] {
+        let site_form = json!({"id": site, "schedule_hours": 1});
+        let (st, b) = behind
+            .send(Method::POST, "/api/v1/sites", Some(&site_form))
+            .await;
+        assert_eq!(st, 201, "{b}");
+        let path = format!("/api/v1/sites/{site}/epochs");
+        let (st, b) = behind
+            .send(
+                Method::POST,
+                &path,
+                Some(&scene.epoch(&ago(minutes), 7, 0.0)),
+            )
+            .await;
+        assert_eq!(st, 201, "{site}: {b}");
+    }
+    until_overdue(
+        &behind,
+        "late",
+        "a node 30 minutes behind missed a campaign 90 min old on a 1-hour schedule",
+    )
+    .await;
+    behind.kill9();
+
+    // 2. A node 30 minutes ahead: a third site, 90 min old, shows that its checks run; the site
+    //    60 min old stays quiet through them.
+    let ahead = Daemon::start_with_env(dir.path(), &config, &skewed("+30m")).await;
+    assert_skewed(&ahead, 30).await;
+    let site_form = json!({"id": "late-too", "schedule_hours": 1});
+    let (st, b) = ahead
+        .send(Method::POST, "/api/v1/sites", Some(&site_form))
+        .await;
+    assert_eq!(st, 201, "{b}");
+    let (st, b) = ahead
+        .send(
+            Method::POST,
+            "/api/v1/sites/late-too/epochs",
+            Some(&scene.epoch(&ago(90), 8, 0.0)),
+        )
+        .await;
+    assert_eq!(st, 201, "{b}");
+    until_overdue(
+        &ahead,
+        "late-too",
+        "the node 30 minutes ahead checked no schedule",
+    )
+    .await;
+    // two more checks (one a second) over every site
+    tokio::time::sleep(Duration::from_millis(2500)).await;
+    assert_eq!(
+        overdue_alerts(&ahead, "on-time").await,
+        0,
+        "a node 30 minutes ahead raised a campaign 60 min old on a 1-hour schedule"
+    );
+    assert_eq!(overdue_alerts(&ahead, "late").await, 1, "raised once");
+    ahead.kill9();
 }
