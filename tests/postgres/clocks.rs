@@ -150,7 +150,7 @@ async fn node_clocks_decide_no_webhook_lease() {
     );
 }
 
-/// The open `campaign_overdue` alerts of `site`, read through `node`.
+/// How many `campaign_overdue` alerts `site` has had (any state), read through `node`.
 async fn overdue_alerts(node: &Daemon, site: &str) -> usize {
     let (st, alerts) = node.get(&format!("/api/v1/alerts?site={site}")).await;
     assert_eq!(st, 200, "{alerts}");
