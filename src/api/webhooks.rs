@@ -54,7 +54,7 @@ pub async fn create(
 ) -> Result<impl IntoResponse, ApiError> {
     check_webhook(&hook)?;
     let mut tx = state.store.begin_write().await?;
-    let id = webhooks::insert(&mut *tx, &hook, webhooks::WebhookSource::Api).await?;
+    let id = webhooks::insert(&mut tx, &hook, webhooks::WebhookSource::Api).await?;
     tx.commit().await.map_err(StoreError::from)?;
     let stored = webhooks::list(state.store.reader())
         .await?

@@ -1,9 +1,7 @@
 //! Acknowledging an alert: the staff member on duty says they have seen it.
 
-use chrono::Utc;
-
 use crate::analysis::{self, AnalysisError};
-use crate::store::{alert_states, alerts, Store, StoreError};
+use crate::store::{self, alert_states, alerts, Store, StoreError};
 
 use super::alert_outcome::save_and_record;
 use super::ServiceError;
@@ -57,7 +55,8 @@ pub async fn acknowledge(
         }
         _ => ServiceError::UnknownAlert(id.to_string()),
     };
-    match analysis::acknowledge(&engine, id, by, comment, Utc::now()) {
+    let now = store::clock(&mut tx).await?;
+    match analysis::acknowledge(&engine, id, by, comment, now) {
         Ok((engine, event)) => {
             save_and_record(&mut tx, &stored.site, &engine, &[event]).await?;
         }

@@ -32,9 +32,10 @@ pub async fn record_events(
         return Ok(0);
     }
     let hooks = webhooks::enabled_endpoints(&mut *tx).await?;
-    let start = Utc::now();
-    // due at once on the clock the delivery worker reads (the database's on PostgreSQL)
-    let due = store::timestamp(store::clock(&mut *tx).await?);
+    // on the store's clock: the delivery worker reads it for due times (the database's on
+    // PostgreSQL), and the messages' times keep their order whichever node wrote them
+    let start = store::clock(&mut *tx).await?;
+    let due = store::timestamp(start);
     let mut raised = 0;
     for (k, e) in events.iter().enumerate() {
         if e.event_type == AlertEventType::Raised {

@@ -309,7 +309,8 @@ async fn derive(
         // The newest epoch, inside a reference of several: a campaign arrived on time after all
         // (a recompute keeps `campaign_overdue` as it was; it depends on the clock).
         if let (0, Some(t)) = (later, store::parse_timestamp(observed_at)) {
-            raised += alert_outcome::campaign_arrived(tx, site, epoch, t, Utc::now()).await?;
+            let now = store::clock(&mut *tx).await?;
+            raised += alert_outcome::campaign_arrived(tx, site, epoch, t, now).await?;
         }
         return Ok(Derived {
             raised,
@@ -351,7 +352,8 @@ async fn derive(
     }
     let displacements = to_rows(&analysis.records(), analysis.reference_epoch);
     let block_motions = to_rows(&analysis.block_records(), analysis.reference_epoch);
-    let raised = alert_outcome::evaluate(tx, site, &analysis, Utc::now()).await?;
+    let now = store::clock(&mut *tx).await?;
+    let raised = alert_outcome::evaluate(tx, site, &analysis, now).await?;
     Ok(Derived {
         displacements,
         block_motions,
@@ -368,7 +370,8 @@ async fn failed(
     reason: &str,
 ) -> Result<Derived, ServiceError> {
     tracing::warn!(site = %site.id, epoch, reason, "epoch stored without displacements");
-    let raised = alert_outcome::analysis_failed(tx, site, epoch, t, reason, Utc::now()).await?;
+    let now = store::clock(&mut *tx).await?;
+    let raised = alert_outcome::analysis_failed(tx, site, epoch, t, reason, now).await?;
     Ok(Derived {
         raised,
         ..Derived::default()

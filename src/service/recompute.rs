@@ -3,10 +3,10 @@
 //! older version. Runs inside the caller's write transaction, so the change and everything
 //! derived from it commit together.
 
-use chrono::Utc;
-
 use crate::analysis::analyse_series;
-use crate::store::{block_motions, displacements, epochs, sites, Connection, Store, StoreError};
+use crate::store::{
+    self, block_motions, displacements, epochs, sites, Connection, Store, StoreError,
+};
 
 use super::alert_outcome;
 use super::analysis_inputs::{
@@ -70,7 +70,8 @@ pub async fn recompute_site(
         epochs::set_analysis_outcome(tx, &site.id, *id, Some(reason)).await?;
     }
     let cause = cause.to_string();
-    Ok(alert_outcome::reconcile(tx, &site.id, &out.replayed, Utc::now(), &cause).await?)
+    let now = store::clock(&mut *tx).await?;
+    Ok(alert_outcome::reconcile(tx, &site.id, &out.replayed, now, &cause).await?)
 }
 
 /// Why a site's series is recomputed; its text ends the message of an alert the recompute

@@ -25,7 +25,7 @@ pub async fn save(
     state: &AlertState,
 ) -> Result<(), StoreError> {
     let json = serde_json::to_string(state)?;
-    let t = now();
+    let t = now(&mut *db).await?;
     sqlx::query(
         "INSERT INTO alert_states (site_id, state, updated_at) VALUES ($1, $2, $3) \
          ON CONFLICT (site_id) DO UPDATE SET state = excluded.state, updated_at = excluded.updated_at",

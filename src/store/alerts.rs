@@ -302,13 +302,14 @@ pub async fn acknowledge(
     by: &str,
     comment: Option<&str>,
 ) -> Result<bool, StoreError> {
+    let at = now(&mut *db).await?;
     let done = sqlx::query(
         "UPDATE alerts SET state = CASE WHEN state = 'resolved' THEN state ELSE 'acknowledged' END, \
          acknowledged_by = $1, ack_comment = $2, updated_at = $3 WHERE id = $4",
     )
     .bind(by)
     .bind(comment)
-    .bind(now())
+    .bind(&at)
     .bind(id)
     .execute(db)
     .await?;

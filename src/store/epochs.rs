@@ -300,7 +300,7 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
         }
     }
     let first_camera = adj.report.cameras.first();
-    let created = now();
+    let created = now(&mut *db).await?;
     sqlx::query(
         "INSERT INTO epochs (site_id, id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, \
          iterations, dropped_observations, body_sha256, cameras, report, created_at) \

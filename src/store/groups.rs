@@ -59,6 +59,7 @@ pub async fn put(db: &mut AnyConnection, site: &str, g: &GroupConfig) -> Result<
     let kind = match g.kind {
         GroupKind::Block => "block",
     };
+    let at = now(&mut *db).await?;
     sqlx::query(
         "INSERT INTO groups (site_id, name, kind, direction, points, process_noise, updated_at) \
          VALUES ($1, $2, $3, $4, $5, $6, $7) ON CONFLICT (site_id, name) DO UPDATE SET kind = excluded.kind, \
@@ -71,7 +72,7 @@ pub async fn put(db: &mut AnyConnection, site: &str, g: &GroupConfig) -> Result<
     .bind(g.direction.map(|d| serde_json::to_string(&d)).transpose()?)
     .bind(serde_json::to_string(&g.points)?)
     .bind(g.process_noise)
-    .bind(now())
+    .bind(&at)
     .execute(db)
     .await?;
     Ok(())

@@ -596,9 +596,10 @@ pub fn timestamp(t: DateTime<Utc>) -> String {
     t.to_rfc3339_opts(SecondsFormat::Micros, true)
 }
 
-/// The current time in the store's format.
-pub fn now() -> String {
-    timestamp(Utc::now())
+/// The current time in the store's format, on the store's [`clock`], so that the times rows
+/// record (`created_at`, `updated_at`, …) keep their order whichever node wrote them.
+pub async fn now(db: &mut AnyConnection) -> Result<String, StoreError> {
+    Ok(timestamp(clock(db).await?))
 }
 
 /// The clock that webhook deliveries' due times and leases are written and compared with, the

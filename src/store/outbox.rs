@@ -356,7 +356,7 @@ pub(crate) mod tests {
             min_level: None,
             format: Default::default(),
         };
-        let webhook = webhooks::insert(&mut *tx, &hook, WebhookSource::Api)
+        let webhook = webhooks::insert(&mut tx, &hook, WebhookSource::Api)
             .await
             .unwrap();
         for sql in [

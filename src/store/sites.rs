@@ -216,6 +216,7 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
     let reference_epochs = site.reference_epochs.unwrap_or(1);
     let area = site.area.as_ref().map(serde_json::to_string).transpose()?;
     if create {
+        let at = now(&mut *db).await?;
         sqlx::query(
             "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, \
              reference_epochs, process_noise, time_zone, area, created_at, analysis_version) \
@@ -231,7 +232,7 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(site.process_noise)
         .bind(site.time_zone.as_deref())
         .bind(area.as_deref())
-        .bind(now())
+        .bind(&at)
         .bind(ANALYSIS_VERSION)
         .execute(db)
         .await?;

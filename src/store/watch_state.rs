@@ -47,6 +47,7 @@ pub async fn set_orientation(
     o: &ImageOrientation,
     epoch: i64,
 ) -> Result<(), StoreError> {
+    let at = now(&mut *db).await?;
     sqlx::query(
         "INSERT INTO watch_orientations (site_id, station, camera, rotation, center, epoch_id, updated_at) \
          VALUES ($1, $2, $3, $4, $5, $6, $7) \
@@ -64,7 +65,7 @@ pub async fn set_orientation(
     .bind(serde_json::to_string(&o.rotation)?)
     .bind(serde_json::to_string(&o.center)?)
     .bind(epoch)
-    .bind(now())
+    .bind(&at)
     .execute(db)
     .await?;
     Ok(())
@@ -92,6 +93,7 @@ pub async fn record_folder(
     hash: &str,
     epoch: i64,
 ) -> Result<(), StoreError> {
+    let at = now(&mut *db).await?;
     sqlx::query(
         "INSERT INTO watch_folders (site_id, hash, epoch_id, taken_at) VALUES ($1, $2, $3, $4) \
          ON CONFLICT (site_id, hash) DO NOTHING",
@@ -99,7 +101,7 @@ pub async fn record_folder(
     .bind(site)
     .bind(hash)
     .bind(epoch)
-    .bind(now())
+    .bind(&at)
     .execute(db)
     .await?;
     Ok(())

@@ -145,11 +145,12 @@ pub async fn list(db: impl AnyExecutor<'_>) -> Result<Vec<Webhook>, StoreError> 
 
 /// Adds an endpoint; returns its id.
 pub async fn insert(
-    db: impl AnyExecutor<'_>,
+    db: &mut AnyConnection,
     hook: &NewWebhook,
     source: WebhookSource,
 ) -> Result<String, StoreError> {
     let id = uuid::Uuid::new_v4().to_string();
+    let at = now(&mut *db).await?;
     sqlx::query(
         "INSERT INTO webhooks (id, url, secret, min_level, format, source, created_at) \
          VALUES ($1, $2, $3, $4, $5, $6, $7)",
@@ -160,7 +161,7 @@ pub async fn insert(
     .bind(hook.min_level.unwrap_or(AlertLevel::Warning).as_str())
     .bind(hook.format.as_str())
     .bind(source.as_str())
-    .bind(now())
+    .bind(&at)
     .execute(db)
     .await?;
     Ok(id)

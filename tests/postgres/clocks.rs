@@ -1,8 +1,9 @@
-//! Nodes whose wall clocks disagree: webhook leases and due times, and the campaign schedule, are
-//! read on the database's clock. So a node whose clock runs ahead takes over no live claim and
-//! raises no overdue campaign early, and a node whose clock runs behind neither holds back a
-//! message another node queued nor misses an overdue campaign. The skewed nodes run under
-//! libfaketime (Debian's `faketime`), their clocks 10 or 30 minutes off; the database's is true.
+//! Nodes whose wall clocks disagree: webhook leases and due times, the campaign schedule and the
+//! times rows record are read on the database's clock. So a node whose clock runs ahead takes
+//! over no live claim and raises no overdue campaign early, a node whose clock runs behind
+//! neither holds back a message another node queued nor misses an overdue campaign, and an
+//! alert is never acknowledged before it was raised. The skewed nodes run under libfaketime
+//! (Debian's `faketime`), their clocks 10 or 30 minutes off; the database's is true.
 
 use crate::alerts_support::{self, service_support::Daemon, Receiver, Scene};
 use crate::nodes::{call, epoch, pending, polling_node_config, set_up_site, until_delivered};
@@ -11,7 +12,7 @@ use crate::pg_support;
 use std::time::{Duration, Instant};
 
 use reqwest::{Client, Method};
-use serde_json::json;
+use serde_json::{json, Value};
 
 const SITE: &str = "cliff-1";
 
@@ -251,4 +252,97 @@ async fn node_clocks_decide_no_overdue_campaign() {
     );
     assert_eq!(overdue_alerts(&ahead, "late").await, 1, "raised once");
     ahead.kill9();
+}
+
+/// Seconds between a time the API shows and the true time now (positive: the shown time is
+/// ahead).
+fn seconds_off(shown: &Value) -> i64 {
+    let t = chrono::DateTime::parse_from_rfc3339(shown.as_str().expect("a time"))
+        .unwrap_or_else(|e| panic!("{shown}: {e}"));
+    t.timestamp() - chrono::Utc::now().timestamp()
+}
+
+/// The times rows record (an epoch's `created_at`, an alert's `raised_at` and `updated_at`) are
+/// the database's: with one node 30 minutes ahead and one 30 minutes behind taking turns, each
+/// is within a minute of the true time, and an alert raised through the node behind and
+/// acknowledged through the node ahead is not acknowledged an hour before it was raised.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn node_clocks_stamp_no_recorded_time() {
+    sqlx::any::install_default_drivers();
+    let cluster = pg_support::PgCluster::start();
+    let url = cluster.create_database("stamps");
+    let dirs = [tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap()];
+    let config = |d: &tempfile::TempDir| config(d.path(), &url, 3_600_000);
+    let ahead = Daemon::start_with_env(dirs[0].path(), &config(&dirs[0]), &skewed("+30m")).await;
+    let behind = Daemon::start_with_env(dirs[1].path(), &config(&dirs[1]), &skewed("-30m")).await;
+    assert_skewed(&ahead, 30).await;
+    assert_skewed(&behind, -30).await;
+    set_up_site(&ahead.client, &ahead.base, SITE).await;
+
+    // Days 0–5, 1.5 mm a day: the watch rule (above 5 mm) fires on day 4, which the node behind
+    // takes; the nodes alternate.
+    let path = format!("/api/v1/sites/{SITE}/epochs");
+    for k in 0..6 {
+        let node = if k % 2 == 0 { &ahead } else { &behind };
+        let (st, r) = node.send(Method::POST, &path, Some(&epoch(0, k))).await;
+        assert_eq!(st, 201, "epoch {k}: {r}");
+    }
+    let (st, epochs) = behind.get(&format!("{path}?limit=100")).await;
+    assert_eq!(st, 200, "{epochs}");
+    let epochs = epochs["items"].as_array().expect("epoch list");
+    assert_eq!(epochs.len(), 6);
+    for e in epochs {
+        let off = seconds_off(&e["created_at"]);
+        assert!(
+            off.abs() <= 60,
+            "epoch {} was stamped created_at {} ({off} s off the true time)",
+            e["id"],
+            e["created_at"]
+        );
+    }
+
+    let (st, alerts) = ahead.get(&format!("/api/v1/alerts?site={SITE}")).await;
+    assert_eq!(st, 200, "{alerts}");
+    let alert = alerts["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["rule"] == "displacement_mm")
+        .unwrap_or_else(|| panic!("no displacement alert: {alerts}"))
+        .clone();
+    let raised = seconds_off(&alert["raised_at"]);
+    assert!(
+        raised.abs() <= 60,
+        "raised_at {} is {raised} s off the true time",
+        alert["raised_at"]
+    );
+    let id = alert["id"].as_str().unwrap();
+    let (st, acked) = ahead
+        .send(
+            Method::POST,
+            &format!("/api/v1/alerts/{id}/ack"),
+            Some(&json!({"by": "on duty"})),
+        )
+        .await;
+    assert_eq!(st, 200, "{acked}");
+    let (st, alerts) = behind.get(&format!("/api/v1/alerts?site={SITE}")).await;
+    assert_eq!(st, 200, "{alerts}");
+    let alert = alerts["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["id"] == id)
+        .expect("the alert is listed")
+        .clone();
+    assert_eq!(alert["state"], "acknowledged");
+    let updated = seconds_off(&alert["updated_at"]);
+    let time = |v: &Value| chrono::DateTime::parse_from_rfc3339(v.as_str().unwrap()).unwrap();
+    assert!(
+        updated.abs() <= 60 && time(&alert["updated_at"]) >= time(&alert["raised_at"]),
+        "acknowledged at {} ({updated} s off the true time), raised at {}",
+        alert["updated_at"],
+        alert["raised_at"]
+    );
+    ahead.kill9();
+    behind.kill9();
 }
