@@ -151,13 +151,17 @@ async fn node_clocks_decide_no_webhook_lease() {
     );
 }
 
-/// How many `campaign_overdue` alerts `site` has had (any state), read through `node`.
-async fn overdue_alerts(node: &Daemon, site: &str) -> usize {
+/// The alerts of `site` (any state, newest first), read through `node`.
+async fn site_alerts(node: &Daemon, site: &str) -> Vec<Value> {
     let (st, alerts) = node.get(&format!("/api/v1/alerts?site={site}")).await;
     assert_eq!(st, 200, "{alerts}");
-    alerts["items"]
-        .as_array()
-        .unwrap()
+    alerts["items"].as_array().expect("an alert list").clone()
+}
+
+/// How many `campaign_overdue` alerts `site` has had (any state), read through `node`.
+async fn overdue_alerts(node: &Daemon, site: &str) -> usize {
+    site_alerts(node, site)
+        .await
         .iter()
         .filter(|a| a["rule"] == "campaign_overdue")
         .count()
@@ -301,14 +305,11 @@ async fn node_clocks_stamp_no_recorded_time() {
         );
     }
 
-    let (st, alerts) = ahead.get(&format!("/api/v1/alerts?site={SITE}")).await;
-    assert_eq!(st, 200, "{alerts}");
-    let alert = alerts["items"]
-        .as_array()
-        .unwrap()
+    let alerts = site_alerts(&ahead, SITE).await;
+    let alert = alerts
         .iter()
         .find(|a| a["rule"] == "displacement_mm")
-        .unwrap_or_else(|| panic!("no displacement alert: {alerts}"))
+        .unwrap_or_else(|| panic!("no displacement alert: {alerts:?}"))
         .clone();
     let raised = seconds_off(&alert["raised_at"]);
     assert!(
@@ -325,15 +326,11 @@ async fn node_clocks_stamp_no_recorded_time() {
         )
         .await;
     assert_eq!(st, 200, "{acked}");
-    let (st, alerts) = behind.get(&format!("/api/v1/alerts?site={SITE}")).await;
-    assert_eq!(st, 200, "{alerts}");
-    let alert = alerts["items"]
-        .as_array()
-        .unwrap()
-        .iter()
+    let alert = site_alerts(&behind, SITE)
+        .await
+        .into_iter()
         .find(|a| a["id"] == id)
-        .expect("the alert is listed")
-        .clone();
+        .expect("the alert is listed");
     assert_eq!(alert["state"], "acknowledged");
     let updated = seconds_off(&alert["updated_at"]);
     let time = |v: &Value| chrono::DateTime::parse_from_rfc3339(v.as_str().unwrap()).unwrap();
