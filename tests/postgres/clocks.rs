@@ -258,12 +258,16 @@ async fn node_clocks_decide_no_overdue_campaign() {
     ahead.kill9();
 }
 
+/// A time the API shows (RFC 3339).
+fn shown_time(shown: &Value) -> chrono::DateTime<chrono::FixedOffset> {
+    chrono::DateTime::parse_from_rfc3339(shown.as_str().expect("a time"))
+        .unwrap_or_else(|e| panic!("{shown}: {e}"))
+}
+
 /// Seconds between a time the API shows and the true time now (positive: the shown time is
 /// ahead).
 fn seconds_off(shown: &Value) -> i64 {
-    let t = chrono::DateTime::parse_from_rfc3339(shown.as_str().expect("a time"))
-        .unwrap_or_else(|e| panic!("{shown}: {e}"));
-    t.timestamp() - chrono::Utc::now().timestamp()
+    shown_time(shown).timestamp() - chrono::Utc::now().timestamp()
 }
 
 /// The times rows record (an epoch's `created_at`, an alert's `raised_at` and `updated_at`) are
@@ -333,9 +337,8 @@ async fn node_clocks_stamp_no_recorded_time() {
         .expect("the alert is listed");
     assert_eq!(alert["state"], "acknowledged");
     let updated = seconds_off(&alert["updated_at"]);
-    let time = |v: &Value| chrono::DateTime::parse_from_rfc3339(v.as_str().unwrap()).unwrap();
     assert!(
-        updated.abs() <= 60 && time(&alert["updated_at"]) >= time(&alert["raised_at"]),
+        updated.abs() <= 60 && shown_time(&alert["updated_at"]) >= shown_time(&alert["raised_at"]),
         "acknowledged at {} ({updated} s off the true time), raised at {}",
         alert["updated_at"],
         alert["raised_at"]
