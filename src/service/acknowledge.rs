@@ -58,13 +58,13 @@ pub async fn acknowledge(
     let now = store::clock(&mut tx).await?;
     match analysis::acknowledge(&engine, id, by, comment, now) {
         Ok((engine, event)) => {
-            save_and_record(&mut tx, &stored.site, &engine, &[event]).await?;
+            save_and_record(&mut tx, &stored.site, &engine, &[event], now).await?;
         }
         // Not active any more (resolved): note who acknowledged it, no event.
         Err(AnalysisError::UnknownAlert(_)) => {
             analysis::may_acknowledge(id, stored.state, stored.acknowledged_by.as_deref())
                 .map_err(refused)?;
-            alerts::acknowledge(&mut tx, id, by, comment).await?;
+            alerts::acknowledge(&mut tx, id, by, comment, now).await?;
         }
         Err(e) => return Err(refused(e)),
     }

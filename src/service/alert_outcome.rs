@@ -23,18 +23,19 @@ fn state_after(event: &AlertEvent) -> AlertStatus {
 /// snapshot), one outbox message per event (id = [`message_id`], the `webhook-id` of every
 /// retry; payload the contract body) and one pending delivery per endpoint that [`accepts`] it,
 /// holding the body in the endpoint's format when that is not the contract's ([`render`]), so
-/// that every retry sends the same bytes. Returns how many alerts were raised.
+/// that every retry sends the same bytes. `start` is the transaction's time on the store's clock
+/// ([`store::clock`]): the delivery worker compares due times with that clock (the database's on
+/// PostgreSQL), and the messages' times keep their order whichever node wrote them. Returns how
+/// many alerts were raised.
 pub async fn record_events(
     tx: &mut Connection,
     events: &[AlertEvent],
+    start: DateTime<Utc>,
 ) -> Result<usize, StoreError> {
     if events.is_empty() {
         return Ok(0);
     }
     let hooks = webhooks::enabled_endpoints(&mut *tx).await?;
-    // on the store's clock: the delivery worker reads it for due times (the database's on
-    // PostgreSQL), and the messages' times keep their order whichever node wrote them
-    let start = store::clock(&mut *tx).await?;
     let due = store::timestamp(start);
     let mut raised = 0;
     for (k, e) in events.iter().enumerate() {
@@ -95,16 +96,18 @@ pub fn count_raised(n: usize) {
 }
 
 /// Saves the site's new alert state and records the events that led to it; the rows of the
-/// other active alerts take their latest value and message. Returns how many alerts were raised.
+/// other active alerts take their latest value and message. `now` is the transaction's time on
+/// the store's clock ([`store::clock`]). Returns how many alerts were raised.
 pub async fn save_and_record(
     tx: &mut Connection,
     site: &str,
     state: &AlertState,
     events: &[AlertEvent],
+    now: DateTime<Utc>,
 ) -> Result<usize, StoreError> {
     let (state, events) = &fresh_ids(tx, state, events).await?;
-    alert_states::save(&mut *tx, site, state).await?;
-    let raised = record_events(tx, events).await?;
+    alert_states::save(&mut *tx, site, state, now).await?;
+    let raised = record_events(tx, events, now).await?;
     // The active alerts without an event this time: their rows follow the latest value too.
     for a in &state.alerts {
         if !events.iter().any(|e| e.alert.id == a.id) {
@@ -156,7 +159,7 @@ pub async fn campaign_arrived(
     let state = alert_states::load(&mut *tx, &site.id).await?;
     let (state, events) =
         analysis::campaign_arrived(&alert_config(site), &state, epoch, observed_at, now);
-    save_and_record(tx, &site.id, &state, &events).await
+    save_and_record(tx, &site.id, &state, &events, now).await
 }
 
 /// Evaluates a site's rules against one epoch's analysis and records the outcome (state, alerts,
@@ -169,7 +172,7 @@ pub async fn evaluate(
 ) -> Result<usize, StoreError> {
     let state = alert_states::load(&mut *tx, &site.id).await?;
     let (state, events) = analysis::evaluate_alerts(&alert_config(site), &state, analysis, now);
-    save_and_record(tx, &site.id, &state, &events).await
+    save_and_record(tx, &site.id, &state, &events, now).await
 }
 
 /// Makes a failed analysis visible: the epoch's status becomes `analysis_failed` with the reason
@@ -187,7 +190,7 @@ pub async fn analysis_failed(
     let state = alert_states::load(&mut *tx, &site.id).await?;
     let (state, events) =
         analysis::analysis_failed(&alert_config(site), &state, epoch, observed_at, reason, now);
-    save_and_record(tx, &site.id, &state, &events).await
+    save_and_record(tx, &site.id, &state, &events, now).await
 }
 
 /// Brings the stored alert state of a site to the state replayed over a recomputed series
@@ -202,5 +205,5 @@ pub async fn reconcile(
 ) -> Result<usize, StoreError> {
     let current = alert_states::load(&mut *tx, site).await?;
     let (state, events) = analysis::reconcile(&current, replayed, now, cause);
-    save_and_record(tx, site, &state, &events).await
+    save_and_record(tx, site, &state, &events, now).await
 }

@@ -9,7 +9,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use chrono::Utc;
+use chrono::{DateTime, Utc};
 use sha2::{Digest, Sha256};
 
 use crate::analysis::{self, EpochCoordinates, GroupKind, History};
@@ -191,6 +191,9 @@ async fn ingest_with_identification(
     // The history the analysis needs is read on its own connection while `tx` stores the epoch.
     let history = HistoryPrefetch::start(store, &site, &observed_at);
     let control: Vec<String> = input.control.iter().map(|c| c.point.clone()).collect();
+    // The transaction's time on the store's clock, read once: the epoch, its alerts and their
+    // outbox messages record the same time, whichever node wrote them.
+    let now = store::clock(&mut tx).await?;
     let record = epochs::EpochRecord {
         site: &site.id,
         observed_at: &observed_at,
@@ -199,12 +202,22 @@ async fn ingest_with_identification(
         adjustment: &adjustment,
         control_points: &control,
         identification: folder.map(|f| &f.identification),
+        created_at: now,
     };
     let epoch = epochs::insert(&mut tx, &record).await?;
     if let Some(f) = folder {
-        watch_state::record_folder(&mut tx, &site.id, &f.hash, epoch).await?;
+        watch_state::record_folder(&mut tx, &site.id, &f.hash, epoch, now).await?;
     }
-    let derived = derive(&mut tx, &site, epoch, &observed_at, &adjustment, history).await?;
+    let derived = derive(
+        &mut tx,
+        &site,
+        epoch,
+        &observed_at,
+        &adjustment,
+        history,
+        now,
+    )
+    .await?;
     displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
     block_motions::insert(&mut tx, &site.id, &derived.block_motions).await?;
     tx.commit().await.map_err(store::StoreError::from)?;
@@ -282,9 +295,10 @@ pub struct Derived {
 /// Loads the reference epoch's coordinates (with the stable points' joint covariance), the point
 /// configurations and the history the windows need, runs [`crate::analysis::analyse_epoch`] on a
 /// blocking thread, then evaluates the site's alert rules and writes the alert state, the alerts and
-/// the webhook outbox. An epoch whose analysis fails (e.g. too few points in common with the
-/// reference) is stored without displacements, with status `analysis_failed`, the reason in its
-/// report (`analysis_error`) and a site-level `analysis_failed` alert for the staff.
+/// the webhook outbox, all at `now` (the transaction's time on the store's clock). An epoch whose
+/// analysis fails (e.g. too few points in common with the reference) is stored without
+/// displacements, with status `analysis_failed`, the reason in its report (`analysis_error`) and
+/// a site-level `analysis_failed` alert for the staff.
 async fn derive(
     tx: &mut Connection,
     site: &Site,
@@ -292,6 +306,7 @@ async fn derive(
     observed_at: &str,
     adjustment: &Adjustment,
     history: HistoryPrefetch,
+    now: DateTime<Utc>,
 ) -> Result<Derived, ServiceError> {
     let later = epochs::count_after(&mut *tx, &site.id, observed_at).await?;
     let reference = reference_epoch(tx, site).await?.unwrap_or(epoch);
@@ -309,7 +324,6 @@ async fn derive(
         // The newest epoch, inside a reference of several: a campaign arrived on time after all
         // (a recompute keeps `campaign_overdue` as it was; it depends on the clock).
         if let (0, Some(t)) = (later, store::parse_timestamp(observed_at)) {
-            let now = store::clock(&mut *tx).await?;
             raised += alert_outcome::campaign_arrived(tx, site, epoch, t, now).await?;
         }
         return Ok(Derived {
@@ -330,7 +344,7 @@ async fn derive(
             Some(r) => r,
             None => {
                 let reason = format!("the reference epoch {reference} has no coordinates");
-                return failed(tx, site, epoch, t, &reason).await;
+                return failed(tx, site, epoch, t, &reason, now).await;
             }
         }
     };
@@ -344,7 +358,7 @@ async fn derive(
         Ok(a) => a,
         Err(e) => {
             let reason = format!("analysis against reference epoch {reference_id}: {e}");
-            return failed(tx, site, epoch, t, &reason).await;
+            return failed(tx, site, epoch, t, &reason, now).await;
         }
     };
     for w in &analysis.warnings {
@@ -352,7 +366,6 @@ async fn derive(
     }
     let displacements = to_rows(&analysis.records(), analysis.reference_epoch);
     let block_motions = to_rows(&analysis.block_records(), analysis.reference_epoch);
-    let now = store::clock(&mut *tx).await?;
     let raised = alert_outcome::evaluate(tx, site, &analysis, now).await?;
     Ok(Derived {
         displacements,
@@ -366,11 +379,11 @@ async fn failed(
     tx: &mut Connection,
     site: &Site,
     epoch: i64,
-    t: chrono::DateTime<Utc>,
+    t: DateTime<Utc>,
     reason: &str,
+    now: DateTime<Utc>,
 ) -> Result<Derived, ServiceError> {
     tracing::warn!(site = %site.id, epoch, reason, "epoch stored without displacements");
-    let now = store::clock(&mut *tx).await?;
     let raised = alert_outcome::analysis_failed(tx, site, epoch, t, reason, now).await?;
     Ok(Derived {
         raised,

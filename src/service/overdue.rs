@@ -28,7 +28,9 @@ pub async fn check_all(store: &Store, now: DateTime<Utc>) -> Result<usize, Store
         if events.is_empty() {
             continue;
         }
-        raised += save_and_record(&mut tx, &id, &state, &events).await?;
+        // Recorded at this transaction's time: a sweep over many sites takes a while.
+        let at = store::clock(&mut tx).await?;
+        raised += save_and_record(&mut tx, &id, &state, &events, at).await?;
         tx.commit().await?;
     }
     Ok(raised)

@@ -1,9 +1,10 @@
 //! The alert engine's state of each site ([`AlertState`]: open alerts, rule memory), one JSON
 //! document per site, read and written inside the transaction that changes it.
 
+use chrono::{DateTime, Utc};
 use sqlx::AnyConnection;
 
-use super::{now, StoreError};
+use super::{timestamp, StoreError};
 use crate::analysis::AlertState;
 
 /// The stored state of `site` (empty when none is stored yet).
@@ -18,14 +19,15 @@ pub async fn load(db: &mut AnyConnection, site: &str) -> Result<AlertState, Stor
     })
 }
 
-/// Stores the state of `site`.
+/// Stores the state of `site` as of `at` (the transaction's time on the store's clock).
 pub async fn save(
     db: &mut AnyConnection,
     site: &str,
     state: &AlertState,
+    at: DateTime<Utc>,
 ) -> Result<(), StoreError> {
     let json = serde_json::to_string(state)?;
-    let t = now(&mut *db).await?;
+    let t = timestamp(at);
     sqlx::query(
         "INSERT INTO alert_states (site_id, state, updated_at) VALUES ($1, $2, $3) \
          ON CONFLICT (site_id) DO UPDATE SET state = excluded.state, updated_at = excluded.updated_at",

@@ -8,7 +8,7 @@ use utoipa::ToSchema;
 
 use chrono::{DateTime, Utc};
 
-use super::{display_timestamp, now, timestamp, StoreError};
+use super::{display_timestamp, timestamp, StoreError};
 use crate::analysis::{AlertEventType, AlertLevel, AlertStatus};
 
 /// A stored alert.
@@ -295,14 +295,16 @@ pub async fn refresh(db: &mut AnyConnection, a: &crate::analysis::Alert) -> Resu
     Ok(())
 }
 
-/// Acknowledges an alert; `Ok(false)` when it does not exist.
+/// Acknowledges an alert at `at` (the transaction's time on the store's clock); `Ok(false)` when
+/// it does not exist.
 pub async fn acknowledge(
     db: &mut AnyConnection,
     id: &str,
     by: &str,
     comment: Option<&str>,
+    at: DateTime<Utc>,
 ) -> Result<bool, StoreError> {
-    let at = now(&mut *db).await?;
+    let at = timestamp(at);
     let done = sqlx::query(
         "UPDATE alerts SET state = CASE WHEN state = 'resolved' THEN state ELSE 'acknowledged' END, \
          acknowledged_by = $1, ack_comment = $2, updated_at = $3 WHERE id = $4",

@@ -3,13 +3,14 @@
 
 use std::collections::HashMap;
 
+use chrono::{DateTime, Utc};
 use serde::Serialize;
 use serde_json::Value;
 use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::epoch_report::EpochReport;
-use super::{display_timestamp, now, StoreError};
+use super::{display_timestamp, timestamp, StoreError};
 use crate::photogrammetry::{Adjustment, EpochInput, Model};
 
 /// What ingestion hands to [`insert`]: the parsed upload and its adjustment.
@@ -30,6 +31,9 @@ pub struct EpochRecord<'a> {
     /// Watched epochs: per station, how its targets were identified (stored in the report as
     /// `identification`).
     pub identification: Option<&'a serde_json::Value>,
+    /// When the epoch was stored: the time of its transaction on the store's clock
+    /// ([`super::clock`]), shared with the rows the same transaction writes.
+    pub created_at: DateTime<Utc>,
 }
 
 /// What became of a stored epoch.
@@ -300,7 +304,7 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
         }
     }
     let first_camera = adj.report.cameras.first();
-    let created = now(&mut *db).await?;
+    let created = timestamp(rec.created_at);
     sqlx::query(
         "INSERT INTO epochs (site_id, id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, \
          iterations, dropped_observations, body_sha256, cameras, report, created_at) \

@@ -3,9 +3,10 @@
 
 use std::collections::BTreeMap;
 
+use chrono::{DateTime, Utc};
 use sqlx::{AnyConnection, AnyExecutor};
 
-use super::{now, StoreError};
+use super::{timestamp, StoreError};
 use crate::photogrammetry::ImageOrientation;
 
 /// The stored orientation of every station of a site, by station (image and station fields empty).
@@ -39,15 +40,16 @@ pub async fn orientations(
 /// Stores the orientation of `station` found with epoch `epoch`, replacing the stored one unless
 /// that was found with a later epoch (by observation time): a folder taken late, holding an older
 /// epoch, does not put back an older pose. Epoch ids are numbered per site: both epochs are
-/// looked up in `site`.
+/// looked up in `site`. `at`: the transaction's time on the store's clock ([`super::clock`]).
 pub async fn set_orientation(
     db: &mut AnyConnection,
     site: &str,
     station: &str,
     o: &ImageOrientation,
     epoch: i64,
+    at: DateTime<Utc>,
 ) -> Result<(), StoreError> {
-    let at = now(&mut *db).await?;
+    let at = timestamp(at);
     sqlx::query(
         "INSERT INTO watch_orientations (site_id, station, camera, rotation, center, epoch_id, updated_at) \
          VALUES ($1, $2, $3, $4, $5, $6, $7) \
@@ -86,14 +88,16 @@ pub async fn folder_epoch(
     )
 }
 
-/// Records that the folder with content hash `hash` became epoch `epoch` (idempotent).
+/// Records that the folder with content hash `hash` became epoch `epoch` (idempotent), taken at
+/// `at` (the transaction's time on the store's clock, [`super::clock`]).
 pub async fn record_folder(
     db: &mut AnyConnection,
     site: &str,
     hash: &str,
     epoch: i64,
+    at: DateTime<Utc>,
 ) -> Result<(), StoreError> {
-    let at = now(&mut *db).await?;
+    let at = timestamp(at);
     sqlx::query(
         "INSERT INTO watch_folders (site_id, hash, epoch_id, taken_at) VALUES ($1, $2, $3, $4) \
          ON CONFLICT (site_id, hash) DO NOTHING",

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::folders::state_dir;
 use crate::photogrammetry::ImageOrientation;
-use crate::store::{watch_state, Store, StoreError};
+use crate::store::{self, watch_state, Store, StoreError};
 
 /// Orientations from the file of earlier versions (`<site>/.state/orientations.json`), if any.
 pub(super) fn legacy_orientations(site_dir: &Path) -> BTreeMap<String, ImageOrientation> {
@@ -62,10 +62,11 @@ pub(super) async fn save_state(
     found: &BTreeMap<String, ImageOrientation>,
 ) -> Result<(), StoreError> {
     let mut tx = store.begin_write_site(site).await?;
+    let at = store::clock(&mut tx).await?;
     for (station, o) in found {
-        watch_state::set_orientation(&mut tx, site, station, o, epoch).await?;
+        watch_state::set_orientation(&mut tx, site, station, o, epoch, at).await?;
     }
-    watch_state::record_folder(&mut tx, site, hash, epoch).await?;
+    watch_state::record_folder(&mut tx, site, hash, epoch, at).await?;
     tx.commit().await?;
     Ok(())
 }
