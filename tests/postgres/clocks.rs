@@ -273,7 +273,7 @@ fn seconds_off(shown: &Value) -> i64 {
 /// The times rows record (an epoch's `created_at`, an alert's `raised_at` and `updated_at`) are
 /// the database's: with one node 30 minutes ahead and one 30 minutes behind taking turns, each
 /// is within a minute of the true time, an alert's `raised_at` is its epoch's `created_at` (one
-/// time per transaction), and an alert raised through the node behind and
+/// time per upload), and an alert raised through the node behind and
 /// acknowledged through the node ahead is not acknowledged an hour before it was raised.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn node_clocks_stamp_no_recorded_time() {
@@ -322,7 +322,7 @@ async fn node_clocks_stamp_no_recorded_time() {
         "raised_at {} is {raised} s off the true time",
         alert["raised_at"]
     );
-    // One time per transaction: the alert was raised when its epoch was stored.
+    // One time per upload: the alert was raised when its epoch was stored.
     let raising = epochs
         .iter()
         .find(|e| e["id"] == alert["epoch"])
