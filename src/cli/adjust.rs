@@ -23,6 +23,7 @@ pub struct AdjustArgs {
 
 /// Runs `cliffwatch adjust`.
 pub fn run(args: AdjustArgs) -> anyhow::Result<()> {
+    super::heap::grow_heaps_in_large_steps();
     let text = std::fs::read_to_string(&args.epoch)
         .with_context(|| format!("reading {}", args.epoch.display()))?;
     let input: EpochInput =

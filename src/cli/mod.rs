@@ -1,7 +1,9 @@
-//! One file per subcommand: argument types (clap) and the function that runs it.
+//! One file per subcommand: argument types (clap) and the function that runs it; `heap` sets how
+//! malloc grows its heaps for the one-shot `adjust`.
 
 pub mod adjust;
 pub mod backup;
+pub mod heap;
 pub mod migrate_store;
 pub mod serve;
 pub mod simulate;
