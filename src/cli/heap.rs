@@ -1,7 +1,7 @@
 //! How the one-shot `cliffwatch adjust` asks glibc's malloc to grow its heaps.
 
 /// Bytes by which malloc grows a heap beyond a request (`M_TOP_PAD`; glibc's default is 128 KiB).
-/// With the default, the rayon workers' heaps grow one `mprotect` of a few KiB at a time (645
+/// With the default, the rayon workers' heaps grow one `mprotect` of a few KiB at a time (609
 /// calls for the 20 × 500 network); with 16 MiB, 12. Address space only: pages become resident
 /// when touched.
 const TOP_PAD_BYTES: i32 = 16 << 20;

@@ -159,7 +159,7 @@ struct Modification {
 /// a re-adjustment and a new inverse. An observation taken back is the same update with its weight
 /// of the opposite sign (`M = −(P⁻¹ + aₖ Q aₖᵀ)`, a rank-2 update).
 pub struct LinearSnooping {
-    /// Jacobian rows per observation at x*, without the columns no observation has.
+    /// Jacobian rows per observation at x*, only the columns its camera can have.
     rows: JacobianRows,
     /// Current linearized residuals per observation (mm).
     e: Vec<[f64; 2]>,
