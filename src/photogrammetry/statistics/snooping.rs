@@ -292,13 +292,13 @@ impl LinearSnooping {
     /// at observation j's point.
     fn row_times(&self, b: &Bundle, j: usize, r: usize, cams: &[f64], p: Vector3<f64>) -> f64 {
         let o = &b.obs[j];
-        let d = self.rows.row(j, r);
         let mut s = 0.0;
-        for l in 0..6 {
-            s += d[l] * cams[6 * o.image + l];
+        for (l, d) in self.rows.image(j, r).iter().enumerate() {
+            s += d * cams[6 * o.image + l];
         }
-        for (m, &(g, _)) in self.lanes[b.image_camera[o.image]].iter().enumerate() {
-            s += d[6 + m] * cams[g];
+        let lanes = &self.lanes[b.image_camera[o.image]];
+        for (&(g, _), d) in lanes.iter().zip(self.rows.lanes(j, r)) {
+            s += d * cams[g];
         }
         let x = self.rows.point(j, r);
         s + x[0] * p.x + x[1] * p.y + x[2] * p.z
@@ -325,14 +325,10 @@ impl LinearSnooping {
         let i = o.point;
         // U = Q₀ aₖᵀ + Σ previous U M⁻¹ (aₖ U)ᵀ.
         let mut u: [Solution; 2] = std::array::from_fn(|r| {
-            let d = self.rows.row(k, r);
-            let mut bc: Vec<(usize, f64)> = (0..6).map(|l| (6 * o.image + l, d[l])).collect();
-            bc.extend(
-                self.lanes[cam]
-                    .iter()
-                    .enumerate()
-                    .map(|(m, &(g, _))| (g, d[6 + m])),
-            );
+            let image = self.rows.image(k, r).iter().enumerate();
+            let mut bc: Vec<(usize, f64)> = image.map(|(l, &d)| (6 * o.image + l, d)).collect();
+            let lanes = self.lanes[cam].iter().zip(self.rows.lanes(k, r));
+            bc.extend(lanes.map(|(&(g, _), &d)| (g, d)));
             let x = self.rows.point(k, r);
             let bp = vec![(i, Vector3::new(x[0], x[1], x[2]))];
             Solution {
@@ -444,6 +440,17 @@ impl JacobianRows {
     fn row(&self, k: usize, r: usize) -> &[f64] {
         let start = (2 * k + r) * self.width;
         &self.values[start..start + self.width]
+    }
+
+    /// The image's six columns of row `r` of observation `k`.
+    fn image(&self, k: usize, r: usize) -> &[f64] {
+        &self.row(k, r)[..6]
+    }
+
+    /// The interior lanes' columns of row `r` of observation `k`, in the order of its camera's
+    /// lanes (and zeros beyond them).
+    fn lanes(&self, k: usize, r: usize) -> &[f64] {
+        &self.row(k, r)[6..self.width - 3]
     }
 
     /// The point's three columns of row `r` of observation `k`.
