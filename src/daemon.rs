@@ -1,5 +1,5 @@
 //! The daemon: opens the database, applies the configuration, and runs its parts under one
-//! shutdown signal ([`crate::shutdown`]): the HTTP server ([`crate::api`] and the dashboard), the
+//! shutdown signal ([`crate::shutdown`]): the HTTP server ([`crate::http`]: the API and the dashboard), the
 //! watched directory ([`crate::watch`]), the webhook delivery worker
 //! ([`service::webhook_delivery`]), the campaign check ([`service::overdue`]), the deliveries'
 //! retention ([`service::retention`]) and, on SQLite, the WAL checkpoints
@@ -16,8 +16,9 @@ use std::time::Duration;
 use thiserror::Error;
 use tokio::net::TcpListener;
 
-use crate::api::{health, router, AppState};
+use crate::api::health;
 use crate::config::{Config, ConfigError};
+use crate::http::AppState;
 use crate::service;
 use crate::service::admission::UploadGate;
 use crate::shutdown;
@@ -224,7 +225,9 @@ impl Bound {
             }
         };
         tracing::info!(%addr, "listening");
-        let server = axum::serve(listener, router(state)).with_graceful_shutdown(graceful);
+        // The one service: the API's and the dashboard's routes on the shared HTTP layer.
+        let app = crate::http::router(state, crate::api::routes(), crate::dashboard::routes());
+        let server = axum::serve(listener, app).with_graceful_shutdown(graceful);
         let grace_over = async move {
             stop.requested().await;
             tokio::time::sleep(grace).await;

@@ -24,8 +24,11 @@
 //! - [`service`]: the use cases, one file each (ingest an epoch, recompute a site, change its
 //!   settings, acknowledge an alert, the campaign check, the webhook worker); each owns its
 //!   transaction and calls the core and the store.
-//! - [`api`]: the HTTP API (axum) handlers, auth, errors, OpenAPI.
-//! - [`dashboard`]: the HTML pages on the same port (maud templates, embedded uPlot and htmx).
+//! - [`http`]: the HTTP layer below the API and the dashboard: the shared state, the router's
+//!   composition, auth and sessions, errors and extractors.
+//! - [`api`]: the HTTP API (axum) handlers and OpenAPI, on [`http`].
+//! - [`dashboard`]: the HTML pages on the same port (maud templates, embedded uPlot and htmx), on
+//!   [`http`] beside [`api`]; neither imports the other.
 //! - [`cap`]: the public-warning feed, alerts as CAP 1.2 messages and an Atom feed of them.
 //! - [`webhooks`]: signing, bodies, retry policy and one delivery attempt of the alert webhooks.
 //! - [`watch`]: the watched directory: its folders, each station's detection, the naming of the
@@ -49,6 +52,7 @@ pub mod contract_names;
 pub mod daemon;
 pub mod dashboard;
 pub mod detect;
+pub mod http;
 pub mod json_integer;
 pub mod photogrammetry;
 pub mod service;

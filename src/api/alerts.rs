@@ -5,10 +5,10 @@ use axum::response::IntoResponse;
 use serde::Deserialize;
 use utoipa::ToSchema;
 
-use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{Listing, Page, PageParams};
-use super::AppState;
 use crate::analysis::AlertStatus;
+use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
+use crate::http::AppState;
 use crate::service;
 use crate::store::alerts;
 use crate::webhooks::WebhookPayload;

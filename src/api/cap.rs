@@ -6,9 +6,9 @@ use axum::http::header;
 use axum::response::IntoResponse;
 use serde::Deserialize;
 
-use super::error::{ApiError, ApiPath, ApiQuery};
-use super::AppState;
 use crate::cap::{self, CapContext, CapStep, FeedEntry};
+use crate::http::error::{ApiError, ApiPath, ApiQuery};
+use crate::http::AppState;
 use crate::store::alerts::{self, Alert};
 use crate::store::sites::{self, Site};
 use crate::store::StoreError;

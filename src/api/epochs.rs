@@ -8,16 +8,16 @@ use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::IntoResponse;
 use serde::Deserialize;
 
-use super::error::{ApiError, ApiPath, ApiQuery};
 use super::list::{Listing, Page, PageParams};
 use super::schemas::EpochSummary;
 use super::sites::find;
-use super::AppState;
+use crate::http::error::{ApiError, ApiPath, ApiQuery};
+use crate::http::AppState;
 use crate::photogrammetry::input::epoch::CameraInput;
 use crate::photogrammetry::input::epoch_csv::{csv_camera, epoch_from_csv};
 use crate::photogrammetry::EpochInput;
 use crate::service::{ingest, ServiceError};
-use crate::store::{alerts, displacements, epochs, parse_timestamp, timestamp, Store, StoreError};
+use crate::store::{alerts, displacements, epochs, Store, StoreError};
 
 /// Bodies up to this many times the limit are read to the end before answering 413, so the client
 /// sees the answer instead of a reset connection; larger ones are cut off.
@@ -272,48 +272,4 @@ pub async fn get_one(
         .await?
         .map(axum::Json)
         .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no epoch {id}")))
-}
-
-/// Parses a time bound of a query (RFC 3339 or a date) into the store's format. A bound beyond
-/// the years 0000–9999 in UTC (which the store's four-digit years cannot write) is moved to the
-/// nearest end of that range, where it excludes no stored time, as its true value would not.
-pub fn time_bound(s: &str, end_of_day: bool) -> Result<String, ApiError> {
-    Ok(stored_bound(parse_time_bound(s, end_of_day)?))
-}
-
-/// `t` as a time bound in the store's format, moved into the years 0000–9999 as
-/// [`time_bound`] does.
-pub fn stored_bound(t: chrono::DateTime<chrono::Utc>) -> String {
-    timestamp(t.clamp(stored_time_min(), stored_time_max()))
-}
-
-/// The earliest time the store can write: 0000-01-01T00:00:00Z.
-fn stored_time_min() -> chrono::DateTime<chrono::Utc> {
-    chrono::NaiveDate::from_ymd_opt(0, 1, 1)
-        .and_then(|d| d.and_hms_opt(0, 0, 0))
-        .expect("a valid time")
-        .and_utc()
-}
-
-/// The latest time the store can write: 9999-12-31T23:59:59.999999Z.
-fn stored_time_max() -> chrono::DateTime<chrono::Utc> {
-    chrono::NaiveDate::from_ymd_opt(9999, 12, 31)
-        .and_then(|d| d.and_hms_micro_opt(23, 59, 59, 999_999))
-        .expect("a valid time")
-        .and_utc()
-}
-
-fn parse_time_bound(s: &str, end_of_day: bool) -> Result<chrono::DateTime<chrono::Utc>, ApiError> {
-    if let Some(t) = parse_timestamp(s) {
-        return Ok(t);
-    }
-    let date = chrono::NaiveDate::parse_from_str(s, "%Y-%m-%d")
-        .map_err(|_| ApiError::bad_request(format!("'{s}' is not an RFC 3339 time or a date")))?;
-    let t = if end_of_day {
-        date.and_hms_micro_opt(23, 59, 59, 999_999)
-    } else {
-        date.and_hms_opt(0, 0, 0)
-    }
-    .expect("valid time of day");
-    Ok(t.and_utc())
 }

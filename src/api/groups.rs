@@ -8,12 +8,12 @@ use axum::response::{IntoResponse, Response};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{encode, Listing, Page, PageParams};
 use super::points::SeriesParams;
 use super::sites::find;
-use super::AppState;
 use crate::analysis::{GroupConfig, GroupKind};
+use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
+use crate::http::AppState;
 use crate::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::series::{format_rows, SeriesFormat};
 use crate::store::{block_motions, groups, points};

@@ -7,9 +7,9 @@ use axum::http::{header, StatusCode};
 use axum::response::IntoResponse;
 use metrics_exporter_prometheus::{PrometheusBuilder, PrometheusHandle};
 
-use super::error::ApiError;
 use super::schemas::Status;
-use super::AppState;
+use crate::http::error::ApiError;
+use crate::http::AppState;
 
 /// The process-wide Prometheus recorder (installed once, shared by every server of the process),
 /// every series labelled `node` with the name the first server of the process gives.

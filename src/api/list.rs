@@ -7,7 +7,7 @@ use base64::Engine;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::error::ApiError;
+use crate::http::error::ApiError;
 
 /// Default page size.
 pub const DEFAULT_LIMIT: i64 = 100;

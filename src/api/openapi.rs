@@ -52,7 +52,7 @@ impl utoipa::Modify for BearerAuth {
 /// list them: 400 (a query or path value that does not parse, a body that is not JSON, a bad
 /// cursor) on every operation with parameters or a body, 415 (a body that is not
 /// `application/json`), 413 (a body over the size limit) and 422 (JSON not of the schema) on every
-/// operation with a body; 401 and 403 ([`super::auth::authorize`]) with the bearer token as an
+/// operation with a body; 401 and 403 ([`crate::http::auth::authorize`]) with the bearer token as an
 /// alternative to none on every operation that needs a role; 408 (the request timeout) and 500
 /// (a failure of the database or a task) on every operation.
 struct CommonErrors;
@@ -84,7 +84,7 @@ impl utoipa::Modify for CommonErrors {
             .into_iter()
             .filter_map(|(m, op)| Some((m, op.as_mut()?)))
             {
-                if let Some(role) = super::auth::required_role(&method, path) {
+                if let Some(role) = crate::http::auth::required_role(&method, path) {
                     // no token at all while the server has none configured
                     op.security = Some(vec![
                         SecurityRequirement::default(),

@@ -12,12 +12,12 @@ use axum::response::{IntoResponse, Response};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
-use super::epochs::time_bound;
-use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{encode, Listing, Page, PageParams};
 use super::sites::find;
-use super::AppState;
 use crate::analysis::{AlertLevel, PointRole};
+use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
+use crate::http::time_bound::time_bound;
+use crate::http::AppState;
 use crate::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::displacements::{self, Displacement};
 use crate::store::points::{self, PointSettings};

@@ -1,5 +1,5 @@
 //! Response types of the contract that have no Rust type elsewhere: the error body (written
-//! through [`ErrorBody`] by [`super::error::ApiError`]), the status of the health endpoints, and
+//! through [`ErrorBody`] by [`crate::http::error::ApiError`]), the status of the health endpoints, and
 //! the epoch summary ([`EpochSummary`]: the list fields, the stored report and the epoch's rows).
 //! Each is the type that writes the answer, and the OpenAPI schema is derived from it, as the
 //! upload form's is from the types that read it ([`crate::photogrammetry::EpochInput`]).
@@ -13,24 +13,9 @@ use crate::store::displacements::Displacement;
 use crate::store::epoch_report::EpochReport;
 use crate::store::epochs::{EpochListItem, StoredResidual};
 
-/// The error answer of every endpoint, as [`super::error::ApiError`] writes it.
-#[derive(Serialize, ToSchema)]
-pub struct ErrorBody {
-    /// What went wrong.
-    pub error: ErrorDetail,
-}
-
-/// Code, message and details of an error.
-#[derive(Serialize, ToSchema)]
-pub struct ErrorDetail {
-    /// Stable machine-readable code (`not_found`, `invalid_epoch`, `cannot_adjust`, `conflict`, …).
-    pub code: &'static str,
-    /// Human-readable message naming the field, image or point at fault.
-    pub message: String,
-    /// Extra JSON (or null), e.g. `{"limit_bytes": N}` for 413.
-    #[schema(value_type = Option<Object>)]
-    pub details: serde_json::Value,
-}
+/// The error body lives with the errors it writes ([`crate::http::error`]); named here for the
+/// OpenAPI document's paths.
+pub use crate::http::error::{ErrorBody, ErrorDetail};
 
 /// `{"status": "ok"}` / `{"status": "ready"}`.
 #[derive(Serialize, ToSchema)]

@@ -6,11 +6,11 @@ use axum::response::IntoResponse;
 use serde::Deserialize;
 use utoipa::ToSchema;
 
-use super::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use super::list::{Listing, Page, PageParams};
-use super::AppState;
 use crate::analysis::alerts::{MAX_CONFIDENCE, MIN_CONFIDENCE};
 use crate::analysis::AlertRule;
+use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
+use crate::http::AppState;
 use crate::photogrammetry::input::epoch::is_valid_identifier;
 use crate::service::ServiceError;
 use crate::store::sites::{self, NewSite, Site};

@@ -4,9 +4,9 @@ use axum::extract::State;
 use axum::http::StatusCode;
 use axum::response::IntoResponse;
 
-use super::error::{ApiError, ApiJson, ApiPath};
 use super::list::Page;
-use super::AppState;
+use crate::http::error::{ApiError, ApiJson, ApiPath};
+use crate::http::AppState;
 use crate::store::webhooks::{self, NewWebhook};
 use crate::store::StoreError;
 

@@ -15,8 +15,8 @@ use super::layout::{level_badge, num, page, seg, Viewer};
 use super::local_time::when;
 use super::viewer;
 use crate::analysis::AlertStatus;
-use crate::api::auth::Access;
-use crate::api::AppState;
+use crate::http::auth::Access;
+use crate::http::AppState;
 use crate::service::acknowledge::{MAX_COMMENT_CHARS, MAX_NAME_CHARS};
 use crate::store::alerts::Alert;
 
@@ -98,7 +98,7 @@ pub async fn acknowledge(
             }
         }
         Err(e) => {
-            let e = crate::api::error::ApiError::from(e);
+            let e = crate::http::error::ApiError::from(e);
             if headers.contains_key("hx-request") {
                 // forms.js shows it beside the form.
                 return (e.status, e.message).into_response();

@@ -12,8 +12,8 @@ use maud::html;
 use super::layout::{level_badge, num, page, seg};
 use super::local_time::when;
 use super::{viewer, PageError};
-use crate::api::auth::Access;
-use crate::api::AppState;
+use crate::http::auth::Access;
+use crate::http::AppState;
 use crate::store::alerts;
 
 /// The alert page.

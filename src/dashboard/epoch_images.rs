@@ -19,7 +19,7 @@ use serde_json::Value;
 use super::image_preview::{preview, PREVIEW_MAX_SIDE};
 use super::layout::seg;
 use super::PageError;
-use crate::api::AppState;
+use crate::http::AppState;
 use crate::store::epoch_report::EpochReport;
 use crate::watch::image_file::{read_image_file, ImageFileError};
 

@@ -88,18 +88,7 @@ pub fn with_sigma(v: Option<f64>, sigma: Option<f64>, digits: usize) -> String {
     }
 }
 
-/// A path segment percent-encoded (site and point names are user input).
-pub fn seg(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for b in s.bytes() {
-        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
-            out.push(b as char);
-        } else {
-            out.push_str(&format!("%{b:02X}"));
-        }
-    }
-    out
-}
+pub use crate::http::seg;
 
 #[cfg(test)]
 mod tests {

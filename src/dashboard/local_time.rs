@@ -55,7 +55,7 @@ fn local_text(utc: DateTime<Utc>, zone: Tz) -> String {
 pub fn day_bound(s: &str, end: bool, tz: Option<&str>) -> Result<String, String> {
     let zone = tz.and_then(|z| z.parse::<Tz>().ok());
     let (Some(zone), Ok(date)) = (zone, NaiveDate::parse_from_str(s, "%Y-%m-%d")) else {
-        return crate::api::epochs::time_bound(s, end).map_err(|e| e.message);
+        return crate::http::time_bound::time_bound(s, end).map_err(|e| e.message);
     };
     let day_start = |d: NaiveDate| -> Option<DateTime<Utc>> {
         // the first hour that exists: a change to summer time may skip midnight
@@ -74,8 +74,8 @@ pub fn day_bound(s: &str, end: bool, tz: Option<&str>) -> Result<String, String>
         day_start(date)
     };
     match t {
-        Some(t) => Ok(crate::api::epochs::stored_bound(t)),
-        None => crate::api::epochs::time_bound(s, end).map_err(|e| e.message),
+        Some(t) => Ok(crate::http::time_bound::stored_bound(t)),
+        None => crate::http::time_bound::time_bound(s, end).map_err(|e| e.message),
     }
 }
 

@@ -14,7 +14,7 @@
 //! [`plot_data`] downsamples on the server ([`downsample`]), so a 10-year hourly history costs
 //! the browser what a short one does. Templates are maud (checked at compile time, escaping
 //! every value); assets are embedded ([`assets`]). Access follows the API's roles
-//! ([`crate::api::auth`], [`session`], [`sign_in`]); acknowledging needs `upload` and the
+//! ([`crate::http::auth`], [`crate::http::session`], [`sign_in`]); acknowledging needs `upload` and the
 //! session's CSRF token ([`acknowledge`]).
 //!
 //! Pure parts (no I/O): [`face_plan`] (the face's plane), [`downsample`] (which epochs a plot
@@ -36,7 +36,6 @@ pub(crate) mod plan_svg;
 pub(crate) mod plot_data;
 pub(crate) mod point_page;
 pub(crate) mod report_page;
-pub mod session;
 pub(crate) mod sign_in;
 pub(crate) mod site_page;
 pub(crate) mod sites_page;
@@ -48,10 +47,10 @@ use axum::routing::{get, post};
 use axum::Router;
 use maud::html;
 
-use crate::api::AppState;
+use crate::http::AppState;
 use crate::store::StoreError;
 
-/// The dashboard's routes (merged into the API's router, behind the same auth).
+/// The dashboard's routes (put beside the API's by [`crate::http::router`], behind the same auth).
 pub fn routes() -> Router<AppState> {
     Router::new()
         .route("/", get(sites_page::sites))
@@ -139,7 +138,7 @@ pub(crate) async fn site_or_404(
 }
 
 /// The viewer of a request as the auth middleware let it in.
-pub fn viewer(access: Option<&crate::api::auth::Access>) -> layout::Viewer {
+pub fn viewer(access: Option<&crate::http::auth::Access>) -> layout::Viewer {
     let a = access.cloned().unwrap_or_default();
     layout::Viewer {
         can_acknowledge: a.allows(crate::config::Role::Upload),

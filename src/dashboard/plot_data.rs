@@ -25,8 +25,8 @@ use serde_json::{json, Value};
 
 use super::downsample::{bucket_count, PlotPicker};
 use super::local_time::text;
-use crate::api::error::ApiError;
-use crate::api::AppState;
+use crate::http::error::ApiError;
+use crate::http::AppState;
 use crate::store::series::SeriesQuery;
 use crate::store::series_blocks::BLOCK_EPOCHS;
 use crate::store::series_columns::{self, unix_seconds, SeriesColumns, SeriesRow, SeriesSize};

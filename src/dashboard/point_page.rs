@@ -15,8 +15,8 @@ use maud::html;
 use super::layout::{level_badge, num, page, seg, with_sigma};
 use super::local_time::when;
 use super::{viewer, PageError};
-use crate::api::auth::Access;
-use crate::api::AppState;
+use crate::http::auth::Access;
+use crate::http::AppState;
 use crate::store::{alerts, displacements, points};
 
 /// The point page.

@@ -1,5 +1,5 @@
 //! `GET /signin`, `POST /signin`, `POST /signout`: a browser signs in with one of the configured
-//! bearer tokens and gets a session cookie ([`super::session`]: HttpOnly, SameSite=Strict, 12
+//! bearer tokens and gets a session cookie ([`crate::http::session`]: HttpOnly, SameSite=Strict, 12
 //! hours). Without configured tokens everything is open and the form is not needed.
 
 use axum::extract::{Query, State};
@@ -10,8 +10,8 @@ use maud::html;
 use serde::Deserialize;
 
 use super::layout::{page, Viewer};
-use super::session;
-use crate::api::AppState;
+use crate::http::session;
+use crate::http::AppState;
 
 /// Where to go after signing in.
 #[derive(Debug, Deserialize)]
@@ -107,7 +107,7 @@ pub async fn sign_in(State(state): State<AppState>, Form(f): Form<SignInForm>) -
 }
 
 /// `POST /signout`: clears the cookie. The auth middleware has checked the form's `csrf` field
-/// when the cookie is a live session ([`crate::api::auth`]).
+/// when the cookie is a live session ([`crate::http::auth`]).
 pub async fn sign_out() -> Response {
     let cookie = format!(
         "{}=; Path=/; HttpOnly; SameSite=Strict; Max-Age=0",

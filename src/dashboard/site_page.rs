@@ -18,8 +18,8 @@ use super::local_time::when;
 use super::plan_svg::{face_plan, PlanPoint};
 use super::{viewer, PageError};
 use crate::analysis::{AlertLevel, PointRole};
-use crate::api::auth::Access;
-use crate::api::AppState;
+use crate::http::auth::Access;
+use crate::http::AppState;
 use crate::store::{alerts, displacements, epochs, points};
 
 /// Epochs listed on the site page (newest first).

@@ -9,8 +9,8 @@ use maud::html;
 use super::layout::{level_badge, page, seg};
 use super::local_time::when;
 use super::{viewer, PageError};
-use crate::api::auth::Access;
-use crate::api::AppState;
+use crate::http::auth::Access;
+use crate::http::AppState;
 use crate::store::{alerts, epochs, points, sites};
 
 /// The sites page.

@@ -1,5 +1,5 @@
 //! Why a use case did not happen. Each variant names the item at fault; the API maps them to
-//! statuses (`api::error`), the watched directory writes them to the folder's `error.txt`.
+//! statuses (`http::error`), the watched directory writes them to the folder's `error.txt`.
 
 use thiserror::Error;
 

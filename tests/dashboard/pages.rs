@@ -7,7 +7,7 @@ use crate::dashboard_support;
 use crate::plot_support;
 
 use cliffwatch::config::{Role, TokenConfig};
-use cliffwatch::dashboard::session;
+use cliffwatch::http::session;
 use dashboard_support::service_support::TestServer;
 use dashboard_support::{fill, name, POINTS, SITE, STABLE};
 use reqwest::header;

@@ -1,14 +1,36 @@
-//! Errors of the API in the contract's JSON shape `{"error": {"code", "message", "details"}}`.
+//! Errors of the HTTP layer in the contract's JSON shape `{"error": {"code", "message", "details"}}`,
+//! and the extractors whose rejections answer in it ([`ApiJson`], [`ApiQuery`], [`ApiPath`]).
 
 use axum::extract::rejection::{JsonRejection, PathRejection, QueryRejection};
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use serde_json::{json, Value};
 
-use super::schemas::{ErrorBody, ErrorDetail};
+use serde::Serialize;
+use utoipa::ToSchema;
+
 use crate::photogrammetry::input::epoch_csv::CsvError;
 use crate::service::ServiceError;
 use crate::store::StoreError;
+
+/// The error answer of every endpoint, as [`ApiError`] writes it.
+#[derive(Serialize, ToSchema)]
+pub struct ErrorBody {
+    /// What went wrong.
+    pub error: ErrorDetail,
+}
+
+/// Code, message and details of an error.
+#[derive(Serialize, ToSchema)]
+pub struct ErrorDetail {
+    /// Stable machine-readable code (`not_found`, `invalid_epoch`, `cannot_adjust`, `conflict`, …).
+    pub code: &'static str,
+    /// Human-readable message naming the field, image or point at fault.
+    pub message: String,
+    /// Extra JSON (or null), e.g. `{"limit_bytes": N}` for 413.
+    #[schema(value_type = Option<Object>)]
+    pub details: serde_json::Value,
+}
 
 /// An error answer: status, stable code, message naming what is at fault, details.
 #[derive(Debug)]

@@ -2,7 +2,7 @@
 //! request is allowed (the service then listens on loopback only, see [`crate::config::Config::check`]).
 //!
 //! The dashboard's pages follow the same roles: a browser signs in with a token through
-//! `/signin` and then carries a session cookie ([`crate::dashboard::session`]); a change made
+//! `/signin` and then carries a session cookie ([`super::session`]); a change made
 //! with the cookie must carry the session's CSRF token in `x-csrf-token` (htmx) or in the form's
 //! `csrf` field (a form posted without JavaScript). A page asked for
 //! without credentials redirects to the sign-in form. A change sent by a browser from another
@@ -14,9 +14,9 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Redirect, Response};
 
 use super::error::ApiError;
+use super::session;
 use super::AppState;
 use crate::config::Role;
-use crate::dashboard::session;
 
 /// What the request was allowed as, for handlers that adapt to it (the dashboard's pages).
 #[derive(Debug, Clone, Default)]
@@ -273,11 +273,8 @@ pub async fn authorize(
                 }
                 None if is_page(req.uri().path()) && *req.method() == Method::GET => {
                     let next = req.uri().path().to_string();
-                    return Ok(Redirect::to(&format!(
-                        "/signin?next={}",
-                        crate::dashboard::layout::seg(&next)
-                    ))
-                    .into_response());
+                    return Ok(Redirect::to(&format!("/signin?next={}", super::seg(&next)))
+                        .into_response());
                 }
                 None => {
                     return Err(ApiError::new(

@@ -1,0 +1,108 @@
+//! The HTTP layer below the API ([`crate::api`]) and the dashboard ([`crate::dashboard`]): the state
+//! every handler shares ([`AppState`]), authentication and browser sessions ([`auth`],
+//! [`session`]), errors and extractors in the contract's shape ([`error`]), the time bounds of a
+//! query ([`time_bound`]), and the one place where the service's router is composed ([`router`]).
+//!
+//! The API and the dashboard sit beside each other on this layer and neither imports the other;
+//! this layer imports neither: [`router`] takes their routes as arguments (the daemon passes
+//! [`crate::api::routes`] and [`crate::dashboard::routes`]).
+
+pub mod auth;
+pub mod error;
+pub mod session;
+pub mod time_bound;
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::extract::DefaultBodyLimit;
+use axum::http::{HeaderName, Request, StatusCode};
+use axum::Router;
+use metrics_exporter_prometheus::PrometheusHandle;
+use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
+use tower_http::trace::TraceLayer;
+
+use crate::config::Config;
+use crate::store::Store;
+
+/// What every handler shares. Cheap to clone.
+#[derive(Clone)]
+pub struct AppState {
+    /// The database.
+    pub store: Store,
+    /// The configuration in force.
+    pub config: Arc<Config>,
+    /// Renders `/metrics`.
+    pub metrics: PrometheusHandle,
+    /// The upload slots of this node.
+    pub uploads: crate::service::admission::UploadGate,
+}
+
+const REQUEST_ID: HeaderName = HeaderName::from_static("x-request-id");
+
+/// The full service: the API's and the dashboard's routes side by side, a 404 in the error shape
+/// for any other path, then auth ([`auth::authorize`]), the body limit, the request timeout,
+/// request ids and tracing, in that order from the inside out.
+pub fn router(state: AppState, api: Router<AppState>, dashboard: Router<AppState>) -> Router {
+    let timeout = Duration::from_secs(state.config.request_timeout_secs.max(1));
+    let limit = state.config.body_limit_bytes;
+    let routes = api
+        .merge(dashboard)
+        .fallback(|| async { error::ApiError::not_found("no such endpoint") })
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            auth::authorize,
+        ))
+        .layer(DefaultBodyLimit::max(limit))
+        .with_state(state);
+    routes
+        .layer(axum::middleware::from_fn_with_state(timeout, time_limit))
+        .layer(PropagateRequestIdLayer::new(REQUEST_ID))
+        .layer(
+            TraceLayer::new_for_http().make_span_with(|req: &Request<_>| {
+                let id = req
+                    .headers()
+                    .get(REQUEST_ID)
+                    .and_then(|v| v.to_str().ok())
+                    .unwrap_or("-");
+                tracing::info_span!("request", method = %req.method(), path = %req.uri().path(), request_id = %id)
+            }),
+        )
+        .layer(SetRequestIdLayer::new(REQUEST_ID, MakeRequestUuid))
+}
+
+/// Middleware: 408 with the error body when the handler has not answered within the request
+/// timeout (`request_timeout_secs`); the handler's future is dropped.
+async fn time_limit(
+    axum::extract::State(limit): axum::extract::State<Duration>,
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    match tokio::time::timeout(limit, next.run(req)).await {
+        Ok(response) => response,
+        Err(_) => error::ApiError::new(
+            StatusCode::REQUEST_TIMEOUT,
+            "timeout",
+            format!(
+                "no answer within the request timeout of {} s",
+                limit.as_secs()
+            ),
+        )
+        .into_response(),
+    }
+}
+
+/// A path segment percent-encoded (site and point names are user input): everything but ASCII
+/// letters, digits and `-._~`.
+pub fn seg(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for b in s.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
+            out.push(b as char);
+        } else {
+            out.push_str(&format!("%{b:02X}"));
+        }
+    }
+    out
+}
