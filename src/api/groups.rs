@@ -115,7 +115,7 @@ fn invalid(message: String) -> ApiError {
 fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
     if !is_valid_identifier(name) {
         return Err(invalid(format!(
-            "group '{name}': identifiers must match [A-Za-z0-9._-]{{1,64}}"
+            "group '{name}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or .."
         )));
     }
     if body.kind != "block" {
@@ -129,7 +129,7 @@ fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
     let points = body.points.clone().unwrap_or_default();
     if let Some(p) = points.iter().find(|p| !is_valid_identifier(p)) {
         return Err(invalid(format!(
-            "points: '{p}' is not an identifier ([A-Za-z0-9._-]{{1,64}})"
+            "points: '{p}' is not an identifier ([A-Za-z0-9._-]{{1,64}}, not . or ..)"
         )));
     }
     if let Some(q) = body.process_noise {

@@ -120,14 +120,18 @@ pub async fn update(
     if !is_valid_identifier(&point) {
         return Err(ApiError::unprocessable(
             "invalid_point",
-            format!("point '{point}': identifiers must match [A-Za-z0-9._-]{{1,64}}"),
+            format!(
+                "point '{point}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or .."
+            ),
         ));
     }
     if let Some(Some(g)) = &settings.group {
         if !is_valid_identifier(g) {
             return Err(ApiError::unprocessable(
                 "invalid_point",
-                format!("group '{g}': identifiers must match [A-Za-z0-9._-]{{1,64}}"),
+                format!(
+                    "group '{g}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or .."
+                ),
             ));
         }
     }

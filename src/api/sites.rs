@@ -16,6 +16,40 @@ use crate::service::ServiceError;
 use crate::store::sites::{self, NewSite, Site};
 use crate::store::StoreError;
 
+/// Longest display name of a site (characters).
+pub const MAX_NAME_CHARS: usize = 200;
+
+/// Longest response text of a site (characters).
+pub const MAX_RESPONSE_CHARS: usize = 2000;
+/// Most contacts of a site.
+pub const MAX_CONTACTS: usize = 20;
+/// Longest contact entry (characters).
+pub const MAX_CONTACT_CHARS: usize = 200;
+
+/// 422 naming `field` when it holds the NUL character (PostgreSQL cannot store it).
+fn no_nul(field: &str, text: &str) -> Result<(), ApiError> {
+    if text.contains('\0') {
+        return Err(ApiError::unprocessable(
+            "invalid_site",
+            format!("{field}: the NUL character (U+0000) is not allowed"),
+        ));
+    }
+    Ok(())
+}
+
+/// 422 naming `field` when `text` is longer than `max` characters: every free-text field is
+/// bounded, so that no page grows with what one request stored.
+pub fn check_text(field: &str, text: &str, max: usize) -> Result<(), ApiError> {
+    let n = text.chars().count();
+    if n > max {
+        return Err(ApiError::unprocessable(
+            "invalid_site",
+            format!("{field}: {n} characters; at most {max}"),
+        ));
+    }
+    Ok(())
+}
+
 /// Checks a site definition (identifier, confidence, rule levels and metrics; the model is
 /// checked by its type when the body is read).
 pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
@@ -23,10 +57,38 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
         return Err(ApiError::unprocessable(
             "invalid_site",
             format!(
-                "id '{}': identifiers must match [A-Za-z0-9._-]{{1,64}}",
+                "id '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
                 s.id
             ),
         ));
+    }
+    if let Some(n) = s.name.as_deref() {
+        check_text("name", n, MAX_NAME_CHARS)?;
+    }
+    if let Some(t) = s.response_text.as_deref() {
+        check_text("response_text", t, MAX_RESPONSE_CHARS)?;
+        no_nul("response_text", t)?;
+    }
+    let contacts = s.contacts.as_deref().unwrap_or_default();
+    if contacts.len() > MAX_CONTACTS {
+        return Err(ApiError::unprocessable(
+            "invalid_site",
+            format!(
+                "contacts: {} entries; at most {MAX_CONTACTS}",
+                contacts.len()
+            ),
+        ));
+    }
+    for (i, c) in contacts.iter().enumerate() {
+        let field = format!("contacts[{i}]");
+        if c.trim().is_empty() {
+            return Err(ApiError::unprocessable(
+                "invalid_site",
+                format!("{field}: empty; a contact is 1 to {MAX_CONTACT_CHARS} characters"),
+            ));
+        }
+        check_text(&field, c, MAX_CONTACT_CHARS)?;
+        no_nul(&field, c)?;
     }
     if s.name.as_deref().is_some_and(|n| n.contains('\0')) {
         return Err(ApiError::unprocessable(

@@ -6,7 +6,7 @@
 //! with the cookie must carry the session's CSRF token in `x-csrf-token` (htmx) or in the form's
 //! `csrf` field (a form posted without JavaScript). A page asked for
 //! without credentials redirects to the sign-in form. A change sent by a browser from another
-//! site's page is refused in every mode ([`is_cross_site_change`]).
+//! site's page is refused in every mode, with or without a token ([`is_cross_site_change`]).
 
 use axum::extract::{Request, State};
 use axum::http::{header, Method, StatusCode};
@@ -68,34 +68,37 @@ fn is_page(path: &str) -> bool {
     !(path.starts_with("/api/") || path == "/metrics" || path.starts_with("/dashboard/plot"))
 }
 
-/// A change (not GET, HEAD or OPTIONS) that a browser sent from another site's page without a
-/// bearer token: `Sec-Fetch-Site` says `cross-site` or `same-site`, or `Origin` names neither
-/// this request's `Host` nor the configured `public_url` (a proxy may rewrite `Host`), or is
-/// `null`. A page elsewhere could otherwise make the browser of someone on the service's machine
-/// acknowledge an alarm (forms are sent without a preflight), even with no tokens configured.
-/// Clients that are not browsers send neither header; a bearer token cannot be set by a form.
+/// A change (not GET, HEAD or OPTIONS) that a browser sent from another site's page, with or
+/// without a bearer token: `Sec-Fetch-Site` says `cross-site` or `same-site`, or `Origin` is
+/// `null` or is neither this service's own origin (`http://` and the request's `Host`: the
+/// service speaks plain HTTP) nor the configured `public_url`'s (a proxy may rewrite `Host` and
+/// end TLS). Origins are compared whole, scheme, host and port (a default port written or not),
+/// as browsers define them. A page elsewhere could otherwise make the browser of someone on the
+/// service's machine acknowledge an alarm (forms are sent without a preflight), even with no
+/// tokens configured. Clients that are not browsers send neither header.
 fn is_cross_site_change(req: &Request, public_url: Option<&str>) -> bool {
-    if matches!(*req.method(), Method::GET | Method::HEAD | Method::OPTIONS)
-        || req.headers().contains_key(header::AUTHORIZATION)
-    {
+    if matches!(*req.method(), Method::GET | Method::HEAD | Method::OPTIONS) {
         return false;
     }
     let h = req.headers();
     if let Some(site) = h.get("sec-fetch-site").and_then(|v| v.to_str().ok()) {
-        return matches!(site, "cross-site" | "same-site");
+        if matches!(site, "cross-site" | "same-site") {
+            return true;
+        }
     }
     let Some(origin) = h.get(header::ORIGIN) else {
         return false;
     };
-    let origin = origin.to_str().unwrap_or("").to_ascii_lowercase();
-    let origin_host = origin.split_once("://").map(|(_, rest)| rest).unwrap_or("");
-    let host = h
+    let Some(origin) = origin.to_str().ok().and_then(origin_of) else {
+        // `null` (a sandboxed or opaque page) and anything that is not an origin
+        return true;
+    };
+    let own = h
         .get(header::HOST)
         .and_then(|v| v.to_str().ok())
-        .map(str::to_ascii_lowercase);
+        .and_then(|host| origin_of(&format!("http://{host}")));
     let public = public_url.and_then(origin_of);
-    let same = host.as_deref() == Some(origin_host) || public.as_deref() == Some(origin.as_str());
-    origin == "null" || !same
+    own.as_deref() != Some(origin.as_str()) && public.as_deref() != Some(origin.as_str())
 }
 
 /// Whether the request's `Host` names this machine's loopback (`localhost`, `*.localhost`, a
@@ -138,9 +141,13 @@ fn host_name(host: &str) -> &str {
 
 /// The origin (`scheme://host[:port]`, lower case, default port left out) of a URL, as browsers
 /// send it in `Origin`.
+/// `None` for a URL without a host (an opaque origin such as `null` or `data:`).
 fn origin_of(u: &str) -> Option<String> {
     let u = url::Url::parse(u).ok()?;
-    Some(u.origin().ascii_serialization().to_ascii_lowercase())
+    let origin = u.origin();
+    origin
+        .is_tuple()
+        .then(|| origin.ascii_serialization().to_ascii_lowercase())
 }
 
 /// Largest url-encoded form whose `csrf` field the middleware reads (bytes); the dashboard's
@@ -296,5 +303,66 @@ pub async fn authorize(
             req.extensions_mut().insert(access);
             Ok(next.run(req).await)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn change(headers: &[(&str, &str)]) -> Request {
+        let mut b = axum::http::Request::builder()
+            .method(Method::POST)
+            .uri("/dashboard/alerts/a/ack");
+        for (k, v) in headers {
+            b = b.header(*k, *v);
+        }
+        b.body(axum::body::Body::empty()).unwrap()
+    }
+
+    /// The Origin must equal the service's own origin or `public_url`'s in scheme, host and port;
+    /// a bearer token does not exempt a browser's change from another page.
+    #[test]
+    fn origins_compare_scheme_host_and_port() {
+        let host = ("host", "127.0.0.1:8080");
+        let cases = [
+            ("http://127.0.0.1:8080", false),
+            ("HTTP://127.0.0.1:8080", false),
+            ("https://127.0.0.1:8080", true),
+            ("http://127.0.0.1:8081", true),
+            ("http://127.0.0.1", true),
+            ("http://localhost:8080", true),
+            ("null", true),
+            ("not a url", true),
+        ];
+        for (origin, refused) in cases {
+            let req = change(&[host, ("origin", origin)]);
+            assert_eq!(is_cross_site_change(&req, None), refused, "{origin}");
+            let req = change(&[host, ("origin", origin), ("authorization", "Bearer t")]);
+            assert_eq!(
+                is_cross_site_change(&req, None),
+                refused,
+                "{origin} with a token"
+            );
+        }
+        // A default port is the same origin written or not.
+        let req = change(&[
+            ("host", "cliff.example:80"),
+            ("origin", "http://cliff.example"),
+        ]);
+        assert!(!is_cross_site_change(&req, None));
+        // Behind a TLS proxy: the public URL's origin, and only with its scheme.
+        let public = Some("https://cliff.example/");
+        let req = change(&[host, ("origin", "https://cliff.example")]);
+        assert!(!is_cross_site_change(&req, public));
+        let req = change(&[host, ("origin", "http://cliff.example")]);
+        assert!(is_cross_site_change(&req, public));
+        // Fetch metadata decides first; reads are never refused; non-browsers send neither.
+        let req = change(&[host, ("sec-fetch-site", "cross-site")]);
+        assert!(is_cross_site_change(&req, None));
+        assert!(!is_cross_site_change(&change(&[host]), None));
+        let mut get = change(&[host, ("origin", "http://evil.example")]);
+        *get.method_mut() = Method::GET;
+        assert!(!is_cross_site_change(&get, None));
     }
 }

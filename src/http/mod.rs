@@ -42,7 +42,8 @@ const REQUEST_ID: HeaderName = HeaderName::from_static("x-request-id");
 
 /// The full service: the API's and the dashboard's routes side by side, a 404 in the error shape
 /// for any other path, then auth ([`auth::authorize`]), the body limit, the request timeout,
-/// request ids and tracing, in that order from the inside out.
+/// request ids and tracing, and the headers that forbid framing and type sniffing
+/// ([`security_headers`]), in that order from the inside out.
 pub fn router(state: AppState, api: Router<AppState>, dashboard: Router<AppState>) -> Router {
     let timeout = Duration::from_secs(state.config.request_timeout_secs.max(1));
     let limit = state.config.body_limit_bytes;
@@ -68,7 +69,26 @@ pub fn router(state: AppState, api: Router<AppState>, dashboard: Router<AppState
                 tracing::info_span!("request", method = %req.method(), path = %req.uri().path(), request_id = %id)
             }),
         )
+        .layer(axum::middleware::from_fn(security_headers))
         .layer(SetRequestIdLayer::new(REQUEST_ID, MakeRequestUuid))
+}
+
+/// Middleware: every answer (pages, API, assets, errors) may not be framed by any page
+/// (`X-Frame-Options: DENY` and CSP `frame-ancestors 'none'`, against click-jacking of the
+/// acknowledge button) nor read as another type than it says (`X-Content-Type-Options: nosniff`).
+async fn security_headers(
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> axum::response::Response {
+    use axum::http::header::{CONTENT_SECURITY_POLICY, X_CONTENT_TYPE_OPTIONS, X_FRAME_OPTIONS};
+    use axum::http::HeaderValue;
+    let mut response = next.run(req).await;
+    let h = response.headers_mut();
+    h.insert(X_FRAME_OPTIONS, HeaderValue::from_static("DENY"));
+    h.insert(X_CONTENT_TYPE_OPTIONS, HeaderValue::from_static("nosniff"));
+    h.entry(CONTENT_SECURITY_POLICY)
+        .or_insert(HeaderValue::from_static("frame-ancestors 'none'"));
+    response
 }
 
 /// Middleware: 408 with the error body when the handler has not answered within the request

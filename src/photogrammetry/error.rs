@@ -43,7 +43,7 @@ pub enum EpochError {
     #[error("label: control characters (U+0000–U+001F, U+007F–U+009F) are not allowed")]
     BadLabel,
     /// An identifier outside `[A-Za-z0-9._-]{{1,64}}`.
-    #[error("{0}: identifiers must match [A-Za-z0-9._-]{{1,64}}")]
+    #[error("{0}: identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..")]
     BadIdentifier(String),
     /// Two cameras with one id.
     #[error("camera '{0}' is defined twice")]

@@ -28,9 +28,9 @@ pub struct NewSite {
     /// Identifier, `[A-Za-z0-9._-]{1,64}`.
     #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub id: String,
-    /// Display name (default: the id), without the NUL character.
+    /// Display name (default: the id), at most 200 characters, without the NUL character.
     #[serde(default)]
-    #[schema(pattern = "^[^\\u0000]*$")]
+    #[schema(pattern = "^[^\\u0000]*$", max_length = 200)]
     pub name: Option<String>,
     /// `orthogonal` (default) or `central`.
     #[serde(default)]
@@ -66,6 +66,16 @@ pub struct NewSite {
     /// Where the site's warnings apply (the area of its CAP messages; default: the site's name).
     #[serde(default)]
     pub area: Option<crate::cap::SiteArea>,
+    /// What the staff on call are to do when the site alerts (plain text, at most 2000
+    /// characters), shown in the headline of every page of the site.
+    #[serde(default)]
+    #[schema(max_length = 2000)]
+    pub response_text: Option<String>,
+    /// Whom to call, one entry each (`"Geotechnical engineer on call: +81 …"`; at most 20 of 1 to
+    /// 200 characters), shown under the response text.
+    #[serde(default)]
+    #[schema(max_items = 20)]
+    pub contacts: Option<Vec<String>>,
 }
 
 /// A stored site.
@@ -94,6 +104,10 @@ pub struct Site {
     pub time_zone: Option<String>,
     /// Where the site's warnings apply; `null`: not configured.
     pub area: Option<crate::cap::SiteArea>,
+    /// What the staff on call are to do; `null`: not configured.
+    pub response_text: Option<String>,
+    /// Whom to call (empty: not configured).
+    pub contacts: Vec<String>,
     /// Creation time (RFC 3339).
     pub created_at: String,
 }
@@ -112,6 +126,8 @@ struct SiteRow {
     process_noise: Option<f64>,
     time_zone: Option<String>,
     area: Option<String>,
+    response_text: Option<String>,
+    contacts: Option<String>,
     created_at: String,
 }
 
@@ -130,6 +146,13 @@ impl TryFrom<SiteRow> for Site {
             process_noise: r.process_noise,
             time_zone: r.time_zone,
             area: r.area.as_deref().map(serde_json::from_str).transpose()?,
+            response_text: r.response_text,
+            contacts: r
+                .contacts
+                .as_deref()
+                .map(serde_json::from_str)
+                .transpose()?
+                .unwrap_or_default(),
             created_at: display_timestamp(&r.created_at),
         })
     }
@@ -137,7 +160,7 @@ impl TryFrom<SiteRow> for Site {
 
 const COLUMNS: &str =
     "id, name, model, schedule_hours, confidence, alert_rules, reference_epoch, reference_epochs, \
-     process_noise, time_zone, area, created_at";
+     process_noise, time_zone, area, response_text, contacts, created_at";
 
 /// Reads one site.
 pub async fn get(db: impl AnyExecutor<'_>, id: &str) -> Result<Option<Site>, StoreError> {
@@ -215,12 +238,18 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
     let confidence = site.confidence.unwrap_or(0.99);
     let reference_epochs = site.reference_epochs.unwrap_or(1);
     let area = site.area.as_ref().map(serde_json::to_string).transpose()?;
+    let contacts = site
+        .contacts
+        .as_ref()
+        .filter(|c| !c.is_empty())
+        .map(serde_json::to_string)
+        .transpose()?;
     if create {
         let at = now(&mut *db).await?;
         sqlx::query(
             "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, \
-             reference_epochs, process_noise, time_zone, area, created_at, analysis_version) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
+             reference_epochs, process_noise, time_zone, area, response_text, contacts, created_at, \
+             analysis_version) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)",
         )
         .bind(&site.id)
         .bind(name)
@@ -232,6 +261,8 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(site.process_noise)
         .bind(site.time_zone.as_deref())
         .bind(area.as_deref())
+        .bind(site.response_text.as_deref())
+        .bind(contacts.as_deref())
         .bind(&at)
         .bind(ANALYSIS_VERSION)
         .execute(db)
@@ -239,7 +270,8 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
     } else {
         sqlx::query(
             "UPDATE sites SET name = $1, model = $2, schedule_hours = $3, confidence = $4, alert_rules = $5, \
-             reference_epochs = $6, process_noise = $7, time_zone = $8, area = $9 WHERE id = $10",
+             reference_epochs = $6, process_noise = $7, time_zone = $8, area = $9, response_text = $10, \
+             contacts = $11 WHERE id = $12",
         )
         .bind(name)
         .bind(model)
@@ -250,6 +282,8 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(site.process_noise)
         .bind(site.time_zone.as_deref())
         .bind(area.as_deref())
+        .bind(site.response_text.as_deref())
+        .bind(contacts.as_deref())
         .bind(&site.id)
         .execute(db)
         .await?;

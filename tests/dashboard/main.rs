@@ -12,3 +12,4 @@ mod watch_support;
 mod browser;
 mod cap_feed;
 mod pages;
+mod security;

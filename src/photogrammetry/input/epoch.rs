@@ -212,9 +212,13 @@ impl EpochProblem {
     }
 }
 
-/// True when `s` is a valid user identifier (`[A-Za-z0-9._-]{1,64}`).
+/// True when `s` is a valid user identifier (`[A-Za-z0-9._-]{1,64}`, other than `.` and `..`:
+/// ids are path segments of the API and the dashboard, where those two name the folder itself or
+/// its parent and no URL could reach the thing they named).
 pub fn is_valid_identifier(s: &str) -> bool {
     !s.is_empty()
+        && s != "."
+        && s != ".."
         && s.len() <= 64
         && s.chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '.' || c == '_' || c == '-')
