@@ -42,8 +42,10 @@ pub async fn alert(
         }
     };
     let v = viewer(access.as_deref());
+    let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
     let body = html! {
         h1 { (level_badge(Some(a.level))) " " (a.rule) " · " (subject) }
+        (headline)
         p { (a.message) }
         p { "state: " (a.state) " · highest level: " (a.peak_level.as_str()) }
         h2 { "History" }

@@ -75,8 +75,10 @@ pub async fn epoch(
         .collect();
     let v = viewer(access.as_deref());
     let s = seg(&site.id);
+    let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
     let body = html! {
         h1 { "Epoch " (item.id) " · " (when(&item.observed_at, site.time_zone.as_deref())) }
+        (headline)
         table.report {
             tr { th { "status" } td { (item.status) } }
             tr { th { "model" } td { (item.model) } }

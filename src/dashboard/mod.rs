@@ -28,6 +28,7 @@ pub mod downsample;
 pub(crate) mod epoch_images;
 pub(crate) mod epoch_page;
 pub(crate) mod face_plan;
+pub(crate) mod headline;
 pub mod image_preview;
 pub(crate) mod layout;
 pub(crate) mod local_time;

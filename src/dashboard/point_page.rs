@@ -44,8 +44,10 @@ pub async fn point(
     let data = format!("/dashboard/plot/{s}/{n}");
     let csv = format!("/api/v1/sites/{s}/points/{n}/displacements?format=csv");
     let v = viewer(access.as_deref());
+    let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
     let body = html! {
         h1 { (p.name) " " (level_badge(level)) }
+        (headline)
         p {
             (p.role)
             @if let Some(g) = &p.group { " · group " (g) }

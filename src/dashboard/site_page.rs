@@ -79,8 +79,10 @@ pub async fn site(
     let v = viewer(access.as_deref());
     let site_href = format!("/sites/{}", seg(&site.id));
     let tz = site.time_zone.as_deref();
+    let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
     let body = html! {
         h1 { (site.name) " " small { (site.id) } }
+        (headline)
         p {
             a href={ (site_href) "/report" } { "Campaign report" } " (printable; add " code { "?from=YYYY-MM-DD&to=YYYY-MM-DD" } " for a period) · "
             a href={ "/api/v1/cap/feed.atom?site=" (seg(&site.id)) } { "public-warning feed (CAP 1.2, Atom)" }

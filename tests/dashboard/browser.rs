@@ -26,7 +26,7 @@ const CHROMIUM: &str = "/usr/bin/chromium";
 const DRIVER: &str = "/usr/bin/chromedriver";
 const ELEMENT: &str = "element-6066-11e4-a52e-4f735466cecf";
 
-struct Driver {
+pub(crate) struct Driver {
     child: Child,
     base: String,
     session: String,
@@ -36,7 +36,7 @@ struct Driver {
 
 impl Driver {
     /// Types `name` into the acknowledgement form of alert `id`'s row and clicks the button.
-    async fn acknowledge_as(&self, id: &str, name: &str) {
+    pub(crate) async fn acknowledge_as(&self, id: &str, name: &str) {
         let input = self
             .element(&format!("[id=\"alert-{id}\"] input[name=by]"))
             .await;
@@ -55,7 +55,7 @@ impl Driver {
         .await;
     }
 
-    async fn start() -> Option<Driver> {
+    pub(crate) async fn start() -> Option<Driver> {
         if !(Path::new(CHROMIUM).exists() && Path::new(DRIVER).exists()) {
             assert!(
                 std::env::var("CI").as_deref() != Ok("true"),
@@ -113,7 +113,7 @@ impl Driver {
         })
     }
 
-    async fn call(&self, method: reqwest::Method, path: &str, body: Value) -> Value {
+    pub(crate) async fn call(&self, method: reqwest::Method, path: &str, body: Value) -> Value {
         let url = format!("{}/session/{}{}", self.base, self.session, path);
         let mut req = self.client.request(method, url);
         if !body.is_null() {
@@ -124,12 +124,12 @@ impl Driver {
         r["value"].clone()
     }
 
-    async fn goto(&self, url: &str) {
+    pub(crate) async fn goto(&self, url: &str) {
         self.call(reqwest::Method::POST, "/url", json!({"url": url}))
             .await;
     }
 
-    async fn script(&self, script: &str) -> Value {
+    pub(crate) async fn script(&self, script: &str) -> Value {
         self.call(
             reqwest::Method::POST,
             "/execute/sync",
@@ -138,7 +138,7 @@ impl Driver {
         .await
     }
 
-    async fn element(&self, css: &str) -> String {
+    pub(crate) async fn element(&self, css: &str) -> String {
         let v = self
             .call(
                 reqwest::Method::POST,
@@ -151,7 +151,7 @@ impl Driver {
 
     /// Saves a PNG of the viewport as `name` in `$CLIFFWATCH_SCREENSHOTS` (created if missing),
     /// when that is set.
-    async fn screenshot(&self, name: impl AsRef<Path>) {
+    pub(crate) async fn screenshot(&self, name: impl AsRef<Path>) {
         if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
             use base64::Engine;
             let png = self
@@ -166,18 +166,23 @@ impl Driver {
     }
 
     /// Lays pages out as a phone does: 360 × 740 CSS px, device scale 2, mobile.
-    async fn emulate_phone(&self) {
+    pub(crate) async fn emulate_phone(&self) {
+        self.emulate_phone_width(360).await;
+    }
+
+    /// Lays pages out as a phone `width` CSS px wide does (740 px high, device scale 2).
+    pub(crate) async fn emulate_phone_width(&self, width: u32) {
         self.call(
             reqwest::Method::POST,
             "/goog/cdp/execute",
             json!({"cmd": "Emulation.setDeviceMetricsOverride", "params": {
-                "width": 360, "height": 740, "deviceScaleFactor": 2, "mobile": true}}),
+                "width": width, "height": 740, "deviceScaleFactor": 2, "mobile": true}}),
         )
         .await;
     }
 
     /// Ends the WebDriver session (the browser closes).
-    async fn quit(&self) {
+    pub(crate) async fn quit(&self) {
         self.client
             .delete(format!("{}/session/{}", self.base, self.session))
             .send()
@@ -186,7 +191,7 @@ impl Driver {
     }
 
     /// Polls `script` until it returns a truthy value (at most 15 s).
-    async fn wait_for(&self, script: &str) -> Value {
+    pub(crate) async fn wait_for(&self, script: &str) -> Value {
         let t0 = Instant::now();
         loop {
             let v = self.script(script).await;

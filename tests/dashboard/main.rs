@@ -13,3 +13,4 @@ mod browser;
 mod cap_feed;
 mod pages;
 mod security;
+mod headline;

@@ -1,0 +1,180 @@
+//! The headline of a site's pages in Chromium, as the person on call reads it: a point
+//! accelerating to failure raises a time-to-failure alarm, and the headline says so in words,
+//! with the forecast failure time as a date in UTC and in the site's zone (the same instant the
+//! API's series gives: the last epoch plus the filtered time to failure), says that it counts
+//! from the last epoch, how old that epoch is, what to do and whom to call. At 390 px it fits.
+
+use crate::browser::Driver;
+use crate::dashboard_support;
+
+use dashboard_support::service_support::TestServer;
+use dashboard_support::{day, name, POINTS, STABLE};
+use serde_json::{json, Value};
+
+/// `2026-11-17 09:00 UTC · 18:00 JST` (the local date added when it differs), computed here
+/// with chrono-tz rather than through the crate's formatter.
+fn utc_and_tokyo(unix: f64) -> String {
+    let utc = chrono::DateTime::from_timestamp(unix.round() as i64, 0).unwrap();
+    let local = utc.with_timezone(&chrono_tz::Asia::Tokyo);
+    let l = if local.date_naive() == utc.date_naive() {
+        local.format("%H:%M JST")
+    } else {
+        local.format("%Y-%m-%d %H:%M JST")
+    };
+    format!("{} · {l}", utc.format("%Y-%m-%d %H:%M UTC"))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_headline_says_the_worst_alert_its_failure_date_and_what_to_do() {
+    let Some(driver) = Driver::start().await else {
+        return;
+    };
+    let s = TestServer::start(|_| {}).await;
+    let response = "Close the road below the face.\nSend the on-call geologist.";
+    let contacts = [
+        "Geologist on call: +81 90 1234 5678",
+        "Road office: +81 3 0000 0000",
+    ];
+    let (st, e) = s
+        .post(
+            "/api/v1/sites",
+            &json!({"id": "tf", "name": "Tanba face", "time_zone": "Asia/Tokyo", "model": "orthogonal",
+                "response_text": response, "contacts": contacts, "schedule_hours": 24.0,
+                "alert_rules": [
+                    {"level": "watch", "metric": "displacement_mm", "above": 5.0, "clear_below": 4.0},
+                    {"level": "alarm", "metric": "time_to_failure_hours", "below": 200.0}]}),
+        )
+        .await;
+    assert_eq!(st, 201, "{e}");
+    for i in 0..STABLE {
+        let r = s
+            .client
+            .put(s.url(&format!("/api/v1/sites/tf/points/{}", name(i))))
+            .json(&json!({"role": "stable"}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200);
+    }
+    // d(t) = −v0·t_f·ln(1 − t/t_f): 1 mm/day at first, failure at t_f = 16 days
+    for k in 0..14 {
+        let mm = -16.0 * (1.0 - k as f64 / 16.0).ln();
+        let body = dashboard_support::service_support::synthetic_epoch(
+            4,
+            POINTS,
+            &day(k),
+            300 + k as u64,
+            mm,
+            STABLE,
+        );
+        let (st, answer) = s.upload("tf", &body).await;
+        assert_eq!(st, 201, "epoch {k}: {answer}");
+    }
+    let (_, open) = s.get("/api/v1/alerts?site=tf&state=open").await;
+    let alarmed: Vec<String> = open["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["level"] == "alarm" && a["rule"] == "time_to_failure_hours")
+        .map(|a| a["point"].as_str().unwrap().to_string())
+        .collect();
+    assert!(!alarmed.is_empty(), "a time-to-failure alarm: {open}");
+
+    driver.goto(&s.url("/sites/tf")).await;
+    let what = driver
+        .script("return document.querySelector('section.headline .what').textContent")
+        .await;
+    let what = what.as_str().unwrap().to_string();
+    eprintln!("headline: {what}");
+    // The words: level, subject, metric.
+    let subject = what
+        .strip_prefix("ALARM · point ")
+        .and_then(|r| r.split(' ').next())
+        .unwrap_or_else(|| panic!("{what}"));
+    assert!(
+        alarmed.iter().any(|p| p == subject),
+        "{subject} of {alarmed:?}"
+    );
+    assert!(what.contains(" · time to failure "), "{what}");
+    // The failure date: the subject's last epoch plus its filtered time to failure, as the
+    // API gives them, in UTC and in Tokyo, with its interval; counted from that epoch.
+    let (_, series) = s
+        .get(&format!(
+            "/api/v1/sites/tf/points/{subject}/displacements?limit=1000"
+        ))
+        .await;
+    let last: &Value = series["items"].as_array().unwrap().last().unwrap();
+    let t0 = chrono::DateTime::parse_from_rfc3339(last["observed_at"].as_str().unwrap())
+        .unwrap()
+        .timestamp() as f64;
+    let hours = last["f_time_to_failure_hours"]
+        .as_f64()
+        .expect("a forecast");
+    let sigma = last["sigma_f_time_to_failure_hours"].as_f64().unwrap();
+    let expected = utc_and_tokyo(t0 + hours * 3600.0);
+    assert!(
+        what.contains(&format!("{hours:.0} ± {sigma:.0} h")),
+        "{hours} ± {sigma}: {what}"
+    );
+    assert!(
+        what.contains(&format!("failure expected {expected} (±2σ: ")),
+        "{expected}: {what}"
+    );
+    let upper = utc_and_tokyo(t0 + (hours + 2.0 * sigma) * 3600.0);
+    assert!(what.contains(&format!(" to {upper})")), "{upper}: {what}");
+    assert!(
+        what.contains(&format!(
+            "counted from the last epoch ({}), not from now",
+            utc_and_tokyo(t0)
+        )),
+        "{what}"
+    );
+    // The truth (day 16) is inside the interval the reader is given.
+    let truth = chrono::DateTime::parse_from_rfc3339(&day(16))
+        .unwrap()
+        .timestamp() as f64;
+    assert!(
+        (t0 + (hours - 2.0 * sigma) * 3600.0) <= truth
+            && truth <= t0 + (hours + 2.0 * sigma) * 3600.0,
+        "truth {truth} outside {hours} ± 2·{sigma} h from {t0}"
+    );
+    // The last epoch's age, the response text (its line break kept) and the contacts.
+    let rest = driver
+        .script("var h = document.querySelector('section.headline'); return [h.querySelector('.last-epoch').textContent, h.querySelector('.response p').innerText, Array.from(h.querySelectorAll('.contacts li')).map(function (l) { return l.textContent; })]")
+        .await;
+    let epoch_line = rest[0].as_str().unwrap();
+    assert!(
+        epoch_line.starts_with(&format!("Last epoch {}, ", utc_and_tokyo(t0)))
+            && epoch_line.contains(" d ")
+            && epoch_line.contains(" ago")
+            && epoch_line.contains("overdue"),
+        "{epoch_line}"
+    );
+    assert_eq!(rest[1], json!(response));
+    assert_eq!(rest[2], json!(contacts));
+    // The point's page carries the same headline; its link leads to the subject.
+    driver.screenshot("headline-desk.png").await;
+    driver
+        .goto(&s.url(&format!("/sites/tf/points/{}", name(0))))
+        .await;
+    let again = driver
+        .script("return document.querySelector('section.headline .what').textContent")
+        .await;
+    assert_eq!(
+        again.as_str().unwrap(),
+        what,
+        "same headline on a point page"
+    );
+    // A 390 px phone: the headline and the site page fit without scrolling sideways.
+    driver.emulate_phone_width(390).await;
+    driver.goto(&s.url("/sites/tf")).await;
+    let width = driver
+        .script("return [window.innerWidth, document.documentElement.scrollWidth, document.querySelector('section.headline').getBoundingClientRect().right]")
+        .await;
+    assert_eq!(width[0], json!(390), "{width}");
+    assert!(width[1].as_f64().unwrap() <= 390.0, "{width}");
+    assert!(width[2].as_f64().unwrap() <= 390.0, "{width}");
+    driver.screenshot("headline-phone-390.png").await;
+    driver.quit().await;
+    s.stop().await;
+}
