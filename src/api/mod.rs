@@ -93,6 +93,7 @@ pub fn router(state: AppState) -> Router {
             "/api/v1/webhooks/{id}",
             axum::routing::delete(webhooks::delete),
         )
+        .route("/api/v1/webhooks/{id}/test", post(webhooks::test))
         .merge(crate::dashboard::routes())
         .fallback(|| async { error::ApiError::not_found("no such endpoint") })
         .layer(axum::middleware::from_fn_with_state(
