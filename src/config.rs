@@ -89,6 +89,10 @@ pub struct Config {
     /// `max_retry_after_seconds`).
     #[serde(default)]
     pub webhook_retry: crate::webhooks::RetryPolicy,
+    /// How often every open alert is posted again to each `alertmanager_api_v2` endpoint, in
+    /// seconds (1 to 3600; Alertmanager holds a posted alert for 4 periods).
+    #[serde(default = "default_alertmanager_resend_secs")]
+    pub alertmanager_resend_secs: f64,
     /// How often sites with `schedule_hours` are checked for an overdue campaign, in seconds.
     #[serde(default = "default_overdue_check_secs")]
     pub overdue_check_secs: u64,
@@ -131,6 +135,9 @@ fn default_webhook_poll_ms() -> u64 {
 }
 fn default_webhook_timeout_secs() -> u64 {
     10
+}
+fn default_alertmanager_resend_secs() -> f64 {
+    crate::webhooks::DEFAULT_RESEND_SECS as f64
 }
 fn default_overdue_check_secs() -> u64 {
     300
@@ -342,6 +349,12 @@ impl Config {
             return Err(ConfigError::Invalid(format!(
                 "upload_queue_secs {}: 0 to request_timeout_secs ({})",
                 self.upload_queue_secs, self.request_timeout_secs
+            )));
+        }
+        if !(1.0..=3600.0).contains(&self.alertmanager_resend_secs) {
+            return Err(ConfigError::Invalid(format!(
+                "alertmanager_resend_secs {}: 1 to 3600 seconds",
+                self.alertmanager_resend_secs
             )));
         }
         if let Some(u) = &self.public_url {

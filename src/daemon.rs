@@ -1,7 +1,8 @@
 //! The daemon: opens the database, applies the configuration, and runs its parts under one
 //! shutdown signal ([`crate::shutdown`]): the HTTP server ([`crate::http`]: the API and the dashboard), the
 //! watched directory ([`crate::watch`]), the webhook delivery worker
-//! ([`service::webhook_delivery`]), the campaign check ([`service::overdue`]), the deliveries'
+//! ([`service::webhook_delivery`]), the Alertmanager re-posts ([`service::alertmanager_resend`]),
+//! the campaign check ([`service::overdue`]), the deliveries'
 //! retention ([`service::retention`]) and, on SQLite, the WAL checkpoints
 //! ([`store::wal_checkpoint`]).
 //!
@@ -64,6 +65,7 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
         busy_timeout: Duration::from_millis(config.busy_timeout_ms),
         write_connections: config.database_write_connections,
     };
+    crate::webhooks::set_public_url(config.public_url.clone());
     let url = config.database_url();
     let store = Store::connect(&url, &options).await?;
     tracing::info!(database = %store::redacted_url(&url), backend = ?store.backend(), "database open");
@@ -199,6 +201,11 @@ impl Bound {
         parts.push(tokio::spawn(service::webhook_delivery::run(
             store.clone(),
             service::webhook_delivery::WorkerConfig::from_config(&state.config),
+            stop.clone(),
+        )));
+        parts.push(tokio::spawn(service::alertmanager_resend::run(
+            store.clone(),
+            service::alertmanager_resend::ResendConfig::from_config(&state.config),
             stop.clone(),
         )));
         parts.push(tokio::spawn(service::overdue::run(

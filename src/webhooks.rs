@@ -8,21 +8,49 @@
 //!   [`crate::analysis::AlertEvent`], per-endpoint level filtering, the Alertmanager webhook body (v4) and the
 //!   Alertmanager API v2 body (`POST /api/v2/alerts`); [`render`] gives the body of an endpoint's
 //!   [`PayloadFormat`].
+//! - [`alertmanager`]: what Alertmanager is to hold of each alert now (every level up to the
+//!   current one firing, `endsAt` a few re-post periods ahead), Alertmanager's fingerprint, the
+//!   links to the alert's dashboard page.
+//! - [`test_event`]: the body of a test notification in each format.
 //! - [`retry`]: exponential backoff with jitter, `Retry-After` as a floor, attempt limit.
 //! - [`deliver`]: one signed HTTP POST and the classification of its outcome (delivered, retry after,
 //!   gone on 410 → disable the endpoint, failed). The outbox worker (the service) stores the message id and
 //!   reuses it on every retry.
 
+pub(crate) mod alertmanager;
 pub(crate) mod deliver;
 pub(crate) mod payload;
 pub(crate) mod retry;
 pub(crate) mod sign;
+pub(crate) mod test_event;
 
+pub use alertmanager::{
+    alert_page_url, fingerprint, labels, postable_alerts, resend_body, CurrentAlert, HOLD_PERIODS,
+};
 pub use deliver::{client, deliver, loggable_origin, DeliveryOutcome};
 pub use payload::{
-    accepts, alertmanager_alerts, alertmanager_body, message_id, render, AlertmanagerAlert,
-    AlertmanagerBody, PayloadFormat, PostableAlert, WebhookData, WebhookEndpoint, WebhookPayload,
-    ALERTMANAGER_FIRING_DAYS,
+    accepts, alertmanager_alerts, alertmanager_body, current_of_event, message_id, render,
+    AlertmanagerAlert, AlertmanagerBody, PayloadFormat, PostableAlert, WebhookData,
+    WebhookEndpoint, WebhookPayload, DEFAULT_RESEND_SECS,
 };
 pub use retry::{backoff_delay, next_retry, parse_retry_after, RetryPolicy};
 pub use sign::{sign, signing_key, verify, WebhookError};
+pub use test_event::{test_body, TEST_EVENT};
+
+/// Where people reach the dashboard (`public_url` of the configuration), for the links to an
+/// alert's page in the bodies written with each alert event: set once by the daemon at start
+/// ([`set_public_url`]), read by the alert outcome ([`public_url`]). A process-wide setting
+/// because the events are written by every use case that changes alerts.
+static PUBLIC_URL: std::sync::RwLock<Option<String>> = std::sync::RwLock::new(None);
+
+/// Sets the public URL the event bodies link to (`None`: no links).
+pub fn set_public_url(url: Option<String>) {
+    if let Ok(mut u) = PUBLIC_URL.write() {
+        *u = url;
+    }
+}
+
+/// The public URL the event bodies link to, as set by [`set_public_url`].
+pub fn public_url() -> Option<String> {
+    PUBLIC_URL.read().ok().and_then(|u| u.clone())
+}

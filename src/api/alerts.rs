@@ -27,7 +27,7 @@ pub struct AlertParams {
 }
 
 /// `GET /api/v1/alerts`: newest first.
-#[utoipa::path(get, path = "/api/v1/alerts", params(("site" = Option<String>, Query), ("state" = Option<String>, Query, pattern = "^(open|acknowledged|resolved)$"), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/alerts", operation_id = "list_alerts", params(("site" = Option<String>, Query), ("state" = Option<String>, Query, pattern = "^(open|acknowledged|resolved)$"), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "alerts, newest first", body = crate::api::list::Page<crate::store::alerts::Alert>),
         (status = 400, description = "bad state, page size or cursor", body = crate::api::schemas::ErrorBody),
         (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
@@ -95,7 +95,7 @@ const _: () = assert!(
 /// `POST /api/v1/alerts/{id}/ack`: acknowledges an open alert; queues an `alert.acknowledged`
 /// webhook event. An acknowledgement given stands: acknowledging again is 409 until an
 /// escalation opens the alert again.
-#[utoipa::path(post, path = "/api/v1/alerts/{id}/ack", request_body = AckBody, params(("id" = String, Path)),
+#[utoipa::path(post, path = "/api/v1/alerts/{id}/ack", operation_id = "acknowledge_alert", request_body = AckBody, params(("id" = String, Path)),
     responses((status = 200, body = crate::store::alerts::Alert),
               (status = 400, description = "not JSON", body = crate::api::schemas::ErrorBody),
               (status = 404, description = "unknown alert", body = crate::api::schemas::ErrorBody),
@@ -122,7 +122,7 @@ pub struct AlertHistory {
 }
 
 /// `GET /api/v1/alerts/{id}/events`: the alert's history, oldest first.
-#[utoipa::path(get, path = "/api/v1/alerts/{id}/events", params(("id" = String, Path)),
+#[utoipa::path(get, path = "/api/v1/alerts/{id}/events", operation_id = "list_alert_events", params(("id" = String, Path)),
     responses((status = 200, description = "the alert's events, oldest first", body = AlertHistory),
               (status = 404, description = "unknown alert", body = crate::api::schemas::ErrorBody)))]
 pub async fn events(

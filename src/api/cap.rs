@@ -59,6 +59,18 @@ fn stable_uuid(state: &AppState, what: &str) -> uuid::Uuid {
     )
 }
 
+/// The CAP module's view of a stored alert (its own input type: `cap` knows nothing of the
+/// store).
+fn subject(a: &Alert) -> cap::Subject<'_> {
+    cap::Subject {
+        id: &a.id,
+        site: &a.site,
+        point: a.point.as_deref(),
+        group: a.group.as_deref(),
+        rule: &a.rule,
+    }
+}
+
 /// The alert's CAP thread.
 async fn thread_of(state: &AppState, alert: &Alert) -> Result<Vec<CapStep>, StoreError> {
     Ok(cap::steps(
@@ -68,9 +80,9 @@ async fn thread_of(state: &AppState, alert: &Alert) -> Result<Vec<CapStep>, Stor
 
 /// `GET /api/v1/cap/alerts/{id}.xml`: the alert's latest CAP 1.2 message;
 /// `{id}.{n}.xml`: message `n` of its thread (the identifiers its `references` name).
-#[utoipa::path(get, path = "/api/v1/cap/alerts/{file}", params(("file" = String, Path, description = "`<alert id>.xml` (the latest message) or `<alert id>.<n>.xml` (message n)", pattern = r"^[^/]+\.xml$")),
+#[utoipa::path(get, path = "/api/v1/cap/alerts/{file}", operation_id = "get_cap_message", params(("file" = String, Path, description = "`<alert id>.xml` (the latest message) or `<alert id>.<n>.xml` (message n)", pattern = r"^[^/]+\.xml$")),
     responses((status = 200, description = "a CAP 1.2 message", content_type = "application/cap+xml", body = String),
-        (status = 404, description = "unknown alert or message, or an alert that never reached warning", body = crate::api::schemas::ErrorBody)))]
+        (status = 404, description = "unknown alert or message, an alert that never reached warning, or a datum or system alert (not published)", body = crate::api::schemas::ErrorBody)))]
 pub async fn message(
     State(state): State<AppState>,
     ApiPath(file): ApiPath<String>,
@@ -99,6 +111,12 @@ pub async fn message(
     let site = sites::get(state.store.reader(), &alert.site)
         .await?
         .ok_or_else(|| ApiError::internal("the alert's site vanished"))?;
+    if !cap::is_public_rule(&alert.rule) {
+        return Err(ApiError::not_found(format!(
+            "alert '{id}' is a {} alert: the CAP feed carries movement alerts only",
+            alert.rule
+        )));
+    }
     let thread = thread_of(&state, &alert).await?;
     let step = match seq {
         Some(n) => thread.iter().find(|s| s.seq == n).ok_or_else(|| {
@@ -113,13 +131,13 @@ pub async fn message(
             ))
         })?,
     };
-    let body = cap::cap_message(&(&alert).into(), &context(&state, &site), &thread, step);
+    let body = cap::cap_message(&subject(&alert), &context(&state, &site), &thread, step);
     Ok(([(header::CONTENT_TYPE, CAP_XML)], body))
 }
 
 /// `GET /api/v1/cap/feed.atom`: an Atom feed with one entry per alert that reached warning or
 /// alarm, linking its latest CAP message, most recently sent first.
-#[utoipa::path(get, path = "/api/v1/cap/feed.atom", params(("site" = Option<String>, Query, description = "only this site"), ("limit" = Option<i64>, Query, minimum = 1, maximum = 500, description = "entries (default 100)")),
+#[utoipa::path(get, path = "/api/v1/cap/feed.atom", operation_id = "get_cap_feed", params(("site" = Option<String>, Query, description = "only this site"), ("limit" = Option<i64>, Query, minimum = 1, maximum = 500, description = "entries (default 100)")),
     responses((status = 200, description = "an Atom feed", content_type = "application/atom+xml", body = String),
         (status = 400, description = "bad query", body = crate::api::schemas::ErrorBody),
         (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
@@ -158,7 +176,7 @@ pub async fn feed(
         };
         entries.push(FeedEntry {
             id: format!("urn:uuid:{}", stable_uuid(&state, &alert.id)),
-            title: cap::headline(&alert.into(), &site.name, &step),
+            title: cap::headline(&subject(alert), &site.name, &step),
             summary: format!(
                 "{} ({}) · {} · {}",
                 step.msg_type.as_str(),

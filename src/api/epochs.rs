@@ -76,7 +76,7 @@ pub struct UploadParams {
 
 /// `POST /api/v1/sites/{site}/epochs`: validates, adjusts and stores an epoch; 201 with its
 /// summary, 200 when the same body was stored before, 409 for another body at the same time.
-#[utoipa::path(post, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("observed_at" = Option<String>, Query, description = "CSV uploads only"), ("camera" = Option<String>, Query, pattern = "^[A-Za-z0-9._-]{1,64}$", description = "CSV uploads only: the camera of the images, needed when the site has several")),
+#[utoipa::path(post, path = "/api/v1/sites/{site}/epochs", operation_id = "upload_epoch", params(("site" = String, Path), ("observed_at" = Option<String>, Query, description = "CSV uploads only"), ("camera" = Option<String>, Query, pattern = "^[A-Za-z0-9._-]{1,64}$", description = "CSV uploads only: the camera of the images, needed when the site has several")),
     request_body(description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)", content((crate::photogrammetry::EpochInput = "application/json"), (String = "text/csv"))),
     responses((status = 201, description = "stored; the epoch summary", body = crate::api::schemas::EpochSummary), (status = 200, description = "the same body was stored before", body = crate::api::schemas::EpochSummary),
         (status = 400, description = "not JSON/CSV", body = crate::api::schemas::ErrorBody), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 409, description = "another body for this observed_at, or a CSV upload to a site without cameras yet (upload a JSON epoch first)", body = crate::api::schemas::ErrorBody),
@@ -239,7 +239,7 @@ pub async fn summary(
 }
 
 /// `GET /api/v1/sites/{site}/epochs`: newest first.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/epochs", params(("site" = String, Path), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/sites/{site}/epochs", operation_id = "list_epochs", params(("site" = String, Path), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "epochs, newest first", body = crate::api::list::Page<crate::store::epochs::EpochListItem>), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
     State(state): State<AppState>,
@@ -258,7 +258,7 @@ pub async fn list(
 }
 
 /// `GET /api/v1/sites/{site}/epochs/{epoch}`: the full report with residuals per observation.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/epochs/{epoch}", params(("site" = String, Path), ("epoch" = i64, Path)),
+#[utoipa::path(get, path = "/api/v1/sites/{site}/epochs/{epoch}", operation_id = "get_epoch", params(("site" = String, Path), ("epoch" = i64, Path)),
     responses((status = 200, description = "the epoch summary with the full report", body = crate::api::schemas::EpochSummary), (status = 404, description = "unknown site or epoch", body = crate::api::schemas::ErrorBody)))]
 pub async fn get_one(
     State(state): State<AppState>,

@@ -148,7 +148,7 @@ fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
 
 /// `PUT /api/v1/sites/{site}/groups/{group}`: declares (or replaces) a block group and recomputes
 /// the site's series and alerts in the same transaction.
-#[utoipa::path(put, path = "/api/v1/sites/{site}/groups/{group}", request_body = GroupBody,
+#[utoipa::path(put, path = "/api/v1/sites/{site}/groups/{group}", operation_id = "put_group", request_body = GroupBody,
     params(("site" = String, Path), ("group" = String, Path, pattern = "^[A-Za-z0-9._-]{1,64}$")),
     responses((status = 200, body = Group),
               (status = 400, description = "not JSON", body = crate::api::schemas::ErrorBody),
@@ -170,7 +170,7 @@ pub async fn put(
 
 /// `GET /api/v1/sites/{site}/groups`: the site's groups by name, a page of the contract's list
 /// shape.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/groups", params(("site" = String, Path), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/sites/{site}/groups", operation_id = "list_groups", params(("site" = String, Path), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "groups by name", body = Page<Group>),
               (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
@@ -198,7 +198,7 @@ pub async fn list(
 }
 
 /// `GET /api/v1/sites/{site}/groups/{group}`: one group.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/groups/{group}", params(("site" = String, Path), ("group" = String, Path)),
+#[utoipa::path(get, path = "/api/v1/sites/{site}/groups/{group}", operation_id = "get_group", params(("site" = String, Path), ("group" = String, Path)),
     responses((status = 200, body = Group),
               (status = 404, description = "unknown site or group", body = crate::api::schemas::ErrorBody)))]
 pub async fn get_one(
@@ -215,7 +215,7 @@ pub async fn get_one(
 /// `GET /api/v1/sites/{site}/groups/{group}/motion`: the block's motion series, oldest first, in
 /// the form of a point's series (`point` names the group): the translation of the block with its
 /// covariance, its length, velocity, time to failure and the filtered values.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/groups/{group}/motion",
+#[utoipa::path(get, path = "/api/v1/sites/{site}/groups/{group}/motion", operation_id = "get_group_motion",
     params(("site" = String, Path), ("group" = String, Path), ("from" = Option<String>, Query), ("to" = Option<String>, Query),
            ("format" = Option<String>, Query, description = "json or csv"), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "the block's motion series, oldest first: a page (JSON) or the whole range (CSV, columns as the point series)", content((crate::api::list::Page<crate::store::displacements::Displacement> = "application/json"), (String = "text/csv"))),

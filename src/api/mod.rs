@@ -66,4 +66,5 @@ pub fn routes() -> Router<AppState> {
             "/api/v1/webhooks/{id}",
             axum::routing::delete(webhooks::delete),
         )
+        .route("/api/v1/webhooks/{id}/test", post(webhooks::test))
 }

@@ -45,7 +45,7 @@ pub struct PointItem {
 }
 
 /// `GET /api/v1/sites/{site}/points`: every point (by name) with its latest state.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/points", params(("site" = String, Path), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/sites/{site}/points", operation_id = "list_points", params(("site" = String, Path), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "points by name", body = crate::api::list::Page<PointItem>), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn list(
     State(state): State<AppState>,
@@ -109,7 +109,7 @@ fn along(d: &Displacement, direction: Option<[f64; 3]>) -> Option<f64> {
 /// `PUT /api/v1/sites/{site}/points/{point}`: sets role, group, direction of interest (creates the
 /// point when new, so roles can be set before the first epoch). A change on a site with epochs
 /// recomputes its series and alerts in the same transaction, as a reference change does.
-#[utoipa::path(put, path = "/api/v1/sites/{site}/points/{point}", request_body = PointSettings, params(("site" = String, Path), ("point" = String, Path)),
+#[utoipa::path(put, path = "/api/v1/sites/{site}/points/{point}", operation_id = "update_point", request_body = PointSettings, params(("site" = String, Path), ("point" = String, Path)),
     responses((status = 200, body = crate::store::points::Point), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid settings", body = crate::api::schemas::ErrorBody)))]
 pub async fn update(
     State(state): State<AppState>,
@@ -195,7 +195,7 @@ impl SeriesParams {
 pub use crate::store::series::CSV_HEADER;
 
 /// `GET /api/v1/sites/{site}/points/{point}/displacements`: the time series, oldest first.
-#[utoipa::path(get, path = "/api/v1/sites/{site}/points/{point}/displacements",
+#[utoipa::path(get, path = "/api/v1/sites/{site}/points/{point}/displacements", operation_id = "list_point_displacements",
     params(("site" = String, Path), ("point" = String, Path), ("from" = Option<String>, Query), ("to" = Option<String>, Query),
            ("format" = Option<String>, Query, description = "json or csv"), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "the time series, oldest first: a page (JSON) or the whole range (CSV, columns as CSV_HEADER)", content((crate::api::list::Page<crate::store::displacements::Displacement> = "application/json"), (String = "text/csv"))), (status = 400, description = "bad time bound, format or cursor", body = crate::api::schemas::ErrorBody), (status = 404, description = "unknown site or point", body = crate::api::schemas::ErrorBody)))]

@@ -194,7 +194,7 @@ pub fn check_site(s: &NewSite) -> Result<(), ApiError> {
 }
 
 /// `POST /api/v1/sites`: creates a site (201), or 409 when the id exists.
-#[utoipa::path(post, path = "/api/v1/sites", request_body = NewSite,
+#[utoipa::path(post, path = "/api/v1/sites", operation_id = "create_site", request_body = NewSite,
     responses((status = 201, body = Site), (status = 409, description = "exists", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid", body = crate::api::schemas::ErrorBody)))]
 pub async fn create(
     State(state): State<AppState>,
@@ -217,7 +217,7 @@ pub async fn create(
 }
 
 /// `GET /api/v1/sites`: every site, newest first.
-#[utoipa::path(get, path = "/api/v1/sites", params(("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
+#[utoipa::path(get, path = "/api/v1/sites", operation_id = "list_sites", params(("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
     responses((status = 200, description = "sites", body = crate::api::list::Page<crate::store::sites::Site>)))]
 pub async fn list(
     State(state): State<AppState>,
@@ -246,7 +246,7 @@ pub async fn list(
 }
 
 /// `GET /api/v1/sites/{site}`.
-#[utoipa::path(get, path = "/api/v1/sites/{site}", params(("site" = String, Path)),
+#[utoipa::path(get, path = "/api/v1/sites/{site}", operation_id = "get_site", params(("site" = String, Path)),
     responses((status = 200, body = Site), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
 pub async fn get_one(
     State(state): State<AppState>,
@@ -279,7 +279,7 @@ pub struct ReferenceBody {
 }
 
 /// `PUT /api/v1/sites/{site}/reference`: sets the reference epoch and recomputes displacements.
-#[utoipa::path(put, path = "/api/v1/sites/{site}/reference", request_body = ReferenceBody, params(("site" = String, Path)),
+#[utoipa::path(put, path = "/api/v1/sites/{site}/reference", operation_id = "set_site_reference", request_body = ReferenceBody, params(("site" = String, Path)),
     responses((status = 200, body = Site), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody),
         (status = 422, description = "an epoch the site does not have, or a member other than `epoch`", body = crate::api::schemas::ErrorBody)))]
 pub async fn set_reference(

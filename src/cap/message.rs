@@ -4,16 +4,16 @@ use chrono::{DateTime, Duration, Utc};
 
 use super::area::SiteArea;
 use super::xml::{cap_time, escape};
-use crate::analysis::{AlertEventType, AlertLevel};
+use crate::analysis::{AlertEventType, AlertKind, AlertLevel};
 
 /// The message's description: the alert's message, then the measured value against its
 /// threshold and the campaign it was measured at.
 fn description(now: &Snapshot) -> String {
     let mut description = now.message.clone();
     if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
-        description.push_str(&format!("\nMeasured {} {unit}", number(v)));
+        description.push_str(&format!("\nMeasured {}", quantity(v, unit)));
         if let Some(t) = now.threshold {
-            description.push_str(&format!(" (threshold {} {unit})", number(t)));
+            description.push_str(&format!(" (threshold {})", quantity(t, unit)));
         }
         if let Some(o) = &now.observed_at {
             description.push_str(&format!(" at the campaign of {o}"));
@@ -52,7 +52,7 @@ fn parameters(alert: &Subject<'_>, step: &CapStep) -> Vec<(&'static str, String)
     parameters.push(("cliffwatch:level", step.level.to_string()));
     parameters.push(("cliffwatch:rule", alert.rule.into()));
     if let (Some(v), Some(unit)) = (now.value, now.unit.as_deref()) {
-        parameters.push(("cliffwatch:value", format!("{} {unit}", number(v))));
+        parameters.push(("cliffwatch:value", quantity(v, unit)));
     }
     parameters
 }
@@ -205,18 +205,6 @@ pub struct Subject<'a> {
     pub rule: &'a str,
 }
 
-impl<'a> From<&'a crate::store::alerts::Alert> for Subject<'a> {
-    fn from(a: &'a crate::store::alerts::Alert) -> Self {
-        Subject {
-            id: &a.id,
-            site: &a.site,
-            point: a.point.as_deref(),
-            group: a.group.as_deref(),
-            rule: &a.rule,
-        }
-    }
-}
-
 /// What a message needs besides the alert: who sends it, in which status, the site, and where
 /// a person can see more.
 #[derive(Debug, Clone)]
@@ -271,9 +259,40 @@ fn level_word(level: AlertLevel) -> &'static str {
     }
 }
 
+/// A value at most 3 decimals, no trailing zeros, no negative zero (`2.1`, `12`, `0`).
 fn number(v: f64) -> String {
     let r = (v * 1000.0).round() / 1000.0;
-    format!("{r}")
+    if r == 0.0 {
+        "0".into()
+    } else {
+        format!("{r}")
+    }
+}
+
+/// A value with its unit (`12.5 mm`), or the bare number when the unit is empty.
+fn quantity(v: f64, unit: &str) -> String {
+    let unit = unit.trim();
+    if unit.is_empty() {
+        number(v)
+    } else {
+        format!("{} {unit}", number(v))
+    }
+}
+
+/// The rules whose alerts the public feed carries: movement (displacement, velocity, time to
+/// failure, of points and of blocks). Datum and system alerts (`reference_unstable`,
+/// `campaign_overdue`, `analysis_failed`) stay internal: API, dashboard, webhooks.
+pub const PUBLIC_RULES: [AlertKind; 4] = [
+    AlertKind::DisplacementMm,
+    AlertKind::DisplacementAlongMm,
+    AlertKind::VelocityMmPerDay,
+    AlertKind::TimeToFailureHours,
+];
+
+/// Whether alerts of `rule` (its contract name) are published in the CAP feed
+/// ([`PUBLIC_RULES`]).
+pub fn is_public_rule(rule: &str) -> bool {
+    PUBLIC_RULES.iter().any(|k| k.as_str() == rule)
 }
 
 /// The headline of a message, e.g. `Alarm: rock slope movement at Kamo cliff (point 12)`.

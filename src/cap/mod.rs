@@ -1,7 +1,9 @@
-//! The public-warning feed: each warning- or alarm-level alert as an OASIS Common Alerting
+//! The public-warning feed: each warning- or alarm-level movement alert ([`PUBLIC_RULES`]; datum
+//! and system alerts stay internal) as an OASIS Common Alerting
 //! Protocol 1.2 message ([`message`]), and an Atom feed of them ([`feed`]), for the systems
-//! through which authorities re-issue warnings. Pure: the shell ([`crate::api::cap`]) reads the
-//! alert, its recorded changes and its site, and serves what these functions write.
+//! through which authorities re-issue warnings. Pure, with input types of its own
+//! ([`Subject`], [`Change`], [`SiteArea`]): the shell ([`crate::api::cap`]) reads the alert,
+//! its recorded changes and its site, maps them, and serves what these functions write.
 //!
 //! An alert is one CAP thread: the first change that makes it public (raised at, or escalated
 //! to, `warning` or `alarm`) is an `Alert` message, each later change of its public level an
@@ -16,6 +18,6 @@ pub(crate) mod xml;
 pub use area::{Circle, SiteArea};
 pub use feed::{atom_feed, FeedEntry};
 pub use message::{
-    cap_message, headline, identifier, steps, CapContext, CapStep, Change, MsgType, Snapshot,
-    Subject,
+    cap_message, headline, identifier, is_public_rule, steps, CapContext, CapStep, Change, MsgType,
+    Snapshot, Subject, PUBLIC_RULES,
 };

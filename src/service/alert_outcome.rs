@@ -1,6 +1,8 @@
 //! The alert side of a use case, inside its transaction: load the site's alert state, let the
 //! pure rules of [`crate::analysis`] decide, save the state, and write each event's alert row,
-//! outbox message and one pending delivery per endpoint that takes it.
+//! outbox message and one pending delivery per endpoint that takes it (but Alertmanager API v2
+//! endpoints, which the re-post loop keeps up to date from the store:
+//! [`super::alertmanager_resend`]).
 
 use chrono::{DateTime, Utc};
 
@@ -23,7 +25,10 @@ fn state_after(event: &AlertEvent) -> AlertStatus {
 /// snapshot), one outbox message per event (id = [`message_id`], the `webhook-id` of every
 /// retry; payload the contract body) and one pending delivery per endpoint that [`accepts`] it,
 /// holding the body in the endpoint's format when that is not the contract's ([`render`]), so
-/// that every retry sends the same bytes. `start` is the transaction's time on the store's clock
+/// that every retry sends the same bytes. An `alertmanager_api_v2` endpoint gets no delivery:
+/// Alertmanager is told the state, re-derived from the store every period
+/// ([`super::alertmanager_resend`]), not a queue of events whose retries could post a state
+/// that is no longer true. `start` is the transaction's time on the store's clock
 /// ([`store::clock`]): the delivery worker compares due times with that clock (the database's on
 /// PostgreSQL), and the messages' times keep their order whichever node wrote them. Returns how
 /// many alerts were raised.
@@ -36,6 +41,8 @@ pub async fn record_events(
         return Ok(0);
     }
     let hooks = webhooks::enabled_endpoints(&mut *tx).await?;
+    let public_url = crate::webhooks::public_url();
+    let public_url = public_url.as_deref();
     let due = store::timestamp(start);
     let mut raised = 0;
     for (k, e) in events.iter().enumerate() {
@@ -48,7 +55,7 @@ pub async fn record_events(
             continue;
         }
         let created_at = message_time(tx, &e.alert.id, start, k).await?;
-        let body = serde_json::to_string(&WebhookPayload::from_event(e))?;
+        let body = serde_json::to_string(&WebhookPayload::from_event(e, public_url))?;
         let message = outbox::OutboxMessage {
             id: &id,
             event_type: e.event_type.as_str(),
@@ -62,7 +69,8 @@ pub async fn record_events(
         for h in hooks.iter().filter(|h| accepts(h, e)) {
             let own_body = match h.format {
                 PayloadFormat::Standard => None,
-                _ => Some(render(e, h, "")?),
+                PayloadFormat::AlertmanagerApiV2 => continue,
+                PayloadFormat::AlertmanagerWebhook => Some(render(e, h, public_url)?),
             };
             // false: a 410 disabled the endpoint since `hooks` was read
             outbox::queue_delivery(&mut *tx, &id, &h.id, &due, own_body.as_deref()).await?;

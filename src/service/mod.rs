@@ -10,6 +10,7 @@
 //! - [`acknowledge`]: staff acknowledge an alert.
 //! - [`overdue`]: the campaign schedule check.
 //! - [`webhook_delivery`]: the outbox worker.
+//! - [`alertmanager_resend`]: every open alert posted to Alertmanager again each period.
 //! - [`retention`]: finished webhook deliveries and old epochs' observations deleted after
 //!   their retention periods.
 //!
@@ -21,6 +22,7 @@
 pub(crate) mod acknowledge;
 pub mod admission;
 pub(crate) mod alert_outcome;
+pub mod alertmanager_resend;
 pub(crate) mod analysis_inputs;
 pub(crate) mod error;
 pub mod ingest;

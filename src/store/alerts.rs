@@ -71,13 +71,13 @@ pub struct Alert {
 
 /// The columns of [`Alert`]; the peak level is the highest level of its events (the table is
 /// read as `alerts`, unaliased).
-const COLUMNS: &str =
+pub(super) const COLUMNS: &str =
     "id, site_id, point, group_name, points AS points, level, rule, value, threshold, unit, epoch_id, \
     observed_at, message, state, raised_at, updated_at, acknowledged_by, ack_comment, \
     (SELECT o.level FROM webhook_outbox o WHERE o.alert_id = alerts.id AND o.level IS NOT NULL \
      ORDER BY CASE o.level WHEN 'alarm' THEN 3 WHEN 'warning' THEN 2 ELSE 1 END DESC LIMIT 1) AS peak_level";
 
-fn finish(mut rows: Vec<Alert>) -> Vec<Alert> {
+pub(super) fn finish(mut rows: Vec<Alert>) -> Vec<Alert> {
     for a in &mut rows {
         a.points = serde_json::from_str(&a.points_json).unwrap_or_default();
         let peak = a.peak_level_text.as_deref().and_then(|l| l.parse().ok());
@@ -507,8 +507,8 @@ pub async fn changes_of(
     Ok(oldest_first(changes))
 }
 
-/// The alerts that ever reached `warning` or `alarm` (those the CAP feed carries), of one site
-/// or of all, most recently changed first.
+/// The movement alerts ([`crate::cap::PUBLIC_RULES`]) that ever reached `warning` or `alarm`
+/// (those the CAP feed carries), of one site or of all, most recently changed first.
 pub async fn ever_public(
     db: impl AnyExecutor<'_>,
     site: Option<&str>,
@@ -530,10 +530,15 @@ fn ever_public_sql(site: bool) -> String {
         true => ("site_id = $1 AND", "$2"),
         false => ("", "$1"),
     };
+    let rules: Vec<String> = crate::cap::PUBLIC_RULES
+        .iter()
+        .map(|k| format!("'{}'", k.as_str()))
+        .collect();
     format!(
-        "SELECT {COLUMNS} FROM alerts WHERE {site_filter} EXISTS \
+        "SELECT {COLUMNS} FROM alerts WHERE {site_filter} rule IN ({}) AND EXISTS \
          (SELECT 1 FROM webhook_outbox o2 WHERE o2.alert_id = alerts.id AND o2.level IN ('warning', 'alarm')) \
-         ORDER BY updated_at DESC, id DESC LIMIT {limit_param}"
+         ORDER BY updated_at DESC, id DESC LIMIT {limit_param}",
+        rules.join(", ")
     )
 }
 

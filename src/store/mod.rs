@@ -36,6 +36,7 @@
 //! Benchmarks and tests only, SQLite: `strftime`, `printf`, `WITH RECURSIVE` fills and the
 //! `dbstat` table (`benches/service.rs`, `tests/service/series.rs`).
 
+pub mod alert_repost;
 pub(crate) mod alert_states;
 pub mod alerts;
 pub(crate) mod block_motions;

@@ -49,10 +49,10 @@ pub struct NewWebhook {
     /// Target URL: absolute, http or https, with a host.
     #[schema(pattern = "^https?://")]
     pub url: String,
-    /// Signing secret `whsec_<base64>` (standard alphabet, padded, canonical) of a key of at
-    /// least 3 bytes: the key that signs every delivery.
+    /// Signing secret `whsec_<base64>` (standard alphabet, padded or not, canonical) of a key
+    /// of at least 3 bytes: the key that signs every delivery.
     #[schema(
-        pattern = "^whsec_(?:[A-Za-z0-9+/]{4})+(?:[A-Za-z0-9+/][AQgw]==|[A-Za-z0-9+/]{2}[AEIMQUYcgkosw048]=)?$"
+        pattern = "^whsec_(?:[A-Za-z0-9+/]{4})+(?:[A-Za-z0-9+/][AQgw](?:==)?|[A-Za-z0-9+/]{2}[AEIMQUYcgkosw048]=?)?$"
     )]
     pub secret: String,
     /// Lowest level delivered (default `warning`).
@@ -266,4 +266,29 @@ pub async fn enabled_endpoints(
             }
         })
         .collect())
+}
+
+/// One endpoint with its secret, as a delivery needs it (disabled ones too); `None` when
+/// unknown.
+pub async fn endpoint(
+    db: impl AnyExecutor<'_>,
+    id: &str,
+) -> Result<Option<crate::webhooks::WebhookEndpoint>, StoreError> {
+    let row: Option<(String, String, String, String, String, i64)> = sqlx::query_as(
+        "SELECT id, url, secret, min_level, format, \
+         CAST(CASE WHEN enabled = TRUE THEN 1 ELSE 0 END AS BIGINT) FROM webhooks WHERE id = $1",
+    )
+    .bind(id)
+    .fetch_optional(db)
+    .await?;
+    Ok(row.map(
+        |(id, url, secret, min, format, enabled)| crate::webhooks::WebhookEndpoint {
+            id,
+            url,
+            secret,
+            min_level: min.parse().ok(),
+            format: format.parse().unwrap_or_default(),
+            enabled: enabled != 0,
+        },
+    ))
 }

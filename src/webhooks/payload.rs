@@ -6,12 +6,14 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 
+use super::alertmanager::{
+    alert_page_url, fingerprint, labels, number, postable_alerts, CurrentAlert, HOLD_PERIODS,
+};
 use crate::analysis::{AlertEvent, AlertEventType, AlertLevel};
 
-/// How long (days) an alert posted to Alertmanager stays firing without news: cliffwatch sends
-/// one event per change, not a heartbeat, so the firing alert must outlive Alertmanager's
-/// `resolve_timeout`; its resolution is sent explicitly.
-pub const ALERTMANAGER_FIRING_DAYS: i64 = 365;
+/// Default re-post period of the Alertmanager API v2 endpoints, seconds
+/// (`alertmanager_resend_secs`).
+pub const DEFAULT_RESEND_SECS: i64 = 60;
 
 /// Body format of an endpoint: what the delivery worker POSTs for each event. Every format is
 /// signed the same way (Standard Webhooks headers), so a proxy in front of Alertmanager can verify
@@ -108,6 +110,10 @@ pub struct WebhookData {
     /// The acknowledgement's comment, when one was given (`alert.acknowledged` only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub comment: Option<String>,
+    /// The alert's dashboard page under `public_url` (absent when no public URL is
+    /// configured).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub url: Option<String>,
 }
 
 /// The contract body `{"type", "timestamp", "data"}`.
@@ -127,8 +133,9 @@ fn t(x: DateTime<Utc>) -> String {
 }
 
 impl WebhookPayload {
-    /// Builds the body of an event.
-    pub fn from_event(event: &AlertEvent) -> Self {
+    /// Builds the body of an event; `public_url` (where people reach the dashboard) gives
+    /// `data.url`, the alert's page.
+    pub fn from_event(event: &AlertEvent, public_url: Option<&str>) -> Self {
         let a = &event.alert;
         let acknowledged = event.event_type == AlertEventType::Acknowledged;
         WebhookPayload {
@@ -154,6 +161,7 @@ impl WebhookPayload {
                 message: a.message.clone(),
                 acknowledged_by: a.acknowledged_by.clone().filter(|_| acknowledged),
                 comment: a.comment.clone().filter(|_| acknowledged),
+                url: alert_page_url(public_url, &a.site, &a.id),
             },
         }
     }
@@ -237,54 +245,60 @@ pub struct AlertmanagerBody {
 
 /// The body of an event in an endpoint's format, serialized as sent: the contract body
 /// ([`WebhookPayload`]), the Alertmanager webhook body with the endpoint id as `receiver`
-/// ([`alertmanager_body`]), or the Alertmanager API v2 array ([`alertmanager_alerts`]; `api_base`
-/// as there, empty: no `generatorURL`).
+/// ([`alertmanager_body`]), or the Alertmanager API v2 array ([`alertmanager_alerts`], held
+/// [`HOLD_PERIODS`] default periods). `public_url`: where the dashboard is reached, for the
+/// links to the alert's page (`None`: no link).
 pub fn render(
     event: &AlertEvent,
     endpoint: &WebhookEndpoint,
-    api_base: &str,
+    public_url: Option<&str>,
 ) -> Result<String, serde_json::Error> {
     match endpoint.format {
-        PayloadFormat::Standard => serde_json::to_string(&WebhookPayload::from_event(event)),
+        PayloadFormat::Standard => {
+            serde_json::to_string(&WebhookPayload::from_event(event, public_url))
+        }
         PayloadFormat::AlertmanagerWebhook => {
-            serde_json::to_string(&alertmanager_body(event, &endpoint.id))
+            serde_json::to_string(&alertmanager_body(event, &endpoint.id, public_url))
         }
-        PayloadFormat::AlertmanagerApiV2 => {
-            serde_json::to_string(&alertmanager_alerts(event, api_base))
-        }
+        PayloadFormat::AlertmanagerApiV2 => serde_json::to_string(&alertmanager_alerts(
+            event,
+            public_url,
+            chrono::Duration::seconds(i64::from(HOLD_PERIODS) * DEFAULT_RESEND_SECS),
+        )),
     }
 }
 
-/// Alertmanager-compatible body of an event (`resolved` for `alert.resolved`, else `firing`).
-pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody {
+/// Alertmanager-compatible body of an event (`resolved` for `alert.resolved`, else `firing`),
+/// as Alertmanager sends it to a webhook receiver: `fingerprint` is Alertmanager's hash of the
+/// labels ([`fingerprint`]), `generatorURL` the alert's dashboard page (empty without a
+/// public URL), `externalURL` the public URL.
+pub fn alertmanager_body(
+    event: &AlertEvent,
+    receiver: &str,
+    public_url: Option<&str>,
+) -> AlertmanagerBody {
     let a = &event.alert;
     let status = if event.event_type == AlertEventType::Resolved {
         "resolved"
     } else {
         "firing"
     };
-    let mut labels = BTreeMap::new();
-    labels.insert(
-        "alertname".to_string(),
-        format!("cliffwatch_{}", a.rule.as_str()),
+    let labels = labels(
+        a.rule.as_str(),
+        &a.site,
+        a.point.as_deref(),
+        a.group.as_deref(),
+        a.level,
     );
-    labels.insert("site".to_string(), a.site.clone());
-    labels.insert("severity".to_string(), a.level.as_str().to_string());
-    labels.insert("rule".to_string(), a.rule.as_str().to_string());
-    if let Some(p) = &a.point {
-        labels.insert("point".to_string(), p.clone());
-    }
-    if let Some(g) = &a.group {
-        labels.insert("group".to_string(), g.clone());
-    }
     let mut ann = BTreeMap::new();
     ann.insert("summary".to_string(), a.message.clone());
     ann.insert("event".to_string(), event.event_type.as_str().to_string());
+    ann.insert("alert_id".to_string(), a.id.clone());
     if let Some(v) = a.value {
-        ann.insert("value".to_string(), format!("{v}"));
+        ann.insert("value".to_string(), number(v));
     }
     if let Some(v) = a.threshold {
-        ann.insert("threshold".to_string(), format!("{v}"));
+        ann.insert("threshold".to_string(), number(v));
     }
     ann.insert("unit".to_string(), a.unit.clone());
     if !a.points.is_empty() {
@@ -296,8 +310,8 @@ pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody
     AlertmanagerBody {
         version: "4".into(),
         group_key: format!(
-            "{{}}:{{site=\"{}\", alertname=\"{}\"}}",
-            a.site, labels["alertname"]
+            "{{}}:{{alertname=\"{}\", site=\"{}\"}}",
+            labels["alertname"], a.site
         ),
         truncated_alerts: 0,
         status: status.into(),
@@ -305,9 +319,13 @@ pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody
         group_labels: group,
         common_labels: labels.clone(),
         common_annotations: ann.clone(),
-        external_url: String::new(),
+        external_url: public_url
+            .unwrap_or_default()
+            .trim_end_matches('/')
+            .to_string(),
         alerts: vec![AlertmanagerAlert {
             status: status.into(),
+            fingerprint: fingerprint(&labels),
             labels,
             annotations: ann,
             starts_at: t(a.raised_at),
@@ -316,8 +334,7 @@ pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody
             } else {
                 "0001-01-01T00:00:00Z".into()
             },
-            generator_url: String::new(),
-            fingerprint: a.id.clone(),
+            generator_url: alert_page_url(public_url, &a.site, &a.id).unwrap_or_default(),
         }],
     }
 }
@@ -326,19 +343,19 @@ pub fn alertmanager_body(event: &AlertEvent, receiver: &str) -> AlertmanagerBody
 /// a JSON array of these.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PostableAlert {
-    /// Identity and routing labels: `alertname` (`cliffwatch_{rule}`), `site`, `point` (point
-    /// alerts), `rule`, `severity` (the level).
+    /// Identity and routing labels ([`labels`]): `alertname` (`cliffwatch_{rule}`), `site`,
+    /// `point` (point alerts), `group` (group alerts), `rule`, `severity` (the level).
     pub labels: BTreeMap<String, String>,
-    /// `summary`, `event`, `alert_id`, `value`, `threshold`, `unit`, `epoch`, `observed_at`,
+    /// `summary`, `alert_id`, `level`, `value`, `threshold`, `unit`, `epoch`, `observed_at`,
     /// `points` when known.
     pub annotations: BTreeMap<String, String>,
     /// When the alert was raised, RFC 3339.
     #[serde(rename = "startsAt")]
     pub starts_at: String,
-    /// Firing: [`ALERTMANAGER_FIRING_DAYS`] after the event; resolved: the event time.
+    /// Firing: a few re-post periods ahead ([`HOLD_PERIODS`]); resolved: the resolution's time.
     #[serde(rename = "endsAt")]
     pub ends_at: String,
-    /// Link to the alert in the API (omitted when no base URL is known).
+    /// The alert's dashboard page (omitted when no public URL is configured).
     #[serde(
         rename = "generatorURL",
         default,
@@ -347,77 +364,37 @@ pub struct PostableAlert {
     pub generator_url: String,
 }
 
-/// Alertmanager API v2 body of an event (`POST /api/v2/alerts`, for users who route through
-/// Alertmanager or Grafana): `api_base` is the service's public base URL (e.g.
-/// `https://cliffwatch.example.org`; empty: no `generatorURL`).
-///
-/// Alertmanager identifies an alert by its labels, and `severity` is a label (routes use it), so
-/// each level is its own Alertmanager alert: every event posts all three levels of the alert,
-/// the current one firing and the others resolved (`endsAt` = the event time). An escalation
-/// thus resolves the lower level's notification, and `alert.resolved` resolves all of them.
-pub fn alertmanager_alerts(event: &AlertEvent, api_base: &str) -> Vec<PostableAlert> {
+/// The alert of an event as it is after the event.
+pub fn current_of_event(event: &AlertEvent) -> CurrentAlert {
     let a = &event.alert;
-    let firing = event.event_type != AlertEventType::Resolved;
-    let mut annotations = BTreeMap::new();
-    annotations.insert("summary".to_string(), a.message.clone());
-    annotations.insert("event".to_string(), event.event_type.as_str().to_string());
-    annotations.insert("alert_id".to_string(), a.id.clone());
-    if let Some(v) = a.value {
-        annotations.insert("value".to_string(), format!("{v}"));
+    CurrentAlert {
+        id: a.id.clone(),
+        site: a.site.clone(),
+        point: a.point.clone(),
+        group: a.group.clone(),
+        points: a.points.clone(),
+        rule: a.rule.as_str().to_string(),
+        level: a.level,
+        peak_level: a.peak_level.max(a.level),
+        value: a.value,
+        threshold: a.threshold,
+        unit: a.unit.clone(),
+        epoch: a.epoch,
+        observed_at: a.observed_at,
+        message: a.message.clone(),
+        raised_at: a.raised_at,
+        changed_at: event.timestamp,
+        resolved: event.event_type == AlertEventType::Resolved,
     }
-    if let Some(v) = a.threshold {
-        annotations.insert("threshold".to_string(), format!("{v}"));
-    }
-    if !a.unit.is_empty() {
-        annotations.insert("unit".to_string(), a.unit.clone());
-    }
-    if let Some(e) = a.epoch {
-        annotations.insert("epoch".to_string(), e.to_string());
-    }
-    if let Some(o) = a.observed_at {
-        annotations.insert("observed_at".to_string(), t(o));
-    }
-    if !a.points.is_empty() {
-        annotations.insert("points".to_string(), a.points.join(","));
-    }
-    let generator_url = if api_base.is_empty() {
-        String::new()
-    } else {
-        format!(
-            "{}/api/v1/alerts/{}",
-            api_base.trim_end_matches('/'),
-            a.id.replace('%', "%25").replace(' ', "%20")
-        )
-    };
-    [AlertLevel::Watch, AlertLevel::Warning, AlertLevel::Alarm]
-        .into_iter()
-        .map(|level| {
-            let mut labels = BTreeMap::new();
-            labels.insert(
-                "alertname".to_string(),
-                format!("cliffwatch_{}", a.rule.as_str()),
-            );
-            labels.insert("site".to_string(), a.site.clone());
-            if let Some(p) = &a.point {
-                labels.insert("point".to_string(), p.clone());
-            }
-            if let Some(g) = &a.group {
-                labels.insert("group".to_string(), g.clone());
-            }
-            labels.insert("rule".to_string(), a.rule.as_str().to_string());
-            labels.insert("severity".to_string(), level.as_str().to_string());
-            let ends = if firing && level == a.level {
-                event.timestamp + chrono::Duration::days(ALERTMANAGER_FIRING_DAYS)
-            } else {
-                event.timestamp
-            };
-            PostableAlert {
-                labels,
-                annotations: annotations.clone(),
-                starts_at: t(a.raised_at),
-                ends_at: t(ends),
-                generator_url: generator_url.clone(),
-            }
-        })
-        .collect()
+}
+
+/// Alertmanager API v2 body of the alert an event left ([`postable_alerts`] at the event's
+/// time, firing levels held for `hold`). The re-post loop sends the same from the store's
+/// state every period; this is the body of one event, for tests and tools.
+pub fn alertmanager_alerts(
+    event: &AlertEvent,
+    public_url: Option<&str>,
+    hold: chrono::Duration,
+) -> Vec<PostableAlert> {
+    postable_alerts(&current_of_event(event), event.timestamp, hold, public_url)
 }

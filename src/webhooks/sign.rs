@@ -1,7 +1,8 @@
 //! Standard Webhooks signatures (HMAC-SHA256, symmetric `whsec_` secrets).
 
-use base64::engine::general_purpose::STANDARD;
-use base64::Engine;
+use base64::engine::general_purpose::{GeneralPurpose, GeneralPurposeConfig, STANDARD};
+use base64::engine::DecodePaddingMode;
+use base64::{alphabet, Engine};
 use hmac::{Hmac, Mac};
 use sha2::Sha256;
 use thiserror::Error;
@@ -20,11 +21,18 @@ pub enum WebhookError {
     Client(String),
 }
 
-/// Signing key of a secret: the base64-decoded part after `whsec_`; a secret without the prefix is used
-/// as raw bytes (as the contract's test receiver does).
+/// The standard base64 alphabet, padded or not (the Standard Webhooks libraries accept both),
+/// canonical trailing bits only.
+const SECRET_BASE64: GeneralPurpose = GeneralPurpose::new(
+    &alphabet::STANDARD,
+    GeneralPurposeConfig::new().with_decode_padding_mode(DecodePaddingMode::Indifferent),
+);
+
+/// Signing key of a secret: the base64-decoded part after `whsec_` (standard alphabet, padded or
+/// not); a secret without the prefix is used as raw bytes (as the contract's test receiver does).
 pub fn signing_key(secret: &str) -> Result<Vec<u8>, WebhookError> {
     let key = match secret.strip_prefix("whsec_") {
-        Some(b64) => STANDARD
+        Some(b64) => SECRET_BASE64
             .decode(b64)
             .map_err(|e| WebhookError::InvalidSecret(e.to_string()))?,
         None => secret.as_bytes().to_vec(),

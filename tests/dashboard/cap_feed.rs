@@ -405,3 +405,99 @@ async fn bad_areas_and_time_zones_are_refused_by_name() {
     assert_eq!(feed.matches("<entry>").count(), 0);
     s.stop().await;
 }
+
+/// A datum alert stays internal: a stable point that moves with the block raises
+/// `reference_unstable` at warning, which the API lists and the CAP feed does not carry (its
+/// message is 404, no feed entry names it); the movement alerts' messages are all valid CAP 1.2,
+/// and no value carries a stray space.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_reference_unstable_alert_produces_no_cap_message() {
+    let s = TestServer::start(|c| {
+        c.cap_sender = SENDER.into();
+        c.public_url = Some(PUBLIC.into());
+    })
+    .await;
+    let r = s
+        .client
+        .post(s.url("/api/v1/sites"))
+        .json(&json!({"id": "datum", "alert_rules": [
+            {"level": "watch", "metric": "displacement_mm", "above": 5.0},
+            {"level": "warning", "metric": "displacement_mm", "above": 10.0}]}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201);
+    for i in 0..STABLE {
+        let r = s
+            .client
+            .put(s.url(&format!("/api/v1/sites/datum/points/{}", name(i))))
+            .json(&json!({"role": "stable"}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200);
+    }
+    // The last stable point moves with the block: 0, then 12 mm three times.
+    for (k, mm) in [0.0, 12.0, 12.0, 12.0].iter().enumerate() {
+        let body = synthetic_epoch(4, POINTS, &day(k), 700 + k as u64, *mm, STABLE - 1);
+        let (st, answer) = s.upload("datum", &body).await;
+        assert_eq!(st, 201, "epoch {k}: {answer}");
+    }
+    let (_, alerts) = s.get("/api/v1/alerts?site=datum&limit=200").await;
+    let alerts = alerts["items"].as_array().unwrap().clone();
+    let datum = alerts
+        .iter()
+        .find(|a| a["rule"] == "reference_unstable")
+        .unwrap_or_else(|| panic!("a reference_unstable alert: {alerts:?}"));
+    assert_eq!(datum["level"], "warning", "{datum}");
+    let id = datum["id"].as_str().unwrap();
+    let (st, _, body) = text(&s, &format!("/api/v1/cap/alerts/{id}.xml")).await;
+    assert_eq!(st, 404, "{body}");
+    assert!(body.contains("movement alerts only"), "{body}");
+    let (st, _, body) = text(&s, &format!("/api/v1/cap/alerts/{id}.1.xml")).await;
+    assert_eq!(st, 404, "{body}");
+
+    let (st, _, feed) = text(&s, "/api/v1/cap/feed.atom?site=datum").await;
+    assert_eq!(st, 200, "{feed}");
+    assert!(
+        !feed.contains("reference_unstable") && !feed.contains(id),
+        "{feed}"
+    );
+    let doc = roxmltree::Document::parse(&feed).unwrap();
+    let hrefs: Vec<String> = doc
+        .root_element()
+        .children()
+        .filter(|c| c.has_tag_name((ATOM, "entry")))
+        .filter_map(|e| {
+            child(e, ATOM, "link")?
+                .attribute("href")
+                .map(str::to_string)
+        })
+        .collect();
+    let movement = alerts
+        .iter()
+        .filter(|a| a["rule"] == "displacement_mm" && a["peak_level"] != "watch")
+        .count();
+    assert!(movement > 0, "{alerts:?}");
+    assert_eq!(hrefs.len(), movement, "{feed}");
+    let have_xmllint = xmllint_available();
+    let scratch = tempfile::tempdir().unwrap();
+    for (k, href) in hrefs.iter().enumerate() {
+        let (st, _, xml) = text(&s, href.strip_prefix(PUBLIC).unwrap()).await;
+        assert_eq!(st, 200, "{xml}");
+        let d = roxmltree::Document::parse(&xml).unwrap();
+        let rule = d
+            .descendants()
+            .filter(|n| n.has_tag_name((CAP, "parameter")))
+            .find(|p| child_text(*p, CAP, "valueName") == "cliffwatch:rule")
+            .map(|p| child_text(p, CAP, "value"));
+        assert_eq!(rule.as_deref(), Some("displacement_mm"), "{xml}");
+        for v in d.descendants().filter(|n| n.has_tag_name((CAP, "value"))) {
+            let t = v.text().unwrap_or_default();
+            assert_eq!(t, t.trim(), "a value with a stray space: {xml}");
+        }
+        if have_xmllint {
+            validate_cap(&xml, scratch.path(), &format!("datum-{k}"));
+        }
+    }
+}

@@ -331,7 +331,17 @@ impl Daemon {
         config: &std::path::Path,
         env: &[(&str, &str)],
     ) -> Daemon {
-        let port = free_port();
+        Self::start_on(free_port(), data_dir, config, env).await
+    }
+
+    /// [`Daemon::start_with_env`] on a given loopback port (known before the start, e.g. for a
+    /// `public_url` in `config`).
+    pub async fn start_on(
+        port: u16,
+        data_dir: &std::path::Path,
+        config: &std::path::Path,
+        env: &[(&str, &str)],
+    ) -> Daemon {
         // Absent only in examples, which include this module but start no daemon.
         let Some(binary) = option_env!("CARGO_BIN_EXE_cliffwatch") else {
             panic!("Daemon::start needs the cliffwatch binary (tests and benchmarks only)");

@@ -102,7 +102,7 @@ fn event(ty: AlertEventType, level: AlertLevel) -> AlertEvent {
 
 #[test]
 fn payload_has_the_contract_shape() {
-    let p = WebhookPayload::from_event(&event(AlertEventType::Raised, AlertLevel::Warning));
+    let p = WebhookPayload::from_event(&event(AlertEventType::Raised, AlertLevel::Warning), None);
     let v: serde_json::Value = serde_json::to_value(&p).expect("json");
     assert_eq!(v["type"], "alert.raised");
     assert_eq!(v["timestamp"], "2026-11-21T09:00:05Z");
@@ -125,12 +125,21 @@ fn payload_has_the_contract_shape() {
         assert_eq!(d[k], want, "field {k}");
     }
     assert!(d["message"].is_string());
+    assert!(d.get("url").is_none(), "no link without a public URL");
+    let linked = WebhookPayload::from_event(
+        &event(AlertEventType::Raised, AlertLevel::Warning),
+        Some("https://cw.example.org/"),
+    );
+    assert_eq!(
+        linked.data.url.as_deref(),
+        Some("https://cw.example.org/sites/kamo/alerts/kamo%2FT103%2Fdisplacement_mm%2F17")
+    );
     // Site-level: point null, points listed.
     let mut e = event(AlertEventType::Raised, AlertLevel::Warning);
     e.alert.point = None;
     e.alert.points = vec!["R3".into()];
     e.alert.rule = AlertKind::ReferenceUnstable;
-    let v = serde_json::to_value(WebhookPayload::from_event(&e)).expect("json");
+    let v = serde_json::to_value(WebhookPayload::from_event(&e, None)).expect("json");
     assert!(v["data"]["point"].is_null());
     assert_eq!(v["data"]["points"], serde_json::json!(["R3"]));
     assert_eq!(v["data"]["rule"], "reference_unstable");
@@ -138,12 +147,24 @@ fn payload_has_the_contract_shape() {
     let am = serde_json::to_value(alertmanager_body(
         &event(AlertEventType::Resolved, AlertLevel::Watch),
         "ops",
+        Some("https://cw.example.org"),
     ))
     .expect("json");
     assert_eq!(am["version"], "4");
     assert_eq!(am["status"], "resolved");
-    assert_eq!(am["alerts"][0]["labels"]["severity"], "watch");
-    assert_eq!(am["alerts"][0]["labels"]["point"], "T103");
+    let a = &am["alerts"][0];
+    assert_eq!(a["labels"]["severity"], "watch");
+    assert_eq!(a["labels"]["point"], "T103");
+    // Alertmanager's fingerprint (a hash of the labels, 16 hex digits), not cliffwatch's id.
+    let labels: std::collections::BTreeMap<String, String> =
+        serde_json::from_value(a["labels"].clone()).unwrap();
+    assert_eq!(a["fingerprint"], cliffwatch::webhooks::fingerprint(&labels));
+    assert_eq!(a["fingerprint"].as_str().unwrap().len(), 16);
+    assert_eq!(
+        a["generatorURL"],
+        "https://cw.example.org/sites/kamo/alerts/kamo%2FT103%2Fdisplacement_mm%2F17"
+    );
+    assert_eq!(am["externalURL"], "https://cw.example.org");
 }
 
 #[test]
@@ -327,7 +348,7 @@ async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
     let (url, rx) = start(vec![(503, None), (429, Some("1")), (500, None)]).await;
     let client = cliffwatch::webhooks::client(Duration::from_secs(5)).expect("client");
     let ev = event(AlertEventType::Raised, AlertLevel::Warning);
-    let body = serde_json::to_vec(&WebhookPayload::from_event(&ev)).expect("body");
+    let body = serde_json::to_vec(&WebhookPayload::from_event(&ev, None)).expect("body");
     let id = message_id(&ev);
     let policy = RetryPolicy {
         base_seconds: 0.01,
@@ -391,19 +412,25 @@ async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
     ));
 }
 
-/// The Alertmanager API v2 body (`POST /api/v2/alerts`, `postableAlerts` of Alertmanager's OpenAPI
+/// The Alertmanager API v2 body of an event (`postableAlerts` in Alertmanager's OpenAPI
 /// spec): a JSON array of `{labels, annotations, startsAt, endsAt, generatorURL}`, label and
-/// annotation values strings, times RFC 3339, `generatorURL` an absolute URI. Each level is its
-/// own Alertmanager alert (severity is a label): the current one fires, the others resolve.
+/// annotation values strings, times RFC 3339, `generatorURL` the alert's dashboard page. Each
+/// level is its own Alertmanager alert (severity is a label): every level up to the current one
+/// fires, held a few periods (not a year); a resolution ends every level at its time.
 #[test]
 fn alertmanager_v2_body_has_the_postable_alerts_shape() {
     use serde_json::Value;
     use std::collections::BTreeSet;
     let raised = event(AlertEventType::Raised, AlertLevel::Warning);
-    let body =
-        serde_json::to_value(alertmanager_alerts(&raised, "https://cw.example.org/")).unwrap();
+    let hold = chrono::Duration::seconds(240);
+    let body = serde_json::to_value(alertmanager_alerts(
+        &raised,
+        Some("https://cw.example.org/"),
+        hold,
+    ))
+    .unwrap();
     let alerts = body.as_array().expect("the body is a JSON array");
-    assert_eq!(alerts.len(), 3);
+    assert_eq!(alerts.len(), 2, "watch and warning: {body}");
     let time = |v: &Value| {
         chrono::DateTime::parse_from_rfc3339(v.as_str().expect("a string"))
             .expect("RFC 3339")
@@ -429,7 +456,10 @@ fn alertmanager_v2_body_has_the_postable_alerts_shape() {
         }
         let url = reqwest::Url::parse(o["generatorURL"].as_str().unwrap()).expect("a URI");
         assert_eq!(url.scheme(), "https");
-        assert!(url.path().starts_with("/api/v1/alerts/"), "{url}");
+        assert_eq!(
+            url.path(),
+            "/sites/kamo/alerts/kamo%2FT103%2Fdisplacement_mm%2F17"
+        );
         let l = &o["labels"];
         assert_eq!(l["alertname"], "cliffwatch_displacement_mm");
         assert_eq!(l["site"], "kamo");
@@ -440,26 +470,19 @@ fn alertmanager_v2_body_has_the_postable_alerts_shape() {
         assert_eq!(n["value"], "12.4");
         assert_eq!(n["threshold"], "10");
         assert_eq!(n["unit"], "mm");
+        assert_eq!(n["level"], "warning");
         assert_eq!(n["summary"], raised.alert.message.as_str());
         assert_eq!(time(&o["startsAt"]), raised.alert.raised_at);
-        let ends = time(&o["endsAt"]);
-        if ends > raised.timestamp {
-            assert!(ends - raised.timestamp >= chrono::Duration::days(300));
-            firing.push(l["severity"].clone());
-        } else {
-            assert_eq!(ends, raised.timestamp);
-        }
+        assert_eq!(time(&o["endsAt"]), raised.timestamp + hold);
+        firing.push(l["severity"].as_str().unwrap().to_string());
     }
-    assert_eq!(firing, vec![Value::from("warning")]);
-    let severities: BTreeSet<&str> = alerts
-        .iter()
-        .map(|a| a["labels"]["severity"].as_str().unwrap())
-        .collect();
-    assert_eq!(severities, BTreeSet::from(["alarm", "warning", "watch"]));
+    assert_eq!(firing, ["watch", "warning"]);
 
-    // Resolution ends every level at the event time; without a base URL there is no generatorURL.
+    // Resolution ends every level reached at the event time; without a public URL there is no
+    // generatorURL.
     let resolved = event(AlertEventType::Resolved, AlertLevel::Warning);
-    let body = serde_json::to_value(alertmanager_alerts(&resolved, "")).unwrap();
+    let body = serde_json::to_value(alertmanager_alerts(&resolved, None, hold)).unwrap();
+    assert_eq!(body.as_array().unwrap().len(), 2);
     for a in body.as_array().unwrap() {
         assert_eq!(time(&a["endsAt"]), resolved.timestamp);
         assert!(a.get("generatorURL").is_none());
@@ -497,12 +520,12 @@ fn each_format_renders_its_body() {
         enabled: true,
     };
     let body = |f| -> serde_json::Value {
-        serde_json::from_str(&render(&ev, &ep(f), "").expect("render")).expect("json")
+        serde_json::from_str(&render(&ev, &ep(f), None).expect("render")).expect("json")
     };
     let standard = body(PayloadFormat::Standard);
     assert_eq!(
         standard,
-        serde_json::to_value(WebhookPayload::from_event(&ev)).unwrap()
+        serde_json::to_value(WebhookPayload::from_event(&ev, None)).unwrap()
     );
     let v4 = body(PayloadFormat::AlertmanagerWebhook);
     assert_eq!(v4["version"], "4");
@@ -510,11 +533,12 @@ fn each_format_renders_its_body() {
     assert_eq!(v4["status"], "firing");
     assert_eq!(v4["alerts"][0]["labels"]["severity"], "warning");
     let v2 = body(PayloadFormat::AlertmanagerApiV2);
+    let hold = chrono::Duration::seconds(4 * cliffwatch::webhooks::DEFAULT_RESEND_SECS);
     assert_eq!(
         v2,
-        serde_json::to_value(alertmanager_alerts(&ev, "")).unwrap()
+        serde_json::to_value(alertmanager_alerts(&ev, None, hold)).unwrap()
     );
-    assert_eq!(v2.as_array().map(Vec::len), Some(3));
+    assert_eq!(v2.as_array().map(Vec::len), Some(2));
 }
 
 /// A receiver answering 301 to the POST: the redirect is not followed (a followed 301 turns the
@@ -539,7 +563,7 @@ async fn a_redirect_is_not_followed_and_is_retried() {
     let addr = serve(app).await;
     let client = cliffwatch::webhooks::client(Duration::from_secs(5)).expect("client");
     let ev = event(AlertEventType::Raised, AlertLevel::Alarm);
-    let body = serde_json::to_vec(&WebhookPayload::from_event(&ev)).expect("body");
+    let body = serde_json::to_vec(&WebhookPayload::from_event(&ev, None)).expect("body");
     let out = deliver(
         &client,
         &format!("http://{addr}/old"),

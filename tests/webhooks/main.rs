@@ -5,7 +5,9 @@
 #[path = "../alerts_support/mod.rs"]
 mod alerts_support;
 
+mod alertmanager;
 mod configured;
 mod delivery;
 mod format;
 mod order;
+mod receivers;
