@@ -53,7 +53,7 @@ pub struct NewSite {
     /// (default 1).
     #[serde(
         default,
-        deserialize_with = "crate::json_integer::optional_i64"
+        deserialize_with = "crate::contract::json_integer::optional_i64"
     )]
     #[schema(minimum = 1, maximum = 100)]
     pub reference_epochs: Option<i64>,
