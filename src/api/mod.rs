@@ -1,4 +1,4 @@
-//! The HTTP API of the contract (`docs/api-contract.md`): axum routes, auth, errors as JSON,
+//! The HTTP API of the contract (`docs/api.md`): axum routes, auth, errors as JSON,
 //! request ids, body limit, timeouts, metrics and the OpenAPI description.
 //!
 //! Handlers only: each parses its request, calls a use case of [`crate::service`] or a read of
