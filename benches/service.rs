@@ -181,7 +181,7 @@ async fn fill_history(server: &TestServer, site: &str, epochs: usize, points: us
     )
     .bind(site).bind(site).execute(&mut *tx).await.unwrap();
     // the rows went in by SQL: pack the series as ingestion would have
-    cliffwatch::store::series_blocks::rebuild(&mut tx, site)
+    cliffwatch::store::series::blocks::rebuild(&mut tx, site)
         .await
         .unwrap();
     tx.commit().await.unwrap();
@@ -221,7 +221,7 @@ async fn fill_history_postgres(server: &TestServer, site: &str, epochs: usize, p
          WHERE e.site_id = $1 AND p.site_id = $2",
     )
     .bind(site).bind(site).execute(&mut *tx).await.unwrap();
-    cliffwatch::store::series_blocks::rebuild(&mut tx, site)
+    cliffwatch::store::series::blocks::rebuild(&mut tx, site)
         .await
         .unwrap();
     tx.commit().await.unwrap();
@@ -387,12 +387,12 @@ fn dashboard(c: &mut Criterion) {
     let query = cliffwatch::store::series::SeriesQuery {
         site: "long".into(),
         point: "T017".into(),
-        extremes_above: Some(200 * cliffwatch::store::series_blocks::BLOCK_EPOCHS),
+        extremes_above: Some(200 * cliffwatch::store::series::blocks::BLOCK_EPOCHS),
         ..Default::default()
     };
     g.bench_function("plot_read_store_only/87600_epochs", |b| {
         b.iter(|| {
-            rt.block_on(cliffwatch::store::series_columns::fold(
+            rt.block_on(cliffwatch::store::series::columns::fold(
                 &server.store,
                 query.clone(),
                 |_| 0usize,

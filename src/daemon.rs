@@ -221,6 +221,15 @@ impl Bound {
                 stop.clone(),
             )));
         }
+        let done_days = state.config.watch_done_retention_days;
+        if let (Some(dir), true) = (&state.config.watch_dir, done_days > 0) {
+            parts.push(tokio::spawn(crate::watch::retention::run(
+                store.clone(),
+                dir.clone(),
+                Duration::from_secs(done_days.saturating_mul(86_400)),
+                stop.clone(),
+            )));
+        }
         if store.backend() == store::Backend::Sqlite {
             parts.push(tokio::spawn(checkpoint_wal(store.clone(), stop.clone())));
         }

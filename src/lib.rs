@@ -14,8 +14,8 @@
 //! - [`analysis`]: stable-point datum, congruence test, displacements, velocity, time-to-failure, alert
 //!   rules (`analysis::alerts`, one file per step of an alert's life).
 //! - [`simulate`]: scenes with truth for tests and benchmarks.
-//! - [`contract_names`]: the names of the domain's enums (levels, states, roles, models) in the API,
-//!   the webhooks and the database, one table each.
+//! - [`contract`]: the names of the domain's enums (levels, states, roles, models) in the API,
+//!   the webhooks and the database, one table each; the integers of JSON bodies.
 //!
 //! The shell around it:
 //! - [`config`]: layered configuration (file, environment, flags).
@@ -48,12 +48,11 @@ pub mod analysis;
 pub mod api;
 pub mod cap;
 pub mod config;
-pub mod contract_names;
+pub mod contract;
 pub mod daemon;
 pub mod dashboard;
 pub mod detect;
 pub mod http;
-pub mod json_integer;
 pub mod photogrammetry;
 pub mod service;
 pub mod shutdown;

@@ -97,7 +97,7 @@ impl Similarity {
     }
 
     /// Rotation vector (mrad), scale difference (ppm) and the translation of `centroid` (mm): the form
-    /// of [`super::analyse::DatumReport`].
+    /// of [`super::epoch_analysis::DatumReport`].
     pub(crate) fn report_form(&self, centroid: &Vector3<f64>) -> ([f64; 3], [f64; 3], f64) {
         let omega = self.rotation_vector() * 1e3;
         let moved = self.scale * self.rotation * centroid + self.translation - centroid;

@@ -1,4 +1,4 @@
-//! The blocks of an epoch: each declared group's rigid-body motion ([`super::block`]) from its
+//! The blocks of an epoch: each declared group's rigid-body motion ([`super::rigid_body`]) from its
 //! members' displacements with their joint covariance, in this epoch and the past epochs of the
 //! history, its raw and filtered kinematics and forecasts ([`super::tracking`]), and the readings
 //! its rules see.
@@ -10,13 +10,14 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::alerts::{Metric, Reading, Readings, Source};
-use super::analyse::{length_of, raw_kinematics, record_covariance, History};
-use super::block::{
-    at_rest, estimate_block, estimate_block_correlated, translation_share, BlockMotion, BlockPoint,
-};
 use super::displacement::{DisplacementRecord, PointAnalysis};
 use super::epoch::{AnalysisConfig, EpochCoordinates, GroupConfig, PointConfig};
 use super::failure::FailureForecast;
+use super::history::{raw_kinematics, record_covariance, History};
+use super::linalg::length_of;
+use super::rigid_body::{
+    at_rest, estimate_block, estimate_block_correlated, translation_share, BlockMotion, BlockPoint,
+};
 use super::tracking::{track, Observed, Tracked};
 use super::velocity::{days_between, Sample};
 

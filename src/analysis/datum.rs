@@ -23,6 +23,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, Vector3};
 
 use super::epoch::{DatumTransformation, EpochCoordinates};
 use super::error::AnalysisError;
+use super::linalg::sym_inverse;
 
 /// Coordinate differences of the points common to two epochs, with everything needed for the covariances.
 #[derive(Debug, Clone)]
@@ -274,33 +275,6 @@ pub(crate) fn datum_covariance(diffs: &Differences, datum: &[usize]) -> DMatrix<
         }
     }
     s
-}
-
-/// Inverse of a symmetric matrix and its rank: Cholesky when positive definite, else the eigen
-/// pseudo-inverse (eigenvalues below 1e-12 × the largest count as zero).
-pub(crate) fn sym_inverse(s: &DMatrix<f64>) -> Option<(DMatrix<f64>, usize)> {
-    if s.nrows() == 0 {
-        return Some((s.clone(), 0));
-    }
-    if let Some(ch) = s.clone().cholesky() {
-        return Some((ch.inverse(), s.nrows()));
-    }
-    let eig = s.clone().symmetric_eigen();
-    let max = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
-    if !(max > 0.0) {
-        return None;
-    }
-    let mut rank = 0;
-    let inv_vals = eig.eigenvalues.map(|l| {
-        if l > 1e-12 * max {
-            rank += 1;
-            1.0 / l
-        } else {
-            0.0
-        }
-    });
-    let v = &eig.eigenvectors;
-    Some((v * DMatrix::from_diagonal(&inv_vals) * v.transpose(), rank))
 }
 
 fn solve(

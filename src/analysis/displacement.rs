@@ -6,9 +6,9 @@ use chrono::{DateTime, Utc};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::datum::sym_inverse;
 use super::epoch::PointRole;
 use super::failure::FailureForecast;
+use super::linalg::sym_inverse;
 use super::stats::f_quantile;
 use super::velocity::Kinematics;
 
@@ -193,16 +193,6 @@ pub(crate) fn point_test(
         critical,
         significant: statistic > critical,
     }
-}
-
-/// σ of the 3-D length of `d` (mm) given its covariance (mm²).
-pub(crate) fn sigma_length(d: &Vector3<f64>, cov: &Matrix3<f64>) -> f64 {
-    let n = d.norm();
-    if n < 1e-9 {
-        return (cov.trace() / 3.0).max(0.0).sqrt();
-    }
-    let u = d / n;
-    (u.transpose() * cov * u)[(0, 0)].max(0.0).sqrt()
 }
 
 /// The unit vector of a direction of interest; `None` when it is not [`is_usable_direction`]

@@ -7,7 +7,7 @@
 //!    significance test ([`displacement`]), velocity and acceleration ([`velocity`]) and, while it
 //!    accelerates, an inverse-velocity time-to-failure forecast ([`failure`]); the Kalman filter
 //!    ([`kalman`]) over the point's last epochs gives its filtered displacement, velocity and
-//!    forecast ([`tracking`]); each declared block gets its rigid-body motion ([`block`]) with the
+//!    forecast ([`tracking`]); each declared block gets its rigid-body motion ([`rigid_body`]) with the
 //!    joint covariance of its points and the same filtered kinematics ([`block_analysis`]). The
 //!    reference may be the mean of several epochs ([`reference`](self::reference)).
 //! 2. [`evaluate_alerts`]: the site's rules turn the analysis into alert transitions and events
@@ -16,6 +16,11 @@
 //!    user's actions.
 //! 3. [`analyse_series`]: a whole series again against one reference, the rules replayed over it
 //!    ([`series`]), when the reference or the history changes.
+//!
+//! The inputs and settings of these steps are in [`epoch`](self::epoch) (the Kalman filter's too);
+//! one epoch's analysis is [`epoch_analysis`](self::epoch_analysis), the blocks' [`block_analysis`];
+//! a point's past records and what is read from them are in [`history`](self::history), the small
+//! linear algebra they share in [`linalg`](self::linalg).
 //!
 //! Units are in the names: m for coordinates, mm and mm² for displacements and their covariances, mm/day,
 //! hours. Methods: Caspary 1987 and Niemeier 2008 (S-transformation, congruence test), Chen 1983 (IWST),
@@ -26,18 +31,20 @@
 
 pub mod alerts;
 pub(crate) mod alignment;
-pub(crate) mod analyse;
-pub mod block;
 pub(crate) mod block_analysis;
 pub(crate) mod congruence;
 pub(crate) mod datum;
 pub(crate) mod displacement;
 pub(crate) mod epoch;
+pub(crate) mod epoch_analysis;
 pub(crate) mod error;
 pub mod failure;
+pub(crate) mod history;
 pub mod kalman;
+pub(crate) mod linalg;
 pub(crate) mod onset;
 pub(crate) mod reference;
+pub mod rigid_body;
 pub(crate) mod series;
 pub mod stats;
 pub mod tracking;
@@ -48,7 +55,6 @@ pub use alerts::{
     may_acknowledge, reconcile, resolve, Alert, AlertConfig, AlertEvent, AlertEventType, AlertKind,
     AlertLevel, AlertRule, AlertState, AlertStatus, Metric, Reading, Readings, Source,
 };
-pub use analyse::{analyse_epoch, DatumReport, EpochAnalysis, History};
 pub use block_analysis::{BlockAnalysis, MIN_BLOCK_POINTS};
 pub use congruence::CongruenceTest;
 pub use datum::DatumMethod;
@@ -60,7 +66,9 @@ pub use epoch::{
     AnalysisConfig, DatumTransformation, EpochCoordinates, FailureConfig, GroupConfig, GroupKind,
     JointCovarianceM2, PointConfig, PointCoordinates, PointRole, Window,
 };
+pub use epoch_analysis::{analyse_epoch, DatumReport, EpochAnalysis};
 pub use error::AnalysisError;
 pub use failure::FailureForecast;
+pub use history::History;
 pub use series::{analyse_series, SeriesAnalysis};
 pub use velocity::Kinematics;

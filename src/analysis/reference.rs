@@ -12,11 +12,12 @@ use std::collections::HashMap;
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
-use super::analyse::{analyse_epoch, History};
 use super::epoch::{
     AnalysisConfig, EpochCoordinates, JointCovarianceM2, PointConfig, PointCoordinates,
 };
+use super::epoch_analysis::analyse_epoch;
 use super::error::AnalysisError;
+use super::history::History;
 
 /// The mean of `epochs` (oldest first) in the first one's datum; keeps the first epoch's id and
 /// time. One epoch is returned unchanged.

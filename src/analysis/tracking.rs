@@ -10,12 +10,12 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::analyse::length_of;
 use super::displacement::FilteredValues;
 use super::epoch::AnalysisConfig;
 use super::epoch::ForecastMethod;
 use super::failure::{fit_law_to_displacements_3d, forecast_from_velocities, FailureForecast};
 use super::kalman::{filter, smooth, KalmanConfig, KalmanState, Measurement};
+use super::linalg::length_of;
 use super::onset::accelerating;
 use super::stats::normal_quantile;
 use super::velocity::{window_slice, Sample};

@@ -1,4 +1,4 @@
-//! The HTTP API of the contract (`docs/api-contract.md`): its axum routes and handlers, the
+//! The HTTP API of the contract (`docs/api.md`): its axum routes and handlers, the
 //! health endpoints, metrics and the OpenAPI description.
 //!
 //! Handlers only: each parses its request, calls a use case of [`crate::service`] or a read of

@@ -6,7 +6,7 @@ use utoipa::OpenApi;
 /// The OpenAPI document of the v1 API.
 #[derive(OpenApi)]
 #[openapi(
-    info(title = "cliffwatch", description = "Rock-cliff movement monitoring: epochs, adjustments, displacements, alerts (docs/api-contract.md)"),
+    info(title = "cliffwatch", description = "Rock-cliff movement monitoring: epochs, adjustments, displacements, alerts (docs/api.md)"),
     paths(
         super::health::healthz, super::health::readyz, super::health::metrics,
         super::sites::create, super::sites::list, super::sites::get_one, super::sites::set_reference,

@@ -274,7 +274,10 @@ pub async fn find(state: &AppState, site: &str) -> Result<Site, ApiError> {
 #[serde(deny_unknown_fields)]
 pub struct ReferenceBody {
     /// The reference epoch's integer id; null or absent: back to the earliest.
-    #[serde(default, deserialize_with = "crate::json_integer::optional_i64")]
+    #[serde(
+        default,
+        deserialize_with = "crate::contract::json_integer::optional_i64"
+    )]
     pub epoch: Option<i64>,
 }
 

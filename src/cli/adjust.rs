@@ -16,7 +16,8 @@ pub struct AdjustArgs {
     /// Projection model: orthogonal or central.
     #[arg(long, default_value = "orthogonal")]
     pub model: Model,
-    /// Truth file (form of shared/data/*.truth.json): adds index3_rmse_mm and index4_rmse_mm.
+    /// Truth file (the form of the `*.truth.json` files `cliffwatch simulate` writes): adds
+    /// index3_rmse_mm and index4_rmse_mm.
     #[arg(long)]
     pub truth: Option<PathBuf>,
 }

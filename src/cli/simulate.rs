@@ -1,6 +1,6 @@
 //! `cliffwatch simulate --scene NAME --seed N [--out-dir DIR] [--blunder] [--epochs N]`: writes
-//! `NAME-seedN.epoch.json` (upload form) and `NAME-seedN.truth.json` (truth form of
-//! `shared/data/*.truth.json`). The `monitoring-series` scene writes one upload per epoch,
+//! `NAME-seedN.epoch.json` (upload form) and `NAME-seedN.truth.json` (the form of
+//! [`cliffwatch::simulate::scenes::Truth`]). The `monitoring-series` scene writes one upload per epoch,
 //! `monitoring-series-seedN-KKK.epoch.json` (K from 1), and the series truth
 //! `monitoring-series-seedN.truth.json` ([`cliffwatch::simulate::series::SeriesTruth`]).
 

@@ -6,21 +6,16 @@
 //!   `observation_retention_days` ago, the largest table of a long-running site. The epoch, its
 //!   report, coordinates, covariances and displacements stay, so series, alerts and reference
 //!   changes are unaffected; the epoch records when they went (`observations_pruned_at`).
-//! - the folders the watched directory took (`<site>/.done/<folder>`, the images) last written
-//!   more than `watch_done_retention_days` ago. `.failed/` folders stay for staff to look at;
-//!   the epoch pages then draw the detections without the image.
 //!
-//! Run periodically by the daemon.
+//! Run periodically by the daemon. (The watched directory's taken folders have their own
+//! retention, [`crate::watch::retention`].)
 
-use std::path::{Path, PathBuf};
-use std::time::{Duration, SystemTime};
+use std::time::Duration;
 
 use chrono::{DateTime, Utc};
-use sqlx::AnyConnection;
 
 use crate::shutdown::Shutdown;
-use crate::store::{self, epochs, outbox, Store, StoreError};
-use crate::watch::folders;
+use crate::store::{self, epochs, outbox, Connection, Store, StoreError};
 
 /// Deliveries deleted per transaction, so that a first pass over years of history holds the
 /// write lock for milliseconds at a time, not for the whole deletion.
@@ -39,27 +34,22 @@ pub struct Retention {
     pub deliveries: Option<Duration>,
     /// Epochs' observations, after the epoch's observation time.
     pub observations: Option<Duration>,
-    /// The watched directory's taken folders (`<site>/.done/<folder>`), after they were last
-    /// written, with the watched directory.
-    pub done_folders: Option<(Duration, PathBuf)>,
 }
 
 impl Retention {
-    /// The periods of the configuration's `webhook_delivery_retention_days`,
-    /// `observation_retention_days` and `watch_done_retention_days` (0: none; the last only with
-    /// a `watch_dir`).
+    /// The periods of the configuration's `webhook_delivery_retention_days` and
+    /// `observation_retention_days` (0: none).
     pub fn from_config(config: &crate::config::Config) -> Retention {
         let days = |d: u64| (d > 0).then(|| Duration::from_secs(d.saturating_mul(86_400)));
         Retention {
             deliveries: days(config.webhook_delivery_retention_days),
             observations: days(config.observation_retention_days),
-            done_folders: days(config.watch_done_retention_days).zip(config.watch_dir.clone()),
         }
     }
 
     /// Whether anything is ever deleted.
     pub fn any(&self) -> bool {
-        self.deliveries.is_some() || self.observations.is_some() || self.done_folders.is_some()
+        self.deliveries.is_some() || self.observations.is_some()
     }
 }
 
@@ -88,7 +78,7 @@ impl Prunable<'_> {
     }
 
     /// Deletes one batch in `tx`; returns how many items went.
-    async fn delete_batch(&self, tx: &mut AnyConnection) -> Result<u64, StoreError> {
+    async fn delete_batch(&self, tx: &mut Connection) -> Result<u64, StoreError> {
         match *self {
             Prunable::Deliveries { cut } => outbox::prune_finished(tx, cut, BATCH).await,
             Prunable::Observations { cut, pruned_at } => {
@@ -145,26 +135,6 @@ pub async fn prune_observations(
     what.delete_all(store).await
 }
 
-/// Deletes every taken folder of the watched directory `dir` last written more than `retention`
-/// before `now` ([`folders::done_folders_before`]). Returns how many went; a folder that cannot
-/// be deleted is logged and left for the next pass, one already gone (another node) is skipped.
-pub fn prune_done_folders(dir: &Path, retention: Duration, now: SystemTime) -> usize {
-    let Some(cut) = now.checked_sub(retention) else {
-        return 0;
-    };
-    let mut pruned = 0;
-    for folder in folders::done_folders_before(dir, cut) {
-        match std::fs::remove_dir_all(&folder) {
-            Ok(()) => pruned += 1,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => {
-                tracing::warn!(folder = %folder.display(), error = %e, "deleting a taken folder failed")
-            }
-        }
-    }
-    pruned
-}
-
 /// One pass of every retention in force, at the store's clock. The observations' pass runs on
 /// one node at a time ([`Store::try_job_lock`]); the deliveries' on any (a deletion another node
 /// made first deletes nothing).
@@ -197,22 +167,6 @@ async fn prune_once(store: &Store, retention: &Retention) {
             "the observations of old epochs",
         );
     }
-    if let Some((keep, dir)) = retention.done_folders.clone() {
-        let pass = async {
-            let Some(_held) = store.try_job_lock("watch retention").await? else {
-                return Ok(0);
-            };
-            tokio::task::spawn_blocking(move || prune_done_folders(&dir, keep, SystemTime::now()))
-                .await
-                .map(|n| n as u64)
-                .map_err(|e| StoreError::Io(std::io::Error::other(e)))
-        };
-        record(
-            pass.await,
-            "cliffwatch_watch_folders_pruned_total",
-            "old taken folders of the watched directory",
-        );
-    }
 }
 
 /// Counts on `counter` and logs what one retention pass deleted (`what`), or why it failed.
@@ -241,8 +195,8 @@ pub async fn run(store: Store, retention: Retention, shutdown: Shutdown) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::store::outbox::queue_delivery;
     use crate::store::outbox::tests::{at, insert_message, store_with_endpoint_and_alert};
+    use crate::store::outbox::{claim_due, queue_delivery, record_attempt, Attempt};
 
     /// With 90 days' retention, a delivery made 100 days ago goes and one made 10 days ago
     /// stays.
@@ -251,25 +205,40 @@ mod tests {
         let (_dir, store, webhook) = store_with_endpoint_and_alert().await;
         let day = 86_400;
         let now = DateTime::UNIX_EPOCH + chrono::Duration::seconds(1000 * day);
+        let made = [("m_100_days", 900 * day), ("m_10_days", 990 * day)];
         let mut tx = store.begin_write_rows().await.unwrap();
-        for (id, t) in [("m_100_days", 900 * day), ("m_10_days", 990 * day)] {
+        for (id, t) in made {
             insert_message(&mut tx, id, t).await;
             assert!(queue_delivery(&mut tx, id, &webhook, &at(t), None)
                 .await
                 .unwrap());
         }
-        sqlx::query("UPDATE webhook_deliveries SET state = 'delivered'")
-            .execute(&mut *tx)
-            .await
-            .unwrap();
+        // each delivered at the time it was queued (one alert's deliveries are claimed one at a
+        // time, in order)
+        for _ in 0..made.len() {
+            let due = claim_due(&mut tx, &webhook, &at(995 * day), &at(996 * day), 10)
+                .await
+                .unwrap();
+            assert_eq!(due.len(), 1);
+            let d = &due[0];
+            let t = made.iter().find(|(id, _)| *id == d.outbox_id).unwrap().1;
+            let attempt = Attempt {
+                state: "delivered",
+                attempts: 1,
+                next_attempt_at: at(t),
+                status: Some(200),
+                error: None,
+                delivered_at: Some(at(t)),
+            };
+            assert!(record_attempt(&mut tx, d, &attempt).await.unwrap());
+        }
         tx.commit().await.unwrap();
         let retention = Duration::from_secs(90 * 86_400);
         assert_eq!(prune_deliveries(&store, retention, now).await.unwrap(), 1);
         assert_eq!(prune_deliveries(&store, retention, now).await.unwrap(), 0);
-        let left: Vec<String> = sqlx::query_scalar("SELECT outbox_id FROM webhook_deliveries")
-            .fetch_all(store.reader())
-            .await
-            .unwrap();
-        assert_eq!(left, ["m_10_days"]);
+        // the one left is the 10 days' one: 11 days' retention keeps it, 9 days' does not
+        let keep = |days: u64| Duration::from_secs(days * 86_400);
+        assert_eq!(prune_deliveries(&store, keep(11), now).await.unwrap(), 0);
+        assert_eq!(prune_deliveries(&store, keep(9), now).await.unwrap(), 1);
     }
 }

@@ -5,7 +5,7 @@ use serde::Serialize;
 use sqlx::FromRow;
 use utoipa::ToSchema;
 
-use super::series_record::{Filtered, Record};
+use super::series::record::{Filtered, Record};
 use super::{parse_timestamp, timestamp};
 use crate::analysis::{DisplacementRecord, FilteredValues};
 
@@ -142,7 +142,7 @@ impl Displacement {
         }
     }
 
-    /// The row in the packed form of the series ([`super::series_record`]), as stored.
+    /// The row in the packed form of the series ([`super::series::record`]), as stored.
     pub(super) fn record(&self) -> Record<'_> {
         Record {
             epoch: self.epoch,

@@ -2,7 +2,7 @@
 
 use sqlx::{AnyConnection, AnyExecutor};
 
-use super::sqlite_raw::{self, Param};
+use super::series::sqlite_raw::{self, Param};
 use super::{display_timestamp, Store, StoreError};
 
 pub use super::displacement_row::Displacement;
@@ -16,14 +16,14 @@ fn display(mut rows: Vec<Displacement>) -> Vec<Displacement> {
 }
 
 /// Stores displacements (observed_at in store format) and keeps the site's packed series
-/// consistent ([`super::series_blocks::added`]). Call inside the epoch's write transaction.
+/// consistent ([`super::series::blocks::added`]). Call inside the epoch's write transaction.
 pub async fn insert(
     db: &mut AnyConnection,
     site: &str,
     rows: &[Displacement],
 ) -> Result<(), StoreError> {
     insert_into(db, "displacements", "point", site, rows).await?;
-    super::series_blocks::added(db, site, rows).await
+    super::series::blocks::added(db, site, rows).await
 }
 
 /// The column list of `table`, whose name column (`point` in [`COLUMNS`]) is `name_column`.
@@ -98,7 +98,7 @@ pub async fn delete_site(db: &mut AnyConnection, site: &str) -> Result<(), Store
         .bind(site)
         .execute(&mut *db)
         .await?;
-    super::series_blocks::delete_site(db, site).await
+    super::series::blocks::delete_site(db, site).await
 }
 
 /// The time series of one point, oldest first, with `from ≤ observed_at ≤ to` and after the

@@ -7,7 +7,7 @@
 
 use sqlx::AnyExecutor;
 
-use super::series_record::f64_at;
+use super::series::record::f64_at;
 use super::StoreError;
 use crate::analysis::JointCovarianceM2;
 

@@ -51,7 +51,10 @@ pub struct NewSite {
     pub alert_rules: Option<Vec<serde_json::Value>>,
     /// Epochs averaged into the reference (covariance-weighted, in the stable-point datum), ≥ 1
     /// (default 1).
-    #[serde(default, deserialize_with = "crate::json_integer::optional_i64")]
+    #[serde(
+        default,
+        deserialize_with = "crate::contract::json_integer::optional_i64"
+    )]
     #[schema(minimum = 1, maximum = 100)]
     pub reference_epochs: Option<i64>,
     /// Process noise of the points' Kalman filter (white jerk, mm²/day⁵; > 0; default 0.05).

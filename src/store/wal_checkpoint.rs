@@ -11,12 +11,8 @@
 
 use std::time::Duration;
 
+pub use super::pool::WRITER_AUTOCHECKPOINT_PAGES;
 use super::{Store, StoreError};
-
-/// WAL pages (4 KiB each) past which a committing writer checkpoints itself: far above what the
-/// daemon's checkpoints let the WAL reach, so it only acts when they do not run (commands
-/// outside the daemon, a stalled checkpointer).
-pub const WRITER_AUTOCHECKPOINT_PAGES: u32 = 10_000;
 
 /// How often the daemon checkpoints the WAL.
 pub const CHECKPOINT_INTERVAL: Duration = Duration::from_secs(1);

@@ -41,6 +41,7 @@ pub(crate) mod image_file;
 pub(crate) mod ingest;
 mod naming;
 mod options;
+pub mod retention;
 mod settle;
 mod state;
 mod stations;

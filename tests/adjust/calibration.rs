@@ -9,7 +9,7 @@
 //!   [`cliffwatch::analysis::analyse_epoch`] (points outside the datum, joint covariance of all
 //!   points) within 0.9–1.06 of 1; the same with the joint covariance of the stable points only
 //!   (today's service) is printed, not asserted: it is 8 % optimistic in depth (docs/accuracy.md);
-//! - rms of (translation / its σ) per axis of the 6-point block (`analysis::block`, estimated
+//! - rms of (translation / its σ) per axis of the 6-point block (`analysis::rigid_body`, estimated
 //!   with the joint covariance of its points) within 0.85–1.12 of 1 (180 block-epochs per case);
 //!   the per-point weighting that ignores the cross-covariances is printed beside it (it is
 //!   ~1.2 / 1.2 / 1.5: the datum's and the reference epoch's errors are common to the points);
@@ -21,7 +21,7 @@
 use crate::adjust_common;
 
 use chrono::{DateTime, Utc};
-use cliffwatch::analysis::block::{estimate_block, BlockPoint};
+use cliffwatch::analysis::rigid_body::{estimate_block, BlockPoint};
 use cliffwatch::analysis::{
     analyse_epoch, AnalysisConfig, EpochCoordinates, GroupConfig, GroupKind, History, PointConfig,
     PointRole,

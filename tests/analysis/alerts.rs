@@ -807,7 +807,7 @@ fn either_source_fires_on_raw_or_filtered_and_clears_on_both() {
 /// `point` null, the group and its points; the block's own points are not alerted by it.
 #[test]
 fn block_rules_raise_group_alerts() {
-    use cliffwatch::analysis::block::{BlockModel, BlockMotion};
+    use cliffwatch::analysis::rigid_body::{BlockModel, BlockMotion};
     use cliffwatch::analysis::{BlockAnalysis, Metric, Reading, Readings, Source};
     let rule: AlertRule = serde_json::from_str(
         r#"{"level": "warning", "metric": "displacement_mm", "above": 10, "group": "B1"}"#,

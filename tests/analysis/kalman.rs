@@ -12,13 +12,13 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 
-use cliffwatch::analysis::block::{
-    estimate_block, estimate_block_correlated, translation_share, BlockModel, BlockPoint,
-};
 use cliffwatch::analysis::failure::{
     fit_law_to_displacements, fit_law_to_displacements_3d, forecast_from_displacements,
 };
 use cliffwatch::analysis::kalman::{filter, smooth, KalmanConfig, Measurement, MotionModel};
+use cliffwatch::analysis::rigid_body::{
+    estimate_block, estimate_block_correlated, translation_share, BlockModel, BlockPoint,
+};
 use cliffwatch::analysis::AnalysisError;
 use cliffwatch::simulate::monitoring::FailureLaw;
 

@@ -2,8 +2,8 @@
 //! packed into blocks of 128, with a spike, a dip and an alert epoch inside a block.
 #![allow(dead_code)]
 
+use cliffwatch::store::series::columns;
 use cliffwatch::store::series::SeriesQuery;
-use cliffwatch::store::series_columns;
 use cliffwatch::store::Store;
 use serde_json::{json, Value};
 
@@ -92,7 +92,7 @@ async fn fill(store: &Store, base: &str) {
             .unwrap();
         }
     }
-    cliffwatch::store::series_blocks::rebuild(&mut tx, SITE)
+    cliffwatch::store::series::blocks::rebuild(&mut tx, SITE)
         .await
         .unwrap();
     tx.commit().await.unwrap();
@@ -105,7 +105,7 @@ async fn fill(store: &Store, base: &str) {
 /// exactly what the picker keeps. `base`: the server's URL.
 pub async fn long_history_plot(store: &Store, base: &str) {
     fill(store, base).await;
-    let full = series_columns::read(
+    let full = columns::read(
         store,
         SeriesQuery {
             site: SITE.into(),

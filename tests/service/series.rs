@@ -6,8 +6,8 @@ use crate::service_support;
 
 use chrono::{DateTime, SecondsFormat, Utc};
 use cliffwatch::store::displacements::{self, Displacement};
+use cliffwatch::store::series::blocks::{self, BLOCK_EPOCHS};
 use cliffwatch::store::series::BATCH_ROWS;
-use cliffwatch::store::series_blocks::{self, BLOCK_EPOCHS};
 use cliffwatch::store::{display_timestamp, timestamp, Store, StoreOptions};
 use serde_json::json;
 use service_support::TestServer;
@@ -117,7 +117,7 @@ async fn csv_and_json_pages_equal_the_portable_read() {
     assert_served_as_stored(&s, "fast", Some(direction), ROWS).await;
     // packed: BLOCK_EPOCHS-epoch blocks, then a tail of the rest
     let mut tx = s.store.begin_write().await.unwrap();
-    series_blocks::rebuild(&mut tx, "fast").await.unwrap();
+    blocks::rebuild(&mut tx, "fast").await.unwrap();
     tx.commit().await.unwrap();
     let (blocks, sealed): (i64, i64) = sqlx::query_as(
         "SELECT COUNT(*), SUM(n_rows) FROM series_blocks WHERE site_id = 'fast' AND point = 'P1'",

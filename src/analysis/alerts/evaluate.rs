@@ -8,8 +8,8 @@ use super::metric::{AlertKind, Metric};
 use super::readings::Readings;
 use super::rule::{AlertConfig, AlertRule};
 use super::transition::{apply, fmt_time, Subject, Update};
-use crate::analysis::analyse::EpochAnalysis;
 use crate::analysis::datum::DatumMethod;
+use crate::analysis::epoch_analysis::EpochAnalysis;
 
 /// A point or block with the values its rules read.
 struct SubjectReadings<'a> {

@@ -63,7 +63,7 @@ pub struct AlertRule {
     #[serde(
         default,
         skip_serializing_if = "Option::is_none",
-        deserialize_with = "crate::json_integer::optional_u32"
+        deserialize_with = "crate::contract::json_integer::optional_u32"
     )]
     #[schema(minimum = 1, maximum = 1000)]
     pub for_epochs: Option<u32>,
@@ -74,7 +74,7 @@ pub struct AlertRule {
     #[serde(
         default,
         skip_serializing_if = "Option::is_none",
-        deserialize_with = "crate::json_integer::optional_u32"
+        deserialize_with = "crate::contract::json_integer::optional_u32"
     )]
     #[schema(maximum = 1000)]
     pub quiet_epochs: Option<u32>,

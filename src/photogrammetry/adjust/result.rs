@@ -17,7 +17,7 @@ pub struct AdjustedPoint {
 }
 
 /// Exterior orientation of one image in the site frame: camera coordinates are `R (X − Xo)`, the
-/// camera looks along −r3 (`docs/orthogonal-projection.md`).
+/// camera looks along −r3 (`docs/model.md`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImageOrientation {
     /// Image id.

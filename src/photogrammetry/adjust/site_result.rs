@@ -5,8 +5,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::adjuster::Datum;
 use super::options::AdjustOptions;
+use super::prepare::Datum;
 use super::report::{
     AdjustmentReport, CalibratedParameter, CameraReport, DroppedObservation, ImageReport,
     PointReport, ResidualReport, VarianceModel,
@@ -21,8 +21,8 @@ use crate::photogrammetry::model::frame::{similarity_fit, Similarity, WorkingFra
 use crate::photogrammetry::model::orthogonal::OrthoImage;
 use crate::photogrammetry::model::Model;
 use crate::photogrammetry::solve::lm::LmOutcome;
-use crate::photogrammetry::statistics::global_test::{chi2_upper, GLOBAL_TEST_Z};
 use crate::photogrammetry::statistics::precision::Cofactors;
+use crate::photogrammetry::statistics::variance_factor::{chi2_upper, GLOBAL_TEST_Z};
 
 /// What the solution left for the result: the final bundle in the working frame, its cofactors
 /// and the solver's outcome, with the problem and the bookkeeping of the run.

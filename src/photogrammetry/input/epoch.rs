@@ -1,4 +1,4 @@
-//! The upload form of an epoch (`docs/api-contract.md`) and its validation into an [`EpochProblem`].
+//! The upload form of an epoch (`docs/api.md`) and its validation into an [`EpochProblem`].
 //!
 //! Object coordinates are metres in the site frame; image coordinates are mm (x right, y up, from the
 //! principal point) or pixels (`col`, `row`, top-left pixel centre at (0, 0), row down).

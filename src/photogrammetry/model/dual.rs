@@ -2,7 +2,7 @@
 //!
 //! The projection models are written once, generic over [`Scalar`], and evaluated with `f64` for
 //! residuals and with [`Dual`] for exact Jacobians (no hand-derived derivative can miss a term, see the
-//! note on eqs (15)–(16) in `docs/orthogonal-projection.md`).
+//! note on eqs (15)–(16) in `docs/model.md`).
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

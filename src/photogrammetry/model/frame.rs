@@ -1,4 +1,4 @@
-//! The working frame (`docs/orthogonal-projection.md`): the site frame shifted to the centroid of the
+//! The working frame (`docs/model.md`): the site frame shifted to the centroid of the
 //! points and rotated so that its Z axis is the mean viewing axis r3 of the cameras. Eq (9) divides by
 //! a33·c, so the adjustment must run where a33 ≈ 1 whatever the site frame (E, N, Up at a cliff gives
 //! a33 ≈ 0 with horizontal viewing).

@@ -1,4 +1,4 @@
-//! Start values from four known points per image (`docs/orthogonal-projection.md`, "Start values"):
+//! Start values from four known points per image (`docs/model.md`, "Start values"):
 //! affine resection (eqs 1, 5, 10–14), a perspective refinement of each image on its known points
 //! (the closed-form model, which also picks the right mirror for planar point sets), and intersection
 //! of the rays of every other point. Gross misfits of the start are set aside for the data snooping.

@@ -2,8 +2,8 @@
 //! reduced system), [`snooping`] (normalised residuals and blunder detection), and [`quality`]
 //! (the paper's quality indexes against truth).
 
-pub(crate) mod global_test;
-pub use global_test::{GlobalTest, GLOBAL_TEST_CONFIDENCE};
+pub(crate) mod variance_factor;
+pub use variance_factor::{GlobalTest, GLOBAL_TEST_CONFIDENCE};
 pub(crate) mod precision;
 pub mod quality;
 pub(crate) mod snooping;

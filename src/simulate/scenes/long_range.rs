@@ -1,7 +1,12 @@
 //! The long-range cliff (5 m × 3 m face, 5 stations about 105 m away, 400 mm lens), the nearly
 //! flat face, and the label-swap blunder.
 
-use super::*;
+use std::collections::BTreeMap;
+
+use rand::Rng;
+
+use super::builder::*;
+use crate::photogrammetry::input::epoch::{EpochInput, ImageInput, ObservationInput};
 
 /// The frame the long-range scene is written in.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

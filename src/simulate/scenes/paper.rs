@@ -1,6 +1,9 @@
 //! Ono & Hattori's Table 1 scene (paper §4), cases 1–3.
 
-use super::*;
+use std::collections::BTreeMap;
+
+use super::builder::*;
+use crate::photogrammetry::input::epoch::EpochInput;
 
 /// Which of the paper's simulation cases (Table 1, §4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -75,7 +75,7 @@ impl BlockMotion {
     /// 3-D length of the translation and its linearised σ, mm.
     pub fn length(&self) -> (f64, f64) {
         let t = Vector3::from(self.translation_mm);
-        super::analyse::length_of(&t, &Matrix3::from(self.covariance_mm2))
+        super::linalg::length_of(&t, &Matrix3::from(self.covariance_mm2))
     }
 }
 

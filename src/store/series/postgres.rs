@@ -1,16 +1,16 @@
 //! The series read of a PostgreSQL store: the same statement as SQLite's fast path
-//! ([`super::series`]: the point's packed blocks that overlap the range, then its unpacked tail
-//! rows; ~128 rows per block, so a 10-year hourly series is ~700 rows) through sqlx, into one buffer of packed records ([`super::series_record`])
+//! ([`super`]: the point's packed blocks that overlap the range, then its unpacked tail
+//! rows; ~128 rows per block, so a 10-year hourly series is ~700 rows) through sqlx, into one buffer of packed records ([`super::record`])
 //! that the series writers then format on a blocking thread as they do SQLite's rows.
 
 use sqlx::{AnyPool, Row};
 
-use super::series::{
+use super::query::{
     count_params, params, SeriesQuery, COUNT_SQL, EXTREMES_SQL_LIMITED, SQL_LIMITED,
 };
-use super::series_record::{self, Filtered, Record};
+use super::record::{self, Filtered, Record};
 use super::sqlite_raw::Param;
-use super::StoreError;
+use crate::store::StoreError;
 
 /// How many records the whole series of `q.site`/`q.point` holds (its range is not applied).
 pub async fn count(pool: &AnyPool, q: &SeriesQuery) -> Result<usize, StoreError> {
@@ -35,7 +35,7 @@ pub async fn packed_records(
     extremes: bool,
 ) -> Result<Vec<u8>, StoreError> {
     let from = q.from.as_deref().unwrap_or("");
-    let to = q.to.as_deref().unwrap_or(super::TEXT_MAX);
+    let to = q.to.as_deref().unwrap_or(crate::store::TEXT_MAX);
     let after = q.after.as_deref().unwrap_or("");
     let mut query = sqlx::query(if extremes {
         EXTREMES_SQL_LIMITED
@@ -51,7 +51,7 @@ pub async fn packed_records(
     // limit + 1 records: at most that many rows, from blocks with fewer records before them
     // than that plus one block (the first block may hold records before the range)
     let records = q.limit.map_or(i64::MAX, |l| l.max(0).saturating_add(1));
-    let block_records = super::series_blocks::BLOCK_EPOCHS as i64;
+    let block_records = super::blocks::BLOCK_EPOCHS as i64;
     query = query
         .bind(records)
         .bind(records.saturating_add(block_records));
@@ -92,7 +92,7 @@ pub async fn packed_records(
                     opt,
                 }),
             };
-            if !series_record::encode(&record, &mut out) {
+            if !record::encode(&record, &mut out) {
                 return Err(cut("observed_at too long"));
             }
             continue;
@@ -100,11 +100,11 @@ pub async fn packed_records(
         let Some((format, mut rest)) = block.split_first() else {
             return Err(cut("empty block"));
         };
-        if !series_record::readable(*format) {
+        if !record::readable(*format) {
             return Err(cut("unknown block format"));
         }
         while !rest.is_empty() {
-            let Some((t, n)) = series_record::peek(rest) else {
+            let Some((t, n)) = record::peek(rest) else {
                 return Err(cut("cut block"));
             };
             let (record, later) = rest.split_at(n);

@@ -1,11 +1,13 @@
 //! A point's whole displacement series as columns (one vector per quantity), read through the
-//! same fast path as the served series ([`super::series`]): the dashboard's plots downsample it
+//! same fast path as the served series ([`super`]): the dashboard's plots downsample it
 //! on the server.
 
-use super::displacement_row::{select_list, Displacement, COLUMNS};
-use super::series::{count_records, each_record, reads_extremes, SeriesQuery, Source};
-use super::series_record::{self, Record};
-use super::{Store, StoreError};
+use super::query::SeriesQuery;
+use super::read::{count_records, each_record, reader_failed, reads_extremes, Source};
+use super::record::{self, Record};
+use super::wire::along;
+use crate::store::displacement_row::{select_list, Displacement, COLUMNS};
+use crate::store::{Store, StoreError};
 
 /// The series, oldest first; NaN where a value is missing. Lengths in mm, velocities in mm/day,
 /// times to failure in hours, times in seconds since 1970 (UTC).
@@ -110,7 +112,7 @@ impl SeriesRow {
             t: unix_seconds(r.observed_at),
             d: [r.v[0], r.v[1], r.v[2], r.v[3]],
             sigma: [r.v[4], r.v[5], r.v[6], r.v[7]],
-            along: super::series::along([r.v[0], r.v[1], r.v[2]], direction).unwrap_or(nan),
+            along: along([r.v[0], r.v[1], r.v[2]], direction).unwrap_or(nan),
             velocity: r.velocity.unwrap_or(nan),
             ttf: r.ttf.unwrap_or(nan),
             f_d: std::array::from_fn(|k| f.map_or(nan, |f| f.v[k])),
@@ -193,19 +195,16 @@ where
         let records = count_records(&mut source, &q)?;
         let extremes = reads_extremes(&q, records);
         let mut state = start(SeriesSize { records, extremes });
-        each_record(
-            &mut source,
-            &q,
-            extremes,
-            |bytes| match series_record::decode(bytes) {
+        each_record(&mut source, &q, extremes, |bytes| {
+            match record::decode(bytes) {
                 Some((r, _)) => each(&mut state, &r),
                 None => false,
-            },
-        )?;
+            }
+        })?;
         Ok(state)
     })
     .await
-    .map_err(super::series::reader_failed)?
+    .map_err(reader_failed)?
 }
 
 /// The rows of `site`/`point` at the epochs `epochs` (ids; those without a row are left out), in

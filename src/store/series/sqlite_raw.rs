@@ -4,10 +4,11 @@
 //! channel from its worker thread (≈ 6 µs a row); here the caller sees each row in place, borrowed
 //! until the next step, on the calling (blocking) thread.
 //!
-//! SQLite only: this and `WITHOUT ROWID` in the first migration are the store's SQLite-specific
-//! parts (see the module doc of [`crate::store`]). The only `unsafe` code of the crate lives here,
-//! behind [`query`]: the statement is finalized on every path, text is copied out before the next
-//! step, and the connection is locked away from sqlx's worker thread for the whole call.
+//! SQLite only (what else differs between the backends: the module doc of [`crate::store`]). The
+//! store's `unsafe` code lives here, behind [`query`]: the statement is finalized on every path,
+//! text is copied out before the next step, and the connection is locked away from sqlx's worker
+//! thread for the whole call. (The crate's other `unsafe` code: the AVX2 kernel of
+//! `photogrammetry::solve::normals`, and the binary's malloc settings in `cli::heap`.)
 
 use std::ffi::{c_char, c_int, CStr};
 use std::ptr;
@@ -16,7 +17,7 @@ use libsqlite3_sys as ffi;
 use sqlx::pool::PoolConnection;
 use sqlx::Sqlite;
 
-use super::StoreError;
+use crate::store::StoreError;
 
 /// A value to bind to a `?` parameter.
 #[derive(Debug, Clone, Copy)]

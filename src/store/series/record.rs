@@ -1,5 +1,5 @@
 //! The binary form of one row of a point's displacement series, as packed into the blocks of
-//! [`super::series_blocks`] and into the batches [`super::series`] formats: the served values
+//! [`super::blocks`] and into the batches [`super`] formats: the served values
 //! exactly as stored (the time as its stored text, floats as their IEEE bits), nothing derived.
 //!
 //! Layout, little-endian, self-delimiting (no padding):
@@ -119,7 +119,7 @@ pub fn peek(bytes: &[u8]) -> Option<(&[u8], usize)> {
 }
 
 /// The little-endian f64 at byte `at` of `bytes` (panics when fewer than 8 bytes follow).
-pub(super) fn f64_at(bytes: &[u8], at: usize) -> f64 {
+pub(crate) fn f64_at(bytes: &[u8], at: usize) -> f64 {
     let mut b = [0u8; 8];
     b.copy_from_slice(&bytes[at..at + 8]);
     f64::from_le_bytes(b)
@@ -193,7 +193,7 @@ pub fn records(mut bytes: &[u8]) -> impl Iterator<Item = Record<'_>> {
 /// block of the same layout: the first, the last, and those where dx, dy, dz and d (mm) take
 /// their minimum and maximum (NaN ignored), each once, in order. At most 10 of the block's
 /// records; a plot whose buckets span a block or more reads these instead of the block
-/// ([`super::series`]). `None` when the block is not readable.
+/// ([`super`]). `None` when the block is not readable.
 pub fn extremes(block: &[u8]) -> Option<Vec<u8>> {
     let (&format, body) = block.split_first()?;
     if !readable(format) {

@@ -41,13 +41,13 @@ macro_rules! contract_names {
         }
 
         impl ::std::str::FromStr for $ty {
-            type Err = $crate::contract_names::UnknownName;
+            type Err = $crate::contract::names::UnknownName;
 
             fn from_str(s: &str) -> ::std::result::Result<Self, Self::Err> {
                 match s {
                     $first_name => Ok($ty::$first),
                     $($name => Ok($ty::$variant),)*
-                    _ => Err($crate::contract_names::UnknownName {
+                    _ => Err($crate::contract::names::UnknownName {
                         what: $what,
                         value: s.to_string(),
                         expected: concat!($first_name $(, ", ", $name)*),
@@ -57,7 +57,7 @@ macro_rules! contract_names {
         }
 
         impl ::std::convert::TryFrom<String> for $ty {
-            type Error = $crate::contract_names::UnknownName;
+            type Error = $crate::contract::names::UnknownName;
 
             fn try_from(s: String) -> ::std::result::Result<Self, Self::Error> {
                 s.parse()

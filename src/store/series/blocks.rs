@@ -1,19 +1,19 @@
 //! Each point's displacement series packed into immutable blocks (tables `series_blocks` and
-//! `series_seals`, migration 20261122000700), so that [`super::series`] reads ten years of hourly
+//! `series_seals`, migration 20261122000700), so that [`super`] reads ten years of hourly
 //! rows as ~700 blobs instead of 87 600 rows of 17 columns.
 //!
 //! The displacements table stays the truth; the blocks are derived from it inside the caller's
 //! write transaction. Per site, the rows observed up to `sealed_until` are in the blocks, exactly
 //! once, each block holding one point's rows of up to [`BLOCK_EPOCHS`] consecutive epochs in
-//! [`super::series_record`]'s layout; later rows (the tail, fewer than [`BLOCK_EPOCHS`] epochs
+//! [`super::record`]'s layout; later rows (the tail, fewer than [`BLOCK_EPOCHS`] epochs
 //! after a seal) are read as rows. A site without a `series_seals` row is all tail: correct,
 //! only slower. Blocks are packed from the rows as the table returns them, so the served values
 //! are the table's, bit for bit. Each block also keeps its extremes
-//! ([`series_record::extremes`], migration 20261125001300), which a plot whose buckets span a
+//! ([`record::extremes`], migration 20261125001300), which a plot whose buckets span a
 //! block reads instead of the block's rows.
 //!
-//! Write paths: [`added`] after every insert of displacements ([`super::displacements::insert`]),
-//! [`delete_site`] with [`super::displacements::delete_site`], [`backfill`] at open for databases
+//! Write paths: [`added`] after every insert of displacements ([`crate::store::displacements::insert`]),
+//! [`delete_site`] with [`crate::store::displacements::delete_site`], [`backfill`] at open for databases
 //! that had displacements before the migrations (20261125001300 drops the blocks without
 //! extremes, so they are packed again).
 
@@ -21,9 +21,9 @@ use std::collections::BTreeSet;
 
 use sqlx::AnyConnection;
 
-use super::displacement_row::{select_list, Displacement, COLUMNS};
-use super::series_record;
-use super::{Store, StoreError};
+use super::record;
+use crate::store::displacement_row::{select_list, Displacement, COLUMNS};
+use crate::store::{Store, StoreError};
 
 /// Epochs per block: a block holds one point's rows of this many consecutive epochs of its site
 /// (≈ 17 kB). Also the most epochs a site's tail holds after a seal.
@@ -182,15 +182,15 @@ async fn insert_block(
         return Ok(());
     };
     let mut data = Vec::with_capacity(1 + rows.len() * 150);
-    data.push(series_record::FORMAT);
+    data.push(record::FORMAT);
     for r in rows {
-        if !series_record::encode(&r.record(), &mut data) {
+        if !record::encode(&r.record(), &mut data) {
             return Err(StoreError::Block(format!(
                 "observed_at of {site}/{point} too long to pack"
             )));
         }
     }
-    let extremes = series_record::extremes(&data)
+    let extremes = record::extremes(&data)
         .ok_or_else(|| StoreError::Block(format!("block of {site}/{point} unreadable")))?;
     sqlx::query(
         "INSERT INTO series_blocks (site_id, point, last_at, first_at, n_rows, data, extremes) \
