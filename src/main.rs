@@ -1,4 +1,5 @@
-//! The `cliffwatch` command line: `serve`, `adjust`, `simulate`, `backup`, `migrate-store`.
+//! The `cliffwatch` command line: `serve`, `adjust`, `detect`, `simulate`, `backup`,
+//! `migrate-store`.
 
 mod cli;
 
@@ -18,6 +19,8 @@ enum Command {
     Serve(cli::serve::ServeArgs),
     /// Adjust one epoch file and print the adjustment report (JSON).
     Adjust(cli::adjust::AdjustArgs),
+    /// Detect and centre the targets of images; one JSON line per image.
+    Detect(cli::detect::DetectArgs),
     /// Generate simulated epochs with truth.
     Simulate(cli::simulate::SimulateArgs),
     /// Take a consistent online copy of the database.
@@ -30,6 +33,7 @@ fn main() -> anyhow::Result<()> {
     let result = match Cli::parse().command {
         Command::Serve(args) => cli::serve::run(args),
         Command::Adjust(args) => cli::adjust::run(args),
+        Command::Detect(args) => cli::detect::run(args),
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Backup(args) => cli::backup::run(args),
         Command::MigrateStore(args) => cli::migrate_store::run(args),

@@ -3,7 +3,9 @@
 
 pub mod adjust;
 pub mod backup;
+pub mod detect;
 pub mod heap;
 pub mod migrate_store;
+pub mod overlay;
 pub mod serve;
 pub mod simulate;

@@ -13,6 +13,14 @@ pub enum Polarity {
 }
 
 impl Polarity {
+    /// `"bright"` or `"dark"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Polarity::BrightOnDark => "bright",
+            Polarity::DarkOnBright => "dark",
+        }
+    }
+
     /// The factor that turns grey levels into a signal in which the targets are bright: +1 or −1.
     pub fn sign(self) -> f64 {
         match self {
@@ -32,19 +40,39 @@ pub enum CentreMethod {
     /// plane) to the grey values; used for targets of at least
     /// [`DetectOptions::edge_fit_min_diameter_px`], whose centre information lies in the edge.
     EllipseFit,
+    /// Least-squares dual-conic fit to the grey-level gradients of the edge (`detect::dual_conic`);
+    /// used for targets of at least [`DetectOptions::dual_conic_min_diameter_px`], where the edge
+    /// holds hundreds of pixels and the shape of a real (compressed, unevenly lit) edge, not the
+    /// noise, limits a model fit.
+    DualConic,
+}
+
+impl CentreMethod {
+    /// Short name: `"windowed_centroid"`, `"ellipse_fit"` or `"dual_conic"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            CentreMethod::WindowedCentroid => "windowed_centroid",
+            CentreMethod::EllipseFit => "ellipse_fit",
+            CentreMethod::DualConic => "dual_conic",
+        }
+    }
 }
 
 /// Options of [`super::detect`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct DetectOptions {
-    /// Target polarity.
-    pub polarity: Polarity,
+    /// Target polarity; `None` (the default): both are searched and the one that yields more
+    /// targets is kept ([`super::Detections::polarity`] says which).
+    pub polarity: Option<Polarity>,
     /// Smallest target diameter in px.
     pub min_diameter_px: f64,
     /// Largest target diameter in px.
     pub max_diameter_px: f64,
-    /// Threshold above the local background, in noise σ.
+    /// Least distance of the threshold from the local background, in noise σ.
     pub threshold_sigma: f64,
+    /// Where the threshold lies between the local background (0) and the local extreme (1): the
+    /// most extreme grey level within about 1.5 background cells (`threshold::Background::levels`).
+    pub threshold_fraction: f64,
     /// Least peak contrast of a target, in noise σ.
     pub min_snr: f64,
     /// Largest axis ratio of a target's region.
@@ -57,20 +85,25 @@ pub struct DetectOptions {
     /// by [`CentreMethod::EllipseFit`], smaller ones by [`CentreMethod::WindowedCentroid`]
     /// (`f64::INFINITY`: never).
     pub edge_fit_min_diameter_px: f64,
+    /// Targets whose thresholded region is at least this wide (equivalent diameter, px) are centred
+    /// by [`CentreMethod::DualConic`] (`f64::INFINITY`: never).
+    pub dual_conic_min_diameter_px: f64,
 }
 
 impl Default for DetectOptions {
     fn default() -> Self {
         Self {
-            polarity: Polarity::BrightOnDark,
+            polarity: None,
             min_diameter_px: 2.5,
             max_diameter_px: 64.0,
             threshold_sigma: 5.0,
-            min_snr: 10.0,
+            threshold_fraction: 0.4,
+            min_snr: 30.0,
             max_aspect: 2.0,
             fill_range: (0.7, 1.35),
             background_cell_px: 128,
-            edge_fit_min_diameter_px: 6.0,
+            edge_fit_min_diameter_px: 5.0,
+            dual_conic_min_diameter_px: 16.0,
         }
     }
 }
@@ -85,13 +118,18 @@ pub struct Target {
     /// Equivalent diameter in px (from the background-subtracted intensity: 4·√(mean second moment),
     /// blur included).
     pub diameter_px: f64,
-    /// Peak signal above the local background in grey levels.
+    /// Peak signal above the local background in grey levels (dark targets: below it, as a
+    /// positive figure).
     pub contrast: f64,
     /// Peak contrast over the image noise σ.
     pub snr: f64,
-    /// Quality: the expected standard deviation of each centre coordinate in px, propagated from
-    /// the image noise (smaller is better).
+    /// Quality: the expected standard deviation of each centre coordinate in px (the mean of
+    /// `sigma_col_px` and `sigma_row_px`; smaller is better).
     pub sigma_px: f64,
+    /// Expected standard deviation of the centre column in px.
+    pub sigma_col_px: f64,
+    /// Expected standard deviation of the centre row in px.
+    pub sigma_row_px: f64,
     /// Axis ratio of the thresholded region (≥ 1).
     pub aspect: f64,
     /// Method of the centre.
@@ -103,5 +141,58 @@ impl Target {
     /// [`Camera::pixel_to_mm`]; None without the camera's pixel size and image size.
     pub fn image_mm(&self, camera: &Camera) -> Option<[f64; 2]> {
         camera.pixel_to_mm(self.col, self.row)
+    }
+}
+
+/// Why a detection result is implausible: the caller should look at the image (or the options)
+/// before trusting it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DetectWarning {
+    /// No target was found.
+    NoTargets,
+    /// Far more candidate regions than a target field holds (texture, print, noise).
+    ManyCandidates {
+        /// Candidate regions that passed the shape tests.
+        candidates: usize,
+    },
+    /// Both polarities gave comparable numbers of targets: the kept one may be the wrong one.
+    BothPolarities {
+        /// The polarity kept.
+        kept: Polarity,
+        /// Targets of the kept polarity.
+        kept_targets: usize,
+        /// Targets of the other polarity.
+        other_targets: usize,
+    },
+    /// One polarity's search was refused (too many runs or blobs); the other was kept.
+    PolarityRefused {
+        /// The refused polarity.
+        polarity: Polarity,
+        /// Why.
+        reason: String,
+    },
+}
+
+impl std::fmt::Display for DetectWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DetectWarning::NoTargets => write!(f, "no targets found"),
+            DetectWarning::ManyCandidates { candidates } => write!(
+                f,
+                "{candidates} candidate regions: texture or print rather than targets?"
+            ),
+            DetectWarning::BothPolarities {
+                kept,
+                kept_targets,
+                other_targets,
+            } => write!(
+                f,
+                "both polarities give targets: {kept_targets} {} kept, {other_targets} of the other",
+                kept.name()
+            ),
+            DetectWarning::PolarityRefused { polarity, reason } => {
+                write!(f, "{} targets not searched: {reason}", polarity.name())
+            }
+        }
     }
 }

@@ -7,5 +7,6 @@ mod identify_support;
 
 mod first_epoch;
 mod identify;
+mod real;
 mod reference;
 mod synthetic;
