@@ -11,6 +11,6 @@ mod watch_support;
 
 mod browser;
 mod cap_feed;
+mod headline;
 mod pages;
 mod security;
-mod headline;
