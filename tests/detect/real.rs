@@ -55,11 +55,21 @@ pub fn detections() -> &'static Vec<(String, Detections)> {
     })
 }
 
-/// The comparison with PhotoModeler: per matched mark (detection within 3 px) the offset
-/// detection − mark, the mark and the detection's σ; the count of detections 3 px from every mark.
+/// One mark with the detection within 3 px of it.
+pub struct Match {
+    /// Mark column and row (px).
+    pub mark: [f64; 2],
+    /// Detection − mark (col, row; px).
+    pub offset: [f64; 2],
+    /// How the detection was centred.
+    pub method: CentreMethod,
+}
+
+/// The comparison with PhotoModeler: the matched marks; the count of detections 3 px from every
+/// mark.
 pub struct Comparison {
-    /// (image, point id, mark col, mark row, d col, d row, σ col, σ row, method).
-    pub matched: Vec<(String, u32, f64, f64, f64, f64, f64, f64, CentreMethod)>,
+    /// Marks with a detection.
+    pub matched: Vec<Match>,
     /// Marks without a detection: (image, point id, col, row).
     pub missed: Vec<(String, u32, f64, f64)>,
     /// Detections far from every mark.
@@ -86,17 +96,11 @@ pub fn compare() -> Comparison {
                 .map(|t| ((t.col - mc).hypot(t.row - mr), t))
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             match best {
-                Some((e, t)) if e < 3.0 => c.matched.push((
-                    name.clone(),
-                    id,
-                    mc,
-                    mr,
-                    t.col - mc,
-                    t.row - mr,
-                    t.sigma_col_px,
-                    t.sigma_row_px,
-                    t.method,
-                )),
+                Some((e, t)) if e < 3.0 => c.matched.push(Match {
+                    mark: [mc, mr],
+                    offset: [t.col - mc, t.row - mr],
+                    method: t.method,
+                }),
                 _ => c.missed.push((name.clone(), id, mc, mr)),
             }
         }
@@ -115,12 +119,12 @@ pub fn compare() -> Comparison {
 /// rms distance to the marks after removing the mean offset, and the offset.
 fn rms_after_offset(c: &Comparison) -> (f64, [f64; 2]) {
     let n = c.matched.len() as f64;
-    let mx = c.matched.iter().map(|m| m.4).sum::<f64>() / n;
-    let my = c.matched.iter().map(|m| m.5).sum::<f64>() / n;
+    let mx = c.matched.iter().map(|m| m.offset[0]).sum::<f64>() / n;
+    let my = c.matched.iter().map(|m| m.offset[1]).sum::<f64>() / n;
     let ss: f64 = c
         .matched
         .iter()
-        .map(|m| (m.4 - mx).powi(2) + (m.5 - my).powi(2))
+        .map(|m| (m.offset[0] - mx).powi(2) + (m.offset[1] - my).powi(2))
         .sum();
     ((ss / n).sqrt(), [mx, my])
 }
@@ -154,7 +158,11 @@ fn real_targets_near_the_border_are_measured() {
     let c = compare();
     let (w, h) = (2272.0, 1704.0);
     let near = |col: f64, row: f64| row < 65.0 || row > h - 66.0 || col < 65.0 || col > w - 66.0;
-    let found = c.matched.iter().filter(|m| near(m.2, m.3)).count();
+    let found = c
+        .matched
+        .iter()
+        .filter(|m| near(m.mark[0], m.mark[1]))
+        .count();
     let missed: Vec<_> = c.missed.iter().filter(|m| near(m.2, m.3)).collect();
     eprintln!("marks within 65 px of the border: {found} found, missed {missed:?}");
     // 32 of PhotoModeler's marks lie within 65 px of the border
@@ -169,7 +177,7 @@ fn real_centres_agree_with_photomodeler() {
     let dual = c
         .matched
         .iter()
-        .filter(|m| m.8 == CentreMethod::DualConic)
+        .filter(|m| m.method == CentreMethod::DualConic)
         .count();
     eprintln!(
         "dbat-camcal: rms distance to PhotoModeler {rms:.4} px after offset ({:+.3}, {:+.3}) px over {} marks ({dual} by dual conic)",
