@@ -9,4 +9,3 @@ mod alerts;
 mod datum;
 mod kalman;
 mod simulation;
-mod ttf;

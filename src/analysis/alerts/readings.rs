@@ -28,11 +28,8 @@ impl Reading {
         }
     }
 
-    /// The time to failure (hours) of a forecast with its σ; no value without one, nor for a
-    /// forecast whose 90 % interval is wider than its horizon ("no reliable forecast",
-    /// [`FailureForecast::is_reliable`]): time-to-failure rules do not read it.
+    /// The time to failure (hours) of a forecast with its σ; no value without one.
     pub fn forecast(f: Option<FailureForecast>) -> Self {
-        let f = f.filter(FailureForecast::is_reliable);
         Reading::new(f.map(|f| f.time_to_failure_hours), f.map(|f| f.sigma_hours))
     }
 }
@@ -123,11 +120,13 @@ impl Readings {
                 Reading::new(Some(d), Some(s)),
             );
         }
-        out.set(
-            Metric::TimeToFailureHours,
-            Source::Filtered,
-            Reading::forecast(p.filtered_failure),
-        );
+        if let Some(f) = &p.filtered_failure {
+            out.set(
+                Metric::TimeToFailureHours,
+                Source::Filtered,
+                Reading::new(Some(f.time_to_failure_hours), Some(f.sigma_hours)),
+            );
+        }
         out
     }
 }
