@@ -13,7 +13,7 @@ use serde::Deserialize;
 
 use super::layout::{level_badge, num, page, seg, Viewer};
 use super::local_time::when;
-use super::viewer;
+use super::page::viewer;
 use crate::analysis::AlertStatus;
 use crate::http::auth::Access;
 use crate::http::AppState;

@@ -11,7 +11,7 @@ use maud::html;
 
 use super::layout::{level_badge, num, page, seg};
 use super::local_time::when;
-use super::{viewer, PageError};
+use super::page::{viewer, PageError};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::alerts;
@@ -23,7 +23,7 @@ pub async fn alert(
     access: Option<Extension<Access>>,
 ) -> Result<Html<String>, PageError> {
     let db = state.store.reader();
-    let site = super::site_or_404(db, &site_id).await?;
+    let site = super::page::site_or_404(db, &site_id).await?;
     let Some(a) = alerts::get(db, &id).await?.filter(|a| a.site == site.id) else {
         return Err(PageError::not_found(format!(
             "no alert '{id}' in site '{site_id}'"

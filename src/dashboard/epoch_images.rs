@@ -18,7 +18,7 @@ use serde_json::Value;
 
 use super::image_preview::{preview, PREVIEW_MAX_SIDE};
 use super::layout::seg;
-use super::PageError;
+use super::page::PageError;
 use crate::http::AppState;
 use crate::store::epoch_report::EpochReport;
 use crate::watch::image_file::{read_image_file, ImageFileError};
@@ -171,7 +171,7 @@ pub async fn image(
     Path((site_id, epoch, station)): Path<(String, String, String)>,
 ) -> Result<Response, PageError> {
     let (site, id, _, report) =
-        super::epoch_page::load(state.store.reader(), &site_id, &epoch).await?;
+        super::page::load_epoch(state.store.reader(), &site_id, &epoch).await?;
     let Some(st) = stations(&report).into_iter().find(|s| s.station == station) else {
         return Err(PageError::not_found(format!(
             "epoch {id} has no image of station '{station}' from the watched directory"

@@ -15,32 +15,11 @@ use super::epoch_images::{self, station_figure};
 use super::face_plan::nice_floor;
 use super::layout::{num, page, seg, with_sigma};
 use super::local_time::when;
-use super::{viewer, PageError};
+use super::page::{viewer, PageError};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::photogrammetry::adjust::report::VarianceModel;
-use crate::store::epoch_report::EpochReport;
-use crate::store::epochs::{self, EpochListItem, ObservationResidual};
-use crate::store::{sites, ReadPool};
-
-/// The site `site_id` and its epoch `epoch` (id as in the URL) with the epoch's list item and
-/// report; 404 naming what is missing.
-pub(super) async fn load(
-    db: &ReadPool,
-    site_id: &str,
-    epoch: &str,
-) -> Result<(sites::Site, i64, EpochListItem, EpochReport), PageError> {
-    let site = super::site_or_404(db, site_id).await?;
-    let Ok(id) = epoch.parse::<i64>() else {
-        return Err(PageError::not_found(format!("no epoch '{epoch}'")));
-    };
-    let Some((item, report)) = epochs::get(db, &site.id, id).await? else {
-        return Err(PageError::not_found(format!(
-            "no epoch {id} in site '{site_id}'"
-        )));
-    };
-    Ok((site, id, item, report))
-}
+use crate::store::epochs::{self, ObservationResidual};
 
 /// The epoch page.
 pub async fn epoch(
@@ -49,7 +28,7 @@ pub async fn epoch(
     access: Option<Extension<Access>>,
 ) -> Result<Html<String>, PageError> {
     let db = state.store.reader();
-    let (site, id, item, report) = load(db, &site_id, &epoch).await?;
+    let (site, id, item, report) = super::page::load_epoch(db, &site_id, &epoch).await?;
     let obs = epochs::observation_residuals(db, &site.id, id).await?;
     let mut by_image: BTreeMap<(usize, String), Vec<ObservationResidual>> = BTreeMap::new();
     let mut order: Vec<String> = vec![];

@@ -11,7 +11,7 @@ use maud::{html, Markup};
 
 use super::layout::{level_class, seg};
 use super::local_time::{text, when};
-use super::PageError;
+use super::page::PageError;
 use crate::analysis::AlertLevel;
 use crate::http::AppState;
 use crate::store::displacements::Displacement;

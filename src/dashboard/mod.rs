@@ -33,6 +33,7 @@ pub mod image_preview;
 pub(crate) mod layout;
 pub(crate) mod local_time;
 pub(crate) mod natural_order;
+pub(crate) mod page;
 pub(crate) mod plan_svg;
 pub(crate) mod plot_data;
 pub(crate) mod point_page;
@@ -42,14 +43,10 @@ pub(crate) mod site_page;
 pub(crate) mod sites_page;
 pub(crate) mod time_plot_svg;
 
-use axum::http::StatusCode;
-use axum::response::{Html, IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::Router;
-use maud::html;
 
 use crate::http::AppState;
-use crate::store::StoreError;
 
 /// The dashboard's routes (put beside the API's by [`crate::http::router`], behind the same auth).
 pub fn routes() -> Router<AppState> {
@@ -69,81 +66,4 @@ pub fn routes() -> Router<AppState> {
         .route("/signin", get(sign_in::form).post(sign_in::sign_in))
         .route("/signout", post(sign_in::sign_out))
         .route("/assets/{file}", get(assets::asset))
-}
-
-/// A page that cannot be shown: an HTML page with the status and a plain message.
-#[derive(Debug)]
-pub struct PageError {
-    status: StatusCode,
-    message: String,
-}
-
-impl PageError {
-    /// 400 with `message`.
-    pub fn bad_request(message: impl Into<String>) -> Self {
-        PageError {
-            status: StatusCode::BAD_REQUEST,
-            message: message.into(),
-        }
-    }
-
-    /// 404 with `message`.
-    pub fn not_found(message: impl Into<String>) -> Self {
-        PageError {
-            status: StatusCode::NOT_FOUND,
-            message: message.into(),
-        }
-    }
-
-    /// 500 with `message` (also logged).
-    pub fn internal(message: impl Into<String>) -> Self {
-        let message = message.into();
-        tracing::error!(error = %message, "dashboard");
-        PageError {
-            status: StatusCode::INTERNAL_SERVER_ERROR,
-            message,
-        }
-    }
-}
-
-impl From<StoreError> for PageError {
-    fn from(e: StoreError) -> Self {
-        tracing::error!(error = %e, "dashboard: database read failed");
-        PageError {
-            status: StatusCode::INTERNAL_SERVER_ERROR,
-            message: "the database could not be read; see the service log".into(),
-        }
-    }
-}
-
-impl IntoResponse for PageError {
-    fn into_response(self) -> Response {
-        let body = layout::page(
-            self.status.canonical_reason().unwrap_or("error"),
-            &[],
-            &layout::Viewer::default(),
-            html! { h1 { (self.status.as_u16()) " " (self.status.canonical_reason().unwrap_or("")) } p { (self.message) } },
-        );
-        (self.status, Html(body.into_string())).into_response()
-    }
-}
-
-/// The site `site_id`, or the 404 page naming it.
-pub(crate) async fn site_or_404(
-    db: &crate::store::ReadPool,
-    site_id: &str,
-) -> Result<crate::store::sites::Site, PageError> {
-    crate::store::sites::get(db, site_id)
-        .await?
-        .ok_or_else(|| PageError::not_found(format!("no site '{site_id}'")))
-}
-
-/// The viewer of a request as the auth middleware let it in.
-pub fn viewer(access: Option<&crate::http::auth::Access>) -> layout::Viewer {
-    let a = access.cloned().unwrap_or_default();
-    layout::Viewer {
-        can_acknowledge: a.allows(crate::config::Role::Upload),
-        signed_in: a.cookie,
-        csrf: a.csrf,
-    }
 }

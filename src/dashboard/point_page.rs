@@ -14,7 +14,7 @@ use maud::html;
 
 use super::layout::{level_badge, num, page, seg, with_sigma};
 use super::local_time::when;
-use super::{viewer, PageError};
+use super::page::{viewer, PageError};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::{alerts, displacements, points};
@@ -26,7 +26,7 @@ pub async fn point(
     access: Option<Extension<Access>>,
 ) -> Result<Html<String>, PageError> {
     let db = state.store.reader();
-    let site = super::site_or_404(db, &site_id).await?;
+    let site = super::page::site_or_404(db, &site_id).await?;
     let Some(p) = points::get(db, &site.id, &point).await? else {
         return Err(PageError::not_found(format!(
             "no point '{point}' in site '{site_id}'"

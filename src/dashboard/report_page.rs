@@ -14,9 +14,9 @@ use serde::Deserialize;
 
 use super::layout::{level_badge, num, page, seg, with_sigma};
 use super::local_time::{day_bound, when};
+use super::page::{viewer, PageError};
 use super::plan_svg::{face_plan, PlanPoint};
 use super::time_plot_svg::time_plot;
-use super::{viewer, PageError};
 use crate::analysis::{AlertLevel, PointRole};
 use crate::http::auth::Access;
 use crate::http::AppState;
@@ -43,7 +43,7 @@ pub async fn report(
     Query(period): Query<Period>,
     access: Option<Extension<Access>>,
 ) -> Result<Html<String>, PageError> {
-    let site = super::site_or_404(state.store.reader(), &site_id).await?;
+    let site = super::page::site_or_404(state.store.reader(), &site_id).await?;
     let zone = site.time_zone.as_deref();
     let (from, to) = (
         bound(&period.from, false, zone)?,

@@ -15,8 +15,8 @@ use super::acknowledge::alert_row;
 use super::alert_filter::{AlertFilter, AlertQuery};
 use super::layout::{level_badge, num, page, seg, with_sigma, Viewer};
 use super::local_time::when;
+use super::page::{viewer, PageError};
 use super::plan_svg::{face_plan, PlanPoint};
-use super::{viewer, PageError};
 use crate::analysis::{AlertLevel, PointRole};
 use crate::http::auth::Access;
 use crate::http::AppState;
@@ -38,7 +38,7 @@ pub async fn site(
     let query = query.map_err(|e| PageError::bad_request(e.body_text()))?;
     let filter = AlertFilter::parse(&query.0).map_err(PageError::bad_request)?;
     let db = state.store.reader();
-    let site = super::site_or_404(db, &site_id).await?;
+    let site = super::page::site_or_404(db, &site_id).await?;
     let mut pts = points::list(db, &site.id, None, 100_000).await?;
     pts.sort_by(|a, b| super::natural_order::natural_cmp(&a.name, &b.name));
     let coords = points::latest_coordinates(&mut *state.store.read().await?, &site.id).await?;

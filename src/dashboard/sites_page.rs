@@ -8,7 +8,7 @@ use maud::html;
 
 use super::layout::{level_badge, page, seg};
 use super::local_time::when;
-use super::{viewer, PageError};
+use super::page::{viewer, PageError};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::{alerts, epochs, points, sites};

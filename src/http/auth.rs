@@ -15,7 +15,7 @@ use axum::response::{IntoResponse, Redirect, Response};
 
 use super::error::ApiError;
 use super::session;
-use super::AppState;
+use super::state::AppState;
 use crate::config::Role;
 
 /// What the request was allowed as, for handlers that adapt to it (the dashboard's pages).

@@ -10,33 +10,18 @@
 pub mod auth;
 pub mod error;
 pub mod session;
+pub mod state;
 pub mod time_bound;
 
-use std::sync::Arc;
+pub use state::AppState;
+
 use std::time::Duration;
 
 use axum::extract::DefaultBodyLimit;
 use axum::http::{HeaderName, Request, StatusCode};
 use axum::Router;
-use metrics_exporter_prometheus::PrometheusHandle;
 use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
 use tower_http::trace::TraceLayer;
-
-use crate::config::Config;
-use crate::store::Store;
-
-/// What every handler shares. Cheap to clone.
-#[derive(Clone)]
-pub struct AppState {
-    /// The database.
-    pub store: Store,
-    /// The configuration in force.
-    pub config: Arc<Config>,
-    /// Renders `/metrics`.
-    pub metrics: PrometheusHandle,
-    /// The upload slots of this node.
-    pub uploads: crate::service::admission::UploadGate,
-}
 
 const REQUEST_ID: HeaderName = HeaderName::from_static("x-request-id");
 

@@ -80,6 +80,8 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("analysis_version", I),
             ("time_zone", T),
             ("area", T),
+            ("response_text", T),
+            ("contacts", T),
         ],
     ),
     (

@@ -10,7 +10,8 @@ use std::collections::BTreeMap;
 
 use chrono::{DateTime, Duration, SecondsFormat, Utc};
 
-use super::payload::PostableAlert;
+use serde::{Deserialize, Serialize};
+
 use crate::analysis::AlertLevel;
 
 /// How many re-post periods an alert posted firing stays firing in Alertmanager without news
@@ -255,6 +256,31 @@ pub fn resend_body(
         }
     }
     by_labels.into_values().map(|(_, p)| p).collect()
+}
+
+/// One alert of Alertmanager's API v2 `POST /api/v2/alerts` body (`postableAlert`): the body is
+/// a JSON array of these.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PostableAlert {
+    /// Identity and routing labels ([`labels`]): `alertname` (`cliffwatch_{rule}`), `site`,
+    /// `point` (point alerts), `group` (group alerts), `rule`, `severity` (the level).
+    pub labels: BTreeMap<String, String>,
+    /// `summary`, `alert_id`, `level`, `value`, `threshold`, `unit`, `epoch`, `observed_at`,
+    /// `points` when known.
+    pub annotations: BTreeMap<String, String>,
+    /// When the alert was raised, RFC 3339.
+    #[serde(rename = "startsAt")]
+    pub starts_at: String,
+    /// Firing: a few re-post periods ahead ([`HOLD_PERIODS`]); resolved: the resolution's time.
+    #[serde(rename = "endsAt")]
+    pub ends_at: String,
+    /// The alert's dashboard page (omitted when no public URL is configured).
+    #[serde(
+        rename = "generatorURL",
+        default,
+        skip_serializing_if = "String::is_empty"
+    )]
+    pub generator_url: String,
 }
 
 #[cfg(test)]

@@ -25,13 +25,14 @@ pub(crate) mod sign;
 pub(crate) mod test_event;
 
 pub use alertmanager::{
-    alert_page_url, fingerprint, labels, postable_alerts, resend_body, CurrentAlert, HOLD_PERIODS,
+    alert_page_url, fingerprint, labels, postable_alerts, resend_body, CurrentAlert, PostableAlert,
+    HOLD_PERIODS,
 };
 pub use deliver::{client, deliver, loggable_origin, DeliveryOutcome};
 pub use payload::{
     accepts, alertmanager_alerts, alertmanager_body, current_of_event, message_id, render,
-    AlertmanagerAlert, AlertmanagerBody, PayloadFormat, PostableAlert, WebhookData,
-    WebhookEndpoint, WebhookPayload, DEFAULT_RESEND_SECS,
+    AlertmanagerAlert, AlertmanagerBody, PayloadFormat, WebhookData, WebhookEndpoint,
+    WebhookPayload, DEFAULT_RESEND_SECS,
 };
 pub use retry::{backoff_delay, next_retry, parse_retry_after, RetryPolicy};
 pub use sign::{sign, signing_key, verify, WebhookError};

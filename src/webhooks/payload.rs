@@ -7,7 +7,8 @@ use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 
 use super::alertmanager::{
-    alert_page_url, fingerprint, labels, number, postable_alerts, CurrentAlert, HOLD_PERIODS,
+    alert_page_url, fingerprint, labels, number, postable_alerts, CurrentAlert, PostableAlert,
+    HOLD_PERIODS,
 };
 use crate::analysis::{AlertEvent, AlertEventType, AlertLevel};
 
@@ -337,31 +338,6 @@ pub fn alertmanager_body(
             generator_url: alert_page_url(public_url, &a.site, &a.id).unwrap_or_default(),
         }],
     }
-}
-
-/// One alert of Alertmanager's API v2 `POST /api/v2/alerts` body (`postableAlert`): the body is
-/// a JSON array of these.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PostableAlert {
-    /// Identity and routing labels ([`labels`]): `alertname` (`cliffwatch_{rule}`), `site`,
-    /// `point` (point alerts), `group` (group alerts), `rule`, `severity` (the level).
-    pub labels: BTreeMap<String, String>,
-    /// `summary`, `alert_id`, `level`, `value`, `threshold`, `unit`, `epoch`, `observed_at`,
-    /// `points` when known.
-    pub annotations: BTreeMap<String, String>,
-    /// When the alert was raised, RFC 3339.
-    #[serde(rename = "startsAt")]
-    pub starts_at: String,
-    /// Firing: a few re-post periods ahead ([`HOLD_PERIODS`]); resolved: the resolution's time.
-    #[serde(rename = "endsAt")]
-    pub ends_at: String,
-    /// The alert's dashboard page (omitted when no public URL is configured).
-    #[serde(
-        rename = "generatorURL",
-        default,
-        skip_serializing_if = "String::is_empty"
-    )]
-    pub generator_url: String,
 }
 
 /// The alert of an event as it is after the event.

@@ -5,8 +5,9 @@ use std::collections::BTreeMap;
 
 use chrono::{DateTime, Duration, SecondsFormat, Utc};
 
+use super::alertmanager::PostableAlert;
 use super::payload::{
-    AlertmanagerAlert, AlertmanagerBody, PayloadFormat, PostableAlert, WebhookData, WebhookPayload,
+    AlertmanagerAlert, AlertmanagerBody, PayloadFormat, WebhookData, WebhookPayload,
 };
 use crate::analysis::AlertLevel;
 
