@@ -280,8 +280,11 @@ pub async fn authorize(
                 }
                 None if is_page(req.uri().path()) && *req.method() == Method::GET => {
                     let next = req.uri().path().to_string();
-                    return Ok(Redirect::to(&format!("/signin?next={}", super::seg(&next)))
-                        .into_response());
+                    return Ok(Redirect::to(&format!(
+                        "/signin?next={}",
+                        super::segment::seg(&next)
+                    ))
+                    .into_response());
                 }
                 None => {
                     return Err(ApiError::new(

@@ -9,10 +9,12 @@
 
 pub mod auth;
 pub mod error;
+pub mod segment;
 pub mod session;
 pub mod state;
 pub mod time_bound;
 
+pub use segment::seg;
 pub use state::AppState;
 
 use std::time::Duration;
@@ -96,18 +98,4 @@ async fn time_limit(
         )
         .into_response(),
     }
-}
-
-/// A path segment percent-encoded (site and point names are user input): everything but ASCII
-/// letters, digits and `-._~`.
-pub fn seg(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for b in s.bytes() {
-        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
-            out.push(b as char);
-        } else {
-            out.push_str(&format!("%{b:02X}"));
-        }
-    }
-    out
 }
