@@ -40,7 +40,24 @@ const LAW_AGAINST_LINE: f64 = 10.83;
 /// Two-sided 90 % normal quantile of the forecast interval.
 const INTERVAL_Z: f64 = 1.6449;
 
+/// Whether a forecast of `hours` to failure with σ `sigma_hours` says anything: its 90 %
+/// interval (±1.64 σ, the lower end cut at now) is no wider than its own horizon, i.e.
+/// σ ≤ hours / 3.29. A wider one is "no reliable forecast": pages say so, and time-to-failure
+/// rules do not read it.
+pub fn reliable(hours: f64, sigma_hours: f64) -> bool {
+    let half = INTERVAL_Z * sigma_hours;
+    hours.is_finite()
+        && sigma_hours.is_finite()
+        && sigma_hours >= 0.0
+        && hours + half - (hours - half).max(0.0) <= hours
+}
+
 impl FailureForecast {
+    /// [`reliable`] for this forecast.
+    pub fn is_reliable(&self) -> bool {
+        reliable(self.time_to_failure_hours, self.sigma_hours)
+    }
+
     fn with_interval(mut self) -> Self {
         self.lower_hours =
             Some((self.time_to_failure_hours - INTERVAL_Z * self.sigma_hours).max(0.0));
@@ -324,30 +341,41 @@ pub fn fit_law_to_displacements(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) 
     let chi = |tf: f64| log_fit(&t, &d, &w, t_last + tf).map_or(f64::INFINITY, |f| f.0);
     // d = a − B ln(t_f − t) is fitted as d = a + B x with x = −ln(t_f − t): B = slope > 0.
     let advances = |tf: f64| log_fit(&t, &d, &w, t_last + tf).is_some_and(|f| f.2 > 0.0);
-    profile_law(t_last, n - 3, chi2_line, n, chi, advances)
+    let misfit = |tf: f64| chi(tf) / (n - 3) as f64;
+    profile_law(t_last, chi2_line, n, chi, advances, misfit)
 }
 
 /// The law's failure time from its χ² profile `chi` (a function of the failure time in days
 /// after the last sample, `t_last` days): the minimum, its σ from Δχ² = 1 and the 90 % interval
-/// from Δχ² = 2.71, both scaled by the variance factor χ²/`dof` when that exceeds 1. `advances`
-/// says whether the law's amplitude at a failure time points forward; `chi2_line` is the
-/// straight line's χ², `epochs` the number of epochs fitted. Shared by the fit along one
-/// direction ([`fit_law_to_displacements`]) and the fit in three dimensions
+/// from Δχ² = 2.71, both scaled by the variance factor `misfit(t_f)` at the minimum when that
+/// exceeds 1. `advances` says whether the law's amplitude at a failure time points forward;
+/// `chi2_line` is the straight line's χ², `epochs` the number of epochs fitted. Shared by the fit
+/// along one direction ([`fit_law_to_displacements`]) and the fit in three dimensions
 /// ([`fit_law_to_displacements_3d`]).
 fn profile_law(
     t_last: f64,
-    dof: usize,
     chi2_line: f64,
     epochs: usize,
     chi: impl Fn(f64) -> f64,
     advances: impl Fn(f64) -> bool,
+    misfit: impl Fn(f64) -> f64,
 ) -> Option<LawFit> {
     let tf = min_over_failure_time(120, 60, &chi)?;
     let chi2 = chi(tf);
-    if !chi2.is_finite() || !advances(tf) || tf >= SCAN_END_DAYS * 0.999 || dof == 0 {
+    let factor = misfit(tf);
+    if !chi2.is_finite() || !advances(tf) || tf >= SCAN_END_DAYS * 0.999 || !factor.is_finite() {
         return None;
     }
-    let factor = (chi2 / dof as f64).max(1.0);
+    // A variance factor estimated from the fit's own residuals (over `epochs − 3` degrees of
+    // freedom along the motion) is itself uncertain: the interval then takes Student's t
+    // instead of the normal quantile, (t₀.₉₇₅/z₀.₉₇₅)² on the Δχ² (1.28 at 9 degrees of freedom).
+    let t_widening = if factor > 1.0 {
+        let nu = epochs.saturating_sub(3).max(1) as f64;
+        (student_t_975(nu) / 1.959_964).powi(2)
+    } else {
+        1.0
+    };
+    let factor = factor.max(1.0) * t_widening;
     // Profile interval: where χ² rises by Δ·factor on either side of the minimum.
     let bound = |delta: f64, up: bool| -> f64 {
         let target = chi2 + delta * factor;
@@ -392,6 +420,12 @@ fn profile_law(
         forecast: out,
         gain_over_line: chi2_line - chi2,
     })
+}
+
+/// The 97.5 % quantile of Student's t with `nu` degrees of freedom (from the F quantile:
+/// t² = F(1, ν)).
+fn student_t_975(nu: f64) -> f64 {
+    super::stats::f_quantile(0.95, 1.0, nu).max(0.0).sqrt()
 }
 
 /// Weighted least squares of the displacement vectors `d = a + b x` (a, b in mm, x
@@ -446,14 +480,19 @@ fn line_fit_3d(
 /// small part of it across the line of sight is measured well; the fit in three dimensions
 /// weighs each component by its precision and keeps both. `forward`: the direction of motion
 /// (need not be normalised); the law's amplitude b and the straight line's velocity must point
-/// along it. σ and interval as in [`fit_law_to_displacements`] (Δχ² = 1 and 2.71 of the profile,
-/// scaled by the variance factor over 3n − 7 degrees of freedom). None for fewer than 5 epochs,
-/// a singular covariance, or the refusals of the fit along one direction.
+/// along it. σ and interval as in [`fit_law_to_displacements`] (Δχ² = 1 and 2.71 of the profile),
+/// scaled by the largest of three variance factors: the fit's over its 3n − 7 degrees of freedom;
+/// that of its residuals along `forward` over n − 3 (a motion that scatters along its direction
+/// shows there, diluted in the three-dimensional one by the two components that fit); and
+/// `history_factor`, the scatter of the subject's own longer history (the onset test's, over 40
+/// epochs: the law's 12 epochs alone estimate it poorly). None for fewer than 5 epochs, a singular
+/// covariance, or the refusals of the fit along one direction.
 pub fn fit_law_to_displacements_3d(
     t_days: &[f64],
     d_mm: &[Vector3<f64>],
     cov_mm2: &[Matrix3<f64>],
     forward: Vector3<f64>,
+    history_factor: f64,
 ) -> Option<LawFit> {
     let mut t = vec![];
     let mut d = vec![];
@@ -483,5 +522,28 @@ pub fn fit_law_to_displacements_3d(
     };
     let chi = |tf: f64| fit(tf).map_or(f64::INFINITY, |f| f.0);
     let advances = |tf: f64| fit(tf).is_some_and(|f| f.2.dot(&forward) > 0.0);
-    profile_law(t_last, 3 * n - 7, chi2_line, n, chi, advances)
+    let u = forward.try_normalize(1e-12)?;
+    let misfit = |tf: f64| {
+        let Some((chi2, a, b)) = fit(tf) else {
+            return f64::NAN;
+        };
+        let along: f64 = t
+            .iter()
+            .zip(&d)
+            .zip(&w)
+            .map(|((&ti, di), wi)| {
+                let x = -(t_last + tf - ti).ln();
+                let r = u.dot(&(di - a - b * x));
+                // σ² along u of the epoch: uᵀ C u with C = w⁻¹
+                let var = wi
+                    .try_inverse()
+                    .map_or(f64::NAN, |c| (u.transpose() * c * u)[(0, 0)]);
+                r * r / var
+            })
+            .sum();
+        (chi2 / (3 * n - 7) as f64)
+            .max(along / (n - 3) as f64)
+            .max(history_factor)
+    };
+    profile_law(t_last, chi2_line, n, chi, advances, misfit)
 }

@@ -16,7 +16,7 @@ use super::epoch::ForecastMethod;
 use super::failure::{fit_law_to_displacements_3d, forecast_from_velocities, FailureForecast};
 use super::kalman::{filter, smooth, KalmanConfig, KalmanState, Measurement};
 use super::linalg::length_of;
-use super::onset::accelerating;
+use super::onset::{persistently_accelerating, PERSIST_EPOCHS};
 use super::stats::normal_quantile;
 use super::velocity::{window_slice, Sample};
 
@@ -187,15 +187,19 @@ fn forecast_smoothed(
             // The onset test, along u with the displacements' whole σ: its Δχ² over a scan of
             // two nonlinear parameters has a heavier tail than χ²(2), and with the own errors
             // alone it raised a false alarm on a still point in the detection benchmark.
+            // It must pass on the windows ending at each of the last PERSIST_EPOCHS epochs, and
+            // its variance factor (the motion's scatter beyond σ over the long window) is a
+            // floor of the law's.
             let n = window_slice(&times, config.failure.acceleration_window).len();
+            let with_earlier = (n + PERSIST_EPOCHS - 1).min(meas.len());
             let (mut t, mut d, mut s) = (vec![], vec![], vec![]);
-            for m in &meas[meas.len() - n..] {
+            for m in &meas[meas.len() - with_earlier..] {
                 let c = Matrix3::from(m.cov_mm2);
                 t.push(m.t_days);
                 d.push(u.dot(&Vector3::from(m.d_mm)));
                 s.push((u.transpose() * c * u)[(0, 0)].max(0.0).sqrt());
             }
-            accelerating(&t, &d, &s)?;
+            let onset = persistently_accelerating(&t, &d, &s, n)?;
             // The law's fit in three dimensions, weighed by each epoch's own error: its
             // intercept absorbs the error all epochs share.
             let n = window_slice(&times, config.failure.law_window).len();
@@ -206,7 +210,7 @@ fn forecast_smoothed(
                 .iter()
                 .map(|m| own_covariance(&Matrix3::from(m.cov_mm2), shared_mm2.as_ref()))
                 .collect();
-            fit_law_to_displacements_3d(&t, &d, &own, u).map(|f| f.forecast)
+            fit_law_to_displacements_3d(&t, &d, &own, u, onset.variance_factor).map(|f| f.forecast)
         }
         ForecastMethod::SmoothedVelocity => {
             let n = window_slice(&times, config.failure.window).len();

@@ -5,8 +5,12 @@
 //! - [`monitoring`]: monitoring series of adjusted coordinates (stable points, a moving block).
 //! - [`series`]: the same kind of series as image observations in the upload form (re-set-up
 //!   cameras, drifting c), for end-to-end tests through the service.
+//! - [`kinematics`]: block motions as real slopes make them (failures, bursts, steps, cycles,
+//!   creep, scatter, shared errors), and [`ttf_benchmark`], the time-to-failure benchmark on them.
 
 pub mod images;
+pub mod kinematics;
 pub mod monitoring;
 pub mod scenes;
 pub mod series;
+pub mod ttf_benchmark;

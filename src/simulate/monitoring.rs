@@ -45,6 +45,23 @@ pub struct MonitoringScenario {
     pub moved_stable: Option<(usize, usize, [f64; 3])>,
     /// Site radius in m (points spread over it).
     pub radius_m: f64,
+    /// A tabulated block path with steps and shared errors, in place of the law (the
+    /// time-to-failure benchmark, [`super::kinematics`]).
+    pub path: Option<MotionPath>,
+}
+
+/// A block path and disturbances given epoch by epoch (all in mm, site frame).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MotionPath {
+    /// The block's true displacement along `direction` at each epoch (mm; 0 past the end).
+    pub block_mm: Vec<f64>,
+    /// Steps of single targets: (point index, first epoch, displacement in mm), kept from then on
+    /// (a target knocked or set up again).
+    pub steps: Vec<(usize, usize, [f64; 3])>,
+    /// A measurement error shared by every monitored (not stable) point at each epoch (mm), not
+    /// part of the truth: the stable points define the datum, so an error shared with them would
+    /// cancel.
+    pub shared_mm: Vec<[f64; 3]>,
 }
 
 impl Default for MonitoringScenario {
@@ -64,6 +81,7 @@ impl Default for MonitoringScenario {
             direction: [0.3, -0.4, -0.866],
             moved_stable: None,
             radius_m: 50.0,
+            path: None,
         }
     }
 }
@@ -75,7 +93,8 @@ pub struct SimulatedEpoch {
     pub coordinates: EpochCoordinates,
     /// True displacement (mm) of each point since the reference epoch, in the order of the points.
     pub true_displacement_mm: Vec<[f64; 3]>,
-    /// True velocity of the block in mm/day at this epoch.
+    /// True velocity of the block in mm/day at this epoch (a tabulated path's: its mean rate
+    /// since the epoch before).
     pub block_velocity_mm_per_day: f64,
 }
 
@@ -170,7 +189,15 @@ impl MonitoringScenario {
             let t_days = e as f64 * self.interval_hours / 24.0;
             let observed_at =
                 start + Duration::milliseconds((t_days * 86_400_000.0).round() as i64);
-            let dm = self.block_displacement_mm(t_days);
+            let dm = match &self.path {
+                Some(p) => p.block_mm.get(e).copied().unwrap_or(0.0),
+                None => self.block_displacement_mm(t_days),
+            };
+            let shared = self
+                .path
+                .as_ref()
+                .and_then(|p| p.shared_mm.get(e))
+                .map_or(Vector3::zeros(), |v| Vector3::from(*v));
             let mut gauss = || -> f64 { StandardNormal.sample(&mut rng) };
             let shift = Vector3::new(gauss(), gauss(), gauss()) * self.datum_change_mm;
             let rot =
@@ -188,7 +215,15 @@ impl MonitoringScenario {
                         true_d += Vector3::from(v);
                     }
                 }
-                let noise = chols[i] * Vector3::new(gauss(), gauss(), gauss());
+                for &(k, from, v) in self.path.iter().flat_map(|p| &p.steps) {
+                    if i == k && e >= from {
+                        true_d += Vector3::from(v);
+                    }
+                }
+                let mut noise = chols[i] * Vector3::new(gauss(), gauss(), gauss());
+                if i >= n_s {
+                    noise += shared;
+                }
                 let p = xyz[i] - Vector3::new(0.0, 100.0, 20.0);
                 let datum = shift + rot.cross(&p) + p * scale;
                 let x = xyz[i] + (true_d + noise + datum) * 1e-3;
@@ -210,10 +245,15 @@ impl MonitoringScenario {
                     }),
                 },
                 true_displacement_mm: truth,
-                block_velocity_mm_per_day: if self.block_points > 0 {
-                    self.block_velocity(t_days)
-                } else {
-                    0.0
+                block_velocity_mm_per_day: match (&self.path, self.block_points) {
+                    (_, 0) => 0.0,
+                    // a tabulated path: its rate since the epoch before
+                    (Some(p), _) if e > 0 => {
+                        let at = |k: usize| p.block_mm.get(k).copied().unwrap_or(0.0);
+                        (at(e) - at(e - 1)) * 24.0 / self.interval_hours
+                    }
+                    (Some(_), _) => 0.0,
+                    (None, _) => self.block_velocity(t_days),
                 },
             });
         }

@@ -291,7 +291,7 @@ fn three_dimensional_law_fit_uses_the_precise_components() {
                 .map(|ti| u * law.displacement_mm(now + ti) + draw(&mut rng, &cov))
                 .collect();
             let covs = vec![cov; t.len()];
-            if let Some(f) = fit_law_to_displacements_3d(&t, &d, &covs, u) {
+            if let Some(f) = fit_law_to_displacements_3d(&t, &d, &covs, u, 1.0) {
                 let f = f.forecast;
                 made3 += 1;
                 let e = f.time_to_failure_hours - hours_before;

@@ -9,3 +9,4 @@ mod alerts;
 mod datum;
 mod kalman;
 mod simulation;
+mod ttf;

@@ -28,8 +28,11 @@ impl Reading {
         }
     }
 
-    /// The time to failure (hours) of a forecast with its σ; no value without one.
+    /// The time to failure (hours) of a forecast with its σ; no value without one, nor for a
+    /// forecast whose 90 % interval is wider than its horizon ("no reliable forecast",
+    /// [`FailureForecast::is_reliable`]): time-to-failure rules do not read it.
     pub fn forecast(f: Option<FailureForecast>) -> Self {
+        let f = f.filter(FailureForecast::is_reliable);
         Reading::new(f.map(|f| f.time_to_failure_hours), f.map(|f| f.sigma_hours))
     }
 }
@@ -120,13 +123,11 @@ impl Readings {
                 Reading::new(Some(d), Some(s)),
             );
         }
-        if let Some(f) = &p.filtered_failure {
-            out.set(
-                Metric::TimeToFailureHours,
-                Source::Filtered,
-                Reading::new(Some(f.time_to_failure_hours), Some(f.sigma_hours)),
-            );
-        }
+        out.set(
+            Metric::TimeToFailureHours,
+            Source::Filtered,
+            Reading::forecast(p.filtered_failure),
+        );
         out
     }
 }

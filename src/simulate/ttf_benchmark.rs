@@ -1,0 +1,393 @@
+//! The time-to-failure benchmark: series of [`super::kinematics`] analysed as a recompute
+//! analyses them ([`analyse_series`]: the stable-point datum, the block declared as a group, the
+//! rules replayed epoch by epoch), scored against the truth, beside a plain inverse-velocity
+//! baseline on the same series (Fukuzono 1985 on the block's raw displacement along its
+//! direction: daily velocities, a 7-epoch moving average, Carlà et al. 2017's long-term window,
+//! and a straight line through the last 7 smoothed inverse velocities).
+//!
+//! `cargo run --release --example ttf_benchmark [-- SEEDS]` prints the table of
+//! `docs/accuracy.md`; `tests/analysis/ttf.rs` asserts the goals on a few seeds per kind.
+
+use chrono::{DateTime, Utc};
+
+use super::kinematics::{case, MotionCase, MotionKind};
+use crate::analysis::{
+    analyse_series, AlertConfig, AlertEventType, AlertKind, AlertLevel, AlertRule, AnalysisConfig,
+    DisplacementRecord, GroupConfig, GroupKind,
+};
+
+/// Hours to failure below which the alarm rule fires.
+pub const ALARM_BELOW_HOURS: f64 = 96.0;
+/// The block's group name.
+pub const GROUP: &str = "block";
+
+/// The rules of the issue's field case: watch d > 5 mm (clear below 4), warning d > 15 mm,
+/// warning v > 1 mm/day, alarm time to failure < 96 h.
+pub fn rules() -> Vec<AlertRule> {
+    serde_json::from_str(
+        r#"[
+        {"level": "watch",   "metric": "displacement_mm",       "above": 5.0, "clear_below": 4.0},
+        {"level": "warning", "metric": "displacement_mm",       "above": 15.0},
+        {"level": "warning", "metric": "velocity_mm_per_day",   "above": 1.0},
+        {"level": "alarm",   "metric": "time_to_failure_hours", "below": 96.0}]"#,
+    )
+    .unwrap_or_default()
+}
+
+/// What one series gave.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outcome {
+    /// The series.
+    pub kind: MotionKind,
+    /// Its seed.
+    pub seed: u64,
+    /// Its scatter (× the block's σ along its direction).
+    pub scatter: f64,
+    /// cliffwatch's first time-to-failure alarm on the block or one of its targets: hours before
+    /// the failure (failing series) or days after the first epoch (never-failing ones).
+    pub alarm: Option<Alarm>,
+    /// Time-to-failure alarms on targets that never fail (still targets; every subject of a
+    /// series that never fails).
+    pub false_alarms: usize,
+    /// The baseline's first alarm on the block.
+    pub baseline: Option<Alarm>,
+}
+
+/// A first alarm: when, and the forecast then.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Alarm {
+    /// Days after the first epoch.
+    pub at_days: f64,
+    /// Hours from the alarm to the true failure (failing series).
+    pub lead_hours: Option<f64>,
+    /// The forecast time to failure at the alarm (h).
+    pub forecast_hours: f64,
+    /// Its σ (h; 0 for the baseline, which has none).
+    pub sigma_hours: f64,
+}
+
+impl Alarm {
+    /// Forecast failure minus true failure (h; negative: forecast early).
+    pub fn error_hours(&self) -> Option<f64> {
+        self.lead_hours.map(|lead| self.forecast_hours - lead)
+    }
+
+    /// Whether the truth lies within ±2σ of the forecast.
+    pub fn covered(&self) -> Option<bool> {
+        self.error_hours()
+            .map(|e| e.abs() <= 2.0 * self.sigma_hours)
+    }
+}
+
+/// The analysis settings of the benchmark: the defaults with the block declared along its
+/// direction.
+pub fn config(c: &MotionCase) -> AnalysisConfig {
+    AnalysisConfig {
+        groups: vec![GroupConfig {
+            name: GROUP.into(),
+            kind: GroupKind::Block,
+            direction: Some(c.direction),
+            points: vec![],
+            process_noise: None,
+        }],
+        ..AnalysisConfig::default()
+    }
+}
+
+/// Runs one series through the analysis and the baseline.
+pub fn run(c: &MotionCase) -> Outcome {
+    let series = c.scenario.generate();
+    let epochs: Vec<_> = series
+        .epochs
+        .iter()
+        .map(|e| e.coordinates.clone())
+        .collect();
+    let config = config(c);
+    let alerts = AlertConfig::new("ttf-benchmark", rules());
+    let out = analyse_series(&epochs[0], &epochs[1..], &series.points, &config, &alerts);
+    let days = |t: DateTime<Utc>| (t - series.start).num_milliseconds() as f64 / 86_400_000.0;
+    let epoch_days = |epoch: i64| days(epochs[(epoch - 1) as usize].observed_at);
+    let moving = |name: &str| name.starts_with('B');
+    let lead = |at: f64| c.failure_days.map(|tf| (tf - at) * 24.0);
+    let forecast_of = |records: &[DisplacementRecord], who: &str, epoch: i64| {
+        records
+            .iter()
+            .find(|r| r.point == who && r.epoch == epoch)
+            .and_then(|r| r.filtered)
+            .and_then(|f| {
+                f.f_time_to_failure_hours
+                    .zip(f.sigma_f_time_to_failure_hours)
+            })
+    };
+    let mut alarm: Option<Alarm> = None;
+    let mut false_alarms = 0;
+    for (epoch, ev) in &out.events {
+        let a = &ev.alert;
+        if a.rule != AlertKind::TimeToFailureHours
+            || a.level != AlertLevel::Alarm
+            || !matches!(
+                ev.event_type,
+                AlertEventType::Raised | AlertEventType::Escalated
+            )
+        {
+            continue;
+        }
+        let (who, records) = match (&a.point, &a.group) {
+            (Some(p), _) => (p.as_str(), &out.records),
+            (None, Some(g)) => (g.as_str(), &out.block_records),
+            _ => continue,
+        };
+        let on_block = who == GROUP || moving(who);
+        if !c.kind.fails() || !on_block {
+            false_alarms += 1;
+        }
+        if !on_block {
+            continue;
+        }
+        let at = epoch_days(*epoch);
+        if alarm.is_none_or(|x| at < x.at_days) {
+            let (h, s) = forecast_of(records, who, *epoch).unwrap_or((f64::NAN, f64::NAN));
+            alarm = Some(Alarm {
+                at_days: at,
+                lead_hours: lead(at),
+                forecast_hours: h,
+                sigma_hours: s,
+            });
+        }
+    }
+    // The baseline on the block's raw displacement along its direction.
+    let block: Vec<(f64, f64)> = out
+        .block_records
+        .iter()
+        .filter_map(|r| Some((epoch_days(r.epoch), r.d_along_mm?)))
+        .collect();
+    let mut baseline = None;
+    for k in 0..block.len() {
+        let t: Vec<f64> = block[..=k].iter().map(|b| b.0).collect();
+        let d: Vec<f64> = block[..=k].iter().map(|b| b.1).collect();
+        if let Some(h) = baseline_forecast(&t, &d).filter(|h| *h < ALARM_BELOW_HOURS) {
+            baseline = Some(Alarm {
+                at_days: t[k],
+                lead_hours: lead(t[k]),
+                forecast_hours: h,
+                sigma_hours: 0.0,
+            });
+            break;
+        }
+    }
+    Outcome {
+        kind: c.kind,
+        seed: c.seed,
+        scatter: c.scatter,
+        alarm,
+        false_alarms,
+        baseline,
+    }
+}
+
+/// Epochs of the baseline's moving average of velocities (Carlà et al. 2017's long-term
+/// window; their short-term one, 3, alarms on every scattering series).
+pub const BASELINE_SMOOTHING: usize = 7;
+/// Smoothed inverse velocities the baseline's line goes through.
+pub const BASELINE_LINE: usize = 7;
+
+/// The plain inverse-velocity forecast at the last of `t_days` (days, oldest first) from the
+/// displacements `d_mm`: velocities between consecutive epochs, a moving average over
+/// [`BASELINE_SMOOTHING`] of them, the least-squares line through the last [`BASELINE_LINE`]
+/// inverse velocities and its zero; hours from the last epoch, None while the line does not fall
+/// or fewer than 5 of the velocities are positive.
+pub fn baseline_forecast(t_days: &[f64], d_mm: &[f64]) -> Option<f64> {
+    let n = t_days.len();
+    if n < BASELINE_SMOOTHING + BASELINE_LINE {
+        return None;
+    }
+    let v: Vec<(f64, f64)> = (1..n)
+        .map(|k| {
+            let dt = t_days[k] - t_days[k - 1];
+            (
+                0.5 * (t_days[k] + t_days[k - 1]),
+                (d_mm[k] - d_mm[k - 1]) / dt,
+            )
+        })
+        .collect();
+    let sma: Vec<(f64, f64)> = v
+        .windows(BASELINE_SMOOTHING)
+        .map(|w| {
+            let m = w.len() as f64;
+            (
+                w.iter().map(|x| x.0).sum::<f64>() / m,
+                w.iter().map(|x| x.1).sum::<f64>() / m,
+            )
+        })
+        .collect();
+    let last = &sma[sma.len().saturating_sub(BASELINE_LINE)..];
+    let pts: Vec<(f64, f64)> = last
+        .iter()
+        .filter(|x| x.1 > 0.0)
+        .map(|x| (x.0, 1.0 / x.1))
+        .collect();
+    if pts.len() < 5 {
+        return None;
+    }
+    let m = pts.len() as f64;
+    let tm = pts.iter().map(|p| p.0).sum::<f64>() / m;
+    let ym = pts.iter().map(|p| p.1).sum::<f64>() / m;
+    let stt: f64 = pts.iter().map(|p| (p.0 - tm).powi(2)).sum();
+    let sty: f64 = pts.iter().map(|p| (p.0 - tm) * (p.1 - ym)).sum();
+    let b = sty / stt;
+    if !(b < 0.0) {
+        return None;
+    }
+    let tf = tm - ym / b;
+    Some(((tf - t_days[n - 1]) * 24.0).max(0.0))
+}
+
+/// Runs `seeds` series of every kind (seeds `first..first + seeds`), in parallel.
+pub fn run_all(first: u64, seeds: u64) -> Vec<Outcome> {
+    use rayon::prelude::*;
+    let cases: Vec<MotionCase> = MotionKind::ALL
+        .iter()
+        .flat_map(|&k| (first..first + seeds).map(move |s| case(k, s)))
+        .collect();
+    cases.par_iter().map(run).collect()
+}
+
+/// The benchmark's figures for one forecaster (cliffwatch or the baseline).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scores {
+    /// Failing series.
+    pub failing: usize,
+    /// Failing series with an alarm.
+    pub alarmed: usize,
+    /// Hours before failure of the first alarms: median and the worst (earliest and latest).
+    pub lead_median: f64,
+    /// Earliest first alarm (most hours before failure).
+    pub lead_earliest: f64,
+    /// Latest first alarm (fewest hours; negative: after the failure time).
+    pub lead_latest: f64,
+    /// Failing series whose first alarm came 24–120 h before failure.
+    pub in_window: usize,
+    /// Never-failing series with an alarm, per kind.
+    pub false_by_kind: Vec<(MotionKind, usize, usize)>,
+    /// Median |forecast error| at the alarm (h).
+    pub error_median: f64,
+    /// Largest |forecast error| at the alarm (h).
+    pub error_worst: f64,
+    /// Failing series whose ±2σ interval at the alarm covers the truth (of those alarmed).
+    pub covered: usize,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Scores the first alarms `pick` chooses (cliffwatch's or the baseline's) over `outcomes`;
+/// `own_false`: whether to count false alarms on still targets (cliffwatch) or only the block's
+/// (the baseline runs on the block alone).
+pub fn score(
+    outcomes: &[Outcome],
+    pick: impl Fn(&Outcome) -> Option<Alarm>,
+    cliffwatch: bool,
+) -> Scores {
+    let failing: Vec<&Outcome> = outcomes.iter().filter(|o| o.kind.fails()).collect();
+    let alarms: Vec<Alarm> = failing.iter().filter_map(|o| pick(o)).collect();
+    let leads: Vec<f64> = alarms.iter().filter_map(|a| a.lead_hours).collect();
+    let errors: Vec<f64> = alarms
+        .iter()
+        .filter_map(|a| a.error_hours())
+        .filter(|e| e.is_finite())
+        .map(f64::abs)
+        .collect();
+    let false_by_kind = MotionKind::ALL
+        .iter()
+        .filter(|k| !k.fails())
+        .map(|&k| {
+            let of_kind: Vec<&Outcome> = outcomes.iter().filter(|o| o.kind == k).collect();
+            let with = of_kind
+                .iter()
+                .filter(|o| {
+                    if cliffwatch {
+                        o.false_alarms > 0
+                    } else {
+                        pick(o).is_some()
+                    }
+                })
+                .count();
+            (k, with, of_kind.len())
+        })
+        .collect();
+    Scores {
+        failing: failing.len(),
+        alarmed: alarms.len(),
+        lead_median: median(leads.clone()),
+        lead_earliest: leads.iter().copied().fold(f64::NAN, f64::max),
+        lead_latest: leads.iter().copied().fold(f64::NAN, f64::min),
+        in_window: leads.iter().filter(|h| (24.0..=120.0).contains(*h)).count(),
+        false_by_kind,
+        error_median: median(errors.clone()),
+        error_worst: errors.iter().copied().fold(f64::NAN, f64::max),
+        covered: alarms.iter().filter(|a| a.covered() == Some(true)).count(),
+    }
+}
+
+/// Failing series whose first cliffwatch alarm came no earlier than the baseline's (or where
+/// the baseline never alarmed and cliffwatch did; or neither did), of the failing series.
+pub fn not_earlier_than_baseline(outcomes: &[Outcome]) -> (usize, usize) {
+    let failing: Vec<&Outcome> = outcomes.iter().filter(|o| o.kind.fails()).collect();
+    let ok = failing
+        .iter()
+        .filter(|o| match (o.alarm, o.baseline) {
+            (Some(a), Some(b)) => a.at_days >= b.at_days - 1e-9,
+            (_, None) | (None, _) => true,
+        })
+        .count();
+    (ok, failing.len())
+}
+
+/// The Markdown table of `docs/accuracy.md`.
+pub fn table(outcomes: &[Outcome]) -> String {
+    let ours = score(outcomes, |o| o.alarm, true);
+    let base = score(outcomes, |o| o.baseline, false);
+    let mut s = String::new();
+    s.push_str("| forecaster | failing series alarmed | first alarm, h before failure: median (earliest, latest) | 24–120 h before | never-failing series with an alarm (burst, step, cyclic, creep) | forecast error at the alarm: median / worst (h) | truth within ±2σ at the alarm |\n");
+    s.push_str("|---|---|---|---|---|---|---|\n");
+    for (name, sc) in [("cliffwatch", &ours), ("plain inverse velocity", &base)] {
+        let falses: Vec<String> = sc
+            .false_by_kind
+            .iter()
+            .map(|(_, with, of)| format!("{with}/{of}"))
+            .collect();
+        let cover = if name == "cliffwatch" {
+            format!("{}/{}", sc.covered, sc.alarmed)
+        } else {
+            "— (no σ)".into()
+        };
+        s.push_str(&format!(
+            "| {name} | {}/{} | {:.0} ({:.0}, {:.0}) | {}/{} | {} | {:.0} / {:.0} | {cover} |\n",
+            sc.alarmed,
+            sc.failing,
+            sc.lead_median,
+            sc.lead_earliest,
+            sc.lead_latest,
+            sc.in_window,
+            sc.failing,
+            falses.join(", "),
+            sc.error_median,
+            sc.error_worst,
+        ));
+    }
+    let (ok, n) = not_earlier_than_baseline(outcomes);
+    s.push_str(&format!(
+        "\ncliffwatch's first alarm no earlier than the baseline's: {ok}/{n} failing series.\n"
+    ));
+    s
+}
