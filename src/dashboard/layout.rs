@@ -90,6 +90,17 @@ pub fn with_sigma(v: Option<f64>, sigma: Option<f64>, digits: usize) -> String {
 
 pub use crate::http::seg;
 
+/// A time to failure (h) with its σ, or "no reliable forecast" when its 90 % interval is wider
+/// than its horizon ([`crate::analysis::failure::reliable`]: the rules do not read it either).
+pub fn time_to_failure(hours: Option<f64>, sigma: Option<f64>) -> String {
+    match (hours, sigma) {
+        (Some(h), Some(s)) if !crate::analysis::failure::reliable(h, s) => {
+            format!("no reliable forecast ({h:.0} ± {s:.0})")
+        }
+        _ => with_sigma(hours, sigma, 0),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

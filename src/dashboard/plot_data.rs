@@ -40,7 +40,7 @@ pub struct PlotParams {
     pub width: Option<usize>,
 }
 
-/// Epochs of the inverse-velocity line (the failure forecast's default window).
+/// Epochs of the inverse-velocity line: the forecast's default law window (`FailureConfig::law_window`).
 const LINE_EPOCHS: usize = 12;
 
 /// The plot data of one point.
@@ -260,45 +260,53 @@ fn write_columns(c: &SeriesColumns, out: &mut Vec<u8>) {
     }
 }
 
-/// The weighted straight line through the inverse filtered velocities (day/mm) of the last
-/// [`LINE_EPOCHS`] epochs where the velocity is significantly positive (v > 2σ), weights
-/// 1/σ(1/v)²: `[t0, y0, t1, y1]` (s since 1970, day/mm) from its first epoch to where it reaches
-/// zero (or its last epoch when it does not fall). None with fewer than 3 such epochs.
+/// The inverse-velocity line of the latest filtered forecast (Fukuzono 1985): the forecast's
+/// law `v = B/(t_f − t)` is a straight line `1/v = (t_f − t)/B` that reaches zero at the
+/// forecast failure time itself. `t_f` is the forecast's; the amplitude `B` is the law's at that
+/// failure time, fitted by weighted least squares (`d = a − B ln(t_f − t)`, weights 1/σ²) to the
+/// displacements along the direction of motion (the 3-D length without a direction) of the
+/// forecast's window, the last [`LINE_EPOCHS`] epochs. `[t0, y0, t_f, 0]` (s since 1970,
+/// day/mm) from the window's first epoch; None without a forecast, for one that is not reliable
+/// ([`crate::analysis::failure::reliable`]), or when the law does not advance.
 pub fn inverse_line(c: &SeriesColumns) -> Option<[f64; 4]> {
-    let n = c.t.len();
-    let start = n.saturating_sub(LINE_EPOCHS);
+    let i = c.t.len().checked_sub(1)?;
+    let (h, s) = (c.f_ttf[0][i], c.f_ttf[1][i]);
+    if !crate::analysis::failure::reliable(h, s) {
+        return None;
+    }
+    let day = |t: f64| t / 86_400.0;
+    let tf = day(c.t[i]) + h / 24.0;
+    let start = c.t.len().saturating_sub(LINE_EPOCHS);
+    let along = (start..=i).all(|k| c.along[k].is_finite());
     let mut rows = vec![];
-    for i in start..n {
-        let (v, s) = (c.f_velocity[0][i], c.f_velocity[1][i]);
-        if v.is_finite() && s.is_finite() && s > 0.0 && v > 2.0 * s {
-            let sy = s / (v * v);
-            rows.push((c.t[i] / 86_400.0, 1.0 / v, 1.0 / (sy * sy)));
+    for k in start..=i {
+        let d = if along { c.along[k] } else { c.d[3][k] };
+        let sd = c.sigma[3][k];
+        let rest = tf - day(c.t[k]);
+        if d.is_finite() && sd.is_finite() && sd > 0.0 && rest > 0.0 {
+            rows.push((-rest.ln(), d, 1.0 / (sd * sd)));
         }
     }
     if rows.len() < 3 {
         return None;
     }
     let sw: f64 = rows.iter().map(|r| r.2).sum();
-    let tm = rows.iter().map(|r| r.2 * r.0).sum::<f64>() / sw;
-    let ym = rows.iter().map(|r| r.2 * r.1).sum::<f64>() / sw;
-    let stt: f64 = rows.iter().map(|r| r.2 * (r.0 - tm).powi(2)).sum();
-    let sty: f64 = rows.iter().map(|r| r.2 * (r.0 - tm) * (r.1 - ym)).sum();
-    if !(stt.is_finite() && stt > 0.0) {
+    let xm = rows.iter().map(|r| r.2 * r.0).sum::<f64>() / sw;
+    let dm = rows.iter().map(|r| r.2 * r.1).sum::<f64>() / sw;
+    let sxx: f64 = rows.iter().map(|r| r.2 * (r.0 - xm).powi(2)).sum();
+    let sxd: f64 = rows.iter().map(|r| r.2 * (r.0 - xm) * (r.1 - dm)).sum();
+    let b = sxd / sxx;
+    if !(b.is_finite() && b > 0.0) {
         return None;
     }
-    let b = sty / stt;
-    let a = ym - b * tm;
-    let t0 = rows[0].0;
-    let t1 = if b < 0.0 {
-        -a / b
-    } else {
-        rows[rows.len() - 1].0
-    };
-    Some([t0 * 86_400.0, a + b * t0, t1 * 86_400.0, a + b * t1])
+    let t0 = day(c.t[start]);
+    Some([c.t[start], (tf - t0) / b, tf * 86_400.0, 0.0])
 }
 
-/// The latest filtered forecast: failure time and ±2σ (s since 1970), and the sentence the page
-/// shows (UTC and the site's time zone `tz`), or null.
+/// The latest filtered forecast: failure time and ±2σ (s since 1970), the window its line was
+/// fitted over, and the sentence the page shows (UTC and the site's time zone `tz`), or null. A
+/// forecast whose 90 % interval is wider than its horizon reads "No reliable forecast" (and
+/// `reliable: false`, no line).
 fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
     let Some(i) = c.t.len().checked_sub(1) else {
         return Value::Null;
@@ -310,13 +318,34 @@ fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
     let tf = c.t[i] + h * 3600.0;
     let s = if s.is_finite() { s * 3600.0 } else { 0.0 };
     let (lower, upper) = ((tf - 2.0 * s).max(c.t[i]), tf + 2.0 * s);
-    let text = format!(
-        "Forecast failure (filtered): {} (±2σ: {} to {})",
-        text(tf, tz),
-        text(lower, tz),
-        text(upper, tz)
-    );
-    json!({"t_f": tf, "lower": lower, "upper": upper, "hours": h, "text": text})
+    let from = c.t[c.t.len().saturating_sub(LINE_EPOCHS)];
+    let epochs = c.t.len().min(LINE_EPOCHS);
+    let reliable = crate::analysis::failure::reliable(h, s / 3600.0);
+    let text = if reliable {
+        format!(
+            "Forecast failure (filtered): {} (±2σ: {} to {}), {:.0} h after the last epoch. \
+             The line is this forecast's inverse-velocity law, fitted to the last {epochs} epochs \
+             ({} to {}).",
+            text(tf, tz),
+            text(lower, tz),
+            text(upper, tz),
+            h,
+            // the window in UTC only: the zone is given with the forecast
+            text(from, None),
+            text(c.t[i], None),
+        )
+    } else {
+        let z = 1.6449 * s;
+        format!(
+            "No reliable forecast: the 90 % interval ({} to {}) is wider than the {:.0} h to the \
+             forecast failure; time-to-failure rules do not read it.",
+            text((tf - z).max(c.t[i]), tz),
+            text(tf + z, tz),
+            h
+        )
+    };
+    json!({"t_f": tf, "lower": lower, "upper": upper, "hours": h, "reliable": reliable,
+           "window": {"from": from, "to": c.t[i], "epochs": epochs}, "text": text})
 }
 
 #[cfg(test)]
@@ -366,20 +395,65 @@ mod tests {
         assert_eq!(v.as_object().map(|o| o.len()), Some(20));
     }
 
-    /// Velocities of the inverse-velocity law v = B/(t_f − t) give back t_f.
+    /// A series on the inverse-velocity law `d = a − B ln(t_f − t)` with gaps, its forecast
+    /// stored as the analysis stores it: the plotted line reaches zero at the printed forecast
+    /// time (within one epoch spacing; here to the second), and its slope is the law's −1/B.
     #[test]
-    fn the_inverse_line_reaches_zero_at_the_failure_time() {
+    fn the_inverse_line_reaches_zero_at_the_forecast_time() {
         let tf_day = 20_000.0;
+        let b = 6.0;
         let mut c = SeriesColumns::default();
         for k in 0..20 {
+            if k % 7 == 3 {
+                continue; // a missing epoch
+            }
             let t = tf_day - 20.0 + k as f64 * 0.9;
-            c.t.push(t * 86_400.0);
-            let v = 6.0 / (tf_day - t);
-            c.f_velocity[0].push(v);
-            c.f_velocity[1].push(0.01 * v);
+            let row = SeriesRow {
+                epoch: k,
+                t: t * 86_400.0,
+                d: [0.0, 0.0, 0.0, 40.0 - b * (tf_day - t).ln()],
+                sigma: [0.3; 4],
+                along: f64::NAN,
+                velocity: f64::NAN,
+                ttf: f64::NAN,
+                f_d: [f64::NAN; 4],
+                sigma_f_d: [f64::NAN; 4],
+                f_velocity: [b / (tf_day - t), 0.01],
+                f_ttf: [(tf_day - t) * 24.0, 0.1 * (tf_day - t) * 24.0],
+            };
+            c.push(&row);
         }
         let l = inverse_line(&c).expect("line");
-        assert!((l[2] / 86_400.0 - tf_day).abs() < 1e-6, "{l:?}");
-        assert!(l[3].abs() < 1e-9 && l[1] > 0.0);
+        let f = forecast(&c, None);
+        assert!(
+            (l[2] - f["t_f"].as_f64().expect("t_f")).abs() < 1.0,
+            "{l:?} {f}"
+        );
+        assert_eq!(l[3], 0.0);
+        let slope = (l[3] - l[1]) / ((l[2] - l[0]) / 86_400.0);
+        assert!((slope + 1.0 / b).abs() < 1e-9, "{slope}");
+        // The window the page names is the line's.
+        assert_eq!(f["window"]["from"].as_f64(), Some(l[0]));
+        assert!(f["text"]
+            .as_str()
+            .is_some_and(|t| t.contains("last 12 epochs")));
+        assert_eq!(f["reliable"], json!(true));
+        // A forecast with an interval wider than its horizon: no line, and the page says so.
+        let last = c.t.len() - 1;
+        c.f_ttf[1][last] = 0.4 * c.f_ttf[0][last];
+        assert!(inverse_line(&c).is_none());
+        let f = forecast(&c, None);
+        assert!(f["text"]
+            .as_str()
+            .is_some_and(|t| t.starts_with("No reliable forecast")));
+    }
+
+    /// The line's window is the forecast's default law window.
+    #[test]
+    fn the_line_window_is_the_law_window() {
+        assert_eq!(
+            crate::analysis::FailureConfig::default().law_window,
+            crate::analysis::Window::Epochs(LINE_EPOCHS)
+        );
     }
 }

@@ -12,7 +12,7 @@ use axum::response::Html;
 use axum::Extension;
 use maud::html;
 
-use super::layout::{level_badge, num, page, seg, with_sigma};
+use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma};
 use super::local_time::when;
 use super::page::{viewer, PageError};
 use crate::http::auth::Access;
@@ -61,7 +61,7 @@ pub async fn point(
                 tr { th { "filtered d (mm)" } td { (with_sigma(d.f_d_mm, d.sigma_f_d_mm, 2)) } }
                 tr { th { "filtered velocity (mm/day)" } td { (with_sigma(d.f_velocity_mm_per_day, d.sigma_f_velocity_mm_per_day, 3)) } }
                 tr { th { "raw velocity (mm/day)" } td { (num(d.velocity_mm_per_day, 3)) } }
-                tr { th { "filtered time to failure (h)" } td { (with_sigma(d.f_time_to_failure_hours, d.sigma_f_time_to_failure_hours, 0)) } }
+                tr { th { "filtered time to failure (h)" } td { (time_to_failure(d.f_time_to_failure_hours, d.sigma_f_time_to_failure_hours)) } }
             }
         } @else {
             p.note { "No displacement yet: the point has no epoch after the reference." }
@@ -73,7 +73,7 @@ pub async fn point(
                 figure { figcaption { "displacement along the direction of interest (mm), ±2σ" } div.plot data-panel="along" {} }
             }
             figure { figcaption { "velocity (mm/day), raw and filtered ±2σ" } div.plot data-panel="velocity" {} }
-            figure { figcaption { "inverse velocity (day/mm) with the fitted line" } div.plot data-panel="inverse" {} p.forecast {} }
+            figure { figcaption { "inverse velocity (day/mm) with the forecast's inverse-velocity law (zero at the forecast failure time)" } div.plot data-panel="inverse" {} p.forecast {} }
         }
         noscript { p.note { "The plots need JavaScript; the CSV link above has the same data." } }
     };

@@ -13,7 +13,7 @@ use maud::{html, Markup};
 
 use super::acknowledge::alert_row;
 use super::alert_filter::{AlertFilter, AlertQuery};
-use super::layout::{level_badge, num, page, seg, with_sigma, Viewer};
+use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma, Viewer};
 use super::local_time::when;
 use super::page::{viewer, PageError};
 use super::plan_svg::{face_plan, PlanPoint};
@@ -153,7 +153,7 @@ fn points_table(
                             td.num { (with_sigma(d.map(|d| d.d_mm), d.map(|d| d.sigma_mm), 2)) }
                             td.wide { @if d.is_some_and(|d| d.significant) { "yes" } @else { "no" } }
                             td.num { (with_sigma(d.and_then(|d| d.f_velocity_mm_per_day.or(d.velocity_mm_per_day)), d.and_then(|d| d.sigma_f_velocity_mm_per_day), 3)) }
-                            td.num { (with_sigma(d.and_then(|d| d.f_time_to_failure_hours), d.and_then(|d| d.sigma_f_time_to_failure_hours), 0)) }
+                            td.num { (time_to_failure(d.and_then(|d| d.f_time_to_failure_hours), d.and_then(|d| d.sigma_f_time_to_failure_hours))) }
                         }
                     }
                 }

@@ -130,7 +130,7 @@ pub fn case(kind: MotionKind, seed: u64) -> MotionCase {
 /// The case of `kind` drawn from `seed`, with the scatter (× the block's σ along its direction)
 /// given instead of drawn from 1–8.
 pub fn case_with_scatter(kind: MotionKind, seed: u64, scatter: Option<f64>) -> MotionCase {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_0f_7e5 ^ ((kind as u64) << 40));
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0005_eed0_f7e5 ^ ((kind as u64) << 40));
     let raw: [f64; 3] = [
         rng.gen_range(-1.0..1.0),
         rng.gen_range(-0.6..0.6),

@@ -235,7 +235,7 @@ pub fn baseline_forecast(t_days: &[f64], d_mm: &[f64]) -> Option<f64> {
     let stt: f64 = pts.iter().map(|p| (p.0 - tm).powi(2)).sum();
     let sty: f64 = pts.iter().map(|p| (p.0 - tm) * (p.1 - ym)).sum();
     let b = sty / stt;
-    if !(b < 0.0) {
+    if b.is_nan() || b >= 0.0 {
         return None;
     }
     let tf = tm - ym / b;

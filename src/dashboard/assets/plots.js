@@ -71,7 +71,7 @@
       // axis and legend in UTC, as every other time of the dashboard (not the browser's zone)
       tzDate: function (ts) { return uPlot.tzDate(new Date(ts * 1e3), "Etc/UTC"); },
       series: [{ label: "time (UTC)" }].concat(series.map(function (s) {
-        return { label: s.label, stroke: s.stroke, width: s.width, dash: s.dash, spanGaps: true };
+        return { label: s.label, stroke: s.stroke, width: s.width, dash: s.dash, spanGaps: s.gaps !== true };
       })),
       plugins: [markers(events)]
     };
@@ -109,7 +109,8 @@
           ? d.forecast.text
           : "No failure forecast: the point does not accelerate significantly.";
       }
-      return draw(el, t, [{ label: "1/v", stroke: RAW[3], width: 1.5, values: inv }, { label: "fitted line", stroke: FILTERED, width: 1, dash: [6, 3], values: line }], ev);
+      // gaps in 1/v stay gaps (a missing or insignificant velocity is not bridged)
+      return draw(el, t, [{ label: "1/v", stroke: RAW[3], width: 1.5, values: inv, gaps: true }, { label: "forecast's law", stroke: FILTERED, width: 1, dash: [6, 3], values: line }], ev);
     }
   }
   ready(function () {
