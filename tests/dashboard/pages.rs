@@ -761,7 +761,7 @@ async fn long_history_plot_reads_block_extremes_and_keeps_the_envelope() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_forecast_reads_in_utc_and_the_site_zone() {
     use dashboard_support::day;
-    use dashboard_support::service_support::synthetic_epoch;
+    use dashboard_support::service_support::synthetic_epoch_moved;
     let s = TestServer::start(|_| {}).await;
     let r = s
         .client
@@ -781,10 +781,12 @@ async fn the_forecast_reads_in_utc_and_the_site_zone() {
             .unwrap();
         assert_eq!(r.status(), 200);
     }
-    // d(t) = −v0·t_f·ln(1 − t/t_f): 1 mm/day at first, failure at t_f = 16 days
-    for k in 0..14 {
-        let mm = -16.0 * (1.0 - k as f64 / 16.0).ln();
-        let body = synthetic_epoch(4, POINTS, &day(k), 300 + k as u64, mm, STABLE);
+    // d(t) = −v0·t_f·ln(1 − t/t_f): 1 mm/day at first, failure at t_f = 16 days; epochs every
+    // 6 h up to 54 h before the failure, across the line of sight (σ ≈ 0.25 mm an epoch).
+    for k in 0..56 {
+        let mm = -16.0 * (1.0 - k as f64 / 64.0).ln();
+        let at = dashboard_support::hour(6 * k);
+        let body = synthetic_epoch_moved(4, POINTS, &at, 300 + k as u64, [mm, 0.0, 0.0], STABLE);
         let (st, answer) = s.upload("tf", &body).await;
         assert_eq!(st, 201, "epoch {k}: {answer}");
     }

@@ -18,6 +18,13 @@ pub fn day(k: usize) -> String {
     .to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
 }
 
+/// `hours` after the first day's 09:00 UTC, as RFC 3339.
+pub fn hour(hours: usize) -> String {
+    (chrono::DateTime::parse_from_rfc3339("2026-11-01T09:00:00Z").unwrap()
+        + chrono::Duration::hours(hours as i64))
+    .to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
+}
+
 pub fn name(i: usize) -> String {
     format!("T{:03}", i + 1)
 }

@@ -44,6 +44,27 @@ pub fn synthetic_epoch(
     shift_mm: f64,
     moving_from: usize,
 ) -> Value {
+    synthetic_epoch_moved(
+        images,
+        points,
+        observed_at,
+        seed,
+        [0.0, -shift_mm, 0.0],
+        moving_from,
+    )
+}
+
+/// As [`synthetic_epoch`], with the points from `moving_from` on shifted by `shift_mm`
+/// (X, Y, Z in mm): across the line of sight (X, Z) an epoch's σ is ≈ 0.25 mm, in depth
+/// (Y) ≈ 1.5 mm.
+pub fn synthetic_epoch_moved(
+    images: usize,
+    points: usize,
+    observed_at: &str,
+    seed: u64,
+    shift_mm: [f64; 3],
+    moving_from: usize,
+) -> Value {
     let mut state = seed
         .wrapping_mul(6364136223846793005)
         .wrapping_add(1442695040888963407);
@@ -59,13 +80,13 @@ pub fn synthetic_epoch(
             let (r, c) = (i / side, i % side);
             let x = -10.0 + 20.0 * c as f64 / (side - 1).max(1) as f64;
             let z = 20.0 * r as f64 / (side - 1).max(1) as f64;
-            let y = 100.0 + 2.0 * ((i * 7919) % 13) as f64 / 13.0
-                - if i >= moving_from {
-                    shift_mm / 1000.0
-                } else {
-                    0.0
-                };
-            [x, y, z]
+            let y = 100.0 + 2.0 * ((i * 7919) % 13) as f64 / 13.0;
+            let m = if i >= moving_from { 1e-3 } else { 0.0 };
+            [
+                x + m * shift_mm[0],
+                y + m * shift_mm[1],
+                z + m * shift_mm[2],
+            ]
         })
         .collect();
     let c_mm = 300.0;
