@@ -120,6 +120,9 @@ fn value_words(rule: &str, d: &Displacement) -> Option<String> {
         },
         "time_to_failure_hours" => {
             let (h, s) = ttf(d)?;
+            if let Some(s) = s.filter(|s| !crate::analysis::failure::reliable(h, *s)) {
+                return Some(format!("no reliable forecast now ({h:.0} ± {s:.0} h)"));
+            }
             (Some(h), s, "h", 0)
         }
         _ => return None,
@@ -143,9 +146,13 @@ fn ttf(d: &Displacement) -> Option<(f64, Option<f64>)> {
 }
 
 /// The forecast failure time of `d` with its ±2σ interval (s since 1970; the lower end not
-/// before the epoch it counts from).
+/// before the epoch it counts from); None without a forecast or for one that is not reliable
+/// ([`crate::analysis::failure::reliable`]: its interval is wider than its horizon).
 pub fn failure_time(d: &Displacement) -> Option<(f64, f64, f64)> {
     let (h, s) = ttf(d)?;
+    if s.is_some_and(|s| !crate::analysis::failure::reliable(h, s)) {
+        return None;
+    }
     let t0 = parse_timestamp(&d.observed_at)?.timestamp() as f64;
     let tf = t0 + h * 3600.0;
     let s = s.filter(|s| s.is_finite()).unwrap_or(0.0) * 3600.0;

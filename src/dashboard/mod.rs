@@ -2,8 +2,9 @@
 //! install and no request to any other host.
 //!
 //! Pages link down by plain `<a href>`: sites ([`sites_page`], `/`) → site ([`site_page`],
-//! `/sites/{site}`: face plan, open alerts with acknowledgement, epochs, points) → point
-//! ([`point_page`], `/sites/{site}/points/{point}`: plots of the series with ±2σ bands,
+//! `/sites/{site}`: face plan, open alerts with acknowledgement, epochs, points) →
+//! block ([`block_page`], `/sites/{site}/groups/{group}`: its motion, forecast history, members
+//! and open alerts) → point ([`point_page`], `/sites/{site}/points/{point}`: plots of the series with ±2σ bands,
 //! thresholds, alert markers, velocity and inverse velocity) → epoch ([`epoch_page`],
 //! `/sites/{site}/epochs/{epoch}`: the adjustment report and the residuals of each image, and for
 //! a watched epoch its images with the detected targets drawn over them, [`epoch_images`]), and
@@ -24,6 +25,7 @@ pub(crate) mod acknowledge;
 pub(crate) mod alert_filter;
 pub(crate) mod alert_page;
 pub(crate) mod assets;
+pub(crate) mod block_page;
 pub mod downsample;
 pub(crate) mod epoch_images;
 pub(crate) mod epoch_page;
@@ -54,6 +56,7 @@ pub fn routes() -> Router<AppState> {
         .route("/", get(sites_page::sites))
         .route("/sites/{site}", get(site_page::site))
         .route("/sites/{site}/points/{point}", get(point_page::point))
+        .route("/sites/{site}/groups/{group}", get(block_page::block))
         .route("/sites/{site}/epochs/{epoch}", get(epoch_page::epoch))
         .route(
             "/sites/{site}/epochs/{epoch}/images/{station}",

@@ -27,9 +27,11 @@ use super::downsample::{bucket_count, PlotPicker};
 use super::local_time::text;
 use crate::http::error::ApiError;
 use crate::http::AppState;
+use crate::store::series::blocks::BLOCK_EPOCHS;
+use crate::store::series::columns::{
+    self as series_columns, unix_seconds, SeriesColumns, SeriesRow, SeriesSize,
+};
 use crate::store::series::SeriesQuery;
-use crate::store::series_blocks::BLOCK_EPOCHS;
-use crate::store::series_columns::{self, unix_seconds, SeriesColumns, SeriesRow, SeriesSize};
 use crate::store::Store;
 use crate::store::{alerts, points, sites};
 

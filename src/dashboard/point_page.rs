@@ -50,7 +50,7 @@ pub async fn point(
         (headline)
         p {
             (p.role)
-            @if let Some(g) = &p.group { " · group " (g) }
+            @if let Some(g) = &p.group { " · block " a href={ "/sites/" (seg(&site.id)) "/groups/" (seg(g)) } { (g) } }
             @if let Some(d) = p.direction { " · direction [" (num(Some(d[0]), 3)) ", " (num(Some(d[1]), 3)) ", " (num(Some(d[2]), 3)) "]" }
             " · " a href=(csv) download { "CSV of the series" }
         }

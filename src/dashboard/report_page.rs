@@ -20,7 +20,7 @@ use super::time_plot_svg::time_plot;
 use crate::analysis::{AlertLevel, PointRole};
 use crate::http::auth::Access;
 use crate::http::AppState;
-use crate::store::series_columns::unix_seconds;
+use crate::store::series::columns::unix_seconds;
 use crate::store::sites::Site;
 use crate::store::{alerts, displacements, epochs, points, Store};
 

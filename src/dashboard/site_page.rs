@@ -79,6 +79,8 @@ pub async fn site(
     let v = viewer(access.as_deref());
     let site_href = format!("/sites/{}", seg(&site.id));
     let tz = site.time_zone.as_deref();
+    let mut blocks = crate::store::groups::list(db, &site.id).await?;
+    blocks.sort_by(|a, b| super::natural_order::natural_cmp(&a.name, &b.name));
     let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
     let body = html! {
         h1 { (site.name) " " small { (site.id) } }
@@ -87,6 +89,11 @@ pub async fn site(
             a href={ (site_href) "/report" } { "Campaign report" } " (printable; add " code { "?from=YYYY-MM-DD&to=YYYY-MM-DD" } " for a period) · "
             a href={ "/api/v1/cap/feed.atom?site=" (seg(&site.id)) } { "public-warning feed (CAP 1.2, Atom)" }
             @if let Some(z) = tz { " · times in UTC and " (z) }
+        }
+        @if !blocks.is_empty() {
+            p.blocks { "Blocks: " @for (i, b) in blocks.iter().enumerate() {
+                @if i > 0 { ", " } a href={ (site_href) "/groups/" (seg(&b.name)) } { (b.name) }
+            } }
         }
         section {
             h2 { "Face plan" }
@@ -148,7 +155,7 @@ fn points_table(
                         @let d = latest.get(&p.name);
                         tr {
                             td { a href={ (site_href) "/points/" (seg(&p.name)) } { (p.name) } }
-                            td.wide { (p.role) @if let Some(g) = &p.group { " · " (g) } }
+                            td.wide { (p.role) @if let Some(g) = &p.group { " · " a href={ (site_href) "/groups/" (seg(g)) } { (g) } } }
                             td { (level_badge(levels.get(&p.name).copied())) }
                             td.num { (with_sigma(d.map(|d| d.d_mm), d.map(|d| d.sigma_mm), 2)) }
                             td.wide { @if d.is_some_and(|d| d.significant) { "yes" } @else { "no" } }

@@ -73,8 +73,3 @@ pub use pool::{
     SQLITE_MIGRATOR, WRITE_LOCK_KEY,
 };
 pub use time::{clock, display_timestamp, now, parse_timestamp, shortened, timestamp};
-
-// The series' rooms under their earlier paths, for the dashboard's imports until the branch that
-// moves the HTTP layer is merged (then its imports name `series::blocks`, `series::columns`).
-pub use series::blocks as series_blocks;
-pub use series::columns as series_columns;

@@ -1,0 +1,209 @@
+//! `GET /sites/{site}/groups/{group}`: a block's page. Its latest motion (displacement ± σ,
+//! velocity, time to failure and the forecast failure time), the motion series drawn against
+//! time (3-D displacement, along its direction, filtered velocity, inverse velocity; server-drawn
+//! SVG, missing values left out), how the forecast failure time moved epoch by epoch ("no
+//! reliable forecast" where its interval is wider than its horizon), its member points with
+//! links, and the open alerts of the block and of its members.
+
+use axum::extract::{Path, State};
+use axum::response::Html;
+use axum::Extension;
+use maud::html;
+
+use super::headline::failure_time;
+use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma};
+use super::local_time::{text, when};
+use super::page::{site_or_404, viewer, PageError};
+use super::time_plot_svg::time_plot;
+use crate::analysis::AlertLevel;
+use crate::http::auth::Access;
+use crate::http::AppState;
+use crate::store::displacements::Displacement;
+use crate::store::series::columns::unix_seconds;
+use crate::store::{alerts, block_motions, groups, points};
+
+/// Rows of the forecast history shown (the newest).
+const FORECASTS_SHOWN: usize = 30;
+
+/// The thresholds of the site's rules on `metric` that apply to `group` (value, level).
+fn thresholds(rules: &[serde_json::Value], metric: &str, group: &str) -> Vec<(f64, AlertLevel)> {
+    rules
+        .iter()
+        .filter(|r| r["metric"] == metric && (r["group"].is_null() || r["group"] == group))
+        .filter_map(|r| {
+            let v = r["above"].as_f64().or_else(|| r["below"].as_f64())?;
+            Some((v, r["level"].as_str()?.parse().ok()?))
+        })
+        .collect()
+}
+
+/// The block page.
+pub async fn block(
+    State(state): State<AppState>,
+    Path((site_id, group)): Path<(String, String)>,
+    access: Option<Extension<Access>>,
+) -> Result<Html<String>, PageError> {
+    let db = state.store.reader();
+    let site = site_or_404(db, &site_id).await?;
+    let Some(g) = groups::get(db, &site.id, &group).await? else {
+        return Err(PageError::not_found(format!(
+            "no block '{group}' in site '{site_id}'"
+        )));
+    };
+    let mut members: Vec<points::Point> = points::list(db, &site.id, None, 100_000)
+        .await?
+        .into_iter()
+        .filter(|p| {
+            g.points.contains(&p.name)
+                || (g.points.is_empty() && p.group.as_deref() == Some(&g.name))
+        })
+        .collect();
+    members.sort_by(|a, b| super::natural_order::natural_cmp(&a.name, &b.name));
+    let levels = alerts::active_levels(db, &site.id).await?;
+    let open: Vec<alerts::Alert> = alerts::list_active(db, &site.id, 500)
+        .await?
+        .into_iter()
+        .map(|(_, a)| a)
+        .filter(|a| {
+            a.group.as_deref() == Some(&g.name)
+                || a.point
+                    .as_ref()
+                    .is_some_and(|p| members.iter().any(|m| &m.name == p))
+        })
+        .collect();
+    let level = open
+        .iter()
+        .filter(|a| a.group.as_deref() == Some(&g.name))
+        .map(|a| a.level)
+        .max();
+    let rows: Vec<Displacement> =
+        block_motions::series(db, &site.id, &g.name, None, None, None, None).await?;
+    let tz = site.time_zone.as_deref();
+    let t: Vec<f64> = rows
+        .iter()
+        .map(|r| unix_seconds(r.observed_at.as_bytes()))
+        .collect();
+    let col = |f: &dyn Fn(&Displacement) -> Option<f64>| -> Vec<f64> {
+        rows.iter().map(|r| f(r).unwrap_or(f64::NAN)).collect()
+    };
+    let d = col(&|r| Some(r.d_mm));
+    let sd = col(&|r| Some(r.sigma_mm));
+    let along = col(&|r| r.d_along_mm);
+    let v = col(&|r| r.f_velocity_mm_per_day);
+    let sv = col(&|r| r.sigma_f_velocity_mm_per_day);
+    // 1/v where the block moves forward (v > 0); elsewhere a gap.
+    let inv = col(&|r| {
+        r.f_velocity_mm_per_day
+            .filter(|v| *v > 0.0)
+            .map(|v| 1.0 / v)
+    });
+    let none = vec![f64::NAN; rows.len()];
+    // Every epoch with a forecast; the failure time only where it is reliable.
+    let history: Vec<(&Displacement, Option<(f64, f64, f64)>)> = rows
+        .iter()
+        .filter(|r| {
+            r.f_time_to_failure_hours
+                .or(r.time_to_failure_hours)
+                .is_some_and(f64::is_finite)
+        })
+        .map(|r| (r, failure_time(r)))
+        .collect();
+    let latest = rows.last();
+    let (s, n) = (seg(&site.id), seg(&g.name));
+    let site_href = format!("/sites/{s}");
+    let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
+    let rules = &site.alert_rules;
+    let body = html! {
+        h1 { "Block " (g.name) " " (level_badge(level)) }
+        (headline)
+        p {
+            (members.len()) " member points"
+            @if let Some(dir) = g.direction { " · direction [" (num(Some(dir[0]), 3)) ", " (num(Some(dir[1]), 3)) ", " (num(Some(dir[2]), 3)) "]" }
+            " · " a href={ "/api/v1/sites/" (s) "/groups/" (n) "/motion?format=csv" } download { "CSV of the motion" }
+        }
+        @if let Some(r) = latest {
+            table.latest {
+                tr { th { "latest epoch" } td { a href={ (site_href) "/epochs/" (r.epoch) } { (when(&r.observed_at, tz)) } } }
+                tr { th { "d (mm)" } td { (with_sigma(Some(r.d_mm), Some(r.sigma_mm), 2)) @if r.significant { " (significant)" } } }
+                tr { th { "along the direction (mm)" } td { (num(r.d_along_mm, 2)) } }
+                tr { th { "filtered velocity (mm/day)" } td { (with_sigma(r.f_velocity_mm_per_day, r.sigma_f_velocity_mm_per_day, 3)) } }
+                tr { th { "filtered time to failure (h)" } td { (time_to_failure(r.f_time_to_failure_hours, r.sigma_f_time_to_failure_hours)) } }
+                @if let Some((tf, lo, hi)) = failure_time(r) {
+                    tr { th { "forecast failure" } td { (text(tf, tz)) " (±2σ: " (text(lo, tz)) " to " (text(hi, tz)) "), counted from this epoch" } }
+                }
+            }
+        } @else {
+            p.note { "No motion yet: the block needs 2 measured members in an epoch after its reference." }
+        }
+        section #members {
+            h2 { "Member points" }
+            ul.members {
+                @for p in &members {
+                    li { a href={ (site_href) "/points/" (seg(&p.name)) } { (p.name) } " " (level_badge(levels.get(&p.name).copied())) }
+                }
+            }
+        }
+        section #block-alerts {
+            h2 { "Open alerts of the block and its points" }
+            @if open.is_empty() { p.note { "None." } }
+            @else {
+                ul { @for a in &open {
+                    li { (level_badge(Some(a.level))) " "
+                        @if let Some(p) = &a.point { "point " (p) } @else { "block " (g.name) }
+                        " · " (a.rule) " · "
+                        a href={ (site_href) "/alerts/" (seg(&a.id)) } { "history" } }
+                } }
+            }
+        }
+        @if !rows.is_empty() {
+            section.block-plots {
+                h2 { "Motion" }
+                figure { figcaption { "3-D displacement d (mm), ±2σ" } (time_plot(&t, &d, &sd, &thresholds(rules, "displacement_mm", &g.name), "mm")) }
+                @if g.direction.is_some() {
+                    figure { figcaption { "displacement along the direction (mm)" } (time_plot(&t, &along, &none, &thresholds(rules, "displacement_along_mm", &g.name), "mm")) }
+                }
+                figure { figcaption { "filtered velocity (mm/day), ±2σ" } (time_plot(&t, &v, &sv, &thresholds(rules, "velocity_mm_per_day", &g.name), "mm/day")) }
+                figure { figcaption { "inverse velocity 1/v (day/mm), where the block moves forward; the forecast below extrapolates it to zero" } (time_plot(&t, &inv, &none, &[], "day/mm")) }
+            }
+        }
+        section #forecasts {
+            h2 { "Forecast history" }
+            @if history.is_empty() {
+                p.note { "No epoch had a forecast: the block is not accelerating, or the inverse-velocity law does not fit." }
+            } @else {
+                p { "How the forecast failure time moved epoch by epoch (newest first; each counted from its own epoch)." }
+                table.forecasts {
+                    thead { tr { th { "epoch" } th { "time to failure (h)" } th { "forecast failure" } th.wide { "±2σ" } } }
+                    tbody { @for (r, f) in history.iter().rev().take(FORECASTS_SHOWN) {
+                        tr {
+                            td { a href={ (site_href) "/epochs/" (r.epoch) } { (when(&r.observed_at, tz)) } }
+                            @if r.f_time_to_failure_hours.is_some_and(f64::is_finite) {
+                                td.num { (time_to_failure(r.f_time_to_failure_hours, r.sigma_f_time_to_failure_hours)) }
+                            } @else {
+                                td.num { (time_to_failure(r.time_to_failure_hours, r.time_to_failure_sigma_hours)) }
+                            }
+                            @if let Some((tf, lo, hi)) = f {
+                                td { (text(*tf, tz)) }
+                                td.wide { (text(*lo, tz)) " to " (text(*hi, tz)) }
+                            } @else {
+                                td { "no reliable forecast" }
+                                td.wide { "—" }
+                            }
+                        }
+                    } }
+                }
+            }
+        }
+    };
+    let v = viewer(access.as_deref());
+    let crumbs = [
+        (site.name.clone(), site_href.clone()),
+        (
+            format!("block {}", g.name),
+            format!("{site_href}/groups/{n}"),
+        ),
+    ];
+    Ok(Html(
+        page(&format!("Block {}", g.name), &crumbs, &v, body).into_string(),
+    ))
+}
