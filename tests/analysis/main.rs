@@ -5,6 +5,8 @@
 #[path = "../analysis_common/mod.rs"]
 mod analysis_common;
 
+mod alert_fixtures;
+mod alert_rules;
 mod alerts;
 mod datum;
 mod kalman;

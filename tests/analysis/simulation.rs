@@ -172,23 +172,26 @@ fn alerts_escalate_and_failure_forecast_converges() {
                 .map(|x| x.1)
                 .expect("level reached")
         };
-        // Exactly where either estimate (the default source of displacement rules: the raw one
-        // or the Kalman filter's) first exceeds the threshold at the rules' confidence
-        // (d − z·σ > threshold, z = 2.326) …
+        // Exactly where either estimate (the default source of displacement rules) first
+        // exceeds the threshold at the rules' confidence (d − z·σ > threshold, z = 2.326): the
+        // Kalman filter's at once, the raw one alone when the epoch before also exceeded …
         let z = alerts.z();
+        let exceeds = |k: usize, th: f64| {
+            steps[k].analysis.point("B1").map_or((false, false), |p| {
+                let raw = p.record.significant && p.record.d_mm - z * p.record.sigma_mm > th;
+                let filtered = p
+                    .record
+                    .filtered
+                    .is_some_and(|f| f.f_d_mm - z * f.sigma_f_d_mm > th);
+                (raw, filtered)
+            })
+        };
         let est = |th: f64| {
-            steps
-                .iter()
-                .position(|s| {
-                    s.analysis.point("B1").is_some_and(|p| {
-                        let raw =
-                            p.record.significant && p.record.d_mm - z * p.record.sigma_mm > th;
-                        let filtered = p
-                            .record
-                            .filtered
-                            .is_some_and(|f| f.f_d_mm - z * f.sigma_f_d_mm > th);
-                        raw || filtered
-                    })
+            (0..steps.len())
+                .position(|k| {
+                    let (raw, filtered) = exceeds(k, th);
+                    let before = k > 0 && exceeds(k - 1, th) != (false, false);
+                    filtered || (raw && before)
                 })
                 .map(|k| k + 1)
         };

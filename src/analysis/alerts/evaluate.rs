@@ -52,7 +52,7 @@ fn evaluate_subject(
                 .is_some_and(|v| ok && r.triggers(v, reading.sigma, z));
             if triggered {
                 mem.streak = mem.streak.saturating_add(1);
-                if mem.streak >= r.for_epochs.unwrap_or(1).max(1) {
+                if mem.streak >= r.epochs_needed(&s.readings, m, z) {
                     mem.active = true;
                 }
                 mem.quiet_epochs = 0;

@@ -28,9 +28,10 @@ impl Metric {
     }
 
     /// Where the metric is read by default: either estimate for displacements (the filter sees a
-    /// steady creep over the threshold a few epochs earlier, the raw value a sudden step at once;
-    /// `docs/accuracy.md` measures both), the Kalman-filtered state for velocity and time to
-    /// failure (a raw velocity of noisy epochs flickers).
+    /// steady creep over the threshold a few epochs earlier, the raw value a sudden step one
+    /// epoch later, once the next epoch confirms it; `docs/accuracy.md` measures both), the
+    /// Kalman-filtered state for velocity and time to failure (a raw velocity of noisy epochs
+    /// flickers).
     pub fn default_source(self) -> Source {
         match self {
             Metric::DisplacementMm | Metric::DisplacementAlongMm => Source::Either,
@@ -59,7 +60,8 @@ pub enum Source {
     /// The Kalman filter's estimate at the epoch (see [`crate::analysis::kalman`]).
     Filtered,
     /// Both: the rule triggers when either estimate exceeds the threshold at the confidence, and
-    /// clears when both do.
+    /// clears when both are back. A raw exceedance the filtered value does not share raises the
+    /// alert only when the next epoch exceeds too, so one noisy epoch never alerts alone.
     Either,
 }
 

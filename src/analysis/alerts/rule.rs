@@ -247,14 +247,10 @@ impl AlertRule {
         }
         let raw = readings.get(metric, Source::Raw);
         let filtered = readings.get(metric, Source::Filtered);
-        let fires = |r: &Reading| {
-            (!self.require_significant || r.significant)
-                && r.value.is_some_and(|v| self.triggers(v, r.sigma, z))
-        };
-        if fires(&raw) {
+        if self.fires(&raw, z) {
             return raw;
         }
-        if fires(&filtered) {
+        if self.fires(&filtered, z) {
             return filtered;
         }
         match (raw.value, filtered.value) {
@@ -268,6 +264,29 @@ impl AlertRule {
             }
             (None, Some(_)) => filtered,
             _ => raw,
+        }
+    }
+
+    /// Whether `r` triggers the rule: significant when the rule asks for it, and over the
+    /// threshold at the confidence's `z`.
+    pub(super) fn fires(&self, r: &Reading, z: f64) -> bool {
+        (!self.require_significant || r.significant)
+            && r.value.is_some_and(|v| self.triggers(v, r.sigma, z))
+    }
+
+    /// Consecutive triggering epochs the rule needs before it becomes active: its `for_epochs`
+    /// (at least 1), and at least 2 for an [`Source::Either`] rule whose filtered value does not
+    /// trigger: a raw exceedance alone is confirmed by the next epoch (or by the filter) before
+    /// it alerts, as a total station re-measures before it alarms, so one noisy epoch never
+    /// raises an alert by itself.
+    pub(super) fn epochs_needed(&self, readings: &Readings, metric: Metric, z: f64) -> u32 {
+        let asked = self.for_epochs.unwrap_or(1).max(1);
+        if self.source() == Source::Either
+            && !self.fires(&readings.get(metric, Source::Filtered), z)
+        {
+            asked.max(2)
+        } else {
+            asked
         }
     }
 
