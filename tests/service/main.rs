@@ -5,10 +5,14 @@
 #[path = "../service_support/mod.rs"]
 mod service_support;
 
-mod api;
+mod access;
 mod concurrency;
 mod crash;
 mod joint_covariance;
+mod openapi;
+mod point_settings;
+mod rejections;
 mod retention;
 mod series;
+mod uploads;
 mod wal;
