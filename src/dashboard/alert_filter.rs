@@ -21,6 +21,9 @@ pub struct AlertQuery {
     /// Part of the subject's name.
     #[serde(default)]
     pub subject: Option<String>,
+    /// The epochs table's page: epochs observed before this instant (RFC 3339); none: the newest.
+    #[serde(default)]
+    pub epochs_before: Option<String>,
 }
 
 /// States a filter may ask for; `active` is open or acknowledged.

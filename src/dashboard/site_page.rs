@@ -71,11 +71,33 @@ pub async fn site(
         .map(|(_, a)| a)
         .filter(|a| filter.matches(a))
         .collect();
-    let epoch_rows: Vec<_> = epochs::list(db, &site.id, None, EPOCHS_SHOWN)
+    let before = match query.0.epochs_before.as_deref() {
+        Some(b) => Some(
+            crate::store::parse_timestamp(b)
+                .map(crate::store::timestamp)
+                .ok_or_else(|| {
+                    PageError::bad_request(format!(
+                        "epochs_before '{}' is not an RFC 3339 time",
+                        b.chars().take(40).collect::<String>()
+                    ))
+                })?,
+        ),
+        None => None,
+    };
+    let mut epoch_rows: Vec<_> = epochs::list(db, &site.id, before.as_deref(), EPOCHS_SHOWN + 1)
         .await?
         .into_iter()
-        .map(|(_, e)| e)
         .collect();
+    // The cursor of the next page: the oldest epoch shown, when there are older ones.
+    let older = (epoch_rows.len() as i64 > EPOCHS_SHOWN).then(|| {
+        epoch_rows.truncate(EPOCHS_SHOWN as usize);
+        epoch_rows.last().map(|(cursor, _)| cursor.clone())
+    });
+    let epoch_page = EpochPage {
+        rows: epoch_rows.into_iter().map(|(_, e)| e).collect(),
+        older: older.flatten(),
+        paged: before.is_some(),
+    };
     let v = viewer(access.as_deref());
     let site_href = format!("/sites/{}", seg(&site.id));
     let tz = site.time_zone.as_deref();
@@ -101,7 +123,7 @@ pub async fn site(
         }
         (alerts_section(&filter, &shown, truncated, &v, &site_href, tz))
         (points_table(&pts, &latest, &levels, &site_href))
-        (epochs_table(&epoch_rows, &site_href, tz))
+        (epochs_table(&epoch_page, &site_href, tz))
     };
     let crumbs = [(site.name.clone(), site_href.clone())];
     Ok(Html(page(&site.name, &crumbs, &v, body).into_string()))
@@ -169,12 +191,24 @@ fn points_table(
     }
 }
 
-/// The newest epochs: time (UTC and `tz`), status, σ0 (mm), c ± σ (mm), iterations and dropped
-/// observations, each linked to its epoch page.
-fn epochs_table(epochs: &[epochs::EpochListItem], site_href: &str, tz: Option<&str>) -> Markup {
+/// One page of the epochs table (newest first).
+struct EpochPage {
+    /// The epochs shown.
+    rows: Vec<epochs::EpochListItem>,
+    /// The cursor of the next, older page (the oldest shown epoch's stored time), if any.
+    older: Option<String>,
+    /// Whether this is an older page (then it links back to the newest).
+    paged: bool,
+}
+
+/// A page of epochs: time (UTC and `tz`), status, σ0 (mm), c ± σ (mm), iterations and dropped
+/// observations, each linked to its epoch page; links to older epochs, back to the first.
+fn epochs_table(page: &EpochPage, site_href: &str, tz: Option<&str>) -> Markup {
+    let epochs = &page.rows;
     html! {
-        section {
+        section #epochs {
             h2 { "Epochs" }
+            @if page.paged { p.pager { a href={ (site_href) "#epochs" } { "← newest epochs" } } }
             table.epochs {
                 thead { tr { th { "observed at" } th { "status" } th.wide { "σ0 (mm)" } th { "c ± σ (mm)" } th.wide { "iterations" } th.wide { "dropped" } } }
                 tbody {
@@ -189,6 +223,11 @@ fn epochs_table(epochs: &[epochs::EpochListItem], site_href: &str, tz: Option<&s
                         }
                     }
                 }
+            }
+            @if let Some(cursor) = &page.older {
+                p.pager { a.older href={ (site_href) "?epochs_before=" (seg(cursor)) "#epochs" } { "older epochs →" } }
+            } @else if !epochs.is_empty() {
+                p.note { "The first epoch of the site is the last row." }
             }
         }
     }

@@ -15,3 +15,4 @@ mod cap_feed;
 mod headline;
 mod pages;
 mod security;
+mod sessions;

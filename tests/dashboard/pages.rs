@@ -1,39 +1,15 @@
 //! The dashboard's pages against a real server: a site with a moving block (16 targets, 8 stable,
 //! the block moving 2.5 mm a day towards the cameras), its pages linked sites → site → point →
 //! epoch, user text escaped, the plot data equal to the API's series, acknowledgement from the
-//! site page, assets, and the sign-in with session cookie and CSRF token when tokens are set.
+//! site page and assets (the sign-in with tokens: `sessions.rs`).
 
 use crate::dashboard_support;
 use crate::plot_support;
 
-use cliffwatch::config::{Role, TokenConfig};
-use cliffwatch::http::session;
 use dashboard_support::service_support::TestServer;
-use dashboard_support::{fill, name, POINTS, SITE, STABLE};
+use dashboard_support::{fill, html, links, name, POINTS, SITE, STABLE};
 use reqwest::header;
 use serde_json::{json, Value};
-
-async fn html(s: &TestServer, path: &str) -> (u16, String) {
-    let r = s.client.get(s.url(path)).send().await.unwrap();
-    let status = r.status().as_u16();
-    if status == 200 {
-        let ct = r.headers()[header::CONTENT_TYPE]
-            .to_str()
-            .unwrap()
-            .to_string();
-        assert!(ct.starts_with("text/html"), "{path}: {ct}");
-    }
-    (status, r.text().await.unwrap())
-}
-
-/// The `href="…"` targets of a page.
-fn links(page: &str) -> Vec<String> {
-    page.split("href=\"")
-        .skip(1)
-        .filter_map(|s| s.split('"').next())
-        .map(str::to_string)
-        .collect()
-}
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
@@ -483,271 +459,6 @@ async fn long_series_plot_keeps_peaks_ends_and_alert_epochs() {
     s.stop().await;
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn with_tokens_pages_need_a_session_and_changes_a_csrf_token() {
-    let tokens = [
-        ("reader-token-1", Role::Read),
-        ("uploader-token-1", Role::Upload),
-        ("admin-token-1", Role::Admin),
-    ];
-    let s = TestServer::start(|c| {
-        c.tokens = tokens
-            .iter()
-            .map(|(t, r)| TokenConfig {
-                token: t.to_string(),
-                role: *r,
-            })
-            .collect();
-        // Behind a proxy: browsers send this origin while the service sees another Host.
-        c.public_url = Some("https://cliff.example".into());
-    })
-    .await;
-    fill(&s, 6, Some("admin-token-1")).await;
-    let client = reqwest::Client::builder()
-        .redirect(reqwest::redirect::Policy::none())
-        .build()
-        .unwrap();
-
-    // Without credentials: pages redirect to the sign-in form, data answer 401, assets are open.
-    let r = client
-        .get(s.url(&format!("/sites/{SITE}")))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 303);
-    assert_eq!(
-        r.headers()[header::LOCATION],
-        format!("/signin?next=%2Fsites%2F{SITE}")
-    );
-    let r = client
-        .get(s.url(&format!("/dashboard/plot/{SITE}/T001")))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 401);
-    assert_eq!(
-        client
-            .get(s.url("/assets/plots.js"))
-            .send()
-            .await
-            .unwrap()
-            .status(),
-        200
-    );
-    assert_eq!(
-        client.get(s.url("/signin")).send().await.unwrap().status(),
-        200
-    );
-
-    // A wrong token: 401 and no cookie.
-    let r = client
-        .post(s.url("/signin"))
-        .form(&[("token", "guess"), ("next", "/")])
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 401);
-    assert!(r.headers().get(header::SET_COOKIE).is_none());
-
-    let sign_in = |token: &'static str| {
-        let client = client.clone();
-        let url = s.url("/signin");
-        async move {
-            let r = client
-                .post(url)
-                .form(&[("token", token), ("next", "/\t/evil.example/")])
-                .send()
-                .await
-                .unwrap();
-            assert_eq!(r.status(), 303);
-            assert_eq!(r.headers()[header::LOCATION], "/", "no open redirect");
-            let c = r.headers()[header::SET_COOKIE]
-                .to_str()
-                .unwrap()
-                .to_string();
-            assert!(
-                c.contains("HttpOnly") && c.contains("SameSite=Strict") && c.contains("Secure"),
-                "{c}"
-            );
-            assert!(!c.contains(token), "the cookie does not carry the token");
-            c.split(';').next().unwrap().to_string()
-        }
-    };
-    let reader = sign_in("reader-token-1").await;
-    let uploader = sign_in("uploader-token-1").await;
-
-    // With the reader's cookie: pages, but no acknowledgement form and no acknowledging.
-    let r = client
-        .get(s.url(&format!("/sites/{SITE}")))
-        .header(header::COOKIE, &reader)
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 200);
-    let page = r.text().await.unwrap();
-    assert!(!page.contains("hx-post=\"/dashboard/alerts/"));
-    let csrf_of = |page: &str| {
-        let at = page.find("x-csrf-token").expect("csrf token in the page");
-        page[at..].split("&quot;").nth(2).unwrap().to_string()
-    };
-    let reader_csrf = csrf_of(&page);
-    let (_, open) = {
-        let r = client
-            .get(s.url(&format!("/api/v1/alerts?site={SITE}&state=open")))
-            .bearer_auth("reader-token-1")
-            .send()
-            .await
-            .unwrap();
-        (r.status(), r.json::<Value>().await.unwrap())
-    };
-    let id = open["items"][0]["id"]
-        .as_str()
-        .expect("an open alert")
-        .to_string();
-    let ack = |cookie: String, csrf: Option<String>| {
-        let client = client.clone();
-        let url = s.url(&format!("/dashboard/alerts/{id}/ack"));
-        async move {
-            let mut r = client
-                .post(url)
-                .header(header::COOKIE, cookie)
-                .header("hx-request", "true");
-            if let Some(c) = csrf {
-                r = r.header("x-csrf-token", c);
-            }
-            r.form(&[("by", "Aiko")])
-                .send()
-                .await
-                .unwrap()
-                .status()
-                .as_u16()
-        }
-    };
-    assert_eq!(
-        ack(reader.clone(), Some(reader_csrf)).await,
-        403,
-        "read role"
-    );
-
-    // The uploader: the form is there; without or with a wrong CSRF token 403, with it 200.
-    let r = client
-        .get(s.url(&format!("/sites/{SITE}")))
-        .header(header::COOKIE, &uploader)
-        .send()
-        .await
-        .unwrap();
-    let page = r.text().await.unwrap();
-    assert!(page.contains("hx-post=\"/dashboard/alerts/"));
-    let csrf = csrf_of(&page);
-    assert_eq!(ack(uploader.clone(), None).await, 403);
-    assert_eq!(ack(uploader.clone(), Some("0".repeat(32))).await, 403);
-    assert_eq!(ack(uploader.clone(), Some(csrf.clone())).await, 200);
-
-    // Without JavaScript the form posts itself, the token in its `csrf` field; through the
-    // proxy the browser's Origin is the public URL, not the Host the service sees.
-    assert!(
-        page.contains(&format!("name=\"csrf\" value=\"{csrf}\"")),
-        "the form carries the token"
-    );
-    let second = open["items"][1]["id"]
-        .as_str()
-        .expect("a second open alert")
-        .to_string();
-    let plain_ack = |csrf: &str| {
-        client
-            .post(s.url(&format!("/dashboard/alerts/{second}/ack")))
-            .header(header::COOKIE, &uploader)
-            .header(header::ORIGIN, "https://cliff.example")
-            .form(&[("csrf", csrf), ("by", "Ben"), ("comment", "")])
-            .send()
-    };
-    assert_eq!(plain_ack("0").await.unwrap().status(), 403);
-    let r = plain_ack(&csrf).await.unwrap();
-    assert_eq!(r.status(), 303);
-    assert_eq!(r.headers()[header::LOCATION], format!("/sites/{SITE}"));
-    let r = client
-        .get(s.url(&format!("/api/v1/alerts?site={SITE}&state=acknowledged")))
-        .bearer_auth("reader-token-1")
-        .send()
-        .await
-        .unwrap();
-    let acked: Value = r.json().await.unwrap();
-    assert!(
-        acked["items"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|a| a["id"] == json!(second) && a["acknowledged_by"] == json!("Ben")),
-        "{acked}"
-    );
-    // Again: refused (409) with a page that says by whom, not a bare status.
-    let r = plain_ack(&csrf).await.unwrap();
-    assert_eq!(r.status(), 409);
-    let page = r.text().await.unwrap();
-    assert!(
-        page.contains("<html") && page.contains("acknowledged already by Ben"),
-        "{page}"
-    );
-    // Another origin is still refused, whatever the token.
-    let r = client
-        .post(s.url(&format!("/dashboard/alerts/{second}/ack")))
-        .header(header::COOKIE, &uploader)
-        .header(header::ORIGIN, "https://evil.example")
-        .form(&[("csrf", csrf.as_str()), ("by", "Mallory")])
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 403);
-
-    // Signing out needs the session's token too, so that no other page can do it.
-    let sign_out = |csrf: &str| {
-        client
-            .post(s.url("/signout"))
-            .header(header::COOKIE, &uploader)
-            .form(&[("csrf", csrf)])
-            .send()
-    };
-    assert_eq!(sign_out("").await.unwrap().status(), 403);
-    let r = sign_out(&csrf).await.unwrap();
-    assert_eq!(r.status(), 303);
-    assert!(r.headers()[header::SET_COOKIE]
-        .to_str()
-        .unwrap()
-        .contains("Max-Age=0"));
-    // An expired session's cookie is cleared without the field: it has no token left to carry.
-    let long_ago = chrono::Utc::now().timestamp() - session::LIFETIME_SECS - 60;
-    let expired = format!(
-        "{}={}",
-        session::COOKIE,
-        session::issue("uploader-token-1", long_ago)
-    );
-    let r = client
-        .post(s.url("/signout"))
-        .header(header::COOKIE, expired)
-        .form(&[("csrf", "")])
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 303);
-    assert!(r.headers()[header::SET_COOKIE]
-        .to_str()
-        .unwrap()
-        .contains("Max-Age=0"));
-
-    // A forged cookie is no session.
-    // The last character changed (to '1' where it was '0', which made this test flaky).
-    let last = if uploader.ends_with('0') { '1' } else { '0' };
-    let forged = format!("{}{last}", &uploader[..uploader.len() - 1]);
-    let r = client
-        .get(s.url("/"))
-        .header(header::COOKIE, forged)
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 303);
-    s.stop().await;
-}
-
 /// A long history plotted from SQLite: see [`plot_support::long_history_plot`].
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn long_history_plot_reads_block_extremes_and_keeps_the_envelope() {
@@ -865,5 +576,59 @@ async fn an_old_open_alarm_is_shown_under_many_newer_resolved_alerts() {
         .find(|r| r.contains("/sites/busy\""))
         .expect("the site's row");
     assert!(row.contains("badge alarm"), "badge: {row}");
+    s.stop().await;
+}
+
+/// The epochs table pages back to the first epoch: 30 a page, newest first, "older epochs →"
+/// to the next page, which ends with the site's first epoch and links back to the newest; a
+/// cursor that is no time is refused by name.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_epochs_table_pages_back_to_the_first_epoch() {
+    let s = TestServer::start(|_| {}).await;
+    fill(&s, 34, None).await;
+    let (_, api) = s
+        .get(&format!("/api/v1/sites/{SITE}/epochs?limit=100"))
+        .await;
+    let mut ids: Vec<i64> = api["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["id"].as_i64().unwrap())
+        .collect();
+    assert_eq!(ids.len(), 34);
+    ids.sort_unstable_by(|a, b| b.cmp(a));
+    // The epoch links of a page's epochs table, in the order shown.
+    let epoch_links = |page: &str| -> Vec<i64> {
+        let table = page.split("<section id=\"epochs\">").nth(1).unwrap();
+        links(table)
+            .iter()
+            .filter_map(|l| l.rsplit("/epochs/").next()?.parse().ok())
+            .collect()
+    };
+    let (st, first) = html(&s, &format!("/sites/{SITE}")).await;
+    assert_eq!(st, 200);
+    assert_eq!(
+        epoch_links(&first),
+        ids[..30],
+        "the newest 30, newest first"
+    );
+    let older = links(&first)
+        .into_iter()
+        .find(|l| l.contains("epochs_before="))
+        .expect("a link to older epochs");
+    assert!(first.contains("older epochs →"));
+    let (st, second) = html(&s, &older.replace("&amp;", "&")).await;
+    assert_eq!(st, 200, "{older}");
+    assert_eq!(
+        epoch_links(&second),
+        ids[30..],
+        "the 4 oldest, down to the first"
+    );
+    assert!(!second.contains("older epochs →"));
+    assert!(second.contains("The first epoch of the site is the last row."));
+    assert!(second.contains("← newest epochs"));
+    let (st, bad) = html(&s, &format!("/sites/{SITE}?epochs_before=yesterday")).await;
+    assert_eq!(st, 400);
+    assert!(bad.contains("epochs_before 'yesterday'"), "{bad}");
     s.stop().await;
 }

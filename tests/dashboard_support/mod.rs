@@ -70,3 +70,26 @@ pub async fn fill(s: &TestServer, epochs: usize, auth: Option<&str>) {
         assert_eq!(r.status(), 201, "epoch {k}");
     }
 }
+
+/// GETs `path`: its status and body (an HTML page when 200).
+pub async fn html(s: &TestServer, path: &str) -> (u16, String) {
+    let r = s.client.get(s.url(path)).send().await.unwrap();
+    let status = r.status().as_u16();
+    if status == 200 {
+        let ct = r.headers()[reqwest::header::CONTENT_TYPE]
+            .to_str()
+            .unwrap()
+            .to_string();
+        assert!(ct.starts_with("text/html"), "{path}: {ct}");
+    }
+    (status, r.text().await.unwrap())
+}
+
+/// The `href="…"` targets of a page.
+pub fn links(page: &str) -> Vec<String> {
+    page.split("href=\"")
+        .skip(1)
+        .filter_map(|s| s.split('"').next())
+        .map(str::to_string)
+        .collect()
+}
