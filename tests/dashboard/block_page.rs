@@ -72,7 +72,7 @@ async fn the_block_page_links_its_members_and_they_link_back() {
         .script("return Array.from(document.querySelectorAll('main a')).filter(function (a) { return a.getAttribute('href').endsWith('/groups/B1'); }).length")
         .await;
     assert!(back.as_u64().unwrap() >= 1, "a link back to B1");
-    driver.emulate_phone_width(390).await;
+    driver.emulate_phone_width(360).await;
     driver
         .goto(&s.url(&format!("/sites/{SITE}/groups/B1")))
         .await;
@@ -83,7 +83,7 @@ async fn the_block_page_links_its_members_and_they_link_back() {
         width[1].as_f64().unwrap() <= width[0].as_f64().unwrap(),
         "{width}"
     );
-    driver.screenshot("block-phone-390.png").await;
+    driver.screenshot("block-phone-360.png").await;
     // An unknown block is a 404 page.
     let r = s
         .client

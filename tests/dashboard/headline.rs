@@ -2,7 +2,8 @@
 //! accelerating to failure raises a time-to-failure alarm, and the headline says so in words,
 //! with the forecast failure time as a date in UTC and in the site's zone (the same instant the
 //! API's series gives: the last epoch plus the filtered time to failure), says that it counts
-//! from the last epoch, how old that epoch is, what to do and whom to call. At 390 px it fits.
+//! from the last epoch, how old that epoch is, what to do and whom to call. At 390 and 360 px it
+//! fits.
 
 use crate::browser::Driver;
 use crate::dashboard_support;
@@ -167,16 +168,26 @@ async fn the_headline_says_the_worst_alert_its_failure_date_and_what_to_do() {
         what,
         "same headline on a point page"
     );
-    // A 390 px phone: the headline and the site page fit without scrolling sideways.
-    driver.emulate_phone_width(390).await;
-    driver.goto(&s.url("/sites/tf")).await;
-    let width = driver
-        .script("return [window.innerWidth, document.documentElement.scrollWidth, document.querySelector('section.headline').getBoundingClientRect().right]")
-        .await;
-    assert_eq!(width[0], json!(390), "{width}");
-    assert!(width[1].as_f64().unwrap() <= 390.0, "{width}");
-    assert!(width[2].as_f64().unwrap() <= 390.0, "{width}");
-    driver.screenshot("headline-phone-390.png").await;
+    // Phones 390 and 360 px wide: the headline and the site page fit without scrolling sideways.
+    for phone in [390u32, 360] {
+        driver.emulate_phone_width(phone).await;
+        driver.goto(&s.url("/sites/tf")).await;
+        let width = driver
+            .script("return [window.innerWidth, document.documentElement.scrollWidth, document.querySelector('section.headline').getBoundingClientRect().right]")
+            .await;
+        assert_eq!(width[0], json!(phone), "{width}");
+        assert!(
+            width[1].as_f64().unwrap() <= phone as f64,
+            "{phone}: {width}"
+        );
+        assert!(
+            width[2].as_f64().unwrap() <= phone as f64,
+            "{phone}: {width}"
+        );
+        driver
+            .screenshot(format!("headline-phone-{phone}.png"))
+            .await;
+    }
     driver.quit().await;
     s.stop().await;
 }
