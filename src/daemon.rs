@@ -23,7 +23,6 @@ use crate::http::AppState;
 use crate::service;
 use crate::service::admission::UploadGate;
 use crate::shutdown;
-use crate::store::webhooks::NewWebhook;
 use crate::store::{self, Store, StoreError, StoreOptions};
 
 /// The server cannot start or failed.
@@ -69,7 +68,14 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
     let url = config.database_url();
     let store = Store::connect(&url, &options).await?;
     tracing::info!(database = %store::redacted_url(&url), backend = ?store.backend(), "database open");
-    apply_configured(&store, &config).await?;
+    service::configured::apply_configured(&store, &config)
+        .await
+        .map_err(|e| match e {
+            service::configured::ConfiguredError::Item(item, message) => {
+                ServeError::Site(item, message)
+            }
+            service::configured::ConfiguredError::Store(e) => ServeError::Store(e),
+        })?;
     service::recompute::recompute_outdated(&store)
         .await
         .map_err(|e| ServeError::Site("(recompute at start)".into(), e.to_string()))?;
@@ -104,58 +110,6 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
         addr,
         state,
     })
-}
-
-async fn apply_configured(store: &Store, config: &Config) -> Result<(), ServeError> {
-    let mut tx = store.begin_write().await?;
-    let mut raised = 0;
-    for site in &config.sites {
-        crate::api::sites::check_site(site)
-            .map_err(|e| ServeError::Site(site.id.clone(), e.message))?;
-        let before = store::sites::get(&mut *tx, &site.id).await?;
-        store::sites::upsert(&mut tx, site).await?;
-        // Settings the analysis or the alert rules depend on changed: the series and alerts are
-        // recomputed (like a new reference epoch through the API), so that an alert of a rule
-        // that is gone or no longer met resolves now instead of staying open.
-        if let (Some(b), Some(a)) = (before, store::sites::get(&mut *tx, &site.id).await?) {
-            if (
-                b.reference_epochs,
-                b.process_noise,
-                b.confidence,
-                &b.alert_rules,
-            ) != (
-                a.reference_epochs,
-                a.process_noise,
-                a.confidence,
-                &a.alert_rules,
-            ) {
-                tracing::info!(site = %site.id, "analysis settings or alert rules changed in the \
-                    configuration file: the site's series and alerts are recomputed");
-                let cause = service::recompute::RecomputeCause::Settings;
-                raised += service::recompute::recompute_site(&mut tx, &a.id, &cause)
-                    .await
-                    .map_err(|e| ServeError::Site(site.id.clone(), e.to_string()))?;
-            }
-        }
-    }
-    let hooks: Vec<NewWebhook> = config
-        .webhooks
-        .iter()
-        .map(|w| NewWebhook {
-            url: w.url.clone(),
-            secret: w.secret.clone(),
-            min_level: Some(w.min_level),
-            format: w.format,
-        })
-        .collect();
-    for h in &hooks {
-        crate::api::webhooks::check_webhook(h)
-            .map_err(|e| ServeError::Site(h.url.clone(), e.message))?;
-    }
-    store::webhooks::replace_configured(&mut tx, &hooks).await?;
-    tx.commit().await.map_err(StoreError::from)?;
-    service::alert_outcome::count_raised(raised);
-    Ok(())
 }
 
 impl Bound {

@@ -9,42 +9,6 @@ use super::list::Page;
 use crate::http::error::{ApiError, ApiJson, ApiPath};
 use crate::http::AppState;
 use crate::store::webhooks::{self, NewWebhook};
-use crate::store::StoreError;
-
-/// Checks a webhook endpoint: an http(s) URL that parses and names a host, and a `whsec_` secret whose base64 decodes to the
-/// signing key (a secret that does not would fail every delivery, silently, at 3 a.m.).
-pub fn check_webhook(h: &NewWebhook) -> Result<(), ApiError> {
-    let parsed = url::Url::parse(&h.url).ok().filter(|u| {
-        (u.scheme() == "http" || u.scheme() == "https")
-            && u.host_str().is_some_and(|h| !h.is_empty())
-    });
-    // The host must be written after `//` (`http:///x` would be read as host `x`).
-    let after = h
-        .url
-        .strip_prefix("http://")
-        .or_else(|| h.url.strip_prefix("https://"));
-    if parsed.is_none() || after.is_none_or(|rest| rest.starts_with('/')) {
-        return Err(ApiError::unprocessable(
-            "invalid_webhook",
-            format!("url '{}': an absolute http or https URL with a host", h.url),
-        ));
-    }
-    let decoded = h
-        .secret
-        .strip_prefix("whsec_")
-        .map(|_| crate::webhooks::signing_key(&h.secret));
-    match decoded {
-        Some(Ok(key)) if key.len() >= 3 => Ok(()),
-        Some(Err(e)) => Err(ApiError::unprocessable(
-            "invalid_webhook",
-            format!("secret: whsec_ followed by standard base64, padded or not ({e})"),
-        )),
-        _ => Err(ApiError::unprocessable(
-            "invalid_webhook",
-            "secret: whsec_<base64> of at least 3 bytes",
-        )),
-    }
-}
 
 /// `POST /api/v1/webhooks`.
 #[utoipa::path(post, path = "/api/v1/webhooks", operation_id = "create_webhook", request_body = NewWebhook,
@@ -53,14 +17,7 @@ pub async fn create(
     State(state): State<AppState>,
     ApiJson(hook): ApiJson<NewWebhook>,
 ) -> Result<impl IntoResponse, ApiError> {
-    check_webhook(&hook)?;
-    let mut tx = state.store.begin_write().await?;
-    let id = webhooks::insert(&mut tx, &hook, webhooks::WebhookSource::Api).await?;
-    tx.commit().await.map_err(StoreError::from)?;
-    let stored = webhooks::list(state.store.reader())
-        .await?
-        .into_iter()
-        .find(|w| w.id == id);
+    let stored = crate::service::webhooks::create_webhook(&state.store, &hook).await?;
     Ok((StatusCode::CREATED, axum::Json(stored)))
 }
 
@@ -80,11 +37,7 @@ pub async fn delete(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<String>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let mut tx = state.store.begin_write().await?;
-    if webhooks::delete(&mut tx, &id).await?.is_none() {
-        return Err(ApiError::not_found(format!("unknown webhook '{id}'")));
-    }
-    tx.commit().await.map_err(StoreError::from)?;
+    crate::service::webhooks::delete_webhook(&state.store, &id).await?;
     Ok(StatusCode::NO_CONTENT)
 }
 

@@ -137,7 +137,13 @@ impl From<ServiceError> for ApiError {
         match e {
             ServiceError::UnknownSite(_)
             | ServiceError::UnknownEpoch { .. }
-            | ServiceError::UnknownAlert(_) => ApiError::not_found(e.to_string()),
+            | ServiceError::UnknownAlert(_)
+            | ServiceError::UnknownWebhook(_) => ApiError::not_found(e.to_string()),
+            ServiceError::InvalidSite(m) => ApiError::unprocessable("invalid_site", m),
+            ServiceError::InvalidWebhook(m) => ApiError::unprocessable("invalid_webhook", m),
+            ServiceError::SiteExists(_) => {
+                ApiError::new(StatusCode::CONFLICT, "conflict", e.to_string())
+            }
             ServiceError::Invalid(err) => ApiError::unprocessable("invalid_epoch", err.to_string()),
             ServiceError::Adjust(err) => ApiError::unprocessable("cannot_adjust", err.to_string()),
             ServiceError::BadAcknowledgement(_) => {

@@ -23,6 +23,18 @@ pub enum ServiceError {
     /// No alert has that id.
     #[error("unknown alert '{0}'")]
     UnknownAlert(String),
+    /// No webhook endpoint has that id.
+    #[error("unknown webhook '{0}'")]
+    UnknownWebhook(String),
+    /// A site definition that cannot be stored (the message names the field).
+    #[error("{0}")]
+    InvalidSite(String),
+    /// A site with that id exists already.
+    #[error("site '{0}' exists")]
+    SiteExists(String),
+    /// A webhook endpoint that cannot be used (the message names the field).
+    #[error("{0}")]
+    InvalidWebhook(String),
     /// An acknowledgement without a name, or with a name or comment too long.
     #[error("{0}")]
     BadAcknowledgement(String),

@@ -6,7 +6,10 @@
 //! - [`ingest`]: an epoch in (upload or watched directory): adjust, analyse, alert, one
 //!   transaction.
 //! - [`recompute`]: a site's derived series again after its history changed.
+//! - [`sites`]: a site created, its definition checked.
 //! - [`site_settings`]: reference epoch and block groups, with the recompute they cause.
+//! - [`webhooks`]: webhook endpoints added and removed.
+//! - [`configured`]: the sites and webhooks of the configuration file, applied at start.
 //! - [`acknowledge`]: staff acknowledge an alert.
 //! - [`overdue`]: the campaign schedule check.
 //! - [`webhook_delivery`]: the outbox worker.
@@ -24,12 +27,15 @@ pub mod admission;
 pub(crate) mod alert_outcome;
 pub mod alertmanager_resend;
 pub(crate) mod analysis_inputs;
+pub mod configured;
 pub(crate) mod error;
 pub mod ingest;
 pub(crate) mod overdue;
 pub mod recompute;
 pub mod retention;
 pub(crate) mod site_settings;
+pub mod sites;
 pub(crate) mod webhook_delivery;
+pub mod webhooks;
 
 pub use error::ServiceError;
