@@ -8,5 +8,6 @@ mod analysis_common;
 mod alerts;
 mod datum;
 mod kalman;
+mod reference_stability;
 mod simulation;
 mod ttf;
