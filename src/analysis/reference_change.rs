@@ -77,81 +77,40 @@ pub(crate) fn changed_since_baseline(
 mod tests {
     use super::*;
 
-    fn record(epoch: i64, d: [f64; 3], sigma: f64, significant: bool) -> DisplacementRecord {
+    /// A stored row of epoch `epoch` (observed `epoch` days after 1970): displacement `d` (mm),
+    /// σ = √2 mm per axis, uncorrelated.
+    fn record(epoch: i64, d: [f64; 3], significant: bool) -> DisplacementRecord {
         let t = DateTime::from_timestamp(epoch * 86_400, 0).unwrap_or_default();
-        DisplacementRecord {
-            point: "R1".into(),
-            epoch,
-            observed_at: t,
-            dx_mm: d[0],
-            dy_mm: d[1],
-            dz_mm: d[2],
-            d_mm: Vector3::from(d).norm(),
-            sigma_dx_mm: sigma,
-            sigma_dy_mm: sigma,
-            sigma_dz_mm: sigma,
-            sigma_mm: sigma,
-            cov_dxdy_mm2: Some(0.0),
-            cov_dxdz_mm2: Some(0.0),
-            cov_dydz_mm2: Some(0.0),
-            d_along_mm: None,
-            significant,
-            velocity_mm_per_day: None,
-            time_to_failure_hours: None,
-            time_to_failure_sigma_hours: None,
-            filtered: None,
-        }
+        let s = 2f64.sqrt();
+        serde_json::from_value(serde_json::json!({
+            "point": "R1", "epoch": epoch, "observed_at": t,
+            "dx_mm": d[0], "dy_mm": d[1], "dz_mm": d[2], "d_mm": Vector3::from(d).norm(),
+            "sigma_dx_mm": s, "sigma_dy_mm": s, "sigma_dz_mm": s, "sigma_mm": s,
+            "significant": significant,
+        }))
+        .expect("record")
     }
 
-    /// σ = √2 mm per axis, half of the variance from the reference epoch; critical value of 99 %.
+    /// Half of each displacement's variance (2 mm² per axis) from the reference epoch; the
+    /// critical value of 99 % (χ²(3)).
     #[test]
     fn an_offset_present_since_the_reference_is_no_change_and_a_new_one_is() {
-        let cov = Matrix3::identity() * 2.0;
-        let shared = Matrix3::identity();
-        let critical3 = 11.345;
-        // The same 3.5 mm offset (2.5 σ) in every epoch: the reference epoch's error.
-        let h: Vec<_> = (1..=5)
-            .map(|e| record(e, [3.3 + 0.1 * e as f64, 0.0, 0.0], 2f64.sqrt(), false))
-            .collect();
+        let (cov, shared) = (Matrix3::identity() * 2.0, Matrix3::identity());
         let now = DateTime::from_timestamp(6 * 86_400, 0).unwrap_or_default();
-        let d = Vector3::new(4.5, 0.0, 0.0);
-        assert!(!changed_since_baseline(
-            &d,
-            &cov,
-            &shared,
-            Some(&h),
-            now,
-            critical3
-        ));
-        // 4.5 mm more than the earlier epochs (own σ of the change ≈ 1.1 mm): a move.
-        let d = Vector3::new(8.1, 0.0, 0.0);
-        assert!(changed_since_baseline(
-            &d,
-            &cov,
-            &shared,
-            Some(&h),
-            now,
-            critical3
-        ));
-        // No earlier epoch, or only significant ones (and later ones, ignored): the exclusion alone.
-        assert!(changed_since_baseline(
-            &Vector3::new(4.5, 0.0, 0.0),
-            &cov,
-            &shared,
-            None,
-            now,
-            critical3
-        ));
-        let moved: Vec<_> = (1..=7)
-            .map(|e| record(e, [9.0, 0.0, 0.0], 2f64.sqrt(), e < 6))
+        let changed = |d: [f64; 3], h: Option<&Vec<DisplacementRecord>>| {
+            changed_since_baseline(&Vector3::from(d), &cov, &shared, h, now, 11.345)
+        };
+        // About the same 3.5 mm offset (2.5 σ) in every epoch: the reference epoch's error.
+        let h: Vec<_> = (1..=5)
+            .map(|e| record(e, [3.3 + 0.1 * e as f64, 0.0, 0.0], false))
             .collect();
-        assert!(changed_since_baseline(
-            &Vector3::new(9.0, 0.0, 0.0),
-            &cov,
-            &shared,
-            Some(&moved),
-            now,
-            critical3
-        ));
+        assert!(!changed([4.5, 0.0, 0.0], Some(&h)));
+        // 4.5 mm more than the earlier epochs (own σ of the change ≈ 1.1 mm): a move.
+        assert!(changed([8.1, 0.0, 0.0], Some(&h)));
+        // No earlier epoch, or only significant ones (and later ones, ignored): the exclusion
+        // alone.
+        assert!(changed([4.5, 0.0, 0.0], None));
+        let moved: Vec<_> = (1..=7).map(|e| record(e, [9.0, 0.0, 0.0], e < 6)).collect();
+        assert!(changed([9.0, 0.0, 0.0], Some(&moved)));
     }
 }
