@@ -31,6 +31,7 @@
 //!   [`http`] beside [`api`]; neither imports the other.
 //! - [`cap`]: the public-warning feed, alerts as CAP 1.2 messages and an Atom feed of them.
 //! - [`webhooks`]: signing, bodies, retry policy and one delivery attempt of the alert webhooks.
+//! - [`url_path`]: the percent-encoding of URL path segments, shared by [`http`] and [`webhooks`].
 //! - [`watch`]: the watched directory: its folders, each station's detection, the naming of the
 //!   targets, and a folder's ingestion (as an upload, through [`service::ingest`]).
 //! - [`daemon`] and [`shutdown`]: start and stop every part with one shutdown signal.
@@ -58,5 +59,6 @@ pub mod service;
 pub mod shutdown;
 pub mod simulate;
 pub mod store;
+pub(crate) mod url_path;
 pub mod watch;
 pub mod webhooks;

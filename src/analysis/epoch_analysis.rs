@@ -10,13 +10,14 @@ use super::alignment::{self, Similarity};
 use super::block_analysis::{analyse_blocks, BlockAnalysis, BlockInputs, MemberCovariance};
 use super::congruence::{test_and_localise, CongruenceTest};
 use super::datum::{
-    fit_iwst, transform_all, transformed_joint, DatumFit, DatumMethod, Differences,
+    fit_iwst, fit_weighted, transform_all, transformed_joint, DatumFit, DatumMethod, Differences,
 };
 use super::displacement::{point_test, DisplacementRecord, PointAnalysis};
 use super::epoch::{AnalysisConfig, EpochCoordinates, PointConfig, PointRole};
 use super::error::AnalysisError;
 use super::history::{observed_of, raw_kinematics, samples_of, History};
 use super::linalg::sigma_length;
+use super::reference_change::changed_since_baseline;
 use super::stats::{f_quantile, normal_quantile};
 use super::tracking::{track, Observed};
 use super::velocity::{days_between, Sample};
@@ -30,6 +31,13 @@ pub struct DatumReport {
     pub points: Vec<String>,
     /// Stable points found moving by the congruence test and excluded (in the order found).
     pub excluded: Vec<String>,
+    /// Of `excluded`, the points whose displacement also changed significantly from their own
+    /// earlier epochs, or that have none to compare with ([`super::reference_change`]): the
+    /// reference epoch's error, common to every epoch, cancels in that change, so these are the
+    /// exclusions `reference_unstable` counts. None in analyses stored before it was computed
+    /// (every excluded point counts then).
+    #[serde(default)]
+    pub moved: Option<Vec<String>>,
     /// The global congruence tests in order (first: all stable points; then after each exclusion).
     pub congruence: Vec<CongruenceTest>,
     /// Translation of the current epoch relative to the reference datum, mm (at the datum centroid).
@@ -104,6 +112,7 @@ impl ChosenDatum {
             method: self.method,
             points: self.fit.datum.iter().map(|&i| names[i].clone()).collect(),
             excluded: self.excluded.iter().map(|&i| names[i].clone()).collect(),
+            moved: None,
             congruence: self.congruence.clone(),
             translation_mm: [get(0), get(1), get(2)],
             rotation_mrad: [get(3), get(4), get(5)],
@@ -420,6 +429,42 @@ fn analyse_point(
     }
 }
 
+/// Of the `excluded` stable points (indices into `diffs`), those that moved by the change test
+/// ([`changed_since_baseline`]). The point's displacement is taken as in the epochs it is compared
+/// with, in which it was mostly kept: in the datum of `fit` with the point added back (the
+/// datum absorbs part of a point's error while it is kept).
+fn moved_of(
+    diffs: &Differences,
+    reference_only: &Differences,
+    fit: &DatumFit,
+    excluded: &[usize],
+    history: &History,
+    now: DateTime<Utc>,
+    e: &PointInputs<'_>,
+) -> Vec<String> {
+    excluded
+        .iter()
+        .filter(|&&i| {
+            let mut with = fit.datum.clone();
+            with.push(i);
+            let Ok(kept) = fit_weighted(diffs, &with, e.config.transformation) else {
+                return true;
+            };
+            let (d, cov) = transform_all(diffs, &kept)[i];
+            let (_, shared) = transform_all(reference_only, &kept)[i];
+            changed_since_baseline(
+                &d,
+                &cov,
+                &shared,
+                history.get(&diffs.names[i]),
+                now,
+                e.critical3,
+            )
+        })
+        .map(|&i| diffs.names[i].clone())
+        .collect()
+}
+
 /// Analyses `current` against `reference`.
 ///
 /// The datum: the S-transformation onto the points whose role is `stable`, after the congruence test has
@@ -442,7 +487,7 @@ pub fn analyse_epoch(
     let cfg: HashMap<&str, &PointConfig> = points.iter().map(|p| (p.name.as_str(), p)).collect();
     let role = |name: &str| cfg.get(name).map(|c| c.role).unwrap_or_default();
     let mut warnings = vec![];
-    let (diffs, chosen, datum) = datum_of(reference, current, &role, config, &mut warnings)?;
+    let (diffs, chosen, mut datum) = datum_of(reference, current, &role, config, &mut warnings)?;
     let new_points = new_points(current, &diffs);
     // The reference epoch itself (not a mean of several epochs that includes it): zero.
     let same_epoch = reference.epoch == current.epoch && reference.points == current.points;
@@ -456,6 +501,15 @@ pub fn analyse_epoch(
         .collect();
     let in_datum: std::collections::HashSet<usize> = fit.datum.iter().copied().collect();
     let epoch_wide = PointInputs::new(reference, current, same_epoch, history, config);
+    datum.moved = Some(moved_of(
+        &diffs,
+        &reference_only,
+        &fit,
+        &chosen.excluded,
+        history,
+        current.observed_at,
+        &epoch_wide,
+    ));
     let out: Vec<PointAnalysis> = transformed
         .into_iter()
         .enumerate()

@@ -3,7 +3,8 @@
 //! The path of an epoch through this module:
 //! 1. [`analyse_epoch`]: the current epoch's coordinates are brought into the reference datum by an
 //!    S-transformation onto the stable points ([`datum`]), whose congruence is tested and whose moving
-//!    members are excluded ([`congruence`]); every point gets its displacement with covariance and
+//!    members are excluded ([`congruence`]; an exclusion is a move for `reference_unstable` only
+//!    when the point also changed from its own earlier epochs, [`reference_change`]); every point gets its displacement with covariance and
 //!    significance test ([`displacement`]), velocity and acceleration ([`velocity`]) and, while it
 //!    accelerates, an inverse-velocity time-to-failure forecast ([`failure`]); the Kalman filter
 //!    ([`kalman`]) over the point's last epochs gives its filtered displacement, velocity and
@@ -44,6 +45,7 @@ pub mod kalman;
 pub(crate) mod linalg;
 pub(crate) mod onset;
 pub(crate) mod reference;
+pub mod reference_change;
 pub mod rigid_body;
 pub(crate) mod series;
 pub mod stats;

@@ -282,7 +282,7 @@ pub async fn authorize(
                     let next = req.uri().path().to_string();
                     return Ok(Redirect::to(&format!(
                         "/signin?next={}",
-                        super::segment::seg(&next)
+                        crate::url_path::seg(&next)
                     ))
                     .into_response());
                 }

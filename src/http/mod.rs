@@ -9,12 +9,11 @@
 
 pub mod auth;
 pub mod error;
-pub mod segment;
 pub mod session;
 pub mod state;
 pub mod time_bound;
 
-pub use segment::seg;
+pub use crate::url_path::seg;
 pub use state::AppState;
 
 use std::time::Duration;

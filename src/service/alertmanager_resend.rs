@@ -14,13 +14,12 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use chrono::{DateTime, Utc};
-use sha2::{Digest, Sha256};
 
 use crate::analysis::AlertLevel;
 use crate::shutdown::Shutdown;
 use crate::store::{self, alert_repost, webhooks, Store, StoreError};
 use crate::webhooks::{
-    deliver, resend_body, CurrentAlert, DeliveryOutcome, PayloadFormat, HOLD_PERIODS,
+    deliver, message_id_of, resend_body, CurrentAlert, DeliveryOutcome, PayloadFormat, HOLD_PERIODS,
 };
 
 /// Settings of the loop.
@@ -93,18 +92,7 @@ pub struct Pass {
 
 /// The message id of one post: `msg_` + 32 hex of the endpoint and the time.
 fn post_id(endpoint: &str, now: DateTime<Utc>) -> String {
-    let mut h = Sha256::new();
-    h.update(endpoint.as_bytes());
-    h.update(b"|");
-    h.update(now.timestamp_micros().to_le_bytes());
-    let d = h.finalize();
-    format!(
-        "msg_{}",
-        d[..16]
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect::<String>()
-    )
+    message_id_of(&[endpoint.as_bytes(), &now.timestamp_micros().to_le_bytes()])
 }
 
 /// One pass: when this node holds the job, posts to every enabled `alertmanager_api_v2`

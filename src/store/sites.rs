@@ -18,8 +18,10 @@ use crate::photogrammetry::Model;
 /// filtered velocity and forecast at a reference moved later in the series, and measured from the
 /// window's start rather than from that reference; 8: `reference_unstable` names a stable point
 /// excluded in 2 of 3 epochs and lets it go after 10 kept (the alert state is replayed, so an
-/// alert the older rule left open for good resolves where the series no longer confirms it).
-pub const ANALYSIS_VERSION: i64 = 8;
+/// alert the older rule left open for good resolves where the series no longer confirms it); 9:
+/// it counts only the exclusions in which the point also changed from its own earlier epochs
+/// (`DatumReport::moved`), so a point whose reference coordinates erred is no longer named.
+pub const ANALYSIS_VERSION: i64 = 9;
 
 /// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]

@@ -13,6 +13,7 @@ use chrono::{DateTime, Duration, SecondsFormat, Utc};
 use serde::{Deserialize, Serialize};
 
 use crate::analysis::AlertLevel;
+use crate::url_path::seg;
 
 /// How many re-post periods an alert posted firing stays firing in Alertmanager without news
 /// (`endsAt` = now + this × period): Prometheus uses 4 × its resend delay, so that a couple of
@@ -76,19 +77,6 @@ pub fn number(v: f64) -> String {
     }
 }
 
-/// Percent-encodes one URL path segment (everything but unreserved characters).
-fn segment(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for b in s.bytes() {
-        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
-            out.push(b as char);
-        } else {
-            out.push_str(&format!("%{b:02X}"));
-        }
-    }
-    out
-}
-
 /// The alert's dashboard page (`{public_url}/sites/{site}/alerts/{id}`), or `None` without a
 /// public URL: a link relative to cliffwatch means nothing in a receiver.
 pub fn alert_page_url(public_url: Option<&str>, site: &str, alert_id: &str) -> Option<String> {
@@ -98,8 +86,8 @@ pub fn alert_page_url(public_url: Option<&str>, site: &str, alert_id: &str) -> O
     }
     Some(format!(
         "{base}/sites/{}/alerts/{}",
-        segment(site),
-        segment(alert_id)
+        seg(site),
+        seg(alert_id)
     ))
 }
 

@@ -30,8 +30,8 @@ pub use alertmanager::{
 };
 pub use deliver::{client, deliver, loggable_origin, DeliveryOutcome};
 pub use payload::{
-    accepts, alertmanager_alerts, alertmanager_body, current_of_event, message_id, render,
-    AlertmanagerAlert, AlertmanagerBody, PayloadFormat, WebhookData, WebhookEndpoint,
+    accepts, alertmanager_alerts, alertmanager_body, current_of_event, message_id, message_id_of,
+    render, AlertmanagerAlert, AlertmanagerBody, PayloadFormat, WebhookData, WebhookEndpoint,
     WebhookPayload, DEFAULT_RESEND_SECS,
 };
 pub use retry::{backoff_delay, next_retry, parse_retry_after, RetryPolicy};

@@ -173,19 +173,27 @@ impl WebhookPayload {
 /// (nanoseconds), not at the body's seconds: an alert that de-escalates and escalates back to
 /// the same level within one second has two escalations, and each must keep its own message.
 pub fn message_id(event: &AlertEvent) -> String {
-    let mut h = Sha256::new();
-    h.update(event.alert.id.as_bytes());
-    h.update(b"|");
-    h.update(event.event_type.as_str().as_bytes());
-    h.update(b"|");
-    h.update(
+    message_id_of(&[
+        event.alert.id.as_bytes(),
+        event.event_type.as_str().as_bytes(),
         event
             .timestamp
             .to_rfc3339_opts(SecondsFormat::Nanos, true)
             .as_bytes(),
-    );
-    h.update(b"|");
-    h.update(event.alert.level.as_str().as_bytes());
+        event.alert.level.as_str().as_bytes(),
+    ])
+}
+
+/// A message id, `msg_` + 32 hex: the first 16 bytes of the SHA-256 of `parts` joined by `|`
+/// (the same parts always give the same id).
+pub fn message_id_of(parts: &[&[u8]]) -> String {
+    let mut h = Sha256::new();
+    for (k, p) in parts.iter().enumerate() {
+        if k > 0 {
+            h.update(b"|");
+        }
+        h.update(p);
+    }
     let d = h.finalize();
     format!(
         "msg_{}",

@@ -67,6 +67,7 @@ pub fn analysis_sigma(
             method: DatumMethod::StablePoints,
             points: vec![],
             excluded: excluded.iter().map(|s| s.to_string()).collect(),
+            moved: None,
             congruence: vec![],
             translation_mm: [0.0; 3],
             rotation_mrad: [0.0; 3],

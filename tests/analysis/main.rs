@@ -10,5 +10,6 @@ mod alert_rules;
 mod alerts;
 mod datum;
 mod kalman;
+mod reference_stability;
 mod simulation;
 mod ttf;

@@ -220,10 +220,11 @@ fn evaluate_rules(
 
 /// Epochs, counting the current one, within which a stable point must be excluded twice before
 /// `reference_unstable` names it: 2 of the last 3 epochs in which the point was tested. A single
-/// exclusion is what the congruence test's α (1 %) produces by chance; on simulated still
-/// networks the confirmation was reached once in 4000 epochs, while a point moved by 10σ was
-/// confirmed at the 2nd epoch of its move and one moved by 5σ on 3 of 5 seeds
-/// (`docs/accuracy.md`, "Reference stability").
+/// exclusion is what the congruence test's α (1 %) produces by chance. Only exclusions that the
+/// change test confirms count ([`DatumReport::moved`](crate::analysis::DatumReport::moved)): the
+/// reference epoch's error of a point is common to every epoch, so its exclusions are not
+/// independent and a point whose reference coordinates erred by 2–3 σ reached 2 of 3 although it
+/// never moved (`docs/accuracy.md`, "Reference stability").
 pub const REFERENCE_CONFIRM_EPOCHS: u32 = 3;
 
 /// Key of a stable point's memory in [`AlertState::rules`] for `reference_unstable`.
@@ -236,8 +237,9 @@ fn reference_key(point: &str) -> String {
 }
 
 /// The site-level `reference_unstable` alert: names the stable points the congruence test
-/// excluded from the datum in 2 of their last [`REFERENCE_CONFIRM_EPOCHS`] tested epochs
-/// (confirmed). A confirmed point is cleared after `reference_quiet_epochs` consecutive epochs in
+/// excluded from the datum, with a change from their own earlier epochs (`datum.moved`), in 2 of
+/// their last [`REFERENCE_CONFIRM_EPOCHS`] tested epochs (confirmed); an exclusion without that
+/// change counts neither as an exclusion nor as an epoch kept. A confirmed point is cleared after `reference_quiet_epochs` consecutive epochs in
 /// which it was tested and kept in the datum; an epoch that does not test it (the point not
 /// measured, or an IWST datum) leaves it as it is. The alert is open while any point is confirmed;
 /// its `points` and message name those points. Changing a point's role replays the series
@@ -255,7 +257,9 @@ fn reference_stability(
 ) {
     let site = config.site.as_str();
     let datum = &analysis.datum;
-    for p in &datum.excluded {
+    // Exclusions the change test did not confirm (the reference epoch's error of the point, not a
+    // move) count neither way.
+    for p in datum.moved.as_ref().unwrap_or(&datum.excluded) {
         let key = reference_key(p);
         let mem = match st.rules.get(&key) {
             Some(m) => RuleMemory {

@@ -7,7 +7,7 @@
 //! (significance required by default); an active rule clears (hysteresis) only when the value, significant
 //! or not, falls below `clear_below` (above `clear_above` for `below` rules) or, without such a threshold
 //! or without a value, after `quiet_epochs` consecutive epochs without triggering. Site-level alerts: `reference_unstable` (the
-//! congruence test excluded a stable point in 2 of 3 epochs; it clears after the point has been kept
+//! congruence test excluded a stable point, which also changed from its own earlier epochs, in 2 of 3 epochs; it clears after the point has been kept
 //! in the datum for `reference_quiet_epochs` epochs) and `campaign_overdue` (no epoch within the schedule).
 //! Everything here is pure: the state goes in, the new state and the events come out.
 //!

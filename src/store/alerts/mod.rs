@@ -223,12 +223,26 @@ pub async fn save(
     updated_at: DateTime<Utc>,
 ) -> Result<(), StoreError> {
     let points = serde_json::to_string(&a.points)?;
-    let updated = sqlx::query(
-        "UPDATE alerts SET level = $1, value = $2, threshold = $3, unit = $4, epoch_id = $5, \
-         observed_at = $6, message = $7, state = $8, points = $9, updated_at = $10, \
-         acknowledged_by = $11, ack_comment = $12 WHERE id = $13",
+    // One statement: a new alert is inserted; a known one takes the snapshot's changing columns
+    // (its site, subject, rule and raising time stay as first written).
+    sqlx::query(
+        "INSERT INTO alerts (id, site_id, point, group_name, points, level, rule, value, \
+         threshold, unit, epoch_id, observed_at, message, state, raised_at, updated_at, \
+         acknowledged_by, ack_comment) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18) \
+         ON CONFLICT (id) DO UPDATE SET level = excluded.level, value = excluded.value, \
+         threshold = excluded.threshold, unit = excluded.unit, epoch_id = excluded.epoch_id, \
+         observed_at = excluded.observed_at, message = excluded.message, state = excluded.state, \
+         points = excluded.points, updated_at = excluded.updated_at, \
+         acknowledged_by = excluded.acknowledged_by, ack_comment = excluded.ack_comment",
     )
+    .bind(&a.id)
+    .bind(&a.site)
+    .bind(&a.point)
+    .bind(&a.group)
+    .bind(&points)
     .bind(a.level.as_str())
+    .bind(a.rule.as_str())
     .bind(a.value)
     .bind(a.threshold)
     .bind(&a.unit)
@@ -236,41 +250,12 @@ pub async fn save(
     .bind(a.observed_at.map(timestamp))
     .bind(&a.message)
     .bind(state.as_str())
-    .bind(&points)
+    .bind(timestamp(a.raised_at))
     .bind(timestamp(updated_at))
     .bind(&a.acknowledged_by)
     .bind(&a.comment)
-    .bind(&a.id)
     .execute(&mut *db)
     .await?;
-    if updated.rows_affected() == 0 {
-        sqlx::query(
-            "INSERT INTO alerts (id, site_id, point, group_name, points, level, rule, value, \
-             threshold, unit, epoch_id, observed_at, message, state, raised_at, updated_at, \
-             acknowledged_by, ack_comment) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18)",
-        )
-        .bind(&a.id)
-        .bind(&a.site)
-        .bind(&a.point)
-        .bind(&a.group)
-        .bind(&points)
-        .bind(a.level.as_str())
-        .bind(a.rule.as_str())
-        .bind(a.value)
-        .bind(a.threshold)
-        .bind(&a.unit)
-        .bind(a.epoch)
-        .bind(a.observed_at.map(timestamp))
-        .bind(&a.message)
-        .bind(state.as_str())
-        .bind(timestamp(a.raised_at))
-        .bind(timestamp(updated_at))
-        .bind(&a.acknowledged_by)
-        .bind(&a.comment)
-        .execute(&mut *db)
-        .await?;
-    }
     Ok(())
 }
 
