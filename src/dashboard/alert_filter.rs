@@ -142,6 +142,7 @@ mod tests {
             level: level.map(str::to_string),
             state: state.map(str::to_string),
             subject: subject.map(str::to_string),
+            epochs_before: None,
         }
     }
 

@@ -22,6 +22,9 @@ use crate::store::displacements::Displacement;
 use crate::store::series::columns::unix_seconds;
 use crate::store::{alerts, block_motions, groups, points};
 
+/// A forecast failure time with its ±2σ interval (s since 1970), [`failure_time`].
+type FailureTime = (f64, f64, f64);
+
 /// Rows of the forecast history shown (the newest).
 const FORECASTS_SHOWN: usize = 30;
 
@@ -99,7 +102,7 @@ pub async fn block(
     });
     let none = vec![f64::NAN; rows.len()];
     // Every epoch with a forecast; the failure time only where it is reliable.
-    let history: Vec<(&Displacement, Option<(f64, f64, f64)>)> = rows
+    let history: Vec<(&Displacement, Option<FailureTime>)> = rows
         .iter()
         .filter(|r| {
             r.f_time_to_failure_hours
