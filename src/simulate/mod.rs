@@ -6,7 +6,8 @@
 //! - [`series`]: the same kind of series as image observations in the upload form (re-set-up
 //!   cameras, drifting c), for end-to-end tests through the service.
 //! - [`kinematics`]: block motions as real slopes make them (failures, bursts, steps, cycles,
-//!   creep, scatter, shared errors), and [`ttf_benchmark`], the time-to-failure benchmark on them.
+//!   creep, scatter, shared errors), and [`ttf_benchmark`], the time-to-failure benchmark on them,
+//!   with [`ttf_bound`], what any forecaster could do on them (the Cramér–Rao bound).
 
 pub mod images;
 pub mod kinematics;
@@ -14,3 +15,4 @@ pub mod monitoring;
 pub mod scenes;
 pub mod series;
 pub mod ttf_benchmark;
+pub mod ttf_bound;
