@@ -14,12 +14,13 @@ use super::headline::failure_time;
 use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma};
 use super::local_time::{text, when};
 use super::page::{site_or_404, viewer, PageError};
-use super::time_plot_svg::time_plot;
+use super::plot_data::inverse_line;
+use super::time_plot_svg::{time_plot, time_plot_with_line};
 use crate::analysis::AlertLevel;
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::displacements::Displacement;
-use crate::store::series::columns::unix_seconds;
+use crate::store::series::columns::{unix_seconds, SeriesColumns};
 use crate::store::{alerts, block_motions, groups, points};
 
 /// A forecast failure time with its ±2σ interval (s since 1970), [`failure_time`].
@@ -101,6 +102,18 @@ pub async fn block(
             .map(|v| 1.0 / v)
     });
     let none = vec![f64::NAN; rows.len()];
+    // The columns the forecast's inverse-velocity line is fitted from (as on a point's plot).
+    let fit = inverse_line(&SeriesColumns {
+        t: t.clone(),
+        d: [none.clone(), none.clone(), none.clone(), d.clone()],
+        sigma: [none.clone(), none.clone(), none.clone(), sd.clone()],
+        along: along.clone(),
+        f_ttf: [
+            col(&|r| r.f_time_to_failure_hours),
+            col(&|r| r.sigma_f_time_to_failure_hours),
+        ],
+        ..SeriesColumns::default()
+    });
     // Every epoch with a forecast; the failure time only where it is reliable.
     let history: Vec<(&Displacement, Option<FailureTime>)> = rows
         .iter()
@@ -166,7 +179,14 @@ pub async fn block(
                     figure { figcaption { "displacement along the direction (mm)" } (time_plot(&t, &along, &none, &thresholds(rules, "displacement_along_mm", &g.name), "mm")) }
                 }
                 figure { figcaption { "filtered velocity (mm/day), ±2σ" } (time_plot(&t, &v, &sv, &thresholds(rules, "velocity_mm_per_day", &g.name), "mm/day")) }
-                figure { figcaption { "inverse velocity 1/v (day/mm), where the block moves forward; the forecast below extrapolates it to zero" } (time_plot(&t, &inv, &none, &[], "day/mm")) }
+                figure.inverse {
+                    figcaption {
+                        "inverse velocity 1/v (day/mm), where the block moves forward"
+                        @if fit.is_some() { "; dashed: the latest forecast's law, fitted to its last epochs, whose zero is the forecast failure time" }
+                        @else { "; no line: the latest epoch has no reliable forecast" }
+                    }
+                    (time_plot_with_line(&t, &inv, &none, &[], "day/mm", fit))
+                }
             }
         }
         section #forecasts {

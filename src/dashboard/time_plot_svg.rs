@@ -1,5 +1,6 @@
-//! A small server-drawn time plot (SVG) for printed pages: one value against time with its ±2σ
-//! band and horizontal threshold lines. The interactive pages use uPlot instead.
+//! A small server-drawn time plot (SVG) for printed pages and the block page: one value against
+//! time with its ±2σ band, horizontal threshold lines and, for inverse velocity, the straight
+//! line of the forecast's law down to its zero. The interactive pages use uPlot instead.
 
 use maud::{html, Markup};
 
@@ -21,6 +22,21 @@ pub fn time_plot(
     thresholds: &[(f64, AlertLevel)],
     unit: &str,
 ) -> Markup {
+    time_plot_with_line(t, v, sigma, thresholds, unit, None)
+}
+
+/// [`time_plot`] with a straight line `[t0, y0, t1, y1]` (s since 1970, the plot's unit) drawn
+/// over the values, the time axis extended to its end: the inverse-velocity law of a forecast
+/// ([`super::plot_data::inverse_line`]), whose end at zero is the forecast failure time (its
+/// `data-zero`, s since 1970).
+pub fn time_plot_with_line(
+    t: &[f64],
+    v: &[f64],
+    sigma: &[f64],
+    thresholds: &[(f64, AlertLevel)],
+    unit: &str,
+    line: Option<[f64; 4]>,
+) -> Markup {
     let pts: Vec<(f64, f64, f64)> = t
         .iter()
         .zip(v)
@@ -31,7 +47,11 @@ pub fn time_plot(
     if pts.is_empty() {
         return html! { p.note { "no values in the period" } };
     }
-    let (t0, t1) = (pts[0].0, pts[pts.len() - 1].0.max(pts[0].0 + 1.0));
+    let (t0, mut t1) = (pts[0].0, pts[pts.len() - 1].0.max(pts[0].0 + 1.0));
+    let line = line.filter(|l| l.iter().all(|x| x.is_finite()) && l[2] > l[0]);
+    if let Some(l) = line {
+        t1 = t1.max(l[2]);
+    }
     let mut lo = pts
         .iter()
         .map(|p| p.1 - 2.0 * p.2)
@@ -43,6 +63,10 @@ pub fn time_plot(
     for (y, _) in thresholds {
         lo = lo.min(*y);
         hi = hi.max(*y);
+    }
+    if let Some(l) = line {
+        lo = lo.min(l[1]).min(l[3]);
+        hi = hi.max(l[1]).max(l[3]);
     }
     lo = lo.min(0.0);
     if hi - lo < 1e-9 {
@@ -84,6 +108,9 @@ pub fn time_plot(
         svg.timeplot viewBox={ "0 0 " (W) " " (H) } xmlns="http://www.w3.org/2000/svg" {
             path.band d=(band) {}
             path.value d=(path(0.0)) {}
+            @if let Some(l) = line {
+                line.fit data-zero=(format!("{:.0}", l[2])) x1=(format!("{:.1}", x(l[0]))) y1=(format!("{:.1}", y(l[1]))) x2=(format!("{:.1}", x(l[2]))) y2=(format!("{:.1}", y(l[3]))) {}
+            }
             @for (v, level) in thresholds {
                 line class={ "threshold " (level_class(Some(*level))) } x1=(LEFT) x2=(W - 8.0) y1=(format!("{:.1}", y(*v))) y2=(format!("{:.1}", y(*v))) {}
             }

@@ -95,3 +95,118 @@ async fn the_block_page_links_its_members_and_they_link_back() {
     driver.quit().await;
     s.stop().await;
 }
+
+/// A block accelerating to failure (the points T009–T016 of the headline's fixture, declared as
+/// block B2): its page draws the latest forecast's inverse-velocity line, and the line reaches
+/// zero at the forecast failure time the API gives (the last epoch plus the filtered time to
+/// failure), at the plot's right edge, whose date label is that day; its forecast history reads
+/// "no reliable forecast", without a date, for the epochs whose interval was wider than its horizon.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_block_page_draws_the_forecast_line_down_to_the_failure_time() {
+    use dashboard_support::service_support::synthetic_epoch_moved;
+    use dashboard_support::{hour, POINTS, STABLE};
+    let Some(driver) = Driver::start().await else {
+        return;
+    };
+    let s = TestServer::start(|_| {}).await;
+    s.create_site("tf").await;
+    for i in 0..STABLE {
+        let r = s
+            .client
+            .put(s.url(&format!("/api/v1/sites/tf/points/{}", name(i))))
+            .json(&json!({"role": "stable"}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200);
+    }
+    // d(t) = −v0·t_f·ln(1 − t/t_f), failure on day 16; every 6 h up to 54 h before it.
+    for k in 0..56 {
+        let mm = -16.0 * (1.0 - k as f64 / 64.0).ln();
+        let body = synthetic_epoch_moved(
+            4,
+            POINTS,
+            &hour(6 * k),
+            300 + k as u64,
+            [mm, 0.0, 0.0],
+            STABLE,
+        );
+        let (st, answer) = s.upload("tf", &body).await;
+        assert_eq!(st, 201, "epoch {k}: {answer}");
+    }
+    let members: Vec<String> = (STABLE..POINTS).map(name).collect();
+    let r = s
+        .client
+        .put(s.url("/api/v1/sites/tf/groups/B2"))
+        .json(&json!({"kind": "block", "points": members}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200, "{}", r.text().await.unwrap());
+    let (_, motion) = s.get("/api/v1/sites/tf/groups/B2/motion").await;
+    let last: &Value = motion["items"].as_array().unwrap().last().unwrap();
+    let t0 = chrono::DateTime::parse_from_rfc3339(last["observed_at"].as_str().unwrap())
+        .unwrap()
+        .timestamp() as f64;
+    let hours = last["f_time_to_failure_hours"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("a block forecast: {last}"));
+    let t_f = t0 + hours * 3600.0;
+
+    driver.goto(&s.url("/sites/tf/groups/B2")).await;
+    let seen = driver
+        .script("var f = document.querySelector('figure.inverse'); var l = f.querySelector('line.fit'); var t = f.querySelectorAll('svg text'); return [f.querySelector('figcaption').textContent, l && l.getAttribute('data-zero'), l && l.getAttribute('x2'), l && l.getAttribute('y2'), t[t.length - 1].textContent, f.querySelector('line.axis').getAttribute('y2')]")
+        .await;
+    eprintln!("{seen}");
+    assert!(
+        seen[0]
+            .as_str()
+            .unwrap()
+            .contains("dashed: the latest forecast's law"),
+        "{seen}"
+    );
+    let zero: f64 = seen[1].as_str().expect("a line").parse().unwrap();
+    assert!(
+        (zero - t_f).abs() <= 6.0 * 3600.0,
+        "line's zero {zero} vs forecast {t_f}"
+    );
+    // The line ends at the plot's right edge, on the time axis (1/v = 0) ...
+    assert_eq!(seen[2], json!("632.0"), "{seen}");
+    let axis: f64 = seen[5].as_str().unwrap().parse().unwrap();
+    let end: f64 = seen[3].as_str().unwrap().parse().unwrap();
+    assert!((end - axis).abs() < 1.0, "{seen}");
+    // ... under the date label of the forecast failure day.
+    let day = chrono::DateTime::from_timestamp(t_f as i64, 0)
+        .unwrap()
+        .format("%Y-%m-%d")
+        .to_string();
+    assert_eq!(seen[4], json!(day), "{seen}");
+    // The forecast history says where the forecast was not reliable yet, and gives no date there.
+    let history = driver
+        .script("return Array.from(document.querySelectorAll('table.forecasts tbody tr')).map(function (r) { return r.innerText; })")
+        .await;
+    let rows: Vec<&str> = history
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r.as_str().unwrap())
+        .collect();
+    assert!(rows[0].contains(&format!("{hours:.0} ± ")), "{rows:?}");
+    let unreliable: Vec<&&str> = rows
+        .iter()
+        .filter(|r| r.contains("no reliable forecast ("))
+        .collect();
+    assert!(!unreliable.is_empty(), "{rows:?}");
+    assert!(
+        unreliable
+            .iter()
+            .all(|r| !r.contains("2026-11-1") || r.matches("UTC").count() == 1),
+        "an unreliable row gives no failure date: {unreliable:?}"
+    );
+    driver
+        .script("document.querySelector('figure.inverse').scrollIntoView(); return true")
+        .await;
+    driver.screenshot("block-forecast.png").await;
+    driver.quit().await;
+    s.stop().await;
+}
