@@ -1,5 +1,6 @@
 //! `GET /sites/{site}/alerts/{id}`: one alert and its history, oldest first: each event (raised,
-//! escalated, acknowledged, de-escalated, resolved) with its time, level, value, and who
+//! escalated, acknowledged, de-escalated, resolved) with the time it was processed beside the
+//! observation time of the epoch that decided it, its level, value, and who
 //! acknowledged with their comment, as its webhooks carried them
 //! ([`crate::store::alerts::history`]; the API's `GET /api/v1/alerts/{id}/events`). An
 //! acknowledgement that a later escalation cleared stays in the history.
@@ -50,7 +51,7 @@ pub async fn alert(
         p { "state: " (a.state) " · highest level: " (a.peak_level.as_str()) }
         h2 { "History" }
         table.history {
-            thead { tr { th { "event" } th { "at" } th { "level" } th.num { "value" } th { "epoch" } th { "acknowledged by" } th { "comment" } } }
+            thead { tr { th { "event" } th { "processed at" } th { "level" } th.num { "value" } th { "epoch" } th { "epoch observed at" } th { "acknowledged by" } th { "comment" } } }
             tbody {
                 @for e in &history {
                     tr {
@@ -59,6 +60,7 @@ pub async fn alert(
                         td { (level_badge(Some(e.data.level))) }
                         td.num { (num(e.data.value, 2)) " " (e.data.unit) }
                         td { @if let Some(k) = e.data.epoch { a href={ "/sites/" (s) "/epochs/" (k) } { (k) } } }
+                        td.observed { @if let Some(o) = &e.data.observed_at { (when(o, tz)) } }
                         td { (e.data.acknowledged_by.as_deref().unwrap_or("")) }
                         td { @if let Some(c) = &e.data.comment { q { (c) } } }
                     }

@@ -287,6 +287,22 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
         last.starts_with("acknowledged") && last.contains("Aiko"),
         "{last}"
     );
+    // The raising event shows its epoch's observation time beside the time it was processed,
+    // as the API's history gives it.
+    let (_, events) = s.get(&format!("/api/v1/alerts/{id}/events")).await;
+    let observed = events["items"][0]["data"]["observed_at"]
+        .as_str()
+        .unwrap_or_else(|| panic!("the raising event's epoch time: {events}"))
+        .to_string();
+    let first = driver
+        .script("var r = document.querySelector('table.history tbody tr'); return [r.querySelector('td.event').textContent, r.querySelector('td.observed').textContent]")
+        .await;
+    let shown = format!("{} UTC", observed.replacen('T', " ", 1).get(..16).unwrap());
+    assert_eq!(first[0], json!("raised"), "{first}");
+    assert!(
+        first[1].as_str().unwrap().starts_with(&shown),
+        "{shown}: {first}"
+    );
     let alert_path = driver.script("return location.pathname").await;
     let alert_path = alert_path.as_str().unwrap().to_string();
     driver.screenshot("alert.png").await;
