@@ -103,37 +103,13 @@ async fn the_block_page_links_its_members_and_they_link_back() {
 /// "no reliable forecast", without a date, for the epochs whose interval was wider than its horizon.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_block_page_draws_the_forecast_line_down_to_the_failure_time() {
-    use dashboard_support::service_support::synthetic_epoch_moved;
-    use dashboard_support::{hour, POINTS, STABLE};
+    use dashboard_support::{POINTS, STABLE};
     let Some(driver) = Driver::start().await else {
         return;
     };
     let s = TestServer::start(|_| {}).await;
     s.create_site("tf").await;
-    for i in 0..STABLE {
-        let r = s
-            .client
-            .put(s.url(&format!("/api/v1/sites/tf/points/{}", name(i))))
-            .json(&json!({"role": "stable"}))
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(r.status(), 200);
-    }
-    // d(t) = −v0·t_f·ln(1 − t/t_f), failure on day 16; every 6 h up to 54 h before it.
-    for k in 0..56 {
-        let mm = -16.0 * (1.0 - k as f64 / 64.0).ln();
-        let body = synthetic_epoch_moved(
-            4,
-            POINTS,
-            &hour(6 * k),
-            300 + k as u64,
-            [mm, 0.0, 0.0],
-            STABLE,
-        );
-        let (st, answer) = s.upload("tf", &body).await;
-        assert_eq!(st, 201, "epoch {k}: {answer}");
-    }
+    dashboard_support::fill_accelerating(&s, "tf").await;
     let members: Vec<String> = (STABLE..POINTS).map(name).collect();
     let r = s
         .client

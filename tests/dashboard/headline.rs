@@ -9,7 +9,7 @@ use crate::browser::Driver;
 use crate::dashboard_support;
 
 use dashboard_support::service_support::TestServer;
-use dashboard_support::{day, hour, name, POINTS, STABLE};
+use dashboard_support::{day, name};
 use serde_json::{json, Value};
 
 /// `2026-11-17 09:00 UTC · 18:00 JST` (the local date added when it differs), computed here
@@ -47,32 +47,7 @@ async fn the_headline_says_the_worst_alert_its_failure_date_and_what_to_do() {
         )
         .await;
     assert_eq!(st, 201, "{e}");
-    for i in 0..STABLE {
-        let r = s
-            .client
-            .put(s.url(&format!("/api/v1/sites/tf/points/{}", name(i))))
-            .json(&json!({"role": "stable"}))
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(r.status(), 200);
-    }
-    // d(t) = −v0·t_f·ln(1 − t/t_f): 1 mm/day at first, failure at t_f = 16 days; epochs every
-    // 6 h (as a site is observed once it accelerates) up to 54 h before the failure. The block
-    // moves across the line of sight, where an epoch's σ is ≈ 0.25 mm.
-    for k in 0..56 {
-        let mm = -16.0 * (1.0 - k as f64 / 64.0).ln();
-        let body = dashboard_support::service_support::synthetic_epoch_moved(
-            4,
-            POINTS,
-            &hour(6 * k),
-            300 + k as u64,
-            [mm, 0.0, 0.0],
-            STABLE,
-        );
-        let (st, answer) = s.upload("tf", &body).await;
-        assert_eq!(st, 201, "epoch {k}: {answer}");
-    }
+    dashboard_support::fill_accelerating(&s, "tf").await;
     let (_, open) = s.get("/api/v1/alerts?site=tf&state=open").await;
     let alarmed: Vec<String> = open["items"]
         .as_array()

@@ -472,7 +472,6 @@ async fn long_history_plot_reads_block_extremes_and_keeps_the_envelope() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_forecast_reads_in_utc_and_the_site_zone() {
     use dashboard_support::day;
-    use dashboard_support::service_support::synthetic_epoch_moved;
     let s = TestServer::start(|_| {}).await;
     let r = s
         .client
@@ -482,25 +481,7 @@ async fn the_forecast_reads_in_utc_and_the_site_zone() {
         .await
         .unwrap();
     assert_eq!(r.status(), 201);
-    for i in 0..STABLE {
-        let r = s
-            .client
-            .put(s.url(&format!("/api/v1/sites/tf/points/{}", name(i))))
-            .json(&json!({"role": "stable"}))
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(r.status(), 200);
-    }
-    // d(t) = −v0·t_f·ln(1 − t/t_f): 1 mm/day at first, failure at t_f = 16 days; epochs every
-    // 6 h up to 54 h before the failure, across the line of sight (σ ≈ 0.25 mm an epoch).
-    for k in 0..56 {
-        let mm = -16.0 * (1.0 - k as f64 / 64.0).ln();
-        let at = dashboard_support::hour(6 * k);
-        let body = synthetic_epoch_moved(4, POINTS, &at, 300 + k as u64, [mm, 0.0, 0.0], STABLE);
-        let (st, answer) = s.upload("tf", &body).await;
-        assert_eq!(st, 201, "epoch {k}: {answer}");
-    }
+    dashboard_support::fill_accelerating(&s, "tf").await;
     let moving = name(POINTS - 1);
     let (_, page) = html(&s, &format!("/sites/tf/points/{moving}")).await;
     assert!(

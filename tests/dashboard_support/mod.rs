@@ -93,3 +93,34 @@ pub fn links(page: &str) -> Vec<String> {
         .map(str::to_string)
         .collect()
 }
+
+/// Marks the first [`STABLE`] points of `site` stable and uploads a block accelerating to
+/// failure: the points from [`STABLE`] on follow d(t) = −v0·t_f·ln(1 − t/t_f), 1 mm/day at first,
+/// failure at t_f = 16 days (day 16 = 2026-11-17 09:00 UTC), across the line of sight (σ ≈
+/// 0.25 mm an epoch), with epochs every 6 h (as a site is observed once it accelerates) up to
+/// 54 h before the failure.
+pub async fn fill_accelerating(s: &TestServer, site: &str) {
+    for i in 0..STABLE {
+        let r = s
+            .client
+            .put(s.url(&format!("/api/v1/sites/{site}/points/{}", name(i))))
+            .json(&json!({"role": "stable"}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200);
+    }
+    for k in 0..56 {
+        let mm = -16.0 * (1.0 - k as f64 / 64.0).ln();
+        let body = service_support::synthetic_epoch_moved(
+            4,
+            POINTS,
+            &hour(6 * k),
+            300 + k as u64,
+            [mm, 0.0, 0.0],
+            STABLE,
+        );
+        let (st, answer) = s.upload(site, &body).await;
+        assert_eq!(st, 201, "epoch {k}: {answer}");
+    }
+}
