@@ -40,6 +40,7 @@ pub(crate) mod plan_svg;
 pub(crate) mod plot_data;
 pub(crate) mod point_page;
 pub(crate) mod report_page;
+pub(crate) mod sensitivity;
 pub(crate) mod sign_in;
 pub(crate) mod site_page;
 pub(crate) mod sites_page;

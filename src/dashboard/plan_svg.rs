@@ -23,6 +23,9 @@ pub struct PlanPoint {
     pub level: Option<AlertLevel>,
     /// A stable (datum) point.
     pub stable: bool,
+    /// The latest epoch's minimum detectable displacement in the worst direction, mm (80 %
+    /// power at the site's confidence; see [`super::sensitivity`]), shown in the tooltip.
+    pub mdd_mm: Option<f64>,
 }
 
 const W: f64 = 900.0;
@@ -86,11 +89,11 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
                         }
                         @if p.stable {
                             polygon class={ "pt stable " (class) } points={ (fmt(x)) "," (fmt(y - 8.0)) " " (fmt(x - 7.0)) "," (fmt(y + 5.0)) " " (fmt(x + 7.0)) "," (fmt(y + 5.0)) } {
-                                title { (p.name) " (stable)" }
+                                title { (p.name) " (stable)" (detectable(p.mdd_mm)) }
                             }
                         } @else {
                             circle class={ "pt " (class) } cx=(fmt(x)) cy=(fmt(y)) r="6" {
-                                title { (p.name) }
+                                title { (p.name) (detectable(p.mdd_mm)) }
                             }
                         }
                         text.label x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
@@ -115,6 +118,13 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
             }
         }
     }
+}
+
+/// The tooltip's sensitivity clause: " · detects ≥ x.x mm" (empty without an MDD).
+fn detectable(mdd_mm: Option<f64>) -> String {
+    mdd_mm.map_or(String::new(), |m| {
+        format!(" · detects movement ≥ {m:.1} mm")
+    })
 }
 
 fn fmt(x: f64) -> String {
@@ -146,9 +156,15 @@ mod tests {
                 d_mm: Some([0.0, -3.0 * (i % 2) as f64, 1.0]),
                 level: (i == 2).then_some(AlertLevel::Warning),
                 stable: i == 5,
+                mdd_mm: (i == 1).then_some(1.26),
             })
             .collect();
         let svg = face_plan("s<1>", &pts).into_string();
+        assert!(
+            svg.contains("<title>T1 · detects movement ≥ 1.3 mm</title>"),
+            "{svg}"
+        );
+        assert!(svg.contains("<title>T2</title>"));
         for i in 1..6 {
             assert!(svg.contains(&format!(">T{i}</text>")), "T{i}");
         }

@@ -12,5 +12,6 @@ mod alerts;
 mod datum;
 mod kalman;
 mod reference_stability;
+mod sensitivity;
 mod simulation;
 mod ttf;

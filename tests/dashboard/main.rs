@@ -12,4 +12,5 @@ mod cap_feed;
 mod headline;
 mod pages;
 mod security;
+mod sensitivity;
 mod sessions;
