@@ -36,6 +36,7 @@ pub(crate) mod layout;
 pub(crate) mod local_time;
 pub(crate) mod natural_order;
 pub(crate) mod page;
+pub(crate) mod plan_labels;
 pub(crate) mod plan_svg;
 pub(crate) mod plot_data;
 pub(crate) mod point_page;

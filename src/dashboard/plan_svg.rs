@@ -8,6 +8,7 @@ use maud::{html, Markup};
 
 use super::face_plan::{nice_floor, FacePlane};
 use super::layout::{level_class, seg};
+use super::plan_labels::{shown, LabelInput, DESKTOP, PHONE};
 use crate::analysis::AlertLevel;
 
 /// One point to draw.
@@ -68,6 +69,34 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
     let bar_m = nice_floor(extent / 5.0);
     let bar_px = bar_m * scale;
     let bar_mm = bar_m * 1000.0 / exaggeration;
+    let normals: Vec<Option<String>> = points
+        .iter()
+        .map(|p| {
+            let n = plane.out_of_plane(p.d_mm?);
+            (n.abs() >= 0.05).then(|| format!("⊥ {n:+.1} mm"))
+        })
+        .collect();
+    let labels: Vec<LabelInput<'_>> = points
+        .iter()
+        .zip(&uv)
+        .zip(&normals)
+        .map(|((p, q), n)| LabelInput {
+            x: sx(q[0]),
+            y: sy(q[1]),
+            name: &p.name,
+            normal: n.as_deref(),
+            level: p.level,
+            stable: p.stable,
+        })
+        .collect();
+    let (wide, narrow) = (shown(&labels, &DESKTOP), shown(&labels, &PHONE));
+    let crowded = |i: usize| match (wide[i], narrow[i]) {
+        (true, true) => "",
+        (false, true) => " crowded-wide",
+        (true, false) => " crowded-narrow",
+        (false, false) => " crowded-wide crowded-narrow",
+    };
+    let any_left_out = wide.iter().chain(&narrow).any(|k| !*k);
     html! {
         figure.plan {
             svg.plan viewBox={ "0 0 " (W) " " (H) } role="img" aria-label="face plan" xmlns="http://www.w3.org/2000/svg" {
@@ -76,7 +105,7 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
                         path d="M 0 0 L 10 5 L 0 10 z" fill="#333" {}
                     }
                 }
-                @for (p, q) in points.iter().zip(&uv) {
+                @for (i, (p, q)) in points.iter().zip(&uv).enumerate() {
                     @let (x, y) = (sx(q[0]), sy(q[1]));
                     @let class = level_class(p.level);
                     a href={ "/sites/" (seg(site)) "/points/" (seg(&p.name)) } {
@@ -96,12 +125,9 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
                                 title { (p.name) (detectable(p.mdd_mm)) }
                             }
                         }
-                        text.label x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
-                        @if let Some(d) = p.d_mm {
-                            @let n = plane.out_of_plane(d);
-                            @if n.abs() >= 0.05 {
-                                text.normal x=(fmt(x + 9.0)) y=(fmt(y + 12.0)) { "⊥ " (format!("{n:+.1}")) " mm" }
-                            }
+                        text class={ "label" (crowded(i)) } x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
+                        @if let Some(n) = &normals[i] {
+                            text class={ "normal" (crowded(i)) } x=(fmt(x + 9.0)) y=(fmt(y + 12.0)) { (n) }
                         }
                     }
                 }
@@ -115,6 +141,7 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
             figcaption.legend {
                 "Scale bar: " (short(bar_m)) " m on the face, " (short(bar_mm)) " mm of displacement; vectors × "
                 (short(exaggeration)) ". Along the face →, height ↑; ⊥: displacement out of the face (mm)."
+                @if any_left_out { " Names that would overlap are left out; point at a mark for its name." }
             }
         }
     }

@@ -11,6 +11,7 @@ mod browser;
 mod cap_feed;
 mod headline;
 mod pages;
+mod plan_labels;
 mod security;
 mod sensitivity;
 mod sessions;
