@@ -8,5 +8,6 @@ mod identify_support;
 mod first_epoch;
 mod identify;
 mod real;
+mod real_adjust;
 mod reference;
 mod synthetic;
