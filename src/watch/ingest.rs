@@ -136,6 +136,7 @@ async fn identify(
                 y_mm: None,
                 col: Some(s.targets[*blob].0),
                 row: Some(s.targets[*blob].1),
+                sigma_mm: None,
             })
             .collect();
     }

@@ -10,4 +10,5 @@ mod identify;
 mod real;
 mod real_adjust;
 mod reference;
+mod sigma;
 mod synthetic;

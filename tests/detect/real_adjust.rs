@@ -88,15 +88,17 @@ pub fn our_observations() -> Vec<(Obs, Target)> {
 /// The epoch of the upload form: one camera (PhotoModeler's c as the start, no distortion, the
 /// default a-priori σ of half a pixel), every interior parameter estimated, PhotoModeler's points as
 /// approximations, free network.
-pub fn epoch(obs: &[Obs]) -> EpochInput {
+/// With `per_target`, each observation carries its target's σ (the mean of col and row).
+pub fn epoch(obs: &[Obs], per_target: bool) -> EpochInput {
     let mut images: HashMap<&str, Vec<ObservationInput>> = HashMap::new();
-    for (name, id, c, r, _, _) in obs {
+    for (name, id, c, r, sc, sr) in obs {
         images.entry(name).or_default().push(ObservationInput {
             point: format!("P{id}"),
             x_mm: None,
             y_mm: None,
             col: Some(*c),
             row: Some(*r),
+            sigma_mm: per_target.then_some(0.5 * (sc + sr) * PIXEL_MM),
         });
     }
     let mut names: Vec<&str> = images.keys().copied().collect();
@@ -148,12 +150,12 @@ pub fn epoch(obs: &[Obs]) -> EpochInput {
 }
 
 /// The self-calibrating central adjustment as `cliffwatch adjust --model central` runs it.
-pub fn adjust_central(obs: &[Obs]) -> Adjustment {
+pub fn adjust_central(obs: &[Obs], per_target: bool) -> Adjustment {
     let options = AdjustOptions {
         model: Model::Central,
         ..AdjustOptions::default()
     };
-    adjust(&epoch(obs), &options).expect("adjusts")
+    adjust(&epoch(obs, per_target), &options).expect("adjusts")
 }
 
 /// Both adjustments, once for all tests: (PhotoModeler's, ours).
@@ -162,7 +164,11 @@ pub fn adjustments() -> &'static (Adjustment, Adjustment, Vec<(Obs, Target)>) {
     A.get_or_init(|| {
         let ours = our_observations();
         let o: Vec<Obs> = ours.iter().map(|(o, _)| o.clone()).collect();
-        (adjust_central(&pm_observations()), adjust_central(&o), ours)
+        (
+            adjust_central(&pm_observations(), false),
+            adjust_central(&o, false),
+            ours,
+        )
     })
 }
 
@@ -194,4 +200,54 @@ fn real_sigma0_on_our_centres_is_no_larger_than_on_photomodelers() {
     assert!(pm.report.converged && ours.report.converged);
     // the issue's goal: no larger than on PhotoModeler's marks (0.139 px when filed)
     assert!(s_ours <= s_pm, "σ0 {s_ours} px > PhotoModeler's {s_pm} px");
+}
+
+#[test]
+fn real_target_sigma_agrees_with_the_residuals() {
+    let (_, ours, obs) = adjustments();
+    let sigma: HashMap<(String, String), (f64, f64)> = obs
+        .iter()
+        .map(|((name, id, _, _, sc, sr), _)| {
+            let key = (name.trim_end_matches(".JPG").to_string(), format!("P{id}"));
+            (key, (*sc, *sr))
+        })
+        .collect();
+    let (mut zc, mut zr, mut n) = (0.0, 0.0, 0usize);
+    for r in ours.report.residuals.iter().filter(|r| !r.dropped) {
+        let (sc, sr) = sigma[&(r.image.clone(), r.point.clone())];
+        zc += (r.vx_mm / PIXEL_MM / sc).powi(2);
+        zr += (r.vy_mm / PIXEL_MM / sr).powi(2);
+        n += 1;
+    }
+    let (zc, zr) = ((zc / n as f64).sqrt(), (zr / n as f64).sqrt());
+    // residuals are smaller than the errors by the redundancy: √(dof / coordinates) on average
+    let redundancy = (ours.report.dof as f64 / (2 * n) as f64).sqrt();
+    eprintln!(
+        "dbat-camcal: rms residual/σ col {zc:.3} row {zr:.3} over {n} observations kept \
+         ({} dropped); mean √redundancy {redundancy:.3}",
+        ours.report.dropped.len()
+    );
+    // the issue's bound
+    for z in [zc, zr] {
+        assert!(
+            (0.8..=1.25).contains(&z),
+            "rms residual/σ {zc} (col), {zr} (row)"
+        );
+    }
+    // Weighted by each target's own σ, the variance factor agrees with it.
+    let o: Vec<Obs> = obs.iter().map(|(o, _)| o.clone()).collect();
+    let weighted = adjust_central(&o, true);
+    let s0 = describe("cliffwatch's centres, each at its own σ", &weighted);
+    let vf = weighted.report.variance_factor;
+    eprintln!("variance factor {vf:.3}");
+    assert!(
+        (0.8f64.powi(2)..=1.25f64.powi(2)).contains(&vf),
+        "variance factor {vf}"
+    );
+    // the weighting changes σ0 little on this field (the floor dominates every target's σ)
+    let s_plain = ours.report.sigma0_mm / PIXEL_MM;
+    assert!(
+        (s0 - s_plain).abs() < 0.02,
+        "σ0 {s0} px weighted, {s_plain} px not"
+    );
 }
