@@ -25,6 +25,8 @@ pub(super) struct StationData {
     pub(super) targets: Vec<(f64, f64)>,
     /// Diameters of the detected targets in px.
     pub(super) diameters: Vec<f64>,
+    /// σ of each detected target's centre coordinates in px (`Target::sigma_px`).
+    pub(super) sigmas_px: Vec<f64>,
     /// The same in image mm.
     pub(super) blobs: Vec<[f64; 2]>,
     /// The seed observations of `epoch.json` for this station, in image mm.
@@ -224,6 +226,7 @@ pub(super) async fn detect_station(
         size: (det.width, det.height),
         targets: det.targets.iter().map(|t| (t.col, t.row)).collect(),
         diameters: det.targets.iter().map(|t| t.diameter_px).collect(),
+        sigmas_px: det.targets.iter().map(|t| t.sigma_px).collect(),
         blobs,
         seeds,
     })

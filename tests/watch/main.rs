@@ -13,3 +13,4 @@ mod dir;
 mod first_epoch;
 mod live;
 mod sigma0;
+mod weights;
