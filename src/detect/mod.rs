@@ -134,6 +134,11 @@ fn with_floor(sigma: f64, floor: f64) -> f64 {
     sigma.hypot(floor)
 }
 
+/// Least width and height of an image searched, px: the smallest target with its background
+/// ring (and the smallest background cell) needs 8 px; a smaller image is refused
+/// ([`DetectError::TooSmall`]), not reported as holding no target.
+pub const MIN_IMAGE_SIDE_PX: u32 = 8;
+
 /// What one polarity's search gave.
 struct Search {
     polarity: Polarity,
@@ -147,6 +152,13 @@ struct Search {
 /// [`DetectWarning::BothPolarities`]).
 pub fn detect(img: &GreyImage, opts: &DetectOptions) -> Result<Detections, DetectError> {
     validate(opts)?;
+    if img.width() < MIN_IMAGE_SIDE_PX || img.height() < MIN_IMAGE_SIDE_PX {
+        return Err(DetectError::TooSmall {
+            width: img.width(),
+            height: img.height(),
+            min: MIN_IMAGE_SIDE_PX,
+        });
+    }
     let t0 = Instant::now();
     let bg = threshold::estimate_background(img, opts.background_cell_px);
     // never closer to the background than the noise allows, nor than one grey level of 8-bit
