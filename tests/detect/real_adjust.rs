@@ -158,9 +158,12 @@ pub fn adjust_central(obs: &[Obs], per_target: bool) -> Adjustment {
     adjust(&epoch(obs, per_target), &options).expect("adjusts")
 }
 
-/// Both adjustments, once for all tests: (PhotoModeler's, ours).
-pub fn adjustments() -> &'static (Adjustment, Adjustment, Vec<(Obs, Target)>) {
-    static A: OnceLock<(Adjustment, Adjustment, Vec<(Obs, Target)>)> = OnceLock::new();
+/// PhotoModeler's adjustment, ours, and our observations with their targets.
+pub type Adjusted = (Adjustment, Adjustment, Vec<(Obs, Target)>);
+
+/// Both adjustments, once for all tests: (PhotoModeler's, ours, our observations).
+pub fn adjustments() -> &'static Adjusted {
+    static A: OnceLock<Adjusted> = OnceLock::new();
     A.get_or_init(|| {
         let ours = our_observations();
         let o: Vec<Obs> = ours.iter().map(|(o, _)| o.clone()).collect();
