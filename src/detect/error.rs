@@ -30,7 +30,7 @@ pub enum DetectError {
         width: u32,
         /// Height in pixels.
         height: u32,
-        /// The least width and height ([`super::MIN_IMAGE_SIDE_PX`]).
+        /// The least width and height (`detect::MIN_IMAGE_SIDE_PX`).
         min: u32,
     },
     /// The image exceeds the pixel limit.

@@ -23,7 +23,7 @@ pub mod threshold;
 
 pub use decode::{decode, decode_with_limit, GreyImage, MAX_IMAGE_FILE_BYTES};
 pub use error::DetectError;
-pub use target::{CentreMethod, DetectOptions, DetectWarning, Polarity, Target};
+pub use target::{CentreMethod, DetectOptions, DetectWarning, Polarity, Target, SIGMA_FLOOR_PX};
 
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
@@ -122,12 +122,6 @@ pub const CENTROID_SIGMA_FACTOR: f64 = 2.27;
 /// that makes it agree with the error against truth on rendered images (`tests/detect/sigma.rs`):
 /// neighbouring pixels' gradients share pixels, which the propagation takes as independent.
 pub const DUAL_CONIC_SIGMA_FACTOR: f64 = 3.0;
-
-/// Default [`DetectOptions::sigma_floor_px`], px: calibrated on dbat-camcal, where the
-/// self-calibrating adjustment's residuals are 0.133 px (col) and 0.115 px (row) rms while the
-/// centring's own σ is a few hundredths of a pixel, and PhotoModeler's residuals of the same marks
-/// correlate 0.9 with cliffwatch's (`tests/detect/real_adjust.rs`).
-pub const SIGMA_FLOOR_PX: f64 = 0.13;
 
 /// A centre's σ per coordinate (px): the centring's propagated σ and the floor, in quadrature.
 fn with_floor(sigma: f64, floor: f64) -> f64 {
