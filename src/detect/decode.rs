@@ -102,6 +102,9 @@ pub fn decode_with_limit(bytes: &[u8], max_pixels: u64) -> Result<GreyImage, Det
     let mut reader = ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| DetectError::Decode(e.to_string()))?;
+    if reader.format() == Some(image::ImageFormat::Jpeg) && !jpeg_is_complete(bytes) {
+        return Err(DetectError::Truncated { format: "JPEG" });
+    }
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(width);
     limits.max_image_height = Some(height);
@@ -111,6 +114,43 @@ pub fn decode_with_limit(bytes: &[u8], max_pixels: u64) -> Result<GreyImage, Det
         .decode()
         .map_err(|e| DetectError::Decode(e.to_string()))?;
     from_dynamic(img)
+}
+
+/// Whether JPEG `bytes` reach their end-of-image marker: the marker segments are followed from
+/// the start (their lengths skip embedded thumbnails), and each scan's entropy-coded data up to the
+/// next marker (within it 0xFF is followed by 0x00 or a restart marker 0xD0–0xD7 only).
+fn jpeg_is_complete(bytes: &[u8]) -> bool {
+    let n = bytes.len();
+    let mut i = 2; // after SOI
+    while i + 1 < n {
+        if bytes[i] != 0xFF {
+            return false;
+        }
+        let m = bytes[i + 1];
+        match m {
+            0xFF => i += 1, // fill byte
+            0xD9 => return true,
+            0xD0..=0xD7 | 0x01 => i += 2,
+            _ => {
+                if i + 3 >= n {
+                    return false;
+                }
+                let len = usize::from(u16::from_be_bytes([bytes[i + 2], bytes[i + 3]]));
+                i += 2 + len;
+                if m == 0xDA {
+                    // entropy-coded data up to the next marker
+                    while i + 1 < n
+                        && !(bytes[i] == 0xFF
+                            && bytes[i + 1] != 0x00
+                            && !(0xD0..=0xD7).contains(&bytes[i + 1]))
+                    {
+                        i += 1;
+                    }
+                }
+            }
+        }
+    }
+    false
 }
 
 fn from_dynamic(img: DynamicImage) -> Result<GreyImage, DetectError> {

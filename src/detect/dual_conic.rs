@@ -25,9 +25,12 @@ pub struct DualConicFit {
     pub centre: [f64; 2],
     /// Semi-axes (major, minor) in px.
     pub semi_axes: [f64; 2],
-    /// Propagated σ of the centre (col, row) in px, from the fit's residuals (before the
-    /// calibration factor applied by the caller).
-    pub sigma: [f64; 2],
+    /// σ of the centre (col, row) in px for image noise σ 1 grey level (multiply by the noise):
+    /// the gradients' noise propagated through each line's equation and the least-squares fit
+    /// (before the calibration factor applied by the caller). The fit's own residuals are no
+    /// measure of it: they hold the spread of the blurred edge's lines about the one ellipse, which
+    /// is symmetric and moves no centre.
+    pub sigma_unit: [f64; 2],
     /// Pixels (lines) used.
     pub lines: usize,
 }
@@ -79,7 +82,8 @@ pub fn fit_dual_conic(img: &GreyImage, region: &Region) -> Option<DualConicFit> 
     let wu = w as usize;
     let mut n = Matrix5::<f64>::zeros();
     let mut rhs = Vector5::<f64>::zeros();
-    let mut rows: Vec<([f64; 5], f64)> =
+    // per line: the equation's row, its right-hand side, the gradient and the normalised offset
+    let mut rows: Vec<([f64; 5], f64, [f64; 4])> =
         Vec::with_capacity(((x1 - x0 + 1) * (y1 - y0 + 1)) as usize);
     for y in y0..=y1 {
         let dy = y as f64 - c0[1];
@@ -116,7 +120,7 @@ pub fn fit_dual_conic(img: &GreyImage, region: &Region) -> Option<DualConicFit> 
             let a = Vector5::from_column_slice(&row);
             n.ger(1.0, &a, &a, 1.0);
             rhs.axpy(b, &a, 1.0);
-            rows.push((row, b));
+            rows.push((row, b, [gx, gy, u, v]));
         }
     }
     if rows.len() < 12 {
@@ -124,15 +128,32 @@ pub fn fit_dual_conic(img: &GreyImage, region: &Region) -> Option<DualConicFit> 
     }
     let ch = n.cholesky()?;
     let t = ch.solve(&rhs);
-    let ss: f64 = rows
-        .iter()
-        .map(|(a, b)| {
-            let r = a.iter().zip(t.iter()).map(|(x, y)| x * y).sum::<f64>() - b;
-            r * r
-        })
-        .sum();
-    let s0 = (ss / (rows.len() as f64 - 5.0)).sqrt();
     let cov = ch.inverse();
+    // Noise: each gradient component carries σ_g² = σ_n²·12/64 (Sobel / 8, the two uncorrelated).
+    // A line's equation e = lᵀC*l moves by ∂e/∂g = 2(q₁ − u q₃, q₂ − v q₃) with q = C*l, and the
+    // least-squares solution by (AᵀA)⁻¹ a δe: cov(t) = (AᵀA)⁻¹ (Σ a aᵀ σ_e²) (AᵀA)⁻¹.
+    let c_star = nalgebra::Matrix3::new(
+        t[0],
+        0.5 * t[1],
+        0.5 * t[3],
+        0.5 * t[1],
+        t[2],
+        0.5 * t[4],
+        0.5 * t[3],
+        0.5 * t[4],
+        1.0,
+    );
+    let var_g = 12.0 / 64.0;
+    let mut meat = Matrix5::<f64>::zeros();
+    for (a, _, [gx, gy, u, v]) in &rows {
+        let l = nalgebra::Vector3::new(*gx, *gy, -(gx * u + gy * v));
+        let q = c_star * l;
+        let (dx, dy) = (q[0] - u * q[2], q[1] - v * q[2]);
+        let var_e = 4.0 * var_g * (dx * dx + dy * dy);
+        let a = Vector5::from_column_slice(a);
+        meat.ger(var_e, &a, &a, 1.0);
+    }
+    let cov_noise = cov * meat * cov;
     // C* = [[A, B/2, D/2], [B/2, C, E/2], [D/2, E/2, 1]] = [[c cᵀ − S, c], [cᵀ, 1]]
     let (cu, cv) = (0.5 * t[3], 0.5 * t[4]);
     let s_fit = Matrix2::new(
@@ -156,9 +177,9 @@ pub fn fit_dual_conic(img: &GreyImage, region: &Region) -> Option<DualConicFit> 
     Some(DualConicFit {
         centre,
         semi_axes: [scale * l_big.sqrt(), scale * l_small.sqrt()],
-        sigma: [
-            scale * 0.5 * s0 * cov[(3, 3)].max(0.0).sqrt(),
-            scale * 0.5 * s0 * cov[(4, 4)].max(0.0).sqrt(),
+        sigma_unit: [
+            scale * 0.5 * cov_noise[(3, 3)].max(0.0).sqrt(),
+            scale * 0.5 * cov_noise[(4, 4)].max(0.0).sqrt(),
         ],
         lines: rows.len(),
     })

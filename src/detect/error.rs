@@ -6,6 +6,13 @@ pub enum DetectError {
     /// The bytes are not a readable JPEG, PNG or TIFF image.
     #[error("cannot decode image: {0}")]
     Decode(String),
+    /// The file ends before its image does (a JPEG without its end-of-image marker): a decoder
+    /// would fill the rest with grey and report the targets of the part that arrived.
+    #[error("truncated {format} file: the data ends before the image does")]
+    Truncated {
+        /// The file format.
+        format: &'static str,
+    },
     /// The image has no pixels.
     #[error("image is empty ({width}×{height} px)")]
     Empty {
@@ -13,6 +20,18 @@ pub enum DetectError {
         width: u32,
         /// Height in pixels.
         height: u32,
+    },
+    /// The image is too small to hold a target with the background around it.
+    #[error(
+        "image of {width}×{height} px is too small to hold a target (at least {min}×{min} px)"
+    )]
+    TooSmall {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+        /// The least width and height (`detect::MIN_IMAGE_SIDE_PX`).
+        min: u32,
     },
     /// The image exceeds the pixel limit.
     #[error("image too large: {width}×{height} px exceeds {max_pixels} px")]

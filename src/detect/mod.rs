@@ -23,7 +23,7 @@ pub mod threshold;
 
 pub use decode::{decode, decode_with_limit, GreyImage, MAX_IMAGE_FILE_BYTES};
 pub use error::DetectError;
-pub use target::{CentreMethod, DetectOptions, DetectWarning, Polarity, Target};
+pub use target::{CentreMethod, DetectOptions, DetectWarning, Polarity, Target, SIGMA_FLOOR_PX};
 
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
@@ -90,7 +90,9 @@ fn validate(o: &DetectOptions) -> Result<(), DetectError> {
         && !o.dual_conic_min_diameter_px.is_nan()
         && o.max_aspect >= 1.0
         && o.fill_range.0 < o.fill_range.1
-        && o.background_cell_px >= 8;
+        && o.background_cell_px >= 8
+        && o.sigma_floor_px.is_finite()
+        && o.sigma_floor_px >= 0.0;
     if ok {
         Ok(())
     } else {
@@ -111,11 +113,25 @@ pub const MAX_BLOBS: usize = 20_000;
 /// ([`DetectWarning::ManyCandidates`]): texture, print or noise rather than a target field.
 pub const MANY_CANDIDATES: usize = 5_000;
 
-/// Factor on the dual-conic fit's propagated σ that makes it agree with the scatter of real
-/// centres (the fit's residuals of neighbouring pixels are correlated through the Sobel support
-/// and the image's blur, so the textbook propagation is too small). Calibrated on dbat-camcal
-/// against PhotoModeler's marks (docs/accuracy.md).
-pub const DUAL_CONIC_SIGMA_FACTOR: f64 = 1.0;
+/// Factor on the windowed centroid's propagated σ that makes it agree with the error against
+/// truth on rendered images (rms of error/σ 2.25–2.3 without it at 3 px, `tests/detect/sigma.rs`):
+/// the propagation takes the window as fixed, but the iteration re-centres it on the noise too.
+pub const CENTROID_SIGMA_FACTOR: f64 = 2.27;
+
+/// Factor on the dual-conic fit's noise-propagated σ ([`dual_conic::DualConicFit::sigma_unit`])
+/// that makes it agree with the error against truth on rendered images (`tests/detect/sigma.rs`):
+/// neighbouring pixels' gradients share pixels, which the propagation takes as independent.
+pub const DUAL_CONIC_SIGMA_FACTOR: f64 = 3.0;
+
+/// A centre's σ per coordinate (px): the centring's propagated σ and the floor, in quadrature.
+fn with_floor(sigma: f64, floor: f64) -> f64 {
+    sigma.hypot(floor)
+}
+
+/// Least width and height of an image searched, px: the smallest target with its background
+/// ring (and the smallest background cell) needs 8 px; a smaller image is refused
+/// ([`DetectError::TooSmall`]), not reported as holding no target.
+pub const MIN_IMAGE_SIDE_PX: u32 = 8;
 
 /// What one polarity's search gave.
 struct Search {
@@ -130,6 +146,13 @@ struct Search {
 /// [`DetectWarning::BothPolarities`]).
 pub fn detect(img: &GreyImage, opts: &DetectOptions) -> Result<Detections, DetectError> {
     validate(opts)?;
+    if img.width() < MIN_IMAGE_SIDE_PX || img.height() < MIN_IMAGE_SIDE_PX {
+        return Err(DetectError::TooSmall {
+            width: img.width(),
+            height: img.height(),
+            min: MIN_IMAGE_SIDE_PX,
+        });
+    }
     let t0 = Instant::now();
     let bg = threshold::estimate_background(img, opts.background_cell_px);
     // never closer to the background than the noise allows, nor than one grey level of 8-bit
@@ -275,6 +298,11 @@ fn centre_one(
             m2: c.m2,
         };
         let f = dual_conic::fit_dual_conic(img, &region)?;
+        let k = DUAL_CONIC_SIGMA_FACTOR * noise;
+        let sigma = [
+            with_floor(k * f.sigma_unit[0], opts.sigma_floor_px),
+            with_floor(k * f.sigma_unit[1], opts.sigma_floor_px),
+        ];
         let r_fit = (f.semi_axes[0] * f.semi_axes[1]).sqrt();
         let contrast =
             dual_conic::contrast(img, polarity, f.centre, f.semi_axes[0], f.semi_axes[1]);
@@ -286,16 +314,15 @@ fn centre_one(
             && (f.centre[0] - c.col).hypot(f.centre[1] - c.row) <= 0.5 * r
             && 2.0 * r_fit >= opts.min_diameter_px * 0.5
             && 2.0 * r_fit <= opts.max_diameter_px * 1.5;
-        let k = DUAL_CONIC_SIGMA_FACTOR;
         return ok.then_some(Target {
             col: f.centre[0],
             row: f.centre[1],
             diameter_px: 2.0 * r_fit,
             contrast,
             snr,
-            sigma_px: 0.5 * k * (f.sigma[0] + f.sigma[1]),
-            sigma_col_px: k * f.sigma[0],
-            sigma_row_px: k * f.sigma[1],
+            sigma_px: 0.5 * (sigma[0] + sigma[1]),
+            sigma_col_px: sigma[0],
+            sigma_row_px: sigma[1],
             aspect: c.aspect(),
             method: CentreMethod::DualConic,
         });
@@ -314,7 +341,7 @@ fn centre_one(
     let (mut centre, mut method, mut sigma_px) = (
         ct.centre,
         CentreMethod::WindowedCentroid,
-        ct.sigma_unit * noise,
+        CENTROID_SIGMA_FACTOR * ct.sigma_unit * noise,
     );
     if 2.0 * r >= opts.edge_fit_min_diameter_px {
         if let Some(e) = ellipse::fit_ellipse(img, polarity, ct.centre, r, r + 4.0 + 0.2 * r) {
@@ -324,6 +351,7 @@ fn centre_one(
             diameter = 2.0 * (e.semi_axes[0] * e.semi_axes[1]).sqrt();
         }
     }
+    let sigma_px = with_floor(sigma_px, opts.sigma_floor_px);
     (snr >= opts.min_snr
         && diameter >= opts.min_diameter_px * 0.5
         && diameter <= opts.max_diameter_px * 1.5)

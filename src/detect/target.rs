@@ -2,6 +2,12 @@
 
 use crate::photogrammetry::Camera;
 
+/// Default [`DetectOptions::sigma_floor_px`], px: calibrated on dbat-camcal, where the
+/// self-calibrating adjustment's residuals are 0.133 px (col) and 0.115 px (row) rms while the
+/// centring's own σ is a few hundredths of a pixel, and PhotoModeler's residuals of the same marks
+/// correlate 0.9 with cliffwatch's (`tests/detect/real_adjust.rs`).
+pub const SIGMA_FLOOR_PX: f64 = 0.13;
+
 /// Which targets to look for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Polarity {
@@ -88,6 +94,13 @@ pub struct DetectOptions {
     /// Targets whose thresholded region is at least this wide (equivalent diameter, px) are centred
     /// by [`CentreMethod::DualConic`] (`f64::INFINITY`: never).
     pub dual_conic_min_diameter_px: f64,
+    /// The part of each centre coordinate's σ that no single image shows, px, added in quadrature
+    /// to the centring's own σ in [`Target::sigma_col_px`] and [`Target::sigma_row_px`]: on real
+    /// photographs the lens beyond its model, the sensor and the compression move every target's
+    /// image by about a tenth of a pixel, whichever detector measures it (default
+    /// [`SIGMA_FLOOR_PX`], from dbat-camcal; 0: the centring's σ alone, as on rendered
+    /// images).
+    pub sigma_floor_px: f64,
 }
 
 impl Default for DetectOptions {
@@ -104,6 +117,7 @@ impl Default for DetectOptions {
             background_cell_px: 128,
             edge_fit_min_diameter_px: 5.0,
             dual_conic_min_diameter_px: 16.0,
+            sigma_floor_px: SIGMA_FLOOR_PX,
         }
     }
 }
@@ -126,7 +140,9 @@ pub struct Target {
     /// Quality: the expected standard deviation of each centre coordinate in px (the mean of
     /// `sigma_col_px` and `sigma_row_px`; smaller is better).
     pub sigma_px: f64,
-    /// Expected standard deviation of the centre column in px.
+    /// Expected standard deviation of the centre column in px: the centring's propagated σ
+    /// (calibrated against truth on rendered images) and [`DetectOptions::sigma_floor_px`], in
+    /// quadrature.
     pub sigma_col_px: f64,
     /// Expected standard deviation of the centre row in px.
     pub sigma_row_px: f64,

@@ -40,6 +40,7 @@ pub fn bundle(nimg: usize, np: usize, per_point: usize) -> Bundle {
                 meas: [0.01 * (p + j) as f64, -0.02 * p as f64],
                 active: !(j == 1 && p == 2),
                 weight: 1.0,
+                prior_weight: 1.0,
             });
         }
     }

@@ -345,6 +345,7 @@ fn photograph(
             y_mm: None,
             col: Some(xy[0] / pixel + (w - 1.0) / 2.0 + params.noise_px * e[0]),
             row: Some((h - 1.0) / 2.0 - xy[1] / pixel + params.noise_px * e[1]),
+            sigma_mm: None,
         });
     }
     observations

@@ -82,6 +82,7 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("area", T),
             ("response_text", T),
             ("contacts", T),
+            ("image_weights", T),
         ],
     ),
     (

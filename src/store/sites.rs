@@ -81,6 +81,32 @@ pub struct NewSite {
     #[serde(default)]
     #[schema(max_items = 20)]
     pub contacts: Option<Vec<String>>,
+    /// How the watched directory weights the site's image observations: `camera` (default: the
+    /// camera's one a-priori `sigma_mm`) or `target` (each detected target's own σ).
+    #[serde(default)]
+    pub image_weights: Option<ImageWeights>,
+}
+
+/// How a site's detected image observations are weighted in its adjustment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ImageWeights {
+    /// One a-priori σ per camera (its `sigma_mm`).
+    #[default]
+    Camera,
+    /// Each target's own σ from detection (`Target::sigma_col_px`, `sigma_row_px`, their mean, in
+    /// mm through the pixel size).
+    Target,
+}
+
+impl ImageWeights {
+    /// `"camera"` or `"target"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ImageWeights::Camera => "camera",
+            ImageWeights::Target => "target",
+        }
+    }
 }
 
 /// A stored site.
@@ -113,6 +139,8 @@ pub struct Site {
     pub response_text: Option<String>,
     /// Whom to call (empty: not configured).
     pub contacts: Vec<String>,
+    /// How the watched directory weights the image observations.
+    pub image_weights: ImageWeights,
     /// Creation time (RFC 3339).
     pub created_at: String,
 }
@@ -133,12 +161,23 @@ struct SiteRow {
     area: Option<String>,
     response_text: Option<String>,
     contacts: Option<String>,
+    image_weights: Option<String>,
     created_at: String,
 }
 
 impl TryFrom<SiteRow> for Site {
     type Error = StoreError;
     fn try_from(r: SiteRow) -> Result<Site, StoreError> {
+        let image_weights = match r.image_weights.as_deref() {
+            None | Some("camera") => ImageWeights::Camera,
+            Some("target") => ImageWeights::Target,
+            Some(other) => {
+                return Err(StoreError::Corrupt(format!(
+                    "site '{}': image_weights '{other}'",
+                    r.id
+                )))
+            }
+        };
         Ok(Site {
             id: r.id,
             name: r.name,
@@ -158,6 +197,7 @@ impl TryFrom<SiteRow> for Site {
                 .map(serde_json::from_str)
                 .transpose()?
                 .unwrap_or_default(),
+            image_weights,
             created_at: display_timestamp(&r.created_at),
         })
     }
@@ -165,7 +205,7 @@ impl TryFrom<SiteRow> for Site {
 
 const COLUMNS: &str =
     "id, name, model, schedule_hours, confidence, alert_rules, reference_epoch, reference_epochs, \
-     process_noise, time_zone, area, response_text, contacts, created_at";
+     process_noise, time_zone, area, response_text, contacts, image_weights, created_at";
 
 /// Reads one site.
 pub async fn get(db: impl AnyExecutor<'_>, id: &str) -> Result<Option<Site>, StoreError> {
@@ -249,12 +289,14 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .filter(|c| !c.is_empty())
         .map(serde_json::to_string)
         .transpose()?;
+    let image_weights = site.image_weights.map(ImageWeights::as_str);
     if create {
         let at = now(&mut *db).await?;
         sqlx::query(
             "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, \
              reference_epochs, process_noise, time_zone, area, response_text, contacts, created_at, \
-             analysis_version) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)",
+             analysis_version, image_weights) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15)",
         )
         .bind(&site.id)
         .bind(name)
@@ -270,13 +312,14 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(contacts.as_deref())
         .bind(&at)
         .bind(ANALYSIS_VERSION)
+        .bind(image_weights)
         .execute(db)
         .await?;
     } else {
         sqlx::query(
             "UPDATE sites SET name = $1, model = $2, schedule_hours = $3, confidence = $4, alert_rules = $5, \
              reference_epochs = $6, process_noise = $7, time_zone = $8, area = $9, response_text = $10, \
-             contacts = $11 WHERE id = $12",
+             contacts = $11, image_weights = $12 WHERE id = $13",
         )
         .bind(name)
         .bind(model)
@@ -289,6 +332,7 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(area.as_deref())
         .bind(site.response_text.as_deref())
         .bind(contacts.as_deref())
+        .bind(image_weights)
         .bind(&site.id)
         .execute(db)
         .await?;

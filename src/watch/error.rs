@@ -47,10 +47,14 @@ pub enum WatchError {
         files: String,
     },
     /// The station's image file is larger than any image the detection reads.
-    #[error("image of station {station}: {bytes} bytes; files above {max} bytes are not read")]
+    #[error(
+        "image {file} of station {station}: {bytes} bytes; files above {max} bytes are not read"
+    )]
     ImageFileTooLarge {
         /// Station.
         station: String,
+        /// The image file's name in the folder.
+        file: String,
         /// The file's size.
         bytes: u64,
         /// The limit ([`crate::detect::MAX_IMAGE_FILE_BYTES`]).
@@ -64,11 +68,13 @@ pub enum WatchError {
         /// Why.
         reason: String,
     },
-    /// Detection failed.
-    #[error("detection on station {station}: {source}")]
+    /// Detection failed (the file cannot be decoded, is too small or too large, or holds noise).
+    #[error("image {file} of station {station}: {source}")]
     Detect {
         /// Station.
         station: String,
+        /// The image file's name in the folder.
+        file: String,
         /// Cause.
         source: DetectError,
     },

@@ -15,6 +15,7 @@ use crate::detect::identify::{resect_seeds, Seed};
 use crate::photogrammetry::input::epoch::ObservationInput;
 use crate::photogrammetry::{EpochInput, ImageOrientation};
 use crate::service::ingest::{ingest_watched, Ingested, WatchedFolder};
+use crate::store::sites::ImageWeights;
 use crate::store::{points, watch_state, Store};
 
 /// A folder's targets detected and named: the upload form with the named observations, and what
@@ -59,12 +60,10 @@ async fn identify(
     opts: &WatchOptions,
 ) -> Result<Identified, WatchError> {
     let site_dir = folder.parent().unwrap_or(Path::new("."));
-    if crate::store::sites::get(store.reader(), site)
-        .await?
-        .is_none()
-    {
+    let Some(settings) = crate::store::sites::get(store.reader(), site).await? else {
         return Err(WatchError::UnknownSite(site.to_string()));
-    }
+    };
+    let per_target = settings.image_weights == ImageWeights::Target;
     let text = tokio::fs::read_to_string(folder.join("epoch.json"))
         .await
         .map_err(|source| WatchError::File {
@@ -136,6 +135,12 @@ async fn identify(
                 y_mm: None,
                 col: Some(s.targets[*blob].0),
                 row: Some(s.targets[*blob].1),
+                // the site's setting: each target at its own σ, else the camera's
+                sigma_mm: s
+                    .camera
+                    .pixel_size_mm
+                    .filter(|_| per_target)
+                    .map(|px| px * s.sigmas_px[*blob]),
             })
             .collect();
     }

@@ -25,6 +25,8 @@ pub(super) struct StationData {
     pub(super) targets: Vec<(f64, f64)>,
     /// Diameters of the detected targets in px.
     pub(super) diameters: Vec<f64>,
+    /// σ of each detected target's centre coordinates in px (`Target::sigma_px`).
+    pub(super) sigmas_px: Vec<f64>,
     /// The same in image mm.
     pub(super) blobs: Vec<[f64; 2]>,
     /// The seed observations of `epoch.json` for this station, in image mm.
@@ -164,9 +166,15 @@ pub(super) async fn detect_station(
     let path = images
         .get(&station)
         .ok_or_else(|| WatchError::MissingImage(station.clone()))?;
+    let file = path
+        .file_name()
+        .unwrap_or_default()
+        .to_string_lossy()
+        .into_owned();
     let bytes = read_image_file(path).await.map_err(|e| match e {
         ImageFileError::TooLarge { bytes, max } => WatchError::ImageFileTooLarge {
             station: station.clone(),
+            file: file.clone(),
             bytes,
             max,
         },
@@ -178,6 +186,7 @@ pub(super) async fn detect_station(
         .map_err(|e| WatchError::Task(e.to_string()))?
         .map_err(|source| WatchError::Detect {
             station: station.clone(),
+            file: file.clone(),
             source,
         })?;
     // The image must be the size the camera declares: the image centre, and so every
@@ -216,14 +225,11 @@ pub(super) async fn detect_station(
     Ok(StationData {
         station,
         camera,
-        image_file: path
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned(),
+        image_file: file,
         size: (det.width, det.height),
         targets: det.targets.iter().map(|t| (t.col, t.row)).collect(),
         diameters: det.targets.iter().map(|t| t.diameter_px).collect(),
+        sigmas_px: det.targets.iter().map(|t| t.sigma_px).collect(),
         blobs,
         seeds,
     })

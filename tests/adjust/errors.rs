@@ -31,6 +31,7 @@ fn fewer_than_four_known_points_names_the_image() {
                     y_mm: Some(1.3 - k as f64 * 0.4),
                     col: None,
                     row: None,
+                    sigma_mm: None,
                 },
             );
         }
@@ -55,6 +56,7 @@ fn point_in_one_image_only_names_the_point() {
             y_mm: Some(2.0),
             col: None,
             row: None,
+            sigma_mm: None,
         });
     match run(&e) {
         Err(AdjustError::PointInTooFewImages { point, images }) => {
@@ -156,6 +158,49 @@ fn unknown_camera_names_the_image() {
             image: "C".into(),
             camera: "nikon".into()
         }))
+    );
+}
+
+/// An observation's own σ: out of bounds it is refused naming the observation; every observation
+/// at twice its camera's σ changes no coordinate and no σ0 (σ0 is expressed in the observations'
+/// own σ) and quarters the variance factor; one image's observations at 10 × that σ weigh less.
+#[test]
+fn an_observations_own_sigma_weights_it() {
+    let mut e = base();
+    e.images[1].observations[2].sigma_mm = Some(1e-300);
+    match run(&e) {
+        Err(AdjustError::Invalid(EpochError::OutOfRange { item, field, .. })) => {
+            let o = &e.images[1];
+            let want = format!("image '{}' point '{}'", o.id, o.observations[2].point);
+            assert_eq!((item, field.as_str()), (want, "sigma_mm"));
+        }
+        other => panic!("{other:?}"),
+    }
+    let plain = adjust(&base(), &AdjustOptions::default()).unwrap().report;
+    let mut e = base();
+    let s = e.cameras[0].sigma_mm.unwrap_or(0.002);
+    for im in &mut e.images {
+        for o in &mut im.observations {
+            o.sigma_mm = Some(2.0 * s);
+        }
+    }
+    let doubled = adjust(&e, &AdjustOptions::default()).unwrap().report;
+    assert!((doubled.sigma0_mm / plain.sigma0_mm - 1.0).abs() < 1e-6);
+    assert!((doubled.variance_factor / plain.variance_factor - 0.25).abs() < 1e-6);
+    for (a, b) in plain.points.iter().zip(&doubled.points) {
+        assert!((a.X - b.X).abs() + (a.Y - b.Y).abs() + (a.Z - b.Z).abs() < 1e-9);
+    }
+    let mut e = base();
+    for o in &mut e.images[0].observations {
+        o.sigma_mm = Some(10.0 * s);
+    }
+    let light = adjust(&e, &AdjustOptions::default()).unwrap().report;
+    let rms = |r: &cliffwatch::photogrammetry::AdjustmentReport| r.images[0].rms_mm;
+    assert!(
+        rms(&light) > rms(&plain),
+        "image 0 weighs less: its residuals grow ({} mm vs {} mm)",
+        rms(&light),
+        rms(&plain)
     );
 }
 

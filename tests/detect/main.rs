@@ -6,8 +6,11 @@
 #[path = "../support/mod.rs"]
 mod support;
 
+mod bad_input;
 mod first_epoch;
 mod identify;
 mod real;
+mod real_adjust;
 mod reference;
+mod sigma;
 mod synthetic;

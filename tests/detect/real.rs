@@ -7,7 +7,7 @@ use std::sync::OnceLock;
 
 use cliffwatch::detect::{detect_bytes, CentreMethod, DetectOptions, Detections, Polarity};
 
-const DIR: &str = concat!(
+pub const DIR: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../shared/data/real/dbat-camcal"
 );

@@ -150,33 +150,7 @@ fn encoded_round_trip_png_and_jpeg() {
     }
 }
 
-/// CRC-32 (PNG) of `bytes`.
-fn crc32(bytes: &[u8]) -> u32 {
-    let mut c = 0xffff_ffffu32;
-    for &b in bytes {
-        c ^= b as u32;
-        for _ in 0..8 {
-            c = if c & 1 != 0 {
-                0xedb8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
-        }
-    }
-    !c
-}
-
-/// A valid small PNG whose header claims `w` × `h` pixels.
-fn png_claiming(w: u32, h: u32) -> Vec<u8> {
-    let img = GreyImage::new(4, 4, 8, vec![7; 16]).unwrap();
-    let mut png = encode_png(&img).unwrap();
-    // signature (8), IHDR length (4), "IHDR" (4), width, height, ...; CRC after the 13 data bytes
-    png[16..20].copy_from_slice(&w.to_be_bytes());
-    png[20..24].copy_from_slice(&h.to_be_bytes());
-    let crc = crc32(&png[12..29]);
-    png[29..33].copy_from_slice(&crc.to_be_bytes());
-    png
-}
+use crate::support::bad_images::png_claiming;
 
 #[test]
 fn bad_input_gives_typed_errors() {
@@ -242,9 +216,16 @@ fn bad_input_gives_typed_errors() {
 }
 
 #[test]
-fn tiny_and_flat_images_give_no_targets_and_no_panic() {
+fn tiny_images_are_refused_and_flat_ones_give_no_targets() {
     let opts = DetectOptions::default();
-    for (w, h) in [(1, 1), (1, 50), (7, 3), (40, 40)] {
+    for (w, h) in [(1, 1), (1, 50), (7, 3), (50, 7)] {
+        let img = GreyImage::new(w, h, 8, vec![100; (w * h) as usize]).unwrap();
+        assert!(
+            matches!(detect(&img, &opts), Err(DetectError::TooSmall { .. })),
+            "{w}×{h}"
+        );
+    }
+    for (w, h) in [(8, 8), (9, 40), (40, 40)] {
         let img = GreyImage::new(w, h, 8, vec![100; (w * h) as usize]).unwrap();
         assert!(detect(&img, &opts).unwrap().targets.is_empty());
     }

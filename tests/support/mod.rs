@@ -17,6 +17,7 @@
 pub mod adjust;
 pub mod alerts;
 pub mod analysis;
+pub mod bad_images;
 pub mod dashboard;
 pub mod identify;
 pub mod pg;

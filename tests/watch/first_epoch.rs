@@ -140,6 +140,7 @@ fn write_folder(
                 y_mm: None,
                 col: Some(q[0] + rng.sample::<f64, _>(StandardNormal)),
                 row: Some(q[1] + rng.sample::<f64, _>(StandardNormal)),
+                sigma_mm: None,
             })
             .collect();
     }

@@ -6,7 +6,9 @@
 #[path = "../support/mod.rs"]
 mod support;
 
+mod bad_input;
 mod dir;
 mod first_epoch;
 mod live;
 mod sigma0;
+mod weights;

@@ -244,6 +244,9 @@ fn observations(
                 meas: o.xy,
                 active: suspects.binary_search(&(j, k)).is_err(),
                 weight: 1.0,
+                prior_weight: o
+                    .sigma_mm
+                    .map_or(1.0, |s| (problem.cameras[im.camera].sigma_mm / s).powi(2)),
             });
         }
     }

@@ -291,7 +291,7 @@ fn residual_norms(bundle: &Bundle) -> Vec<f64> {
             }
             let cam = bundle.image_camera[o.image];
             let e = bundle.residual_of(o);
-            (e[0] * e[0] + e[1] * e[1]).sqrt() / bundle.sigma[cam]
+            (e[0] * e[0] + e[1] * e[1]).sqrt() * o.prior_weight.sqrt() / bundle.sigma[cam]
         })
         .collect()
 }

@@ -9,8 +9,8 @@ use chrono::{DateTime, Datelike, Utc};
 use serde::{Deserialize, Serialize};
 
 use crate::photogrammetry::error::EpochError;
-use crate::photogrammetry::model::camera::Camera;
 pub use crate::photogrammetry::model::camera::CameraInput;
+use crate::photogrammetry::model::camera::{Camera, MIN_SIGMA_MM};
 
 /// One campaign at one site as uploaded (JSON form of the contract; the OpenAPI document's
 /// upload form is derived from these types).
@@ -83,6 +83,11 @@ pub struct ObservationInput {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(minimum = -1e7, maximum = 1e7)]
     pub row: Option<f64>,
+    /// A-priori standard deviation of each of this observation's coordinates in mm (default: its
+    /// camera's `sigma_mm`), from [`MIN_SIGMA_MM`] to 1000 mm: e.g. a detected target's own σ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 1e-6, maximum = 1000.0)]
+    pub sigma_mm: Option<f64>,
 }
 
 /// A control point: known coordinates (m) weighted by `sigma_m`.
@@ -143,6 +148,8 @@ pub struct Observation {
     pub point: usize,
     /// Measured image coordinates in mm.
     pub xy: [f64; 2],
+    /// Its own a-priori σ of each coordinate in mm; None: its camera's `sigma_mm`.
+    pub sigma_mm: Option<f64>,
 }
 
 /// One validated image.
@@ -196,14 +203,18 @@ impl EpochProblem {
     }
 
     /// The a-priori σ that σ0 is expressed in, in image mm: the quadratic mean of the
-    /// observations' a-priori σ (each its camera's `sigma_mm`), so that σ0 = this × √(vᵀPv/dof)
+    /// observations' a-priori σ (each its own `sigma_mm`, or its camera's), so that σ0 = this × √(vᵀPv/dof)
     /// is the typical a-posteriori σ of one image coordinate whatever the order of the cameras.
     /// With one camera, or cameras of one σ, it is that σ.
     pub fn reference_sigma_mm(&self) -> f64 {
         let (sum, n) = self.images.iter().fold((0.0, 0usize), |(sum, n), image| {
             let sigma = self.cameras[image.camera].sigma_mm;
-            let k = image.observations.len();
-            (sum + sigma * sigma * k as f64, n + k)
+            let s2: f64 = image
+                .observations
+                .iter()
+                .map(|o| o.sigma_mm.unwrap_or(sigma).powi(2))
+                .sum();
+            (sum + s2, n + image.observations.len())
         });
         if n == 0 {
             return self.cameras.first().map_or(f64::NAN, |c| c.sigma_mm);
@@ -465,7 +476,21 @@ impl ImageInput {
             on_sensor(xy, camera, || {
                 format!("image '{}' point '{}'", self.id, o.point)
             })?;
-            observations.push(Observation { point: p, xy });
+            let sigma_mm = match o.sigma_mm {
+                Some(s) if !(s.is_finite() && (MIN_SIGMA_MM..=1e3).contains(&s)) => {
+                    return Err(EpochError::OutOfRange {
+                        item: format!("image '{}' point '{}'", self.id, o.point),
+                        field: "sigma_mm".into(),
+                        reason: format!("must be from {MIN_SIGMA_MM} to 1000 mm"),
+                    })
+                }
+                s => s,
+            };
+            observations.push(Observation {
+                point: p,
+                xy,
+                sigma_mm,
+            });
         }
         Ok(Image {
             id: self.id.clone(),

@@ -148,6 +148,7 @@ pub fn epoch_from_csv(
             y_mm: Some(number(3)?),
             col: None,
             row: None,
+            sigma_mm: None,
         };
         match index.get(&record[0]) {
             Some(&k) => images[k].observations.push(obs),

@@ -71,6 +71,9 @@ pub struct Obs {
     pub active: bool,
     /// Robust weight factor (1 in the final adjustment; below 1 while gross errors are screened).
     pub weight: f64,
+    /// A-priori weight relative to its camera's σ: (camera σ / the observation's own σ)², 1 for
+    /// an observation without a σ of its own.
+    pub prior_weight: f64,
 }
 
 /// Residual (corrected measurement − model, mm) of the generic model, eq (5)+(9) or eq (2).

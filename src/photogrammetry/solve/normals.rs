@@ -72,7 +72,7 @@ impl Bundle {
                     o.meas,
                     self.zbar,
                 );
-                let p = o.weight / (self.sigma[cam] * self.sigma[cam]);
+                let p = o.weight * o.prior_weight / (self.sigma[cam] * self.sigma[cam]);
                 cost += p * (e[0] * e[0] + e[1] * e[1]);
             }
             cost
@@ -105,7 +105,7 @@ impl Bundle {
         let mut sum = 0.0;
         for o in self.obs.iter().filter(|o| o.active) {
             let cam = self.image_camera[o.image];
-            let p = o.weight / (self.sigma[cam] * self.sigma[cam]);
+            let p = o.weight * o.prior_weight / (self.sigma[cam] * self.sigma[cam]);
             for fk in &self.jacobian(o) {
                 sum += p
                     * (fk.d[POINT0].powi(2) + fk.d[POINT0 + 1].powi(2) + fk.d[POINT0 + 2].powi(2));
@@ -265,7 +265,7 @@ impl Bundle {
                 continue;
             }
             let cam = self.image_camera[o.image];
-            let p = o.weight / (self.sigma[cam] * self.sigma[cam]);
+            let p = o.weight * o.prior_weight / (self.sigma[cam] * self.sigma[cam]);
             let f = self.jacobian(o);
             for (k, col) in cols.iter_mut().enumerate().take(6) {
                 *col = (6 * o.image + k, k);

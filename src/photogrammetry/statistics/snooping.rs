@@ -32,7 +32,7 @@ pub fn normalized(b: &Bundle, q: &Cofactors, o_index: usize, e: [f64; 2]) -> [f6
 fn w_of(b: &Bundle, o_index: usize, e: [f64; 2], aqa: Matrix2<f64>) -> [f64; 2] {
     let o = &b.obs[o_index];
     let cam = b.image_camera[o.image];
-    let s2 = b.sigma[cam] * b.sigma[cam];
+    let s2 = b.sigma[cam] * b.sigma[cam] / o.prior_weight;
     if o.active {
         return std::array::from_fn(|k| e[k] / (s2 - aqa[(k, k)]).max(s2 * 1e-12).sqrt());
     }
@@ -358,7 +358,7 @@ impl LinearSnooping {
                 }
             }
         }
-        let s2 = b.sigma[cam] * b.sigma[cam] / o.weight;
+        let s2 = b.sigma[cam] * b.sigma[cam] / (o.weight * o.prior_weight);
         // Removal: M = P⁻¹ − aₖ Q aₖᵀ, the cofactor of its residual (singular without redundancy).
         // Restoration: the weight changes sign, M = −(P⁻¹ + aₖ Q aₖᵀ), always regular.
         let m = match change {

@@ -242,6 +242,7 @@ pub(super) fn mm_observation(point: &str, xy: [f64; 2]) -> ObservationInput {
         y_mm: Some(xy[1]),
         col: None,
         row: None,
+        sigma_mm: None,
     }
 }
 

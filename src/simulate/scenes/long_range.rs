@@ -347,6 +347,7 @@ fn photograph(
                     y_mm: None,
                     col: Some(col),
                     row: Some(row),
+                    sigma_mm: None,
                 }
             } else {
                 mm_observation(
