@@ -46,7 +46,7 @@ pub fn alert_row(a: &Alert, v: &Viewer, time_zone: Option<&str>) -> Markup {
                     "site"
                 }
             }
-            td { a href={ "/sites/" (site) "/alerts/" (seg(&a.id)) } title="history" { (a.rule) } }
+            td { a href={ "/sites/" (site) "/alerts/" (seg(&a.id)) } title="history" { (super::alert_groups::metric_name(&a.rule)) } }
             td.num { (num(a.value, 2)) " " (a.unit.as_deref().unwrap_or("")) }
             td.wide { @if let Some(e) = a.epoch { a href={ "/sites/" (site) "/epochs/" (e) } { (when(a.observed_at.as_deref().unwrap_or(""), time_zone)) } } }
             td.state {

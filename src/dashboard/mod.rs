@@ -23,6 +23,7 @@
 
 pub(crate) mod acknowledge;
 pub(crate) mod alert_filter;
+pub(crate) mod alert_groups;
 pub(crate) mod alert_page;
 pub(crate) mod assets;
 pub(crate) mod block_page;

@@ -9,6 +9,7 @@ mod plot_support;
 #[path = "../watch_support/mod.rs"]
 mod watch_support;
 
+mod alert_list;
 mod block_page;
 mod browser;
 mod cap_feed;

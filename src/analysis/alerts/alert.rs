@@ -190,4 +190,8 @@ pub struct AlertEvent {
     pub timestamp: DateTime<Utc>,
     /// The alert after the change.
     pub alert: Alert,
+    /// For a de-escalation or a resolution by the rules: the test that decided it (absent for
+    /// other events, for changes by hand or by a replay, and in events stored before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cleared_by: Option<super::clearing::ClearingTest>,
 }

@@ -4,6 +4,7 @@
 use chrono::{DateTime, Utc};
 
 use super::alert::{AlertEvent, AlertState, RuleMemory};
+use super::clearing::ClearingTest;
 use super::metric::{AlertKind, Metric};
 use super::readings::Readings;
 use super::rule::{AlertConfig, AlertRule};
@@ -40,6 +41,8 @@ fn evaluate_subject(
     let prefix = s.subject.memory_prefix();
     for m in metrics {
         let mut top: Option<&AlertRule> = None;
+        // The highest rule of the metric that stopped being active this epoch, and its test.
+        let mut cleared: Option<ClearingTest> = None;
         let mut shown = s.readings.get(m, m.default_source()).value;
         for r in rules.iter().filter(|r| r.metric == m) {
             let z = r.z(config.confidence);
@@ -64,16 +67,30 @@ fn evaluate_subject(
                     // a value that is not significant does not clear an alarm on a block that
                     // may still be moving. Without a clear threshold, or without a value, the
                     // epoch counts as quiet.
-                    match reading.value.and_then(|v| r.clears(v)) {
-                        Some(true) => mem = RuleMemory::default(),
-                        Some(false) => {}
+                    let confidence = r.confidence(config.confidence);
+                    let test = match reading.value.and_then(|v| r.clears(v)) {
+                        Some(true) => Some(ClearingTest::of(r, &reading, confidence, z, true, 0)),
+                        Some(false) => None,
                         None => {
                             mem.quiet_epochs += 1;
-                            if mem.quiet_epochs
-                                >= r.quiet_epochs.unwrap_or(config.quiet_epochs).max(1)
-                            {
-                                mem = RuleMemory::default();
-                            }
+                            (mem.quiet_epochs
+                                >= r.quiet_epochs.unwrap_or(config.quiet_epochs).max(1))
+                            .then(|| {
+                                ClearingTest::of(
+                                    r,
+                                    &reading,
+                                    confidence,
+                                    z,
+                                    false,
+                                    mem.quiet_epochs,
+                                )
+                            })
+                        }
+                    };
+                    if let Some(test) = test {
+                        mem = RuleMemory::default();
+                        if cleared.as_ref().is_none_or(|c| test.level > c.level) {
+                            cleared = Some(test);
                         }
                     }
                 }
@@ -103,6 +120,7 @@ fn evaluate_subject(
                 epoch: Some(analysis.epoch),
                 observed_at: Some(analysis.observed_at),
                 id_suffix: suffix.to_string(),
+                cleared_by: cleared,
             },
             now,
             events,

@@ -20,6 +20,7 @@
 
 pub(crate) mod alert;
 pub(crate) mod by_hand;
+pub(crate) mod clearing;
 pub(crate) mod evaluate;
 pub(crate) mod metric;
 pub(crate) mod overdue;
@@ -32,6 +33,7 @@ pub use alert::{
     Alert, AlertEvent, AlertEventType, AlertLevel, AlertState, AlertStatus, RuleMemory,
 };
 pub use by_hand::{acknowledge, may_acknowledge, resolve};
+pub use clearing::{ClearedHow, ClearingTest};
 pub use evaluate::{analysis_failed, evaluate_alerts};
 pub use metric::{AlertKind, Metric, Source};
 pub use overdue::{campaign_arrived, check_overdue};
