@@ -34,6 +34,8 @@ pub(crate) mod face_plan;
 pub(crate) mod headline;
 pub mod image_preview;
 pub(crate) mod layout;
+#[cfg(test)]
+mod level_colours;
 pub(crate) mod local_time;
 pub(crate) mod natural_order;
 pub(crate) mod page;

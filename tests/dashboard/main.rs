@@ -15,5 +15,6 @@ mod browser;
 mod cap_feed;
 mod headline;
 mod pages;
+mod plots;
 mod security;
 mod sessions;
