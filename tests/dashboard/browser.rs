@@ -242,7 +242,7 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
     assert!(canvases.as_u64().unwrap() >= 4, "{canvases} canvases");
     // Time reads in UTC on the plots too, as everywhere on the dashboard.
     let x_label = driver
-        .script("return document.querySelector('.plots .u-legend .u-series .u-label').textContent")
+        .script("return document.querySelector('.plots ul.legend li[data-kind=axis]').textContent")
         .await;
     assert_eq!(x_label, json!("time (UTC)"));
     let forecast = driver

@@ -99,7 +99,7 @@ async fn bands_legends_level_colours_ranges_and_no_empty_frame() {
     let specs = d["specs"].as_array().unwrap();
     let of_specs: Vec<Value> = legend
         .iter()
-        .filter(|l| l[0] != "marker" && l[0] != "note")
+        .filter(|l| l[0] != "marker" && l[0] != "note" && l[0] != "axis")
         .map(|l| json!([l[0], l[1]]))
         .collect();
     let want: Vec<Value> = specs.iter().map(|s| json!([s[0], s[1]])).collect();

@@ -119,6 +119,10 @@
   function legend(el, specs, drawn, clip) {
     var ul = document.createElement("ul");
     ul.className = "legend";
+    var axis = document.createElement("li");
+    axis.setAttribute("data-kind", "axis");
+    axis.textContent = "time (UTC)";
+    ul.appendChild(axis);
     specs.forEach(function (s) {
       var li = document.createElement("li");
       li.setAttribute("data-kind", s.kind);
