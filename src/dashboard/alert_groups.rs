@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use maud::{html, Markup};
 
 use super::acknowledge::alert_row;
-use super::layout::{level_badge, seg, Viewer};
+use super::layout::{level_badge, metric_name, seg, Viewer};
 use super::local_time::when;
 use crate::analysis::{AlertLevel, AlertStatus};
 use crate::store::alerts::Alert;
@@ -66,7 +66,7 @@ impl SubjectAlerts<'_> {
                 None => out.push((a.rule.as_str(), a.level)),
             }
         }
-        out.sort_by(|a, b| b.1.cmp(&a.1));
+        out.sort_by_key(|m| std::cmp::Reverse(m.1));
         out
     }
 
@@ -124,20 +124,6 @@ pub fn group<'a>(
         (b.worst(), raised(b), &a.subject).cmp(&(a.worst(), raised(a), &b.subject))
     });
     rows
-}
-
-/// A metric or site-level kind in words, short.
-pub fn metric_name(rule: &str) -> &str {
-    match rule {
-        "displacement_mm" => "displacement",
-        "displacement_along_mm" => "displacement along its direction",
-        "velocity_mm_per_day" => "velocity",
-        "time_to_failure_hours" => "time to failure",
-        "reference_unstable" => "reference unstable",
-        "campaign_overdue" => "campaign overdue",
-        "analysis_failed" => "analysis failed",
-        other => other,
-    }
 }
 
 /// "2 open · 1 acknowledged · 1 resolved": how many of `alerts` are in each state.

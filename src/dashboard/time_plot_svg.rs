@@ -157,7 +157,7 @@ pub fn time_plot_with_line(
 /// Round value ticks within `[lo, hi]`: steps of 1, 2 or 5 × 10ⁿ, three to seven of them.
 fn ticks(lo: f64, hi: f64) -> Vec<f64> {
     let raw = (hi - lo) / 6.0;
-    if !(raw > 0.0) || !raw.is_finite() {
+    if raw.is_nan() || raw <= 0.0 || !raw.is_finite() {
         return vec![lo];
     }
     let mag = 10f64.powf(raw.log10().floor());

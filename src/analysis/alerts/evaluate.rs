@@ -4,8 +4,9 @@
 use chrono::{DateTime, Utc};
 
 use super::alert::{AlertEvent, AlertState, RuleMemory};
-use super::clearing::ClearingTest;
+use super::alert::{ClearedHow, ClearingTest};
 use super::metric::{AlertKind, Metric};
+use super::readings::Reading;
 use super::readings::Readings;
 use super::rule::{AlertConfig, AlertRule};
 use super::transition::{apply, fmt_time, Subject, Update};
@@ -69,21 +70,14 @@ fn evaluate_subject(
                     // epoch counts as quiet.
                     let confidence = r.confidence(config.confidence);
                     let test = match reading.value.and_then(|v| r.clears(v)) {
-                        Some(true) => Some(ClearingTest::of(r, &reading, confidence, z, true, 0)),
+                        Some(true) => Some(clearing_test(r, &reading, confidence, z, true, 0)),
                         Some(false) => None,
                         None => {
                             mem.quiet_epochs += 1;
                             (mem.quiet_epochs
                                 >= r.quiet_epochs.unwrap_or(config.quiet_epochs).max(1))
                             .then(|| {
-                                ClearingTest::of(
-                                    r,
-                                    &reading,
-                                    confidence,
-                                    z,
-                                    false,
-                                    mem.quiet_epochs,
-                                )
+                                clearing_test(r, &reading, confidence, z, false, mem.quiet_epochs)
                             })
                         }
                     };
@@ -125,6 +119,46 @@ fn evaluate_subject(
             now,
             events,
         );
+    }
+}
+
+/// The test of rule `r` (confidence `confidence`, quantile `z`) that cleared on `reading`
+/// after `quiet_epochs` quiet epochs, past its clear threshold when `past_clear`.
+fn clearing_test(
+    r: &AlertRule,
+    reading: &Reading,
+    confidence: f64,
+    z: f64,
+    past_clear: bool,
+    quiet_epochs: u32,
+) -> ClearingTest {
+    let how = if past_clear {
+        ClearedHow::PastClearThreshold
+    } else {
+        match reading.value {
+            None => ClearedHow::NoValue,
+            Some(v)
+                if r.require_significant
+                    && !reading.significant
+                    && r.triggers(v, reading.sigma, z) =>
+            {
+                ClearedHow::NotSignificant
+            }
+            Some(_) => ClearedHow::NotExceeded,
+        }
+    };
+    ClearingTest {
+        level: r.level,
+        value: reading.value,
+        sigma: reading.sigma,
+        threshold: r.threshold(),
+        below: r.below.is_some(),
+        clear_threshold: r.clear_below.or(r.clear_above),
+        confidence,
+        z,
+        significant: reading.significant,
+        how,
+        quiet_epochs: if past_clear { 0 } else { quiet_epochs },
     }
 }
 

@@ -20,7 +20,6 @@
 
 pub(crate) mod alert;
 pub(crate) mod by_hand;
-pub(crate) mod clearing;
 pub(crate) mod evaluate;
 pub(crate) mod metric;
 pub(crate) mod overdue;
@@ -30,10 +29,10 @@ pub(crate) mod rule;
 mod transition;
 
 pub use alert::{
-    Alert, AlertEvent, AlertEventType, AlertLevel, AlertState, AlertStatus, RuleMemory,
+    Alert, AlertEvent, AlertEventType, AlertLevel, AlertState, AlertStatus, ClearedHow,
+    ClearingTest, RuleMemory,
 };
 pub use by_hand::{acknowledge, may_acknowledge, resolve};
-pub use clearing::{ClearedHow, ClearingTest};
 pub use evaluate::{analysis_failed, evaluate_alerts};
 pub use metric::{AlertKind, Metric, Source};
 pub use overdue::{campaign_arrived, check_overdue};

@@ -3,8 +3,9 @@
 
 use chrono::{DateTime, SecondsFormat, Utc};
 
-use super::alert::{Alert, AlertEvent, AlertEventType, AlertLevel, AlertState, AlertStatus};
-use super::clearing::ClearingTest;
+use super::alert::{
+    Alert, AlertEvent, AlertEventType, AlertLevel, AlertState, AlertStatus, ClearingTest,
+};
 use super::metric::AlertKind;
 use super::rule::AlertRule;
 
