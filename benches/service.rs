@@ -1,30 +1,28 @@
 //! Service benchmarks (figures in `docs/performance.md`, section "Service"):
 //! - `upload_5x28` (`_postgres`): upload of a 5-image × 28-point epoch, end to end over HTTP
 //!   (parse, validate, adjust, store in one transaction, answer the summary), on SQLite and on
-//!   PostgreSQL (a throwaway cluster, `tests/pg_support`);
+//!   PostgreSQL (a throwaway cluster, `tests/support/pg.rs`);
 //! - `uploads_30/*`: 30 such uploads by 6 concurrent clients to 6 sites, over 1 node (SQLite,
 //!   PostgreSQL) or 2 and 3 nodes on one PostgreSQL database: uploads per second;
 //! - `series_87600/*`: the displacement time series of one point of a site with 87 600 epochs
 //!   (10 years hourly) × 30 points: as CSV (whole series, streamed), the CSV's store part alone
 //!   (read and format, no HTTP), one JSON page of 1000, and every JSON page following the cursor;
 //! - `series_87600_postgres/*`: the same store part, the JSON page and every JSON page on
-//!   PostgreSQL (a throwaway cluster, `tests/pg_support`);
+//!   PostgreSQL (a throwaway cluster, `tests/support/pg.rs`);
 //! - `dashboard/*`: server time of the site page (30 points) and of the point page's plot data
 //!   (downsampled to 800 px) on a site of 87 600 epochs and on one of 40, and the weight of each
 //!   page with its embedded assets, gzip (printed);
 //! - the database size per 10 000 epochs of 30 points (printed, from `CLIFFWATCH_BENCH_SIZE_EPOCHS`
 //!   real uploads, default 500, scaled linearly).
 
-#[path = "../tests/pg_support/mod.rs"]
-mod pg_support;
-#[path = "../tests/service_support/mod.rs"]
-mod service_support;
+#[path = "../tests/support/mod.rs"]
+mod support;
 
 use std::cell::Cell;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use service_support::{synthetic_epoch, TestServer};
+use support::server::{synthetic_epoch, TestServer};
 
 fn runtime() -> tokio::runtime::Runtime {
     tokio::runtime::Builder::new_multi_thread()
@@ -42,7 +40,7 @@ fn observed_at(k: usize) -> String {
 
 fn upload(c: &mut Criterion) {
     upload_on(c, "service/upload_5x28", None);
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("upload");
     upload_on(c, "service/upload_5x28_postgres", Some(url));
 }
@@ -87,7 +85,7 @@ const THROUGHPUT_ROUNDS: usize = 5;
 /// Uploads per second: 6 clients, one per site, each uploading 5 epochs in a row, spread over 1,
 /// 2 or 3 nodes (in this process, so on this machine's 2 cores) on one database.
 fn throughput(c: &mut Criterion) {
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let mut g = c.benchmark_group("service/uploads_30");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
     let cases: Vec<(&str, usize, Option<String>)> = vec![
@@ -246,7 +244,7 @@ async fn csv_store_only(server: &TestServer) {
 
 fn series_postgres(c: &mut Criterion) {
     let rt = runtime();
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("bench");
     let server = rt.block_on(TestServer::start(move |c| c.database_url = Some(url)));
     rt.block_on(fill_history_postgres(&server, "long", 87_600, 30));
@@ -493,7 +491,7 @@ async fn upload_size_epochs(server: &TestServer, n: usize) {
 /// (`pg_total_relation_size`), after `VACUUM ANALYZE`.
 fn database_size_postgres(n: usize) {
     let rt = runtime();
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("size");
     let server = rt.block_on(TestServer::start(move |c| c.database_url = Some(url)));
     rt.block_on(async {

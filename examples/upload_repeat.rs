@@ -9,14 +9,12 @@
 //! keeps the database S seconds after the uploads (and prints how to reach a cluster with
 //! `psql`, for `EXPLAIN ANALYZE`).
 
-#[path = "../tests/pg_support/mod.rs"]
-mod pg_support;
-#[path = "../tests/service_support/mod.rs"]
-mod service_support;
+#[path = "../tests/support/mod.rs"]
+mod support;
 
 use std::time::Instant;
 
-use service_support::{synthetic_epoch, TestServer};
+use support::server::{synthetic_epoch, TestServer};
 
 fn observed_at(k: usize) -> String {
     let t = chrono::DateTime::parse_from_rfc3339("2020-01-01T00:00:00Z").unwrap()
@@ -56,8 +54,8 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(50);
     let warm: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(45);
-    // `postgres`: a throwaway cluster (tests/pg_support) instead of SQLite.
-    let cluster = (args.next().as_deref() == Some("postgres")).then(pg_support::PgCluster::start);
+    // `postgres`: a throwaway cluster (tests/support/pg.rs) instead of SQLite.
+    let cluster = (args.next().as_deref() == Some("postgres")).then(support::pg::PgCluster::start);
     let url = cluster.as_ref().map(|c| c.create_database("upload"));
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)

@@ -47,6 +47,7 @@ pub(crate) mod onset;
 pub(crate) mod reference;
 pub mod reference_change;
 pub mod rigid_body;
+pub mod sensitivity;
 pub(crate) mod series;
 pub mod stats;
 pub mod tracking;

@@ -8,6 +8,7 @@ use maud::{html, Markup};
 
 use super::face_plan::{nice_floor, FacePlane};
 use super::layout::{level_class, seg};
+use super::plan_labels::{shown, LabelInput, DESKTOP, PHONE};
 use crate::analysis::AlertLevel;
 
 /// One point to draw.
@@ -23,6 +24,9 @@ pub struct PlanPoint {
     pub level: Option<AlertLevel>,
     /// A stable (datum) point.
     pub stable: bool,
+    /// The latest epoch's minimum detectable displacement in the worst direction, mm (80 %
+    /// power at the site's confidence; see [`super::sensitivity`]), shown in the tooltip.
+    pub mdd_mm: Option<f64>,
 }
 
 const W: f64 = 900.0;
@@ -65,6 +69,34 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
     let bar_m = nice_floor(extent / 5.0);
     let bar_px = bar_m * scale;
     let bar_mm = bar_m * 1000.0 / exaggeration;
+    let normals: Vec<Option<String>> = points
+        .iter()
+        .map(|p| {
+            let n = plane.out_of_plane(p.d_mm?);
+            (n.abs() >= 0.05).then(|| format!("⊥ {n:+.1} mm"))
+        })
+        .collect();
+    let labels: Vec<LabelInput<'_>> = points
+        .iter()
+        .zip(&uv)
+        .zip(&normals)
+        .map(|((p, q), n)| LabelInput {
+            x: sx(q[0]),
+            y: sy(q[1]),
+            name: &p.name,
+            normal: n.as_deref(),
+            level: p.level,
+            stable: p.stable,
+        })
+        .collect();
+    let (wide, narrow) = (shown(&labels, &DESKTOP), shown(&labels, &PHONE));
+    let crowded = |i: usize| match (wide[i], narrow[i]) {
+        (true, true) => "",
+        (false, true) => " crowded-wide",
+        (true, false) => " crowded-narrow",
+        (false, false) => " crowded-wide crowded-narrow",
+    };
+    let any_left_out = wide.iter().chain(&narrow).any(|k| !*k);
     html! {
         figure.plan {
             svg.plan viewBox={ "0 0 " (W) " " (H) } role="img" aria-label="face plan" xmlns="http://www.w3.org/2000/svg" {
@@ -73,7 +105,7 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
                         path d="M 0 0 L 10 5 L 0 10 z" fill="#333" {}
                     }
                 }
-                @for (p, q) in points.iter().zip(&uv) {
+                @for (i, (p, q)) in points.iter().zip(&uv).enumerate() {
                     @let (x, y) = (sx(q[0]), sy(q[1]));
                     @let class = level_class(p.level);
                     a href={ "/sites/" (seg(site)) "/points/" (seg(&p.name)) } {
@@ -86,19 +118,16 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
                         }
                         @if p.stable {
                             polygon class={ "pt stable " (class) } points={ (fmt(x)) "," (fmt(y - 8.0)) " " (fmt(x - 7.0)) "," (fmt(y + 5.0)) " " (fmt(x + 7.0)) "," (fmt(y + 5.0)) } {
-                                title { (p.name) " (stable)" }
+                                title { (p.name) " (stable)" (detectable(p.mdd_mm)) }
                             }
                         } @else {
                             circle class={ "pt " (class) } cx=(fmt(x)) cy=(fmt(y)) r="6" {
-                                title { (p.name) }
+                                title { (p.name) (detectable(p.mdd_mm)) }
                             }
                         }
-                        text.label x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
-                        @if let Some(d) = p.d_mm {
-                            @let n = plane.out_of_plane(d);
-                            @if n.abs() >= 0.05 {
-                                text.normal x=(fmt(x + 9.0)) y=(fmt(y + 12.0)) { "⊥ " (format!("{n:+.1}")) " mm" }
-                            }
+                        text class={ "label" (crowded(i)) } x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
+                        @if let Some(n) = &normals[i] {
+                            text class={ "normal" (crowded(i)) } x=(fmt(x + 9.0)) y=(fmt(y + 12.0)) { (n) }
                         }
                     }
                 }
@@ -112,9 +141,17 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
             figcaption.legend {
                 "Scale bar: " (short(bar_m)) " m on the face, " (short(bar_mm)) " mm of displacement; vectors × "
                 (short(exaggeration)) ". Along the face →, height ↑; ⊥: displacement out of the face (mm)."
+                @if any_left_out { " Names that would overlap are left out; point at a mark for its name." }
             }
         }
     }
+}
+
+/// The tooltip's sensitivity clause: " · detects ≥ x.x mm" (empty without an MDD).
+fn detectable(mdd_mm: Option<f64>) -> String {
+    mdd_mm.map_or(String::new(), |m| {
+        format!(" · detects movement ≥ {m:.1} mm")
+    })
 }
 
 fn fmt(x: f64) -> String {
@@ -146,9 +183,15 @@ mod tests {
                 d_mm: Some([0.0, -3.0 * (i % 2) as f64, 1.0]),
                 level: (i == 2).then_some(AlertLevel::Warning),
                 stable: i == 5,
+                mdd_mm: (i == 1).then_some(1.26),
             })
             .collect();
         let svg = face_plan("s<1>", &pts).into_string();
+        assert!(
+            svg.contains("<title>T1 · detects movement ≥ 1.3 mm</title>"),
+            "{svg}"
+        );
+        assert!(svg.contains("<title>T2</title>"));
         for i in 1..6 {
             assert!(svg.contains(&format!(">T{i}</text>")), "T{i}");
         }

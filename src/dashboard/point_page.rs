@@ -62,6 +62,16 @@ pub async fn point(
                 tr { th { "filtered velocity (mm/day)" } td { (with_sigma(d.f_velocity_mm_per_day, d.sigma_f_velocity_mm_per_day, 3)) } }
                 tr { th { "raw velocity (mm/day)" } td { (num(d.velocity_mm_per_day, 3)) } }
                 tr { th { "filtered time to failure (h)" } td { (time_to_failure(d.f_time_to_failure_hours, d.sigma_f_time_to_failure_hours)) } }
+                @if let Some(m) = super::sensitivity::of(d, p.direction, site.confidence) {
+                    tr.mdd {
+                        th { "smallest movement this epoch detects (" (num(Some(100.0 * m.power), 0)) " % of the time, " (num(Some(100.0 * site.confidence), 1)) " % confidence)" }
+                        td {
+                            @if let Some(a) = m.along_mm { (num(Some(a), 2)) " mm along the direction · " }
+                            (num(Some(m.worst_mm), 2)) " mm in the worst direction"
+                            @if !d.significant { " — no movement above this is seen" }
+                        }
+                    }
+                }
             }
         } @else {
             p.note { "No displacement yet: the point has no epoch after the reference." }

@@ -128,6 +128,11 @@ impl Report {
                     .map(|d| [d.dx_mm, d.dy_mm, d.dz_mm]),
                 level: None,
                 stable: roles.get(&c.point) == Some(&PointRole::Stable),
+                mdd_mm: disp
+                    .iter()
+                    .find(|d| d.point == c.point)
+                    .and_then(|d| super::sensitivity::of(d, None, site.confidence))
+                    .map(|m| m.worst_mm),
             })
             .collect();
         let plots = moving_plots(store, &site, &disp, &roles, from, to).await?;
@@ -189,7 +194,7 @@ impl Report {
         let role = |p: &str| self.roles.get(p).map_or("", |r| r.as_str());
         html! {
             table.displacements {
-                thead { tr { th { "point" } th { "role" } th { "dx" } th { "dy" } th { "dz" } th { "d ± σ (mm)" } th { "significant" } th { "velocity (mm/day)" } th { "time to failure (h)" } } }
+                thead { tr { th { "point" } th { "role" } th { "dx" } th { "dy" } th { "dz" } th { "d ± σ (mm)" } th { "significant" } th title="the smallest movement, in its worst direction, that this epoch detects 80 % of the time at the site's confidence" { "detects ≥ (mm)" } th { "velocity (mm/day)" } th { "time to failure (h)" } } }
                 tbody { @for d in &self.displacements {
                     tr {
                         td { a href={ "/sites/" (s) "/points/" (seg(&d.point)) } { (d.point) } }
@@ -199,6 +204,7 @@ impl Report {
                         td.num { (num(Some(d.dz_mm), 2)) }
                         td.num { (with_sigma(Some(d.d_mm), Some(d.sigma_mm), 2)) }
                         td { @if d.significant { "yes" } @else { "no" } }
+                        td.num { (num(super::sensitivity::of(d, None, self.site.confidence).map(|m| m.worst_mm), 2)) }
                         td.num { (with_sigma(d.f_velocity_mm_per_day, d.sigma_f_velocity_mm_per_day, 3)) }
                         td.num { (with_sigma(d.f_time_to_failure_hours, d.sigma_f_time_to_failure_hours, 0)) }
                     }

@@ -58,6 +58,10 @@ pub async fn site(
             d_mm: latest.get(&c.point).map(|d| [d.dx_mm, d.dy_mm, d.dz_mm]),
             level: levels.get(&c.point).copied(),
             stable: roles.get(c.point.as_str()) == Some(&PointRole::Stable),
+            mdd_mm: latest
+                .get(&c.point)
+                .and_then(|d| super::sensitivity::of(d, None, site.confidence))
+                .map(|m| m.worst_mm),
         })
         .collect();
     let read = if filter.is_active() {

@@ -18,7 +18,7 @@
 //!
 //! Run with `cargo test --release --test adjust calibration -- --nocapture` for the table.
 
-use crate::adjust_common;
+use crate::support;
 
 use chrono::{DateTime, Utc};
 use cliffwatch::analysis::rigid_body::{estimate_block, BlockPoint};
@@ -58,16 +58,14 @@ struct Tally {
     epochs: usize,
 }
 
-fn rms(v: &[f64]) -> f64 {
-    adjust_common::rms(v)
-}
+use crate::support::adjust::rms;
 
 /// Errors of the adjusted points against the truth after a similarity on all points, divided by σ;
 /// and, per coordinate, the expected square of that ratio from the reported joint covariance Σ of
 /// all points: `(S Σ Sᵀ)_kk / Σ_kk` with `S = I − G (GᵀG)⁻¹ Gᵀ` the projection of the similarity
 /// fit (7 columns: translations, rotations and scale about the centroid).
 fn free_network(adj: &Adjustment, truth: &Truth, t: &mut Tally) {
-    let e = adjust_common::normalized_errors(adj, truth);
+    let e = support::adjust::normalized_errors(adj, truth);
     for (k, x) in e.iter().enumerate() {
         t.free[k % 3].push(*x);
     }

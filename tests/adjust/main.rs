@@ -1,9 +1,10 @@
 //! The bundle adjustment against truth: the paper's epochs, simulated scenes, errors, and the Monte-Carlo calibration of its σ.
 //!
-//! One test binary per area (each binary links the whole crate once); the files are its modules.
+//! One test binary per area (each binary links the whole crate once); the files are its modules,
+//! and `tests/support/` holds the helpers every binary shares.
 
-#[path = "../adjust_common/mod.rs"]
-mod adjust_common;
+#[path = "../support/mod.rs"]
+mod support;
 
 mod calibration;
 mod command;

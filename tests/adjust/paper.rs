@@ -1,8 +1,8 @@
 //! The paper's Table 1 scene (Ono & Hattori §4): cases 1–3, on the shared epochs (seeds 101–103)
 //! and on generated ones. Bounds follow `docs/model.md` and the noise (0.001 mm).
 
-use crate::adjust_common;
-use adjust_common as common;
+use crate::support;
+use support::adjust as common;
 
 use cliffwatch::photogrammetry::{adjust, Model};
 use cliffwatch::simulate::scenes::{

@@ -2,8 +2,8 @@
 //! swap, and the wide-angle calibration network (central model). Bounds come from the noise or from
 //! the rigorous optimum of the same data (the adjustment started from the true coordinates).
 
-use crate::adjust_common;
-use adjust_common as common;
+use crate::support;
+use support::adjust as common;
 
 use cliffwatch::photogrammetry::{adjust, AdjustError, Model};
 use cliffwatch::simulate::scenes::{

@@ -3,11 +3,11 @@
 //! `reference_epochs` averages the first epochs into the reference and recomputes; bad settings
 //! answer 422 naming the field and store nothing.
 
-use crate::alerts_support;
+use crate::support;
 
-use alerts_support::{day, mark_stable, upload_new, write_config, Daemon, Scene};
 use reqwest::Method;
 use serde_json::{json, Value};
+use support::alerts::{day, mark_stable, upload_new, write_config, Daemon, Scene};
 
 async fn alerts(d: &Daemon, site: &str) -> Vec<Value> {
     let (s, a) = d

@@ -2,13 +2,13 @@
 //! stored (status `analysis_failed`, the reason in its report), the site-level `analysis_failed`
 //! alert reaches the API and a signed webhook, and the next analysed epoch resolves it.
 
-use crate::alerts_support;
+use crate::support;
 
 use std::time::{Duration, Instant};
 
-use alerts_support::{day, mark_stable, write_webhook_config, Daemon, Receiver, Scene};
 use reqwest::Method;
 use serde_json::{json, Value};
+use support::alerts::{day, mark_stable, write_webhook_config, Daemon, Receiver, Scene};
 
 /// Renames every point of an upload except the first `keep` targets (T001…), so that only those
 /// are in common with earlier epochs.

@@ -1,9 +1,10 @@
 //! Alerting through the service: series, blocks, recompute, failed analyses, the alert service.
 //!
-//! One test binary per area (each binary links the whole crate once); the files are its modules.
+//! One test binary per area (each binary links the whole crate once); the files are its modules,
+//! and `tests/support/` holds the helpers every binary shares.
 
-#[path = "../alerts_support/mod.rs"]
-mod alerts_support;
+#[path = "../support/mod.rs"]
+mod support;
 
 mod blocks;
 mod failed;

@@ -3,17 +3,17 @@
 //! displacements no longer support (one `alert.resolved`, no new `alert.raised`); an epoch that
 //! arrives out of order gives exactly the series and alert state of an in-order upload.
 
-use crate::alerts_support;
+use crate::support;
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use alerts_support::{
+use reqwest::Method;
+use serde_json::{json, Value};
+use support::alerts::{
     create_site, day, mark_stable, outbox_events, write_config, write_webhook_config, Daemon,
     Receiver, Scene,
 };
-use reqwest::Method;
-use serde_json::{json, Value};
 
 const STEP_MM: f64 = 3.5;
 

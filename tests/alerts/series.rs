@@ -5,15 +5,15 @@
 //! alerts rising level by level at the epochs the truth and the thresholds predict, and the
 //! inverse-velocity forecast of the failure time.
 
-use crate::alerts_support;
+use crate::support;
 
 use std::path::Path;
 
-use alerts_support::{write_config, Daemon};
 use chrono::{DateTime, Utc};
 use cliffwatch::simulate::series::SeriesTruth;
 use reqwest::Method;
 use serde_json::{json, Value};
+use support::alerts::{write_config, Daemon};
 
 /// Seeds (geometry and every draw differ).
 const SEEDS: [u64; 3] = [1, 2, 3];

@@ -2,17 +2,17 @@
 //! consistent with their σ, alerts rising level by level, every alert delivered to a signed webhook
 //! receiver through 503s and a SIGKILL of the daemon; noise only → no displacement alert.
 
-use crate::alerts_support;
+use crate::support;
 
 use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
 
-use alerts_support::{
+use reqwest::Method;
+use serde_json::{json, Value};
+use support::alerts::{
     create_site, day, mark_stable, outbox_ids, upload_new, watch_block_moving, write_config,
     write_webhook_config, Daemon, Receiver, Scene,
 };
-use reqwest::Method;
-use serde_json::{json, Value};
 
 const SITE: &str = "cliff";
 
@@ -553,7 +553,7 @@ async fn gone_disables_the_endpoint() {
     let daemon = Daemon::start(&data, &config).await;
     watch_block_moving(&daemon, SITE, &scene, 300).await;
     let deadline = Instant::now() + Duration::from_secs(20);
-    while alerts_support::endpoints_enabled(&data).await != vec![false] {
+    while support::alerts::endpoints_enabled(&data).await != vec![false] {
         assert!(Instant::now() < deadline, "endpoint not disabled");
         tokio::time::sleep(Duration::from_millis(100)).await;
     }

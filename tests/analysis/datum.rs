@@ -1,7 +1,7 @@
 //! Datum and robustness: IWST without stable points, bad input as typed errors (never a panic).
 
-use crate::analysis_common;
-use analysis_common as common;
+use crate::support;
+use support::analysis as common;
 
 use chrono::{TimeZone, Utc};
 use cliffwatch::analysis::{

@@ -1,9 +1,10 @@
 //! The pure displacement analysis: datum, Kalman filter and forecast, rules, simulated series.
 //!
-//! One test binary per area (each binary links the whole crate once); the files are its modules.
+//! One test binary per area (each binary links the whole crate once); the files are its modules,
+//! and `tests/support/` holds the helpers every binary shares.
 
-#[path = "../analysis_common/mod.rs"]
-mod analysis_common;
+#[path = "../support/mod.rs"]
+mod support;
 
 mod alert_fixtures;
 mod alert_rules;
@@ -11,5 +12,6 @@ mod alerts;
 mod datum;
 mod kalman;
 mod reference_stability;
+mod sensitivity;
 mod simulation;
 mod ttf;

@@ -7,8 +7,8 @@
 //! moved; counting only the exclusions in which it also changed from its own earlier epochs
 //! (`DatumReport::moved`, where that error cancels) does not.
 
-use crate::analysis_common;
-use analysis_common as common;
+use crate::support;
+use support::analysis as common;
 
 use cliffwatch::analysis::{
     evaluate_alerts, AlertConfig, AlertEventType, AlertKind, AlertState, AnalysisConfig,

@@ -1,8 +1,8 @@
 //! The analysis on simulated monitoring series (`simulate::monitoring`): covariance consistency,
 //! alert escalation, failure-time forecast, false alarms under noise, a moving stable point.
 
-use crate::analysis_common;
-use analysis_common as common;
+use crate::support;
+use support::analysis as common;
 
 use cliffwatch::analysis::stats::beta_inc;
 use cliffwatch::analysis::{

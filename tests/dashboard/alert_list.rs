@@ -4,11 +4,11 @@
 //! decided it with the numbers the API gives.
 
 use crate::browser::Driver;
-use crate::dashboard_support;
+use crate::support;
 
-use dashboard_support::service_support::{synthetic_epoch, synthetic_epoch_moved, TestServer};
-use dashboard_support::{day, name, POINTS, STABLE};
 use serde_json::{json, Value};
+use support::dashboard::{day, name, POINTS, STABLE};
+use support::server::{synthetic_epoch, synthetic_epoch_moved, TestServer};
 
 /// Creates site `id` with `rules` and marks the first [`STABLE`] points stable.
 async fn site(s: &TestServer, id: &str, rules: Value) {

@@ -2,11 +2,11 @@
 //! latest motion, and links each member point (and only those), whose page links back to it.
 
 use crate::browser::Driver;
-use crate::dashboard_support;
+use crate::support;
 
-use dashboard_support::service_support::TestServer;
-use dashboard_support::{fill, name, SITE};
 use serde_json::{json, Value};
+use support::dashboard::{fill, name, SITE};
+use support::server::TestServer;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_block_page_links_its_members_and_they_link_back() {
@@ -103,13 +103,13 @@ async fn the_block_page_links_its_members_and_they_link_back() {
 /// "no reliable forecast", without a date, for the epochs whose interval was wider than its horizon.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_block_page_draws_the_forecast_line_down_to_the_failure_time() {
-    use dashboard_support::{POINTS, STABLE};
+    use support::dashboard::{POINTS, STABLE};
     let Some(driver) = Driver::start().await else {
         return;
     };
     let s = TestServer::start(|_| {}).await;
     s.create_site("tf").await;
-    dashboard_support::fill_accelerating(&s, "tf").await;
+    support::dashboard::fill_accelerating(&s, "tf").await;
     let members: Vec<String> = (STABLE..POINTS).map(name).collect();
     let r = s
         .client

@@ -11,16 +11,15 @@
 //! installs them). Under `CI=true` their absence fails the test; elsewhere it is skipped with a
 //! message.
 
-use crate::dashboard_support;
-use crate::watch_support;
+use crate::support;
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use dashboard_support::service_support::{free_port, TestServer};
-use dashboard_support::{fill, name, POINTS, SITE};
 use serde_json::{json, Value};
+use support::dashboard::{fill, name, POINTS, SITE};
+use support::server::{free_port, TestServer};
 
 const CHROMIUM: &str = "/usr/bin/chromium";
 const DRIVER: &str = "/usr/bin/chromedriver";
@@ -462,8 +461,8 @@ async fn watched_epoch_images_line_up_in_chromium() {
         .await
         .unwrap();
     assert_eq!(r.status(), 201);
-    let epoch = watch_support::small_scene();
-    watch_support::write_epoch(&site, &epoch, "e1", "2026-11-20T09:00:00Z", true, 1);
+    let epoch = support::watch::small_scene();
+    support::watch::write_epoch(&site, &epoch, "e1", "2026-11-20T09:00:00Z", true, 1);
     let t0 = Instant::now();
     let id = loop {
         let (_, list) = s.get("/api/v1/sites/kamo/epochs").await;

@@ -3,14 +3,14 @@
 //! (`xmllint --schema`, vendored XSD), the threads Alert → Update → Cancel with references,
 //! the site's area and time zone, the Atom feed's entries, user text escaped, and the errors.
 
-use crate::dashboard_support;
+use crate::support;
 
 use std::path::Path;
 use std::process::Command;
 
-use dashboard_support::service_support::{synthetic_epoch, TestServer};
-use dashboard_support::{day, name, POINTS, STABLE};
 use serde_json::{json, Value};
+use support::dashboard::{day, name, POINTS, STABLE};
+use support::server::{synthetic_epoch, TestServer};
 
 const SITE: &str = "kamo";
 const SITE_NAME: &str = "Kamo <script>alert(1)</script> & cliff";

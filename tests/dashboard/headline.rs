@@ -6,11 +6,11 @@
 //! fits.
 
 use crate::browser::Driver;
-use crate::dashboard_support;
+use crate::support;
 
-use dashboard_support::service_support::TestServer;
-use dashboard_support::{day, name};
 use serde_json::{json, Value};
+use support::dashboard::{day, name};
+use support::server::TestServer;
 
 /// `2026-11-17 09:00 UTC · 18:00 JST` (the local date added when it differs), computed here
 /// with chrono-tz rather than through the crate's formatter.
@@ -47,7 +47,7 @@ async fn the_headline_says_the_worst_alert_its_failure_date_and_what_to_do() {
         )
         .await;
     assert_eq!(st, 201, "{e}");
-    dashboard_support::fill_accelerating(&s, "tf").await;
+    support::dashboard::fill_accelerating(&s, "tf").await;
     let (_, open) = s.get("/api/v1/alerts?site=tf&state=open").await;
     let alarmed: Vec<String> = open["items"]
         .as_array()

@@ -1,13 +1,10 @@
 //! The dashboard in a real browser and over HTTP, and the CAP feed.
 //!
-//! One test binary per area (each binary links the whole crate once); the files are its modules.
+//! One test binary per area (each binary links the whole crate once); the files are its modules,
+//! and `tests/support/` holds the helpers every binary shares.
 
-#[path = "../dashboard_support/mod.rs"]
-mod dashboard_support;
-#[path = "../plot_support/mod.rs"]
-mod plot_support;
-#[path = "../watch_support/mod.rs"]
-mod watch_support;
+#[path = "../support/mod.rs"]
+mod support;
 
 mod alert_list;
 mod block_page;
@@ -15,6 +12,8 @@ mod browser;
 mod cap_feed;
 mod headline;
 mod pages;
+mod plan_labels;
 mod plots;
 mod security;
+mod sensitivity;
 mod sessions;

@@ -3,13 +3,12 @@
 //! epoch, user text escaped, the plot data equal to the API's series, acknowledgement from the
 //! site page and assets (the sign-in with tokens: `sessions.rs`).
 
-use crate::dashboard_support;
-use crate::plot_support;
+use crate::support;
 
-use dashboard_support::service_support::TestServer;
-use dashboard_support::{fill, html, links, name, POINTS, SITE, STABLE};
 use reqwest::header;
 use serde_json::{json, Value};
+use support::dashboard::{fill, html, links, name, POINTS, SITE, STABLE};
+use support::server::TestServer;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
@@ -459,11 +458,11 @@ async fn long_series_plot_keeps_peaks_ends_and_alert_epochs() {
     s.stop().await;
 }
 
-/// A long history plotted from SQLite: see [`plot_support::long_history_plot`].
+/// A long history plotted from SQLite: see [`support::plot::long_history_plot`].
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn long_history_plot_reads_block_extremes_and_keeps_the_envelope() {
     let s = TestServer::start(|_| {}).await;
-    plot_support::long_history_plot(&s.store, &s.url("")).await;
+    support::plot::long_history_plot(&s.store, &s.url("")).await;
     s.stop().await;
 }
 
@@ -471,7 +470,7 @@ async fn long_history_plot_reads_block_extremes_and_keeps_the_envelope() {
 /// says its estimates are filtered, and the forecast failure time reads in UTC and the site's zone.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_forecast_reads_in_utc_and_the_site_zone() {
-    use dashboard_support::day;
+    use support::dashboard::day;
     let s = TestServer::start(|_| {}).await;
     let r = s
         .client
@@ -481,7 +480,7 @@ async fn the_forecast_reads_in_utc_and_the_site_zone() {
         .await
         .unwrap();
     assert_eq!(r.status(), 201);
-    dashboard_support::fill_accelerating(&s, "tf").await;
+    support::dashboard::fill_accelerating(&s, "tf").await;
     let moving = name(POINTS - 1);
     let (_, page) = html(&s, &format!("/sites/tf/points/{moving}")).await;
     assert!(

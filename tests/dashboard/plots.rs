@@ -6,11 +6,11 @@
 //! empty frame.
 
 use crate::browser::Driver;
-use crate::dashboard_support;
+use crate::support;
 
-use dashboard_support::service_support::TestServer;
-use dashboard_support::{fill, name, POINTS, SITE};
 use serde_json::{json, Value};
+use support::dashboard::{fill, name, POINTS, SITE};
+use support::server::TestServer;
 
 /// What the plot of `panel` holds: uPlot's bands, series, data and y-scale, the specs drawn,
 /// the legend's entries and the markers drawn.

@@ -2,12 +2,12 @@
 //! framed or type-sniffed, a browser's change from another origin is refused with or without a
 //! bearer token, `.` and `..` are not ids, and every free-text field is bounded (422 naming it).
 
-use crate::dashboard_support;
+use crate::support;
 
 use cliffwatch::config::{Role, TokenConfig};
-use dashboard_support::service_support::TestServer;
-use dashboard_support::{fill, SITE};
 use serde_json::{json, Value};
+use support::dashboard::{fill, SITE};
+use support::server::TestServer;
 
 #[tokio::test]
 async fn every_answer_forbids_framing_and_sniffing() {

@@ -1,14 +1,14 @@
 //! Sign-in when tokens are set: pages need a session cookie, changes a CSRF token, and each
 //! role sees and may do only its own.
 
-use crate::dashboard_support;
+use crate::support;
 
 use cliffwatch::config::{Role, TokenConfig};
 use cliffwatch::http::session;
-use dashboard_support::service_support::TestServer;
-use dashboard_support::{fill, SITE};
 use reqwest::header;
 use serde_json::{json, Value};
+use support::dashboard::{fill, SITE};
+use support::server::TestServer;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn with_tokens_pages_need_a_session_and_changes_a_csrf_token() {

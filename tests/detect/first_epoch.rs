@@ -7,7 +7,7 @@
 //!   axis) and a turn of σ 2° about the vertical, plus σ 0.15 m per point: about ±0.5 m rms;
 //! - *independent*: σ per point alone, with no common part.
 
-use crate::identify_support;
+use crate::support;
 
 use cliffwatch::detect::first_epoch::{
     identify_first_epoch, FirstEpoch, FirstEpochError, FirstEpochOptions, StationView,
@@ -17,7 +17,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-use identify_support::{approximations, corner_targets, scene, true_orientation, Scene};
+use support::identify::{approximations, corner_targets, scene, true_orientation, Scene};
 
 /// Per station: (point, mm) of the targets inside the sensor with σ 0.25 px, then `clutter` blobs at
 /// least 1 mm from every target, shuffled together. Returns the blobs and the truth per blob.

@@ -2,7 +2,7 @@
 //! true cameras and perturbed; first epoch from seeds, second epoch (targets moved by a few cm) from
 //! the first epoch's orientations; ambiguity reported, never guessed.
 
-use crate::identify_support;
+use crate::support;
 
 use std::collections::BTreeMap;
 
@@ -13,7 +13,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-use identify_support::{scene, true_orientation, Scene};
+use support::identify::{scene, true_orientation, Scene};
 
 /// Observations (point, mm) of the points inside the sensor, with noise σ 0.25 px, shuffled.
 fn observe(

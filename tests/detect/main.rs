@@ -1,9 +1,10 @@
 //! Target detection, centring and identification against truth.
 //!
-//! One test binary per area (each binary links the whole crate once); the files are its modules.
+//! One test binary per area (each binary links the whole crate once); the files are its modules,
+//! and `tests/support/` holds the helpers every binary shares.
 
-#[path = "../identify_support/mod.rs"]
-mod identify_support;
+#[path = "../support/mod.rs"]
+mod support;
 
 mod first_epoch;
 mod identify;

@@ -5,9 +5,9 @@
 //! alert is never acknowledged before it was raised. The skewed nodes run under libfaketime
 //! (Debian's `faketime`), their clocks 10 or 30 minutes off; the database's is true.
 
-use crate::alerts_support::{self, service_support::Daemon, Receiver, Scene};
 use crate::nodes::{call, epoch, pending, polling_node_config, set_up_site, until_delivered};
-use crate::pg_support;
+use crate::support;
+use crate::support::alerts::{Daemon, Receiver, Scene};
 
 use std::time::{Duration, Instant};
 
@@ -74,7 +74,7 @@ async fn queue_through_true_node(dir: &std::path::Path, url: &str, ks: std::ops:
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn node_clocks_decide_no_webhook_lease() {
     sqlx::any::install_default_drivers();
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("clocks");
     let dir = tempfile::tempdir().unwrap();
     let rx = Receiver::start(0).await;
@@ -87,7 +87,7 @@ async fn node_clocks_decide_no_webhook_lease() {
             &node.base,
             Method::POST,
             "/api/v1/webhooks",
-            json!({"url": rx.url, "secret": alerts_support::SECRET, "min_level": "watch"}),
+            json!({"url": rx.url, "secret": support::alerts::SECRET, "min_level": "watch"}),
         )
         .await;
         node.kill9();
@@ -182,7 +182,7 @@ async fn until_overdue(node: &Daemon, site: &str, why: &str) {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn node_clocks_decide_no_overdue_campaign() {
     sqlx::any::install_default_drivers();
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("schedule");
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("cliffwatch.toml");
@@ -278,7 +278,7 @@ fn seconds_off(shown: &Value) -> i64 {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn node_clocks_stamp_no_recorded_time() {
     sqlx::any::install_default_drivers();
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("stamps");
     let dirs = [tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap()];
     let config = |d: &tempfile::TempDir| config(d.path(), &url, 3_600_000);

@@ -1,4 +1,4 @@
-//! Several daemons on one PostgreSQL database (`pg_support`'s throwaway cluster), checked against
+//! Several daemons on one PostgreSQL database (`support::pg`'s throwaway cluster), checked against
 //! one SQLite daemon fed the same uploads:
 //! - 20 concurrent uploaders across 3 nodes and 5 sites: no lost or duplicated epoch, no 5xx, and
 //!   every site's series equal to a sequential single-node run;
@@ -6,17 +6,16 @@
 //!   restarted: both serve the single node's series, the webhooks announce the same alert events,
 //!   and no `webhook-id` is delivered twice except what the killed node had in flight.
 
-use crate::alerts_support;
-use crate::pg_support;
+use crate::support;
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use alerts_support::service_support::{synthetic_epoch, Daemon, TestServer};
-use alerts_support::Receiver;
 use reqwest::{Client, Method};
 use serde_json::{json, Value};
+use support::alerts::Receiver;
+use support::server::{synthetic_epoch, Daemon, TestServer};
 
 /// Targets of each site; the first `STABLE` never move, the others are block B1.
 const POINTS: usize = 16;
@@ -37,7 +36,7 @@ pub(super) fn epoch(s: usize, k: usize) -> Value {
     synthetic_epoch(
         4,
         POINTS,
-        &alerts_support::day(k),
+        &support::alerts::day(k),
         10_000 * s as u64 + k as u64,
         STEP_MM * k as f64,
         STABLE,
@@ -211,7 +210,7 @@ async fn twenty_uploaders_three_nodes_five_sites() {
     const SITES: usize = 5;
     const EPOCHS: usize = 10;
     const UPLOADERS: usize = 20;
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("uploaders");
     let mut nodes = Vec::new();
     for _ in 0..3 {
@@ -286,7 +285,7 @@ async fn twenty_uploaders_three_nodes_five_sites() {
             assert_eq!(single.upload(&site_id(s), &epoch(s, k)).await.0, 201);
         }
     }
-    let expected_times: Vec<String> = (0..EPOCHS).map(alerts_support::day).collect();
+    let expected_times: Vec<String> = (0..EPOCHS).map(support::alerts::day).collect();
     for s in 0..SITES {
         let site = site_id(s);
         let want = series(&client, &single.base, &site).await;
@@ -403,7 +402,7 @@ async fn a_node_killed_mid_series_changes_nothing() {
     const KILL_AT: usize = 20;
     const SITE: &str = "cliff-1";
     sqlx::any::install_default_drivers();
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("killed");
     let dirs: Vec<tempfile::TempDir> = (0..3).map(|_| tempfile::tempdir().unwrap()).collect();
     let shared = node_config(dirs[0].path(), Some(&url));
@@ -423,7 +422,7 @@ async fn a_node_killed_mid_series_changes_nothing() {
             base,
             Method::POST,
             "/api/v1/webhooks",
-            json!({"url": rx.url, "secret": alerts_support::SECRET, "min_level": "watch"}),
+            json!({"url": rx.url, "secret": support::alerts::SECRET, "min_level": "watch"}),
         )
         .await;
     }

@@ -1,17 +1,16 @@
-//! The same daemon on PostgreSQL: a throwaway cluster (`pg_support`) serves a monitoring series
+//! The same daemon on PostgreSQL: a throwaway cluster (`support::pg`) serves a monitoring series
 //! (stable points, a declared block moving to alarm, an epoch out of order, a reference change,
 //! an acknowledgement), and every API answer is compared with the same scenario on SQLite. The
 //! data must survive a restart on the same database, move between the backends with
 //! `migrate-store`, and two daemons must share one database.
 
-use crate::alerts_support;
-use crate::pg_support;
-use crate::plot_support;
+use crate::support;
 
 use std::collections::BTreeMap;
 
-use alerts_support::service_support::{synthetic_epoch, TestServer};
 use serde_json::{json, Value};
+use support::day;
+use support::server::{synthetic_epoch, TestServer};
 
 const SITE: &str = "cliff";
 /// Targets of the scene; the first `STABLE` never move, the others are block B1.
@@ -23,10 +22,6 @@ const STEP_MM: f64 = 3.0;
 
 fn name(i: usize) -> String {
     format!("T{:03}", i + 1)
-}
-
-fn day(k: usize) -> String {
-    format!("2026-11-{:02}T09:00:00Z", k + 1)
 }
 
 async fn send(s: &TestServer, method: reqwest::Method, path: &str, body: Value) -> (u16, Value) {
@@ -326,7 +321,7 @@ async fn history(
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
     let _ = tracing_subscriber::fmt().with_test_writer().try_init();
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("cliffwatch");
 
     let sqlite = TestServer::start(|_| {}).await;
@@ -450,7 +445,7 @@ fn migrate_store(from: &str, to: &str) -> String {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn migrate_store_moves_an_installation_both_ways() {
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let pg_url = cluster.create_database("moved");
     let dir = tempfile::tempdir().unwrap();
     let first = format!("sqlite://{}", dir.path().join("first.db").display());
@@ -521,9 +516,9 @@ async fn migrate_store_moves_an_installation_both_ways() {
 /// message reaches the webhook exactly once although both delivery workers run.
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn two_nodes_share_one_database() {
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("nodes");
-    let receiver = alerts_support::Receiver::start(3).await;
+    let receiver = support::alerts::Receiver::start(3).await;
     let node = |url: String| {
         TestServer::start(move |c| {
             c.database_url = Some(url);
@@ -537,7 +532,7 @@ async fn two_nodes_share_one_database() {
         &a,
         reqwest::Method::POST,
         "/api/v1/webhooks",
-        json!({"url": receiver.url, "secret": alerts_support::SECRET, "min_level": "watch"}),
+        json!({"url": receiver.url, "secret": support::alerts::SECRET, "min_level": "watch"}),
     )
     .await;
     assert_eq!(st, 201, "{w}");
@@ -649,13 +644,13 @@ async fn two_nodes_share_one_database() {
 }
 
 /// The plot of a long history from PostgreSQL reads the blocks' extremes as SQLite does
-/// ([`plot_support::long_history_plot`]).
+/// ([`support::plot::long_history_plot`]).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn long_history_plot_on_postgres() {
-    let cluster = pg_support::PgCluster::start();
+    let cluster = support::pg::PgCluster::start();
     let url = cluster.create_database("plot");
     let pg = TestServer::start(move |c| c.database_url = Some(url)).await;
     assert_eq!(pg.store.backend(), cliffwatch::store::Backend::Postgres);
-    plot_support::long_history_plot(&pg.store, &pg.url("")).await;
+    support::plot::long_history_plot(&pg.store, &pg.url("")).await;
     pg.stop().await;
 }

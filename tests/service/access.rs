@@ -1,11 +1,11 @@
 //! Who may do what: bearer tokens and roles, host names served without tokens, the time limit
 //! of a request, and the OpenAPI document's answers of authorization.
 
-use crate::service_support;
+use crate::support;
 
 use cliffwatch::config::{Role, TokenConfig};
 use serde_json::{json, Value};
-use service_support::{paper, TestServer, PAPER};
+use support::server::{paper, TestServer, PAPER};
 
 /// With tokens configured, every operation of the document is tried without a token and, if it
 /// changes something, with the read token: the answer is 401 or 403 and the document lists it for

@@ -2,13 +2,13 @@
 //! A node whose upload slots are full turns uploads away with 503 and `Retry-After`, storing
 //! nothing, and every upload retried after it is stored once.
 
-use crate::service_support;
+use crate::support;
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 
 use serde_json::json;
-use service_support::{paper, TestServer, PAPER};
+use support::server::{paper, TestServer, PAPER};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn uploads_and_reads_in_parallel() {

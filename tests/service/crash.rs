@@ -1,21 +1,15 @@
 //! A server killed with SIGKILL in the middle of uploads restarts cleanly: every epoch is either
 //! fully there or absent, and re-uploading the absent ones works. Uses the real binary.
 
-use crate::service_support;
+use crate::support;
 
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
-use service_support::{paper, PAPER};
+use support::server::{paper, PAPER};
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
+use crate::support::free_port;
 
 struct Binary {
     child: Child,

@@ -1,9 +1,10 @@
 //! The HTTP API against a real server: uploads, series, concurrency, crashes.
 //!
-//! One test binary per area (each binary links the whole crate once); the files are its modules.
+//! One test binary per area (each binary links the whole crate once); the files are its modules,
+//! and `tests/support/` holds the helpers every binary shares.
 
-#[path = "../service_support/mod.rs"]
-mod service_support;
+#[path = "../support/mod.rs"]
+mod support;
 
 mod access;
 mod concurrency;

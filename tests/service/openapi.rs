@@ -1,10 +1,10 @@
 //! The OpenAPI document as the contract: health, metrics and request ids, every contract endpoint
 //! described with schemas, answers conforming to them, the upload form's bounds equal to the core's.
 
-use crate::service_support;
+use crate::support;
 
 use serde_json::{json, Value};
-use service_support::{paper, TestServer, PAPER};
+use support::server::{paper, TestServer, PAPER};
 
 #[tokio::test]
 async fn health_metrics_openapi_and_request_ids() {

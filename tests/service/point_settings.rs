@@ -1,10 +1,10 @@
 //! A point's settings (role, group, direction): what a PUT leaves out is kept, what it sets to
 //! null is cleared.
 
-use crate::service_support;
+use crate::support;
 
 use serde_json::{json, Value};
-use service_support::TestServer;
+use support::server::TestServer;
 
 #[tokio::test]
 async fn point_settings_keep_what_is_left_out_and_clear_what_is_null() {

@@ -1,10 +1,10 @@
 //! Bad input refused by name, storing nothing: text with NUL, every malformed or out-of-bounds
 //! upload, bodies that are not objects, integers sent as integral floats.
 
-use crate::service_support;
+use crate::support;
 
 use serde_json::{json, Value};
-use service_support::{paper, TestServer, PAPER};
+use support::server::{paper, TestServer, PAPER};
 
 /// Free text with NUL: 422 naming the field (the same on PostgreSQL, tests/postgres/store.rs).
 #[tokio::test]

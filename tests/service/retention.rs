@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use chrono::{SecondsFormat, Utc};
 use serde_json::Value;
 
-use crate::service_support::{synthetic_epoch, TestServer};
+use crate::support::server::{synthetic_epoch, TestServer};
 
 const SITE: &str = "ledge";
 const POINTS: usize = 12;

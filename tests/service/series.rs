@@ -2,7 +2,7 @@
 //! into the body, the CSV streamed in batches) against the portable sqlx read
 //! (`store::displacements::series`) of the same rows: the CSV's values and the JSON pages' bytes.
 
-use crate::service_support;
+use crate::support;
 
 use chrono::{DateTime, SecondsFormat, Utc};
 use cliffwatch::store::displacements::{self, Displacement};
@@ -10,7 +10,7 @@ use cliffwatch::store::series::blocks::{self, BLOCK_EPOCHS};
 use cliffwatch::store::series::BATCH_ROWS;
 use cliffwatch::store::{display_timestamp, timestamp, Store, StoreOptions};
 use serde_json::json;
-use service_support::TestServer;
+use support::server::TestServer;
 
 /// Rows spanning three CSV batches and one part-batch.
 const ROWS: usize = 2 * BATCH_ROWS + 37;

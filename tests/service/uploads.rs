@@ -1,11 +1,11 @@
 //! Uploads against a real server (in process, ephemeral port, temporary data dir): the paper
 //! epochs stored and read back, idempotency and conflicts, the CSV form with the site's cameras.
 
-use crate::service_support;
+use crate::support;
 
 use cliffwatch::photogrammetry::{adjust, AdjustOptions, EpochInput};
 use serde_json::{json, Value};
-use service_support::{paper, TestServer, PAPER};
+use support::server::{paper, TestServer, PAPER};
 
 #[tokio::test]
 async fn paper_epochs_upload_and_read_back() {

@@ -1,7 +1,7 @@
 //! SQLite's WAL is checkpointed by the daemon, not inside an upload's commit
 //! (`store::wal_checkpoint`).
 
-use crate::service_support::{synthetic_epoch, TestServer};
+use crate::support::server::{synthetic_epoch, TestServer};
 
 /// Uploads land in the WAL; the daemon's checkpointer (every second) then copies them into the
 /// database file without being asked, and a checkpoint with no reader in the way copies every

@@ -3,8 +3,7 @@
 //! seeds from the orientations kept in the database; the same folder again is not ingested twice
 //! (content hashes in the database); a broken folder goes to `.failed/` with `error.txt`.
 
-use crate::service_support;
-use crate::watch_support;
+use crate::support;
 
 use std::path::Path;
 
@@ -12,7 +11,7 @@ use cliffwatch::photogrammetry::input::epoch::ObservationInput;
 use cliffwatch::photogrammetry::EpochInput;
 use cliffwatch::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
 use cliffwatch::watch::{scan_once, WatchOptions};
-use service_support::TestServer;
+use support::server::TestServer;
 
 /// The first station image (`.png`) that `folder` lists.
 fn first_png(folder: &Path) -> std::path::PathBuf {
@@ -101,7 +100,7 @@ async fn watched_folders_are_detected_identified_ingested_once() {
     server.create_site("kamo").await;
     let watch = tempfile::tempdir().unwrap();
     let site = watch.path().join("kamo");
-    let epoch = watch_support::small_scene();
+    let epoch = support::watch::small_scene();
     let opts = WatchOptions::new(watch.path().to_path_buf());
 
     write_epoch(&site, &epoch, "e1", "2026-11-20T09:00:00Z", true, 1);
@@ -285,7 +284,7 @@ async fn a_folder_taken_late_leaves_the_newer_orientations() {
     server.create_site("kamo").await;
     server.create_site("kura").await;
     let watch = tempfile::tempdir().unwrap();
-    watch_support::folders_taken_out_of_order(&server.store, watch.path()).await;
+    support::watch::folders_taken_out_of_order(&server.store, watch.path()).await;
     server.stop().await;
 }
 
@@ -301,7 +300,7 @@ async fn a_folder_whose_epoch_committed_before_a_crash_is_not_failed() {
     server.create_site("kamo").await;
     let watch = tempfile::tempdir().unwrap();
     let site = watch.path().join("kamo");
-    let epoch = watch_support::small_scene();
+    let epoch = support::watch::small_scene();
     let opts = WatchOptions::new(watch.path().to_path_buf());
     let at = "2026-11-20T09:00:00Z";
     write_epoch(&site, &epoch, "e1", at, true, 1);

@@ -13,8 +13,7 @@
 //!   (2 m on the face): named, every name right; a roll of 8° about the optical axis: refused, and
 //!   `error.txt` names the stations to seed.
 
-use crate::identify_support;
-use crate::service_support;
+use crate::support;
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -25,11 +24,11 @@ use cliffwatch::simulate::images::{encode_png, random_clutter, render, ImageSpec
 use cliffwatch::simulate::scenes::{long_range, project, LongRangeParams, Truth};
 use cliffwatch::store::epochs;
 use cliffwatch::watch::{scan_once, WatchOptions};
-use identify_support::{approximations, corner_targets};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
-use service_support::TestServer;
+use support::identify::{approximations, corner_targets};
+use support::server::TestServer;
 
 /// Truth per station: point → (col, row) px.
 type Rendered = BTreeMap<String, BTreeMap<String, [f64; 2]>>;

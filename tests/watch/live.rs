@@ -4,14 +4,13 @@
 //! detected targets drawn over it and named as the truth names them; the preview is a JPEG of the
 //! image made on request; an image that has left the watched directory is reported, not served.
 
-use crate::service_support;
-use crate::watch_support;
+use crate::support;
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use service_support::TestServer;
-use watch_support::write_epoch;
+use support::server::TestServer;
+use support::watch::write_epoch;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn running_server_takes_a_ready_folder() {
@@ -21,7 +20,7 @@ async fn running_server_takes_a_ready_folder() {
     let dir = watch.path().to_path_buf();
     let server = TestServer::start(move |c| c.watch_dir = Some(dir)).await;
     server.create_site("kamo").await;
-    let epoch = watch_support::small_scene();
+    let epoch = support::watch::small_scene();
     // written while the server runs; READY last
     let (_, truth) = write_epoch(&site, &epoch, "e1", "2026-11-20T09:00:00Z", true, 1);
 

@@ -1,13 +1,10 @@
 //! The watched directory: images in, epochs out.
 //!
-//! One test binary per area (each binary links the whole crate once); the files are its modules.
+//! One test binary per area (each binary links the whole crate once); the files are its modules,
+//! and `tests/support/` holds the helpers every binary shares.
 
-#[path = "../identify_support/mod.rs"]
-mod identify_support;
-#[path = "../service_support/mod.rs"]
-mod service_support;
-#[path = "../watch_support/mod.rs"]
-mod watch_support;
+#[path = "../support/mod.rs"]
+mod support;
 
 mod dir;
 mod first_epoch;

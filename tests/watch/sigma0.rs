@@ -6,8 +6,7 @@
 //! A second epoch with three targets moved by 25–30 mm (≈ 10 px on the images), without seeds, is
 //! identified from the first epoch's orientations, again every label right.
 
-use crate::service_support;
-use crate::watch_support;
+use crate::support;
 
 use std::collections::BTreeMap;
 
@@ -17,8 +16,8 @@ use cliffwatch::watch::{scan_once, WatchOptions};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use service_support::TestServer;
-use watch_support::write_epoch;
+use support::server::TestServer;
+use support::watch::write_epoch;
 
 /// σ0 (image mm) of every epoch of a site, by epoch id.
 async fn sigma0s(store: &Store, site: &str) -> Vec<(i64, f64)> {

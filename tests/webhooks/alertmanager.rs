@@ -6,17 +6,17 @@
 //! resolution when things got worse; `generatorURL` opens the alert's dashboard page and the
 //! fingerprint is Alertmanager's. Under `CI=true` a missing Alertmanager fails the test.
 
-use crate::alerts_support;
+use crate::support;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use alerts_support::service_support::free_port;
-use alerts_support::{create_site, day, mark_stable, upload_new, write_config, Daemon, Scene};
 use reqwest::Method;
 use serde_json::{json, Value};
+use support::alerts::{create_site, day, mark_stable, upload_new, write_config, Daemon, Scene};
+use support::server::free_port;
 
 const SITE: &str = "cliff";
 /// The re-post period of the test (`alertmanager_resend_secs`).
@@ -254,7 +254,7 @@ async fn alertmanager_holds_every_open_alert_across_restarts_and_escalations() {
              format = \"alertmanager_api_v2\"\n",
             PERIOD.as_secs_f64(),
             am.alerts_url(),
-            alerts_support::SECRET
+            support::alerts::SECRET
         ),
     );
     let data = dir.path().join("data");

@@ -6,14 +6,14 @@
 //! their endpoint's secret, and a refused message comes back byte for byte on the retry; the
 //! Alertmanager API receiver is told the state (every open alert, signed) by the re-post loop.
 
-use crate::alerts_support;
+use crate::support;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
-use alerts_support::{outbox_ids, watch_block_moving, write_config, Daemon, Receiver, Scene};
 use reqwest::Method;
 use serde_json::{json, Value};
+use support::alerts::{outbox_ids, watch_block_moving, write_config, Daemon, Receiver, Scene};
 
 const SITE: &str = "cliff";
 const SECRET_V4: &str = "whsec_Y2xpZmZ3YXRjaC1hbS13ZWJob29rLXY0";
@@ -69,7 +69,7 @@ async fn each_endpoint_gets_its_format_signed_and_unchanged_on_retry() {
              [[webhooks]]\nurl = \"{}\"\nsecret = \"{}\"\nmin_level = \"watch\"\n\
              format = \"alertmanager_api_v2\"\n",
             standard.url,
-            alerts_support::SECRET,
+            support::alerts::SECRET,
             am_api.url,
             SECRET_V2
         ),
@@ -362,7 +362,7 @@ async fn endpoints_from_before_the_migration_keep_the_standard_body() {
             "INSERT INTO webhooks (id, url, secret, min_level, source, created_at) \
              VALUES ('old', 'http://127.0.0.1:9/hook', ?, 'watch', 'api', '2026-11-01T00:00:00.000000Z')",
         )
-        .bind(alerts_support::SECRET)
+        .bind(support::alerts::SECRET)
         .execute(&mut conn)
         .await
         .unwrap();

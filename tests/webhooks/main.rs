@@ -1,9 +1,10 @@
 //! Webhook delivery and payload formats.
 //!
-//! One test binary per area (each binary links the whole crate once); the files are its modules.
+//! One test binary per area (each binary links the whole crate once); the files are its modules,
+//! and `tests/support/` holds the helpers every binary shares.
 
-#[path = "../alerts_support/mod.rs"]
-mod alerts_support;
+#[path = "../support/mod.rs"]
+mod support;
 
 mod alertmanager;
 mod configured;

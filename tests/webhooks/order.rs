@@ -2,17 +2,17 @@
 //! order they happened although their first attempts failed, an endpoint that hangs delays no
 //! other endpoint, and `GET /api/v1/webhooks` shows what is still pending and why.
 
-use crate::alerts_support;
+use crate::support;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use alerts_support::{
+use serde_json::{json, Value};
+use support::alerts::{
     create_site, day, mark_stable, outbox_events, upload_new, write_config, Daemon, Receiver,
     Scene, SECRET,
 };
-use serde_json::{json, Value};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn each_alert_arrives_in_order_and_a_hanging_endpoint_delays_no_other() {

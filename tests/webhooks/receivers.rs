@@ -5,15 +5,15 @@
 //! verifies the signature, and one that refuses; an unpadded `whsec_` secret accepted. Under
 //! `CI=true` a missing checker fails the test.
 
-use crate::alerts_support;
+use crate::support;
 
 use std::collections::BTreeSet;
 use std::io::Write;
 use std::process::{Command, Stdio};
 
-use alerts_support::{create_site, day, upload_new, write_config, Daemon, Receiver, Scene};
 use reqwest::Method;
 use serde_json::{json, Value};
+use support::alerts::{create_site, day, upload_new, write_config, Daemon, Receiver, Scene};
 
 /// Whether `program` runs; outside CI a missing one skips (printed), under `CI=true` it fails.
 fn available(program: &str, args: &[&str], package: &str) -> bool {
@@ -205,13 +205,13 @@ async fn a_test_notification_reports_the_receivers_answer() {
         cliffwatch::webhooks::signing_key(&format!("{unpadded}=")).unwrap()
     );
     let good = Receiver::start_with_secret(0, unpadded).await;
-    let refusing = Receiver::start_with_secret(1, alerts_support::SECRET).await;
-    let am = Receiver::start_with_secret(0, alerts_support::SECRET).await;
+    let refusing = Receiver::start_with_secret(1, support::alerts::SECRET).await;
+    let am = Receiver::start_with_secret(0, support::alerts::SECRET).await;
     let mut ids = vec![];
     for (url, secret, format) in [
         (&good.url, unpadded, "standard"),
-        (&refusing.url, alerts_support::SECRET, "standard"),
-        (&am.url, alerts_support::SECRET, "alertmanager_api_v2"),
+        (&refusing.url, support::alerts::SECRET, "standard"),
+        (&am.url, support::alerts::SECRET, "alertmanager_api_v2"),
     ] {
         let (s, b) = d
             .send(

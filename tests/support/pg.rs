@@ -46,12 +46,7 @@ fn bin_dir() -> PathBuf {
     })
 }
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("free port")
-}
+use super::free_port;
 
 fn is_root() -> bool {
     Command::new("id")

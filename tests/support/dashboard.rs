@@ -1,29 +1,15 @@
 //! Shared by the dashboard tests: a site with a moving block, filled through the API.
 #![allow(dead_code)]
 
-#[path = "../service_support/mod.rs"]
-pub mod service_support;
-
+use crate::support::server::{synthetic_epoch, TestServer};
 use serde_json::json;
-use service_support::{synthetic_epoch, TestServer};
 
 pub const SITE: &str = "kamo";
 pub const NAME: &str = "Kamo <script>alert(1)</script> & cliff";
 pub const STABLE: usize = 8;
 pub const POINTS: usize = 16;
 
-pub fn day(k: usize) -> String {
-    (chrono::DateTime::parse_from_rfc3339("2026-11-01T09:00:00Z").unwrap()
-        + chrono::Duration::days(k as i64))
-    .to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
-}
-
-/// `hours` after the first day's 09:00 UTC, as RFC 3339.
-pub fn hour(hours: usize) -> String {
-    (chrono::DateTime::parse_from_rfc3339("2026-11-01T09:00:00Z").unwrap()
-        + chrono::Duration::hours(hours as i64))
-    .to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
-}
+pub use super::{day, hour};
 
 pub fn name(i: usize) -> String {
     format!("T{:03}", i + 1)
@@ -112,7 +98,7 @@ pub async fn fill_accelerating(s: &TestServer, site: &str) {
     }
     for k in 0..56 {
         let mm = -16.0 * (1.0 - k as f64 / 64.0).ln();
-        let body = service_support::synthetic_epoch_moved(
+        let body = super::server::synthetic_epoch_moved(
             4,
             POINTS,
             &hour(6 * k),

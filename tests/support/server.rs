@@ -331,14 +331,7 @@ pub struct Daemon {
     pub client: reqwest::Client,
 }
 
-/// A free loopback TCP port (bound, read, released).
-pub fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
+pub use super::free_port;
 
 impl Daemon {
     /// Starts `cliffwatch serve` on `data_dir` with `config`; waits for `/readyz`.

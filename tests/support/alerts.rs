@@ -1,11 +1,8 @@
 //! Helpers of the alerting tests: a monitoring series in the upload form with known truth (the
-//! synthetic epoch of `service_support`), the daemon binary on an ephemeral port (killable with
-//! SIGKILL; `service_support::Daemon`), a configuration with fast retries, and a loopback webhook
+//! synthetic epoch of `support::server`), the daemon binary on an ephemeral port (killable with
+//! SIGKILL; `support::server::Daemon`), a configuration with fast retries, and a loopback webhook
 //! receiver that verifies every Standard Webhooks signature and can answer 503 for a while.
 #![allow(dead_code)]
-
-#[path = "../service_support/mod.rs"]
-pub mod service_support;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -14,7 +11,7 @@ use std::sync::{Arc, Mutex};
 use reqwest::Method;
 use serde_json::{json, Value};
 
-pub use service_support::Daemon;
+pub use crate::support::server::Daemon;
 
 /// Creates site `id` (orthogonal model) with the given alert rules through the API.
 pub async fn create_site(d: &Daemon, id: &str, rules: Value) {
@@ -102,19 +99,14 @@ impl Scene {
     }
 
     /// One epoch in the upload form, the block moved `block_mm` from the reference
-    /// ([`service_support::synthetic_epoch`] with 4 stations).
+    /// ([`super::server::synthetic_epoch`] with 4 stations).
     pub fn epoch(&self, observed_at: &str, seed: u64, block_mm: f64) -> Value {
-        service_support::synthetic_epoch(4, self.n, observed_at, seed, block_mm, self.stable)
+        super::server::synthetic_epoch(4, self.n, observed_at, seed, block_mm, self.stable)
     }
 }
 
 /// `observed_at` of epoch `k`: one a day from 2026-11-01.
-pub fn day(k: usize) -> String {
-    let t = chrono::DateTime::parse_from_rfc3339("2026-11-01T09:00:00Z").unwrap()
-        + chrono::Duration::days(k as i64);
-    t.with_timezone(&chrono::Utc)
-        .to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
-}
+pub use super::day;
 
 /// A configuration file with fast webhook retries (poll 50 ms, backoff from 0.2 s, at most 1 s).
 pub fn write_config(dir: &Path, extra: &str) -> PathBuf {
