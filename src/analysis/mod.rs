@@ -56,7 +56,8 @@ pub(crate) mod velocity;
 pub use alerts::{
     acknowledge, analysis_failed, campaign_arrived, check_overdue, evaluate_alerts,
     may_acknowledge, reconcile, resolve, Alert, AlertConfig, AlertEvent, AlertEventType, AlertKind,
-    AlertLevel, AlertRule, AlertState, AlertStatus, Metric, Reading, Readings, Source,
+    AlertLevel, AlertRule, AlertState, AlertStatus, ClearedHow, ClearingTest, Metric, Reading,
+    Readings, Source,
 };
 pub use block_analysis::{BlockAnalysis, MIN_BLOCK_POINTS};
 pub use congruence::CongruenceTest;

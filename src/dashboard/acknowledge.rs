@@ -11,7 +11,7 @@ use axum::{Extension, Form};
 use maud::{html, Markup};
 use serde::Deserialize;
 
-use super::layout::{level_badge, num, page, seg, Viewer};
+use super::layout::{level_badge, metric_name, num, page, seg, Viewer};
 use super::local_time::when;
 use super::page::viewer;
 use crate::analysis::AlertStatus;
@@ -46,7 +46,7 @@ pub fn alert_row(a: &Alert, v: &Viewer, time_zone: Option<&str>) -> Markup {
                     "site"
                 }
             }
-            td { a href={ "/sites/" (site) "/alerts/" (seg(&a.id)) } title="history" { (a.rule) } }
+            td { a href={ "/sites/" (site) "/alerts/" (seg(&a.id)) } title="history" { (metric_name(&a.rule)) } }
             td.num { (num(a.value, 2)) " " (a.unit.as_deref().unwrap_or("")) }
             td.wide { @if let Some(e) = a.epoch { a href={ "/sites/" (site) "/epochs/" (e) } { (when(a.observed_at.as_deref().unwrap_or(""), time_zone)) } } }
             td.state {

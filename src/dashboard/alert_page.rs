@@ -1,18 +1,20 @@
 //! `GET /sites/{site}/alerts/{id}`: one alert and its history, oldest first: each event (raised,
 //! escalated, acknowledged, de-escalated, resolved) with the time it was processed beside the
 //! observation time of the epoch that decided it, its level, value, and who
-//! acknowledged with their comment, as its webhooks carried them
+//! acknowledged with their comment, and for a de-escalation or a resolution by the rules the test
+//! that decided it (value ± σ, threshold, confidence), as its webhooks carried them
 //! ([`crate::store::alerts::history`]; the API's `GET /api/v1/alerts/{id}/events`). An
 //! acknowledgement that a later escalation cleared stays in the history.
 
 use axum::extract::{Path, State};
 use axum::response::Html;
 use axum::Extension;
-use maud::html;
+use maud::{html, Markup};
 
 use super::layout::{level_badge, num, page, seg};
 use super::local_time::when;
 use super::page::{viewer, PageError};
+use crate::analysis::{ClearedHow, ClearingTest};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::alerts;
@@ -64,6 +66,9 @@ pub async fn alert(
                         td { (e.data.acknowledged_by.as_deref().unwrap_or("")) }
                         td { @if let Some(c) = &e.data.comment { q { (c) } } }
                     }
+                    @if let Some(t) = &e.data.cleared_by {
+                        tr.test { td colspan="8" { (clearing_words(t, &e.data.unit)) } }
+                    }
                 }
             }
         }
@@ -73,4 +78,45 @@ pub async fn alert(
         (a.id.clone(), format!("/sites/{s}/alerts/{}", seg(&a.id))),
     ];
     Ok(Html(page(&a.id, &crumbs, &v, body).into_string()))
+}
+
+/// The test that cleared a level, in words: "decided by the warning rule (threshold 10 mm):
+/// value 8.21 ± 0.35 mm; 8.21 − 2.33 × 0.35 = 7.40 is not above 10 mm at 99 % confidence for 1
+/// epoch". The numbers sit in their own elements (`.value`, `.sigma`, `.threshold`,
+/// `.confidence`).
+fn clearing_words(t: &ClearingTest, unit: &str) -> Markup {
+    let pct = format!("{}", (t.confidence * 1000.0).round() / 10.0);
+    let n = t.quiet_epochs;
+    let (op, edge, side) = match t.value {
+        Some(v) if t.below => ("+", v + t.z * t.sigma, "below"),
+        Some(v) => ("−", v - t.z * t.sigma, "above"),
+        None => ("", 0.0, ""),
+    };
+    html! {
+        "decided by the " (t.level) " rule"
+        @if let Some(th) = t.threshold { " (" (side) " " span.threshold { (th) } " " (unit) ")" }
+        ": value "
+        @match t.value {
+            Some(v) => { span.value { (format!("{v:.2}")) } " ± " span.sigma { (format!("{:.2}", t.sigma)) } " " (unit) }
+            None => "none",
+        }
+        @if !t.significant { " (not significant)" }
+        "; "
+        @match (t.how, t.value, t.threshold) {
+            (ClearedHow::PastClearThreshold, _, _) => {
+                "past its clear threshold " (t.clear_threshold.map(|c| c.to_string()).unwrap_or_default()) " " (unit)
+                " (hysteresis: no confidence needed; the rule's is " span.confidence { (pct) } " %)"
+            }
+            (ClearedHow::NotExceeded, Some(v), Some(th)) => {
+                (format!("{v:.2} {op} {:.2} × {:.2} = {edge:.2}", t.z, t.sigma))
+                " is not " (side) " " (th) " " (unit) " at " span.confidence { (pct) } " % confidence"
+            }
+            (ClearedHow::NotSignificant, _, _) => {
+                "over the threshold but not significant (confidence " span.confidence { (pct) } " %)"
+            }
+            _ => { "no value of the metric (confidence " span.confidence { (pct) } " %)" }
+        }
+        @if n > 0 { " for " (n) " epoch" @if n > 1 { "s" } }
+        "."
+    }
 }

@@ -88,6 +88,20 @@ pub fn with_sigma(v: Option<f64>, sigma: Option<f64>, digits: usize) -> String {
     }
 }
 
+/// A metric or site-level kind in words, short.
+pub fn metric_name(rule: &str) -> &str {
+    match rule {
+        "displacement_mm" => "displacement",
+        "displacement_along_mm" => "displacement along its direction",
+        "velocity_mm_per_day" => "velocity",
+        "time_to_failure_hours" => "time to failure",
+        "reference_unstable" => "reference unstable",
+        "campaign_overdue" => "campaign overdue",
+        "analysis_failed" => "analysis failed",
+        other => other,
+    }
+}
+
 pub use crate::http::seg;
 
 /// A time to failure (h) with its σ, or "no reliable forecast" when its 90 % interval is wider

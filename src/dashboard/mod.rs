@@ -23,6 +23,7 @@
 
 pub(crate) mod acknowledge;
 pub(crate) mod alert_filter;
+pub(crate) mod alert_groups;
 pub(crate) mod alert_page;
 pub(crate) mod assets;
 pub(crate) mod block_page;
@@ -33,6 +34,8 @@ pub(crate) mod face_plan;
 pub(crate) mod headline;
 pub mod image_preview;
 pub(crate) mod layout;
+#[cfg(test)]
+mod level_colours;
 pub(crate) mod local_time;
 pub(crate) mod natural_order;
 pub(crate) mod page;

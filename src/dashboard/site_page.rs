@@ -1,5 +1,6 @@
-//! `GET /sites/{site}`: the face plan, the alerts with acknowledgement (open ones by default;
-//! filtered by level, state and subject, [`super::alert_filter`]), the epochs (time, σ0, c ± σ,
+//! `GET /sites/{site}`: the face plan, the alerts one row per subject with acknowledgement (open
+//! ones by default; filtered by level, state and subject, [`super::alert_filter`];
+//! [`super::alert_groups`]), the epochs (time, σ0, c ± σ,
 //! dropped observations) and a table of the points (latest displacement ± σ, significance,
 //! velocity, time to failure).
 
@@ -11,7 +12,6 @@ use axum::response::Html;
 use axum::Extension;
 use maud::{html, Markup};
 
-use super::acknowledge::alert_row;
 use super::alert_filter::{AlertFilter, AlertQuery};
 use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma, Viewer};
 use super::local_time::when;
@@ -125,7 +125,7 @@ pub async fn site(
             h2 { "Face plan" }
             (face_plan(&site.id, &plan))
         }
-        (alerts_section(&filter, &shown, truncated, &v, &site_href, tz))
+        (alerts_section(&filter, &shown, &block_of(&blocks, &pts), truncated, &v, &site_href, tz))
         (points_table(&pts, &latest, &levels, &site_href))
         (epochs_table(&epoch_page, &site_href, tz))
     };
@@ -133,11 +133,36 @@ pub async fn site(
     Ok(Html(page(&site.name, &crumbs, &v, body).into_string()))
 }
 
-/// The alerts matching `filter`, each with its acknowledgement form where `v` may acknowledge;
-/// `truncated` when the newest [`ALERTS_READ`] were not all of them.
+/// The declared block of each point in one: a block's listed points, or, when it lists none,
+/// the points whose group names it.
+fn block_of(
+    blocks: &[crate::analysis::GroupConfig],
+    pts: &[points::Point],
+) -> HashMap<String, String> {
+    let mut out = HashMap::new();
+    for b in blocks {
+        if b.points.is_empty() {
+            for p in pts
+                .iter()
+                .filter(|p| p.group.as_deref() == Some(b.name.as_str()))
+            {
+                out.insert(p.name.clone(), b.name.clone());
+            }
+        }
+        for p in &b.points {
+            out.insert(p.clone(), b.name.clone());
+        }
+    }
+    out
+}
+
+/// The alerts matching `filter`, one row per subject ([`super::alert_groups`]; `block_of`: the
+/// declared block of each point in one), each alert with its acknowledgement form where `v` may
+/// acknowledge; `truncated` when the newest [`ALERTS_READ`] were not all of them.
 fn alerts_section(
     filter: &AlertFilter,
     shown: &[alerts::Alert],
+    block_of: &HashMap<String, String>,
     truncated: bool,
     v: &Viewer,
     site_href: &str,
@@ -150,10 +175,7 @@ fn alerts_section(
             @if shown.is_empty() {
                 p.note { "No alert matches." }
             } @else {
-                table.alerts {
-                    thead { tr { th { "level" } th { "subject" } th { "rule" } th { "value" } th.wide { "epoch" } th { "state" } th { "acknowledge" } } }
-                    tbody { @for a in shown { (alert_row(a, v, tz)) } }
-                }
+                (super::alert_groups::table(&super::alert_groups::group(shown, block_of), v, site_href, tz))
             }
             @if truncated { p.note { "Only the newest " (ALERTS_READ) " alerts of this state were searched: older ones may match." } }
         }

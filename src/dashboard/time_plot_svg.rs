@@ -1,6 +1,8 @@
 //! A small server-drawn time plot (SVG) for printed pages and the block page: one value against
-//! time with its ±2σ band, horizontal threshold lines and, for inverse velocity, the straight
-//! line of the forecast's law down to its zero. The interactive pages use uPlot instead.
+//! time with its ±2σ band (one filled shape), horizontal threshold lines and, for inverse
+//! velocity, the straight line of the forecast's law down to its zero; value ticks at round
+//! steps, date ticks, and a legend under it naming each line, band and threshold drawn. The
+//! interactive pages use uPlot instead.
 
 use maud::{html, Markup};
 
@@ -104,6 +106,20 @@ pub fn time_plot_with_line(
             .map(|d| d.format("%Y-%m-%d").to_string())
             .unwrap_or_default()
     };
+    let y_ticks = ticks(lo, hi);
+    // Date ticks: about five, at whole days when the period spans days.
+    let x_ticks: Vec<f64> = {
+        let n = 4.0;
+        let step = ((t1 - t0) / n / 86_400.0).ceil().max(1.0) * 86_400.0;
+        let first = (t0 / 86_400.0).ceil() * 86_400.0;
+        // The last label is the end's (e.g. the forecast failure day): none too close to it.
+        (0..)
+            .map(|k| first + k as f64 * step)
+            .take_while(|t| *t <= t1 - 0.6 * step)
+            .take(8)
+            .collect()
+    };
+    let banded = pts.iter().any(|p| p.2 > 0.0);
     html! {
         svg.timeplot viewBox={ "0 0 " (W) " " (H) } xmlns="http://www.w3.org/2000/svg" {
             path.band d=(band) {}
@@ -116,13 +132,58 @@ pub fn time_plot_with_line(
             }
             line.axis x1=(LEFT) x2=(LEFT) y1=(TOP) y2=(H - BOTTOM) {}
             line.axis x1=(LEFT) x2=(W - 8.0) y1=(H - BOTTOM) y2=(H - BOTTOM) {}
-            text x="2" y=(format!("{:.0}", TOP + 8.0)) { (format!("{hi:.1}")) }
-            text x="2" y=(format!("{:.0}", H - BOTTOM)) { (format!("{lo:.1}")) }
-            text x="2" y=(format!("{:.0}", H / 2.0)) { (unit) }
-            text x=(LEFT) y=(H - 6.0) { (day(t0)) }
-            text x=(W - 8.0) y=(H - 6.0) text-anchor="end" { (day(t1)) }
+            @for v in &y_ticks {
+                line.grid x1=(LEFT) x2=(W - 8.0) y1=(format!("{:.1}", y(*v))) y2=(format!("{:.1}", y(*v))) {}
+                text.tick x=(LEFT - 3.0) y=(format!("{:.1}", y(*v) + 3.0)) text-anchor="end" { (tick_text(*v, &y_ticks)) }
+            }
+            text x="2" y=(format!("{:.0}", TOP + 2.0)) { (unit) }
+            @for t in &x_ticks {
+                line.grid x1=(format!("{:.1}", x(*t))) x2=(format!("{:.1}", x(*t))) y1=(TOP) y2=(H - BOTTOM) {}
+                text.tick x=(format!("{:.1}", x(*t))) y=(H - 8.0) text-anchor="middle" { (day(*t)) }
+            }
+            text.tick x=(W - 8.0) y=(H - 8.0) text-anchor="end" { (day(t1)) }
+        }
+        ul.legend {
+            li data-kind="line" { span.swatch.value {} "value (" (unit) ")" }
+            @if banded { li data-kind="band" { span.swatch.band {} "±2σ" } }
+            @if line.is_some() { li data-kind="line" { span.swatch.fit {} "forecast's inverse-velocity law (zero: failure time)" } }
+            @for (v, level) in thresholds {
+                li data-kind="threshold" { span class={ "swatch threshold " (level_class(Some(*level))) } {} (level_class(Some(*level))) " threshold " (v) " " (unit) }
+            }
         }
     }
+}
+
+/// Round value ticks within `[lo, hi]`: steps of 1, 2 or 5 × 10ⁿ, three to seven of them.
+fn ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let raw = (hi - lo) / 6.0;
+    if raw.is_nan() || raw <= 0.0 || !raw.is_finite() {
+        return vec![lo];
+    }
+    let mag = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|k| k * mag)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * mag);
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step).floor() as i64;
+    (first..=last).map(|k| k as f64 * step).collect()
+}
+
+/// A tick's text with as many decimals as the step needs.
+fn tick_text(v: f64, ticks: &[f64]) -> String {
+    let step = match ticks {
+        [a, b, ..] => (b - a).abs(),
+        _ => 1.0,
+    };
+    let digits = if step >= 1.0 {
+        0
+    } else {
+        (-step.log10().floor()) as usize
+    };
+    let v = if v.abs() < step * 1e-6 { 0.0 } else { v };
+    format!("{v:.digits$}")
 }
 
 #[cfg(test)]
@@ -138,6 +199,10 @@ mod tests {
         assert!(svg.contains("class=\"band\"") && svg.contains("class=\"value\""));
         assert!(svg.contains("threshold watch"));
         assert!(svg.matches('L').count() >= 9, "{svg}");
+        // The legend names the line, the band and the threshold; the value ticks are round.
+        assert!(svg.contains("data-kind=\"band\"") && svg.contains("watch threshold 5 mm"));
+        assert_eq!(ticks(-0.3, 10.7), [0.0, 2.0, 4.0, 6.0, 8.0, 10.0]);
+        assert_eq!(tick_text(0.25, &[0.0, 0.05]), "0.25");
         assert!(time_plot(&[], &[], &[], &[], "mm")
             .into_string()
             .contains("no values"));

@@ -239,6 +239,8 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("acknowledged_by", T),
             ("ack_comment", T),
             ("group_name", T),
+            ("raised_epoch_id", I),
+            ("raised_observed_at", T),
         ],
     ),
     (

@@ -115,6 +115,11 @@ pub struct WebhookData {
     /// configured).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub url: Option<String>,
+    /// For `alert.deescalated` and `alert.resolved` decided by the rules: the test that decided
+    /// it (the rule's level, value, σ, threshold, confidence; absent otherwise, and in events
+    /// recorded before it existed).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub cleared_by: Option<crate::analysis::ClearingTest>,
 }
 
 /// The contract body `{"type", "timestamp", "data"}`.
@@ -163,6 +168,7 @@ impl WebhookPayload {
                 acknowledged_by: a.acknowledged_by.clone().filter(|_| acknowledged),
                 comment: a.comment.clone().filter(|_| acknowledged),
                 url: alert_page_url(public_url, &a.site, &a.id),
+                cleared_by: event.cleared_by.clone(),
             },
         }
     }

@@ -63,6 +63,7 @@ pub fn test_body(
                 acknowledged_by: None,
                 comment: None,
                 url: None,
+                cleared_by: None,
             },
         }),
         PayloadFormat::AlertmanagerWebhook => serde_json::to_string(&AlertmanagerBody {

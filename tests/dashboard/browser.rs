@@ -34,8 +34,13 @@ pub(crate) struct Driver {
 }
 
 impl Driver {
-    /// Types `name` into the acknowledgement form of alert `id`'s row and clicks the button.
+    /// Types `name` into the acknowledgement form of alert `id`'s row and clicks the button,
+    /// after opening its subject's list of alerts (as a person clicks it open).
     pub(crate) async fn acknowledge_as(&self, id: &str, name: &str) {
+        self.script(&format!(
+            "var d = document.getElementById('alert-{id}').closest('details'); if (d) d.open = true; return true"
+        ))
+        .await;
         let input = self
             .element(&format!("[id=\"alert-{id}\"] input[name=by]"))
             .await;
@@ -236,7 +241,7 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
     assert!(canvases.as_u64().unwrap() >= 4, "{canvases} canvases");
     // Time reads in UTC on the plots too, as everywhere on the dashboard.
     let x_label = driver
-        .script("return document.querySelector('.plots .u-legend .u-series .u-label').textContent")
+        .script("return document.querySelector('.plots ul.legend li[data-kind=axis]').textContent")
         .await;
     assert_eq!(x_label, json!("time (UTC)"));
     let forecast = driver
@@ -340,13 +345,17 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
     let (_, acked) = s
         .get(&format!("/api/v1/alerts?site={SITE}&state=acknowledged"))
         .await;
-    let want: Vec<Value> = acked["items"]
+    // The page groups them by subject, so the order is not the API's.
+    let mut want: Vec<String> = acked["items"]
         .as_array()
         .unwrap()
         .iter()
-        .map(|a| json!(format!("alert-{}", a["id"].as_str().unwrap())))
+        .map(|a| format!("alert-{}", a["id"].as_str().unwrap()))
         .collect();
-    assert_eq!(rows, json!(want), "acknowledged alerts after the filter");
+    let mut rows: Vec<String> = serde_json::from_value(rows).unwrap();
+    want.sort_unstable();
+    rows.sort_unstable();
+    assert_eq!(rows, want, "acknowledged alerts after the filter");
     assert_eq!(
         driver
             .script("return document.querySelectorAll('section#alerts').length + document.querySelectorAll('form.filters').length")

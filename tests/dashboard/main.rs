@@ -6,12 +6,14 @@
 #[path = "../support/mod.rs"]
 mod support;
 
+mod alert_list;
 mod block_page;
 mod browser;
 mod cap_feed;
 mod headline;
 mod pages;
 mod plan_labels;
+mod plots;
 mod security;
 mod sensitivity;
 mod sessions;

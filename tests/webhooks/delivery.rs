@@ -97,6 +97,7 @@ fn event(ty: AlertEventType, level: AlertLevel) -> AlertEvent {
             comment: None,
             message: "kamo/T103: displacement_mm 12.40 mm above 10 mm (warning)".into(),
         },
+        cleared_by: None,
     }
 }
 

@@ -53,6 +53,7 @@ pub fn acknowledge(
             event_type: AlertEventType::Acknowledged,
             timestamp: now,
             alert,
+            cleared_by: None,
         },
     ))
 }
@@ -89,6 +90,7 @@ pub fn resolve(
             event_type: AlertEventType::Resolved,
             timestamp: now,
             alert,
+            cleared_by: None,
         },
     ))
 }

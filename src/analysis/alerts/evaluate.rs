@@ -4,7 +4,9 @@
 use chrono::{DateTime, Utc};
 
 use super::alert::{AlertEvent, AlertState, RuleMemory};
+use super::alert::{ClearedHow, ClearingTest};
 use super::metric::{AlertKind, Metric};
+use super::readings::Reading;
 use super::readings::Readings;
 use super::rule::{AlertConfig, AlertRule};
 use super::transition::{apply, fmt_time, Subject, Update};
@@ -40,6 +42,8 @@ fn evaluate_subject(
     let prefix = s.subject.memory_prefix();
     for m in metrics {
         let mut top: Option<&AlertRule> = None;
+        // The highest rule of the metric that stopped being active this epoch, and its test.
+        let mut cleared: Option<ClearingTest> = None;
         let mut shown = s.readings.get(m, m.default_source()).value;
         for r in rules.iter().filter(|r| r.metric == m) {
             let z = r.z(config.confidence);
@@ -64,16 +68,23 @@ fn evaluate_subject(
                     // a value that is not significant does not clear an alarm on a block that
                     // may still be moving. Without a clear threshold, or without a value, the
                     // epoch counts as quiet.
-                    match reading.value.and_then(|v| r.clears(v)) {
-                        Some(true) => mem = RuleMemory::default(),
-                        Some(false) => {}
+                    let confidence = r.confidence(config.confidence);
+                    let test = match reading.value.and_then(|v| r.clears(v)) {
+                        Some(true) => Some(clearing_test(r, &reading, confidence, z, true, 0)),
+                        Some(false) => None,
                         None => {
                             mem.quiet_epochs += 1;
-                            if mem.quiet_epochs
-                                >= r.quiet_epochs.unwrap_or(config.quiet_epochs).max(1)
-                            {
-                                mem = RuleMemory::default();
-                            }
+                            (mem.quiet_epochs
+                                >= r.quiet_epochs.unwrap_or(config.quiet_epochs).max(1))
+                            .then(|| {
+                                clearing_test(r, &reading, confidence, z, false, mem.quiet_epochs)
+                            })
+                        }
+                    };
+                    if let Some(test) = test {
+                        mem = RuleMemory::default();
+                        if cleared.as_ref().is_none_or(|c| test.level > c.level) {
+                            cleared = Some(test);
                         }
                     }
                 }
@@ -103,10 +114,51 @@ fn evaluate_subject(
                 epoch: Some(analysis.epoch),
                 observed_at: Some(analysis.observed_at),
                 id_suffix: suffix.to_string(),
+                cleared_by: cleared,
             },
             now,
             events,
         );
+    }
+}
+
+/// The test of rule `r` (confidence `confidence`, quantile `z`) that cleared on `reading`
+/// after `quiet_epochs` quiet epochs, past its clear threshold when `past_clear`.
+fn clearing_test(
+    r: &AlertRule,
+    reading: &Reading,
+    confidence: f64,
+    z: f64,
+    past_clear: bool,
+    quiet_epochs: u32,
+) -> ClearingTest {
+    let how = if past_clear {
+        ClearedHow::PastClearThreshold
+    } else {
+        match reading.value {
+            None => ClearedHow::NoValue,
+            Some(v)
+                if r.require_significant
+                    && !reading.significant
+                    && r.triggers(v, reading.sigma, z) =>
+            {
+                ClearedHow::NotSignificant
+            }
+            Some(_) => ClearedHow::NotExceeded,
+        }
+    };
+    ClearingTest {
+        level: r.level,
+        value: reading.value,
+        sigma: reading.sigma,
+        threshold: r.threshold(),
+        below: r.below.is_some(),
+        clear_threshold: r.clear_below.or(r.clear_above),
+        confidence,
+        z,
+        significant: reading.significant,
+        how,
+        quiet_epochs: if past_clear { 0 } else { quiet_epochs },
     }
 }
 

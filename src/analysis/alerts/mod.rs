@@ -29,7 +29,8 @@ pub(crate) mod rule;
 mod transition;
 
 pub use alert::{
-    Alert, AlertEvent, AlertEventType, AlertLevel, AlertState, AlertStatus, RuleMemory,
+    Alert, AlertEvent, AlertEventType, AlertLevel, AlertState, AlertStatus, ClearedHow,
+    ClearingTest, RuleMemory,
 };
 pub use by_hand::{acknowledge, may_acknowledge, resolve};
 pub use evaluate::{analysis_failed, evaluate_alerts};

@@ -56,6 +56,7 @@ pub fn reconcile(
                         event_type: ty,
                         timestamp: now,
                         alert: a.clone(),
+                        cleared_by: None,
                     });
                 }
                 out.alerts.push(a);
@@ -69,6 +70,7 @@ pub fn reconcile(
                     event_type: AlertEventType::Raised,
                     timestamp: now,
                     alert: a.clone(),
+                    cleared_by: None,
                 });
                 out.alerts.push(a);
             }
@@ -91,6 +93,7 @@ pub fn reconcile(
                 event_type: AlertEventType::Resolved,
                 timestamp: now,
                 alert: a,
+                cleared_by: None,
             });
         }
     }

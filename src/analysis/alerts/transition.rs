@@ -3,7 +3,9 @@
 
 use chrono::{DateTime, SecondsFormat, Utc};
 
-use super::alert::{Alert, AlertEvent, AlertEventType, AlertLevel, AlertState, AlertStatus};
+use super::alert::{
+    Alert, AlertEvent, AlertEventType, AlertLevel, AlertState, AlertStatus, ClearingTest,
+};
 use super::metric::AlertKind;
 use super::rule::AlertRule;
 
@@ -94,6 +96,9 @@ pub(super) struct Update<'a> {
     pub(super) observed_at: Option<DateTime<Utc>>,
     /// Last part of a new alert's id (the epoch, or a timestamp).
     pub(super) id_suffix: String,
+    /// The test of the highest rule that stopped being active, when one did: it decides a
+    /// de-escalation or a resolution.
+    pub(super) cleared_by: Option<ClearingTest>,
 }
 
 impl<'a> Update<'a> {
@@ -122,6 +127,7 @@ impl<'a> Update<'a> {
             epoch,
             observed_at,
             id_suffix,
+            cleared_by: None,
         }
     }
 }
@@ -179,6 +185,7 @@ pub(super) fn apply(
                 event_type: AlertEventType::Raised,
                 timestamp: now,
                 alert,
+                cleared_by: None,
             });
         }
         (Some(i), level) => {
@@ -204,6 +211,7 @@ pub(super) fn apply(
                         event_type: AlertEventType::Resolved,
                         timestamp: now,
                         alert,
+                        cleared_by: up.cleared_by,
                     });
                 }
                 Some(l) if l != a.level => {
@@ -228,6 +236,7 @@ pub(super) fn apply(
                         event_type: ty,
                         timestamp: now,
                         alert: a.clone(),
+                        cleared_by: up.cleared_by.filter(|_| ty == AlertEventType::Deescalated),
                     });
                 }
                 // The same level: a metric alert's summary follows the latest value, as `value`

@@ -54,6 +54,12 @@ pub struct Alert {
     pub epoch: Option<i64>,
     /// Observation time of the epoch.
     pub observed_at: Option<String>,
+    /// The epoch that raised it (`epoch` is the latest that evaluated it); null for alerts
+    /// of no epoch, and for old alerts whose raising was not recorded.
+    #[sqlx(rename = "raised_epoch_id")]
+    pub raised_epoch: Option<i64>,
+    /// Observation time of the raising epoch (RFC 3339 UTC).
+    pub raised_observed_at: Option<String>,
     /// Human-readable message.
     pub message: String,
     /// Where it is in its lifecycle.
@@ -73,8 +79,8 @@ pub struct Alert {
 /// read as `alerts`, unaliased).
 pub(super) const COLUMNS: &str =
     "id, site_id, point, group_name, points AS points, level, rule, value, threshold, unit, epoch_id, \
-    observed_at, message, state, raised_at, updated_at, acknowledged_by, ack_comment, \
-    (SELECT o.level FROM webhook_outbox o WHERE o.alert_id = alerts.id AND o.level IS NOT NULL \
+    observed_at, raised_epoch_id, raised_observed_at, message, state, raised_at, updated_at, \
+    acknowledged_by, ack_comment, (SELECT o.level FROM webhook_outbox o WHERE o.alert_id = alerts.id AND o.level IS NOT NULL \
      ORDER BY CASE o.level WHEN 'alarm' THEN 3 WHEN 'warning' THEN 2 ELSE 1 END DESC LIMIT 1) AS peak_level";
 
 pub(super) fn finish(mut rows: Vec<Alert>) -> Vec<Alert> {
@@ -85,6 +91,7 @@ pub(super) fn finish(mut rows: Vec<Alert>) -> Vec<Alert> {
         a.raised_at = display_timestamp(&a.raised_at);
         a.updated_at = display_timestamp(&a.updated_at);
         a.observed_at = a.observed_at.as_deref().map(display_timestamp);
+        a.raised_observed_at = a.raised_observed_at.as_deref().map(display_timestamp);
     }
     rows
 }
@@ -214,7 +221,8 @@ pub async fn active_levels(
 }
 
 /// Writes an alert as the alert engine left it after an event: the row is updated to the
-/// alert's snapshot, or inserted when the alert is new. `state` is the row's state after the
+/// alert's snapshot, or inserted when the alert is new (its epoch then is the raising epoch,
+/// kept in `raised_epoch_id` and `raised_observed_at`). `state` is the row's state after the
 /// event (`open`, `acknowledged` or `resolved`), `updated_at` the event's time.
 pub async fn save(
     db: &mut AnyConnection,
@@ -228,8 +236,9 @@ pub async fn save(
     sqlx::query(
         "INSERT INTO alerts (id, site_id, point, group_name, points, level, rule, value, \
          threshold, unit, epoch_id, observed_at, message, state, raised_at, updated_at, \
-         acknowledged_by, ack_comment) \
-         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18) \
+         acknowledged_by, ack_comment, raised_epoch_id, raised_observed_at) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, \
+         $19, $20) \
          ON CONFLICT (id) DO UPDATE SET level = excluded.level, value = excluded.value, \
          threshold = excluded.threshold, unit = excluded.unit, epoch_id = excluded.epoch_id, \
          observed_at = excluded.observed_at, message = excluded.message, state = excluded.state, \
@@ -254,6 +263,8 @@ pub async fn save(
     .bind(timestamp(updated_at))
     .bind(&a.acknowledged_by)
     .bind(&a.comment)
+    .bind(a.epoch)
+    .bind(a.observed_at.map(timestamp))
     .execute(&mut *db)
     .await?;
     Ok(())
