@@ -9,6 +9,9 @@
 //! - along a direction u: δ_u = √(λ₀ / uᵀ Σ⁻¹ u);
 //! - in 3-D, the worst direction (the largest eigenvalue of Σ): δ_3D = √(λ₀ · λ_max(Σ)).
 //!
+//! The non-central χ² and its λ₀ live in [`super::stats`], cached per (critical value, dof,
+//! power), since every point of a page asks for the same λ₀.
+//!
 //! "No alert" then reads as "no movement above δ". With a finite variance-factor dof the test's
 //! critical value is `h·F(h, f)` while this power uses the χ' distribution (Σ taken as known): the
 //! MDD is then slightly optimistic, by the same small margin as the F against the χ² quantile.
@@ -16,7 +19,7 @@
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::stats::chi2_cdf;
+use super::stats::noncentrality_for_power;
 
 /// The power the dashboard and the report state the MDD at: 80 %.
 pub const DEFAULT_POWER: f64 = 0.8;
@@ -31,71 +34,6 @@ pub struct MinimumDetectable {
     pub worst_mm: f64,
     /// The detection probability the MDD is stated at (0–1).
     pub power: f64,
-}
-
-/// CDF of the non-central χ²(k, λ) at x: the Poisson(λ/2) mixture of central χ²(k + 2j).
-pub fn noncentral_chi2_cdf(x: f64, k: f64, lambda: f64) -> f64 {
-    if x <= 0.0 {
-        return 0.0;
-    }
-    if lambda <= 0.0 {
-        return chi2_cdf(x, k);
-    }
-    let half = 0.5 * lambda;
-    // Sum outwards from the Poisson mode so that the weights never underflow before they matter.
-    let mode = half.floor();
-    let ln_weight = |j: f64| -half + j * half.ln() - ln_factorial(j);
-    let mut total = 0.0;
-    let mut mass = 0.0;
-    let mut j = mode;
-    loop {
-        let w = ln_weight(j).exp();
-        total += w * chi2_cdf(x, k + 2.0 * j);
-        mass += w;
-        if (w < 1e-14 && j > mode) || j > mode + 10_000.0 {
-            break;
-        }
-        j += 1.0;
-    }
-    let mut j = mode - 1.0;
-    while j >= 0.0 {
-        let w = ln_weight(j).exp();
-        total += w * chi2_cdf(x, k + 2.0 * j);
-        mass += w;
-        if w < 1e-14 {
-            break;
-        }
-        j -= 1.0;
-    }
-    (total / mass.max(f64::MIN_POSITIVE)).clamp(0.0, 1.0)
-}
-
-fn ln_factorial(j: f64) -> f64 {
-    (1..=j as u64).map(|i| (i as f64).ln()).sum()
-}
-
-/// The non-centrality λ₀ at which a test with `dof` degrees of freedom and critical value
-/// `critical` detects with probability `power`: P(χ'²(dof, λ₀) > critical) = power.
-pub fn noncentrality_for_power(critical: f64, dof: f64, power: f64) -> f64 {
-    let miss = |lambda: f64| noncentral_chi2_cdf(critical, dof, lambda);
-    let target = 1.0 - power;
-    let mut hi = 1.0;
-    while miss(hi) > target && hi < 1e6 {
-        hi *= 2.0;
-    }
-    let mut lo = 0.0;
-    for _ in 0..100 {
-        let mid = 0.5 * (lo + hi);
-        if miss(mid) > target {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-        if hi - lo < 1e-10 * hi {
-            break;
-        }
-    }
-    0.5 * (lo + hi)
 }
 
 /// The MDD of a displacement with covariance `cov_mm2` (mm²) under the single-point test with
@@ -124,22 +62,4 @@ pub fn minimum_detectable(
         worst_mm: (lambda0 * largest).sqrt(),
         power,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::analysis::stats::chi2_quantile;
-
-    #[test]
-    fn noncentral_cdf_is_the_central_one_at_zero_and_falls_with_lambda() {
-        for x in [1.0, 5.0, 11.34] {
-            assert!((noncentral_chi2_cdf(x, 3.0, 0.0) - chi2_cdf(x, 3.0)).abs() < 1e-12);
-            assert!(noncentral_chi2_cdf(x, 3.0, 4.0) < chi2_cdf(x, 3.0));
-        }
-        // Tabulated: P(χ'²(1, λ=(z_α/2 + z_β)²) > 3.8415) = 0.80 for α = 5 %, β = 20 %
-        // (1.95996 + 0.84162)² = 7.8489.
-        let lambda = noncentrality_for_power(chi2_quantile(0.95, 1.0), 1.0, 0.8);
-        assert!((lambda - 7.849).abs() < 0.01, "{lambda}");
-    }
 }

@@ -211,6 +211,54 @@ pub fn f_quantile(p: f64, d1: f64, d2: f64) -> f64 {
     cached(1, p, d1, d2, || invert(|x| f_cdf(x, d1, d2), p))
 }
 
+/// CDF of the non-central χ²(k, λ) at x: the Poisson(λ/2) mixture of central χ²(k + 2j), summed
+/// outwards from the Poisson mode until the weights fall below 1e-14.
+pub fn noncentral_chi2_cdf(x: f64, k: f64, lambda: f64) -> f64 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    if lambda <= 0.0 {
+        return chi2_cdf(x, k);
+    }
+    let half = 0.5 * lambda;
+    let mode = half.floor();
+    let weight = |j: f64| (-half + j * half.ln() - ln_gamma(j + 1.0)).exp();
+    let (mut total, mut mass) = (0.0, 0.0);
+    let mut j = mode;
+    loop {
+        let w = weight(j);
+        total += w * chi2_cdf(x, k + 2.0 * j);
+        mass += w;
+        if (w < 1e-14 && j > mode) || j > mode + 10_000.0 {
+            break;
+        }
+        j += 1.0;
+    }
+    let mut j = mode - 1.0;
+    while j >= 0.0 {
+        let w = weight(j);
+        total += w * chi2_cdf(x, k + 2.0 * j);
+        mass += w;
+        if w < 1e-14 {
+            break;
+        }
+        j -= 1.0;
+    }
+    (total / mass.max(f64::MIN_POSITIVE)).clamp(0.0, 1.0)
+}
+
+/// The non-centrality λ at which a test with `k` degrees of freedom and critical value
+/// `critical` detects with probability `power`: P(χ'²(k, λ) > critical) = power (cached like
+/// the quantiles: every point of a page asks for the same one).
+pub fn noncentrality_for_power(critical: f64, k: f64, power: f64) -> f64 {
+    cached(2, power, critical, k, || {
+        invert(
+            |lambda| 1.0 - noncentral_chi2_cdf(critical, k, lambda),
+            power,
+        )
+    })
+}
+
 /// Quantile of the standard normal distribution at probability p (one-sided).
 pub fn normal_quantile(p: f64) -> f64 {
     if p == 0.5 {
@@ -235,5 +283,17 @@ mod tests {
         assert!((f_quantile(0.95, 3.0, 10.0) - 3.7083).abs() < 1e-3);
         assert!((normal_quantile(0.99) - 2.3263).abs() < 1e-3);
         assert!((normal_quantile(0.01) + 2.3263).abs() < 1e-3);
+    }
+
+    #[test]
+    fn noncentral_chi2_is_central_at_zero_and_meets_the_power_table() {
+        // The central CDF at λ = 0, smaller for λ > 0, and the tabulated power point
+        // P(χ'²(1, (1.95996 + 0.84162)²) > 3.8415) = 0.80 (α = 5 %, power 80 %).
+        for x in [1.0, 5.0, 11.34] {
+            assert!((noncentral_chi2_cdf(x, 3.0, 0.0) - chi2_cdf(x, 3.0)).abs() < 1e-12);
+            assert!(noncentral_chi2_cdf(x, 3.0, 4.0) < chi2_cdf(x, 3.0));
+        }
+        let lambda = noncentrality_for_power(chi2_quantile(0.95, 1.0), 1.0, 0.8);
+        assert!((lambda - 7.849).abs() < 0.01, "{lambda}");
     }
 }
