@@ -7,29 +7,16 @@ use crate::browser::Driver;
 use crate::support;
 
 use serde_json::{json, Value};
-use support::dashboard::{day, name, POINTS, STABLE};
+use support::dashboard::{create_site_with_stable, day, name, POINTS, STABLE};
 use support::server::{synthetic_epoch, synthetic_epoch_moved, TestServer};
 
 /// Creates site `id` with `rules` and marks the first [`STABLE`] points stable.
 async fn site(s: &TestServer, id: &str, rules: Value) {
-    let r = s
-        .client
-        .post(s.url("/api/v1/sites"))
-        .json(&json!({"id": id, "name": id, "model": "orthogonal", "alert_rules": rules}))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 201);
-    for i in 0..STABLE {
-        let r = s
-            .client
-            .put(s.url(&format!("/api/v1/sites/{id}/points/{}", name(i))))
-            .json(&json!({"role": "stable"}))
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(r.status(), 200);
-    }
+    create_site_with_stable(
+        s,
+        json!({"id": id, "name": id, "model": "orthogonal", "alert_rules": rules}),
+    )
+    .await;
 }
 
 /// Every alert of `site` the API lists.

@@ -9,7 +9,7 @@ use std::path::Path;
 use std::process::Command;
 
 use serde_json::{json, Value};
-use support::dashboard::{day, name, POINTS, STABLE};
+use support::dashboard::{create_site_with_stable, day, name, POINTS, STABLE};
 use support::server::{synthetic_epoch, TestServer};
 
 const SITE: &str = "kamo";
@@ -36,29 +36,16 @@ fn polygon() -> Value {
 }
 
 async fn fill(s: &TestServer) {
-    let r = s
-        .client
-        .post(s.url("/api/v1/sites"))
-        .json(&json!({"id": SITE, "name": SITE_NAME, "time_zone": "Asia/Tokyo",
+    create_site_with_stable(
+        s,
+        json!({"id": SITE, "name": SITE_NAME, "time_zone": "Asia/Tokyo",
             "area": {"description": "Route 42 below the cliff, km 3.2–3.6 <b>", "polygon": polygon()},
             "alert_rules": [
             {"level": "watch", "metric": "displacement_mm", "above": 5.0, "clear_below": 4.0},
             {"level": "warning", "metric": "displacement_mm", "above": 10.0, "clear_below": 8.0},
-            {"level": "alarm", "metric": "displacement_mm", "above": 20.0, "clear_below": 16.0}]}))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 201, "{}", r.text().await.unwrap());
-    for i in 0..STABLE {
-        let r = s
-            .client
-            .put(s.url(&format!("/api/v1/sites/{SITE}/points/{}", name(i))))
-            .json(&json!({"role": "stable"}))
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(r.status(), 200);
-    }
+            {"level": "alarm", "metric": "displacement_mm", "above": 20.0, "clear_below": 16.0}]}),
+    )
+    .await;
     for (k, mm) in BLOCK_MM.iter().enumerate() {
         let body = synthetic_epoch(4, POINTS, &day(k), 900 + k as u64, *mm, STABLE);
         let (st, answer) = s.upload(SITE, &body).await;
@@ -417,26 +404,13 @@ async fn a_reference_unstable_alert_produces_no_cap_message() {
         c.public_url = Some(PUBLIC.into());
     })
     .await;
-    let r = s
-        .client
-        .post(s.url("/api/v1/sites"))
-        .json(&json!({"id": "datum", "alert_rules": [
+    create_site_with_stable(
+        &s,
+        json!({"id": "datum", "alert_rules": [
             {"level": "watch", "metric": "displacement_mm", "above": 5.0},
-            {"level": "warning", "metric": "displacement_mm", "above": 10.0}]}))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 201);
-    for i in 0..STABLE {
-        let r = s
-            .client
-            .put(s.url(&format!("/api/v1/sites/datum/points/{}", name(i))))
-            .json(&json!({"role": "stable"}))
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(r.status(), 200);
-    }
+            {"level": "warning", "metric": "displacement_mm", "above": 10.0}]}),
+    )
+    .await;
     // The last stable point moves with the block: 0, then 12 mm three times.
     for (k, mm) in [0.0, 12.0, 12.0, 12.0].iter().enumerate() {
         let body = synthetic_epoch(4, POINTS, &day(k), 700 + k as u64, *mm, STABLE - 1);

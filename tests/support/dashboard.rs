@@ -2,7 +2,7 @@
 #![allow(dead_code)]
 
 use crate::support::server::{synthetic_epoch, TestServer};
-use serde_json::json;
+use serde_json::{json, Value};
 
 pub const SITE: &str = "kamo";
 pub const NAME: &str = "Kamo <script>alert(1)</script> & cliff";
@@ -108,5 +108,32 @@ pub async fn fill_accelerating(s: &TestServer, site: &str) {
         );
         let (st, answer) = s.upload(site, &body).await;
         assert_eq!(st, 201, "epoch {k}: {answer}");
+    }
+}
+
+/// Creates a site from `body` (the API's site form; 201 asserted) and marks the first
+/// [`STABLE`] points stable.
+pub async fn create_site_with_stable(s: &TestServer, body: Value) {
+    let id = body["id"]
+        .as_str()
+        .expect("the site form names its id")
+        .to_string();
+    let r = s
+        .client
+        .post(s.url("/api/v1/sites"))
+        .json(&body)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201, "{}", r.text().await.unwrap());
+    for i in 0..STABLE {
+        let r = s
+            .client
+            .put(s.url(&format!("/api/v1/sites/{id}/points/{}", name(i))))
+            .json(&json!({"role": "stable"}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200);
     }
 }
