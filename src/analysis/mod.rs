@@ -49,6 +49,7 @@ pub mod reference_change;
 pub mod rigid_body;
 pub mod sensitivity;
 pub(crate) mod series;
+pub mod site_frame;
 pub mod stats;
 pub mod tracking;
 pub(crate) mod velocity;

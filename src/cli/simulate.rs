@@ -22,20 +22,23 @@ pub enum SceneName {
     PaperCase2,
     /// Paper Table 1, case 3: images A, B, C; c given as 290 mm, self-calibrated.
     PaperCase3,
-    /// Long-range cliff, frame with Z toward the cameras.
+    /// Long-range cliff: X along the face, Y up, Z toward the cameras (a site for it declares
+    /// `"frame": {"up": [0, 1, 0]}`).
     LongRange,
     /// Long-range cliff in East-North-Up with UTM-sized coordinates.
     LongRangeEnu,
-    /// Nearly flat face (5 cm relief over 5 m).
+    /// Nearly flat face (5 cm relief over 5 m), Y up as `long-range`.
     Flat,
-    /// Wide-angle calibration network (central model, full self-calibration).
+    /// Wide-angle calibration network (central model, full self-calibration); the plate in X-Y,
+    /// Z up toward the cameras.
     Calibration,
     /// Benchmark network: 20 images × 500 points, each in 10 images.
     Large,
     /// Benchmark network: 100 images × 10 000 points, each in 10 images.
     Huge,
     /// A monitoring series of the long-range cliff (`--epochs` uploads, 12 h apart): stable targets
-    /// around a block creeping then accelerating to failure, cameras re-set-up every epoch.
+    /// around a block creeping then accelerating to failure, cameras re-set-up every epoch; Y up as
+    /// `long-range`.
     MonitoringSeries,
 }
 

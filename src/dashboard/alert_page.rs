@@ -11,7 +11,7 @@ use axum::response::Html;
 use axum::Extension;
 use maud::{html, Markup};
 
-use super::layout::{level_badge, num, page, seg};
+use super::layout::{level_badge, metric_name, num, page, seg};
 use super::local_time::when;
 use super::page::{viewer, PageError};
 use crate::analysis::{ClearedHow, ClearingTest};
@@ -47,7 +47,8 @@ pub async fn alert(
     let v = viewer(access.as_deref());
     let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
     let body = html! {
-        h1 { (level_badge(Some(a.level))) " " (a.rule) " · " (subject) }
+        h1 { (level_badge(Some(a.level))) " " (metric_name(&a.rule)) " · " (subject) }
+        p.rule { "rule metric " code { (a.rule) } @if let (Some(v), Some(t)) = (a.value, a.threshold) { " · value " (num(Some(v), 2)) " " (a.unit.as_deref().unwrap_or("")) " against " (num(Some(t), 2)) } }
         (headline)
         p { (a.message) }
         p { "state: " (a.state) " · highest level: " (a.peak_level.as_str()) }
@@ -77,7 +78,13 @@ pub async fn alert(
         (site.name.clone(), format!("/sites/{s}")),
         (a.id.clone(), format!("/sites/{s}/alerts/{}", seg(&a.id))),
     ];
-    Ok(Html(page(&a.id, &crumbs, &v, body).into_string()))
+    let title = format!(
+        "{} {} · {}",
+        a.level,
+        metric_name(&a.rule),
+        a.point.as_deref().or(a.group.as_deref()).unwrap_or("site")
+    );
+    Ok(Html(page(&title, &crumbs, &v, body).into_string()))
 }
 
 /// The test that cleared a level, in words: "decided by the warning rule (threshold 10 mm):

@@ -5,7 +5,8 @@
 //! reliable forecast" where its interval is wider than its horizon), its member points with
 //! links, and the open alerts of the block and of its members.
 
-use axum::extract::{Path, State};
+use axum::extract::rejection::QueryRejection;
+use axum::extract::{Path, Query, State};
 use axum::response::Html;
 use axum::Extension;
 use maud::html;
@@ -41,12 +42,26 @@ fn thresholds(rules: &[serde_json::Value], metric: &str, group: &str) -> Vec<(f6
         .collect()
 }
 
+/// The block page's query: which page of the forecast history (`forecasts_skip` newest rows
+/// skipped, a multiple of [`FORECASTS_SHOWN`]).
+#[derive(Debug, Default, serde::Deserialize)]
+pub struct BlockQuery {
+    /// Newest forecast rows to skip (older pages).
+    pub forecasts_skip: Option<usize>,
+}
+
 /// The block page.
 pub async fn block(
     State(state): State<AppState>,
     Path((site_id, group)): Path<(String, String)>,
+    query: Result<Query<BlockQuery>, QueryRejection>,
     access: Option<Extension<Access>>,
 ) -> Result<Html<String>, PageError> {
+    let skip = query
+        .map_err(|e| PageError::bad_request(e.body_text()))?
+        .0
+        .forecasts_skip
+        .unwrap_or(0);
     let db = state.store.reader();
     let site = site_or_404(db, &site_id).await?;
     let Some(g) = groups::get(db, &site.id, &group).await? else {
@@ -166,7 +181,7 @@ pub async fn block(
                 ul { @for a in &open {
                     li { (level_badge(Some(a.level))) " "
                         @if let Some(p) = &a.point { "point " (p) } @else { "block " (g.name) }
-                        " · " (a.rule) " · "
+                        " · " (super::layout::metric_name(&a.rule)) " · "
                         a href={ (site_href) "/alerts/" (seg(&a.id)) } { "history" } }
                 } }
             }
@@ -194,10 +209,11 @@ pub async fn block(
             @if history.is_empty() {
                 p.note { "No epoch had a forecast: the block is not accelerating, or the inverse-velocity law does not fit." }
             } @else {
-                p { "How the forecast failure time moved epoch by epoch (newest first; each counted from its own epoch)." }
+                p { "How the forecast failure time moved epoch by epoch (newest first; each counted from its own epoch): "
+                    (history.len().min(skip + 1)) "–" (history.len().min(skip + FORECASTS_SHOWN)) " of " (history.len()) "." }
                 table.forecasts {
                     thead { tr { th { "epoch" } th { "time to failure (h)" } th { "forecast failure" } th.wide { "±2σ" } } }
-                    tbody { @for (r, f) in history.iter().rev().take(FORECASTS_SHOWN) {
+                    tbody { @for (r, f) in history.iter().rev().skip(skip).take(FORECASTS_SHOWN) {
                         tr {
                             td { a href={ (site_href) "/epochs/" (r.epoch) } { (when(&r.observed_at, tz)) } }
                             @if r.f_time_to_failure_hours.is_some_and(f64::is_finite) {
@@ -214,6 +230,10 @@ pub async fn block(
                             }
                         }
                     } }
+                }
+                p.pager {
+                    @if skip > 0 { a href={ (site_href) "/groups/" (n) "?forecasts_skip=" (skip.saturating_sub(FORECASTS_SHOWN)) "#forecasts" } { "← newer forecasts" } " " }
+                    @if skip + FORECASTS_SHOWN < history.len() { a.older href={ (site_href) "/groups/" (n) "?forecasts_skip=" (skip + FORECASTS_SHOWN) "#forecasts" } { "older forecasts →" } }
                 }
             }
         }

@@ -1,103 +1,60 @@
-//! The face plan: the points drawn in the best-fit plane of the cliff face, along the face
-//! against height, whatever the site frame (pure geometry, no I/O).
+//! The face plan: the points drawn in the face, along the face against height, in the site's
+//! declared frame (pure geometry, no I/O).
 //!
-//! The plane is the least-squares plane through the points (its normal is the eigenvector of the
-//! smallest eigenvalue of their scatter matrix). Height is the frame's third axis (Up in E, N, Up
-//! and in the local frames of the upload form) projected into the plane; when the face is nearly
-//! horizontal the plane's longest in-plane direction is used instead. "Along the face" completes
-//! the pair (up × normal), oriented with the frame's first axis where it can.
+//! The face's axes come from [`crate::analysis::site_frame::FaceAxes`]: the site's up axis and the
+//! face's outward normal (declared, or from the stable points' least-squares plane). The plan's
+//! origin is the centroid of the points.
 
-use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+use nalgebra::Vector3;
+
+use crate::analysis::site_frame::{FaceAxes, SiteFrame};
 
 /// The plane's frame: origin and unit axes in the site frame (m).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FacePlane {
     /// Centroid of the points (site frame, m).
     pub origin: [f64; 3],
-    /// Unit vector along the face.
-    pub along: [f64; 3],
-    /// Unit vector up the face.
-    pub up: [f64; 3],
-    /// Unit normal of the face.
-    pub normal: [f64; 3],
+    /// The face's axes (along, up, out) and where the normal came from.
+    pub axes: FaceAxes,
 }
 
 impl FacePlane {
-    /// Least-squares plane through `points` (site frame, m). `None` for fewer than three points
-    /// or points that are (nearly) all on one line.
-    pub fn fit(points: &[[f64; 3]]) -> Option<FacePlane> {
-        if points.len() < 3 {
+    /// The plan of `all` points (site frame, m) in `frame`, the normal derived from `stable`
+    /// when it is not declared. `None` when no face can be fitted (fewer than three points, points
+    /// on one line) or the face is nearly horizontal.
+    pub fn fit(frame: &SiteFrame, stable: &[[f64; 3]], all: &[[f64; 3]]) -> Option<FacePlane> {
+        if all.is_empty() {
             return None;
         }
-        let n = points.len() as f64;
-        let c = points
+        let axes = FaceAxes::of(frame, stable, all)?;
+        let n = all.len() as f64;
+        let c = all
             .iter()
             .fold(Vector3::zeros(), |s, p| s + Vector3::from(*p))
             / n;
-        let mut m = Matrix3::zeros();
-        for p in points {
-            let d = Vector3::from(*p) - c;
-            m += d * d.transpose();
-        }
-        let eig = SymmetricEigen::new(m);
-        let mut order = [0usize, 1, 2];
-        order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
-        let (small, mid, large) = (
-            eig.eigenvalues[order[0]],
-            eig.eigenvalues[order[1]],
-            eig.eigenvalues[order[2]],
-        );
-        if !(large.is_finite() && large > 0.0) || mid <= 1e-9 * large || !small.is_finite() {
-            return None;
-        }
-        let normal: Vector3<f64> = eig.eigenvectors.column(order[0]).into_owned();
-        let z = Vector3::z();
-        let up_in_plane = z - normal * normal.dot(&z);
-        let up = if up_in_plane.norm() > 0.2 {
-            up_in_plane.normalize()
-        } else {
-            eig.eigenvectors.column(order[2]).into_owned().normalize()
-        };
-        let mut along = up.cross(&normal).normalize();
-        // Orient "along" with the frame's first axis (or second) where it can.
-        let lead = if along.x.abs() > 0.1 {
-            along.x
-        } else {
-            along.y
-        };
-        if lead < 0.0 {
-            along = -along;
-        }
-        let normal = along.cross(&up);
         Some(FacePlane {
             origin: c.into(),
-            along: along.into(),
-            up: up.into(),
-            normal: normal.into(),
+            axes,
         })
     }
 
     /// Plan coordinates (along, up) of a point in m.
     pub fn project(&self, p: [f64; 3]) -> [f64; 2] {
         let d = Vector3::from(p) - Vector3::from(self.origin);
-        [
-            d.dot(&Vector3::from(self.along)),
-            d.dot(&Vector3::from(self.up)),
-        ]
+        let c = self.axes.components(d.into());
+        [c[0], c[1]]
     }
 
     /// In-plane components (along, up) of a displacement vector, in its own unit.
     pub fn project_vector(&self, v: [f64; 3]) -> [f64; 2] {
-        let v = Vector3::from(v);
-        [
-            v.dot(&Vector3::from(self.along)),
-            v.dot(&Vector3::from(self.up)),
-        ]
+        let c = self.axes.components(v);
+        [c[0], c[1]]
     }
 
-    /// Out-of-plane component (along the normal) of a displacement vector, in its own unit.
+    /// Out-of-plane component (out of the face, towards the cameras) of a displacement vector,
+    /// in its own unit.
     pub fn out_of_plane(&self, v: [f64; 3]) -> f64 {
-        Vector3::from(v).dot(&Vector3::from(self.normal))
+        self.axes.components(v)[2]
     }
 }
 
@@ -144,7 +101,7 @@ mod tests {
                 })
                 .map(|p| rotated(p, yaw))
                 .collect();
-            let plane = FacePlane::fit(&face).expect("plane");
+            let plane = FacePlane::fit(&SiteFrame::default(), &face, &face).expect("plane");
             let a = plane.project(face[0]);
             let b = plane.project(face[11]);
             let d3 = (0..3)
@@ -155,7 +112,7 @@ mod tests {
             assert!((d3 - d2).abs() < 1e-9, "yaw {yaw}: {d3} vs {d2}");
             // Higher rows are higher in the plan.
             assert!(plane.project(face[8])[1] > plane.project(face[0])[1] + 9.0);
-            let n = plane.normal;
+            let n = plane.axes.out;
             let v = plane.project_vector([n[0] * 5.0, n[1] * 5.0, n[2] * 5.0]);
             assert!(v[0].abs() < 1e-9 && v[1].abs() < 1e-9);
             assert!((plane.out_of_plane([n[0], n[1], n[2]]) - 1.0).abs() < 1e-12);
@@ -165,8 +122,9 @@ mod tests {
     #[test]
     fn collinear_points_have_no_plane() {
         let line: Vec<[f64; 3]> = (0..5).map(|i| [i as f64, 2.0 * i as f64, 0.0]).collect();
-        assert!(FacePlane::fit(&line).is_none());
-        assert!(FacePlane::fit(&line[..2]).is_none());
+        let frame = SiteFrame::default();
+        assert!(FacePlane::fit(&frame, &line, &line).is_none());
+        assert!(FacePlane::fit(&frame, &line[..2], &line[..2]).is_none());
     }
 
     #[test]

@@ -32,6 +32,7 @@ pub(crate) mod epoch_images;
 pub(crate) mod epoch_page;
 pub(crate) mod face_plan;
 pub(crate) mod headline;
+pub(crate) mod health;
 pub mod image_preview;
 pub(crate) mod layout;
 #[cfg(test)]
@@ -44,6 +45,7 @@ pub(crate) mod plan_svg;
 pub(crate) mod plot_data;
 pub(crate) mod point_page;
 pub(crate) mod report_page;
+pub(crate) mod report_sections;
 pub(crate) mod sensitivity;
 pub(crate) mod sign_in;
 pub(crate) mod site_page;

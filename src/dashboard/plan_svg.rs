@@ -9,6 +9,7 @@ use maud::{html, Markup};
 use super::face_plan::{nice_floor, FacePlane};
 use super::layout::{level_class, seg};
 use super::plan_labels::{shown, LabelInput, DESKTOP, PHONE};
+use crate::analysis::site_frame::{NormalSource, SiteFrame};
 use crate::analysis::AlertLevel;
 
 /// One point to draw.
@@ -33,12 +34,13 @@ const W: f64 = 900.0;
 const H: f64 = 520.0;
 const PAD: f64 = 48.0;
 
-/// The plan of `site`'s points with its legend (a figure; the legend is HTML so it wraps on a
-/// phone); a note instead when fewer than three points span a plane.
-pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
+/// The plan of `site`'s points in its declared `frame`, with its legend (a figure; the legend is
+/// HTML so it wraps on a phone); a note instead when fewer than three points span a plane.
+pub fn face_plan(site: &str, frame: &SiteFrame, points: &[PlanPoint]) -> Markup {
     let xyz: Vec<[f64; 3]> = points.iter().map(|p| p.xyz).collect();
-    let Some(plane) = FacePlane::fit(&xyz) else {
-        return html! { p.note { "The face plan needs at least three points that span a plane." } };
+    let stable: Vec<[f64; 3]> = points.iter().filter(|p| p.stable).map(|p| p.xyz).collect();
+    let Some(plane) = FacePlane::fit(frame, &stable, &xyz) else {
+        return html! { p.note { "The face plan needs at least three points that span a plane, not within 10° of horizontal (the site's up axis is " (SiteFrame::describe(frame.up)) ")." } };
     };
     let uv: Vec<[f64; 2]> = xyz.iter().map(|p| plane.project(*p)).collect();
     let (mut u0, mut u1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
@@ -140,7 +142,13 @@ pub fn face_plan(site: &str, points: &[PlanPoint]) -> Markup {
             }
             figcaption.legend {
                 "Scale bar: " (short(bar_m)) " m on the face, " (short(bar_mm)) " mm of displacement; vectors × "
-                (short(exaggeration)) ". Along the face →, height ↑; ⊥: displacement out of the face (mm)."
+                (short(exaggeration)) ". Along the face →, height ↑; ⊥: displacement out of the face (mm), + towards the cameras. "
+                span.frame { "Up is " (SiteFrame::describe(frame.up)) "; out of the face is " (SiteFrame::describe(plane.axes.out)) ", "
+                    (match plane.axes.source {
+                        NormalSource::Declared => "as the site declares",
+                        NormalSource::StablePoints => "from the stable points' plane",
+                        NormalSource::AllPoints => "from the points' plane (fewer than three stable points)",
+                    }) "." }
                 @if any_left_out { " Names that would overlap are left out; point at a mark for its name." }
             }
         }
@@ -186,7 +194,7 @@ mod tests {
                 mdd_mm: (i == 1).then_some(1.26),
             })
             .collect();
-        let svg = face_plan("s<1>", &pts).into_string();
+        let svg = face_plan("s<1>", &SiteFrame::default(), &pts).into_string();
         assert!(
             svg.contains("<title>T1 · detects movement ≥ 1.3 mm</title>"),
             "{svg}"

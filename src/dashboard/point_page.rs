@@ -15,8 +15,12 @@ use maud::html;
 use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma};
 use super::local_time::when;
 use super::page::{viewer, PageError};
+use crate::analysis::site_frame::{FaceAxes, SiteFrame};
+use crate::analysis::PointRole;
 use crate::http::auth::Access;
 use crate::http::AppState;
+use crate::store::displacements::Displacement;
+use crate::store::sites::Site;
 use crate::store::{alerts, displacements, points};
 
 /// The point page.
@@ -40,6 +44,7 @@ pub async fn point(
         .await?
         .into_iter()
         .find(|d| d.point == p.name);
+    let axes = face_axes(&state, &site).await?;
     let (s, n) = (seg(&site.id), seg(&p.name));
     let data = format!("/dashboard/plot/{s}/{n}");
     let csv = format!("/api/v1/sites/{s}/points/{n}/displacements?format=csv");
@@ -58,6 +63,18 @@ pub async fn point(
             table.latest {
                 tr { th { "latest epoch" } td { a href={ "/sites/" (s) "/epochs/" (d.epoch) } { (when(&d.observed_at, site.time_zone.as_deref())) } } }
                 tr { th { "d (mm)" } td { (with_sigma(Some(d.d_mm), Some(d.sigma_mm), 2)) @if d.significant { " (significant)" } } }
+                @if let Some(a) = &axes {
+                    @let (c, var) = (a.components([d.dx_mm, d.dy_mm, d.dz_mm]), a.component_variances(&covariance(d)));
+                    tr.face {
+                        th { "in the face (mm): along · height · out of the face" }
+                        td {
+                            (with_sigma(Some(c[0]), Some(var[0].sqrt()), 2)) " along · "
+                            (with_sigma(Some(c[1]), Some(var[1].sqrt()), 2)) " height · "
+                            (with_sigma(Some(c[2]), Some(var[2].sqrt()), 2)) " out"
+                            small { " (up " (SiteFrame::describe(site.frame.up)) ", out of the face " (SiteFrame::describe(a.out)) "; + is right, up, towards the cameras)" }
+                        }
+                    }
+                }
                 tr { th { "filtered d (mm)" } td { (with_sigma(d.f_d_mm, d.sigma_f_d_mm, 2)) } }
                 tr { th { "filtered velocity (mm/day)" } td { (with_sigma(d.f_velocity_mm_per_day, d.sigma_f_velocity_mm_per_day, 3)) } }
                 tr { th { "raw velocity (mm/day)" } td { (num(d.velocity_mm_per_day, 3)) } }
@@ -92,4 +109,41 @@ pub async fn point(
         (p.name.clone(), format!("/sites/{s}/points/{n}")),
     ];
     Ok(Html(page(&p.name, &crumbs, &v, body).into_string()))
+}
+
+/// The site's face axes from its frame and its points' latest coordinates (the stable points'
+/// plane when the normal is not declared); `None` when no face can be fitted.
+pub(super) async fn face_axes(
+    state: &AppState,
+    site: &Site,
+) -> Result<Option<FaceAxes>, PageError> {
+    let roles: std::collections::HashMap<String, PointRole> =
+        points::list(state.store.reader(), &site.id, None, 100_000)
+            .await?
+            .into_iter()
+            .map(|p| (p.name, p.role))
+            .collect();
+    let coords = points::latest_coordinates(&mut *state.store.read().await?, &site.id).await?;
+    let all: Vec<[f64; 3]> = coords.iter().map(|c| c.xyz).collect();
+    let stable: Vec<[f64; 3]> = coords
+        .iter()
+        .filter(|c| roles.get(&c.point) == Some(&PointRole::Stable))
+        .map(|c| c.xyz)
+        .collect();
+    Ok(FaceAxes::of(&site.frame, &stable, &all))
+}
+
+/// The displacement's 3×3 covariance in mm² (diagonal only for rows stored before the
+/// covariances were).
+fn covariance(d: &Displacement) -> [[f64; 3]; 3] {
+    let (xy, xz, yz) = (
+        d.cov_dxdy_mm2.unwrap_or(0.0),
+        d.cov_dxdz_mm2.unwrap_or(0.0),
+        d.cov_dydz_mm2.unwrap_or(0.0),
+    );
+    [
+        [d.sigma_dx_mm.powi(2), xy, xz],
+        [xy, d.sigma_dy_mm.powi(2), yz],
+        [xz, yz, d.sigma_dz_mm.powi(2)],
+    ]
 }

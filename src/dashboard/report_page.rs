@@ -1,8 +1,10 @@
 //! `GET /sites/{site}/report?from=&to=`: the campaign report of a site and period (dates or RFC
-//! 3339 times; default: everything), one printable page (A4 print stylesheet): the face plan at
-//! the period's last epoch, the displacement table with σ and significance, the plots of the
-//! points that moved significantly (server-drawn SVG, so printing does not wait for scripts),
-//! the epochs and the alert history of the period.
+//! 3339 times; default: everything), printable on A4 (at most three pages for a site of ≤ 30
+//! points): the headline, the face plan with alert colours at the period's last epoch, each
+//! block's motion, velocity, time to failure and forecast failure date, the displacement table,
+//! the plots of the blocks and of the points that moved most (server-drawn SVG, so printing does
+//! not wait for scripts), the epochs with their adjustment's health and the alert history with
+//! the epoch that raised each alert ([`super::report_sections`]).
 
 use std::collections::HashMap;
 
@@ -12,17 +14,18 @@ use axum::Extension;
 use maud::{html, Markup};
 use serde::Deserialize;
 
-use super::layout::{level_badge, num, page, seg, with_sigma};
-use super::local_time::{day_bound, when};
+use super::layout::{num, page, seg};
+use super::local_time::day_bound;
 use super::page::{viewer, PageError};
 use super::plan_svg::{face_plan, PlanPoint};
+use super::report_sections::{self as sections, BlockRow};
 use super::time_plot_svg::time_plot;
 use crate::analysis::{AlertLevel, PointRole};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::series::columns::unix_seconds;
 use crate::store::sites::Site;
-use crate::store::{alerts, displacements, epochs, points, Store};
+use crate::store::{alerts, block_motions, displacements, epochs, groups, points, Store};
 
 /// The period of the report.
 #[derive(Debug, Deserialize)]
@@ -33,8 +36,8 @@ pub struct Period {
     pub to: Option<String>,
 }
 
-/// Plots at most this many moving points (the largest displacements first).
-const PLOTS: usize = 12;
+/// Plots at most this many subjects: the blocks, then the points outside them that moved most.
+const PLOTS: usize = 4;
 
 /// The campaign report.
 pub async fn report(
@@ -49,7 +52,8 @@ pub async fn report(
         bound(&period.from, false, zone)?,
         bound(&period.to, true, zone)?,
     );
-    let r = Report::read(&state.store, site, from.as_deref(), to.as_deref()).await?;
+    let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
+    let r = Report::read(&state.store, site, from.as_deref(), to.as_deref(), headline).await?;
     let v = viewer(access.as_deref());
     let s = seg(&r.site.id);
     let crumbs = [
@@ -81,8 +85,20 @@ struct Report {
     displacements: Vec<displacements::Displacement>,
     /// The face plan's points at the last epoch.
     plan: Vec<PlanPoint>,
-    /// `(point, SVG)` of the points that moved significantly, the largest first.
+    /// Whether the plan's colours are the open alerts' (the period reaches the latest epoch) or
+    /// the highest levels the period's alerts reached.
+    plan_levels_now: bool,
+    /// The blocks and their motion at the period's last epoch.
+    blocks: Vec<BlockRow>,
+    /// `(subject, SVG)`: the blocks' displacement, then the points that moved most.
     plots: Vec<(String, Markup)>,
+    /// The site's headline (worst open alert, last epoch's age, response and contacts).
+    headline: Markup,
+    /// The period's epochs adjusted with cameras' σ estimated from earlier epochs, with them.
+    estimated_sigma: Vec<(
+        i64,
+        Vec<crate::photogrammetry::statistics::variance_components::PooledSigma>,
+    )>,
     /// Alerts whose epoch lies in the period.
     history: Vec<alerts::Alert>,
 }
@@ -94,6 +110,7 @@ impl Report {
         site: Site,
         from: Option<&str>,
         to: Option<&str>,
+        headline: Markup,
     ) -> Result<Report, PageError> {
         let db = store.reader();
         let until = to.map(|t| format!("{t}~"));
@@ -117,6 +134,49 @@ impl Report {
             None => (vec![], vec![]),
         };
         disp.sort_by(|a, b| super::natural_order::natural_cmp(&a.point, &b.point));
+        let history = alert_history(store, &site.id, from, to).await?;
+        let latest_epoch = epochs::list(db, &site.id, None, 1).await?;
+        let plan_levels_now = match (latest_epoch.first(), epochs.first()) {
+            (Some((_, newest)), Some(last)) => newest.id == last.id,
+            _ => true,
+        };
+        let levels: HashMap<String, AlertLevel> = if plan_levels_now {
+            alerts::active_levels(db, &site.id).await?
+        } else {
+            let mut peak: HashMap<String, AlertLevel> = HashMap::new();
+            for a in &history {
+                let subjects = a.point.iter().chain(a.points.iter());
+                for p in subjects {
+                    let e = peak.entry(p.clone()).or_insert(a.peak_level);
+                    *e = (*e).max(a.peak_level);
+                }
+            }
+            peak
+        };
+        let all_points = points::list(db, &site.id, None, 100_000).await?;
+        let mut blocks = Vec::new();
+        let mut in_blocks: Vec<String> = Vec::new();
+        for g in groups::list(db, &site.id).await? {
+            let names: Vec<String> = all_points
+                .iter()
+                .filter(|p| {
+                    g.points.contains(&p.name)
+                        || (g.points.is_empty() && p.group.as_deref() == Some(&g.name))
+                })
+                .map(|p| p.name.clone())
+                .collect();
+            let members = names.len();
+            in_blocks.extend(names);
+            let latest = block_motions::series(db, &site.id, &g.name, from, to, None, None)
+                .await?
+                .pop();
+            blocks.push(BlockRow {
+                name: g.name.clone(),
+                members,
+                latest,
+            });
+        }
+        blocks.sort_by(|a, b| super::natural_order::natural_cmp(&a.name, &b.name));
         let plan = coords
             .iter()
             .map(|c| PlanPoint {
@@ -126,7 +186,7 @@ impl Report {
                     .iter()
                     .find(|d| d.point == c.point)
                     .map(|d| [d.dx_mm, d.dy_mm, d.dz_mm]),
-                level: None,
+                level: levels.get(&c.point).copied(),
                 stable: roles.get(&c.point) == Some(&PointRole::Stable),
                 mdd_mm: disp
                     .iter()
@@ -135,15 +195,25 @@ impl Report {
                     .map(|m| m.worst_mm),
             })
             .collect();
-        let plots = moving_plots(store, &site, &disp, &roles, from, to).await?;
-        let history = alert_history(store, &site.id, from, to).await?;
+        let plots = plots(store, &site, &blocks, &disp, &roles, &in_blocks, from, to).await?;
+        let estimated_sigma = crate::store::epoch_health::estimated_sigma_epochs(
+            db,
+            &site.id,
+            from,
+            until.as_deref(),
+        )
+        .await?;
         Ok(Report {
             site,
             epochs,
             roles,
             displacements: disp,
             plan,
+            plan_levels_now,
+            blocks,
             plots,
+            headline,
+            estimated_sigma,
             history,
         })
     }
@@ -151,135 +221,120 @@ impl Report {
     /// The page's body.
     fn render(&self) -> Markup {
         let site = &self.site;
+        let tz = site.time_zone.as_deref();
         let period = format!(
             "{} to {}",
             self.epochs.last().map_or("–", |e| e.observed_at.as_str()),
             self.epochs.first().map_or("–", |e| e.observed_at.as_str())
         );
+        let role = |p: &str| self.roles.get(p).map_or("", |r| r.as_str());
+        let mdd = |d: &displacements::Displacement| {
+            super::sensitivity::of(d, None, site.confidence).map(|m| m.worst_mm)
+        };
         html! {
             article.report {
                 h1 { "Campaign report · " (site.name) }
-                p { "Site " (site.id) " · epochs " (period) " (" (self.epochs.len()) ") · confidence " (num(Some(site.confidence), 3))
+                p.meta { "Site " (site.id) " · epochs " (period) " (" (self.epochs.len()) ") · confidence " (num(Some(site.confidence), 3))
+                    @if let Some(z) = tz { " · times in UTC and " (z) }
                     " · generated " (chrono::Utc::now().format("%Y-%m-%d %H:%M UTC")) }
-                section {
+                (self.headline)
+                section.plan {
                     h2 { "Face plan at the last epoch" }
-                    (face_plan(&site.id, &self.plan))
+                    p.note { @if self.plan_levels_now { "Colours: the open alerts' levels." } @else { "Colours: the highest level each point's alerts reached in the period." } }
+                    (face_plan(&site.id, &site.frame, &self.plan))
                 }
-                section {
-                    h2 { "Displacements at the last epoch" }
-                    (self.displacement_table())
-                }
-                section {
-                    h2 { "Points that moved (d, ±2σ, thresholds)" }
-                    @if self.plots.is_empty() { p.note { "No point moved significantly." } }
-                    @for (name, plot) in &self.plots {
-                        figure.moving { figcaption { (name) } (plot) }
+                @if !self.blocks.is_empty() {
+                    section {
+                        h2 { "Blocks at the last epoch" }
+                        (sections::blocks(&site.id, &self.blocks, tz))
+                        p.note { "A time to failure counts from the epoch it was computed at, not from when this report was printed." }
                     }
                 }
                 section {
-                    h2 { "Epochs" }
-                    (self.epoch_table())
+                    h2 { "Displacements at the last epoch" }
+                    (sections::displacements(&site.id, &self.displacements, &role, &mdd))
+                }
+                section {
+                    h2 { "Displacement against time (d, ±2σ, thresholds)" }
+                    @if self.plots.is_empty() { p.note { "No block and no point moved significantly." } }
+                    div.report-plots {
+                        @for (name, plot) in &self.plots {
+                            figure.moving { figcaption { (name) } (plot) }
+                        }
+                    }
+                }
+                section {
+                    h2 { "Epochs and the adjustment's health" }
+                    (sections::epochs(&self.epochs, tz))
+                    (sections::sigma_used(&self.estimated_sigma, self.epochs.len()))
                 }
                 section {
                     h2 { "Alert history" }
                     @if self.history.is_empty() { p.note { "No alert in the period." } }
-                    @else { (self.history_table()) }
+                    @else { (sections::history(&self.history, tz)) }
                 }
-            }
-        }
-    }
-
-    fn displacement_table(&self) -> Markup {
-        let s = seg(&self.site.id);
-        let role = |p: &str| self.roles.get(p).map_or("", |r| r.as_str());
-        html! {
-            table.displacements {
-                thead { tr { th { "point" } th { "role" } th { "dx" } th { "dy" } th { "dz" } th { "d ± σ (mm)" } th { "significant" } th title="the smallest movement, in its worst direction, that this epoch detects 80 % of the time at the site's confidence" { "detects ≥ (mm)" } th { "velocity (mm/day)" } th { "time to failure (h)" } } }
-                tbody { @for d in &self.displacements {
-                    tr {
-                        td { a href={ "/sites/" (s) "/points/" (seg(&d.point)) } { (d.point) } }
-                        td { (role(&d.point)) }
-                        td.num { (num(Some(d.dx_mm), 2)) }
-                        td.num { (num(Some(d.dy_mm), 2)) }
-                        td.num { (num(Some(d.dz_mm), 2)) }
-                        td.num { (with_sigma(Some(d.d_mm), Some(d.sigma_mm), 2)) }
-                        td { @if d.significant { "yes" } @else { "no" } }
-                        td.num { (num(super::sensitivity::of(d, None, self.site.confidence).map(|m| m.worst_mm), 2)) }
-                        td.num { (with_sigma(d.f_velocity_mm_per_day, d.sigma_f_velocity_mm_per_day, 3)) }
-                        td.num { (with_sigma(d.f_time_to_failure_hours, d.sigma_f_time_to_failure_hours, 0)) }
-                    }
-                } }
-            }
-        }
-    }
-
-    fn epoch_table(&self) -> Markup {
-        let zone = self.site.time_zone.as_deref();
-        html! {
-            table.epochs {
-                thead { tr { th { "observed at" } th { "status" } th { "σ0 (mm)" } th { "c ± σ (mm)" } } }
-                tbody { @for e in self.epochs.iter().rev() {
-                    tr { td { (when(&e.observed_at, zone)) } td { (e.status) } td.num { (num(Some(e.sigma0_mm), 5)) } td.num { (with_sigma(e.c_mm, e.c_sigma_mm, 3)) } }
-                } }
-            }
-        }
-    }
-
-    fn history_table(&self) -> Markup {
-        let zone = self.site.time_zone.as_deref();
-        html! {
-            table.history {
-                thead { tr { th { "level" } th { "subject" } th { "rule" } th { "value" } th { "epoch" } th { "state" } } }
-                tbody { @for a in &self.history {
-                    tr {
-                        td { (level_badge(Some(a.level))) }
-                        td { (a.point.clone().or(a.group.clone()).unwrap_or_else(|| "site".into())) }
-                        td { (a.rule) }
-                        td.num { (num(a.value, 2)) " " (a.unit.as_deref().unwrap_or("")) }
-                        td { (when(a.observed_at.as_deref().unwrap_or(""), zone)) }
-                        td { (a.state) @if let Some(by) = &a.acknowledged_by { " by " (by) } }
-                    }
-                } }
             }
         }
     }
 }
 
-/// The displacement plots (d with ±2σ and the site's displacement thresholds) of at most
-/// [`PLOTS`] points that moved significantly at the last epoch, the largest first.
-async fn moving_plots(
+/// The displacement plots (d with ±2σ and the site's displacement thresholds), at most
+/// [`PLOTS`]: each block's motion, then the points outside blocks that moved significantly at
+/// the last epoch, the largest first.
+#[allow(clippy::too_many_arguments)]
+async fn plots(
     store: &Store,
     site: &Site,
+    blocks: &[BlockRow],
     disp: &[displacements::Displacement],
     roles: &HashMap<String, PointRole>,
+    in_blocks: &[String],
     from: Option<&str>,
     to: Option<&str>,
 ) -> Result<Vec<(String, Markup)>, PageError> {
-    let mut moving: Vec<&displacements::Displacement> = disp
-        .iter()
-        .filter(|d| d.significant && roles.get(&d.point) != Some(&PointRole::Stable))
-        .collect();
-    moving.sort_by(|a, b| b.d_mm.total_cmp(&a.d_mm));
-    moving.truncate(PLOTS);
-    let thresholds: Vec<(f64, AlertLevel)> = site
-        .alert_rules
-        .iter()
-        .filter(|r| r["metric"] == "displacement_mm" && r["group"].is_null())
-        .filter_map(|r| Some((r["above"].as_f64()?, r["level"].as_str()?.parse().ok()?)))
-        .collect();
-    let mut plots = vec![];
-    for d in moving {
-        let series =
-            displacements::series(store.reader(), &site.id, &d.point, from, to, None, None).await?;
+    let thresholds = |group: Option<&str>| -> Vec<(f64, AlertLevel)> {
+        site.alert_rules
+            .iter()
+            .filter(|r| {
+                r["metric"] == "displacement_mm"
+                    && (r["group"].is_null() || group.is_some_and(|g| r["group"] == g))
+            })
+            .filter_map(|r| Some((r["above"].as_f64()?, r["level"].as_str()?.parse().ok()?)))
+            .collect()
+    };
+    let draw = |series: &[displacements::Displacement], th: &[(f64, AlertLevel)]| {
         let t: Vec<f64> = series
             .iter()
             .map(|r| unix_seconds(r.observed_at.as_bytes()))
             .collect();
         let v: Vec<f64> = series.iter().map(|r| r.d_mm).collect();
         let s: Vec<f64> = series.iter().map(|r| r.sigma_mm).collect();
-        plots.push((d.point.clone(), time_plot(&t, &v, &s, &thresholds, "mm")));
+        time_plot(&t, &v, &s, th, "mm")
+    };
+    let mut out = vec![];
+    for b in blocks.iter().filter(|b| b.latest.is_some()).take(PLOTS) {
+        let series =
+            block_motions::series(store.reader(), &site.id, &b.name, from, to, None, None).await?;
+        out.push((
+            format!("block {}", b.name),
+            draw(&series, &thresholds(Some(&b.name))),
+        ));
     }
-    Ok(plots)
+    let mut moving: Vec<&displacements::Displacement> = disp
+        .iter()
+        .filter(|d| {
+            d.significant
+                && roles.get(&d.point) != Some(&PointRole::Stable)
+                && !in_blocks.contains(&d.point)
+        })
+        .collect();
+    moving.sort_by(|a, b| b.d_mm.total_cmp(&a.d_mm));
+    for d in moving.into_iter().take(PLOTS.saturating_sub(out.len())) {
+        let series =
+            displacements::series(store.reader(), &site.id, &d.point, from, to, None, None).await?;
+        out.push((d.point.clone(), draw(&series, &thresholds(None))));
+    }
+    Ok(out)
 }
 
 /// The site's alerts whose epoch was observed between `from` and `to`.

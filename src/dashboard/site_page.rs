@@ -108,6 +108,7 @@ pub async fn site(
     let mut blocks = crate::store::groups::list(db, &site.id).await?;
     blocks.sort_by(|a, b| super::natural_order::natural_cmp(&a.name, &b.name));
     let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
+    let health = health_section(&state, &site).await?;
     let body = html! {
         h1 { (site.name) " " small { (site.id) } }
         (headline)
@@ -123,14 +124,40 @@ pub async fn site(
         }
         section {
             h2 { "Face plan" }
-            (face_plan(&site.id, &plan))
+            (face_plan(&site.id, &site.frame, &plan))
         }
         (alerts_section(&filter, &shown, &block_of(&blocks, &pts), truncated, &v, &site_href, tz))
         (points_table(&pts, &latest, &levels, &site_href))
+        (health)
         (epochs_table(&epoch_page, &site_href, tz))
     };
     let crumbs = [(site.name.clone(), site_href.clone())];
     Ok(Html(page(&site.name, &crumbs, &v, body).into_string()))
+}
+
+/// Epochs the health plot draws (the newest).
+const HEALTH_EPOCHS: i64 = 100;
+
+/// The adjustment-health section ([`super::health`]): the newest [`HEALTH_EPOCHS`] epochs'
+/// variance factors and the cameras' σ estimated from the recent ones.
+async fn health_section(
+    state: &AppState,
+    site: &crate::store::sites::Site,
+) -> Result<Markup, PageError> {
+    let db = state.store.reader();
+    let rows: Vec<epochs::EpochListItem> = epochs::list(db, &site.id, None, HEALTH_EPOCHS)
+        .await?
+        .into_iter()
+        .map(|(_, e)| e)
+        .collect();
+    let estimate = Vec::new();
+    let used: Vec<(String, f64)> = Vec::new();
+    Ok(super::health::section(&super::health::Health {
+        epochs: &rows,
+        estimate: &estimate,
+        used: &used,
+        setting: site.apriori_sigma,
+    }))
 }
 
 /// The declared block of each point in one: a block's listed points, or, when it lists none,

@@ -83,6 +83,8 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("response_text", T),
             ("contacts", T),
             ("image_weights", T),
+            ("frame", T),
+            ("apriori_sigma", T),
         ],
     ),
     (
@@ -141,6 +143,8 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("report", T),
             ("created_at", T),
             ("observations_pruned_at", T),
+            ("variance_factor", F),
+            ("dof", I),
         ],
     ),
     (

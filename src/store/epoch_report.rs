@@ -9,6 +9,7 @@ use utoipa::ToSchema;
 use crate::photogrammetry::adjust::report::{
     CameraReport, DroppedObservation, ImageReport, PointReport, VarianceModel,
 };
+use crate::photogrammetry::statistics::variance_components::{PooledSigma, VarianceComponent};
 use crate::photogrammetry::statistics::GlobalTest;
 
 /// The stored report of one epoch, as the epoch summary and the dashboard show it.
@@ -49,6 +50,14 @@ pub struct EpochReport {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(value_type = Option<Vec<Object>>)]
     pub identification: Option<Vec<serde_json::Value>>,
+    /// Each camera's variance component: its a-priori σ (mm), coordinates, share of the
+    /// redundancy and of vᵀPv (epochs stored before it was reported have none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub variance_components: Vec<VarianceComponent>,
+    /// When the site's `apriori_sigma` is `estimated` and enough earlier epochs had components:
+    /// the cameras' σ this adjustment used in place of the uploaded ones.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub apriori_sigma_estimated: Option<Vec<PooledSigma>>,
 }
 
 impl EpochReport {

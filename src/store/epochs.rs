@@ -11,6 +11,7 @@ use utoipa::ToSchema;
 
 use super::epoch_report::EpochReport;
 use super::{display_timestamp, timestamp, StoreError};
+use crate::photogrammetry::statistics::variance_components::PooledSigma;
 use crate::photogrammetry::{Adjustment, EpochInput, Model};
 
 /// What ingestion hands to [`insert`]: the parsed upload and its adjustment.
@@ -31,6 +32,9 @@ pub struct EpochRecord<'a> {
     /// Watched epochs: per station, how its targets were identified (stored in the report as
     /// `identification`).
     pub identification: Option<&'a serde_json::Value>,
+    /// The cameras' σ estimated from earlier epochs that the adjustment used (stored in the
+    /// report as `apriori_sigma_estimated`).
+    pub apriori_sigma_estimated: Option<&'a [PooledSigma]>,
     /// When the epoch was stored: the time of its transaction on the store's clock
     /// ([`super::clock`]), shared with the rows the same transaction writes.
     pub created_at: DateTime<Utc>,
@@ -83,6 +87,10 @@ pub struct EpochListItem {
     /// residuals; RFC 3339), null while they are kept. The adjustment report, coordinates,
     /// covariances and displacements stay.
     pub observations_pruned_at: Option<String>,
+    /// The adjustment's variance factor (σ̂0 / a-priori σ)², dimensionless.
+    pub variance_factor: Option<f64>,
+    /// Its degrees of freedom (redundancy).
+    pub dof: Option<i64>,
 }
 
 impl EpochListItem {
@@ -134,7 +142,7 @@ pub async fn list(
 ) -> Result<Vec<(String, EpochListItem)>, StoreError> {
     let rows: Vec<EpochListItem> = sqlx::query_as(
         "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, dropped_observations, created_at, \
-         observations_pruned_at FROM epochs WHERE site_id = $1 AND observed_at < $2 \
+         observations_pruned_at, variance_factor, dof FROM epochs WHERE site_id = $1 AND observed_at < $2 \
          ORDER BY observed_at DESC LIMIT $3",
     )
     .bind(site)
@@ -174,7 +182,7 @@ pub async fn get(
     }
     let row: Option<Row> = sqlx::query_as(
         "SELECT id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, iterations, dropped_observations, created_at, \
-         observations_pruned_at, report \
+         observations_pruned_at, variance_factor, dof, report \
          FROM epochs WHERE site_id = $1 AND id = $2",
     )
     .bind(site)
@@ -302,13 +310,19 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
         if let Some(id) = rec.identification {
             obj.insert("identification".into(), id.clone());
         }
+        if let Some(applied) = rec.apriori_sigma_estimated {
+            obj.insert(
+                "apriori_sigma_estimated".into(),
+                serde_json::to_value(applied)?,
+            );
+        }
     }
     let first_camera = adj.report.cameras.first();
     let created = timestamp(rec.created_at);
     sqlx::query(
         "INSERT INTO epochs (site_id, id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, \
-         iterations, dropped_observations, body_sha256, cameras, report, created_at) \
-         VALUES ($1, $2, $3, $4, 'adjusted', $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)",
+         iterations, dropped_observations, body_sha256, cameras, report, created_at, variance_factor, dof) \
+         VALUES ($1, $2, $3, $4, 'adjusted', $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16)",
     )
     .bind(rec.site)
     .bind(id)
@@ -324,6 +338,8 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
     .bind(serde_json::to_string(&rec.input.cameras)?)
     .bind(report.to_string())
     .bind(&created)
+    .bind(Some(adj.report.variance_factor).filter(|v| v.is_finite()))
+    .bind(adj.report.dof)
     .execute(&mut *db)
     .await?;
     upsert_cameras(db, rec, &created).await?;

@@ -47,6 +47,7 @@ pub mod copy;
 mod dialect;
 pub(crate) mod displacement_row;
 pub mod displacements;
+pub(crate) mod epoch_health;
 pub(crate) mod epoch_report;
 pub mod epochs;
 mod error;

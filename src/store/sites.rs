@@ -5,6 +5,7 @@ use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
+use crate::analysis::site_frame::SiteFrame;
 use crate::photogrammetry::Model;
 
 /// The version of the derived series (displacements, filtered values, block motions) this binary
@@ -85,6 +86,37 @@ pub struct NewSite {
     /// camera's one a-priori `sigma_mm`) or `target` (each detected target's own σ).
     #[serde(default)]
     pub image_weights: Option<ImageWeights>,
+    /// The frame's orientation: its up axis (default `[0, 0, 1]`, as in E, N, Up) and the
+    /// face's outward normal (default: from the stable points' plane); the face plan and the
+    /// along / height / out-of-face components read it.
+    #[serde(default)]
+    pub frame: Option<SiteFrame>,
+    /// Which a-priori σ of the image coordinates the site's adjustments use: `upload` (default:
+    /// each camera's `sigma_mm` as uploaded) or `estimated` (each camera's σ estimated from the
+    /// variance components of the site's last epochs, once there are enough of them).
+    #[serde(default)]
+    pub apriori_sigma: Option<AprioriSigma>,
+}
+
+/// Which a-priori σ of the image coordinates a site's adjustments use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum AprioriSigma {
+    /// Each camera's `sigma_mm` as uploaded (or its default).
+    #[default]
+    Upload,
+    /// Each camera's σ pooled from the variance components of the site's last epochs.
+    Estimated,
+}
+
+impl AprioriSigma {
+    /// `"upload"` or `"estimated"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            AprioriSigma::Upload => "upload",
+            AprioriSigma::Estimated => "estimated",
+        }
+    }
 }
 
 /// How a site's detected image observations are weighted in its adjustment.
@@ -141,6 +173,10 @@ pub struct Site {
     pub contacts: Vec<String>,
     /// How the watched directory weights the image observations.
     pub image_weights: ImageWeights,
+    /// The frame's orientation (up axis, face normal when declared).
+    pub frame: SiteFrame,
+    /// Which a-priori σ the adjustments use.
+    pub apriori_sigma: AprioriSigma,
     /// Creation time (RFC 3339).
     pub created_at: String,
 }
@@ -162,6 +198,8 @@ struct SiteRow {
     response_text: Option<String>,
     contacts: Option<String>,
     image_weights: Option<String>,
+    frame: Option<String>,
+    apriori_sigma: Option<String>,
     created_at: String,
 }
 
@@ -174,6 +212,16 @@ impl TryFrom<SiteRow> for Site {
             Some(other) => {
                 return Err(StoreError::Corrupt(format!(
                     "site '{}': image_weights '{other}'",
+                    r.id
+                )))
+            }
+        };
+        let apriori_sigma = match r.apriori_sigma.as_deref() {
+            None | Some("upload") => AprioriSigma::Upload,
+            Some("estimated") => AprioriSigma::Estimated,
+            Some(other) => {
+                return Err(StoreError::Corrupt(format!(
+                    "site '{}': apriori_sigma '{other}'",
                     r.id
                 )))
             }
@@ -198,6 +246,13 @@ impl TryFrom<SiteRow> for Site {
                 .transpose()?
                 .unwrap_or_default(),
             image_weights,
+            frame: r
+                .frame
+                .as_deref()
+                .map(serde_json::from_str)
+                .transpose()?
+                .unwrap_or_default(),
+            apriori_sigma,
             created_at: display_timestamp(&r.created_at),
         })
     }
@@ -205,7 +260,7 @@ impl TryFrom<SiteRow> for Site {
 
 const COLUMNS: &str =
     "id, name, model, schedule_hours, confidence, alert_rules, reference_epoch, reference_epochs, \
-     process_noise, time_zone, area, response_text, contacts, image_weights, created_at";
+     process_noise, time_zone, area, response_text, contacts, image_weights, frame, apriori_sigma, created_at";
 
 /// Reads one site.
 pub async fn get(db: impl AnyExecutor<'_>, id: &str) -> Result<Option<Site>, StoreError> {
@@ -290,13 +345,15 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .map(serde_json::to_string)
         .transpose()?;
     let image_weights = site.image_weights.map(ImageWeights::as_str);
+    let frame = site.frame.as_ref().map(serde_json::to_string).transpose()?;
+    let apriori_sigma = site.apriori_sigma.map(AprioriSigma::as_str);
     if create {
         let at = now(&mut *db).await?;
         sqlx::query(
             "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, \
              reference_epochs, process_noise, time_zone, area, response_text, contacts, created_at, \
-             analysis_version, image_weights) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15)",
+             analysis_version, image_weights, frame, apriori_sigma) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17)",
         )
         .bind(&site.id)
         .bind(name)
@@ -313,13 +370,15 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(&at)
         .bind(ANALYSIS_VERSION)
         .bind(image_weights)
+        .bind(frame.as_deref())
+        .bind(apriori_sigma)
         .execute(db)
         .await?;
     } else {
         sqlx::query(
             "UPDATE sites SET name = $1, model = $2, schedule_hours = $3, confidence = $4, alert_rules = $5, \
              reference_epochs = $6, process_noise = $7, time_zone = $8, area = $9, response_text = $10, \
-             contacts = $11, image_weights = $12 WHERE id = $13",
+             contacts = $11, image_weights = $12, frame = $13, apriori_sigma = $14 WHERE id = $15",
         )
         .bind(name)
         .bind(model)
@@ -333,6 +392,8 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(site.response_text.as_deref())
         .bind(contacts.as_deref())
         .bind(image_weights)
+        .bind(frame.as_deref())
+        .bind(apriori_sigma)
         .bind(&site.id)
         .execute(db)
         .await?;

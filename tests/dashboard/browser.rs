@@ -170,6 +170,33 @@ impl Driver {
     }
 
     /// Lays pages out as a phone does: 360 × 740 CSS px, device scale 2, mobile.
+    /// The current page printed to an A4 PDF (WebDriver's Print Page), and its page count (the
+    /// `/Type /Page` objects, whatever the writer's spacing).
+    pub(crate) async fn print_a4(&self) -> (Vec<u8>, usize) {
+        let pdf = self
+            .call(
+                reqwest::Method::POST,
+                "/print",
+                json!({"page": {"width": 21.0, "height": 29.7}, "background": true}),
+            )
+            .await;
+        let pdf = {
+            use base64::Engine;
+            base64::engine::general_purpose::STANDARD
+                .decode(pdf.as_str().unwrap())
+                .unwrap()
+        };
+        assert!(pdf.starts_with(b"%PDF"), "a PDF");
+        let text = String::from_utf8_lossy(&pdf);
+        let pages = text.matches("/Type /Page\n").count()
+            + text.matches("/Type /Page/").count()
+            + text.matches("/Type /Page ").count()
+            + text.matches("/Type/Page/").count()
+            + text.matches("/Type/Page>").count()
+            + text.matches("/Type /Page>").count();
+        (pdf, pages)
+    }
+
     pub(crate) async fn emulate_phone(&self) {
         self.emulate_phone_width(360).await;
     }
@@ -365,25 +392,8 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
     );
     // The campaign report prints to a PDF of A4 pages.
     driver.goto(&s.url(&format!("/sites/{SITE}/report"))).await;
-    let pdf = driver
-        .call(
-            reqwest::Method::POST,
-            "/print",
-            json!({"page": {"width": 21.0, "height": 29.7}, "background": true}),
-        )
-        .await;
-    let pdf = {
-        use base64::Engine;
-        base64::engine::general_purpose::STANDARD
-            .decode(pdf.as_str().unwrap())
-            .unwrap()
-    };
-    assert!(pdf.starts_with(b"%PDF"), "a PDF");
+    let (pdf, pages) = driver.print_a4().await;
     let text = String::from_utf8_lossy(&pdf);
-    let pages = text.matches("/Type /Page\n").count()
-        + text.matches("/Type /Page/").count()
-        + text.matches("/Type /Page ").count()
-        + text.matches("/Type/Page/").count();
     assert!(text.contains("595") && text.contains("842"), "A4 media box");
     if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
         std::fs::write(Path::new(&dir).join("report.pdf"), &pdf).unwrap();

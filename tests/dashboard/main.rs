@@ -14,6 +14,8 @@ mod headline;
 mod pages;
 mod plan_labels;
 mod plots;
+mod report;
 mod security;
 mod sensitivity;
 mod sessions;
+mod site_frame;

@@ -198,7 +198,8 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
     assert!(report.contains("<svg class=\"plan\""));
     assert_eq!(
         report.matches("<figure class=\"moving\"").count(),
-        POINTS - STABLE
+        (POINTS - STABLE).min(4),
+        "the moving points that moved most, at most 4"
     );
     assert!(report.contains("Alert history") && report.contains("badge warning"));
     for i in 0..POINTS {
@@ -215,7 +216,8 @@ async fn pages_link_down_escape_user_text_and_plot_the_api_series() {
     .await;
     assert_eq!(st, 200);
     assert!(
-        early.contains("No point moved significantly") && early.contains("No alert in the period")
+        early.contains("No block and no point moved significantly")
+            && early.contains("No alert in the period")
     );
     assert_eq!(
         html(&s, &format!("/sites/{SITE}/report?from=yesterday"))

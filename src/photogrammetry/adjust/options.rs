@@ -25,6 +25,9 @@ pub struct AdjustOptions {
     /// With the central model: adjust the orthogonal model first and start collinearity from its
     /// solution (default). Off, collinearity starts from the start values directly (model comparisons).
     pub central_from_orthogonal: bool,
+    /// Report each camera's variance component (its share of vᵀPv and of the redundancy; one
+    /// more pass over the observations' cofactors).
+    pub variance_components: bool,
 }
 
 impl Default for AdjustOptions {
@@ -37,6 +40,7 @@ impl Default for AdjustOptions {
             critical_w: 3.29,
             max_iterations: 100,
             central_from_orthogonal: true,
+            variance_components: false,
         }
     }
 }

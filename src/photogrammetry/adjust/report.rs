@@ -143,4 +143,9 @@ pub struct AdjustmentReport {
     /// observations) rest on; the covariances always carry the a-posteriori variance factor.
     #[serde(default)]
     pub variance_model: VarianceModel,
+    /// Each camera's share of vᵀPv and of the redundancy (when the options ask for them: the
+    /// service does, for the site's adjustment health).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub variance_components:
+        Vec<crate::photogrammetry::statistics::variance_components::VarianceComponent>,
 }

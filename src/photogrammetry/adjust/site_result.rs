@@ -22,6 +22,7 @@ use crate::photogrammetry::model::orthogonal::OrthoImage;
 use crate::photogrammetry::model::Model;
 use crate::photogrammetry::solve::lm::LmOutcome;
 use crate::photogrammetry::statistics::precision::Cofactors;
+use crate::photogrammetry::statistics::variance_components::per_camera;
 use crate::photogrammetry::statistics::variance_factor::{chi2_upper, GLOBAL_TEST_Z};
 
 /// What the solution left for the result: the final bundle in the working frame, its cofactors
@@ -131,6 +132,12 @@ pub(super) fn site_result(s: Solution) -> Result<Adjustment, AdjustError> {
     let (cameras, camera_reports) = calibrated_cameras(problem, &bundle, &cof, variance_factor);
     let orientations = orientations(problem, &bundle, &to_site);
     let (residuals, image_reports) = residual_reports(problem, &bundle, &w);
+    let variance_components = if options.variance_components {
+        let ids: Vec<String> = problem.cameras.iter().map(|c| c.id.clone()).collect();
+        per_camera(&bundle, &cof, &ids)
+    } else {
+        Vec::new()
+    };
     let report = AdjustmentReport {
         model: bundle.model,
         converged: outcome.converged,
@@ -151,6 +158,7 @@ pub(super) fn site_result(s: Solution) -> Result<Adjustment, AdjustError> {
         index3_rmse_mm: None,
         index4_rmse_mm: None,
         variance_model,
+        variance_components,
     };
     Ok(Adjustment {
         report,

@@ -7,3 +7,4 @@ pub use variance_factor::{GlobalTest, GLOBAL_TEST_CONFIDENCE};
 pub(crate) mod precision;
 pub mod quality;
 pub(crate) mod snooping;
+pub mod variance_components;
