@@ -162,12 +162,8 @@ async fn ingest_with_identification(
             &problem.points,
             stable_and_block_points(&mut db, &site.id).await?,
         ),
-        variance_components: true,
         ..AdjustOptions::default()
     };
-    let apriori_sigma_estimated: Option<
-        Vec<crate::photogrammetry::statistics::variance_components::PooledSigma>,
-    > = None;
     drop(db);
     let started = Instant::now();
     // The slot goes with the blocking task and comes back when it ends (a dropped caller
@@ -206,7 +202,7 @@ async fn ingest_with_identification(
         adjustment: &adjustment,
         control_points: &control,
         identification: folder.map(|f| &f.identification),
-        apriori_sigma_estimated: apriori_sigma_estimated.as_deref(),
+        apriori_sigma_estimated: None,
         created_at: now,
     };
     let epoch = epochs::insert(&mut tx, &record).await?;
