@@ -29,6 +29,8 @@ pub struct Health<'a> {
     pub used: &'a [(String, f64)],
     /// The site's setting.
     pub setting: AprioriSigma,
+    /// The estimate is a first step ([`crate::service::apriori_sigma::SiteSigma::first_step`]).
+    pub first_step: bool,
 }
 
 /// The global tests of the epochs that report a variance factor, newest first.
@@ -66,7 +68,7 @@ pub fn section(h: &Health<'_>) -> Markup {
                         "The global test passed on " (recent.len() - failed.len()) " of the last " (recent.len()) " epochs."
                     }
                 }
-                @if !h.estimate.is_empty() {
+                @if !h.estimate.is_empty() && (most_fail || h.setting == AprioriSigma::Estimated) {
                     p.estimate {
                         "A-priori σ of an image coordinate estimated from the variance components of the last "
                         (h.estimate.iter().map(|e| e.epochs).max().unwrap_or(0)) " epochs: "
@@ -76,6 +78,9 @@ pub fn section(h: &Health<'_>) -> Markup {
                             @if let Some((_, u)) = h.used.iter().find(|(c, _)| *c == e.camera) { " (used at the last epoch: " (num(Some(u * 1000.0), 2)) " µm)" }
                         }
                         ". "
+                        @if h.first_step {
+                            "This is a first step: the σ used weights the cameras in another ratio, which shifts part of one camera's noise onto the others, so each value may be off by more than its ±. Applied, the estimate converges over the next epochs. "
+                        }
                         @match h.setting {
                             AprioriSigma::Estimated => { "The site applies it to its next epochs (" code { "apriori_sigma: estimated" } ")." },
                             AprioriSigma::Upload => { "The site uses the uploaded σ; set its " code { "apriori_sigma" } " to " code { "estimated" } " to apply the estimate to the next epochs." },

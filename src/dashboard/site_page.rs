@@ -150,12 +150,12 @@ async fn health_section(
         .into_iter()
         .map(|(_, e)| e)
         .collect();
-    let estimate = Vec::new();
-    let used: Vec<(String, f64)> = Vec::new();
+    let sigma = crate::service::apriori_sigma::of_site(&state.store, &site.id).await?;
     Ok(super::health::section(&super::health::Health {
         epochs: &rows,
-        estimate: &estimate,
-        used: &used,
+        estimate: &sigma.estimate,
+        used: &sigma.used,
+        first_step: sigma.first_step,
         setting: site.apriori_sigma,
     }))
 }

@@ -16,7 +16,7 @@ use crate::analysis::{self, EpochCoordinates, GroupKind, History};
 use crate::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochError, EpochInput};
 use crate::store::block_motions;
 use crate::store::displacements::{self, Displacement};
-use crate::store::sites::Site;
+use crate::store::sites::{AprioriSigma, Site};
 use crate::store::{self, epochs, groups, points, sites, watch_state, Connection, Store};
 
 use super::admission::UploadSlot;
@@ -25,6 +25,7 @@ use super::analysis_inputs::{
     analysis_config, history, point_configs, reference_coordinates, reference_epoch,
     reference_window, site_analysis_config, to_rows,
 };
+use super::apriori_sigma;
 use super::{recompute, ServiceError};
 
 /// The outcome of a successful ingestion.
@@ -128,7 +129,7 @@ async fn ingest_with_identification(
     folder: Option<&WatchedFolder>,
     slot: Option<UploadSlot>,
 ) -> Result<Ingested, ServiceError> {
-    let problem = input.validate()?;
+    let mut problem = input.validate()?;
     let now = Utc::now();
     if problem.observed_at > now + chrono::Duration::days(MAX_DAYS_AHEAD) {
         return Err(EpochError::TimestampAhead {
@@ -162,7 +163,15 @@ async fn ingest_with_identification(
             &problem.points,
             stable_and_block_points(&mut db, &site.id).await?,
         ),
+        variance_components: true,
         ..AdjustOptions::default()
+    };
+    let apriori_sigma_estimated = match site.apriori_sigma {
+        AprioriSigma::Estimated => {
+            let estimate = apriori_sigma::estimate(&mut db, &site.id, Some(&observed_at)).await?;
+            Some(apriori_sigma::apply(&mut problem, &estimate)).filter(|a| !a.is_empty())
+        }
+        AprioriSigma::Upload => None,
     };
     drop(db);
     let started = Instant::now();
@@ -202,7 +211,7 @@ async fn ingest_with_identification(
         adjustment: &adjustment,
         control_points: &control,
         identification: folder.map(|f| &f.identification),
-        apriori_sigma_estimated: None,
+        apriori_sigma_estimated: apriori_sigma_estimated.as_deref(),
         created_at: now,
     };
     let epoch = epochs::insert(&mut tx, &record).await?;

@@ -17,6 +17,9 @@
 //! - [`retention`]: finished webhook deliveries and old epochs' observations deleted after
 //!   their retention periods.
 //!
+//! Adjustment health: [`apriori_sigma`] estimates the cameras' a-priori σ from the recent
+//! epochs' variance components and applies it when the site asks.
+//!
 //! Admission: [`admission`] bounds the uploads a node processes at once.
 //!
 //! Shared steps: [`analysis_inputs`] loads what the analysis needs, [`alert_outcome`] writes
@@ -27,6 +30,7 @@ pub mod admission;
 pub(crate) mod alert_outcome;
 pub mod alertmanager_resend;
 pub(crate) mod analysis_inputs;
+pub mod apriori_sigma;
 pub mod configured;
 pub(crate) mod error;
 pub mod ingest;

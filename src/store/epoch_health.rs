@@ -1,11 +1,11 @@
-//! The adjustments' health as the campaign report reads it: the epochs' reports that used an
-//! estimated a-priori σ.
+//! The adjustments' health: the epochs' variance components, which the a-priori σ estimate pools,
+//! and the epochs whose adjustment used an estimated a-priori σ, as the campaign report reads them.
 
 use sqlx::AnyExecutor;
 
 use super::epoch_report::EpochReport;
 use super::StoreError;
-use crate::photogrammetry::statistics::variance_components::PooledSigma;
+use crate::photogrammetry::statistics::variance_components::{PooledSigma, VarianceComponent};
 
 /// The epochs observed between `from` and `to` (store format, inclusive; `None`: open) whose
 /// adjustment used cameras' σ estimated from earlier epochs, oldest first, with those σ.
@@ -32,4 +32,34 @@ pub async fn estimated_sigma_epochs(
         }
     }
     Ok(out)
+}
+
+/// The one field of a stored report the estimate reads (the rest is skipped unparsed).
+#[derive(serde::Deserialize)]
+struct Components {
+    #[serde(default)]
+    variance_components: Vec<VarianceComponent>,
+}
+
+/// The variance components of the `n` newest epochs observed before `before` (store format;
+/// `None`: all), newest first, each as its adjustment reported it (epochs stored without
+/// components are skipped).
+pub async fn recent_variance_components(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    before: Option<&str>,
+    n: usize,
+) -> Result<Vec<Vec<VarianceComponent>>, StoreError> {
+    let rows: Vec<String> = sqlx::query_scalar(
+        "SELECT report FROM epochs WHERE site_id = $1 AND observed_at < $2 \
+         AND report LIKE '%\"variance_components\"%' ORDER BY observed_at DESC LIMIT $3",
+    )
+    .bind(site)
+    .bind(before.unwrap_or(super::TEXT_MAX))
+    .bind(n as i64)
+    .fetch_all(db)
+    .await?;
+    rows.iter()
+        .map(|r| Ok(serde_json::from_str::<Components>(r)?.variance_components))
+        .collect()
 }

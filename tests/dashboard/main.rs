@@ -7,6 +7,7 @@
 mod support;
 
 mod alert_list;
+mod apriori_sigma;
 mod block_page;
 mod browser;
 mod cap_feed;

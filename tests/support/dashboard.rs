@@ -137,3 +137,18 @@ pub async fn create_site_with_stable(s: &TestServer, body: Value) {
         assert_eq!(r.status(), 200);
     }
 }
+
+/// A page's text as a reader sees it: the tags removed, entities `&amp;`, `&lt;`, `&gt;`,
+/// `&quot;` and `&#39;` decoded, runs of white space made one space.
+pub fn text_of(page: &str) -> String {
+    let no_tags = regex::Regex::new(r"(?s)<(script|style)\b.*?</(script|style)>|<[^>]*>")
+        .unwrap()
+        .replace_all(page, " ");
+    let decoded = no_tags
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&quot;", "\"")
+        .replace("&#39;", "'")
+        .replace("&amp;", "&");
+    decoded.split_whitespace().collect::<Vec<_>>().join(" ")
+}
