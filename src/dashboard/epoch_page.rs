@@ -82,13 +82,14 @@ pub async fn epoch(
         @if let Some(stations) = &report.identification {
             h2 { "Identification (watched directory)" }
             table.identification {
-                thead { tr { th { "station" } th { "method" } th { "detected" } th { "identified" } th { "ambiguous" } th { "unmatched" } } }
+                thead { tr { th { "station" } th { "method" } th { "detected" } th { "identified" } th { "ambiguous" } th { "unmatched" } th { "detection settings" } } }
                 tbody { @for st in stations {
                     tr { td { (st.get("station").map(text).unwrap_or_default()) }
                          td { (st.get("method").map(text).unwrap_or_default()) }
                          @for k in ["detected", "identified", "ambiguous", "unmatched"] {
                              td.num { (st.get(k).map(text).unwrap_or_default()) }
-                         } }
+                         }
+                         td.detection { (detection_settings(st.get("detection"))) } }
                 } }
             }
             @if !images.is_empty() {
@@ -188,4 +189,41 @@ fn residual_plot(rows: &[ObservationResidual]) -> Markup {
             text x="4" y=(format!("{:.0}", h - 4.0)) { "residuals × " (exaggeration) }
         }
     }
+}
+
+/// A station's detection settings as the report keeps them (`DetectionUsed`), in words:
+/// "polarity auto, found dark · diameters 2.5–64 px · from site, default"; "not recorded" for
+/// epochs stored before they were.
+fn detection_settings(d: Option<&serde_json::Value>) -> String {
+    let Some(d) = d.filter(|d| d.is_object()) else {
+        return "not recorded".into();
+    };
+    let s = |k: &str| d.get(k).and_then(|v| v.as_str()).unwrap_or("?").to_string();
+    let n = |k: &str| {
+        d.get(k)
+            .and_then(|v| v.as_f64())
+            .map_or("?".into(), |v| format!("{v}"))
+    };
+    let polarity = s("polarity");
+    let found = s("found");
+    let pol = if polarity == "auto" {
+        format!("polarity auto, found {found}")
+    } else {
+        format!("polarity {polarity}")
+    };
+    let from: Vec<&str> = d
+        .get("from")
+        .and_then(|v| v.as_array())
+        .map(|a| a.iter().filter_map(|v| v.as_str()).collect())
+        .unwrap_or_default();
+    format!(
+        "{pol} · diameters {}–{} px · from {}",
+        n("min_diameter_px"),
+        n("max_diameter_px"),
+        if from.is_empty() {
+            "?".into()
+        } else {
+            from.join(", ")
+        }
+    )
 }

@@ -18,6 +18,7 @@ pub mod identify;
 pub(crate) mod multiview;
 pub(crate) mod naming;
 pub(crate) mod re_pointing;
+pub mod settings;
 pub(crate) mod target;
 pub mod threshold;
 

@@ -115,6 +115,9 @@ pub fn validate_site(s: &NewSite) -> Result<(), ServiceError> {
     if let Some(frame) = &s.frame {
         frame.validate().map_err(invalid)?;
     }
+    if let Some(detection) = &s.detection {
+        detection.validate(None).map_err(invalid)?;
+    }
     if let Some(area) = &s.area {
         area.validate().map_err(invalid)?;
     }

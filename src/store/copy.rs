@@ -85,6 +85,7 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("image_weights", T),
             ("frame", T),
             ("apriori_sigma", T),
+            ("detection", T),
         ],
     ),
     (

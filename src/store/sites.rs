@@ -6,6 +6,7 @@ use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
 use crate::analysis::site_frame::SiteFrame;
+use crate::detect::settings::DetectionSettings;
 use crate::photogrammetry::Model;
 
 /// The version of the derived series (displacements, filtered values, block motions) this binary
@@ -96,6 +97,11 @@ pub struct NewSite {
     /// variance components of the site's last epochs, once there are enough of them).
     #[serde(default)]
     pub apriori_sigma: Option<AprioriSigma>,
+    /// How the watched directory detects the site's targets: `polarity` (`auto`, `bright`,
+    /// `dark`), `min_diameter_px`, `max_diameter_px`; a folder's `epoch.json` may override each
+    /// (default: auto, 2.5 to 64 px).
+    #[serde(default)]
+    pub detection: Option<DetectionSettings>,
 }
 
 /// Which a-priori σ of the image coordinates a site's adjustments use.
@@ -177,6 +183,8 @@ pub struct Site {
     pub frame: SiteFrame,
     /// Which a-priori σ the adjustments use.
     pub apriori_sigma: AprioriSigma,
+    /// How the watched directory detects the targets (fields not given: the defaults).
+    pub detection: DetectionSettings,
     /// Creation time (RFC 3339).
     pub created_at: String,
 }
@@ -200,6 +208,7 @@ struct SiteRow {
     image_weights: Option<String>,
     frame: Option<String>,
     apriori_sigma: Option<String>,
+    detection: Option<String>,
     created_at: String,
 }
 
@@ -253,6 +262,12 @@ impl TryFrom<SiteRow> for Site {
                 .transpose()?
                 .unwrap_or_default(),
             apriori_sigma,
+            detection: r
+                .detection
+                .as_deref()
+                .map(serde_json::from_str)
+                .transpose()?
+                .unwrap_or_default(),
             created_at: display_timestamp(&r.created_at),
         })
     }
@@ -260,7 +275,7 @@ impl TryFrom<SiteRow> for Site {
 
 const COLUMNS: &str =
     "id, name, model, schedule_hours, confidence, alert_rules, reference_epoch, reference_epochs, \
-     process_noise, time_zone, area, response_text, contacts, image_weights, frame, apriori_sigma, created_at";
+     process_noise, time_zone, area, response_text, contacts, image_weights, frame, apriori_sigma, detection, created_at";
 
 /// Reads one site.
 pub async fn get(db: impl AnyExecutor<'_>, id: &str) -> Result<Option<Site>, StoreError> {
@@ -347,13 +362,19 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
     let image_weights = site.image_weights.map(ImageWeights::as_str);
     let frame = site.frame.as_ref().map(serde_json::to_string).transpose()?;
     let apriori_sigma = site.apriori_sigma.map(AprioriSigma::as_str);
+    let detection = site
+        .detection
+        .filter(|d| !d.is_empty())
+        .as_ref()
+        .map(serde_json::to_string)
+        .transpose()?;
     if create {
         let at = now(&mut *db).await?;
         sqlx::query(
             "INSERT INTO sites (id, name, model, schedule_hours, confidence, alert_rules, \
              reference_epochs, process_noise, time_zone, area, response_text, contacts, created_at, \
-             analysis_version, image_weights, frame, apriori_sigma) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17)",
+             analysis_version, image_weights, frame, apriori_sigma, detection) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18)",
         )
         .bind(&site.id)
         .bind(name)
@@ -372,13 +393,14 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(image_weights)
         .bind(frame.as_deref())
         .bind(apriori_sigma)
+        .bind(detection.as_deref())
         .execute(db)
         .await?;
     } else {
         sqlx::query(
             "UPDATE sites SET name = $1, model = $2, schedule_hours = $3, confidence = $4, alert_rules = $5, \
              reference_epochs = $6, process_noise = $7, time_zone = $8, area = $9, response_text = $10, \
-             contacts = $11, image_weights = $12, frame = $13, apriori_sigma = $14 WHERE id = $15",
+             contacts = $11, image_weights = $12, frame = $13, apriori_sigma = $14, detection = $15 WHERE id = $16",
         )
         .bind(name)
         .bind(model)
@@ -394,6 +416,7 @@ async fn write(db: &mut AnyConnection, site: &NewSite, create: bool) -> Result<(
         .bind(image_weights)
         .bind(frame.as_deref())
         .bind(apriori_sigma)
+        .bind(detection.as_deref())
         .bind(&site.id)
         .execute(db)
         .await?;

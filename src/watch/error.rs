@@ -28,6 +28,9 @@ pub enum WatchError {
     /// `epoch.json` is not the upload form.
     #[error("epoch.json: {0}")]
     Json(#[from] serde_json::Error),
+    /// `epoch.json`'s `detection` is not valid detection settings (the message names the field).
+    #[error("epoch.json: {0}")]
+    Detection(String),
     /// A station (or image id) of `epoch.json` is not an identifier, so it names no file of the
     /// folder.
     #[error("station '{0}': letters, digits, '.', '_' and '-' only (1 to 64)")]
@@ -77,6 +80,20 @@ pub enum WatchError {
         file: String,
         /// Cause.
         source: DetectError,
+    },
+    /// No target was found in a station's image with the detection settings used.
+    #[error("image {file} of station {station}: no target found (polarity {polarity}, diameters {min_diameter_px}–{max_diameter_px} px): check the site's detection settings or epoch.json's detection")]
+    NoTargets {
+        /// Station.
+        station: String,
+        /// The image file's name in the folder.
+        file: String,
+        /// The polarity searched: `auto`, `bright` or `dark`.
+        polarity: &'static str,
+        /// Smallest diameter searched, px.
+        min_diameter_px: f64,
+        /// Largest diameter searched, px.
+        max_diameter_px: f64,
     },
     /// Identification failed.
     #[error("identification on station {station}: {source}")]

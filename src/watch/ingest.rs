@@ -12,6 +12,7 @@ use super::state::{load_orientations, save_state};
 use super::stations::{detect_station, station_of, StationCounts, StationData, StationNamed};
 use super::{WatchError, WatchOptions};
 use crate::detect::identify::{resect_seeds, Seed};
+use crate::detect::settings::DetectionSettings;
 use crate::photogrammetry::input::epoch::ObservationInput;
 use crate::photogrammetry::{EpochInput, ImageOrientation};
 use crate::service::ingest::{ingest_watched, Ingested, WatchedFolder};
@@ -50,6 +51,49 @@ pub(super) async fn process(
     Ok((ingested, orientations))
 }
 
+/// A folder's detection settings: the site's with `epoch.json`'s `detection` over them, and
+/// their sources (`epoch.json`, `site`, `default`).
+struct FolderDetection {
+    settings: DetectionSettings,
+    from: Vec<String>,
+}
+
+/// `epoch.json`: the upload form, and an optional `detection` object over the site's settings
+/// (checked like the site's, the message naming the field).
+fn parse_epoch_json(
+    text: &str,
+    site: &DetectionSettings,
+) -> Result<(EpochInput, FolderDetection), WatchError> {
+    let mut value: serde_json::Value = serde_json::from_str(text)?;
+    let folder: DetectionSettings = match value.as_object_mut().and_then(|o| o.remove("detection"))
+    {
+        Some(d) => serde_json::from_value(d).map_err(|e| WatchError::Detection(e.to_string()))?,
+        None => DetectionSettings::default(),
+    };
+    folder.validate(Some(site)).map_err(WatchError::Detection)?;
+    let input: EpochInput = serde_json::from_value(value)?;
+    let settings = folder.over(*site);
+    let given = |d: &DetectionSettings| {
+        [
+            d.polarity.is_some(),
+            d.min_diameter_px.is_some(),
+            d.max_diameter_px.is_some(),
+        ]
+    };
+    let (f, st, all) = (given(&folder), given(site), given(&settings));
+    let mut from = Vec::new();
+    if f.contains(&true) {
+        from.push("epoch.json".to_string());
+    }
+    if (0..3).any(|i| st[i] && !f[i]) {
+        from.push("site".to_string());
+    }
+    if all.contains(&false) {
+        from.push("default".to_string());
+    }
+    Ok((input, FolderDetection { settings, from }))
+}
+
 /// Detects and names the targets of `folder` (writes its `identification.json`; `done` as in
 /// [`process`]).
 async fn identify(
@@ -70,7 +114,10 @@ async fn identify(
             file: "epoch.json".into(),
             source,
         })?;
-    let mut input: EpochInput = serde_json::from_str(&text)?;
+    let (mut input, detection) = parse_epoch_json(&text, &settings.detection)?;
+    let mut opts = opts.clone();
+    detection.settings.apply(&mut opts.detect);
+    let opts = &opts;
     // known points: the site's latest coordinates, then the upload's control and approximations
     let mut known: BTreeMap<String, [f64; 3]> = BTreeMap::new();
     for a in &input.approx {
@@ -95,7 +142,7 @@ async fn identify(
     let previous = load_orientations(store, site, site_dir).await?;
     let mut stations = Vec::with_capacity(input.images.len());
     for image in &input.images {
-        stations.push(detect_station(&images, image, &input.cameras, opts).await?);
+        stations.push(detect_station(&images, image, &input.cameras, opts, &detection.from).await?);
     }
     // Matching across stations and the assignments are CPU work: a blocking thread.
     let naming_opts = opts.clone();

@@ -8,6 +8,7 @@ use super::image_file::{read_image_file, ImageFileError};
 use super::{WatchError, WatchOptions};
 use crate::detect::detect_bytes;
 use crate::detect::identify::Seed;
+use crate::detect::settings::{DetectionSettings, DetectionUsed};
 use crate::photogrammetry::input::epoch::{is_valid_identifier, CameraInput, ImageInput};
 use crate::photogrammetry::{Camera, EpochError};
 
@@ -27,6 +28,8 @@ pub(super) struct StationData {
     pub(super) diameters: Vec<f64>,
     /// σ of each detected target's centre coordinates in px (`Target::sigma_px`).
     pub(super) sigmas_px: Vec<f64>,
+    /// The detection settings its image was measured with.
+    pub(super) detection: DetectionUsed,
     /// The same in image mm.
     pub(super) blobs: Vec<[f64; 2]>,
     /// The seed observations of `epoch.json` for this station, in image mm.
@@ -66,6 +69,8 @@ pub(super) struct StationCounts {
     pub(super) height_px: u32,
     /// Every detected target.
     pub(super) targets: Vec<DetectedTarget>,
+    /// The detection settings used.
+    pub(super) detection: DetectionUsed,
 }
 
 /// One detected target of a station's image, as the report keeps it.
@@ -131,6 +136,7 @@ impl StationCounts {
             width_px: s.size.0,
             height_px: s.size.1,
             targets,
+            detection: s.detection.clone(),
         }
     }
 }
@@ -152,6 +158,7 @@ pub(super) async fn detect_station(
     image: &ImageInput,
     cameras: &[CameraInput],
     opts: &WatchOptions,
+    detection_from: &[String],
 ) -> Result<StationData, WatchError> {
     let station = station_of(image)?;
     let cam_err = |reason: String| WatchError::Camera {
@@ -189,6 +196,16 @@ pub(super) async fn detect_station(
             file: file.clone(),
             source,
         })?;
+    if det.targets.is_empty() {
+        let used = DetectionSettings::used(&opts.detect, det.polarity, Vec::new());
+        return Err(WatchError::NoTargets {
+            station,
+            file,
+            polarity: used.polarity.as_str(),
+            min_diameter_px: used.min_diameter_px,
+            max_diameter_px: used.max_diameter_px,
+        });
+    }
     // The image must be the size the camera declares: the image centre, and so every
     // coordinate in mm, comes from the declared size (a portrait or downscaled export would
     // shift or scale all of them without a word).
@@ -230,6 +247,7 @@ pub(super) async fn detect_station(
         targets: det.targets.iter().map(|t| (t.col, t.row)).collect(),
         diameters: det.targets.iter().map(|t| t.diameter_px).collect(),
         sigmas_px: det.targets.iter().map(|t| t.sigma_px).collect(),
+        detection: DetectionSettings::used(&opts.detect, det.polarity, detection_from.to_vec()),
         blobs,
         seeds,
     })

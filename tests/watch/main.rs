@@ -7,6 +7,7 @@
 mod support;
 
 mod bad_input;
+mod detection_settings;
 mod dir;
 mod first_epoch;
 mod live;
