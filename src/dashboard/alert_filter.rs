@@ -24,6 +24,13 @@ pub struct AlertQuery {
     /// The epochs table's page: epochs observed before this instant (RFC 3339); none: the newest.
     #[serde(default)]
     pub epochs_before: Option<String>,
+    /// The alert list's page: alerts raised before this instant (the store's `raised_at` of the
+    /// previous page's last alert), with [`AlertQuery::alerts_before_id`]; none: the newest.
+    #[serde(default)]
+    pub alerts_before: Option<String>,
+    /// The id of the previous page's last alert (ties of `raised_at` break by id).
+    #[serde(default)]
+    pub alerts_before_id: Option<String>,
 }
 
 /// States a filter may ask for; `active` is open or acknowledged.
@@ -38,6 +45,8 @@ pub struct AlertFilter {
     pub state: &'static str,
     /// Lower-case part of the subject's name (empty: any).
     pub subject: String,
+    /// The page: alerts before this `(raised_at, id)` (`None`: the newest).
+    pub before: Option<(String, String)>,
 }
 
 impl AlertFilter {
@@ -60,11 +69,41 @@ impl AlertFilter {
         if subject.chars().count() > 200 {
             return Err("subject is longer than 200 characters".into());
         }
+        let before = match (&q.alerts_before, &q.alerts_before_id) {
+            (Some(t), Some(id)) if !t.is_empty() => {
+                if t.chars().count() > 40 || id.chars().count() > 200 {
+                    return Err("alerts_before or alerts_before_id is too long".into());
+                }
+                Some((t.clone(), id.clone()))
+            }
+            (None, None) => None,
+            _ => return Err("alerts_before and alerts_before_id go together".into()),
+        };
         Ok(AlertFilter {
             level,
             state,
             subject,
+            before,
         })
+    }
+
+    /// The query of this filter's page after the alert `(raised_at, id)` (raw store
+    /// `raised_at`), for the "older alerts" link, percent-encoded.
+    pub fn older_query(&self, raised_at: &str, id: &str) -> String {
+        let enc = |s: &str| super::layout::seg(s).to_string();
+        let mut q = format!("state={}", self.state);
+        if let Some(l) = self.level {
+            q.push_str(&format!("&level={l}"));
+        }
+        if !self.subject.is_empty() {
+            q.push_str(&format!("&subject={}", enc(&self.subject)));
+        }
+        q.push_str(&format!(
+            "&alerts_before={}&alerts_before_id={}",
+            enc(raised_at),
+            enc(id)
+        ));
+        q
     }
 
     /// Whether the filter shows the alerts not resolved (the default), which the store reads
@@ -142,7 +181,7 @@ mod tests {
             level: level.map(str::to_string),
             state: state.map(str::to_string),
             subject: subject.map(str::to_string),
-            epochs_before: None,
+            ..AlertQuery::default()
         }
     }
 
@@ -170,7 +209,8 @@ mod tests {
             AlertFilter {
                 level: None,
                 state: "active",
-                subject: String::new()
+                subject: String::new(),
+                before: None,
             }
         );
     }

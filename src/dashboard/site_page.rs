@@ -64,12 +64,18 @@ pub async fn site(
                 .map(|m| m.worst_mm),
         })
         .collect();
+    let after = filter
+        .before
+        .as_ref()
+        .map(|(t, id)| (t.as_str(), id.as_str()));
     let read = if filter.is_active() {
-        alerts::list_active(db, &site.id, ALERTS_READ).await?
+        alerts::list_active_after(db, &site.id, after, ALERTS_READ).await?
     } else {
-        alerts::list(db, Some(&site.id), filter.store_state(), None, ALERTS_READ).await?
+        alerts::list(db, Some(&site.id), filter.store_state(), after, ALERTS_READ).await?
     };
-    let truncated = read.len() as i64 == ALERTS_READ;
+    let older_alerts = (read.len() as i64 == ALERTS_READ)
+        .then(|| read.last().map(|(t, a)| filter.older_query(t, &a.id)))
+        .flatten();
     let shown: Vec<alerts::Alert> = read
         .into_iter()
         .map(|(_, a)| a)
@@ -126,7 +132,7 @@ pub async fn site(
             h2 { "Face plan" }
             (face_plan(&site.id, &site.frame, &plan))
         }
-        (alerts_section(&filter, &shown, &block_of(&blocks, &pts), truncated, &v, &site_href, tz))
+        (alerts_section(&filter, &shown, &block_of(&blocks, &pts), older_alerts.as_deref(), &v, &site_href, tz))
         (points_table(&pts, &latest, &levels, &site_href))
         (health)
         (epochs_table(&epoch_page, &site_href, tz))
@@ -185,12 +191,13 @@ fn block_of(
 
 /// The alerts matching `filter`, one row per subject ([`super::alert_groups`]; `block_of`: the
 /// declared block of each point in one), each alert with its acknowledgement form where `v` may
-/// acknowledge; `truncated` when the newest [`ALERTS_READ`] were not all of them.
+/// acknowledge; `older`: the query of the next page when this page's [`ALERTS_READ`] alerts
+/// were not all of them.
 fn alerts_section(
     filter: &AlertFilter,
     shown: &[alerts::Alert],
     block_of: &HashMap<String, String>,
-    truncated: bool,
+    older: Option<&str>,
     v: &Viewer,
     site_href: &str,
     tz: Option<&str>,
@@ -204,7 +211,13 @@ fn alerts_section(
             } @else {
                 (super::alert_groups::table(&super::alert_groups::group(shown, block_of), v, site_href, tz))
             }
-            @if truncated { p.note { "Only the newest " (ALERTS_READ) " alerts of this state were searched: older ones may match." } }
+            @if let Some(q) = older {
+                p.pager { "This page searched " (ALERTS_READ) " alerts of this state; older ones may match: "
+                    a.older href={ (site_href) "?" (q) "#alerts" } { "older alerts →" } }
+            }
+            @if filter.before.is_some() {
+                p.pager { a href={ (site_href) "?state=" (filter.state) "#alerts" } { "← newest alerts" } }
+            }
         }
     }
 }

@@ -558,6 +558,37 @@ async fn an_old_open_alarm_is_shown_under_many_newer_resolved_alerts() {
         .find(|r| r.contains("/sites/busy\""))
         .expect("the site's row");
     assert!(row.contains("badge alarm"), "badge: {row}");
+
+    // Every state: 601 alerts, newest first, 500 a page; the second page holds the other 101,
+    // down to the old alarm, and links back to the newest.
+    let ids = |page: &str| -> Vec<String> {
+        page.split("id=\"alert-")
+            .skip(1)
+            .filter_map(|s| s.split('"').next())
+            .map(str::to_string)
+            .collect()
+    };
+    let (_, first) = html(&s, "/sites/busy?state=all").await;
+    let older = links(&first)
+        .into_iter()
+        .find(|l| l.contains("alerts_before="))
+        .expect("a link to older alerts");
+    assert!(first.contains("older alerts →"));
+    assert!(!first.contains("id=\"alert-old-alarm\""));
+    let (st, second) = html(&s, &older.replace("&amp;", "&")).await;
+    assert_eq!(st, 200, "{older}");
+    let (a, b) = (ids(&first), ids(&second));
+    assert_eq!((a.len(), b.len()), (500, 101), "{older}");
+    assert!(b.iter().all(|id| !a.contains(id)), "pages overlap");
+    assert!(b.contains(&"old-alarm".to_string()));
+    assert!(!second.contains("older alerts →"));
+    assert!(second.contains("← newest alerts"));
+    let (st, bad) = html(&s, "/sites/busy?state=all&alerts_before=2026").await;
+    assert_eq!(st, 400);
+    assert!(
+        bad.contains("alerts_before and alerts_before_id go together"),
+        "{bad}"
+    );
     s.stop().await;
 }
 

@@ -150,11 +150,25 @@ pub async fn list_active(
     site: &str,
     limit: i64,
 ) -> Result<Vec<(String, Alert)>, StoreError> {
+    list_active_after(db, site, None, limit).await
+}
+
+/// [`list_active`] from the cursor `after` on (`(raised_at, id)` of the previous page's last
+/// alert, raised_at in store format).
+pub async fn list_active_after(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    after: Option<(&str, &str)>,
+    limit: i64,
+) -> Result<Vec<(String, Alert)>, StoreError> {
+    let (t, id) = after.unwrap_or((super::TEXT_MAX, super::TEXT_MAX));
     let rows: Vec<Alert> = sqlx::query_as(&format!(
         "SELECT {COLUMNS} FROM alerts WHERE site_id = $1 AND state <> 'resolved' \
-         ORDER BY raised_at DESC, id DESC LIMIT $2"
+         AND (raised_at, id) < ($2, $3) ORDER BY raised_at DESC, id DESC LIMIT $4"
     ))
     .bind(site)
+    .bind(t)
+    .bind(id)
     .bind(limit)
     .fetch_all(db)
     .await?;
