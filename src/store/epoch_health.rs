@@ -43,7 +43,7 @@ struct Components {
 
 /// The variance components of the `n` newest epochs observed before `before` (store format;
 /// `None`: all), newest first, each as its adjustment reported it (epochs stored without
-/// components are skipped).
+/// components are skipped, so fewer may come back; the read is bounded by `n` either way).
 pub async fn recent_variance_components(
     db: impl AnyExecutor<'_>,
     site: &str,
@@ -51,8 +51,9 @@ pub async fn recent_variance_components(
     n: usize,
 ) -> Result<Vec<Vec<VarianceComponent>>, StoreError> {
     let rows: Vec<String> = sqlx::query_scalar(
-        "SELECT report FROM epochs WHERE site_id = $1 AND observed_at < $2 \
-         AND report LIKE '%\"variance_components\"%' ORDER BY observed_at DESC LIMIT $3",
+        "SELECT report FROM (SELECT report, observed_at FROM epochs WHERE site_id = $1 \
+         AND observed_at < $2 ORDER BY observed_at DESC LIMIT $3) newest \
+         WHERE report LIKE '%\"variance_components\"%' ORDER BY observed_at DESC",
     )
     .bind(site)
     .bind(before.unwrap_or(super::TEXT_MAX))
