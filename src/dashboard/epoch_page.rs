@@ -82,14 +82,14 @@ pub async fn epoch(
         @if let Some(stations) = &report.identification {
             h2 { "Identification (watched directory)" }
             table.identification {
-                thead { tr { th { "station" } th { "method" } th { "detected" } th { "identified" } th { "ambiguous" } th { "unmatched" } th { "detection settings" } } }
+                thead { tr { th { "station" } th { "method" } th { "detected" } th { "identified" } th { "ambiguous" } th { "unmatched" } th.wide { "detection settings" } } }
                 tbody { @for st in stations {
                     tr { td { (st.get("station").map(text).unwrap_or_default()) }
                          td { (st.get("method").map(text).unwrap_or_default()) }
                          @for k in ["detected", "identified", "ambiguous", "unmatched"] {
                              td.num { (st.get(k).map(text).unwrap_or_default()) }
                          }
-                         td.detection { (detection_settings(st.get("detection"))) } }
+                         td.detection.wide { (detection_settings(st.get("detection"))) } }
                 } }
             }
             @if !images.is_empty() {

@@ -93,6 +93,11 @@ pub fn section(h: &Health<'_>) -> Markup {
     }
 }
 
+/// The date part of a displayed time ("2026-11-20" of "2026-11-20T09:00:00Z").
+fn date_of(t: &str) -> &str {
+    t.get(..10).unwrap_or(t)
+}
+
 /// "1.41–1.96" (or one value).
 fn range(values: impl Iterator<Item = f64>) -> String {
     let (lo, hi) = values.fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
@@ -138,8 +143,17 @@ fn plot(tested: &[(&EpochListItem, GlobalTest)]) -> Markup {
                 polygon.band points=(band) {}
                 line.axis x1=(PAD) y1=(format!("{:.1}", sy(0.0))) x2=(W - PAD) y2=(format!("{:.1}", sy(0.0))) {}
                 line.one x1=(PAD) y1=(format!("{:.1}", sy(1.0))) x2=(W - PAD) y2=(format!("{:.1}", sy(1.0))) {}
-                text x="2" y=(format!("{:.1}", sy(1.0) + 4.0)) { "1" }
-                text x="2" y=(format!("{:.1}", sy(y_max / 1.1) + 4.0)) { (num(Some(y_max / 1.1), 1)) }
+                text.tick x="2" y=(format!("{:.1}", sy(0.0) + 5.0)) { "0" }
+                text.tick x="2" y=(format!("{:.1}", sy(1.0) + 5.0)) { "1.0" }
+                @if y_max / 1.1 > 1.4 {
+                    text.tick x="2" y=(format!("{:.1}", sy(y_max / 1.1) + 5.0)) { (num(Some(y_max / 1.1), 1)) }
+                }
+                @if let (Some((first, _)), Some((last, _))) = (pts.first(), pts.last()) {
+                    text.tick x=(PAD) y=(H - 6.0) { (date_of(&first.observed_at)) }
+                    @if n > 1 {
+                        text.tick x=(W - PAD) y=(H - 6.0) text-anchor="end" { (date_of(&last.observed_at)) }
+                    }
+                }
                 @for (i, (e, t)) in pts.iter().enumerate() {
                     circle class={ "vf " (if t.accepted { "passed" } else { "failed" }) } cx=(format!("{:.1}", sx(i))) cy=(format!("{:.1}", sy(t.variance_factor))) r="3" {
                         title { (e.observed_at) ": variance factor " (num(Some(t.variance_factor), 2)) (if t.accepted { ", passed" } else { ", failed" }) }

@@ -149,6 +149,27 @@ async fn the_estimated_sigma_converges_and_passes_the_global_test_at_its_rate() 
     assert!(text.contains(&used), "{used} not in {text}");
     assert!(text.contains("This is a first step"), "{text}");
 
+    // In Chromium: the section reads at desk and phone width, no sideways scroll at 360 px.
+    if let Some(driver) = crate::browser::Driver::start().await {
+        driver.goto(&s.url("/sites/upload#health")).await;
+        let shown = driver
+            .script("return document.querySelector('#health .estimate').innerText")
+            .await;
+        assert!(
+            shown.as_str().unwrap_or("").contains("first step"),
+            "{shown}"
+        );
+        driver.screenshot("health-desk.png").await;
+        driver.emulate_phone().await;
+        driver.goto(&s.url("/sites/upload#health")).await;
+        let overflow = driver
+            .script("return document.documentElement.scrollWidth - window.innerWidth")
+            .await;
+        assert!(overflow.as_f64().unwrap() <= 0.0, "{overflow} px sideways");
+        driver.screenshot("health-phone.png").await;
+        driver.quit().await;
+    }
+
     // Applied: the first epochs use the uploaded σ, then the estimate of the epochs before.
     let mut tests = Vec::new();
     for k in 0..40 {
