@@ -1,7 +1,8 @@
 //! Times the adjustment of the benchmark networks of `simulate::scenes::large`.
 //!
 //! `cargo run --release --example large_network [-- huge]` — default 20 images × 500 points (each in
-//! 10 images); `huge`: 100 images × 10 000 points.
+//! 10 images); `huge`: 100 images × 10 000 points. Then the cost of the cameras' variance
+//! components (the fastest of three adjustments without and with them).
 
 use std::time::Instant;
 
@@ -40,4 +41,24 @@ fn main() {
         ),
         Err(e) => println!("error: {e}"),
     }
+    // The service asks every adjustment for the cameras' variance components (issue 61,
+    // item 8): the same network again with them, three times each, the fastest kept.
+    let time = |components: bool| {
+        let options = AdjustOptions {
+            variance_components: components,
+            ..AdjustOptions::default()
+        };
+        (0..3)
+            .map(|_| {
+                let t = Instant::now();
+                let _ = adjust(&epoch, &options);
+                t.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let (without, with) = (time(false), time(true));
+    println!(
+        "variance components: {without:.3} s without, {with:.3} s with (+{:.1} %)",
+        100.0 * (with / without - 1.0)
+    );
 }
