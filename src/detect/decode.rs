@@ -105,6 +105,11 @@ pub fn decode_with_limit(bytes: &[u8], max_pixels: u64) -> Result<GreyImage, Det
     if reader.format() == Some(image::ImageFormat::Jpeg) && !jpeg_is_complete(bytes) {
         return Err(DetectError::Truncated { format: "JPEG" });
     }
+    if reader.format() == Some(image::ImageFormat::Jpeg) {
+        if let Some(grey) = jpeg_luma(bytes, width, height) {
+            return Ok(grey);
+        }
+    }
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(width);
     limits.max_image_height = Some(height);
@@ -114,6 +119,38 @@ pub fn decode_with_limit(bytes: &[u8], max_pixels: u64) -> Result<GreyImage, Det
         .decode()
         .map_err(|e| DetectError::Decode(e.to_string()))?;
     from_dynamic(img)
+}
+
+/// A JPEG's luma straight from the decoder (zune-jpeg with a luma output: a YCbCr image's Y
+/// channel, Rec. 601 luma by the JFIF definition, without colour conversion), when it decodes to
+/// `width` × `height` grey pixels; `None` sends the image through the general path (CMYK, or
+/// anything this path does not take).
+fn jpeg_luma(bytes: &[u8], width: u32, height: u32) -> Option<GreyImage> {
+    use zune_core::colorspace::ColorSpace;
+    use zune_core::options::DecoderOptions;
+    let options = DecoderOptions::default()
+        .jpeg_set_out_colorspace(ColorSpace::Luma)
+        .set_max_width(width as usize)
+        .set_max_height(height as usize);
+    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(
+        zune_core::bytestream::ZCursor::new(bytes),
+        options,
+    );
+    decoder.decode_headers().ok()?;
+    if decoder.output_colorspace()? != ColorSpace::Luma {
+        return None;
+    }
+    let luma = decoder.decode().ok()?;
+    if luma.len() as u64 != width as u64 * height as u64 {
+        return None;
+    }
+    GreyImage::new(
+        width,
+        height,
+        8,
+        luma.par_iter().map(|&v| u16::from(v)).collect(),
+    )
+    .ok()
 }
 
 /// Whether JPEG `bytes` reach their end-of-image marker: the marker segments are followed from
