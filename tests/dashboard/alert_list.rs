@@ -238,3 +238,58 @@ async fn one_row_per_subject_and_the_test_behind_a_deescalation() {
     driver.quit().await;
     s.stop().await;
 }
+
+/// An alert that only a recompute raises names the epoch of the series at which the replayed
+/// rules raised it, not the epoch whose upload caused the replay: days 3 and 4 come first (the
+/// block moves 10 mm between them, below the 15 mm rule), then day 0, which becomes the
+/// reference; replayed, the block is 30 mm out at day 3 and 40 mm at day 4.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_alert_a_replay_raises_names_the_epoch_that_raised_it() {
+    let s = TestServer::start(|_| {}).await;
+    site(
+        &s,
+        "late",
+        json!([{"level": "warning", "metric": "displacement_mm", "above": 15.0, "source": "raw"}]),
+    )
+    .await;
+    let mut ids = std::collections::HashMap::new();
+    for k in [3usize, 4, 0] {
+        let body = synthetic_epoch_moved(
+            4,
+            POINTS,
+            &day(k),
+            900 + k as u64,
+            [10.0 * k as f64, 0.0, 0.0],
+            STABLE,
+        );
+        let (st, answer) = s.upload("late", &body).await;
+        assert_eq!(st, 201, "day {k}: {answer}");
+        ids.insert(
+            k,
+            answer["epoch"]
+                .as_i64()
+                .or_else(|| answer["id"].as_i64())
+                .unwrap(),
+        );
+        if k == 4 {
+            assert!(
+                api_alerts(&s, "late").await.is_empty(),
+                "10 mm raised an alert"
+            );
+        }
+    }
+    let alerts = api_alerts(&s, "late").await;
+    assert_eq!(alerts.len(), POINTS - STABLE, "{alerts:?}");
+    for a in &alerts {
+        assert_eq!(a["raised_epoch"], ids[&3], "{a}");
+        assert!(
+            a["raised_observed_at"]
+                .as_str()
+                .unwrap()
+                .starts_with(&day(3)[..16]),
+            "{a}"
+        );
+        assert_eq!(a["epoch"], ids[&4], "the latest evaluation is day 4: {a}");
+    }
+    s.stop().await;
+}

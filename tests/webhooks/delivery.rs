@@ -90,6 +90,8 @@ fn event(ty: AlertEventType, level: AlertLevel) -> AlertEvent {
             unit: "mm".into(),
             epoch: Some(17),
             observed_at: Some(obs),
+            raised_epoch: Some(17),
+            raised_observed_at: Some(obs),
             raised_at: t,
             updated_at: t,
             status: AlertStatus::Open,

@@ -90,6 +90,14 @@ pub struct Alert {
     pub epoch: Option<i64>,
     /// Its observation time.
     pub observed_at: Option<DateTime<Utc>>,
+    /// The epoch id whose evaluation raised it (a replay's: the epoch of the series at which the
+    /// replayed rules raised it, not the epoch that caused the replay); absent from states stored
+    /// before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub raised_epoch: Option<i64>,
+    /// Its observation time.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub raised_observed_at: Option<DateTime<Utc>>,
     /// When raised.
     pub raised_at: DateTime<Utc>,
     /// Last change.

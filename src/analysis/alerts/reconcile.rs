@@ -37,6 +37,8 @@ pub fn reconcile(
                 let mut a = r.clone();
                 a.id = c.id.clone();
                 a.raised_at = c.raised_at;
+                a.raised_epoch = c.raised_epoch.or(r.raised_epoch);
+                a.raised_observed_at = c.raised_observed_at.or(r.raised_observed_at);
                 a.peak_level = c.peak_level.max(r.level);
                 a.acknowledged_by = c.acknowledged_by.clone();
                 a.comment = c.comment.clone();

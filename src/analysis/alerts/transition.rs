@@ -173,6 +173,8 @@ pub(super) fn apply(
                 unit: up.unit.to_string(),
                 epoch: up.epoch,
                 observed_at: up.observed_at,
+                raised_epoch: up.epoch,
+                raised_observed_at: up.observed_at,
                 raised_at: now,
                 updated_at: now,
                 status: AlertStatus::Open,

@@ -235,8 +235,8 @@ pub async fn active_levels(
 }
 
 /// Writes an alert as the alert engine left it after an event: the row is updated to the
-/// alert's snapshot, or inserted when the alert is new (its epoch then is the raising epoch,
-/// kept in `raised_epoch_id` and `raised_observed_at`). `state` is the row's state after the
+/// alert's snapshot, or inserted when the alert is new (its raising epoch, else its epoch, kept
+/// in `raised_epoch_id` and `raised_observed_at`). `state` is the row's state after the
 /// event (`open`, `acknowledged` or `resolved`), `updated_at` the event's time.
 pub async fn save(
     db: &mut AnyConnection,
@@ -277,8 +277,8 @@ pub async fn save(
     .bind(timestamp(updated_at))
     .bind(&a.acknowledged_by)
     .bind(&a.comment)
-    .bind(a.epoch)
-    .bind(a.observed_at.map(timestamp))
+    .bind(a.raised_epoch.or(a.epoch))
+    .bind(a.raised_observed_at.or(a.observed_at).map(timestamp))
     .execute(&mut *db)
     .await?;
     Ok(())
