@@ -90,7 +90,7 @@ impl AlertFilter {
     /// The query of this filter's page after the alert `(raised_at, id)` (raw store
     /// `raised_at`), for the "older alerts" link, percent-encoded.
     pub fn older_query(&self, raised_at: &str, id: &str) -> String {
-        let enc = |s: &str| super::layout::seg(s).to_string();
+        let enc = super::layout::seg;
         let mut q = format!("state={}", self.state);
         if let Some(l) = self.level {
             q.push_str(&format!("&level={l}"));

@@ -42,6 +42,15 @@ impl PolarityChoice {
             PolarityChoice::Dark => Some(Polarity::DarkOnBright),
         }
     }
+
+    /// The choice of the detector's polarity option ([`PolarityChoice::polarity`] reversed).
+    pub fn of(polarity: Option<Polarity>) -> PolarityChoice {
+        match polarity {
+            None => PolarityChoice::Auto,
+            Some(Polarity::BrightOnDark) => PolarityChoice::Bright,
+            Some(Polarity::DarkOnBright) => PolarityChoice::Dark,
+        }
+    }
 }
 
 /// Detection settings; every field optional (absent: the next source's, then the default).
@@ -139,11 +148,7 @@ impl DetectionSettings {
     /// sources of the settings.
     pub fn used(opts: &DetectOptions, found: Polarity, from: Vec<String>) -> DetectionUsed {
         DetectionUsed {
-            polarity: match opts.polarity {
-                None => PolarityChoice::Auto,
-                Some(Polarity::BrightOnDark) => PolarityChoice::Bright,
-                Some(Polarity::DarkOnBright) => PolarityChoice::Dark,
-            },
+            polarity: PolarityChoice::of(opts.polarity),
             found: found.name().to_string(),
             min_diameter_px: opts.min_diameter_px,
             max_diameter_px: opts.max_diameter_px,

@@ -196,14 +196,14 @@ pub(super) async fn detect_station(
             file: file.clone(),
             source,
         })?;
+    let detection = DetectionSettings::used(&opts.detect, det.polarity, detection_from.to_vec());
     if det.targets.is_empty() {
-        let used = DetectionSettings::used(&opts.detect, det.polarity, Vec::new());
         return Err(WatchError::NoTargets {
             station,
             file,
-            polarity: used.polarity.as_str(),
-            min_diameter_px: used.min_diameter_px,
-            max_diameter_px: used.max_diameter_px,
+            polarity: detection.polarity.as_str(),
+            min_diameter_px: detection.min_diameter_px,
+            max_diameter_px: detection.max_diameter_px,
         });
     }
     // The image must be the size the camera declares: the image centre, and so every
@@ -247,7 +247,7 @@ pub(super) async fn detect_station(
         targets: det.targets.iter().map(|t| (t.col, t.row)).collect(),
         diameters: det.targets.iter().map(|t| t.diameter_px).collect(),
         sigmas_px: det.targets.iter().map(|t| t.sigma_px).collect(),
-        detection: DetectionSettings::used(&opts.detect, det.polarity, detection_from.to_vec()),
+        detection,
         blobs,
         seeds,
     })
