@@ -74,6 +74,12 @@ pub enum FirstEpochError {
     /// The seeds do not fit one geometry.
     #[error("the seeds disagree: {0}")]
     SeedsDisagree(String),
+    /// The bundle adjustment of the tentative names failed ([`super::convergent`]).
+    #[error(
+        "the adjustment of the names found from the seeds failed ({0}): check the seeds, the \
+         camera's principal distance and the approximations"
+    )]
+    Adjustment(String),
 }
 
 /// One station's input.
@@ -220,8 +226,10 @@ fn finite2(v: [f64; 2]) -> bool {
     v[0].is_finite() && v[1].is_finite()
 }
 
-/// Per station, the detection of each seeded point.
-fn snap_seeds(
+/// Per station, the detection of each seeded point: the nearest detection within `limit_mm`,
+/// refused when another lies within that limit and within 3 × the distance of the nearest (two
+/// detections on one target; a code ring's segments around a coded target lie much farther).
+pub(super) fn snap_seeds(
     views: &[StationView<'_>],
     known: &BTreeMap<String, [f64; 3]>,
     limit_mm: f64,
@@ -245,7 +253,7 @@ fn snap_seeds(
             by_distance.sort_by(|a, b| a.0.total_cmp(&b.0));
             let nearest = by_distance.first().copied().unwrap_or((f64::INFINITY, 0));
             let second = by_distance.get(1).map_or(f64::INFINITY, |d| d.0);
-            if nearest.0 > limit_mm || second <= limit_mm {
+            if nearest.0 > limit_mm || second <= limit_mm.min(3.0 * nearest.0) {
                 return Err(FirstEpochError::SeedOffTarget {
                     station: v.station.into(),
                     point: s.point.clone(),

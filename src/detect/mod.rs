@@ -9,6 +9,7 @@
 
 pub(crate) mod centroid;
 pub(crate) mod components;
+pub mod convergent;
 pub(crate) mod decode;
 pub mod dual_conic;
 pub(crate) mod ellipse;

@@ -11,10 +11,11 @@ use super::naming::name_targets;
 use super::state::{load_orientations, save_state};
 use super::stations::{detect_station, station_of, StationCounts, StationData, StationNamed};
 use super::{WatchError, WatchOptions};
+use crate::detect::convergent::ConvergentSite;
 use crate::detect::identify::{resect_seeds, Seed};
 use crate::detect::settings::DetectionSettings;
 use crate::photogrammetry::input::epoch::ObservationInput;
-use crate::photogrammetry::{EpochInput, ImageOrientation};
+use crate::photogrammetry::{EpochInput, ImageOrientation, Model};
 use crate::service::ingest::{ingest_watched, Ingested, WatchedFolder};
 use crate::store::sites::ImageWeights;
 use crate::store::{points, watch_state, Store};
@@ -146,8 +147,22 @@ async fn identify(
     }
     // Matching across stations and the assignments are CPU work: a blocking thread.
     let naming_opts = opts.clone();
+    let central = (settings.model == Model::Central).then(|| {
+        (
+            input.cameras.clone(),
+            input.control.clone(),
+            input.observed_at.clone(),
+        )
+    });
     let (stations, named) = tokio::task::spawn_blocking(move || {
-        let named = name_targets(&stations, &known, &previous, &naming_opts);
+        let site = central
+            .as_ref()
+            .map(|(cameras, control, observed_at)| ConvergentSite {
+                cameras,
+                control,
+                observed_at,
+            });
+        let named = name_targets(&stations, &known, &previous, site.as_ref(), &naming_opts);
         (stations, named)
     })
     .await

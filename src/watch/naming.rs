@@ -4,18 +4,29 @@ use std::collections::BTreeMap;
 
 use super::stations::{StationCounts, StationData, StationNamed};
 use super::{WatchError, WatchOptions};
+use crate::detect::convergent::{identify_convergent, ConvergentOptions, ConvergentSite};
 use crate::detect::first_epoch::{identify_first_epoch, FirstEpochError, StationView};
 use crate::detect::identify::{identify, Prior};
 use crate::photogrammetry::ImageOrientation;
 
-/// Names the detections of every station: stations with ≥ 4 seeds together by multi-view matching
-/// ([`identify_first_epoch`]) when there are at least 2 of them and they share 4 seeded targets,
-/// otherwise each from its seeds; stations without seeds from their previous orientation. Returns
-/// per station the (point, detection index) pairs and the counts.
+/// What a refusal of the affine identification adds: the set-up it assumes, and the way out.
+const AFFINE_HINT: &str = " This site is on the orthogonal model, whose first epoch is matched \
+     through affine cameras: that holds for long-range, near-parallel views. If the stations are \
+     near the targets or view them convergently or rolled, put the site on the central model \
+     (\"model\": \"central\"): its first epoch is then identified through collinearity and the \
+     camera's self-calibrating adjustment.";
+
+/// Names the detections of every station: stations with ≥ 4 seeds together when there are at least
+/// 2 of them — on a site of the central model (`central` given) through its self-calibrating
+/// adjustment ([`identify_convergent`]), else by affine multi-view matching
+/// ([`identify_first_epoch`]) when they share 4 seeded targets — otherwise each from its seeds;
+/// stations without seeds from their previous orientation. Returns per station the (point,
+/// detection index) pairs and the counts.
 pub(super) fn name_targets(
     stations: &[StationData],
     known: &BTreeMap<String, [f64; 3]>,
     previous: &BTreeMap<String, ImageOrientation>,
+    central: Option<&ConvergentSite<'_>>,
     opts: &WatchOptions,
 ) -> Result<(Vec<StationNamed>, Vec<StationCounts>), WatchError> {
     let mut names: Vec<StationNamed> = vec![Vec::new(); stations.len()];
@@ -32,9 +43,29 @@ pub(super) fn name_targets(
                 seeds: &stations[k].seeds,
             })
             .collect();
-        match identify_first_epoch(&views, known, &opts.first_epoch) {
+        let (identified, method) = match central {
+            Some(site) => {
+                let cameras: Vec<_> = seeded.iter().map(|&k| &stations[k].camera).collect();
+                let convergent = ConvergentOptions {
+                    seed_snap_mm: opts.first_epoch.seed_snap_mm,
+                    ..ConvergentOptions::default()
+                };
+                (
+                    identify_convergent(&views, &cameras, known, site, &convergent),
+                    "central model from seeds",
+                )
+            }
+            None => (
+                identify_first_epoch(&views, known, &opts.first_epoch),
+                "multi-view from seeds",
+            ),
+        };
+        match identified {
             Ok(first) => {
-                if let Some(msg) = first.refusal() {
+                if let Some(mut msg) = first.refusal() {
+                    if central.is_none() {
+                        msg.push_str(AFFINE_HINT);
+                    }
                     return Err(WatchError::Unidentified(msg));
                 }
                 for (r, &k) in first.stations.iter().zip(&seeded) {
@@ -45,7 +76,7 @@ pub(super) fn name_targets(
                         .collect();
                     counts[k] = Some(StationCounts::new(
                         &stations[k],
-                        "multi-view from seeds",
+                        method,
                         &names[k],
                         &r.ambiguous_blobs,
                         &r.unmatched_blobs,

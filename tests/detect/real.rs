@@ -2,41 +2,11 @@
 //! (`../shared/data/real/dbat-camcal`), detected with `DetectOptions::default()` (no tuning) and
 //! compared with PhotoModeler's 2074 marks of the same images. The images are read at test time.
 
-use std::collections::HashMap;
 use std::sync::OnceLock;
 
 use cliffwatch::detect::{detect_bytes, CentreMethod, DetectOptions, Detections, Polarity};
 
-pub const DIR: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/data/real/dbat-camcal"
-);
-
-/// PhotoModeler's marks per image file name: (point id, col, row) with cliffwatch's pixel
-/// convention (PhotoModeler puts the centre of the top-left pixel at (0.5, 0.5)).
-pub fn marks() -> HashMap<String, Vec<(u32, f64, f64)>> {
-    let text = std::fs::read_to_string(format!("{DIR}/camcal-pmexport.txt")).expect("pmexport");
-    let mut names = HashMap::new();
-    let mut by_index: HashMap<u32, Vec<(u32, f64, f64)>> = HashMap::new();
-    for line in text.lines() {
-        let t: Vec<&str> = line.split_whitespace().collect();
-        if t.len() == 2 && t[1].to_ascii_lowercase().ends_with(".jpg") {
-            let name = t[1].rsplit('/').next().unwrap().to_string();
-            names.insert(t[0].parse::<u32>().unwrap(), name);
-        } else if t.len() == 6 && t[4] == "0.10000" {
-            let f = |i: usize| t[i].parse::<f64>().unwrap();
-            by_index.entry(t[0].parse().unwrap()).or_default().push((
-                t[1].parse().unwrap(),
-                f(2) - 0.5,
-                f(3) - 0.5,
-            ));
-        }
-    }
-    by_index
-        .into_iter()
-        .map(|(i, m)| (names[&i].clone(), m))
-        .collect()
-}
+pub use crate::support::dbat::{marks, DIR};
 
 /// Every image's detections with the default options, computed once for all tests.
 pub fn detections() -> &'static Vec<(String, Detections)> {

@@ -12,33 +12,8 @@ use cliffwatch::photogrammetry::input::epoch::{
 };
 use cliffwatch::photogrammetry::{adjust, AdjustOptions, Adjustment, EpochInput, Model};
 
-use super::real::{detections, marks, DIR};
-
-/// Image width and height in px.
-const SIZE_PX: (u32, u32) = (2272, 1704);
-/// PhotoModeler's format width in mm over the width in px.
-const PIXEL_MM: f64 = 7.25319 / 2272.0;
-
-/// PhotoModeler's 3-D points (id, X, Y, Z in m) from the export: the lines of 7 fields after the
-/// last image's block (its position and their σ: the first two 7-field lines after its name).
-fn pm_points() -> Vec<(u32, [f64; 3])> {
-    let text = std::fs::read_to_string(format!("{DIR}/camcal-pmexport.txt")).expect("pmexport");
-    let lines: Vec<&str> = text.lines().collect();
-    let last = lines
-        .iter()
-        .rposition(|l| l.to_ascii_lowercase().ends_with(".jpg"))
-        .expect("image lines");
-    lines[last + 1..]
-        .iter()
-        .map(|l| l.split_whitespace().collect::<Vec<_>>())
-        .filter(|t| t.len() == 7)
-        .skip(2)
-        .map(|t| {
-            let f = |i: usize| t[i].parse::<f64>().unwrap();
-            (t[0].parse().unwrap(), [f(1), f(2), f(3)])
-        })
-        .collect()
-}
+use super::real::detections;
+use crate::support::dbat::{marks, pm_points, C_MM, PIXEL_MM, SIZE_PX};
 
 /// One observation: image file name, point id, col, row (px), σ col, σ row (px; NaN for marks).
 pub type Obs = (String, u32, f64, f64, f64, f64);
@@ -108,7 +83,7 @@ pub fn epoch(obs: &[Obs], per_target: bool) -> EpochInput {
         label: None,
         cameras: vec![CameraInput {
             id: "olympus".into(),
-            c_mm: 7.4653,
+            c_mm: C_MM,
             calibrate_c: false,
             calibrate: Some(
                 ["c", "x0", "y0", "k1", "k2", "k3", "p1", "p2"]

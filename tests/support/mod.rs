@@ -8,6 +8,7 @@
 //!   webhook receiver that verifies signatures;
 //! - `dashboard`: a site with a moving block filled through the API, page fetching and links;
 //! - `watch`: rendered epochs written into a watched folder;
+//! - `dbat`: DBAT's real photographs and PhotoModeler's marks and points;
 //! - `identify`: the long-range scene with its cameras, orientations and seeds;
 //! - `adjust`, `analysis`: the shared epochs and checks of the adjustment and analysis tests;
 //! - `pg`: a throwaway PostgreSQL cluster;
@@ -19,6 +20,7 @@ pub mod alerts;
 pub mod analysis;
 pub mod bad_images;
 pub mod dashboard;
+pub mod dbat;
 pub mod identify;
 pub mod pg;
 pub mod plot;

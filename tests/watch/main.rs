@@ -11,5 +11,6 @@ mod detection_settings;
 mod dir;
 mod first_epoch;
 mod live;
+mod real_first_epoch;
 mod sigma0;
 mod weights;
