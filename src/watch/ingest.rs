@@ -68,7 +68,8 @@ fn parse_epoch_json(
     let mut value: serde_json::Value = serde_json::from_str(text)?;
     let folder: DetectionSettings = match value.as_object_mut().and_then(|o| o.remove("detection"))
     {
-        Some(d) => serde_json::from_value(d).map_err(|e| WatchError::Detection(e.to_string()))?,
+        Some(d) => serde_json::from_value(d)
+            .map_err(|e| WatchError::Detection(format!("detection: {e}")))?,
         None => DetectionSettings::default(),
     };
     folder.validate(Some(site)).map_err(WatchError::Detection)?;

@@ -71,6 +71,8 @@ async fn a_sites_detection_settings_apply_a_folder_overrides_them_and_the_page_s
     write_epoch(&dir("plain"), &epoch, "e1", "2026-11-20T09:00:00Z", true, 1);
     let (bad, _) = write_epoch(&dir("plain"), &epoch, "e2", "2026-11-21T09:00:00Z", true, 2);
     override_detection(&bad, json!({"min_diameter_px": 0}));
+    let (grey, _) = write_epoch(&dir("plain"), &epoch, "e3", "2026-11-22T09:00:00Z", true, 3);
+    override_detection(&grey, json!({"polarity": "grey"}));
     write_epoch(
         &dir("narrow"),
         &epoch,
@@ -114,6 +116,11 @@ async fn a_sites_detection_settings_apply_a_folder_overrides_them_and_the_page_s
     assert!(
         !ok && err.contains("detection.min_diameter_px"),
         "plain/e2: {err}"
+    );
+    let (ok, err) = outcome("plain", "e3");
+    assert!(
+        !ok && err.contains("epoch.json: detection: unknown variant `grey`"),
+        "plain/e3: {err}"
     );
     let (ok, err) = outcome("narrow", "e1");
     assert!(!ok, "narrow/e1 measured with targets above its 5 px: {err}");
