@@ -87,23 +87,29 @@ impl AlertFilter {
         })
     }
 
-    /// The query of this filter's page after the alert `(raised_at, id)` (raw store
-    /// `raised_at`), for the "older alerts" link, percent-encoded.
-    pub fn older_query(&self, raised_at: &str, id: &str) -> String {
-        let enc = super::layout::seg;
+    /// The query of this filter's first page (state, level, subject), percent-encoded: the
+    /// "newest alerts" link.
+    pub fn newest_query(&self) -> String {
         let mut q = format!("state={}", self.state);
         if let Some(l) = self.level {
             q.push_str(&format!("&level={l}"));
         }
         if !self.subject.is_empty() {
-            q.push_str(&format!("&subject={}", enc(&self.subject)));
+            q.push_str(&format!("&subject={}", super::layout::seg(&self.subject)));
         }
-        q.push_str(&format!(
-            "&alerts_before={}&alerts_before_id={}",
+        q
+    }
+
+    /// The query of this filter's page after the alert `(raised_at, id)` (raw store
+    /// `raised_at`), for the "older alerts" link, percent-encoded.
+    pub fn older_query(&self, raised_at: &str, id: &str) -> String {
+        let enc = super::layout::seg;
+        format!(
+            "{}&alerts_before={}&alerts_before_id={}",
+            self.newest_query(),
             enc(raised_at),
             enc(id)
-        ));
-        q
+        )
     }
 
     /// Whether the filter shows the alerts not resolved (the default), which the store reads

@@ -216,7 +216,7 @@ fn alerts_section(
                     a.older href={ (site_href) "?" (q) "#alerts" } { "older alerts →" } }
             }
             @if filter.before.is_some() {
-                p.pager { a href={ (site_href) "?state=" (filter.state) "#alerts" } { "← newest alerts" } }
+                p.pager { a href={ (site_href) "?" (filter.newest_query()) "#alerts" } { "← newest alerts" } }
             }
         }
     }

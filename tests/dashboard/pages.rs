@@ -532,10 +532,11 @@ async fn an_old_open_alarm_is_shown_under_many_newer_resolved_alerts() {
         };
         let t = format!("2026-01-{:02}T{:02}:00:00.000000Z", 1 + k / 24, k % 24);
         sqlx::query(
-            "INSERT INTO alerts (id, site_id, level, rule, message, state, raised_at, updated_at) \
-             VALUES ($1, 'busy', $2, 'displacement_mm', 'm', $3, $4, $5)",
+            "INSERT INTO alerts (id, site_id, point, level, rule, message, state, raised_at, updated_at) \
+             VALUES ($1, 'busy', $2, $3, 'displacement_mm', 'm', $4, $5, $6)",
         )
         .bind(&id)
+        .bind(if k == 0 { "T1" } else { "Noisy1" })
         .bind(level)
         .bind(state)
         .bind(&t)
@@ -583,6 +584,24 @@ async fn an_old_open_alarm_is_shown_under_many_newer_resolved_alerts() {
     assert!(b.contains(&"old-alarm".to_string()));
     assert!(!second.contains("older alerts →"));
     assert!(second.contains("← newest alerts"));
+    // A filtered list pages with its filter, and its way back to the newest keeps it.
+    let (_, first) = html(&s, "/sites/busy?state=resolved&level=watch&subject=NOISY").await;
+    let older = links(&first)
+        .into_iter()
+        .find(|l| l.contains("alerts_before="))
+        .expect("a link to older alerts of the filter");
+    assert!(older.contains("level=watch&amp;subject=noisy"), "{older}");
+    let (_, second) = html(&s, &older.replace("&amp;", "&")).await;
+    assert_eq!(ids(&first).len(), 500);
+    assert_eq!(ids(&second).len(), 100, "{older}");
+    let newest = links(&second)
+        .into_iter()
+        .find(|l| l.ends_with("#alerts") && !l.contains("alerts_before="))
+        .expect("the link back to the newest alerts");
+    assert_eq!(
+        newest,
+        "/sites/busy?state=resolved&amp;level=watch&amp;subject=noisy#alerts"
+    );
     let (st, bad) = html(&s, "/sites/busy?state=all&alerts_before=2026").await;
     assert_eq!(st, 400);
     assert!(
