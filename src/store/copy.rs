@@ -146,6 +146,7 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("observations_pruned_at", T),
             ("variance_factor", F),
             ("dof", I),
+            ("variance_components", T),
         ],
     ),
     (

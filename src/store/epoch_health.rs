@@ -34,16 +34,10 @@ pub async fn estimated_sigma_epochs(
     Ok(out)
 }
 
-/// The one field of a stored report the estimate reads (the rest is skipped unparsed).
-#[derive(serde::Deserialize)]
-struct Components {
-    #[serde(default)]
-    variance_components: Vec<VarianceComponent>,
-}
-
 /// The variance components of the `n` newest epochs observed before `before` (store format;
-/// `None`: all), newest first, each as its adjustment reported it (epochs stored without
-/// components are skipped, so fewer may come back; the read is bounded by `n` either way).
+/// `None`: all), newest first, each as its adjustment reported it (the epochs' column, not their
+/// reports; epochs stored without components are skipped, so fewer may come back; the read is
+/// bounded by `n` either way).
 pub async fn recent_variance_components(
     db: impl AnyExecutor<'_>,
     site: &str,
@@ -51,9 +45,9 @@ pub async fn recent_variance_components(
     n: usize,
 ) -> Result<Vec<Vec<VarianceComponent>>, StoreError> {
     let rows: Vec<String> = sqlx::query_scalar(
-        "SELECT report FROM (SELECT report, observed_at FROM epochs WHERE site_id = $1 \
-         AND observed_at < $2 ORDER BY observed_at DESC LIMIT $3) newest \
-         WHERE report LIKE '%\"variance_components\"%' ORDER BY observed_at DESC",
+        "SELECT variance_components FROM (SELECT variance_components, observed_at FROM epochs \
+         WHERE site_id = $1 AND observed_at < $2 ORDER BY observed_at DESC LIMIT $3) newest \
+         WHERE variance_components IS NOT NULL ORDER BY observed_at DESC",
     )
     .bind(site)
     .bind(before.unwrap_or(super::TEXT_MAX))
@@ -61,6 +55,6 @@ pub async fn recent_variance_components(
     .fetch_all(db)
     .await?;
     rows.iter()
-        .map(|r| Ok(serde_json::from_str::<Components>(r)?.variance_components))
+        .map(|r| Ok(serde_json::from_str::<Vec<VarianceComponent>>(r)?))
         .collect()
 }

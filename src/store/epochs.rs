@@ -319,10 +319,14 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
     }
     let first_camera = adj.report.cameras.first();
     let created = timestamp(rec.created_at);
+    let components = (!adj.report.variance_components.is_empty())
+        .then(|| serde_json::to_string(&adj.report.variance_components))
+        .transpose()?;
     sqlx::query(
         "INSERT INTO epochs (site_id, id, observed_at, label, status, model, sigma0_mm, c_mm, c_sigma_mm, \
-         iterations, dropped_observations, body_sha256, cameras, report, created_at, variance_factor, dof) \
-         VALUES ($1, $2, $3, $4, 'adjusted', $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16)",
+         iterations, dropped_observations, body_sha256, cameras, report, created_at, variance_factor, dof, \
+         variance_components) \
+         VALUES ($1, $2, $3, $4, 'adjusted', $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17)",
     )
     .bind(rec.site)
     .bind(id)
@@ -340,6 +344,7 @@ pub async fn insert(db: &mut AnyConnection, rec: &EpochRecord<'_>) -> Result<i64
     .bind(&created)
     .bind(Some(adj.report.variance_factor).filter(|v| v.is_finite()))
     .bind(adj.report.dof)
+    .bind(components)
     .execute(&mut *db)
     .await?;
     upsert_cameras(db, rec, &created).await?;

@@ -1,0 +1,5 @@
+-- Issue 61: each epoch's variance components per camera (JSON, as in the report) as a column,
+-- so that the a-priori σ estimate of the site page reads them without the epochs' whole reports.
+ALTER TABLE epochs ADD COLUMN variance_components TEXT;
+UPDATE epochs SET variance_components = (report::json -> 'variance_components')::text
+ WHERE report LIKE '%"variance_components"%';
