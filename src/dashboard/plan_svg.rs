@@ -8,7 +8,7 @@ use maud::{html, Markup};
 
 use super::face_plan::{nice_floor, FacePlane};
 use super::layout::{level_class, seg};
-use super::plan_labels::{shown, LabelInput, DESKTOP, PHONE};
+use super::plan_labels::{shown, LabelInput, Shown, DESKTOP, PHONE};
 use crate::analysis::site_frame::{NormalSource, SiteFrame};
 use crate::analysis::AlertLevel;
 
@@ -78,27 +78,48 @@ pub fn face_plan(site: &str, frame: &SiteFrame, points: &[PlanPoint]) -> Markup 
             (n.abs() >= 0.05).then(|| format!("⊥ {n:+.1} mm"))
         })
         .collect();
+    // Each point's arrow in plan units (y down), when long enough to draw.
+    let arrows: Vec<Option<(f64, f64)>> = points
+        .iter()
+        .map(|p| {
+            let v = plane.project_vector(p.d_mm?);
+            let (dx, dy) = (
+                v[0] / 1000.0 * exaggeration * scale,
+                v[1] / 1000.0 * exaggeration * scale,
+            );
+            (dx.hypot(dy) > 1.5).then_some((dx, -dy))
+        })
+        .collect();
     let labels: Vec<LabelInput<'_>> = points
         .iter()
         .zip(&uv)
         .zip(&normals)
-        .map(|((p, q), n)| LabelInput {
+        .zip(&arrows)
+        .map(|(((p, q), n), a)| LabelInput {
             x: sx(q[0]),
             y: sy(q[1]),
             name: &p.name,
             normal: n.as_deref(),
             level: p.level,
             stable: p.stable,
+            arrow: *a,
         })
         .collect();
     let (wide, narrow) = (shown(&labels, &DESKTOP), shown(&labels, &PHONE));
-    let crowded = |i: usize| match (wide[i], narrow[i]) {
-        (true, true) => "",
-        (false, true) => " crowded-wide",
-        (true, false) => " crowded-narrow",
-        (false, false) => " crowded-wide crowded-narrow",
+    // The classes that hide a text in the layout whose labels leave it out.
+    let crowded = |i: usize, least: Shown| {
+        let hidden = |s: Shown| match least {
+            Shown::Full => s != Shown::Full,
+            _ => s == Shown::Hidden,
+        };
+        match (hidden(wide[i]), hidden(narrow[i])) {
+            (false, false) => "",
+            (true, false) => " crowded-wide",
+            (false, true) => " crowded-narrow",
+            (true, true) => " crowded-wide crowded-narrow",
+        }
     };
-    let any_left_out = wide.iter().chain(&narrow).any(|k| !*k);
+    let any_left_out = wide.iter().chain(&narrow).any(|k| *k != Shown::Full);
     html! {
         figure.plan {
             svg.plan viewBox={ "0 0 " (W) " " (H) } role="img" aria-label="face plan" xmlns="http://www.w3.org/2000/svg" {
@@ -111,25 +132,21 @@ pub fn face_plan(site: &str, frame: &SiteFrame, points: &[PlanPoint]) -> Markup 
                     @let (x, y) = (sx(q[0]), sy(q[1]));
                     @let class = level_class(p.level);
                     a href={ "/sites/" (seg(site)) "/points/" (seg(&p.name)) } {
-                        @if let Some(d) = p.d_mm {
-                            @let v = plane.project_vector(d);
-                            @let (dx, dy) = (v[0] / 1000.0 * exaggeration * scale, v[1] / 1000.0 * exaggeration * scale);
-                            @if dx.hypot(dy) > 1.5 {
-                                line.vector x1=(fmt(x)) y1=(fmt(y)) x2=(fmt(x + dx)) y2=(fmt(y - dy)) marker-end="url(#arrow)" {}
-                            }
+                        @if let Some((dx, dy)) = arrows[i] {
+                            line.vector x1=(fmt(x)) y1=(fmt(y)) x2=(fmt(x + dx)) y2=(fmt(y + dy)) marker-end="url(#arrow)" {}
                         }
                         @if p.stable {
                             polygon class={ "pt stable " (class) } points={ (fmt(x)) "," (fmt(y - 8.0)) " " (fmt(x - 7.0)) "," (fmt(y + 5.0)) " " (fmt(x + 7.0)) "," (fmt(y + 5.0)) } {
-                                title { (p.name) " (stable)" (detectable(p.mdd_mm)) }
+                                title { (p.name) " (stable)" (out_of_face(&normals[i])) (detectable(p.mdd_mm)) }
                             }
                         } @else {
                             circle class={ "pt " (class) } cx=(fmt(x)) cy=(fmt(y)) r="6" {
-                                title { (p.name) (detectable(p.mdd_mm)) }
+                                title { (p.name) (out_of_face(&normals[i])) (detectable(p.mdd_mm)) }
                             }
                         }
-                        text class={ "label" (crowded(i)) } x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
+                        text class={ "label" (crowded(i, Shown::NameOnly)) } x=(fmt(x + 9.0)) y=(fmt(y - 7.0)) { (p.name) }
                         @if let Some(n) = &normals[i] {
-                            text class={ "normal" (crowded(i)) } x=(fmt(x + 9.0)) y=(fmt(y + 12.0)) { (n) }
+                            text class={ "normal" (crowded(i, Shown::Full)) } x=(fmt(x + 9.0)) y=(fmt(y + 12.0)) { (n) }
                         }
                     }
                 }
@@ -149,10 +166,15 @@ pub fn face_plan(site: &str, frame: &SiteFrame, points: &[PlanPoint]) -> Markup 
                         NormalSource::StablePoints => "from the stable points' plane",
                         NormalSource::AllPoints => "from the points' plane (fewer than three stable points)",
                     }) "." }
-                @if any_left_out { " Names that would overlap are left out; point at a mark for its name." }
+                @if any_left_out { " Names and out-of-face lines that would overlap are left out; point at a mark for them." }
             }
         }
     }
+}
+
+/// The tooltip's out-of-face clause: " · ⊥ +x.x mm" (empty when none is drawn).
+fn out_of_face(normal: &Option<String>) -> String {
+    normal.as_ref().map_or(String::new(), |n| format!(" · {n}"))
 }
 
 /// The tooltip's sensitivity clause: " · detects ≥ x.x mm" (empty without an MDD).
@@ -196,7 +218,7 @@ mod tests {
             .collect();
         let svg = face_plan("s<1>", &SiteFrame::default(), &pts).into_string();
         assert!(
-            svg.contains("<title>T1 · detects movement ≥ 1.3 mm</title>"),
+            svg.contains("<title>T1 · ⊥ +3.0 mm · detects movement ≥ 1.3 mm</title>"),
             "{svg}"
         );
         assert!(svg.contains("<title>T2</title>"));
