@@ -169,6 +169,14 @@ async fn dbat_camcal_dropped_into_the_watched_directory_is_a_sites_first_epoch()
                     .join(" "))
                 .unwrap_or_default()
         );
+        let stations = e["identification"].as_array().expect("identification");
+        assert_eq!(stations.len(), 21);
+        assert!(
+            stations
+                .iter()
+                .all(|s| s["method"] == "central model from seeds"),
+            "{stations:?}"
+        );
         assert!(wrong.is_empty(), "{site}: named wrongly: {wrong:?}");
         assert!(
             on_marks as f64 >= 0.98 * total as f64,
