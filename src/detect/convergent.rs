@@ -21,8 +21,11 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use nalgebra::Vector3;
+
 use super::first_epoch::{snap_seeds, FirstEpoch, FirstEpochError, StationNames, StationView};
 use super::identify::{resect_seeds, Identified, Seed};
+use super::naming;
 use crate::photogrammetry::input::epoch::{
     ApproxInput, CameraInput, ControlInput, ImageInput, ObservationInput,
 };
@@ -482,24 +485,11 @@ fn image_scale(seeds: &[Seed], known: &BTreeMap<String, [f64; 3]>) -> f64 {
 
 /// Median distance from a point to its nearest neighbour, m (0 with fewer than 2 points).
 fn median_spacing(points: &[[f64; 3]]) -> f64 {
-    let mut nearest: Vec<f64> = points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            points
-                .iter()
-                .enumerate()
-                .filter(|(k, _)| *k != i)
-                .map(|(_, q)| {
-                    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-                })
-                .fold(f64::INFINITY, f64::min)
-        })
-        .filter(|d| d.is_finite())
-        .collect();
-    if nearest.is_empty() {
-        return 0.0;
+    let points: Vec<Vector3<f64>> = points.iter().map(|p| Vector3::from(*p)).collect();
+    let spacing = naming::median_spacing(&points);
+    if spacing.is_finite() {
+        spacing
+    } else {
+        0.0
     }
-    nearest.sort_by(f64::total_cmp);
-    nearest[nearest.len() / 2]
 }

@@ -87,31 +87,45 @@ fn write_folder(folder: &Path, epoch: &Value) {
     std::fs::write(folder.join("READY"), "").unwrap();
 }
 
+/// Creates `site` on `model`, drops the folder `e1` with `epoch` into its watched directory and
+/// scans once; returns the folder's `error.txt` when it was refused.
+async fn take(
+    server: &TestServer,
+    watch: &Path,
+    site: &str,
+    model: &str,
+    epoch: &Value,
+) -> Option<String> {
+    let (status, r) = server
+        .post("/api/v1/sites", &json!({"id": site, "model": model}))
+        .await;
+    assert_eq!(status, 201, "{r}");
+    write_folder(&watch.join(site).join("e1"), epoch);
+    let results = scan_once(&server.store, &WatchOptions::new(watch.to_path_buf())).await;
+    assert!(results.iter().all(|r| r.is_ok()), "{results:?}");
+    std::fs::read_to_string(watch.join(site).join(".failed/e1/error.txt")).ok()
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn dbat_camcal_dropped_into_the_watched_directory_is_a_sites_first_epoch() {
     let server = TestServer::start(|_| {}).await;
     let watch = tempfile::tempdir().unwrap();
-    let opts = WatchOptions::new(watch.path().to_path_buf());
     let marks = marks();
     let total: usize = marks.values().map(Vec::len).sum();
     assert_eq!(total, 2074, "PhotoModeler's marks");
     for draw in 1..=2u64 {
         let site = format!("camcal{draw}");
-        let (status, r) = server
-            .post("/api/v1/sites", &json!({"id": site, "model": "central"}))
-            .await;
-        assert_eq!(status, 201, "{r}");
-        write_folder(
-            &watch.path().join(&site).join("e1"),
+        let error = take(
+            &server,
+            watch.path(),
+            &site,
+            "central",
             &epoch_json(&marks, draw),
-        );
-        let results = scan_once(&server.store, &opts).await;
-        let error = std::fs::read_to_string(watch.path().join(&site).join(".failed/e1/error.txt"))
-            .unwrap_or_default();
-        assert!(results.iter().all(|r| r.is_ok()), "{results:?} {error}");
+        )
+        .await;
         assert!(
             watch.path().join(&site).join(".done/e1").is_dir(),
-            "{site}: not taken: {error}"
+            "{site}: not taken: {error:?}"
         );
         let (status, e) = server.get(&format!("/api/v1/sites/{site}/epochs/1")).await;
         assert_eq!(status, 200, "{e}");
@@ -190,7 +204,6 @@ async fn dbat_camcal_dropped_into_the_watched_directory_is_a_sites_first_epoch()
 async fn a_wrong_seed_or_the_affine_model_refuses_the_folder_saying_why() {
     let server = TestServer::start(|_| {}).await;
     let watch = tempfile::tempdir().unwrap();
-    let opts = WatchOptions::new(watch.path().to_path_buf());
     let marks = marks();
     // P8250027's seed of P1001 moved onto the nearest other mark; in another folder, P8250033's
     // seeds of P1001 and P1002 swapped.
@@ -237,14 +250,9 @@ async fn a_wrong_seed_or_the_affine_model_refuses_the_folder_saying_why() {
             ["convergently", "\"model\": \"central\""],
         ),
     ] {
-        let (status, r) = server
-            .post("/api/v1/sites", &json!({"id": site, "model": model}))
-            .await;
-        assert_eq!(status, 201, "{r}");
-        write_folder(&watch.path().join(site).join("e1"), &epoch);
-        scan_once(&server.store, &opts).await;
-        let error = std::fs::read_to_string(watch.path().join(site).join(".failed/e1/error.txt"))
-            .unwrap_or_else(|_| panic!("{site}: the folder was not refused"));
+        let error = take(&server, watch.path(), site, model, &epoch)
+            .await
+            .unwrap_or_else(|| panic!("{site}: the folder was not refused"));
         eprintln!("{site}: {error}");
         assert!(
             expected.iter().all(|e| error.contains(e)),
