@@ -10,8 +10,12 @@
 //! - ≥ 98 % of PhotoModeler's 2074 marks are identified (the detector finds 2072 of them);
 //! - no target is named wrongly: every stored observation lies within 3 px of PhotoModeler's mark
 //!   of the same point in the same image (the nearest other mark is ≥ 86 px away), or, for a
-//!   target PhotoModeler left unmarked, the adjustment keeps it with a residual under 1 px;
+//!   target PhotoModeler left unmarked, its residual in the adjustment is under 1 px;
 //! - σ0 of the site's epoch ≤ 0.139 px, the σ0 of the same adjustment on PhotoModeler's own marks.
+//!
+//! The same images again as the site's next campaign, without seeds or approximations, are named
+//! from the first epoch's orientations and camera: ≥ 97.5 % of the marks (the coded targets P1003
+//! and P1004 give way to their code rings), none wrongly, σ0 ≤ 0.139 px.
 
 use crate::support;
 
@@ -106,6 +110,101 @@ async fn take(
     std::fs::read_to_string(watch.join(site).join(".failed/e1/error.txt")).ok()
 }
 
+/// Asserts the site's epoch `epoch` against PhotoModeler's marks (see the module's bounds; at least
+/// `min_share` of the marks identified), every station named by `method`.
+async fn check_epoch(
+    server: &TestServer,
+    site: &str,
+    epoch: i64,
+    method: &str,
+    min_share: f64,
+    marks: &HashMap<String, Vec<(u32, f64, f64)>>,
+) {
+    let total: usize = marks.values().map(Vec::len).sum();
+    let (status, e) = server
+        .get(&format!("/api/v1/sites/{site}/epochs/{epoch}"))
+        .await;
+    assert_eq!(status, 200, "{e}");
+    let obs = epochs::observation_residuals(server.store.reader(), site, epoch)
+        .await
+        .unwrap();
+    let mut wrong = Vec::new();
+    let mut unmarked = Vec::new();
+    for o in &obs {
+        let image = format!("{}.JPG", o.image_id);
+        let (col, row) = (o.col_px.unwrap(), o.row_px.unwrap());
+        let own = marks[&image]
+            .iter()
+            .find(|m| point(m.0) == o.point)
+            .map(|m| (m.1 - col).hypot(m.2 - row));
+        // A target PhotoModeler did not mark is right when the point the other images place
+        // falls on it: its residual is under 1 px (a wrong name is ≥ 86 px off), kept or not.
+        let residual_px = o
+            .vx_mm
+            .unwrap_or(f64::NAN)
+            .hypot(o.vy_mm.unwrap_or(f64::NAN))
+            / PIXEL_MM;
+        let right = match own {
+            Some(d) => d <= 3.0,
+            None => residual_px < 1.0,
+        };
+        if own.is_none() {
+            unmarked.push(format!(
+                "{} {} residual {residual_px:.2} px",
+                o.image_id, o.point
+            ));
+        }
+        if !right {
+            wrong.push(format!(
+                "{} {} at ({col:.1}, {row:.1}): mark {own:?} px away, residual {residual_px:.2} px",
+                o.image_id, o.point
+            ));
+        }
+    }
+    let on_marks = obs.len() - unmarked.len();
+    {
+        let mut miss: std::collections::BTreeMap<u32, usize> = Default::default();
+        for (img, m) in marks {
+            for (id, _, _) in m {
+                if !obs
+                    .iter()
+                    .any(|o| format!("{}.JPG", o.image_id) == *img && o.point == point(*id))
+                {
+                    *miss.entry(*id).or_default() += 1;
+                }
+            }
+        }
+    }
+    let sigma0_px = e["sigma0_mm"].as_f64().unwrap() / PIXEL_MM;
+    let dropped = obs.iter().filter(|o| o.dropped).count();
+    eprintln!(
+        "{site} epoch {epoch}: {on_marks} of {total} marks identified, unmarked targets named \
+         {unmarked:?}, {} wrong, {dropped} dropped by the snooping, σ0 {sigma0_px:.4} px, \
+         identification {}",
+        wrong.len(),
+        e["identification"]
+            .as_array()
+            .map(|a| a
+                .iter()
+                .map(|s| format!("{}/{}a/{}", s["identified"], s["ambiguous"], s["detected"]))
+                .collect::<Vec<_>>()
+                .join(" "))
+            .unwrap_or_default()
+    );
+    let stations = e["identification"].as_array().expect("identification");
+    assert_eq!(stations.len(), 21);
+    assert!(
+        stations.iter().all(|s| s["method"] == method),
+        "{stations:?}"
+    );
+    assert!(wrong.is_empty(), "{site}: named wrongly: {wrong:?}");
+    assert!(
+        on_marks as f64 >= min_share * total as f64,
+        "{site}: {on_marks} of {total} marks identified"
+    );
+    assert!(sigma0_px <= 0.139, "{site}: σ0 {sigma0_px:.4} px");
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn dbat_camcal_dropped_into_the_watched_directory_is_a_sites_first_epoch() {
     let server = TestServer::start(|_| {}).await;
@@ -127,76 +226,32 @@ async fn dbat_camcal_dropped_into_the_watched_directory_is_a_sites_first_epoch()
             watch.path().join(&site).join(".done/e1").is_dir(),
             "{site}: not taken: {error:?}"
         );
-        let (status, e) = server.get(&format!("/api/v1/sites/{site}/epochs/1")).await;
-        assert_eq!(status, 200, "{e}");
-        let obs = epochs::observation_residuals(server.store.reader(), &site, 1)
-            .await
-            .unwrap();
-        let mut wrong = Vec::new();
-        let mut unmarked = Vec::new();
-        for o in &obs {
-            let image = format!("{}.JPG", o.image_id);
-            let (col, row) = (o.col_px.unwrap(), o.row_px.unwrap());
-            let own = marks[&image]
-                .iter()
-                .find(|m| point(m.0) == o.point)
-                .map(|m| (m.1 - col).hypot(m.2 - row));
-            // A target PhotoModeler did not mark is right when the point the other images place
-            // falls on it: the adjustment kept it with a residual under 1 px (a wrong name is
-            // ≥ 86 px off).
-            let residual_px = o
-                .vx_mm
-                .unwrap_or(f64::NAN)
-                .hypot(o.vy_mm.unwrap_or(f64::NAN))
-                / PIXEL_MM;
-            let right = match own {
-                Some(d) => d <= 3.0,
-                None => !o.dropped && residual_px < 1.0,
-            };
-            if own.is_none() {
-                unmarked.push(format!(
-                    "{} {} residual {residual_px:.2} px",
-                    o.image_id, o.point
-                ));
+        check_epoch(&server, &site, 1, "central model from seeds", 0.98, &marks).await;
+        if draw == 1 {
+            // The next campaign, without seeds or approximations: named from the first
+            // epoch's orientations and calibrated camera.
+            let mut next = epoch_json(&marks, draw);
+            next["observed_at"] = json!("2004-08-26T12:00:00Z");
+            next.as_object_mut().unwrap().remove("control");
+            next.as_object_mut().unwrap().remove("approx");
+            for image in next["images"].as_array_mut().unwrap() {
+                image["observations"] = json!([]);
             }
-            if !right {
-                wrong.push(format!(
-                    "{} {} at ({col:.1}, {row:.1}): mark {own:?} px away, residual {residual_px:.2} px",
-                    o.image_id, o.point
-                ));
-            }
+            write_folder(&watch.path().join(&site).join("e2"), &next);
+            let results = scan_once(
+                &server.store,
+                &WatchOptions::new(watch.path().to_path_buf()),
+            )
+            .await;
+            let error =
+                std::fs::read_to_string(watch.path().join(&site).join(".failed/e2/error.txt"));
+            assert!(results.iter().all(|r| r.is_ok()), "{results:?} {error:?}");
+            assert!(error.is_err(), "{site}/e2 refused: {error:?}");
+            // The coded targets P1003 and P1004 are left out as ambiguous there: a segment of
+            // their code rings lies inside the gate that a 5 cm motion needs (42 of the 2074
+            // marks), and a name is not guessed.
+            check_epoch(&server, &site, 2, "previous orientation", 0.975, &marks).await;
         }
-        let on_marks = obs.len() - unmarked.len();
-        let sigma0_px = e["sigma0_mm"].as_f64().unwrap() / PIXEL_MM;
-        let dropped = obs.iter().filter(|o| o.dropped).count();
-        eprintln!(
-            "draw {draw}: {on_marks} of {total} marks identified, unmarked targets named \
-             {unmarked:?}, {} wrong, {dropped} dropped by the snooping, σ0 {sigma0_px:.4} px, \
-             identification {}",
-            wrong.len(),
-            e["identification"]
-                .as_array()
-                .map(|a| a
-                    .iter()
-                    .map(|s| format!("{}/{}", s["identified"], s["detected"]))
-                    .collect::<Vec<_>>()
-                    .join(" "))
-                .unwrap_or_default()
-        );
-        let stations = e["identification"].as_array().expect("identification");
-        assert_eq!(stations.len(), 21);
-        assert!(
-            stations
-                .iter()
-                .all(|s| s["method"] == "central model from seeds"),
-            "{stations:?}"
-        );
-        assert!(wrong.is_empty(), "{site}: named wrongly: {wrong:?}");
-        assert!(
-            on_marks as f64 >= 0.98 * total as f64,
-            "{site}: {on_marks} of {total} marks identified"
-        );
-        assert!(sigma0_px <= 0.139, "{site}: σ0 {sigma0_px:.4} px");
     }
 }
 
