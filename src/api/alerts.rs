@@ -38,7 +38,10 @@ pub async fn list(
     let wanted = match &q.state {
         None => None,
         Some(s) => Some(s.parse::<AlertStatus>().map_err(|_| {
-            ApiError::bad_request(format!("state '{s}': open, acknowledged or resolved"))
+            ApiError::bad_request(format!(
+                "state '{}': open, acknowledged or resolved",
+                crate::contract::truncate_for_message(s)
+            ))
         })?),
     };
     let page = PageParams {

@@ -87,9 +87,12 @@ pub async fn message(
     State(state): State<AppState>,
     ApiPath(file): ApiPath<String>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let stem = file
-        .strip_suffix(".xml")
-        .ok_or_else(|| ApiError::not_found(format!("'{file}': CAP messages are <alert id>.xml")))?;
+    let stem = file.strip_suffix(".xml").ok_or_else(|| {
+        ApiError::not_found(format!(
+            "'{}': CAP messages are <alert id>.xml",
+            crate::contract::truncate_for_message(&file)
+        ))
+    })?;
     // Alert ids may hold dots (site and point names do): the whole stem names an alert, or
     // `<alert id>.<n>` one of its messages.
     let (alert, seq) = match alerts::get(state.store.reader(), stem).await? {
@@ -104,7 +107,12 @@ pub async fn message(
                     .map(|a| (a, Some(n))),
                 None => None,
             };
-            found.ok_or_else(|| ApiError::not_found(format!("alert or CAP message '{stem}'")))?
+            found.ok_or_else(|| {
+                ApiError::not_found(format!(
+                    "alert or CAP message '{}'",
+                    crate::contract::truncate_for_message(stem)
+                ))
+            })?
         }
     };
     let id = alert.id.as_str();
@@ -152,11 +160,12 @@ pub async fn feed(
         )));
     }
     let only = match &q.site {
-        Some(id) => Some(
-            sites::get(state.store.reader(), id)
-                .await?
-                .ok_or_else(|| ApiError::not_found(format!("site '{id}'")))?,
-        ),
+        Some(id) => Some(sites::get(state.store.reader(), id).await?.ok_or_else(|| {
+            ApiError::not_found(format!(
+                "site '{}'",
+                crate::contract::truncate_for_message(id)
+            ))
+        })?),
         None => None,
     };
     let candidates = alerts::ever_public(state.store.reader(), q.site.as_deref(), limit).await?;

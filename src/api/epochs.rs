@@ -265,9 +265,12 @@ pub async fn get_one(
     ApiPath((site, epoch)): ApiPath<(String, String)>,
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
-    let id: i64 = epoch
-        .parse()
-        .map_err(|_| ApiError::not_found(format!("site '{site}' has no epoch '{epoch}'")))?;
+    let id: i64 = epoch.parse().map_err(|_| {
+        ApiError::not_found(format!(
+            "site '{site}' has no epoch '{}'",
+            crate::contract::truncate_for_message(&epoch)
+        ))
+    })?;
     summary(&state.store, &site, id, true)
         .await?
         .map(axum::Json)

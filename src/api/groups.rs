@@ -12,6 +12,7 @@ use super::list::{encode, Listing, Page, PageParams};
 use super::points::SeriesParams;
 use super::sites::find;
 use crate::analysis::{GroupConfig, GroupKind};
+use crate::contract::truncate_for_message;
 use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use crate::http::AppState;
 use crate::photogrammetry::input::epoch::is_valid_identifier;
@@ -115,11 +116,15 @@ fn invalid(message: String) -> ApiError {
 fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
     if !is_valid_identifier(name) {
         return Err(invalid(format!(
-            "group '{name}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or .."
+            "group '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
+            truncate_for_message(name)
         )));
     }
     if body.kind != "block" {
-        return Err(invalid(format!("kind '{}': block", body.kind)));
+        return Err(invalid(format!(
+            "kind '{}': block",
+            truncate_for_message(&body.kind)
+        )));
     }
     if let Some(d) = body.direction {
         if !crate::analysis::is_usable_direction(d) {
@@ -129,7 +134,8 @@ fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
     let points = body.points.clone().unwrap_or_default();
     if let Some(p) = points.iter().find(|p| !is_valid_identifier(p)) {
         return Err(invalid(format!(
-            "points: '{p}' is not an identifier ([A-Za-z0-9._-]{{1,64}}, not . or ..)"
+            "points: '{}' is not an identifier ([A-Za-z0-9._-]{{1,64}}, not . or ..)",
+            truncate_for_message(p)
         )));
     }
     if let Some(q) = body.process_noise {
@@ -208,7 +214,12 @@ pub async fn get_one(
     find(&state, &site).await?;
     let g = groups::get(state.store.reader(), &site, &group)
         .await?
-        .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no group '{group}'")))?;
+        .ok_or_else(|| {
+            ApiError::not_found(format!(
+                "site '{site}' has no group '{}'",
+                truncate_for_message(&group)
+            ))
+        })?;
     Ok(axum::Json(describe_one(&state, &site, g).await?))
 }
 
@@ -228,9 +239,12 @@ pub async fn motion(
 ) -> Result<Response, ApiError> {
     find(&state, &site).await?;
     let db = state.store.reader();
-    let g = groups::get(db, &site, &group)
-        .await?
-        .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no group '{group}'")))?;
+    let g = groups::get(db, &site, &group).await?.ok_or_else(|| {
+        ApiError::not_found(format!(
+            "site '{site}' has no group '{}'",
+            truncate_for_message(&group)
+        ))
+    })?;
     let (from, to, format) = q.range_and_format()?;
     // checked for both formats, though CSV answers the whole range
     let page = PageParams {

@@ -121,7 +121,8 @@ pub async fn update(
         return Err(ApiError::unprocessable(
             "invalid_point",
             format!(
-                "point '{point}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or .."
+                "point '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
+                crate::contract::truncate_for_message(&point)
             ),
         ));
     }
@@ -130,7 +131,8 @@ pub async fn update(
             return Err(ApiError::unprocessable(
                 "invalid_point",
                 format!(
-                    "group '{g}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or .."
+                    "group '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
+                    crate::contract::truncate_for_message(g)
                 ),
             ));
         }
@@ -183,7 +185,8 @@ impl SeriesParams {
             Some("csv") => SeriesFormat::Csv,
             Some(other) => {
                 return Err(ApiError::bad_request(format!(
-                    "format '{other}': json or csv"
+                    "format '{}': json or csv",
+                    crate::contract::truncate_for_message(other)
                 )))
             }
         };
@@ -206,9 +209,12 @@ pub async fn displacements(
 ) -> Result<Response, ApiError> {
     find(&state, &site).await?;
     let db = state.store.reader();
-    let p = points::get(db, &site, &point)
-        .await?
-        .ok_or_else(|| ApiError::not_found(format!("site '{site}' has no point '{point}'")))?;
+    let p = points::get(db, &site, &point).await?.ok_or_else(|| {
+        ApiError::not_found(format!(
+            "site '{site}' has no point '{}'",
+            crate::contract::truncate_for_message(&point)
+        ))
+    })?;
     let (from, to, format) = q.range_and_format()?;
     let csv = format == SeriesFormat::Csv;
     // checked for both formats, though CSV answers the whole range

@@ -68,7 +68,10 @@ pub async fn find(state: &AppState, site: &str) -> Result<Site, ApiError> {
     // No site has an id outside the identifier rule: not asked of the database (PostgreSQL
     // would refuse a NUL in it as a value it cannot hold, where the answer is "no such site").
     if !is_valid_identifier(site) {
-        return Err(ApiError::not_found(format!("unknown site '{site}'")));
+        return Err(ApiError::not_found(format!(
+            "unknown site '{}'",
+            crate::contract::truncate_for_message(site)
+        )));
     }
     sites::get(state.store.reader(), site)
         .await?

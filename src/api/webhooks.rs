@@ -10,6 +10,14 @@ use crate::http::error::{ApiError, ApiJson, ApiPath};
 use crate::http::AppState;
 use crate::store::webhooks::{self, NewWebhook};
 
+// utoipa's `max_length` takes only a literal: keep NewWebhook's schema in step with the limits the
+// service enforces.
+const _: () = assert!(
+    crate::service::webhooks::MAX_URL_CHARS == 2048
+        && crate::service::webhooks::MAX_SECRET_CHARS == 256,
+    "NewWebhook's schema states the webhook limits as literals"
+);
+
 /// `POST /api/v1/webhooks`.
 #[utoipa::path(post, path = "/api/v1/webhooks", operation_id = "create_webhook", request_body = NewWebhook,
     responses((status = 201, body = crate::store::webhooks::Webhook), (status = 422, description = "invalid", body = crate::api::schemas::ErrorBody)))]
@@ -70,7 +78,7 @@ pub async fn test(
     ApiPath(id): ApiPath<String>,
 ) -> Result<impl IntoResponse, ApiError> {
     let Some(endpoint) = webhooks::endpoint(state.store.reader(), &id).await? else {
-        return Err(ApiError::not_found(format!("unknown webhook '{id}'")));
+        return Err(crate::service::ServiceError::UnknownWebhook(id).into());
     };
     let now = chrono::Utc::now();
     let body = crate::webhooks::test_body(endpoint.format, &endpoint.id, now)

@@ -5,7 +5,7 @@
 /// A name that is not one of an enum's contract names: bad input, or a stored row the code does
 /// not know.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown {what} '{value}' (one of {expected})")]
+#[error("unknown {what} '{}' (one of {expected})", super::truncate_for_message(.value))]
 pub struct UnknownName {
     /// What was being named, e.g. `alert level`.
     pub what: &'static str,

@@ -103,11 +103,19 @@ impl ApiError {
 }
 
 impl IntoResponse for ApiError {
+    /// The contract's JSON error; a run of the message quoted in double quotes or backticks (how
+    /// serde's messages repeat a value) is cut to 80 characters and an ellipsis
+    /// ([`crate::contract::echo::truncate_quoted`]), as the service's own messages cut what they
+    /// repeat ([`crate::contract::truncate_for_message`]).
     fn into_response(self) -> Response {
+        let message = match crate::contract::echo::truncate_quoted(&self.message) {
+            std::borrow::Cow::Borrowed(_) => self.message,
+            std::borrow::Cow::Owned(cut) => cut,
+        };
         let body = ErrorBody {
             error: ErrorDetail {
                 code: self.code,
-                message: self.message,
+                message,
                 details: self.details,
             },
         };

@@ -37,8 +37,12 @@ fn parse_time_bound(s: &str, end_of_day: bool) -> Result<chrono::DateTime<chrono
     if let Some(t) = parse_timestamp(s) {
         return Ok(t);
     }
-    let date = chrono::NaiveDate::parse_from_str(s, "%Y-%m-%d")
-        .map_err(|_| ApiError::bad_request(format!("'{s}' is not an RFC 3339 time or a date")))?;
+    let date = chrono::NaiveDate::parse_from_str(s, "%Y-%m-%d").map_err(|_| {
+        ApiError::bad_request(format!(
+            "'{}' is not an RFC 3339 time or a date",
+            crate::contract::truncate_for_message(s)
+        ))
+    })?;
     let t = if end_of_day {
         date.and_hms_micro_opt(23, 59, 59, 999_999)
     } else {

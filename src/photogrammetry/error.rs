@@ -2,6 +2,8 @@
 
 use thiserror::Error;
 
+use crate::contract::truncate_for_message as cut;
+
 /// The upload form is not a valid epoch.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum EpochError {
@@ -20,16 +22,17 @@ pub enum EpochError {
         limit: usize,
     },
     /// `observed_at` is not RFC 3339.
-    #[error("observed_at '{0}' is not an RFC 3339 time")]
+    #[error("observed_at '{}' is not an RFC 3339 time", cut(.0))]
     BadTimestamp(String),
     /// `observed_at` falls outside the years 0000–9999 once converted to UTC: RFC 3339 cannot
     /// write it with a four-digit year, so it could not be stored or sorted.
-    #[error("observed_at '{0}' falls outside the years 0000–9999 in UTC")]
+    #[error("observed_at '{}' falls outside the years 0000–9999 in UTC", cut(.0))]
     TimestampOutOfRange(String),
     /// `observed_at` lies further after the server's clock than an epoch may
     /// ([`crate::service::ingest::MAX_DAYS_AHEAD`]): a mistyped year or a camera clock set wrong.
     #[error(
-        "observed_at '{observed_at}' lies more than {days} days after the server's clock ({now})"
+        "observed_at '{}' lies more than {days} days after the server's clock ({now})",
+        cut(.observed_at)
     )]
     TimestampAhead {
         /// The time given.
@@ -42,20 +45,28 @@ pub enum EpochError {
     /// A label holding a control character (U+0000–U+001F, U+007F–U+009F).
     #[error("label: control characters (U+0000–U+001F, U+007F–U+009F) are not allowed")]
     BadLabel,
+    /// A label longer than [`crate::photogrammetry::input::epoch::MAX_LABEL_CHARS`].
+    #[error("label: {chars} characters; at most {max}")]
+    LabelTooLong {
+        /// Its length in characters.
+        chars: usize,
+        /// The limit.
+        max: usize,
+    },
     /// An identifier outside `[A-Za-z0-9._-]{{1,64}}`.
     #[error("{0}: identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..")]
     BadIdentifier(String),
     /// Two cameras with one id.
-    #[error("camera '{0}' is defined twice")]
+    #[error("camera '{}' is defined twice", cut(.0))]
     DuplicateCamera(String),
     /// Two images with one id.
-    #[error("image '{0}' is defined twice")]
+    #[error("image '{}' is defined twice", cut(.0))]
     DuplicateImage(String),
     /// A point listed twice in `control` or twice in `approx`.
-    #[error("point '{0}' is listed twice")]
+    #[error("point '{}' is listed twice", cut(.0))]
     DuplicatePoint(String),
     /// An image refers to a camera that is not defined.
-    #[error("image '{image}' refers to unknown camera '{camera}'")]
+    #[error("image '{image}' refers to unknown camera '{}'", cut(.camera))]
     UnknownCamera {
         /// Image id.
         image: String,

@@ -3,6 +3,8 @@
 
 use thiserror::Error;
 
+use crate::contract::truncate_for_message as cut;
+
 use crate::photogrammetry::{AdjustError, EpochError};
 use crate::store::StoreError;
 
@@ -10,7 +12,7 @@ use crate::store::StoreError;
 #[derive(Debug, Error)]
 pub enum ServiceError {
     /// The site does not exist (uploads do not create sites).
-    #[error("unknown site '{0}'")]
+    #[error("unknown site '{}'", cut(.0))]
     UnknownSite(String),
     /// The site has no epoch with that id.
     #[error("site '{site}' has no epoch {epoch}")]
@@ -21,16 +23,16 @@ pub enum ServiceError {
         epoch: i64,
     },
     /// No alert has that id.
-    #[error("unknown alert '{0}'")]
+    #[error("unknown alert '{}'", cut(.0))]
     UnknownAlert(String),
     /// No webhook endpoint has that id.
-    #[error("unknown webhook '{0}'")]
+    #[error("unknown webhook '{}'", cut(.0))]
     UnknownWebhook(String),
     /// A site definition that cannot be stored (the message names the field).
     #[error("{0}")]
     InvalidSite(String),
     /// A site with that id exists already.
-    #[error("site '{0}' exists")]
+    #[error("site '{}' exists", cut(.0))]
     SiteExists(String),
     /// A webhook endpoint that cannot be used (the message names the field).
     #[error("{0}")]

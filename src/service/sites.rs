@@ -51,7 +51,7 @@ pub fn validate_site(s: &NewSite) -> Result<(), ServiceError> {
     if !is_valid_identifier(&s.id) {
         return Err(invalid(format!(
             "id '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
-            s.id
+            crate::contract::truncate_for_message(&s.id)
         )));
     }
     if let Some(n) = s.name.as_deref() {
@@ -108,7 +108,8 @@ pub fn validate_site(s: &NewSite) -> Result<(), ServiceError> {
     if let Some(tz) = &s.time_zone {
         if tz.parse::<chrono_tz::Tz>().is_err() {
             return Err(invalid(format!(
-                "time_zone '{tz}': an IANA time zone name such as Asia/Tokyo or Europe/Zurich"
+                "time_zone '{}': an IANA time zone name such as Asia/Tokyo or Europe/Zurich",
+                crate::contract::truncate_for_message(tz)
             )));
         }
     }

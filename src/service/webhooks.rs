@@ -11,9 +11,29 @@ fn invalid(message: impl Into<String>) -> ServiceError {
     ServiceError::InvalidWebhook(message.into())
 }
 
-/// Checks a webhook endpoint: an http(s) URL that parses and names a host, and a `whsec_` secret whose base64 decodes to the
-/// signing key (a secret that does not would fail every delivery, silently, at 3 a.m.).
+/// Longest webhook URL (characters): what browsers, proxies and receivers take everywhere.
+pub const MAX_URL_CHARS: usize = 2048;
+/// Longest webhook secret (characters): `whsec_` and the base64 of a key of up to 186 bytes
+/// (Standard Webhooks' keys have 24 to 64).
+pub const MAX_SECRET_CHARS: usize = 256;
+
+/// Checks a webhook endpoint: an http(s) URL of at most [`MAX_URL_CHARS`] characters that parses
+/// and names a host, and a `whsec_` secret of at most [`MAX_SECRET_CHARS`] whose base64 decodes to
+/// the signing key (a secret that does not would fail every delivery, silently, at 3 a.m.). A
+/// URL repeated in the message is cut ([`crate::contract::truncate_for_message`]).
 pub fn validate_webhook(h: &NewWebhook) -> Result<(), ServiceError> {
+    let chars = h.url.chars().count();
+    if chars > MAX_URL_CHARS {
+        return Err(invalid(format!(
+            "url: {chars} characters; at most {MAX_URL_CHARS}"
+        )));
+    }
+    let chars = h.secret.chars().count();
+    if chars > MAX_SECRET_CHARS {
+        return Err(invalid(format!(
+            "secret: {chars} characters; at most {MAX_SECRET_CHARS}"
+        )));
+    }
     let parsed = url::Url::parse(&h.url).ok().filter(|u| {
         (u.scheme() == "http" || u.scheme() == "https")
             && u.host_str().is_some_and(|h| !h.is_empty())
@@ -26,7 +46,7 @@ pub fn validate_webhook(h: &NewWebhook) -> Result<(), ServiceError> {
     if parsed.is_none() || after.is_none_or(|rest| rest.starts_with('/')) {
         return Err(invalid(format!(
             "url '{}': an absolute http or https URL with a host",
-            h.url
+            crate::contract::truncate_for_message(&h.url)
         )));
     }
     let decoded = h

@@ -46,12 +46,15 @@ crate::contract_names!(WebhookSource, "webhook source" {
 #[derive(Clone, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewWebhook {
-    /// Target URL: absolute, http or https, with a host.
-    #[schema(pattern = "^https?://")]
+    /// Target URL: absolute, http or https, with a host, at most 2048 characters
+    /// (`service::webhooks::MAX_URL_CHARS`).
+    #[schema(pattern = "^https?://", max_length = 2048)]
     pub url: String,
     /// Signing secret `whsec_<base64>` (standard alphabet, padded or not, canonical) of a key
-    /// of at least 3 bytes: the key that signs every delivery.
+    /// of at least 3 bytes: the key that signs every delivery; at most 256 characters
+    /// (`service::webhooks::MAX_SECRET_CHARS`).
     #[schema(
+        max_length = 256,
         pattern = "^whsec_(?:[A-Za-z0-9+/]{4})+(?:[A-Za-z0-9+/][AQgw](?:==)?|[A-Za-z0-9+/]{2}[AEIMQUYcgkosw048]=?)?$"
     )]
     pub secret: String,

@@ -1,42 +1,143 @@
 //! The watched directory on disk: which folders are ready, their content hash, their images,
-//! and where a folder moves once taken (`.done/`, `.failed/`).
+//! and where a folder moves once taken (`.done/`, `.failed/`). Nothing outside the directory is
+//! followed ([`super::inside`]): a link where a site's or an epoch's folder belongs is refused
+//! ([`RefusedEntry`]), and the folders `.done/`, `.failed/` and `.state/` are used only when they
+//! are real folders.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use sha2::{Digest, Sha256};
 
+use super::inside::{
+    ensure_real_dir, is_real_dir, open_inside, read_to_string_inside, refusal, refused_io,
+    write_if_absent, Refused,
+};
+
 /// Image file extensions the watcher reads, compared in lower case (`T1.JPG` is an image).
 const IMAGE_EXTENSIONS: [&str; 5] = ["jpg", "jpeg", "png", "tif", "tiff"];
 
-/// Folders `<dir>/<site>/<epoch>/` holding `READY` (names starting with `.` skipped), sorted.
-pub fn ready_folders(dir: &Path) -> Vec<(String, PathBuf)> {
-    let mut out = Vec::new();
-    for (name, site) in site_dirs(dir) {
+/// A link where a site's folder (`<dir>/<site>`) or an epoch's folder (`<dir>/<site>/<epoch>`)
+/// belongs: not followed, nothing read through it or written into it. It is logged; an epoch's
+/// link in a real site folder also gets a note in that site's `.failed/` ([`RefusedEntry::note`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RefusedEntry {
+    /// The entry itself.
+    pub path: PathBuf,
+    /// Why it is refused.
+    pub reason: Refused,
+    /// Where its note goes (`<site>/.failed/<entry>.refused.txt`), for an epoch's entry; `None`
+    /// for a site's entry, which no folder inside the directory can hold.
+    pub note: Option<PathBuf>,
+}
+
+/// What one look at the watched directory found.
+#[derive(Debug, Default)]
+pub struct Scan {
+    /// Folders `<dir>/<site>/<epoch>/` holding `READY`, sorted, with their sites.
+    pub ready: Vec<(String, PathBuf)>,
+    /// Links where a site's or an epoch's folder belongs, sorted.
+    pub refused: Vec<RefusedEntry>,
+}
+
+/// Looks at `dir`: its sites' folders and their epochs' folders (names starting with `.` skipped,
+/// links refused and not followed).
+pub fn scan(dir: &Path) -> Scan {
+    let (sites, mut refused) = site_dirs(dir);
+    let mut ready = Vec::new();
+    for (name, site) in sites {
         let Ok(epochs) = std::fs::read_dir(&site) else {
             continue;
         };
         for e in epochs.flatten() {
             let en = e.file_name().to_string_lossy().into_owned();
-            if !en.starts_with('.') && e.path().join("READY").is_file() {
-                out.push((name.clone(), e.path()));
+            if en.starts_with('.') {
+                continue;
+            }
+            // `DirEntry::metadata` does not follow a link
+            let Ok(meta) = e.metadata() else {
+                continue;
+            };
+            if meta.is_dir() {
+                if std::fs::symlink_metadata(e.path().join("READY")).is_ok() {
+                    ready.push((name.clone(), e.path()));
+                }
+            } else if meta.is_symlink() {
+                refused.push(RefusedEntry {
+                    path: e.path(),
+                    reason: Refused::Symlink { name: en.clone() },
+                    note: Some(site.join(".failed").join(format!("{en}.refused.txt"))),
+                });
             }
         }
     }
-    out.sort();
-    out
+    ready.sort();
+    refused.sort_by(|a, b| a.path.cmp(&b.path));
+    Scan { ready, refused }
 }
 
-/// The sites' directories `<dir>/<site>/` (names starting with `.` skipped), with their names.
-fn site_dirs(dir: &Path) -> Vec<(String, PathBuf)> {
+/// Folders `<dir>/<site>/<epoch>/` holding `READY` (names starting with `.` skipped, links not
+/// followed: see [`scan`]), sorted.
+pub fn ready_folders(dir: &Path) -> Vec<(String, PathBuf)> {
+    scan(dir).ready
+}
+
+/// Logs the entries of `refused` not in `known` (then `known` holds `refused`'s), and writes the
+/// note of each that has one and has none yet (never through a link: a `.failed` that is not a
+/// real folder gets no note, which is logged).
+pub fn report_refused(refused: &[RefusedEntry], known: &mut BTreeSet<PathBuf>) {
+    let now: BTreeSet<PathBuf> = refused.iter().map(|r| r.path.clone()).collect();
+    for r in refused {
+        if !known.contains(&r.path) {
+            tracing::warn!(entry = %r.path.display(), reason = %r.reason,
+                "watched directory: entry refused, not followed");
+        }
+        let Some(note) = &r.note else {
+            continue;
+        };
+        let text = format!(
+            "{} was not taken: {}\nNothing was read from it or written into it. Remove the link \
+             and put the folder itself here.\n",
+            r.reason.name(),
+            r.reason
+        );
+        let written = note
+            .parent()
+            .map_or(Ok(()), ensure_real_dir)
+            .and_then(|()| write_if_absent(note, text.as_bytes()));
+        if let Err(e) = written {
+            if !known.contains(&r.path) {
+                tracing::warn!(note = %note.display(), error = %e, "note of a refused entry not written");
+            }
+        }
+    }
+    *known = now;
+}
+
+/// The sites' directories `<dir>/<site>/` (names starting with `.` skipped), with their names, and
+/// the links where a site's directory belongs (refused).
+fn site_dirs(dir: &Path) -> (Vec<(String, PathBuf)>, Vec<RefusedEntry>) {
     let Ok(sites) = std::fs::read_dir(dir) else {
-        return Vec::new();
+        return (Vec::new(), Vec::new());
     };
-    sites
-        .flatten()
-        .map(|site| (site.file_name().to_string_lossy().into_owned(), site.path()))
-        .filter(|(name, path)| !name.starts_with('.') && path.is_dir())
-        .collect()
+    let mut out = Vec::new();
+    let mut refused = Vec::new();
+    for site in sites.flatten() {
+        let name = site.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') {
+            continue;
+        }
+        match site.metadata() {
+            Ok(m) if m.is_dir() => out.push((name, site.path())),
+            Ok(m) if m.is_symlink() => refused.push(RefusedEntry {
+                path: site.path(),
+                reason: Refused::Symlink { name },
+                note: None,
+            }),
+            _ => {}
+        }
+    }
+    (out, refused)
 }
 
 /// The taken folders `<dir>/<site>/.done/<folder>` (of the sites [`ready_folders`] watches)
@@ -46,7 +147,11 @@ fn site_dirs(dir: &Path) -> Vec<(String, PathBuf)> {
 /// are left out. Sorted.
 pub fn done_folders_before(dir: &Path, cut: std::time::SystemTime) -> Vec<PathBuf> {
     let mut out = Vec::new();
-    for (_, site) in site_dirs(dir) {
+    for (_, site) in site_dirs(dir).0 {
+        // a `.done` that is a link is not followed (its folders would be deleted)
+        if !is_real_dir(&site.join(".done")).unwrap_or(false) {
+            continue;
+        }
         let Ok(done) = std::fs::read_dir(site.join(".done")) else {
             continue;
         };
@@ -77,29 +182,52 @@ fn last_written(folder: &Path) -> Option<std::time::SystemTime> {
 const OUTPUT_FILES: [&str; 4] = ["READY", "error.txt", "identification.json", "duplicate.txt"];
 
 /// sha256 (hex) over the sorted names and bytes of the folder's files (`READY` and the watcher's own
-/// outputs excluded).
+/// outputs excluded; folders in it skipped). A link, a file with several hard links or a special
+/// file in the folder is refused (an [`std::io::ErrorKind::InvalidInput`] error naming it),
+/// nothing behind it read.
 pub fn content_hash(folder: &Path) -> std::io::Result<String> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(folder)?
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| {
-            p.is_file()
-                && p.file_name()
-                    .is_some_and(|n| !OUTPUT_FILES.iter().any(|o| n == *o))
-        })
-        .collect();
+    let mut files: Vec<PathBuf> = Vec::new();
+    for e in std::fs::read_dir(folder)? {
+        let e = e?;
+        // `DirEntry::metadata` does not follow a link
+        let meta = e.metadata()?;
+        if let Some(r) = refusal(&e.file_name().to_string_lossy(), &meta) {
+            return Err(refused_io(r));
+        }
+        if meta.is_file() && !OUTPUT_FILES.iter().any(|o| e.file_name() == *o) {
+            files.push(e.path());
+        }
+    }
     files.sort();
     let mut h = Sha256::new();
     for f in files {
         h.update(f.file_name().unwrap_or_default().as_encoded_bytes());
         h.update([0]);
         // streamed: an image file is not held in memory to be hashed
-        std::io::copy(&mut std::fs::File::open(&f)?, &mut h)?;
+        std::io::copy(&mut open_inside(&f)?, &mut h)?;
     }
     Ok(hex::encode(h.finalize()))
 }
 
-pub(super) fn state_dir(site_dir: &Path) -> PathBuf {
+/// The text of the site's file `.state/<name>` of earlier versions, when `.state` is a real folder
+/// and the file a regular one ([`open_inside`]); `None` otherwise (a link is logged).
+pub(super) fn read_state_file(site_dir: &Path, name: &str) -> Option<String> {
+    let dir = state_dir(site_dir);
+    let read = is_real_dir(&dir).and_then(|real| {
+        real.then(|| read_to_string_inside(&dir.join(name)))
+            .transpose()
+    });
+    match read {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => {
+            tracing::warn!(file = %dir.join(name).display(), error = %e, "state file of an earlier version not read");
+            None
+        }
+    }
+}
+
+fn state_dir(site_dir: &Path) -> PathBuf {
     site_dir.join(".state")
 }
 
@@ -114,7 +242,8 @@ pub(super) fn free_destination(folder: &Path, sub: &str) -> PathBuf {
         .into_owned();
     let mut dest = dest_dir.join(&name);
     let mut k = 1;
-    while dest.exists() {
+    // a dangling link counts as taken: nothing is moved over or through a link
+    while std::fs::symlink_metadata(&dest).is_ok() {
         dest = dest_dir.join(format!("{name}.{k}"));
         k += 1;
     }
@@ -129,13 +258,14 @@ pub(super) fn move_folder(folder: &Path, dest: PathBuf) -> std::io::Result<PathB
         .and_then(Path::file_name)
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let dest = if dest.exists() {
+    let dest = if std::fs::symlink_metadata(&dest).is_ok() {
         free_destination(folder, &sub)
     } else {
         dest
     };
+    // `.done/` or `.failed/`: created when absent, refused when a link
     if let Some(dir) = dest.parent() {
-        std::fs::create_dir_all(dir)?;
+        ensure_real_dir(dir)?;
     }
     std::fs::rename(folder, &dest)?;
     Ok(dest)

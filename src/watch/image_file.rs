@@ -1,6 +1,7 @@
 //! Reading a station's image file whole, within [`MAX_IMAGE_FILE_BYTES`]: for detection (the
 //! watcher) and for the dashboard's preview. The limit is checked before reading and held while
-//! reading, so a file that grows in between is refused too.
+//! reading, so a file that grows in between is refused too. A link, a file with several hard links
+//! and a special file are refused unread ([`super::inside::open_inside`]).
 
 use std::path::Path;
 
@@ -28,7 +29,11 @@ pub enum ImageFileError {
 /// The bytes of the image file at `path`, when it has at most [`MAX_IMAGE_FILE_BYTES`].
 pub async fn read_image_file(path: &Path) -> Result<Vec<u8>, ImageFileError> {
     let max = MAX_IMAGE_FILE_BYTES;
-    let file = tokio::fs::File::open(path).await?;
+    let to_open = path.to_path_buf();
+    let file = tokio::task::spawn_blocking(move || super::inside::open_inside(&to_open))
+        .await
+        .map_err(std::io::Error::other)??;
+    let file = tokio::fs::File::from_std(file);
     let size = file.metadata().await?.len();
     if size > max {
         return Err(ImageFileError::TooLarge { bytes: size, max });

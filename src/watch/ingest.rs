@@ -5,8 +5,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::folders::{
-    content_hash, free_destination, move_folder, move_to, state_dir, station_images,
+    content_hash, free_destination, move_folder, move_to, read_state_file, station_images,
 };
+use super::inside::{check_folder, is_real_dir, read_to_string_inside, write_replacing};
 use super::naming::name_targets;
 use super::state::{load_orientations, save_state};
 use super::stations::{detect_station, station_of, StationCounts, StationData, StationNamed};
@@ -110,8 +111,11 @@ async fn identify(
         return Err(WatchError::UnknownSite(site.to_string()));
     };
     let per_target = settings.image_weights == ImageWeights::Target;
-    let text = tokio::fs::read_to_string(folder.join("epoch.json"))
+    // not through a link, nor from a FIFO ([`super::inside`])
+    let path = folder.join("epoch.json");
+    let text = tokio::task::spawn_blocking(move || read_to_string_inside(&path))
         .await
+        .map_err(|e| WatchError::Task(e.to_string()))?
         .map_err(|source| WatchError::File {
             file: "epoch.json".into(),
             source,
@@ -184,11 +188,13 @@ async fn identify(
             "watched image identified"
         );
     }
-    tokio::fs::write(
+    let (path, text) = (
         folder.join("identification.json"),
         serde_json::to_string_pretty(&counts)?,
-    )
-    .await?;
+    );
+    tokio::task::spawn_blocking(move || write_replacing(&path, text.as_bytes()))
+        .await
+        .map_err(|e| WatchError::Task(e.to_string()))??;
     for ((image, s), named) in input.images.iter_mut().zip(&stations).zip(&names) {
         image.observations = named
             .iter()
@@ -311,7 +317,9 @@ async fn restore_orientations(
 /// Takes one ready folder: skips it when its hash was ingested before, otherwise processes it; moves it
 /// to `.done/` or `.failed/` (with `error.txt`). Returns the destination. When the database fails
 /// ([`WatchError::is_transient`]) the folder stays where it is, for the next scan, and that is
-/// what is returned.
+/// what is returned. A folder holding a link, a file with several hard links or a special file
+/// goes to `.failed/` with `error.txt` naming it, nothing behind it read ([`super::inside`]); a
+/// `folder` or site folder that is itself a link is an error, and nothing is written.
 pub async fn take_folder(
     store: &Store,
     site: &str,
@@ -319,6 +327,21 @@ pub async fn take_folder(
     opts: &WatchOptions,
 ) -> std::io::Result<PathBuf> {
     let site_dir = folder.parent().unwrap_or(Path::new(".")).to_path_buf();
+    for dir in [site_dir.as_path(), folder] {
+        if !is_real_dir(dir)? {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                format!("{}: no such folder", dir.display()),
+            ));
+        }
+    }
+    let to_check = folder.to_path_buf();
+    let refused = tokio::task::spawn_blocking(move || check_folder(&to_check))
+        .await
+        .map_err(std::io::Error::other)??;
+    if let Some(r) = refused {
+        return fail_folder(site, folder, &format!("not taken: {r}"));
+    }
     // Hashing reads every file (images of up to 512 MiB): a blocking thread's work. A file that
     // cannot be read fails the folder, with the reason, instead of failing every scan.
     let to_hash = folder.to_path_buf();
@@ -335,7 +358,7 @@ pub async fn take_folder(
             )
         }
     };
-    let legacy = std::fs::read_to_string(state_dir(&site_dir).join("ingested")).unwrap_or_default();
+    let legacy = read_state_file(&site_dir, "ingested").unwrap_or_default();
     let earlier = watch_state::folder_epoch(store.reader(), site, &hash)
         .await
         .map_err(std::io::Error::other)?;
@@ -351,12 +374,13 @@ pub async fn take_folder(
         // The folder says so itself, next to the copy that was ingested in `.done/`.
         let as_epoch = earlier.map_or(String::new(), |e| format!(" as epoch {e}"));
         let dest = move_to(folder, ".done")?;
-        std::fs::write(
-            dest.join("duplicate.txt"),
+        write_replacing(
+            &dest.join("duplicate.txt"),
             format!(
                 "not ingested: a folder with the same files was ingested{as_epoch} before \
                  (same content hash {hash})\n"
-            ),
+            )
+            .as_bytes(),
         )?;
         return Ok(dest);
     }
@@ -380,6 +404,7 @@ pub async fn take_folder(
 /// Moves `folder` to `.failed/` with `reason` in its `error.txt`; returns where it went.
 fn fail_folder(site: &str, folder: &Path, reason: &str) -> std::io::Result<PathBuf> {
     tracing::warn!(site, folder = %folder.display(), error = %reason, "watched folder failed");
-    std::fs::write(folder.join("error.txt"), format!("{reason}\n"))?;
+    // replaces (never writes through) a link or hard link standing at `error.txt`
+    write_replacing(&folder.join("error.txt"), format!("{reason}\n").as_bytes())?;
     move_to(folder, ".failed")
 }

@@ -28,10 +28,17 @@
 //!
 //! Watching: `notify` events and a periodic rescan (events can be lost, e.g. on network shares).
 //!
+//! The directory stays inside ([`inside`]): nothing outside it is read or written. A link, a file
+//! with several hard links or a special file in an epoch's folder sends the folder to `.failed/`
+//! with `error.txt` naming it; a link where a site's or an epoch's folder belongs is neither
+//! followed nor moved, but logged ([`RefusedEntry`]), with a note `<entry>.refused.txt` in the
+//! site's `.failed/` for an epoch's link.
+//!
 //! The files: `folders.rs` (what the directory holds and where a folder moves), `stations.rs`
 //! (one station's image: detection and the counts of its targets), `image_file.rs` (reading an
 //! image file within the size limit), `naming.rs` (which detected
-//! target is which point), `settle.rs` (when a ready folder has stopped changing), `ingest.rs` (one folder taken, the use case), `state.rs` (what the
+//! target is which point), `settle.rs` (when a ready folder has stopped changing), `ingest.rs` (one folder taken, the use case), `inside.rs` (nothing outside the directory
+//! read or written: links, hard links and special files refused), `state.rs` (what the
 //! watcher keeps between epochs: the folders taken and the stations' orientations), and here the
 //! loop that scans.
 
@@ -39,6 +46,7 @@ mod error;
 pub(crate) mod folders;
 pub(crate) mod image_file;
 pub(crate) mod ingest;
+pub mod inside;
 mod naming;
 mod options;
 pub mod retention;
@@ -46,11 +54,12 @@ mod settle;
 mod state;
 mod stations;
 
+use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::time::Duration;
 
 pub use error::WatchError;
-pub use folders::{content_hash, ready_folders};
+pub use folders::{content_hash, ready_folders, scan, RefusedEntry, Scan};
 pub use ingest::take_folder;
 pub use options::WatchOptions;
 pub use settle::{Settled, Settling};
@@ -62,9 +71,11 @@ use crate::store::Store;
 /// changing ([`run`] waits for them to settle first). Several nodes may watch one shared
 /// directory: each folder is claimed ([`Store::try_job_lock`] on its site and name) and held until
 /// it has moved to `.done/` or `.failed/`; a folder another node holds, or has already moved, is
-/// left.
+/// left. Refused entries ([`RefusedEntry`]) are logged and noted, never followed.
 pub async fn scan_once(store: &Store, opts: &WatchOptions) -> Vec<std::io::Result<PathBuf>> {
-    take_all(store, opts, ready_folders(&opts.dir)).await
+    let found = scan(&opts.dir);
+    folders::report_refused(&found.refused, &mut BTreeSet::new());
+    take_all(store, opts, found.ready).await
 }
 
 /// Takes each of `ready` (`(site, folder)`) as [`scan_once`] does.
@@ -84,7 +95,8 @@ async fn take_all(
                 continue;
             }
         };
-        if folder.is_dir() {
+        // still a real folder (a link is never followed)
+        if std::fs::symlink_metadata(&folder).is_ok_and(|m| m.is_dir()) {
             out.push(take_folder(store, &site, &folder, opts).await);
         }
         drop(claim);
@@ -94,19 +106,24 @@ async fn take_all(
 
 /// Watches `opts.dir` until shutdown: a scan at start, on every file-system event, every
 /// `opts.rescan`, and when a ready folder whose files were still changing may have settled
-/// ([`Settling`], `opts.settle`).
+/// ([`Settling`], `opts.settle`). A refused entry is logged when first seen, not at every scan.
 pub async fn run(store: Store, opts: WatchOptions, shutdown: Shutdown) -> Result<(), WatchError> {
     use notify::Watcher;
     let (tx, mut rx) = tokio::sync::mpsc::channel::<()>(16);
-    let mut watcher = notify::recommended_watcher(move |_res: notify::Result<notify::Event>| {
-        let _ = tx.try_send(());
-    })
+    // links are not followed by the events either
+    let mut watcher = notify::RecommendedWatcher::new(
+        move |_res: notify::Result<notify::Event>| {
+            let _ = tx.try_send(());
+        },
+        notify::Config::default().with_follow_symlinks(false),
+    )
     .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
     if let Err(e) = watcher.watch(&opts.dir, notify::RecursiveMode::Recursive) {
         tracing::warn!(error = %e, "file-system events unavailable; rescanning only");
     }
     let mut tick = tokio::time::interval(opts.rescan);
     let mut settling = Settling::default();
+    let mut refused = BTreeSet::new();
     let mut next_check: Option<tokio::time::Instant> = None;
     loop {
         let settled = async {
@@ -127,13 +144,16 @@ pub async fn run(store: Store, opts: WatchOptions, shutdown: Shutdown) -> Result
         }
         let dir = opts.dir.clone();
         let settle = opts.settle;
-        let (returned, decided) = tokio::task::spawn_blocking(move || {
-            let decided = settling.take(ready_folders(&dir), settle, std::time::Instant::now());
-            (settling, decided)
+        let (returned, known, decided) = tokio::task::spawn_blocking(move || {
+            let found = scan(&dir);
+            folders::report_refused(&found.refused, &mut refused);
+            let decided = settling.take(found.ready, settle, std::time::Instant::now());
+            (settling, refused, decided)
         })
         .await
         .map_err(|e| WatchError::Io(std::io::Error::other(e)))?;
         settling = returned;
+        refused = known;
         next_check = decided.next_check.map(tokio::time::Instant::from_std);
         for r in take_all(&store, &opts, decided.ready).await {
             if let Err(e) = r {

@@ -4,14 +4,13 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::folders::state_dir;
+use super::folders::read_state_file;
 use crate::photogrammetry::ImageOrientation;
 use crate::store::{self, watch_state, Store, StoreError};
 
 /// Orientations from the file of earlier versions (`<site>/.state/orientations.json`), if any.
 pub(super) fn legacy_orientations(site_dir: &Path) -> BTreeMap<String, ImageOrientation> {
-    std::fs::read_to_string(state_dir(site_dir).join("orientations.json"))
-        .ok()
+    read_state_file(site_dir, "orientations.json")
         .and_then(|s| serde_json::from_str::<BTreeMap<String, StoredOrientation>>(&s).ok())
         .map(|m| {
             m.into_iter()

@@ -7,6 +7,7 @@
 mod support;
 
 mod access;
+mod bounded;
 mod concurrency;
 mod crash;
 mod joint_covariance;

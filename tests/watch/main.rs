@@ -10,6 +10,7 @@ mod bad_input;
 mod detection_settings;
 mod dir;
 mod first_epoch;
+mod inside;
 mod live;
 mod real_first_epoch;
 mod sigma0;

@@ -8,6 +8,7 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use chrono::{DateTime, Datelike, Utc};
 use serde::{Deserialize, Serialize};
 
+use crate::contract::truncate_for_message;
 use crate::photogrammetry::error::EpochError;
 pub use crate::photogrammetry::model::camera::CameraInput;
 use crate::photogrammetry::model::camera::{Camera, MIN_SIGMA_MM};
@@ -20,9 +21,9 @@ pub struct EpochInput {
     /// When the images were taken (RFC 3339, UTC), unique within the site.
     #[schema(format = DateTime)]
     pub observed_at: String,
-    /// Free text label, without control characters.
+    /// Free text label, without control characters, at most [`MAX_LABEL_CHARS`] (200) characters.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(pattern = "^[^\\u0000-\\u001F\\u007F-\\u009F]*$")]
+    #[schema(pattern = "^[^\\u0000-\\u001F\\u007F-\\u009F]*$", max_length = 200)]
     pub label: Option<String>,
     /// Cameras (interior orientation) used by the images, at most [`MAX_CAMERAS`].
     #[serde(default)]
@@ -242,6 +243,12 @@ pub const MAX_IMAGE_COORDINATE: f64 = 1e7;
 pub const MAX_IMAGES: usize = 200;
 /// Most cameras of one epoch (the OpenAPI schema's `maxItems` says the same).
 pub const MAX_CAMERAS: usize = 200;
+/// Longest label of an epoch, in characters (the OpenAPI schema's `maxLength` says the same).
+pub const MAX_LABEL_CHARS: usize = 200;
+const _: () = assert!(
+    MAX_LABEL_CHARS == 200,
+    "EpochInput's schema states the label's limit as a literal"
+);
 /// Largest accepted magnitude of an object coordinate in m (UTM northings are below 10⁷).
 pub const MAX_OBJECT_COORDINATE_M: f64 = 1e8;
 
@@ -291,12 +298,17 @@ impl EpochInput {
     /// adjustment, because earlier epochs of a site may supply the known points.
     pub fn validate(&self) -> Result<EpochProblem, EpochError> {
         let observed_at = self.observed_at()?;
-        if self
-            .label
-            .as_deref()
-            .is_some_and(|l| l.chars().any(char::is_control))
-        {
-            return Err(EpochError::BadLabel);
+        if let Some(label) = self.label.as_deref() {
+            if label.chars().any(char::is_control) {
+                return Err(EpochError::BadLabel);
+            }
+            let chars = label.chars().count();
+            if chars > MAX_LABEL_CHARS {
+                return Err(EpochError::LabelTooLong {
+                    chars,
+                    max: MAX_LABEL_CHARS,
+                });
+            }
         }
         if self.images.is_empty() {
             return Err(EpochError::Empty);
@@ -315,11 +327,15 @@ impl EpochInput {
         let mut image_ids = HashSet::new();
         for im in &self.images {
             if !is_valid_identifier(&im.id) {
-                return Err(EpochError::BadIdentifier(format!("image '{}'", im.id)));
+                return Err(EpochError::BadIdentifier(format!(
+                    "image '{}'",
+                    truncate_for_message(&im.id)
+                )));
             }
             if let Some(station) = im.station.as_deref().filter(|s| !is_valid_identifier(s)) {
                 return Err(EpochError::BadIdentifier(format!(
-                    "station '{station}' of image '{}'",
+                    "station '{}' of image '{}'",
+                    truncate_for_message(station),
                     im.id
                 )));
             }
@@ -345,7 +361,10 @@ impl EpochInput {
         let mut camera_index = HashMap::new();
         for c in &self.cameras {
             if !is_valid_identifier(&c.id) {
-                return Err(EpochError::BadIdentifier(format!("camera '{}'", c.id)));
+                return Err(EpochError::BadIdentifier(format!(
+                    "camera '{}'",
+                    truncate_for_message(&c.id)
+                )));
             }
             if camera_index.insert(c.id.clone(), cameras.len()).is_some() {
                 return Err(EpochError::DuplicateCamera(c.id.clone()));
@@ -366,7 +385,7 @@ impl EpochInput {
         let mut approx = vec![None; names.names.len()];
         let mut seen_control = HashSet::new();
         for c in &self.control {
-            let item = format!("control point '{}'", c.point);
+            let item = format!("control point '{}'", truncate_for_message(&c.point));
             let xyz = object_xyz([c.X, c.Y, c.Z], &item)?;
             let sigma_m = finite(
                 c.sigma_m.unwrap_or(DEFAULT_CONTROL_SIGMA_M),
@@ -390,7 +409,8 @@ impl EpochInput {
         }
         let mut seen_approx = HashSet::new();
         for a in &self.approx {
-            let xyz = object_xyz([a.X, a.Y, a.Z], &format!("approx point '{}'", a.point))?;
+            let item = format!("approx point '{}'", truncate_for_message(&a.point));
+            let xyz = object_xyz([a.X, a.Y, a.Z], &item)?;
             if !seen_approx.insert(a.point.clone()) {
                 return Err(EpochError::DuplicatePoint(a.point.clone()));
             }
@@ -434,7 +454,10 @@ impl PointNames {
             return Ok(i);
         }
         if !is_valid_identifier(name) {
-            return Err(EpochError::BadIdentifier(format!("point '{name}'")));
+            return Err(EpochError::BadIdentifier(format!(
+                "point '{}'",
+                truncate_for_message(name)
+            )));
         }
         self.index.insert(name.to_string(), self.names.len());
         self.names.push(name.to_string());

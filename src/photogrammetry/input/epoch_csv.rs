@@ -55,7 +55,8 @@ pub fn csv_camera(
         Some(id) => match cameras.iter().position(|c| c.id == id) {
             Some(k) => Ok(cameras.swap_remove(k)),
             None => Err(CsvError::Camera(format!(
-                "camera '{id}': the site's cameras are {}",
+                "camera '{}': the site's cameras are {}",
+                crate::contract::truncate_for_message(id),
                 ids()
             ))),
         },
@@ -130,7 +131,7 @@ pub fn epoch_from_csv(
                     line,
                     reason: format!(
                         "header '{}': the columns must be image,point,x_mm,y_mm in this order",
-                        got.join(",")
+                        crate::contract::truncate_for_message(&got.join(","))
                     ),
                 });
             }
@@ -139,7 +140,10 @@ pub fn epoch_from_csv(
         let number = |k: usize| -> Result<f64, CsvError> {
             record[k].parse().map_err(|_| CsvError::InvalidLine {
                 line,
-                reason: format!("'{}' is not a number", &record[k]),
+                reason: format!(
+                    "'{}' is not a number",
+                    crate::contract::truncate_for_message(&record[k])
+                ),
             })
         };
         let obs = ObservationInput {
@@ -157,7 +161,7 @@ pub fn epoch_from_csv(
                     line,
                     reason: format!(
                         "image '{}': an epoch holds at most {MAX_IMAGES} images",
-                        &record[0]
+                        crate::contract::truncate_for_message(&record[0])
                     ),
                 });
             }

@@ -121,7 +121,7 @@ pub const DEFAULT_SIGMA_MM: f64 = 0.002;
 impl Camera {
     /// Validates a camera of the upload form.
     pub fn from_input(c: &CameraInput) -> Result<Self, EpochError> {
-        let item = format!("camera '{}'", c.id);
+        let item = format!("camera '{}'", crate::contract::truncate_for_message(&c.id));
         let params = [c.c_mm, c.x0_mm, c.y0_mm, c.k1, c.k2, c.k3, c.p1, c.p2];
         for (v, name) in params.iter().zip(INTERIOR_NAMES) {
             if !v.is_finite() {
@@ -156,7 +156,8 @@ impl Camera {
                         item: item.clone(),
                         field: "calibrate".into(),
                         reason: format!(
-                            "unknown parameter '{name}' (c, x0, y0, k1, k2, k3, p1, p2)"
+                            "unknown parameter '{}' (c, x0, y0, k1, k2, k3, p1, p2)",
+                            crate::contract::truncate_for_message(name)
                         ),
                     })?;
                 calibrate[k] = true;
