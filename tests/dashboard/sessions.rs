@@ -478,3 +478,41 @@ async fn idle_and_old_sessions_end() {
     assert_eq!(site_page(&old, &client, &cookie).await.0, 303, "too old");
     old.stop().await;
 }
+
+/// A token removed from the configuration, or given another role, ends its sessions; the other
+/// tokens' sessions outlive a restart.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_removed_or_changed_token_ends_its_sessions() {
+    let s = TestServer::start(|c| {
+        c.tokens = tokens_of(&[
+            ("uploader-token-2", Role::Upload),
+            ("reader-token-2", Role::Read),
+            ("admin-token-2", Role::Admin),
+        ]);
+    })
+    .await;
+    fill(&s, 2, Some("admin-token-2")).await;
+    let client = without_redirects();
+    let uploader = sign_in(&s, &client, "uploader-token-2").await;
+    let reader = sign_in(&s, &client, "reader-token-2").await;
+    let admin = sign_in(&s, &client, "admin-token-2").await;
+    for c in [&uploader, &reader, &admin] {
+        assert_eq!(site_page(&s, &client, c).await.0, 200);
+    }
+    let dir = s.stop().await;
+    // The same database; the uploader's token removed, the reader's made an upload token.
+    let data = dir.path().to_path_buf();
+    let s = TestServer::start(move |c| {
+        c.data_dir = data;
+        c.tokens = tokens_of(&[
+            ("reader-token-2", Role::Upload),
+            ("admin-token-2", Role::Admin),
+        ]);
+    })
+    .await;
+    assert_eq!(site_page(&s, &client, &uploader).await.0, 303, "removed");
+    assert_eq!(site_page(&s, &client, &reader).await.0, 303, "role changed");
+    assert_eq!(site_page(&s, &client, &admin).await.0, 200, "unchanged");
+    s.stop().await;
+    drop(dir);
+}
