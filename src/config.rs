@@ -122,6 +122,21 @@ pub struct Config {
     /// `Origin` accepted besides the request's `Host`); `None`: links relative to the server.
     #[serde(default)]
     pub public_url: Option<String>,
+    /// A dashboard session ends after this many minutes without a request (default 720: 12
+    /// hours); fractions allowed. Sessions are kept in the database ([`crate::http::session`]).
+    #[serde(default = "default_session_idle_minutes")]
+    pub session_idle_minutes: f64,
+    /// A dashboard session ends this many hours after its sign-in, however active (default
+    /// 168: a week); fractions allowed.
+    #[serde(default = "default_session_lifetime_hours")]
+    pub session_lifetime_hours: f64,
+}
+
+fn default_session_idle_minutes() -> f64 {
+    720.0
+}
+fn default_session_lifetime_hours() -> f64 {
+    168.0
 }
 
 fn default_upload_queue_secs() -> f64 {
@@ -357,6 +372,22 @@ impl Config {
                 self.alertmanager_resend_secs
             )));
         }
+        // Up to ten years; a longer one is a mistake (and would overflow a duration).
+        let ten_years_minutes = 10.0 * 366.0 * 24.0 * 60.0;
+        if !(self.session_idle_minutes > 0.0 && self.session_idle_minutes <= ten_years_minutes) {
+            return Err(ConfigError::Invalid(format!(
+                "session_idle_minutes {}: more than 0, at most ten years",
+                self.session_idle_minutes
+            )));
+        }
+        if !(self.session_lifetime_hours > 0.0
+            && self.session_lifetime_hours * 60.0 <= ten_years_minutes)
+        {
+            return Err(ConfigError::Invalid(format!(
+                "session_lifetime_hours {}: more than 0, at most ten years",
+                self.session_lifetime_hours
+            )));
+        }
         if let Some(u) = &self.public_url {
             if !(u.starts_with("http://") || u.starts_with("https://"))
                 || u.contains(char::is_whitespace)
@@ -431,6 +462,23 @@ mod tests {
         assert!(matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("max_attempts")));
         c.webhook_retry = Default::default();
         assert!(c.check().is_ok());
+        assert_eq!(c.session_idle_minutes, 720.0);
+        assert_eq!(c.session_lifetime_hours, 168.0);
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            c.session_idle_minutes = bad;
+            assert!(
+                matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("session_idle_minutes")),
+                "{bad}"
+            );
+            c.session_idle_minutes = 1.0;
+            c.session_lifetime_hours = bad;
+            assert!(
+                matches!(c.check(), Err(ConfigError::Invalid(m)) if m.contains("session_lifetime_hours")),
+                "{bad}"
+            );
+            c.session_lifetime_hours = 1.0;
+        }
+        assert!(c.check().is_ok());
     }
 
     #[test]
@@ -439,5 +487,7 @@ mod tests {
         let c = Config::load(Some(&path), &Overrides::default()).unwrap();
         assert_eq!(c.tokens.len(), 3);
         assert_eq!(c.log_format, LogFormat::Json);
+        assert_eq!(c.session_idle_minutes, 60.0);
+        assert_eq!(c.session_lifetime_hours, 12.0);
     }
 }

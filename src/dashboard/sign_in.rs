@@ -1,15 +1,18 @@
 //! `GET /signin`, `POST /signin`, `POST /signout`: a browser signs in with one of the configured
-//! bearer tokens and gets a session cookie ([`crate::http::session`]: HttpOnly, SameSite=Strict, 12
-//! hours). Without configured tokens everything is open and the form is not needed.
+//! bearer tokens and gets a session cookie ([`crate::http::session`]: HttpOnly, SameSite=Strict, a
+//! random id stored hashed, ended by signing out, by removing its token, and by the configured
+//! idle timeout and lifetime). Without configured tokens everything is open and the form is not
+//! needed.
 
 use axum::extract::{Query, State};
-use axum::http::{header, StatusCode};
+use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{Html, IntoResponse, Redirect, Response};
 use axum::Form;
 use maud::html;
 use serde::Deserialize;
 
 use super::layout::{page, Viewer};
+use crate::http::error::ApiError;
 use crate::http::session;
 use crate::http::AppState;
 
@@ -82,11 +85,15 @@ pub async fn sign_in(State(state): State<AppState>, Form(f): Form<SignInForm>) -
         .config
         .tokens
         .iter()
-        .any(|t| session::constant_time_eq(t.token.as_bytes(), f.token.trim().as_bytes()));
-    if !known {
+        .find(|t| session::constant_time_eq(t.token.as_bytes(), f.token.trim().as_bytes()));
+    let Some(token) = known else {
         return (StatusCode::UNAUTHORIZED, Html(form_page(&next, true))).into_response();
-    }
-    let value = session::issue(f.token.trim(), chrono::Utc::now().timestamp());
+    };
+    let limits = session::Limits::of(&state.config);
+    let value = match session::start(&state.store, token, &limits, chrono::Utc::now()).await {
+        Ok(v) => v,
+        Err(e) => return ApiError::from(e).into_response(),
+    };
     // Behind HTTPS (as `public_url` says) the cookie is never sent over plain HTTP.
     let secure = state
         .config
@@ -96,7 +103,7 @@ pub async fn sign_in(State(state): State<AppState>, Form(f): Form<SignInForm>) -
     let cookie = format!(
         "{}={value}; Path=/; HttpOnly; SameSite=Strict; Max-Age={}{}",
         session::COOKIE,
-        session::LIFETIME_SECS,
+        limits.max_age_secs(),
         if secure { "; Secure" } else { "" }
     );
     (
@@ -106,9 +113,16 @@ pub async fn sign_in(State(state): State<AppState>, Form(f): Form<SignInForm>) -
         .into_response()
 }
 
-/// `POST /signout`: clears the cookie. The auth middleware has checked the form's `csrf` field
-/// when the cookie is a live session ([`crate::http::auth`]).
-pub async fn sign_out() -> Response {
+/// `POST /signout`: ends the session in the database, so that no copy of the cookie is a session
+/// any more, and clears the cookie. The auth middleware has checked the form's `csrf` field when
+/// the cookie is a live session ([`crate::http::auth`]); a cookie that is no live session has
+/// nothing left to end.
+pub async fn sign_out(State(state): State<AppState>, headers: HeaderMap) -> Response {
+    if let Some(value) = session::cookie_of(&headers) {
+        if let Err(e) = session::end(&state.store, value).await {
+            return ApiError::from(e).into_response();
+        }
+    }
     let cookie = format!(
         "{}=; Path=/; HttpOnly; SameSite=Strict; Max-Age=0",
         session::COOKIE

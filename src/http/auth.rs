@@ -230,8 +230,11 @@ pub async fn authorize(
         // Signing out ends a live session, so it carries the session's CSRF token like any other
         // change and no other page can sign staff out; an expired or unknown cookie needs none.
         if req.uri().path() == "/signout" && *req.method() == Method::POST {
-            let now = chrono::Utc::now().timestamp();
-            if let Some(s) = session::from_headers(req.headers(), tokens, now) {
+            let limits = session::Limits::of(&state.config);
+            let now = chrono::Utc::now();
+            let live =
+                session::from_headers(&state.store, req.headers(), tokens, &limits, now).await?;
+            if let Some(s) = live {
                 req = with_csrf_of(req, &s).await?;
             }
         }
@@ -266,8 +269,11 @@ pub async fn authorize(
             }
         }
         None => {
-            let now = chrono::Utc::now().timestamp();
-            match session::from_headers(req.headers(), tokens, now) {
+            let limits = session::Limits::of(&state.config);
+            let now = chrono::Utc::now();
+            let live =
+                session::from_headers(&state.store, req.headers(), tokens, &limits, now).await?;
+            match live {
                 Some(s) => {
                     if !matches!(*req.method(), Method::GET | Method::HEAD) {
                         req = with_csrf_of(req, &s).await?;

@@ -62,7 +62,9 @@ const SERIES: [(&str, Kind); 33] = [
 ];
 
 /// Every table, parents before children, with its columns (the series tables' are [`SERIES`]
-/// after `site_id` and their name column).
+/// after `site_id` and their name column). Not `sessions` ([`super::sessions`]): a dashboard
+/// session is a sign-in on the old installation; after the move staff sign in again, and no
+/// cookie issued before it stays valid.
 const TABLES: &[(&str, &[(&str, Kind)])] = &[
     (
         "sites",

@@ -12,9 +12,9 @@
 //! One submodule per aggregate: [`sites`], [`epochs`] (their joint covariances:
 //! [`joint_covariances`]), [`points`], [`groups`],
 //! [`displacements`] (rows: [`displacement_row`]), [`block_motions`], [`alerts`],
-//! [`alert_states`], [`webhooks`], [`outbox`], [`watch_state`]; [`series`] serves a point's
-//! displacement time series fast from the packed blocks of [`series::blocks`] (layout:
-//! `series::record`), its wire writer (`series::wire`) formatting the API's bytes itself.
+//! [`alert_states`], [`webhooks`], [`outbox`], [`watch_state`], the dashboard's [`sessions`];
+//! [`series`] serves a point's displacement time series fast from the packed blocks of
+//! [`series::blocks`] (layout: `series::record`), its wire writer (`series::wire`) formatting the API's bytes itself.
 //! The rest: the pool and transactions (`pool`, opened by `open`), the store's time (`time`),
 //! backups (`backup`), the backends' SQL differences (`dialect`), the error (`error`).
 //!
@@ -58,6 +58,7 @@ pub(crate) mod outbox;
 pub mod points;
 mod pool;
 pub mod series;
+pub mod sessions;
 pub(crate) mod sites;
 mod time;
 pub mod wal_checkpoint;

@@ -8,5 +8,6 @@ mod support;
 
 mod clocks;
 mod nodes;
+mod sessions;
 mod store;
 mod watch;
