@@ -1,27 +1,72 @@
 //! The time-to-failure benchmark on realistic kinematics ([`cliffwatch::simulate::kinematics`]):
-//! cliffwatch's alarm against a plain inverse-velocity baseline on the same series. Prints the
-//! table of `docs/accuracy.md`.
+//! cliffwatch's alarm against the oracle (the true model and noise, the same rule on its upper
+//! bound) and a plain inverse-velocity baseline on the same series. Prints the tables of
+//! `docs/accuracy.md`.
 //!
 //! `cargo run --release --example ttf_benchmark [-- SEEDS [FIRST]]` (default 40 seeds per kind
-//! from 0: 200 series).
+//! from 0: 200 series). For the trade-off table, the time-to-failure settings from the
+//! environment: `TTF_CONFIRM_HOURS` (hours a forecast must converge over, 0 for none),
+//! `TTF_BOTH_WAYS` (1: the earlier and current failure times agree both ways, 0: one way),
+//! `TTF_METHOD` (`onset_law`, `displacement` or `smoothed_velocity`), `TTF_KINDS` (comma-separated
+//! kinds, e.g. `failing,burst`), and of the time-to-failure rule `TTF_CONFIDENCE` and
+//! `TTF_FOR_EPOCHS`; `TTF_SERIES=1` adds the failing series one by one.
 
-use cliffwatch::simulate::ttf_benchmark::{run_all, table};
+use cliffwatch::analysis::FailureConfig;
+use cliffwatch::simulate::kinematics::MotionKind;
+use cliffwatch::simulate::ttf_benchmark::{rules_with, run_kinds, series_table, table};
 
 fn main() {
     let mut args = std::env::args().skip(1);
     let seeds: u64 = args.next().and_then(|s| s.parse().ok()).unwrap_or(40);
     let first: u64 = args.next().and_then(|s| s.parse().ok()).unwrap_or(0);
+    let mut failure = FailureConfig::default();
+    if let Some(h) = std::env::var("TTF_CONFIRM_HOURS")
+        .ok()
+        .and_then(|h| h.parse().ok())
+    {
+        failure.confirm_hours = h;
+    }
+    if let Ok(b) = std::env::var("TTF_BOTH_WAYS") {
+        failure.confirm_both_ways = b == "1";
+    }
+    if let Ok(m) = std::env::var("TTF_METHOD") {
+        match serde_json::from_value(serde_json::Value::String(m.clone())) {
+            Ok(method) => failure.method = method,
+            Err(e) => {
+                eprintln!("TTF_METHOD {m:?}: {e}");
+                std::process::exit(2);
+            }
+        }
+    }
+    let kinds: Vec<MotionKind> = match std::env::var("TTF_KINDS") {
+        Ok(names) => names
+            .split(',')
+            .filter_map(|n| MotionKind::ALL.into_iter().find(|k| k.name() == n.trim()))
+            .collect(),
+        Err(_) => MotionKind::ALL.to_vec(),
+    };
+    let number = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f64>().ok());
+    let confidence = number("TTF_CONFIDENCE");
+    let for_epochs = number("TTF_FOR_EPOCHS").map(|n| n as u32);
+    let rules = rules_with(confidence, for_epochs);
     let started = std::time::Instant::now();
-    let outcomes = run_all(first, seeds);
+    let outcomes = run_kinds(first, seeds, &kinds, &failure, &rules);
     if std::env::var_os("TTF_VERBOSE").is_some() {
         for o in &outcomes {
             println!("{o:?}");
         }
     }
     println!(
-        "{} series ({seeds} seeds per kind from {first}), {:.1} s\n",
+        "{} series ({seeds} seeds per kind from {first}; method {:?}, confirmation over {} h (both ways: {}), \
+         rule confidence {confidence:?}, for_epochs {for_epochs:?}), {:.1} s\n",
         outcomes.len(),
+        failure.method,
+        failure.confirm_hours,
+        failure.confirm_both_ways,
         started.elapsed().as_secs_f64()
     );
     print!("{}", table(&outcomes));
+    if std::env::var_os("TTF_SERIES").is_some() {
+        print!("\n{}", series_table(&outcomes));
+    }
 }

@@ -195,10 +195,16 @@ pub enum Window {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ForecastMethod {
-    /// The inverse-velocity law integrated and fitted to the displacement vectors in three
-    /// dimensions (no differentiation of noisy data), once the displacements along the direction
-    /// of motion show an onset of acceleration.
+    /// Once the displacements along the direction of motion show an onset of acceleration: the
+    /// onset model (creep, then the inverse-velocity law continuing the creep's velocity) with
+    /// at most one forward step for a burst, fitted to the displacements over
+    /// `acceleration_window` ([`super::onset_law`]). The creep before the onset pins the law's
+    /// amplitude, so the failure time is known days earlier than from the law alone.
     #[default]
+    OnsetLaw,
+    /// The inverse-velocity law alone integrated and fitted to the displacement vectors of the
+    /// last `law_window` epochs in three dimensions (no differentiation of noisy data), once the
+    /// displacements along the direction of motion show an onset of acceleration.
     Displacement,
     /// Fukuzono's line through the inverse of the Kalman smoother's velocities.
     SmoothedVelocity,
@@ -223,6 +229,16 @@ pub struct FailureConfig {
     /// ([`ForecastMethod::Displacement`]): short enough that the creep before the acceleration
     /// does not pull the failure time late (12 epochs measured best on the detection benchmark).
     pub law_window: Window,
+    /// Hours over which a forecast must converge before it is published (0: no confirmation):
+    /// the series is refitted without the current epoch, and without each earlier epoch observed
+    /// within this many hours of it (at least the previous one), and every such forecast must
+    /// exist and hold the current failure time inside its 90 % interval. One epoch's scatter or
+    /// the first epochs of a burst or a step cannot raise a time-to-failure alarm alone (72 h,
+    /// chosen by the trade-off table of `docs/accuracy.md`).
+    pub confirm_hours: f64,
+    /// Whether the confirmation also asks each earlier failure time to lie inside the current
+    /// forecast's 90 % interval (the two agree both ways).
+    pub confirm_both_ways: bool,
     /// Epochs whose displacements enter the test for an onset of acceleration
     /// ([`super::onset`], creep then the law, against a straight line) that must pass before the
     /// law is fitted ([`ForecastMethod::Displacement`]): long, so the creep before the onset pins
@@ -237,8 +253,10 @@ impl Default for FailureConfig {
             smoothing_epochs: 6,
             acceleration_confidence: 0.99,
             min_r2: 0.5,
-            method: ForecastMethod::Displacement,
+            method: ForecastMethod::OnsetLaw,
             law_window: Window::Epochs(12),
+            confirm_hours: 72.0,
+            confirm_both_ways: false,
             acceleration_window: Window::Epochs(40),
         }
     }

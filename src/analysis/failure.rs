@@ -40,22 +40,40 @@ const LAW_AGAINST_LINE: f64 = 10.83;
 /// Two-sided 90 % normal quantile of the forecast interval.
 const INTERVAL_Z: f64 = 1.6449;
 
-/// Whether a forecast of `hours` to failure with σ `sigma_hours` says anything: its 90 %
-/// interval (±1.64 σ, the lower end cut at now) is no wider than its own horizon, i.e.
-/// σ ≤ hours / 3.29. A wider one is "no reliable forecast": pages say so, and time-to-failure
-/// rules do not read it.
-pub fn reliable(hours: f64, sigma_hours: f64) -> bool {
-    let half = INTERVAL_Z * sigma_hours;
-    hours.is_finite()
+/// One-sided confidence of the failure-time bound: the default of time-to-failure rules
+/// (`alerts::FORECAST_CONFIDENCE`) and the bound the pages state ("failure likely before …").
+pub const BOUND_CONFIDENCE: f64 = 0.95;
+
+/// Hours beyond which a forecast's upper bound tells staff nothing they can act on: the pages
+/// say "no forecast yet" (a week; the default time-to-failure rule alarms below 96 h).
+pub const NO_FORECAST_BEYOND_HOURS: f64 = 168.0;
+
+/// The one-sided upper confidence bound of a time to failure of `hours` with σ `sigma_hours` at
+/// `confidence` in (0.5, 1): `hours + z·σ` hours from the epoch (z the normal quantile), the
+/// answer to "is failure likely within the next N hours?". A wide interval whose upper bound is
+/// near is still near: 26 ± 35 h is failure likely within 84 h at 95 %. None for non-finite
+/// input, a negative σ or a confidence out of range.
+pub fn upper_bound_hours(hours: f64, sigma_hours: f64, confidence: f64) -> Option<f64> {
+    let ok = hours.is_finite()
         && sigma_hours.is_finite()
         && sigma_hours >= 0.0
-        && hours + half - (hours - half).max(0.0) <= hours
+        && confidence > 0.5
+        && confidence < 1.0;
+    ok.then(|| hours + super::stats::normal_quantile(confidence) * sigma_hours)
+}
+
+/// Whether the pages state a forecast of `hours` with σ `sigma_hours`: its upper bound at
+/// [`BOUND_CONFIDENCE`] exists and lies within [`NO_FORECAST_BEYOND_HOURS`]; otherwise "no
+/// forecast yet". The pages' choice only: rules read every forecast through its bound.
+pub fn stated(hours: f64, sigma_hours: f64) -> bool {
+    upper_bound_hours(hours, sigma_hours, BOUND_CONFIDENCE)
+        .is_some_and(|u| u <= NO_FORECAST_BEYOND_HOURS)
 }
 
 impl FailureForecast {
-    /// [`reliable`] for this forecast.
-    pub fn is_reliable(&self) -> bool {
-        reliable(self.time_to_failure_hours, self.sigma_hours)
+    /// [`upper_bound_hours`] of this forecast at `confidence`.
+    pub fn upper_bound_hours(&self, confidence: f64) -> Option<f64> {
+        upper_bound_hours(self.time_to_failure_hours, self.sigma_hours, confidence)
     }
 
     fn with_interval(mut self) -> Self {
@@ -352,7 +370,7 @@ pub fn fit_law_to_displacements(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) 
 /// `chi2_line` is the straight line's χ², `epochs` the number of epochs fitted. Shared by the fit
 /// along one direction ([`fit_law_to_displacements`]) and the fit in three dimensions
 /// ([`fit_law_to_displacements_3d`]).
-fn profile_law(
+pub(super) fn profile_law(
     t_last: f64,
     chi2_line: f64,
     epochs: usize,

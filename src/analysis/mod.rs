@@ -44,6 +44,7 @@ pub(crate) mod history;
 pub mod kalman;
 pub(crate) mod linalg;
 pub(crate) mod onset;
+pub(crate) mod onset_law;
 pub(crate) mod reference;
 pub mod reference_change;
 pub mod rigid_body;

@@ -17,6 +17,7 @@ use super::failure::{fit_law_to_displacements_3d, forecast_from_velocities, Fail
 use super::kalman::{filter, smooth, KalmanConfig, KalmanState, Measurement};
 use super::linalg::length_of;
 use super::onset::{persistently_accelerating, PERSIST_EPOCHS};
+use super::onset_law::fit_onset_law;
 use super::stats::normal_quantile;
 use super::velocity::{window_slice, Sample};
 
@@ -115,7 +116,7 @@ pub fn track(
     // (process noise included) held the forecast back until a day or two before failure.
     let moving = m_len > z * m_sigma;
     let failure = if moving {
-        forecast_smoothed(&meas, &kc, u, shared_mm2, config)
+        confirmed_forecast(&meas, &kc, u, shared_mm2, config)
     } else {
         None
     };
@@ -161,11 +162,77 @@ fn motion_since_origin(
     }
 }
 
-/// The inverse-velocity forecast. By default, once the displacements along `u` show an onset
-/// of acceleration over `FailureConfig::acceleration_window` ([`accelerating`]), the law
-/// integrated and fitted to the displacement vectors of the last `FailureConfig::law_window`
-/// epochs ([`fit_law_to_displacements_3d`], each epoch weighed by its own error); with `FailureConfig::method` `smoothed_velocity`, Fukuzono's
-/// line through the inverse of the smoothed velocities ([`forecast_from_velocities`]).
+/// Earlier epochs a forecast is checked against lie at least this share of
+/// `FailureConfig::confirm_hours` apart (the previous epoch always counts): an hourly series
+/// refits about five times over the window, not once an hour.
+const CONFIRM_SPACING: f64 = 0.25;
+
+/// The forecast at the current epoch ([`forecast_smoothed`]); with
+/// `FailureConfig::confirm_hours` > 0, withheld unless the series without the current epoch
+/// gives a forecast too, and so does the series ending at each earlier epoch observed within
+/// `confirm_hours` of the current one (spaced by [`CONFIRM_SPACING`]), each holding the current
+/// failure time inside its 90 % interval, its upper end widened by the hours elapsed since (a
+/// missing bound is open). Every fit's hours count from the current epoch: the series' times
+/// are relative to it.
+fn confirmed_forecast(
+    meas: &[Measurement],
+    kc: &KalmanConfig,
+    u: Vector3<f64>,
+    shared_mm2: Option<Matrix3<f64>>,
+    config: &AnalysisConfig,
+) -> Option<FailureForecast> {
+    let now = forecast_smoothed(meas, kc, u, shared_mm2, config)?;
+    let confirm_hours = config.failure.confirm_hours;
+    if !(confirm_hours > 0.0) {
+        return Some(now);
+    }
+    let mut last_checked: Option<f64> = None;
+    for end in (2..meas.len()).rev() {
+        let earlier = &meas[..end];
+        // Hours from the earlier epoch to the current one (t_days is relative to the current).
+        let elapsed_hours = -earlier[earlier.len() - 1].t_days * 24.0;
+        if last_checked.is_some() && elapsed_hours > confirm_hours {
+            return Some(now);
+        }
+        if last_checked.is_some_and(|h| elapsed_hours - h < CONFIRM_SPACING * confirm_hours) {
+            continue;
+        }
+        last_checked = Some(elapsed_hours);
+        // The earlier fit's hours count from the current epoch already (its times are
+        // relative to the current epoch, and so is its failure time).
+        // A failure time later than the earlier interval by up to the hours elapsed since still
+        // agrees (near failure the intervals are a few hours wide and a day's data may push the
+        // forecast later); one earlier than it does not: a burst's or a step's first epochs
+        // pull the failure time towards now.
+        let previous = forecast_smoothed(earlier, kc, u, shared_mm2, config)?;
+        let lower = previous.lower_hours.unwrap_or(0.0);
+        let upper = previous.upper_hours.unwrap_or(f64::INFINITY) + elapsed_hours;
+        if !(lower..=upper).contains(&now.time_to_failure_hours) {
+            return None;
+        }
+        // Both ways: the earlier failure time inside the current forecast's interval too, so a
+        // forecast that lurches earlier (a burst speeding up) does not pass on the earlier
+        // forecast's width alone.
+        if config.failure.confirm_both_ways {
+            let lower = now.lower_hours.unwrap_or(0.0);
+            let upper = now.upper_hours.unwrap_or(f64::INFINITY);
+            if !(lower..=upper).contains(&previous.time_to_failure_hours) {
+                return None;
+            }
+        }
+    }
+    // Too few epochs before the current one to confirm it.
+    None
+}
+
+/// The inverse-velocity forecast, once the displacements along `u` show an onset of
+/// acceleration over `FailureConfig::acceleration_window` ([`persistently_accelerating`]). By
+/// default the onset model with a step allowed, fitted to the same window along `u`
+/// ([`fit_onset_law`], each epoch weighed by its own error); with `FailureConfig::method`
+/// `displacement`, the law alone fitted to the displacement vectors of the last
+/// `FailureConfig::law_window` epochs ([`fit_law_to_displacements_3d`]); with
+/// `smoothed_velocity`, Fukuzono's line through the inverse of the smoothed velocities
+/// ([`forecast_from_velocities`]).
 fn forecast_smoothed(
     meas: &[Measurement],
     kc: &KalmanConfig,
@@ -183,13 +250,13 @@ fn forecast_smoothed(
         })
         .collect();
     match config.failure.method {
-        ForecastMethod::Displacement => {
+        ForecastMethod::OnsetLaw | ForecastMethod::Displacement => {
             // The onset test, along u with the displacements' whole σ: its Δχ² over a scan of
             // two nonlinear parameters has a heavier tail than χ²(2), and with the own errors
             // alone it raised a false alarm on a still point in the detection benchmark.
             // It must pass on the windows ending at each of the last PERSIST_EPOCHS epochs, and
             // its variance factor (the motion's scatter beyond σ over the long window) is a
-            // floor of the law's.
+            // floor of the short law's.
             let n = window_slice(&times, config.failure.acceleration_window).len();
             let with_earlier = (n + PERSIST_EPOCHS - 1).min(meas.len());
             let (mut t, mut d, mut s) = (vec![], vec![], vec![]);
@@ -200,6 +267,18 @@ fn forecast_smoothed(
                 s.push((u.transpose() * c * u)[(0, 0)].max(0.0).sqrt());
             }
             let onset = persistently_accelerating(&t, &d, &s, n)?;
+            if config.failure.method == ForecastMethod::OnsetLaw {
+                // The same window along u, each epoch weighed by its own error: the fit's
+                // free intercept absorbs the error all epochs share.
+                let (mut t, mut d, mut s) = (vec![], vec![], vec![]);
+                for m in &meas[meas.len() - n..] {
+                    let c = own_covariance(&Matrix3::from(m.cov_mm2), shared_mm2.as_ref());
+                    t.push(m.t_days);
+                    d.push(u.dot(&Vector3::from(m.d_mm)));
+                    s.push((u.transpose() * c * u)[(0, 0)].max(0.0).sqrt());
+                }
+                return fit_onset_law(&t, &d, &s).map(|f| f.forecast);
+            }
             // The law's fit in three dimensions, weighed by each epoch's own error: its
             // intercept absorbs the error all epochs share.
             let n = window_slice(&times, config.failure.law_window).len();

@@ -2,7 +2,7 @@
 //! velocity, time to failure and the forecast failure time), the motion series drawn against
 //! time (3-D displacement, along its direction, filtered velocity, inverse velocity; server-drawn
 //! SVG, missing values left out), how the forecast failure time moved epoch by epoch ("no
-//! reliable forecast" where its interval is wider than its horizon), its member points with
+//! forecast yet" where its one-sided bound lies beyond a week), its member points with
 //! links, and the open alerts of the block and of its members.
 
 use axum::extract::rejection::QueryRejection;
@@ -11,7 +11,7 @@ use axum::response::Html;
 use axum::Extension;
 use maud::html;
 
-use super::headline::failure_time;
+use super::headline::{bound_confidence_words, failure_time, FailureTime};
 use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma};
 use super::local_time::{text, when};
 use super::page::{site_or_404, viewer, PageError};
@@ -23,9 +23,6 @@ use crate::http::AppState;
 use crate::store::displacements::Displacement;
 use crate::store::series::columns::{unix_seconds, SeriesColumns};
 use crate::store::{alerts, block_motions, groups, points};
-
-/// A forecast failure time with its ±2σ interval (s since 1970), [`failure_time`].
-type FailureTime = (f64, f64, f64);
 
 /// Rows of the forecast history shown (the newest).
 const FORECASTS_SHOWN: usize = 30;
@@ -129,7 +126,7 @@ pub async fn block(
         ],
         ..SeriesColumns::default()
     });
-    // Every epoch with a forecast; the failure time only where it is reliable.
+    // Every epoch with a forecast; the failure time only where the pages state it.
     let history: Vec<(&Displacement, Option<FailureTime>)> = rows
         .iter()
         .filter(|r| {
@@ -159,8 +156,11 @@ pub async fn block(
                 tr { th { "along the direction (mm)" } td { (num(r.d_along_mm, 2)) } }
                 tr { th { "filtered velocity (mm/day)" } td { (with_sigma(r.f_velocity_mm_per_day, r.sigma_f_velocity_mm_per_day, 3)) } }
                 tr { th { "filtered time to failure (h)" } td { (time_to_failure(r.f_time_to_failure_hours, r.sigma_f_time_to_failure_hours)) } }
-                @if let Some((tf, lo, hi)) = failure_time(r) {
-                    tr { th { "forecast failure" } td { (text(tf, tz)) " (±2σ: " (text(lo, tz)) " to " (text(hi, tz)) "), counted from this epoch" } }
+                @if let Some(f) = failure_time(r) {
+                    tr { th { "failure likely before" } td { strong { (text(f.likely_before, tz)) } " (" (bound_confidence_words()) ", one-sided), counted from this epoch" } }
+                    tr { th { "forecast failure" } td { (text(f.at, tz)) " (±2σ: " (text(f.lower, tz)) " to " (text(f.upper, tz)) ")" } }
+                } @else if r.f_time_to_failure_hours.is_some_and(f64::is_finite) {
+                    tr { th { "forecast failure" } td { "no forecast yet: failure is not likely within a week by this epoch's forecast" } }
                 }
             }
         } @else {
@@ -198,7 +198,7 @@ pub async fn block(
                     figcaption {
                         "inverse velocity 1/v (day/mm), where the block moves forward"
                         @if fit.is_some() { "; dashed: the latest forecast's law, fitted to its last epochs, whose zero is the forecast failure time" }
-                        @else { "; no line: the latest epoch has no reliable forecast" }
+                        @else { "; no line: the latest epoch has no forecast yet" }
                     }
                     (time_plot_with_line(&t, &inv, &none, &[], "day/mm", fit))
                 }
@@ -212,7 +212,7 @@ pub async fn block(
                 p { "How the forecast failure time moved epoch by epoch (newest first; each counted from its own epoch): "
                     (history.len().min(skip + 1)) "–" (history.len().min(skip + FORECASTS_SHOWN)) " of " (history.len()) "." }
                 table.forecasts {
-                    thead { tr { th { "epoch" } th { "time to failure (h)" } th { "forecast failure" } th.wide { "±2σ" } } }
+                    thead { tr { th { "epoch" } th { "time to failure (h, ± 1σ)" } th { "failure likely before (" (bound_confidence_words()) ")" } th.wide { "forecast failure (±2σ)" } } }
                     tbody { @for (r, f) in history.iter().rev().skip(skip).take(FORECASTS_SHOWN) {
                         tr {
                             td { a href={ (site_href) "/epochs/" (r.epoch) } { (when(&r.observed_at, tz)) } }
@@ -221,11 +221,11 @@ pub async fn block(
                             } @else {
                                 td.num { (time_to_failure(r.time_to_failure_hours, r.time_to_failure_sigma_hours)) }
                             }
-                            @if let Some((tf, lo, hi)) = f {
-                                td { (text(*tf, tz)) }
-                                td.wide { (text(*lo, tz)) " to " (text(*hi, tz)) }
+                            @if let Some(f) = f {
+                                td { (text(f.likely_before, tz)) }
+                                td.wide { (text(f.at, tz)) " (" (text(f.lower, tz)) " to " (text(f.upper, tz)) ")" }
                             } @else {
-                                td { "no reliable forecast" }
+                                td { "no forecast yet" }
                                 td.wide { "—" }
                             }
                         }

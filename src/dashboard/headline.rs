@@ -1,7 +1,8 @@
 //! The headline at the top of every page of a site: what the person on call reads first. It
-//! says in words the worst open alert (level, subject, metric, value ± σ at the subject's latest
-//! epoch; for a time to failure the forecast failure time as a date in UTC and the site's zone,
-//! with its ±2σ interval, counted from that epoch and not from now), how old the last epoch
+//! says in words the worst open alert (level, subject, metric, value ± 1σ at the subject's latest
+//! epoch; for a time to failure the date before which failure is likely (the one-sided bound the
+//! rule reads) and the forecast failure time with its ±2σ interval, in UTC and the site's zone,
+//! counted from that epoch and not from now), how old the last epoch
 //! is, and the site's response text and contacts (site settings).
 //!
 //! [`load`] reads what it needs; [`render`] is pure.
@@ -120,8 +121,11 @@ fn value_words(rule: &str, d: &Displacement) -> Option<String> {
         },
         "time_to_failure_hours" => {
             let (h, s) = ttf(d)?;
-            if let Some(s) = s.filter(|s| !crate::analysis::failure::reliable(h, *s)) {
-                return Some(format!("no reliable forecast now ({h:.0} ± {s:.0} h)"));
+            if !stated(h, s) {
+                return Some(match s {
+                    Some(s) => format!("no forecast yet ({h:.0} ± {s:.0} h, 1σ)"),
+                    None => format!("no forecast yet ({h:.0} h)"),
+                });
             }
             (Some(h), s, "h", 0)
         }
@@ -129,7 +133,7 @@ fn value_words(rule: &str, d: &Displacement) -> Option<String> {
     };
     let v = v.filter(|v| v.is_finite())?;
     Some(match s.filter(|s| s.is_finite()) {
-        Some(s) => format!("{v:.digits$} ± {s:.digits$} {unit}"),
+        Some(s) => format!("{v:.digits$} ± {s:.digits$} {unit} (1σ)"),
         None => format!("{v:.digits$} {unit}"),
     })
 }
@@ -145,18 +149,57 @@ fn ttf(d: &Displacement) -> Option<(f64, Option<f64>)> {
     }
 }
 
-/// The forecast failure time of `d` with its ±2σ interval (s since 1970; the lower end not
-/// before the epoch it counts from); None without a forecast or for one that is not reliable
-/// ([`crate::analysis::failure::reliable`]: its interval is wider than its horizon).
-pub fn failure_time(d: &Displacement) -> Option<(f64, f64, f64)> {
+/// Whether the pages state a forecast of `h` hours with σ `s` (h; unknown: 0): its one-sided
+/// upper bound lies within a week ([`crate::analysis::failure::stated`]); otherwise "no
+/// forecast yet".
+fn stated(h: f64, s: Option<f64>) -> bool {
+    crate::analysis::failure::stated(h, s.unwrap_or(0.0))
+}
+
+/// A forecast failure time as the pages state it (s since 1970).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FailureTime {
+    /// The forecast failure time.
+    pub at: f64,
+    /// Lower end of its ±2σ interval (not before the epoch it counts from).
+    pub lower: f64,
+    /// Upper end of its ±2σ interval.
+    pub upper: f64,
+    /// The one-sided upper bound at [`crate::analysis::failure::BOUND_CONFIDENCE`]: failure is
+    /// likely before it.
+    pub likely_before: f64,
+}
+
+/// The forecast failure time of `d` with its ±2σ interval and its one-sided bound, counted from
+/// `d`'s epoch; None without a forecast or for one whose bound is beyond a week ("no forecast
+/// yet", [`stated`]).
+pub fn failure_time(d: &Displacement) -> Option<FailureTime> {
     let (h, s) = ttf(d)?;
-    if s.is_some_and(|s| !crate::analysis::failure::reliable(h, s)) {
+    if !stated(h, s) {
         return None;
     }
     let t0 = parse_timestamp(&d.observed_at)?.timestamp() as f64;
+    let s = s.filter(|s| s.is_finite()).unwrap_or(0.0);
+    let bound = crate::analysis::failure::upper_bound_hours(
+        h,
+        s,
+        crate::analysis::failure::BOUND_CONFIDENCE,
+    )?;
     let tf = t0 + h * 3600.0;
-    let s = s.filter(|s| s.is_finite()).unwrap_or(0.0) * 3600.0;
-    Some((tf, (tf - 2.0 * s).max(t0), tf + 2.0 * s))
+    Some(FailureTime {
+        at: tf,
+        lower: (tf - 2.0 * s * 3600.0).max(t0),
+        upper: tf + 2.0 * s * 3600.0,
+        likely_before: t0 + bound * 3600.0,
+    })
+}
+
+/// "95 %": the confidence of the stated bound.
+pub fn bound_confidence_words() -> String {
+    format!(
+        "{:.0} %",
+        100.0 * crate::analysis::failure::BOUND_CONFIDENCE
+    )
 }
 
 /// "3 d 4 h", "5 h 10 min", "12 min": how long ago `t` was at `now`.
@@ -244,9 +287,10 @@ fn alert_words(
         " · " (metric_words(&a.rule))
         @if let Some(v) = &value { " " strong.value { (v) } }
         @if let (Some(t), Some(u)) = (a.threshold, &a.unit) { " (threshold " (t) " " (u) ")" }
-        @if let Some(((tf, lower, upper), d)) = forecast {
-            ": failure expected " strong.failure { (text(tf, tz)) }
-            " (±2σ: " (text(lower, tz)) " to " (text(upper, tz)) "), counted from the last epoch ("
+        @if let Some((f, d)) = forecast {
+            ": failure likely before " strong.failure { (text(f.likely_before, tz)) }
+            " (" (bound_confidence_words()) ", one-sided); expected " (text(f.at, tz))
+            " (±2σ: " (text(f.lower, tz)) " to " (text(f.upper, tz)) "), counted from the last epoch ("
             (when(&d.observed_at, tz)) "), not from now"
         }
         @if value.is_none() && forecast.is_none() { ": " (a.message) }

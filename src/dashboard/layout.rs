@@ -104,12 +104,12 @@ pub fn metric_name(rule: &str) -> &str {
 
 pub use crate::http::seg;
 
-/// A time to failure (h) with its σ, or "no reliable forecast" when its 90 % interval is wider
-/// than its horizon ([`crate::analysis::failure::reliable`]: the rules do not read it either).
+/// A time to failure (h) with its σ, or "no forecast yet" when its one-sided bound lies beyond a
+/// week ([`crate::analysis::failure::stated`]; the rules read it through that bound all the same).
 pub fn time_to_failure(hours: Option<f64>, sigma: Option<f64>) -> String {
     match (hours, sigma) {
-        (Some(h), Some(s)) if !crate::analysis::failure::reliable(h, s) => {
-            format!("no reliable forecast ({h:.0} ± {s:.0})")
+        (Some(h), Some(s)) if !crate::analysis::failure::stated(h, s) => {
+            format!("no forecast yet ({h:.0} ± {s:.0})")
         }
         _ => with_sigma(hours, sigma, 0),
     }

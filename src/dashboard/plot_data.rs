@@ -42,7 +42,9 @@ pub struct PlotParams {
     pub width: Option<usize>,
 }
 
-/// Epochs of the inverse-velocity line: the forecast's default law window (`FailureConfig::law_window`).
+/// Epochs of the inverse-velocity line drawn on the plot: the last 12, where the acceleration
+/// shows (the forecast itself fits the creep before the onset as well, over
+/// `FailureConfig::acceleration_window`).
 const LINE_EPOCHS: usize = 12;
 
 /// The plot data of one point.
@@ -268,12 +270,13 @@ fn write_columns(c: &SeriesColumns, out: &mut Vec<u8>) {
 /// failure time, fitted by weighted least squares (`d = a − B ln(t_f − t)`, weights 1/σ²) to the
 /// displacements along the direction of motion (the 3-D length without a direction) of the
 /// forecast's window, the last [`LINE_EPOCHS`] epochs. `[t0, y0, t_f, 0]` (s since 1970,
-/// day/mm) from the window's first epoch; None without a forecast, for one that is not reliable
-/// ([`crate::analysis::failure::reliable`]), or when the law does not advance.
+/// day/mm) from the window's first epoch; None without a forecast, for one the pages do not
+/// state ([`crate::analysis::failure::stated`]: "no forecast yet"), or when the law does not
+/// advance.
 pub fn inverse_line(c: &SeriesColumns) -> Option<[f64; 4]> {
     let i = c.t.len().checked_sub(1)?;
     let (h, s) = (c.f_ttf[0][i], c.f_ttf[1][i]);
-    if !crate::analysis::failure::reliable(h, s) {
+    if !crate::analysis::failure::stated(h, s) {
         return None;
     }
     let day = |t: f64| t / 86_400.0;
@@ -305,10 +308,11 @@ pub fn inverse_line(c: &SeriesColumns) -> Option<[f64; 4]> {
     Some([c.t[start], (tf - t0) / b, tf * 86_400.0, 0.0])
 }
 
-/// The latest filtered forecast: failure time and ±2σ (s since 1970), the window its line was
-/// fitted over, and the sentence the page shows (UTC and the site's time zone `tz`), or null. A
-/// forecast whose 90 % interval is wider than its horizon reads "No reliable forecast" (and
-/// `reliable: false`, no line).
+/// The latest filtered forecast: failure time and ±2σ (s since 1970), the one-sided bound
+/// before which failure is likely (`likely_before`, at
+/// [`crate::analysis::failure::BOUND_CONFIDENCE`]), the window its line was fitted over, and the
+/// sentence the page shows (UTC and the site's time zone `tz`), or null. A forecast whose bound
+/// lies beyond a week reads "No forecast yet" (`stated: false`, no line).
 fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
     let Some(i) = c.t.len().checked_sub(1) else {
         return Value::Null;
@@ -317,36 +321,43 @@ fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
     if !h.is_finite() {
         return Value::Null;
     }
+    let confidence = crate::analysis::failure::BOUND_CONFIDENCE;
+    let sigma_hours = if s.is_finite() { s } else { 0.0 };
+    let bound_hours = crate::analysis::failure::upper_bound_hours(h, sigma_hours, confidence)
+        .unwrap_or(f64::INFINITY);
     let tf = c.t[i] + h * 3600.0;
-    let s = if s.is_finite() { s * 3600.0 } else { 0.0 };
+    let s = sigma_hours * 3600.0;
     let (lower, upper) = ((tf - 2.0 * s).max(c.t[i]), tf + 2.0 * s);
+    let likely_before = c.t[i] + bound_hours * 3600.0;
     let from = c.t[c.t.len().saturating_sub(LINE_EPOCHS)];
     let epochs = c.t.len().min(LINE_EPOCHS);
-    let reliable = crate::analysis::failure::reliable(h, s / 3600.0);
-    let text = if reliable {
+    let stated = crate::analysis::failure::stated(h, sigma_hours);
+    let percent = 100.0 * confidence;
+    let text = if stated {
         format!(
-            "Forecast failure (filtered): {} (±2σ: {} to {}), {:.0} h after the last epoch. \
-             The line is this forecast's inverse-velocity law, fitted to the last {epochs} epochs \
+            "Failure likely before {} ({percent:.0} %, one-sided, counted from the last epoch). \
+             Forecast failure (filtered): {} (±2σ: {} to {}), {:.0} ± {:.0} h (1σ) after the last epoch. \
+             The line is the inverse-velocity law ending at the forecast failure time, fitted to the last {epochs} epochs \
              ({} to {}).",
+            text(likely_before, tz),
             text(tf, tz),
             text(lower, tz),
             text(upper, tz),
             h,
+            sigma_hours,
             // the window in UTC only: the zone is given with the forecast
             text(from, None),
             text(c.t[i], None),
         )
     } else {
-        let z = 1.6449 * s;
         format!(
-            "No reliable forecast: the 90 % interval ({} to {}) is wider than the {:.0} h to the \
-             forecast failure; time-to-failure rules do not read it.",
-            text((tf - z).max(c.t[i]), tz),
-            text(tf + z, tz),
-            h
+            "No forecast yet: the point accelerates, but failure is not likely within {:.0} h \
+             ({h:.0} ± {sigma_hours:.0} h, 1σ: the {percent:.0} % bound is {bound_hours:.0} h after the last epoch).",
+            crate::analysis::failure::NO_FORECAST_BEYOND_HOURS,
         )
     };
-    json!({"t_f": tf, "lower": lower, "upper": upper, "hours": h, "reliable": reliable,
+    json!({"t_f": tf, "lower": lower, "upper": upper, "likely_before": likely_before,
+           "hours": h, "stated": stated,
            "window": {"from": from, "to": c.t[i], "epochs": epochs}, "text": text})
 }
 
@@ -439,23 +450,29 @@ mod tests {
         assert!(f["text"]
             .as_str()
             .is_some_and(|t| t.contains("last 12 epochs")));
-        assert_eq!(f["reliable"], json!(true));
-        // A forecast with an interval wider than its horizon: no line, and the page says so.
+        assert_eq!(f["stated"], json!(true));
+        // 26 ± 35 h: a wide interval whose bound is near is stated, with its bound.
         let last = c.t.len() - 1;
-        c.f_ttf[1][last] = 0.4 * c.f_ttf[0][last];
-        assert!(inverse_line(&c).is_none());
+        c.f_ttf[0][last] = 26.0;
+        c.f_ttf[1][last] = 35.0;
         let f = forecast(&c, None);
+        assert_eq!(f["stated"], json!(true), "{f}");
+        let bound = f["likely_before"].as_f64().expect("bound");
+        assert!(
+            (bound - (c.t[last] + (26.0 + 1.6449 * 35.0) * 3600.0)).abs() < 10.0,
+            "{f}"
+        );
         assert!(f["text"]
             .as_str()
-            .is_some_and(|t| t.starts_with("No reliable forecast")));
-    }
-
-    /// The line's window is the forecast's default law window.
-    #[test]
-    fn the_line_window_is_the_law_window() {
-        assert_eq!(
-            crate::analysis::FailureConfig::default().law_window,
-            crate::analysis::Window::Epochs(LINE_EPOCHS)
-        );
+            .is_some_and(|t| t.starts_with("Failure likely before ")));
+        // A bound beyond a week: no line, and the page says "no forecast yet".
+        c.f_ttf[0][last] = 70.0;
+        c.f_ttf[1][last] = 70.0;
+        assert!(inverse_line(&c).is_none());
+        let f = forecast(&c, None);
+        assert_eq!(f["stated"], json!(false));
+        assert!(f["text"]
+            .as_str()
+            .is_some_and(|t| t.starts_with("No forecast yet")));
     }
 }

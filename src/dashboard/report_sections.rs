@@ -5,7 +5,7 @@
 
 use maud::{html, Markup};
 
-use super::headline::failure_time;
+use super::headline::{bound_confidence_words, failure_time};
 use super::layout::{level_badge, metric_name, num, seg, time_to_failure, with_sigma};
 use super::local_time::{text, when};
 use crate::photogrammetry::statistics::variance_components::PooledSigma;
@@ -24,16 +24,19 @@ pub struct BlockRow {
     pub latest: Option<Displacement>,
 }
 
-/// "02-12 06:00 UTC (15:00 Asia/Tokyo) ± 9 h": a forecast failure time, or why there is none.
+/// "likely before 2027-02-12 18:00 UTC (95 %); expected 02-12 06:00 (±2σ 02-11 20:00 to
+/// 02-12 16:00)": the one-sided bound and the forecast failure time, or why there is none.
 fn forecast(d: &Displacement, tz: Option<&str>) -> String {
     match failure_time(d) {
-        Some((tf, lo, hi)) => format!(
-            "{} (±2σ {} to {})",
-            text(tf, tz),
-            text(lo, None).get(5..16).unwrap_or(""),
-            text(hi, None).get(5..16).unwrap_or("")
+        Some(f) => format!(
+            "likely before {} ({}); expected {} (±2σ {} to {})",
+            text(f.likely_before, tz),
+            bound_confidence_words(),
+            text(f.at, None).get(5..16).unwrap_or(""),
+            text(f.lower, None).get(5..16).unwrap_or(""),
+            text(f.upper, None).get(5..16).unwrap_or("")
         ),
-        None if d.f_time_to_failure_hours.is_some() => "no reliable forecast".into(),
+        None if d.f_time_to_failure_hours.is_some() => "no forecast yet".into(),
         None => "–".into(),
     }
 }

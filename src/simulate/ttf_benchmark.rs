@@ -11,11 +11,10 @@
 use chrono::{DateTime, Utc};
 
 use super::kinematics::{case, MotionCase, MotionKind};
-use super::ttf_bound::first_reliable_in_window;
-use crate::analysis::failure::reliable;
+use super::ttf_bound::oracle_alarm_lead_hours;
 use crate::analysis::{
     analyse_series, AlertConfig, AlertEventType, AlertKind, AlertLevel, AlertRule, AnalysisConfig,
-    DisplacementRecord, GroupConfig, GroupKind,
+    DisplacementRecord, FailureConfig, GroupConfig, GroupKind,
 };
 
 /// Hours to failure below which the alarm rule fires.
@@ -51,16 +50,18 @@ pub struct Outcome {
     /// Time-to-failure alarms on targets that never fail (still targets; every subject of a
     /// series that never fails).
     pub false_alarms: usize,
+    /// The subjects of those false alarms (points `T…`/`B…`, or the block), each once.
+    pub false_subjects: Vec<String>,
     /// The baseline's first alarm on the block.
     pub baseline: Option<Alarm>,
-    /// The first alarm had the rule read the forecast's point estimate (forecast < 96 h, still
-    /// only reliable forecasts) instead of its upper bound (forecast + 1.64 σ < 96 h), and the
-    /// false alarms it would have raised ([`point_estimate_alarm`]).
+    /// The first alarm had the rule read the forecast's point estimate (forecast < 96 h)
+    /// instead of its upper bound (forecast + 1.64 σ < 96 h), and the false alarms it would
+    /// have raised ([`point_estimate_alarm`]).
     pub point_estimate: (Option<Alarm>, usize),
-    /// The bound: hours before failure of the first epoch at which a forecaster with every
-    /// advantage could have a reliable forecast 24–120 h before failure
-    /// ([`first_reliable_in_window`]; failing series).
-    pub bound_lead_hours: Option<f64>,
+    /// The oracle: hours before failure of the first epoch at which a forecaster with every
+    /// advantage (the true model, direction and noise, its Cramér–Rao σ) has its upper bound
+    /// below the rule's 96 h ([`oracle_alarm_lead_hours`]; failing series).
+    pub oracle_lead_hours: Option<f64>,
 }
 
 /// A first alarm: when, and the forecast then.
@@ -92,7 +93,13 @@ impl Alarm {
 /// The analysis settings of the benchmark: the defaults with the block declared along its
 /// direction.
 pub fn config(c: &MotionCase) -> AnalysisConfig {
+    config_with(c, &FailureConfig::default())
+}
+
+/// [`config`] with the time-to-failure settings `failure`.
+pub fn config_with(c: &MotionCase, failure: &FailureConfig) -> AnalysisConfig {
     AnalysisConfig {
+        failure: failure.clone(),
         groups: vec![GroupConfig {
             name: GROUP.into(),
             kind: GroupKind::Block,
@@ -104,16 +111,34 @@ pub fn config(c: &MotionCase) -> AnalysisConfig {
     }
 }
 
+/// [`rules`] with the time-to-failure rule's `confidence` and `for_epochs` set (None: the
+/// defaults), for the trade-off table.
+pub fn rules_with(confidence: Option<f64>, for_epochs: Option<u32>) -> Vec<AlertRule> {
+    let mut rules = rules();
+    for r in &mut rules {
+        if r.metric == crate::analysis::alerts::Metric::TimeToFailureHours {
+            r.confidence = confidence.or(r.confidence);
+            r.for_epochs = for_epochs.or(r.for_epochs);
+        }
+    }
+    rules
+}
+
 /// Runs one series through the analysis and the baseline.
 pub fn run(c: &MotionCase) -> Outcome {
+    run_with(c, &FailureConfig::default(), &rules())
+}
+
+/// [`run`] with the time-to-failure settings `failure` and the rules `rules`.
+pub fn run_with(c: &MotionCase, failure: &FailureConfig, rules: &[AlertRule]) -> Outcome {
     let series = c.scenario.generate();
     let epochs: Vec<_> = series
         .epochs
         .iter()
         .map(|e| e.coordinates.clone())
         .collect();
-    let config = config(c);
-    let alerts = AlertConfig::new("ttf-benchmark", rules());
+    let config = config_with(c, failure);
+    let alerts = AlertConfig::new("ttf-benchmark", rules.to_vec());
     let out = analyse_series(&epochs[0], &epochs[1..], &series.points, &config, &alerts);
     let days = |t: DateTime<Utc>| (t - series.start).num_milliseconds() as f64 / 86_400_000.0;
     let epoch_days = |epoch: i64| days(epochs[(epoch - 1) as usize].observed_at);
@@ -131,6 +156,7 @@ pub fn run(c: &MotionCase) -> Outcome {
     };
     let mut alarm: Option<Alarm> = None;
     let mut false_alarms = 0;
+    let mut false_subjects: Vec<String> = vec![];
     for (epoch, ev) in &out.events {
         let a = &ev.alert;
         if a.rule != AlertKind::TimeToFailureHours
@@ -150,6 +176,9 @@ pub fn run(c: &MotionCase) -> Outcome {
         let on_block = who == GROUP || moving(who);
         if !c.kind.fails() || !on_block {
             false_alarms += 1;
+            if !false_subjects.iter().any(|s| s == who) {
+                false_subjects.push(who.to_string());
+            }
         }
         if !on_block {
             continue;
@@ -200,15 +229,16 @@ pub fn run(c: &MotionCase) -> Outcome {
         scatter: c.scatter,
         alarm,
         false_alarms,
+        false_subjects,
         baseline,
         point_estimate,
-        bound_lead_hours: first_reliable_in_window(c),
+        oracle_lead_hours: oracle_alarm_lead_hours(c, ALARM_BELOW_HOURS),
     }
 }
 
 /// The first time-to-failure alarm on the block (or one of its targets `B…`) had the rule read
-/// the filtered forecast's point estimate: the first epoch whose forecast is reliable
-/// ([`reliable`]) and below [`ALARM_BELOW_HOURS`] (`alarm` makes the [`Alarm`] from the epoch,
+/// the filtered forecast's point estimate: the first epoch whose forecast is below
+/// [`ALARM_BELOW_HOURS`] (`alarm` makes the [`Alarm`] from the epoch,
 /// the forecast and its σ), and the subjects off the block that would have alarmed.
 pub fn point_estimate_alarm(
     points: &[DisplacementRecord],
@@ -224,7 +254,7 @@ pub fn point_estimate_alarm(
         }) else {
             continue;
         };
-        if !(reliable(t, s) && t < ALARM_BELOW_HOURS) {
+        if t.is_nan() || t >= ALARM_BELOW_HOURS {
             continue;
         }
         if r.point == GROUP || r.point.starts_with('B') {
@@ -297,12 +327,33 @@ pub fn baseline_forecast(t_days: &[f64], d_mm: &[f64]) -> Option<f64> {
 
 /// Runs `seeds` series of every kind (seeds `first..first + seeds`), in parallel.
 pub fn run_all(first: u64, seeds: u64) -> Vec<Outcome> {
+    run_kinds(
+        first,
+        seeds,
+        &MotionKind::ALL,
+        &FailureConfig::default(),
+        &rules(),
+    )
+}
+
+/// Runs `seeds` series of each of `kinds` (seeds `first..first + seeds`) with the
+/// time-to-failure settings `failure` and the rules `rules`, in parallel.
+pub fn run_kinds(
+    first: u64,
+    seeds: u64,
+    kinds: &[MotionKind],
+    failure: &FailureConfig,
+    rules: &[AlertRule],
+) -> Vec<Outcome> {
     use rayon::prelude::*;
-    let cases: Vec<MotionCase> = MotionKind::ALL
+    let cases: Vec<MotionCase> = kinds
         .iter()
         .flat_map(|&k| (first..first + seeds).map(move |s| case(k, s)))
         .collect();
-    cases.par_iter().map(run).collect()
+    cases
+        .par_iter()
+        .map(|c| run_with(c, failure, rules))
+        .collect()
 }
 
 /// The benchmark's figures for one forecaster (cliffwatch or the baseline).
@@ -439,20 +490,78 @@ pub fn table(outcomes: &[Outcome]) -> String {
     s.push_str(&format!(
         "\ncliffwatch's first alarm no earlier than the baseline's: {ok}/{n} failing series.\n"
     ));
-    let (possible, n) = reliable_possible(outcomes);
+    let oracle = oracle_in_window(outcomes);
     s.push_str(&format!(
-        "The bound: a reliable forecast 24–120 h before failure is possible at all in {possible}/{n} failing series.\n"
+        "The oracle (true model, direction and noise; the same rule on its upper bound) alarms \
+         24–120 h before failure in {}/{} failing series; cliffwatch alarms in that window in {} of \
+         them ({}).\n",
+        oracle.oracle,
+        oracle.failing,
+        oracle.both,
+        ratio(oracle.both, oracle.oracle),
     ));
     s
 }
 
-/// Failing series in which the bound allows a reliable forecast 24–120 h before failure
-/// ([`Outcome::bound_lead_hours`]), of the failing series.
-pub fn reliable_possible(outcomes: &[Outcome]) -> (usize, usize) {
+/// "83 %", or "—" of nothing.
+fn ratio(part: usize, of: usize) -> String {
+    if of == 0 {
+        "—".into()
+    } else {
+        format!("{:.0} %", 100.0 * part as f64 / of as f64)
+    }
+}
+
+/// The failing series beside the oracle: how many there are, in how many the oracle's first
+/// alarm comes 24–120 h before failure, and in how many of those cliffwatch's does too.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OracleScore {
+    /// Failing series.
+    pub failing: usize,
+    /// Failing series whose oracle alarms 24–120 h before failure.
+    pub oracle: usize,
+    /// Of those, the series whose first cliffwatch alarm came 24–120 h before failure.
+    pub both: usize,
+}
+
+/// [`OracleScore`] of `outcomes`.
+pub fn oracle_in_window(outcomes: &[Outcome]) -> OracleScore {
+    let in_window = |h: Option<f64>| h.is_some_and(|h| (24.0..=120.0).contains(&h));
     let failing: Vec<&Outcome> = outcomes.iter().filter(|o| o.kind.fails()).collect();
-    let possible = failing
+    let oracle: Vec<&&Outcome> = failing
         .iter()
-        .filter(|o| o.bound_lead_hours.is_some())
-        .count();
-    (possible, failing.len())
+        .filter(|o| in_window(o.oracle_lead_hours))
+        .collect();
+    OracleScore {
+        failing: failing.len(),
+        oracle: oracle.len(),
+        both: oracle
+            .iter()
+            .filter(|o| in_window(o.alarm.and_then(|a| a.lead_hours)))
+            .count(),
+    }
+}
+
+/// The failing series one by one (Markdown): seed, scatter, the oracle's first alarm and
+/// cliffwatch's (hours before failure), cliffwatch's forecast then with its σ, and the
+/// baseline's first alarm.
+pub fn series_table(outcomes: &[Outcome]) -> String {
+    let hours = |h: Option<f64>| h.map_or("—".into(), |h| format!("{h:.0}"));
+    let mut s = String::from(
+        "| seed | scatter (× σ) | oracle's first alarm (h before failure) | cliffwatch's | its forecast ± σ (h) | baseline's |\n|---|---|---|---|---|---|\n",
+    );
+    for o in outcomes.iter().filter(|o| o.kind.fails()) {
+        let forecast = o.alarm.map_or("—".into(), |a| {
+            format!("{:.0} ± {:.0}", a.forecast_hours, a.sigma_hours)
+        });
+        s.push_str(&format!(
+            "| {} | {:.1} | {} | {} | {forecast} | {} |\n",
+            o.seed,
+            o.scatter,
+            hours(o.oracle_lead_hours),
+            hours(o.alarm.and_then(|a| a.lead_hours)),
+            hours(o.baseline.and_then(|a| a.lead_hours)),
+        ));
+    }
+    s
 }

@@ -7,15 +7,15 @@
 //! creep's velocity, Fukuzono 1985: four parameters a, v₀, t_a, t_f), and the burst of odd seeds
 //! and the errors shared by every point on some days are left out. Its failure time then has at
 //! best the σ of the bound, `σ²(t_f) = [(Jᵀ J)⁻¹]_{t_f t_f} σ²` (J the model's derivatives at the
-//! epochs). A forecast is reliable when its 90 % interval is no wider than its horizon
-//! ([`crate::analysis::failure::reliable`]: σ ≤ horizon / 3.29), so a series on which even the bound is
-//! wider than that at every epoch 24–120 h before failure cannot have a reliable forecast there,
-//! and no alarm rule that reads only reliable forecasts can alarm in that window but by chance.
+//! epochs). The oracle alarms as cliffwatch's rule does, on the one-sided upper bound: at the
+//! first epoch where the true time to failure plus `z·σ` (z at the rule's default confidence,
+//! [`crate::analysis::failure::BOUND_CONFIDENCE`]) falls below the rule's threshold
+//! ([`oracle_alarm_lead_hours`]). No forecaster can alarm earlier on that rule but by chance.
 
 use nalgebra::{Matrix4, Vector4};
 
 use super::kinematics::MotionCase;
-use crate::analysis::failure::reliable;
+use crate::analysis::failure::{upper_bound_hours, BOUND_CONFIDENCE};
 
 /// The failing block's displacement along its direction at `t` days (mm): creep at `v0` mm/day,
 /// then from the onset `ta` the inverse-velocity law to the failure at `tf` (as
@@ -67,18 +67,20 @@ pub fn failure_time_bound_hours(c: &MotionCase, epoch: usize) -> Option<f64> {
     (var.is_finite() && var > 0.0).then(|| var.sqrt() * 24.0)
 }
 
-/// The first epoch of the failing case `c` at which the bound allows a reliable forecast
-/// ([`reliable`] with the true time to failure as the forecast) 24–120 h before the failure:
-/// hours before the failure, None when there is none.
-pub fn first_reliable_in_window(c: &MotionCase) -> Option<f64> {
+/// The oracle's first alarm on the failing case `c` under the rule "time to failure below
+/// `below_hours`": hours before the failure of the first epoch at which the true time to failure
+/// plus `z` times the Cramér–Rao σ ([`failure_time_bound_hours`], z at
+/// [`BOUND_CONFIDENCE`]) is below `below_hours`; None when no epoch before the failure has it.
+pub fn oracle_alarm_lead_hours(c: &MotionCase, below_hours: f64) -> Option<f64> {
     let tf = c.failure_days?;
     (0..c.scenario.epochs).find_map(|e| {
         let lead = (tf - e as f64) * 24.0;
-        if !(24.0..=120.0).contains(&lead) {
+        if lead <= 0.0 {
             return None;
         }
         let sigma = failure_time_bound_hours(c, e)?;
-        reliable(lead, sigma).then_some(lead)
+        let upper = upper_bound_hours(lead, sigma, BOUND_CONFIDENCE)?;
+        (upper < below_hours).then_some(lead)
     })
 }
 

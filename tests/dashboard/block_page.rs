@@ -99,8 +99,9 @@ async fn the_block_page_links_its_members_and_they_link_back() {
 /// A block accelerating to failure (the points T009–T016 of the headline's fixture, declared as
 /// block B2): its page draws the latest forecast's inverse-velocity line, and the line reaches
 /// zero at the forecast failure time the API gives (the last epoch plus the filtered time to
-/// failure), at the plot's right edge, whose date label is that day; its forecast history reads
-/// "no reliable forecast", without a date, for the epochs whose interval was wider than its horizon.
+/// failure), at the plot's right edge, whose date label is that day; its forecast history gives
+/// the date before which failure is likely, and "no forecast yet", without a date, for epochs
+/// whose bound lies beyond a week.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_block_page_draws_the_forecast_line_down_to_the_failure_time() {
     use support::dashboard::{POINTS, STABLE};
@@ -157,7 +158,9 @@ async fn the_block_page_draws_the_forecast_line_down_to_the_failure_time() {
         .format("%Y-%m-%d")
         .to_string();
     assert_eq!(seen[4], json!(day), "{seen}");
-    // The forecast history says where the forecast was not reliable yet, and gives no date there.
+    // The forecast history: the latest row gives the date before which failure is likely (the
+    // one-sided 95 % bound, the last epoch plus hours + 1.645 σ); rows whose bound lies beyond a
+    // week say "no forecast yet" and give no date.
     let history = driver
         .script("return Array.from(document.querySelectorAll('table.forecasts tbody tr')).map(function (r) { return r.innerText; })")
         .await;
@@ -168,16 +171,24 @@ async fn the_block_page_draws_the_forecast_line_down_to_the_failure_time() {
         .map(|r| r.as_str().unwrap())
         .collect();
     assert!(rows[0].contains(&format!("{hours:.0} ± ")), "{rows:?}");
-    let unreliable: Vec<&&str> = rows
+    let sigma = last["sigma_f_time_to_failure_hours"].as_f64().unwrap();
+    let bound = chrono::DateTime::from_timestamp(
+        (t0 + (hours + 1.6449 * sigma) * 3600.0).round() as i64,
+        0,
+    )
+    .unwrap()
+    .format("%Y-%m-%d %H:%M UTC")
+    .to_string();
+    assert!(rows[0].contains(&bound), "{bound}: {rows:?}");
+    let not_yet: Vec<&&str> = rows
         .iter()
-        .filter(|r| r.contains("no reliable forecast ("))
+        .filter(|r| r.contains("no forecast yet"))
         .collect();
-    assert!(!unreliable.is_empty(), "{rows:?}");
     assert!(
-        unreliable
+        not_yet
             .iter()
             .all(|r| !r.contains("2026-11-1") || r.matches("UTC").count() == 1),
-        "an unreliable row gives no failure date: {unreliable:?}"
+        "a row without a forecast yet gives no failure date: {not_yet:?}"
     );
     driver
         .script("document.querySelector('figure.inverse').scrollIntoView(); return true")

@@ -1,7 +1,8 @@
 //! The headline of a site's pages in Chromium, as the person on call reads it: a point
 //! accelerating to failure raises a time-to-failure alarm, and the headline says so in words,
-//! with the forecast failure time as a date in UTC and in the site's zone (the same instant the
-//! API's series gives: the last epoch plus the filtered time to failure), says that it counts
+//! with the date before which failure is likely (the one-sided bound the rule reads) and the
+//! forecast failure time as dates in UTC and in the site's zone (the same instants the API's
+//! series gives: the last epoch plus the filtered time to failure and its bound), says that it counts
 //! from the last epoch, how old that epoch is, what to do and whom to call. At 390 and 360 px it
 //! fits.
 
@@ -95,8 +96,16 @@ async fn the_headline_says_the_worst_alert_its_failure_date_and_what_to_do() {
         "{hours} ± {sigma}: {what}"
     );
     assert!(
-        what.contains(&format!("failure expected {expected} (±2σ: ")),
+        what.contains(&format!("; expected {expected} (±2σ: ")),
         "{expected}: {what}"
+    );
+    // The one-sided bound the alarm rule reads, first: failure likely before it.
+    let bound = utc_and_tokyo(t0 + (hours + 1.6449 * sigma) * 3600.0);
+    assert!(
+        what.contains(&format!(
+            ": failure likely before {bound} (95 %, one-sided); expected "
+        )),
+        "{bound}: {what}"
     );
     let upper = utc_and_tokyo(t0 + (hours + 2.0 * sigma) * 3600.0);
     assert!(what.contains(&format!(" to {upper})")), "{upper}: {what}");

@@ -508,11 +508,15 @@ async fn the_forecast_reads_in_utc_and_the_site_zone() {
         "{f}"
     );
     assert!(
-        text.starts_with("Forecast failure (filtered): ")
+        text.starts_with("Failure likely before ")
+            && text.contains("Forecast failure (filtered): ")
             && text.contains(" UTC · ")
-            && text.matches("JST").count() == 3,
+            && text.matches("JST").count() == 4,
         "{text}"
     );
+    // The bound is the last epoch plus hours + 1.645 σ, and the truth lies before it.
+    let bound = f["likely_before"].as_f64().unwrap();
+    assert!(bound >= f["t_f"].as_f64().unwrap() && truth <= bound, "{f}");
     s.stop().await;
 }
 

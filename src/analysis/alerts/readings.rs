@@ -28,11 +28,10 @@ impl Reading {
         }
     }
 
-    /// The time to failure (hours) of a forecast with its σ; no value without one, nor for a
-    /// forecast whose 90 % interval is wider than its horizon ("no reliable forecast",
-    /// [`FailureForecast::is_reliable`]): time-to-failure rules do not read it.
+    /// The time to failure (hours) of a forecast with its σ; no value without one. However
+    /// wide its interval, a rule reads it through its one-sided upper bound (`v + z·σ < below`):
+    /// 26 ± 35 h under a 96 h rule alarms at 95 %.
     pub fn forecast(f: Option<FailureForecast>) -> Self {
-        let f = f.filter(FailureForecast::is_reliable);
         Reading::new(f.map(|f| f.time_to_failure_hours), f.map(|f| f.sigma_hours))
     }
 }
@@ -129,5 +128,44 @@ impl Readings {
             Reading::forecast(p.filtered_failure),
         );
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::alerts::rule::AlertRule;
+
+    fn forecast(hours: f64, sigma_hours: f64) -> Option<FailureForecast> {
+        Some(FailureForecast {
+            time_to_failure_hours: hours,
+            sigma_hours,
+            r2: 0.9,
+            velocities: 40,
+            lower_hours: None,
+            upper_hours: None,
+        })
+    }
+
+    /// "Alarm when time to failure < 96 h" reads the one-sided upper bound at the rule's
+    /// confidence (0.95 under a site at 0.99): 26 ± 35 h (bound 83.6 h) alarms, however wide its
+    /// two-sided interval; 26 ± 45 h (bound 100 h) does not; neither does no forecast.
+    #[test]
+    fn a_wide_forecast_whose_upper_bound_is_near_alarms() {
+        let rule: AlertRule = serde_json::from_str(
+            r#"{"level": "alarm", "metric": "time_to_failure_hours", "below": 96}"#,
+        )
+        .expect("rule");
+        let z = rule.z(0.99);
+        assert!((z - 1.6449).abs() < 1e-3, "{z}");
+        let fires = |f: Option<FailureForecast>| {
+            let r = Reading::forecast(f);
+            r.value.is_some_and(|v| rule.triggers(v, r.sigma, z))
+        };
+        assert!(fires(forecast(26.0, 35.0)));
+        assert!(!fires(forecast(26.0, 45.0)));
+        assert!(fires(forecast(90.0, 3.0)));
+        assert!(!fires(forecast(95.0, 3.0)));
+        assert!(!fires(None));
     }
 }

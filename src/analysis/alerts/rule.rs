@@ -86,12 +86,12 @@ pub struct AlertRule {
     pub confidence: Option<f64>,
 }
 
-/// Default confidence of a `time_to_failure_hours` rule, when the site's is higher: the forecast
-/// exists only once the onset test has shown an acceleration (Δχ² > 13.82), so this confidence
-/// decides how early the alarm comes, not whether the point moves. On 130 simulated failing
-/// series (docs/accuracy.md) the alarm came 24–120 h before failure in 92 % of them at 0.95 and
-/// in 88 % at 0.99; at 0.95, 4 of 129 alarms came more than 96 h before failure.
-pub const FORECAST_CONFIDENCE: f64 = 0.95;
+/// Default confidence of a `time_to_failure_hours` rule, when the site's is higher: the rule
+/// fires when the forecast's one-sided upper bound at this confidence (`hours + z·σ`) is below
+/// its threshold. The forecast exists only once the onset test has shown an acceleration and the
+/// forecasts of the last 48 h agree with it, so this confidence decides how early the alarm
+/// comes, not whether the point moves (docs/accuracy.md, the time-to-failure benchmark).
+pub const FORECAST_CONFIDENCE: f64 = crate::analysis::failure::BOUND_CONFIDENCE;
 
 /// The members of an alert rule in the contract JSON; the API refuses others (a misspelt
 /// `clear_bellow` would otherwise be stored and ignored).
