@@ -625,16 +625,12 @@ fn velocity_and_forecast_do_not_depend_on_where_the_reference_lies() {
                 assert!((va - vb).abs() < 0.1 * va, "seed {seed} {subject} {back}");
                 assert!((sa / sb - 1.0).abs() < 0.5, "seed {seed} {subject} {back}");
                 if subject == "B" {
-                    // A forecast against both references or against neither (the agreement
-                    // with the last days' forecasts can withhold one), and the same one.
+                    // Both references give the same forecast, or neither gives one.
                     let (ta, tb) = (a.f_time_to_failure_hours, b.f_time_to_failure_hours);
-                    assert_eq!(ta.is_some(), tb.is_some(), "seed {seed} {back}");
-                    if let (Some(ta), Some(tb)) = (ta, tb) {
-                        assert!(
-                            (ta - tb).abs() < 0.25 * ta.max(12.0),
-                            "seed {seed} {back}: {ta} h / {tb} h"
-                        );
-                    }
+                    let same = ta.zip(tb).map_or(ta.is_none() && tb.is_none(), |(x, y)| {
+                        (x - y).abs() < 0.25 * x.max(12.0)
+                    });
+                    assert!(same, "seed {seed} {back}: {ta:?} h / {tb:?} h");
                 }
             }
             // The block's velocity and time-to-failure alarms hold.
