@@ -71,11 +71,6 @@ pub fn stated(hours: f64, sigma_hours: f64) -> bool {
 }
 
 impl FailureForecast {
-    /// [`upper_bound_hours`] of this forecast at `confidence`.
-    pub fn upper_bound_hours(&self, confidence: f64) -> Option<f64> {
-        upper_bound_hours(self.time_to_failure_hours, self.sigma_hours, confidence)
-    }
-
     fn with_interval(mut self) -> Self {
         self.lower_hours =
             Some((self.time_to_failure_hours - INTERVAL_Z * self.sigma_hours).max(0.0));

@@ -259,7 +259,7 @@ impl Scratch {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};
@@ -267,8 +267,8 @@ mod tests {
     use super::*;
 
     /// Days −39…0 and the creep-then-law displacement (v₀ 0.5 mm/day, onset 12 days before
-    /// the failure `tf` days after the last epoch).
-    fn creep_then_law(tf: f64) -> (Vec<f64>, Vec<f64>) {
+    /// the failure `tf` days after the last epoch), mm; the onset-law tests read it too.
+    pub(in crate::analysis) fn creep_then_law(tf: f64) -> (Vec<f64>, Vec<f64>) {
         let ta = tf - 12.0;
         let t: Vec<f64> = (0..40).map(|k| k as f64 - 39.0).collect();
         let d = t

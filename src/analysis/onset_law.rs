@@ -168,24 +168,7 @@ mod tests {
     use std::f64::consts::{PI, TAU};
 
     use super::*;
-
-    /// Days −39…0 and the creep-then-law displacement (v₀ 0.5 mm/day, onset 12 days before
-    /// the failure `tf` days after the last epoch), mm.
-    fn creep_then_law(tf: f64) -> (Vec<f64>, Vec<f64>) {
-        let ta = tf - 12.0;
-        let t: Vec<f64> = (0..40).map(|k| k as f64 - 39.0).collect();
-        let d = t
-            .iter()
-            .map(|&ti| {
-                if ti <= ta {
-                    0.5 * ti
-                } else {
-                    0.5 * (ta + (tf - ta) * ((tf - ta) / (tf - ti)).ln())
-                }
-            })
-            .collect();
-        (t, d)
-    }
+    use crate::analysis::onset::tests::creep_then_law;
 
     fn hours(fit: &LawFit) -> f64 {
         fit.forecast.time_to_failure_hours

@@ -198,12 +198,11 @@ fn confirmed_forecast(
             continue;
         }
         last_checked = Some(elapsed_hours);
-        // The earlier fit's hours count from the current epoch already (its times are
-        // relative to the current epoch, and so is its failure time).
-        // A failure time later than the earlier interval by up to the hours elapsed since still
-        // agrees (near failure the intervals are a few hours wide and a day's data may push the
-        // forecast later); one earlier than it does not: a burst's or a step's first epochs
-        // pull the failure time towards now.
+        // The earlier fit's hours count from the current epoch already (its times are relative
+        // to it). A failure time later than the earlier interval by up to the hours elapsed
+        // since still agrees (near failure the intervals are a few hours wide and a day's data
+        // may push the forecast later); one earlier than it does not: a burst's or a step's
+        // first epochs pull the failure time towards now.
         let previous = forecast_smoothed(earlier, kc, u, shared_mm2, config)?;
         let lower = previous.lower_hours.unwrap_or(0.0);
         let upper = previous.upper_hours.unwrap_or(f64::INFINITY) + elapsed_hours;
