@@ -9,8 +9,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 
-use cliffwatch::photogrammetry::{adjust, AdjustOptions, EpochInput};
-use cliffwatch::simulate::scenes::{large, long_range, LargeParams, LongRangeParams};
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions, EpochInput};
+use cliffwatch_sim::scenes::{large, long_range, LargeParams, LongRangeParams};
 
 fn bench(c: &mut Criterion) {
     let options = AdjustOptions::default();

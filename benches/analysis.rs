@@ -6,12 +6,12 @@
 use chrono::Duration;
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 
-use cliffwatch::analysis::analyse_series;
-use cliffwatch::analysis::{
+use cliffwatch_core::analysis::analyse_series;
+use cliffwatch_core::analysis::{
     analyse_epoch, evaluate_alerts, AlertConfig, AlertRule, AlertState, AnalysisConfig,
     DisplacementRecord, History,
 };
-use cliffwatch::simulate::monitoring::MonitoringScenario;
+use cliffwatch_sim::monitoring::MonitoringScenario;
 
 /// The contract's four rules.
 const RULES: &str = r#"[
@@ -22,7 +22,7 @@ const RULES: &str = r#"[
 
 fn setup() -> (
     MonitoringScenario,
-    cliffwatch::simulate::monitoring::MonitoringSeries,
+    cliffwatch_sim::monitoring::MonitoringSeries,
     History,
     AlertConfig,
 ) {
@@ -100,8 +100,8 @@ fn bench(c: &mut Criterion) {
     let no_stable: Vec<_> = series
         .points
         .iter()
-        .map(|p| cliffwatch::analysis::PointConfig {
-            role: cliffwatch::analysis::PointRole::Monitored,
+        .map(|p| cliffwatch_core::analysis::PointConfig {
+            role: cliffwatch_core::analysis::PointRole::Monitored,
             ..p.clone()
         })
         .collect();
@@ -114,7 +114,7 @@ fn bench(c: &mut Criterion) {
     });
 }
 
-/// The analysis part of a full-site recompute: [`cliffwatch::analysis::analyse_series`] (the function
+/// The analysis part of a full-site recompute: [`cliffwatch_core::analysis::analyse_series`] (the function
 /// `service::recompute::recompute_site` runs on a blocking thread) over 1000 daily epochs of 30 points (8
 /// stable, 6 on a creeping block, 16 others), the contract's four rules replayed.
 fn bench_recompute(c: &mut Criterion) {

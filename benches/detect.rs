@@ -8,8 +8,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::time::Duration;
 
-use cliffwatch::detect::{detect_bytes, DetectOptions, StageTimings};
-use cliffwatch::simulate::images::{
+use cliffwatch_core::detect::{detect_bytes, DetectOptions, StageTimings};
+use cliffwatch_sim::images::{
     encode_jpeg, random_clutter, render, scatter_targets, ImageSpec,
 };
 

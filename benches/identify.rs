@@ -9,9 +9,9 @@
 use std::collections::BTreeMap;
 use std::time::Duration;
 
-use cliffwatch::detect::first_epoch::{identify_first_epoch, FirstEpochOptions, StationView};
-use cliffwatch::detect::identify::Seed;
-use cliffwatch::simulate::scenes::{long_range, project, LongRangeParams};
+use cliffwatch_core::detect::first_epoch::{identify_first_epoch, FirstEpochOptions, StationView};
+use cliffwatch_core::detect::identify::Seed;
+use cliffwatch_sim::scenes::{long_range, project, LongRangeParams};
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -7,8 +7,8 @@
 //! ≈ 170 degrees of freedom) and index 3 is within 1.3 × that of the same data and model started
 //! from the true coordinates (the rigorous optimum).
 
-use cliffwatch::photogrammetry::{adjust, AdjustError, AdjustOptions, Model};
-use cliffwatch::simulate::scenes::{long_range, with_true_approx, LongRangeParams};
+use cliffwatch_core::photogrammetry::{adjust, AdjustError, AdjustOptions, Model};
+use cliffwatch_sim::scenes::{long_range, with_true_approx, LongRangeParams};
 
 fn main() {
     let seeds: u64 = std::env::args()

@@ -4,8 +4,8 @@
 
 use std::time::Instant;
 
-use cliffwatch::photogrammetry::{adjust, AdjustOptions};
-use cliffwatch::simulate::scenes::{large, long_range, LargeParams, LongRangeParams};
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions};
+use cliffwatch_sim::scenes::{large, long_range, LargeParams, LongRangeParams};
 
 fn main() {
     let mut args = std::env::args().skip(1);

@@ -3,8 +3,8 @@
 //!
 //! `cargo run --example case1_models`
 
-use cliffwatch::photogrammetry::{adjust, AdjustOptions, Model};
-use cliffwatch::simulate::scenes::{paper_table1, PaperCase, PaperParams};
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions, Model};
+use cliffwatch_sim::scenes::{paper_table1, PaperCase, PaperParams};
 
 fn main() {
     println!("| seed | orthogonal index 3 (mm) | central index 3 (mm) |");

@@ -30,16 +30,16 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde_json::json;
 
-use cliffwatch::analysis::{
+use cliffwatch_core::analysis::{
     analyse_epoch, evaluate_alerts, AlertConfig, AlertEventType, AlertLevel, AlertRule, AlertState,
     AnalysisConfig, EpochAnalysis, EpochCoordinates, GroupConfig, GroupKind, History, PointConfig,
     PointRole,
 };
-use cliffwatch::photogrammetry::model::camera::DEFAULT_SIGMA_MM;
-use cliffwatch::photogrammetry::{adjust_problem, AdjustOptions};
+use cliffwatch_core::photogrammetry::model::camera::DEFAULT_SIGMA_MM;
+use cliffwatch_core::photogrammetry::{adjust_problem, AdjustOptions};
 use cliffwatch::service::ingest::joint_covariance_points;
-use cliffwatch::simulate::monitoring::FailureLaw;
-use cliffwatch::simulate::series::{image_series, ImageSeries, ImageSeriesScenario};
+use cliffwatch_sim::monitoring::FailureLaw;
+use cliffwatch_sim::series::{image_series, ImageSeries, ImageSeriesScenario};
 
 const STILL: usize = 20;
 const EPOCHS: usize = 40;
@@ -367,7 +367,7 @@ fn median(v: &mut [f64]) -> f64 {
 /// The filtered forecasts' σ against the truth, by true time to failure: rms of error/σ, how
 /// often the truth lies inside the 90 % interval, and below the alarm's bound f + z σ (z of 95 %,
 /// the default of time-to-failure rules, and of 99 %).
-fn print_calibration(cal: &[(f64, cliffwatch::analysis::FailureForecast)]) {
+fn print_calibration(cal: &[(f64, cliffwatch_core::analysis::FailureForecast)]) {
     println!("\nFiltered time-to-failure forecasts of the failing series (points and blocks, default settings):\n");
     println!("| true time to failure | forecasts | rms of error/σ | truth in the 90 % interval | truth ≤ forecast + 1.64 σ | truth ≤ forecast + 2.33 σ |");
     println!("|---|---|---|---|---|---|");

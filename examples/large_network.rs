@@ -6,8 +6,8 @@
 
 use std::time::Instant;
 
-use cliffwatch::photogrammetry::{adjust, AdjustOptions};
-use cliffwatch::simulate::scenes::{large, LargeParams};
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions};
+use cliffwatch_sim::scenes::{large, LargeParams};
 
 fn main() {
     let params = if std::env::args().nth(1).as_deref() == Some("huge") {

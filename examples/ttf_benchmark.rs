@@ -1,4 +1,4 @@
-//! The time-to-failure benchmark on realistic kinematics ([`cliffwatch::simulate::kinematics`]):
+//! The time-to-failure benchmark on realistic kinematics ([`cliffwatch_sim::kinematics`]):
 //! cliffwatch's alarm against the oracle (the true model and noise, the same rule on its upper
 //! bound) and a plain inverse-velocity baseline on the same series. Prints the tables of
 //! `docs/accuracy.md`.
@@ -11,9 +11,9 @@
 //! kinds, e.g. `failing,burst`), and of the time-to-failure rule `TTF_CONFIDENCE` and
 //! `TTF_FOR_EPOCHS`; `TTF_SERIES=1` adds the failing series one by one.
 
-use cliffwatch::analysis::FailureConfig;
-use cliffwatch::simulate::kinematics::MotionKind;
-use cliffwatch::simulate::ttf_benchmark::{rules_with, run_kinds, series_table, table};
+use cliffwatch_core::analysis::FailureConfig;
+use cliffwatch_sim::kinematics::MotionKind;
+use cliffwatch_sim::ttf_benchmark::{rules_with, run_kinds, series_table, table};
 
 fn main() {
     let mut args = std::env::args().skip(1);

@@ -210,15 +210,15 @@ pub struct WebhookConfig {
     pub secret: String,
     /// Lowest alert level delivered (`watch`, `warning`, `alarm`).
     #[serde(default = "default_min_level")]
-    pub min_level: crate::analysis::AlertLevel,
+    pub min_level: cliffwatch_core::analysis::AlertLevel,
     /// Body format: `standard` (default, the contract body), `alertmanager_webhook` or
     /// `alertmanager_api_v2` ([`crate::webhooks::PayloadFormat`]).
     #[serde(default)]
     pub format: crate::webhooks::PayloadFormat,
 }
 
-fn default_min_level() -> crate::analysis::AlertLevel {
-    crate::analysis::AlertLevel::Warning
+fn default_min_level() -> cliffwatch_core::analysis::AlertLevel {
+    cliffwatch_core::analysis::AlertLevel::Warning
 }
 
 /// Values given on the command line; `None` leaves the lower layers in force.

@@ -5,19 +5,16 @@
 //! Hattori) and a self-calibrated principal distance, stores coordinates with their precision, computes
 //! displacements against a reference epoch and raises alerts.
 //!
-//! ## Module map
-//! The pure core (no I/O, no async, no database):
-//! - [`photogrammetry`]: the upload form, start values, the orthogonal and central bundle adjustments,
-//!   datum, precision, blunder detection, the adjustment report; one sub-module per step (`input`,
-//!   `start`, `model`, `solve`, `statistics`, `adjust`).
-//! - [`detect`]: images → circular targets with sub-pixel centres → identified observations.
-//! - [`analysis`]: stable-point datum, congruence test, displacements, velocity, time-to-failure, alert
-//!   rules (`analysis::alerts`, one file per step of an alert's life).
-//! - [`simulate`]: scenes with truth for tests and benchmarks.
-//! - [`contract`]: the names of the domain's enums (levels, states, roles, models) in the API,
-//!   the webhooks and the database, one table each; the integers of JSON bodies.
+//! ## Crates
+//! The pure core (no I/O, no async, no database) is a crate of its own, [`cliffwatch_core`]:
+//! `photogrammetry` (the upload form, start values, the orthogonal and central bundle
+//! adjustments, precision, blunder detection), `detect` (images → circular targets → identified
+//! observations), `analysis` (datum, congruence test, displacements, velocity, time to failure,
+//! alert rules) and `contract` (the names of the domain's enums). The simulator of scenes with
+//! truth, for tests, benchmarks and `cliffwatch simulate`, is [`cliffwatch_sim`].
 //!
-//! The shell around it:
+//! ## Module map
+//! The daemon around it:
 //! - [`config`]: layered configuration (file, environment, flags).
 //! - [`store`]: all SQL (SQLite or PostgreSQL through sqlx, behind one `Store`); migrations under
 //!   `migrations/sqlite/` and `migrations/postgres/`.
@@ -37,27 +34,16 @@
 //! - [`daemon`] and [`shutdown`]: start and stop every part with one shutdown signal.
 //!
 //! A module is `pub` when the binary, the tests, the benchmarks or the examples use it; the
-//! others (handlers, page templates, internal rows, solver and detection steps) are `pub(crate)`.
-//! Four core modules stay `pub` although only the crate uses them, because private they would leave
-//! helpers without a caller (`detect::threshold`, `photogrammetry::model::orthogonal`,
-//! `photogrammetry::start::affine`) or trip clippy's naming rules (`photogrammetry::model::frame`).
+//! others (handlers, page templates, internal rows) are `pub(crate)`.
 
-// Numerical code indexes several parallel arrays with one loop variable; the lint fights that style.
-#![allow(clippy::needless_range_loop)]
-
-pub mod analysis;
 pub mod api;
 pub mod cap;
 pub mod config;
-pub mod contract;
 pub mod daemon;
 pub mod dashboard;
-pub mod detect;
 pub mod http;
-pub mod photogrammetry;
 pub mod service;
 pub mod shutdown;
-pub mod simulate;
 pub mod store;
 pub(crate) mod url_path;
 pub mod watch;

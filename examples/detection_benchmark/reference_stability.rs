@@ -1,6 +1,6 @@
 //! The detection benchmark's count of `reference_unstable` on its still series.
 
-use cliffwatch::analysis::{evaluate_alerts, AlertConfig, AlertState};
+use cliffwatch_core::analysis::{evaluate_alerts, AlertConfig, AlertState};
 
 use super::Processed;
 
@@ -29,7 +29,7 @@ pub(super) fn reference_stability(processed: &[Processed]) -> [usize; 7] {
                 let (n, _) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
                 st = n;
                 let now = st
-                    .find(None, cliffwatch::analysis::AlertKind::ReferenceUnstable)
+                    .find(None, cliffwatch_core::analysis::AlertKind::ReferenceUnstable)
                     .map_or(0, |x| x.points.len());
                 named += now;
                 any |= now > 0;

@@ -6,7 +6,7 @@ use serde::Deserialize;
 use utoipa::ToSchema;
 
 use super::list::{Listing, Page, PageParams};
-use crate::analysis::AlertStatus;
+use cliffwatch_core::analysis::AlertStatus;
 use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use crate::http::AppState;
 use crate::service;
@@ -40,7 +40,7 @@ pub async fn list(
         Some(s) => Some(s.parse::<AlertStatus>().map_err(|_| {
             ApiError::bad_request(format!(
                 "state '{}': open, acknowledged or resolved",
-                crate::contract::truncate_for_message(s)
+                cliffwatch_core::contract::truncate_for_message(s)
             ))
         })?),
     };

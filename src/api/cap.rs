@@ -90,7 +90,7 @@ pub async fn message(
     let stem = file.strip_suffix(".xml").ok_or_else(|| {
         ApiError::not_found(format!(
             "'{}': CAP messages are <alert id>.xml",
-            crate::contract::truncate_for_message(&file)
+            cliffwatch_core::contract::truncate_for_message(&file)
         ))
     })?;
     // Alert ids may hold dots (site and point names do): the whole stem names an alert, or
@@ -110,7 +110,7 @@ pub async fn message(
             found.ok_or_else(|| {
                 ApiError::not_found(format!(
                     "alert or CAP message '{}'",
-                    crate::contract::truncate_for_message(stem)
+                    cliffwatch_core::contract::truncate_for_message(stem)
                 ))
             })?
         }
@@ -163,7 +163,7 @@ pub async fn feed(
         Some(id) => Some(sites::get(state.store.reader(), id).await?.ok_or_else(|| {
             ApiError::not_found(format!(
                 "site '{}'",
-                crate::contract::truncate_for_message(id)
+                cliffwatch_core::contract::truncate_for_message(id)
             ))
         })?),
         None => None,

@@ -13,9 +13,9 @@ use super::schemas::EpochSummary;
 use super::sites::find;
 use crate::http::error::{ApiError, ApiPath, ApiQuery};
 use crate::http::AppState;
-use crate::photogrammetry::input::epoch::CameraInput;
-use crate::photogrammetry::input::epoch_csv::{csv_camera, epoch_from_csv};
-use crate::photogrammetry::EpochInput;
+use cliffwatch_core::photogrammetry::input::epoch::CameraInput;
+use cliffwatch_core::photogrammetry::input::epoch_csv::{csv_camera, epoch_from_csv};
+use cliffwatch_core::photogrammetry::EpochInput;
 use crate::service::{ingest, ServiceError};
 use crate::store::{alerts, displacements, epochs, Store, StoreError};
 
@@ -77,7 +77,7 @@ pub struct UploadParams {
 /// `POST /api/v1/sites/{site}/epochs`: validates, adjusts and stores an epoch; 201 with its
 /// summary, 200 when the same body was stored before, 409 for another body at the same time.
 #[utoipa::path(post, path = "/api/v1/sites/{site}/epochs", operation_id = "upload_epoch", params(("site" = String, Path), ("observed_at" = Option<String>, Query, description = "CSV uploads only"), ("camera" = Option<String>, Query, pattern = "^[A-Za-z0-9._-]{1,64}$", description = "CSV uploads only: the camera of the images, needed when the site has several")),
-    request_body(description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)", content((crate::photogrammetry::EpochInput = "application/json"), (String = "text/csv"))),
+    request_body(description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)", content((cliffwatch_core::photogrammetry::EpochInput = "application/json"), (String = "text/csv"))),
     responses((status = 201, description = "stored; the epoch summary", body = crate::api::schemas::EpochSummary), (status = 200, description = "the same body was stored before", body = crate::api::schemas::EpochSummary),
         (status = 400, description = "not JSON/CSV", body = crate::api::schemas::ErrorBody), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 409, description = "another body for this observed_at, or a CSV upload to a site without cameras yet (upload a JSON epoch first)", body = crate::api::schemas::ErrorBody),
         (status = 413, description = "body too large", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid or cannot be adjusted; a CSV upload to a site of several cameras without `camera`, or naming none of them", body = crate::api::schemas::ErrorBody),
@@ -268,7 +268,7 @@ pub async fn get_one(
     let id: i64 = epoch.parse().map_err(|_| {
         ApiError::not_found(format!(
             "site '{site}' has no epoch '{}'",
-            crate::contract::truncate_for_message(&epoch)
+            cliffwatch_core::contract::truncate_for_message(&epoch)
         ))
     })?;
     summary(&state.store, &site, id, true)

@@ -14,11 +14,11 @@ use serde_json::json;
 
 use super::list::{encode, Listing, Page, PageParams};
 use super::sites::find;
-use crate::analysis::{AlertLevel, PointRole};
+use cliffwatch_core::analysis::{AlertLevel, PointRole};
 use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use crate::http::time_bound::time_bound;
 use crate::http::AppState;
-use crate::photogrammetry::input::epoch::is_valid_identifier;
+use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::displacements::{self, Displacement};
 use crate::store::points::{self, PointSettings};
 use crate::store::series::{self, SeriesFormat, SeriesQuery};
@@ -122,7 +122,7 @@ pub async fn update(
             "invalid_point",
             format!(
                 "point '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
-                crate::contract::truncate_for_message(&point)
+                cliffwatch_core::contract::truncate_for_message(&point)
             ),
         ));
     }
@@ -132,16 +132,16 @@ pub async fn update(
                 "invalid_point",
                 format!(
                     "group '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
-                    crate::contract::truncate_for_message(g)
+                    cliffwatch_core::contract::truncate_for_message(g)
                 ),
             ));
         }
     }
     if let Some(Some(d)) = settings.direction {
-        if !crate::analysis::is_usable_direction(d) {
+        if !cliffwatch_core::analysis::is_usable_direction(d) {
             return Err(ApiError::unprocessable(
                 "invalid_point",
-                crate::analysis::UNUSABLE_DIRECTION,
+                cliffwatch_core::analysis::UNUSABLE_DIRECTION,
             ));
         }
     }
@@ -186,7 +186,7 @@ impl SeriesParams {
             Some(other) => {
                 return Err(ApiError::bad_request(format!(
                     "format '{}': json or csv",
-                    crate::contract::truncate_for_message(other)
+                    cliffwatch_core::contract::truncate_for_message(other)
                 )))
             }
         };
@@ -212,7 +212,7 @@ pub async fn displacements(
     let p = points::get(db, &site, &point).await?.ok_or_else(|| {
         ApiError::not_found(format!(
             "site '{site}' has no point '{}'",
-            crate::contract::truncate_for_message(&point)
+            cliffwatch_core::contract::truncate_for_message(&point)
         ))
     })?;
     let (from, to, format) = q.range_and_format()?;

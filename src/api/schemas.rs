@@ -2,12 +2,12 @@
 //! through [`ErrorBody`] by [`crate::http::error::ApiError`]), the status of the health endpoints, and
 //! the epoch summary ([`EpochSummary`]: the list fields, the stored report and the epoch's rows).
 //! Each is the type that writes the answer, and the OpenAPI schema is derived from it, as the
-//! upload form's is from the types that read it ([`crate::photogrammetry::EpochInput`]).
+//! upload form's is from the types that read it ([`cliffwatch_core::photogrammetry::EpochInput`]).
 
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use crate::photogrammetry::statistics::GlobalTest;
+use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 use crate::store::alerts::Alert;
 use crate::store::displacements::Displacement;
 use crate::store::epoch_report::EpochReport;

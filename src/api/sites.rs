@@ -9,7 +9,7 @@ use utoipa::ToSchema;
 use super::list::{Listing, Page, PageParams};
 use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use crate::http::AppState;
-use crate::photogrammetry::input::epoch::is_valid_identifier;
+use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier;
 use crate::service::ServiceError;
 use crate::store::sites::{self, NewSite, Site};
 
@@ -70,7 +70,7 @@ pub async fn find(state: &AppState, site: &str) -> Result<Site, ApiError> {
     if !is_valid_identifier(site) {
         return Err(ApiError::not_found(format!(
             "unknown site '{}'",
-            crate::contract::truncate_for_message(site)
+            cliffwatch_core::contract::truncate_for_message(site)
         )));
     }
     sites::get(state.store.reader(), site)
@@ -87,7 +87,7 @@ pub struct ReferenceBody {
     /// The reference epoch's integer id; null or absent: back to the earliest.
     #[serde(
         default,
-        deserialize_with = "crate::contract::json_integer::optional_i64"
+        deserialize_with = "cliffwatch_core::contract::json_integer::optional_i64"
     )]
     pub epoch: Option<i64>,
 }

@@ -18,7 +18,7 @@ pub struct FeedEntry {
     /// Where the CAP message is served (`…/api/v1/cap/alerts/<id>.xml`).
     pub href: String,
     /// The public level of the latest message (`warning` or `alarm`), an Atom category.
-    pub level: crate::analysis::AlertLevel,
+    pub level: cliffwatch_core::analysis::AlertLevel,
 }
 
 /// The feed document. `id` is the feed's IRI, `self_href` where it is served; `updated` is

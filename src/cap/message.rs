@@ -4,7 +4,7 @@ use chrono::{DateTime, Duration, Utc};
 
 use super::area::SiteArea;
 use super::xml::{cap_time, escape};
-use crate::analysis::{AlertEventType, AlertKind, AlertLevel};
+use cliffwatch_core::analysis::{AlertEventType, AlertKind, AlertLevel};
 
 /// The message's description: the alert's message, then the measured value against its
 /// threshold and the campaign it was measured at.

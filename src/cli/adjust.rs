@@ -5,8 +5,8 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use anyhow::Context;
-use cliffwatch::photogrammetry::{adjust, AdjustOptions, EpochInput, Model};
-use cliffwatch::simulate::scenes::Truth;
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions, EpochInput, Model};
+use cliffwatch_sim::scenes::Truth;
 
 /// Arguments of `cliffwatch adjust`.
 #[derive(clap::Args)]

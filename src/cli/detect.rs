@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use cliffwatch::detect::{
+use cliffwatch_core::detect::{
     decode, detect, DetectOptions, Detections, GreyImage, Polarity, MAX_IMAGE_FILE_BYTES,
 };
 use rayon::prelude::*;

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use cliffwatch::detect::{GreyImage, Target};
+use cliffwatch_core::detect::{GreyImage, Target};
 use image::{Rgb, RgbImage};
 
 /// Digits 0–9 in a 3 × 5 bitmap, one row per 3 bits (most significant bit: left).

@@ -1,17 +1,17 @@
 //! `cliffwatch simulate --scene NAME --seed N [--out-dir DIR] [--blunder] [--epochs N]`: writes
 //! `NAME-seedN.epoch.json` (upload form) and `NAME-seedN.truth.json` (the form of
-//! [`cliffwatch::simulate::scenes::Truth`]). The `monitoring-series` scene writes one upload per epoch,
+//! [`cliffwatch_sim::scenes::Truth`]). The `monitoring-series` scene writes one upload per epoch,
 //! `monitoring-series-seedN-KKK.epoch.json` (K from 1), and the series truth
-//! `monitoring-series-seedN.truth.json` ([`cliffwatch::simulate::series::SeriesTruth`]).
+//! `monitoring-series-seedN.truth.json` ([`cliffwatch_sim::series::SeriesTruth`]).
 
 use std::path::PathBuf;
 
 use anyhow::Context;
-use cliffwatch::simulate::scenes::{
+use cliffwatch_sim::scenes::{
     calibration, large, long_range, paper_table1, CalibrationParams, LabelSwap, LargeParams,
     LongRangeParams, PaperCase, PaperParams,
 };
-use cliffwatch::simulate::series::{image_series, ImageSeriesScenario};
+use cliffwatch_sim::series::{image_series, ImageSeriesScenario};
 
 /// The scenes `cliffwatch simulate` can write.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

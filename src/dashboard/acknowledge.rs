@@ -14,7 +14,7 @@ use serde::Deserialize;
 use super::layout::{level_badge, metric_name, num, page, seg, Viewer};
 use super::local_time::when;
 use super::page::viewer;
-use crate::analysis::AlertStatus;
+use cliffwatch_core::analysis::AlertStatus;
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::service::acknowledge::{MAX_COMMENT_CHARS, MAX_NAME_CHARS};

@@ -6,7 +6,7 @@
 use maud::{html, Markup};
 use serde::Deserialize;
 
-use crate::analysis::{AlertLevel, AlertStatus};
+use cliffwatch_core::analysis::{AlertLevel, AlertStatus};
 use crate::store::alerts::Alert;
 
 /// The query of the site page, as sent.

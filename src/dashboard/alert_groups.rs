@@ -13,7 +13,7 @@ use maud::{html, Markup};
 use super::acknowledge::alert_row;
 use super::layout::{level_badge, metric_name, seg, Viewer};
 use super::local_time::when;
-use crate::analysis::{AlertLevel, AlertStatus};
+use cliffwatch_core::analysis::{AlertLevel, AlertStatus};
 use crate::store::alerts::Alert;
 
 /// Whose alerts a row gathers.

@@ -14,7 +14,7 @@ use maud::{html, Markup};
 use super::layout::{level_badge, metric_name, num, page, seg};
 use super::local_time::when;
 use super::page::{viewer, PageError};
-use crate::analysis::{ClearedHow, ClearingTest};
+use cliffwatch_core::analysis::{ClearedHow, ClearingTest};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::alerts;

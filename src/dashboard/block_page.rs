@@ -17,7 +17,7 @@ use super::local_time::{text, when};
 use super::page::{site_or_404, viewer, PageError};
 use super::plot_data::inverse_line;
 use super::time_plot_svg::{time_plot, time_plot_with_line};
-use crate::analysis::AlertLevel;
+use cliffwatch_core::analysis::AlertLevel;
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::displacements::Displacement;

@@ -18,7 +18,7 @@ use super::local_time::when;
 use super::page::{viewer, PageError};
 use crate::http::auth::Access;
 use crate::http::AppState;
-use crate::photogrammetry::adjust::report::VarianceModel;
+use cliffwatch_core::photogrammetry::adjust::report::VarianceModel;
 use crate::store::epochs::{self, ObservationResidual};
 
 /// The epoch page.

@@ -1,13 +1,13 @@
 //! The face plan: the points drawn in the face, along the face against height, in the site's
 //! declared frame (pure geometry, no I/O).
 //!
-//! The face's axes come from [`crate::analysis::site_frame::FaceAxes`]: the site's up axis and the
+//! The face's axes come from [`cliffwatch_core::analysis::site_frame::FaceAxes`]: the site's up axis and the
 //! face's outward normal (declared, or from the stable points' least-squares plane). The plan's
 //! origin is the centroid of the points.
 
 use nalgebra::Vector3;
 
-use crate::analysis::site_frame::{FaceAxes, SiteFrame};
+use cliffwatch_core::analysis::site_frame::{FaceAxes, SiteFrame};
 
 /// The plane's frame: origin and unit axes in the site frame (m).
 #[derive(Debug, Clone, Copy, PartialEq)]

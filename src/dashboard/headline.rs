@@ -13,7 +13,7 @@ use maud::{html, Markup};
 use super::layout::{level_class, seg};
 use super::local_time::{text, when};
 use super::page::PageError;
-use crate::analysis::AlertLevel;
+use cliffwatch_core::analysis::AlertLevel;
 use crate::http::AppState;
 use crate::store::displacements::Displacement;
 use crate::store::sites::Site;
@@ -150,10 +150,10 @@ fn ttf(d: &Displacement) -> Option<(f64, Option<f64>)> {
 }
 
 /// Whether the pages state a forecast of `h` hours with σ `s` (h; unknown: 0): its one-sided
-/// upper bound lies within a week ([`crate::analysis::failure::stated`]); otherwise "no
+/// upper bound lies within a week ([`cliffwatch_core::analysis::failure::stated`]); otherwise "no
 /// forecast yet".
 fn stated(h: f64, s: Option<f64>) -> bool {
-    crate::analysis::failure::stated(h, s.unwrap_or(0.0))
+    cliffwatch_core::analysis::failure::stated(h, s.unwrap_or(0.0))
 }
 
 /// A forecast failure time as the pages state it (s since 1970).
@@ -165,7 +165,7 @@ pub struct FailureTime {
     pub lower: f64,
     /// Upper end of its ±2σ interval.
     pub upper: f64,
-    /// The one-sided upper bound at [`crate::analysis::failure::BOUND_CONFIDENCE`]: failure is
+    /// The one-sided upper bound at [`cliffwatch_core::analysis::failure::BOUND_CONFIDENCE`]: failure is
     /// likely before it.
     pub likely_before: f64,
 }
@@ -180,10 +180,10 @@ pub fn failure_time(d: &Displacement) -> Option<FailureTime> {
     }
     let t0 = parse_timestamp(&d.observed_at)?.timestamp() as f64;
     let s = s.filter(|s| s.is_finite()).unwrap_or(0.0);
-    let bound = crate::analysis::failure::upper_bound_hours(
+    let bound = cliffwatch_core::analysis::failure::upper_bound_hours(
         h,
         s,
-        crate::analysis::failure::BOUND_CONFIDENCE,
+        cliffwatch_core::analysis::failure::BOUND_CONFIDENCE,
     )?;
     let tf = t0 + h * 3600.0;
     Some(FailureTime {
@@ -198,7 +198,7 @@ pub fn failure_time(d: &Displacement) -> Option<FailureTime> {
 pub fn bound_confidence_words() -> String {
     format!(
         "{:.0} %",
-        100.0 * crate::analysis::failure::BOUND_CONFIDENCE
+        100.0 * cliffwatch_core::analysis::failure::BOUND_CONFIDENCE
     )
 }
 

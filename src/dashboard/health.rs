@@ -1,14 +1,14 @@
 //! The adjustments' health on the site page (issue 61, item 8; a pure renderer): each epoch's
 //! variance factor against the global test's acceptance band, and when the test failed on most
 //! of the recent epochs, a sentence that says so with the cameras' a-priori σ estimated from
-//! their variance components ([`crate::photogrammetry::statistics::variance_components`]) and
+//! their variance components ([`cliffwatch_core::photogrammetry::statistics::variance_components`]) and
 //! whether the site applies it.
 
 use maud::{html, Markup};
 
 use super::layout::num;
-use crate::photogrammetry::statistics::variance_components::PooledSigma;
-use crate::photogrammetry::statistics::GlobalTest;
+use cliffwatch_core::photogrammetry::statistics::variance_components::PooledSigma;
+use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 use crate::store::epochs::EpochListItem;
 use crate::store::sites::AprioriSigma;
 

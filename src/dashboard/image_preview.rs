@@ -10,14 +10,14 @@
 use image::codecs::jpeg::JpegEncoder;
 use image::ExtendedColorType;
 
-use crate::detect::decode::{decode_with_limit, luma, GreyImage};
-use crate::detect::DetectError;
+use cliffwatch_core::detect::decode::{decode_with_limit, luma, GreyImage};
+use cliffwatch_core::detect::DetectError;
 
 /// Longest side of a preview in px.
 pub const PREVIEW_MAX_SIDE: u32 = 1280;
 
 /// Largest image a preview is made of, in pixels (the detector's own limit).
-const MAX_PIXELS: u64 = crate::detect::decode::DEFAULT_MAX_PIXELS;
+const MAX_PIXELS: u64 = cliffwatch_core::detect::decode::DEFAULT_MAX_PIXELS;
 
 /// A preview: JPEG bytes, its size in px and the box size k (1 preview px = k image px).
 #[derive(Debug, Clone)]
@@ -151,7 +151,7 @@ fn stretch_range(v: &[f64], lo: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
+    use cliffwatch_sim::images::{encode_png, render, ImageSpec, TargetTruth};
 
     /// A 2160 × 1440 frame with one bright target: the preview is 1080 × 720 (k = 2), a JPEG, and
     /// the target's box is the brightest part of it, where the image has it.

@@ -3,7 +3,7 @@
 
 use maud::{html, Markup, DOCTYPE};
 
-use crate::analysis::AlertLevel;
+use cliffwatch_core::analysis::AlertLevel;
 
 /// What a page needs from the request: the CSRF token of a cookie session (sent by htmx with
 /// every change), and whether the visitor may acknowledge alerts.
@@ -105,10 +105,10 @@ pub fn metric_name(rule: &str) -> &str {
 pub use crate::http::seg;
 
 /// A time to failure (h) with its σ, or "no forecast yet" when its one-sided bound lies beyond a
-/// week ([`crate::analysis::failure::stated`]; the rules read it through that bound all the same).
+/// week ([`cliffwatch_core::analysis::failure::stated`]; the rules read it through that bound all the same).
 pub fn time_to_failure(hours: Option<f64>, sigma: Option<f64>) -> String {
     match (hours, sigma) {
-        (Some(h), Some(s)) if !crate::analysis::failure::stated(h, s) => {
+        (Some(h), Some(s)) if !cliffwatch_core::analysis::failure::stated(h, s) => {
             format!("no forecast yet ({h:.0} ± {s:.0})")
         }
         _ => with_sigma(hours, sigma, 0),

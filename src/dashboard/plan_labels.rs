@@ -9,7 +9,7 @@
 //! lettering (11 px names in plan units) and for the phone's (30 px names, as `dashboard.css`
 //! draws them below 700 px), and the page hides each set with its own class.
 
-use crate::analysis::AlertLevel;
+use cliffwatch_core::analysis::AlertLevel;
 
 /// What the decluttering needs of one point: its position in plan units (px of the SVG's
 /// viewBox), the label's text and whether the out-of-face line is drawn under it.

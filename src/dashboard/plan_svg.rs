@@ -9,8 +9,8 @@ use maud::{html, Markup};
 use super::face_plan::{nice_floor, FacePlane};
 use super::layout::{level_class, seg};
 use super::plan_labels::{shown, LabelInput, Shown, DESKTOP, PHONE};
-use crate::analysis::site_frame::{NormalSource, SiteFrame};
-use crate::analysis::AlertLevel;
+use cliffwatch_core::analysis::site_frame::{NormalSource, SiteFrame};
+use cliffwatch_core::analysis::AlertLevel;
 
 /// One point to draw.
 #[derive(Debug, Clone)]

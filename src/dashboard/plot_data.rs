@@ -271,12 +271,12 @@ fn write_columns(c: &SeriesColumns, out: &mut Vec<u8>) {
 /// displacements along the direction of motion (the 3-D length without a direction) of the
 /// forecast's window, the last [`LINE_EPOCHS`] epochs. `[t0, y0, t_f, 0]` (s since 1970,
 /// day/mm) from the window's first epoch; None without a forecast, for one the pages do not
-/// state ([`crate::analysis::failure::stated`]: "no forecast yet"), or when the law does not
+/// state ([`cliffwatch_core::analysis::failure::stated`]: "no forecast yet"), or when the law does not
 /// advance.
 pub fn inverse_line(c: &SeriesColumns) -> Option<[f64; 4]> {
     let i = c.t.len().checked_sub(1)?;
     let (h, s) = (c.f_ttf[0][i], c.f_ttf[1][i]);
-    if !crate::analysis::failure::stated(h, s) {
+    if !cliffwatch_core::analysis::failure::stated(h, s) {
         return None;
     }
     let day = |t: f64| t / 86_400.0;
@@ -310,7 +310,7 @@ pub fn inverse_line(c: &SeriesColumns) -> Option<[f64; 4]> {
 
 /// The latest filtered forecast: failure time and ±2σ (s since 1970), the one-sided bound
 /// before which failure is likely (`likely_before`, at
-/// [`crate::analysis::failure::BOUND_CONFIDENCE`]), the window its line was fitted over, and the
+/// [`cliffwatch_core::analysis::failure::BOUND_CONFIDENCE`]), the window its line was fitted over, and the
 /// sentence the page shows (UTC and the site's time zone `tz`), or null. A forecast whose bound
 /// lies beyond a week reads "No forecast yet" (`stated: false`, no line).
 fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
@@ -321,9 +321,9 @@ fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
     if !h.is_finite() {
         return Value::Null;
     }
-    let confidence = crate::analysis::failure::BOUND_CONFIDENCE;
+    let confidence = cliffwatch_core::analysis::failure::BOUND_CONFIDENCE;
     let sigma_hours = if s.is_finite() { s } else { 0.0 };
-    let bound_hours = crate::analysis::failure::upper_bound_hours(h, sigma_hours, confidence)
+    let bound_hours = cliffwatch_core::analysis::failure::upper_bound_hours(h, sigma_hours, confidence)
         .unwrap_or(f64::INFINITY);
     let tf = c.t[i] + h * 3600.0;
     let s = sigma_hours * 3600.0;
@@ -331,7 +331,7 @@ fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
     let likely_before = c.t[i] + bound_hours * 3600.0;
     let from = c.t[c.t.len().saturating_sub(LINE_EPOCHS)];
     let epochs = c.t.len().min(LINE_EPOCHS);
-    let stated = crate::analysis::failure::stated(h, sigma_hours);
+    let stated = cliffwatch_core::analysis::failure::stated(h, sigma_hours);
     let percent = 100.0 * confidence;
     let text = if stated {
         format!(
@@ -353,7 +353,7 @@ fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
         format!(
             "No forecast yet: the point accelerates, but failure is not likely within {:.0} h \
              ({h:.0} ± {sigma_hours:.0} h, 1σ: the {percent:.0} % bound is {bound_hours:.0} h after the last epoch).",
-            crate::analysis::failure::NO_FORECAST_BEYOND_HOURS,
+            cliffwatch_core::analysis::failure::NO_FORECAST_BEYOND_HOURS,
         )
     };
     json!({"t_f": tf, "lower": lower, "upper": upper, "likely_before": likely_before,

@@ -20,7 +20,7 @@ use super::page::{viewer, PageError};
 use super::plan_svg::{face_plan, PlanPoint};
 use super::report_sections::{self as sections, BlockRow};
 use super::time_plot_svg::time_plot;
-use crate::analysis::{AlertLevel, PointRole};
+use cliffwatch_core::analysis::{AlertLevel, PointRole};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::series::columns::unix_seconds;
@@ -97,7 +97,7 @@ struct Report {
     /// The period's epochs adjusted with cameras' σ estimated from earlier epochs, with them.
     estimated_sigma: Vec<(
         i64,
-        Vec<crate::photogrammetry::statistics::variance_components::PooledSigma>,
+        Vec<cliffwatch_core::photogrammetry::statistics::variance_components::PooledSigma>,
     )>,
     /// Alerts whose epoch lies in the period.
     history: Vec<alerts::Alert>,

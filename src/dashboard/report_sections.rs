@@ -8,8 +8,8 @@ use maud::{html, Markup};
 use super::headline::{bound_confidence_words, failure_time};
 use super::layout::{level_badge, metric_name, num, seg, time_to_failure, with_sigma};
 use super::local_time::{text, when};
-use crate::photogrammetry::statistics::variance_components::PooledSigma;
-use crate::photogrammetry::statistics::GlobalTest;
+use cliffwatch_core::photogrammetry::statistics::variance_components::PooledSigma;
+use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 use crate::store::alerts::Alert;
 use crate::store::displacements::Displacement;
 use crate::store::epochs::EpochListItem;
@@ -212,7 +212,7 @@ pub fn history(rows: &[Alert], tz: Option<&str>) -> Markup {
 /// "displacement (warning), velocity (watch)": each metric once, with the highest level its
 /// alerts reached.
 fn metrics(alerts: &[&Alert]) -> String {
-    let mut out: Vec<(&str, crate::analysis::AlertLevel)> = Vec::new();
+    let mut out: Vec<(&str, cliffwatch_core::analysis::AlertLevel)> = Vec::new();
     for a in alerts {
         let name = metric_name(&a.rule);
         match out.iter_mut().find(|(m, _)| *m == name) {

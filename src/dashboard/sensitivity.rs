@@ -1,12 +1,12 @@
 //! The minimum detectable displacement of a stored displacement row, for the pages: the row's
 //! 3 × 3 covariance under the single-point test at the site's confidence (χ²(3) critical value),
-//! at [`DEFAULT_POWER`] (see [`crate::analysis::sensitivity`]).
+//! at [`DEFAULT_POWER`] (see [`cliffwatch_core::analysis::sensitivity`]).
 
 use nalgebra::Matrix3;
 
-use crate::analysis::sensitivity::{minimum_detectable, MinimumDetectable, DEFAULT_POWER};
-use crate::analysis::stats::chi2_quantile;
-use crate::analysis::unit_direction;
+use cliffwatch_core::analysis::sensitivity::{minimum_detectable, MinimumDetectable, DEFAULT_POWER};
+use cliffwatch_core::analysis::stats::chi2_quantile;
+use cliffwatch_core::analysis::unit_direction;
 use crate::store::displacements::Displacement;
 
 /// The MDD of row `d` (mm) along `direction` (any length; None: 3-D only) at `confidence`

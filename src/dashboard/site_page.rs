@@ -17,7 +17,7 @@ use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma, Vi
 use super::local_time::when;
 use super::page::{viewer, PageError};
 use super::plan_svg::{face_plan, PlanPoint};
-use crate::analysis::{AlertLevel, PointRole};
+use cliffwatch_core::analysis::{AlertLevel, PointRole};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::{alerts, displacements, epochs, points};
@@ -169,7 +169,7 @@ async fn health_section(
 /// The declared block of each point in one: a block's listed points, or, when it lists none,
 /// the points whose group names it.
 fn block_of(
-    blocks: &[crate::analysis::GroupConfig],
+    blocks: &[cliffwatch_core::analysis::GroupConfig],
     pts: &[points::Point],
 ) -> HashMap<String, String> {
     let mut out = HashMap::new();

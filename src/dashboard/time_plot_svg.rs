@@ -7,7 +7,7 @@
 use maud::{html, Markup};
 
 use super::layout::level_class;
-use crate::analysis::AlertLevel;
+use cliffwatch_core::analysis::AlertLevel;
 
 const W: f64 = 640.0;
 const H: f64 = 200.0;

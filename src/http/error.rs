@@ -9,7 +9,7 @@ use serde_json::{json, Value};
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use crate::photogrammetry::input::epoch_csv::CsvError;
+use cliffwatch_core::photogrammetry::input::epoch_csv::CsvError;
 use crate::service::ServiceError;
 use crate::store::StoreError;
 
@@ -105,10 +105,10 @@ impl ApiError {
 impl IntoResponse for ApiError {
     /// The contract's JSON error; a run of the message quoted in double quotes or backticks (how
     /// serde's messages repeat a value) is cut to 80 characters and an ellipsis
-    /// ([`crate::contract::echo::truncate_quoted`]), as the service's own messages cut what they
-    /// repeat ([`crate::contract::truncate_for_message`]).
+    /// ([`cliffwatch_core::contract::echo::truncate_quoted`]), as the service's own messages cut what they
+    /// repeat ([`cliffwatch_core::contract::truncate_for_message`]).
     fn into_response(self) -> Response {
-        let message = match crate::contract::echo::truncate_quoted(&self.message) {
+        let message = match cliffwatch_core::contract::echo::truncate_quoted(&self.message) {
             std::borrow::Cow::Borrowed(_) => self.message,
             std::borrow::Cow::Owned(cut) => cut,
         };

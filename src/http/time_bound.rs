@@ -40,7 +40,7 @@ fn parse_time_bound(s: &str, end_of_day: bool) -> Result<chrono::DateTime<chrono
     let date = chrono::NaiveDate::parse_from_str(s, "%Y-%m-%d").map_err(|_| {
         ApiError::bad_request(format!(
             "'{}' is not an RFC 3339 time or a date",
-            crate::contract::truncate_for_message(s)
+            cliffwatch_core::contract::truncate_for_message(s)
         ))
     })?;
     let t = if end_of_day {

@@ -1,6 +1,6 @@
 //! Acknowledging an alert: the staff member on duty says they have seen it.
 
-use crate::analysis::{self, AnalysisError};
+use cliffwatch_core::analysis::{self, AnalysisError};
 use crate::store::{self, alert_states, alerts, Store, StoreError};
 
 use super::alert_outcome::save_and_record;

@@ -1,12 +1,12 @@
 //! The alert side of a use case, inside its transaction: load the site's alert state, let the
-//! pure rules of [`crate::analysis`] decide, save the state, and write each event's alert row,
+//! pure rules of [`cliffwatch_core::analysis`] decide, save the state, and write each event's alert row,
 //! outbox message and one pending delivery per endpoint that takes it (but Alertmanager API v2
 //! endpoints, which the re-post loop keeps up to date from the store:
 //! [`super::alertmanager_resend`]).
 
 use chrono::{DateTime, Utc};
 
-use crate::analysis::{self, AlertEvent, AlertEventType, AlertState, AlertStatus, EpochAnalysis};
+use cliffwatch_core::analysis::{self, AlertEvent, AlertEventType, AlertState, AlertStatus, EpochAnalysis};
 use crate::store::sites::Site;
 use crate::store::{self, alert_states, alerts, epochs, outbox, webhooks, Connection, StoreError};
 use crate::webhooks::{accepts, message_id, render, PayloadFormat, WebhookPayload};

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use chrono::{DateTime, Utc};
 
-use crate::analysis::AlertLevel;
+use cliffwatch_core::analysis::AlertLevel;
 use crate::shutdown::Shutdown;
 use crate::store::{self, alert_repost, webhooks, Store, StoreError};
 use crate::webhooks::{
@@ -75,7 +75,7 @@ fn current(a: &store::alerts::Alert) -> Option<CurrentAlert> {
         message: a.message.clone(),
         raised_at: store::parse_timestamp(&a.raised_at).unwrap_or(changed_at),
         changed_at,
-        resolved: a.state == crate::analysis::AlertStatus::Resolved,
+        resolved: a.state == cliffwatch_core::analysis::AlertStatus::Resolved,
     })
 }
 

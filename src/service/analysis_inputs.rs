@@ -5,7 +5,7 @@
 
 use std::collections::HashMap;
 
-use crate::analysis::{
+use cliffwatch_core::analysis::{
     self, AlertConfig, AlertRule, AnalysisConfig, AnalysisError, DisplacementRecord,
     EpochCoordinates, History, PointConfig, PointCoordinates,
 };

@@ -4,10 +4,10 @@
 //! `apriori_sigma: estimated` an epoch's adjustment uses it in place of the uploaded σ, once
 //! [`MIN_EPOCHS`] earlier epochs carry components.
 
-use crate::photogrammetry::statistics::variance_components::{
+use cliffwatch_core::photogrammetry::statistics::variance_components::{
     pooled, PooledSigma, VarianceComponent,
 };
-use crate::photogrammetry::EpochProblem;
+use cliffwatch_core::photogrammetry::EpochProblem;
 use crate::store::{epoch_health, Connection, Store, StoreError};
 
 /// The sliding window of epochs the estimate pools.
@@ -37,7 +37,7 @@ pub fn apply(problem: &mut EpochProblem, estimate: &[PooledSigma]) -> Vec<Pooled
         if let Some(e) = estimate.iter().find(|e| e.camera == cam.id) {
             cam.sigma_mm = e
                 .sigma_mm
-                .max(crate::photogrammetry::model::camera::MIN_SIGMA_MM);
+                .max(cliffwatch_core::photogrammetry::model::camera::MIN_SIGMA_MM);
             applied.push(e.clone());
         }
     }

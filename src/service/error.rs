@@ -3,9 +3,9 @@
 
 use thiserror::Error;
 
-use crate::contract::truncate_for_message as cut;
+use cliffwatch_core::contract::truncate_for_message as cut;
 
-use crate::photogrammetry::{AdjustError, EpochError};
+use cliffwatch_core::photogrammetry::{AdjustError, EpochError};
 use crate::store::StoreError;
 
 /// Why a use case failed; nothing of it was stored.

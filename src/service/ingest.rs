@@ -12,8 +12,8 @@ use std::time::Instant;
 use chrono::{DateTime, Utc};
 use sha2::{Digest, Sha256};
 
-use crate::analysis::{self, EpochCoordinates, GroupKind, History};
-use crate::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochError, EpochInput};
+use cliffwatch_core::analysis::{self, EpochCoordinates, GroupKind, History};
+use cliffwatch_core::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochError, EpochInput};
 use crate::store::block_motions;
 use crate::store::displacements::{self, Displacement};
 use crate::store::sites::{AprioriSigma, Site};
@@ -303,7 +303,7 @@ pub struct Derived {
 /// commit while `tx` holds the lock) is consistent with what is written.
 ///
 /// Loads the reference epoch's coordinates (with the stable points' joint covariance), the point
-/// configurations and the history the windows need, runs [`crate::analysis::analyse_epoch`] on a
+/// configurations and the history the windows need, runs [`cliffwatch_core::analysis::analyse_epoch`] on a
 /// blocking thread, then evaluates the site's alert rules and writes the alert state, the alerts and
 /// the webhook outbox, all at `now` (the transaction's time on the store's clock). An epoch whose
 /// analysis fails (e.g. too few points in common with the reference) is stored without

@@ -1,5 +1,5 @@
 //! The use cases, one file each. Each owns its transaction, calls the pure core
-//! ([`crate::photogrammetry`], [`crate::analysis`]) on blocking threads and the store
+//! ([`cliffwatch_core::photogrammetry`], [`cliffwatch_core::analysis`]) on blocking threads and the store
 //! ([`crate::store`]) for every read and write; the API handlers, the watched directory and the
 //! daemon call them.
 //!

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use chrono::{DateTime, Utc};
 
-use crate::analysis;
+use cliffwatch_core::analysis;
 use crate::shutdown::Shutdown;
 use crate::store::{self, alert_states, epochs, sites, Store, StoreError};
 

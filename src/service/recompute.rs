@@ -3,7 +3,7 @@
 //! older version. Runs inside the caller's write transaction, so the change and everything
 //! derived from it commit together.
 
-use crate::analysis::analyse_series;
+use cliffwatch_core::analysis::analyse_series;
 use crate::store::{
     self, block_motions, displacements, epochs, sites, Connection, Store, StoreError,
 };

@@ -2,7 +2,7 @@
 //! declared block groups and the points' roles, groups and directions. Each change and the
 //! recompute it causes commit in one transaction.
 
-use crate::analysis::{GroupConfig, PointRole};
+use cliffwatch_core::analysis::{GroupConfig, PointRole};
 use crate::store::points::{self, Point, PointSettings};
 use crate::store::{epochs, groups, sites, Store, StoreError};
 

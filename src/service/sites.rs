@@ -2,9 +2,9 @@
 //! transaction. The checks are also those of the sites in the configuration file
 //! ([`super::configured`]).
 
-use crate::analysis::alerts::{MAX_CONFIDENCE, MIN_CONFIDENCE};
-use crate::analysis::AlertRule;
-use crate::photogrammetry::input::epoch::is_valid_identifier;
+use cliffwatch_core::analysis::alerts::{MAX_CONFIDENCE, MIN_CONFIDENCE};
+use cliffwatch_core::analysis::AlertRule;
+use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::sites::{self, NewSite, Site};
 use crate::store::{Store, StoreError};
 
@@ -51,7 +51,7 @@ pub fn validate_site(s: &NewSite) -> Result<(), ServiceError> {
     if !is_valid_identifier(&s.id) {
         return Err(invalid(format!(
             "id '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
-            crate::contract::truncate_for_message(&s.id)
+            cliffwatch_core::contract::truncate_for_message(&s.id)
         )));
     }
     if let Some(n) = s.name.as_deref() {
@@ -109,7 +109,7 @@ pub fn validate_site(s: &NewSite) -> Result<(), ServiceError> {
         if tz.parse::<chrono_tz::Tz>().is_err() {
             return Err(invalid(format!(
                 "time_zone '{}': an IANA time zone name such as Asia/Tokyo or Europe/Zurich",
-                crate::contract::truncate_for_message(tz)
+                cliffwatch_core::contract::truncate_for_message(tz)
             )));
         }
     }
@@ -142,11 +142,11 @@ pub fn validate_site(s: &NewSite) -> Result<(), ServiceError> {
         }
         if let Some(unknown) = rule.as_object().and_then(|o| {
             o.keys()
-                .find(|k| !crate::analysis::alerts::RULE_MEMBERS.contains(&k.as_str()))
+                .find(|k| !cliffwatch_core::analysis::alerts::RULE_MEMBERS.contains(&k.as_str()))
         }) {
             return Err(invalid(format!(
                 "alert_rules[{i}].{unknown}: unknown member; a rule has {}",
-                crate::analysis::alerts::RULE_MEMBERS.join(", ")
+                cliffwatch_core::analysis::alerts::RULE_MEMBERS.join(", ")
             )));
         }
         // The rule as the engine reads it: source, for_epochs, hysteresis on the right side.
@@ -154,7 +154,7 @@ pub fn validate_site(s: &NewSite) -> Result<(), ServiceError> {
             .map_err(|e| e.to_string())
             .and_then(|r| {
                 r.validate().map_err(|e| match e {
-                    crate::analysis::AnalysisError::InvalidConfig(m) => m,
+                    cliffwatch_core::analysis::AnalysisError::InvalidConfig(m) => m,
                     other => other.to_string(),
                 })
             });

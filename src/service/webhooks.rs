@@ -20,7 +20,7 @@ pub const MAX_SECRET_CHARS: usize = 256;
 /// Checks a webhook endpoint: an http(s) URL of at most [`MAX_URL_CHARS`] characters that parses
 /// and names a host, and a `whsec_` secret of at most [`MAX_SECRET_CHARS`] whose base64 decodes to
 /// the signing key (a secret that does not would fail every delivery, silently, at 3 a.m.). A
-/// URL repeated in the message is cut ([`crate::contract::truncate_for_message`]).
+/// URL repeated in the message is cut ([`cliffwatch_core::contract::truncate_for_message`]).
 pub fn validate_webhook(h: &NewWebhook) -> Result<(), ServiceError> {
     let chars = h.url.chars().count();
     if chars > MAX_URL_CHARS {
@@ -46,7 +46,7 @@ pub fn validate_webhook(h: &NewWebhook) -> Result<(), ServiceError> {
     if parsed.is_none() || after.is_none_or(|rest| rest.starts_with('/')) {
         return Err(invalid(format!(
             "url '{}': an absolute http or https URL with a host",
-            crate::contract::truncate_for_message(&h.url)
+            cliffwatch_core::contract::truncate_for_message(&h.url)
         )));
     }
     let decoded = h

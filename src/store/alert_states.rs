@@ -5,7 +5,7 @@ use chrono::{DateTime, Utc};
 use sqlx::AnyConnection;
 
 use super::{timestamp, StoreError};
-use crate::analysis::AlertState;
+use cliffwatch_core::analysis::AlertState;
 
 /// The stored state of `site` (empty when none is stored yet).
 pub async fn load(db: &mut AnyConnection, site: &str) -> Result<AlertState, StoreError> {

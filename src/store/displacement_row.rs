@@ -7,7 +7,7 @@ use utoipa::ToSchema;
 
 use super::series::record::{Filtered, Record};
 use super::{parse_timestamp, timestamp};
-use crate::analysis::{DisplacementRecord, FilteredValues};
+use cliffwatch_core::analysis::{DisplacementRecord, FilteredValues};
 
 /// The displacement of one point in one epoch against the reference epoch. Lengths in mm.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, FromRow, ToSchema)]

@@ -6,11 +6,11 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use crate::photogrammetry::adjust::report::{
+use cliffwatch_core::photogrammetry::adjust::report::{
     CameraReport, DroppedObservation, ImageReport, PointReport, VarianceModel,
 };
-use crate::photogrammetry::statistics::variance_components::{PooledSigma, VarianceComponent};
-use crate::photogrammetry::statistics::GlobalTest;
+use cliffwatch_core::photogrammetry::statistics::variance_components::{PooledSigma, VarianceComponent};
+use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 
 /// The stored report of one epoch, as the epoch summary and the dashboard show it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]

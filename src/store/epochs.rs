@@ -11,8 +11,8 @@ use utoipa::ToSchema;
 
 use super::epoch_report::EpochReport;
 use super::{display_timestamp, timestamp, StoreError};
-use crate::photogrammetry::statistics::variance_components::PooledSigma;
-use crate::photogrammetry::{Adjustment, EpochInput, Model};
+use cliffwatch_core::photogrammetry::statistics::variance_components::PooledSigma;
+use cliffwatch_core::photogrammetry::{Adjustment, EpochInput, Model};
 
 /// What ingestion hands to [`insert`]: the parsed upload and its adjustment.
 #[derive(Debug)]
@@ -51,7 +51,7 @@ pub enum EpochStatus {
     AnalysisFailed,
 }
 
-crate::contract_names!(EpochStatus, "epoch status" {
+cliffwatch_core::contract_names!(EpochStatus, "epoch status" {
     Adjusted => "adjusted",
     AnalysisFailed => "analysis_failed",
 });
@@ -411,7 +411,7 @@ async fn insert_images(
         }
         q.execute(&mut *db).await?;
     }
-    let images: Vec<(usize, &crate::photogrammetry::input::epoch::ImageInput)> =
+    let images: Vec<(usize, &cliffwatch_core::photogrammetry::input::epoch::ImageInput)> =
         rec.input.images.iter().enumerate().collect();
     for chunk in images.chunks(super::rows_per_insert(6)) {
         let sql = format!(
@@ -450,7 +450,7 @@ async fn insert_observations(
     let observations: Vec<(
         &str,
         usize,
-        &crate::photogrammetry::input::epoch::ObservationInput,
+        &cliffwatch_core::photogrammetry::input::epoch::ObservationInput,
     )> = rec
         .input
         .images

@@ -33,7 +33,7 @@ pub enum StoreError {
     Corrupt(String),
     /// A stored name (level, state, role, model…) is not one this version knows.
     #[error("stored value: {0}")]
-    Name(#[from] crate::contract::names::UnknownName),
+    Name(#[from] cliffwatch_core::contract::names::UnknownName),
     /// The database URL names no backend this version has.
     #[error("database URL '{0}': want sqlite://PATH or postgres://…")]
     Url(String),

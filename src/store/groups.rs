@@ -3,7 +3,7 @@
 use sqlx::{AnyConnection, AnyExecutor};
 
 use super::{now, StoreError};
-use crate::analysis::{GroupConfig, GroupKind};
+use cliffwatch_core::analysis::{GroupConfig, GroupKind};
 
 type Row = (String, String, Option<String>, String, Option<f64>);
 

@@ -9,7 +9,7 @@ use sqlx::AnyExecutor;
 
 use super::series::record::f64_at;
 use super::StoreError;
-use crate::analysis::JointCovarianceM2;
+use cliffwatch_core::analysis::JointCovarianceM2;
 
 /// Stores the joint covariance of `points` (row-major 3n × 3n `matrix_m2`, m²) for an epoch.
 /// The matrix is taken as symmetric: only its upper triangle is kept.

@@ -5,7 +5,7 @@ use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::StoreError;
-use crate::analysis::PointRole;
+use cliffwatch_core::analysis::PointRole;
 
 /// Settings of a point (`PUT /api/v1/sites/{site}/points/{point}`): a member left out keeps its
 /// value, `null` clears a group or a direction.

@@ -5,9 +5,9 @@ use sqlx::{AnyConnection, AnyExecutor, FromRow};
 use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
-use crate::analysis::site_frame::SiteFrame;
-use crate::detect::settings::DetectionSettings;
-use crate::photogrammetry::Model;
+use cliffwatch_core::analysis::site_frame::SiteFrame;
+use cliffwatch_core::detect::settings::DetectionSettings;
+use cliffwatch_core::photogrammetry::Model;
 
 /// The version of the derived series (displacements, filtered values, block motions) this binary
 /// writes. Sites stored by an older one (`sites.analysis_version` below it) are recomputed once at
@@ -51,13 +51,13 @@ pub struct NewSite {
     /// Alert rules (`{"level", "metric", "above"|"below", "clear_below"|"clear_above", "source",
     /// "for_epochs", "group", "confidence"}`).
     #[serde(default)]
-    #[schema(value_type = Option<Vec<crate::analysis::alerts::AlertRule>>)]
+    #[schema(value_type = Option<Vec<cliffwatch_core::analysis::alerts::AlertRule>>)]
     pub alert_rules: Option<Vec<serde_json::Value>>,
     /// Epochs averaged into the reference (covariance-weighted, in the stable-point datum), ≥ 1
     /// (default 1).
     #[serde(
         default,
-        deserialize_with = "crate::contract::json_integer::optional_i64"
+        deserialize_with = "cliffwatch_core::contract::json_integer::optional_i64"
     )]
     #[schema(minimum = 1, maximum = 100)]
     pub reference_epochs: Option<i64>,

@@ -7,7 +7,7 @@ use chrono::{DateTime, Utc};
 use sqlx::{AnyConnection, AnyExecutor};
 
 use super::{timestamp, StoreError};
-use crate::photogrammetry::ImageOrientation;
+use cliffwatch_core::photogrammetry::ImageOrientation;
 
 /// The stored orientation of every station of a site, by station (image and station fields empty).
 pub async fn orientations(

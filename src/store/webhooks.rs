@@ -8,7 +8,7 @@ use utoipa::openapi::schema::{Object, ObjectBuilder, Type};
 use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
-use crate::analysis::AlertLevel;
+use cliffwatch_core::analysis::AlertLevel;
 use crate::webhooks::PayloadFormat;
 
 /// OpenAPI schema of a `format` field: a string, one of [`PayloadFormat`]'s names.
@@ -36,7 +36,7 @@ pub enum WebhookSource {
     Config,
 }
 
-crate::contract_names!(WebhookSource, "webhook source" {
+cliffwatch_core::contract_names!(WebhookSource, "webhook source" {
     Api => "api",
     Config => "config",
 });

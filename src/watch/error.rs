@@ -1,8 +1,8 @@
 //! Why a watched folder failed.
 
-use crate::detect::first_epoch::FirstEpochError;
-use crate::detect::identify::IdentifyError;
-use crate::detect::DetectError;
+use cliffwatch_core::detect::first_epoch::FirstEpochError;
+use cliffwatch_core::detect::identify::IdentifyError;
+use cliffwatch_core::detect::DetectError;
 use crate::service::ServiceError;
 use crate::store::StoreError;
 
@@ -60,7 +60,7 @@ pub enum WatchError {
         file: String,
         /// The file's size.
         bytes: u64,
-        /// The limit ([`crate::detect::MAX_IMAGE_FILE_BYTES`]).
+        /// The limit ([`cliffwatch_core::detect::MAX_IMAGE_FILE_BYTES`]).
         max: u64,
     },
     /// A camera is invalid or lacks pixel size and image size.

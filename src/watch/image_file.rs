@@ -7,7 +7,7 @@ use std::path::Path;
 
 use tokio::io::AsyncReadExt;
 
-use crate::detect::MAX_IMAGE_FILE_BYTES;
+use cliffwatch_core::detect::MAX_IMAGE_FILE_BYTES;
 
 /// Why an image file was not read.
 #[derive(Debug, thiserror::Error)]

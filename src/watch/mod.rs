@@ -3,9 +3,9 @@
 //! appears. Each image is decoded and searched for targets, and the targets are named, on
 //! blocking threads (`spawn_blocking`). They are identified: stations with ≥ 4 seed
 //! observations in `epoch.json` together, by multi-view matching
-//! that needs the approximations only to name the targets ([`crate::detect::first_epoch`]; a station
+//! that needs the approximations only to name the targets ([`cliffwatch_core::detect::first_epoch`]; a station
 //! seeded alone, or stations that do not share 4 seeded targets, from their own seeds,
-//! [`crate::detect::identify`]); stations without seeds from the orientation the watcher kept from
+//! [`cliffwatch_core::detect::identify`]); stations without seeds from the orientation the watcher kept from
 //! their previous epoch. The epoch is ingested exactly as an upload
 //! ([`crate::service::ingest::ingest_watched`]: the counts below are stored with its report),
 //! and the stations' orientations for the next epoch are resected from its adjusted coordinates.

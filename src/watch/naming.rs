@@ -4,10 +4,10 @@ use std::collections::BTreeMap;
 
 use super::stations::{StationCounts, StationData, StationNamed};
 use super::{WatchError, WatchOptions};
-use crate::detect::convergent::{identify_convergent, ConvergentOptions, ConvergentSite};
-use crate::detect::first_epoch::{identify_first_epoch, FirstEpochError, StationView};
-use crate::detect::identify::{identify, Prior};
-use crate::photogrammetry::ImageOrientation;
+use cliffwatch_core::detect::convergent::{identify_convergent, ConvergentOptions, ConvergentSite};
+use cliffwatch_core::detect::first_epoch::{identify_first_epoch, FirstEpochError, StationView};
+use cliffwatch_core::detect::identify::{identify, Prior};
+use cliffwatch_core::photogrammetry::ImageOrientation;
 
 /// What a refusal of the affine identification adds: the set-up it assumes, and the way out.
 const AFFINE_HINT: &str = " This site is on the orthogonal model, whose first epoch is matched \

@@ -3,9 +3,9 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use crate::detect::first_epoch::FirstEpochOptions;
-use crate::detect::identify::IdentifyOptions;
-use crate::detect::DetectOptions;
+use cliffwatch_core::detect::first_epoch::FirstEpochOptions;
+use cliffwatch_core::detect::identify::IdentifyOptions;
+use cliffwatch_core::detect::DetectOptions;
 
 /// Options of the watcher.
 #[derive(Debug, Clone)]

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use super::folders::read_state_file;
-use crate::photogrammetry::ImageOrientation;
+use cliffwatch_core::photogrammetry::ImageOrientation;
 use crate::store::{self, watch_state, Store, StoreError};
 
 /// Orientations from the file of earlier versions (`<site>/.state/orientations.json`), if any.

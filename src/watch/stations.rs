@@ -6,11 +6,11 @@ use std::path::PathBuf;
 
 use super::image_file::{read_image_file, ImageFileError};
 use super::{WatchError, WatchOptions};
-use crate::detect::detect_bytes;
-use crate::detect::identify::Seed;
-use crate::detect::settings::{DetectionSettings, DetectionUsed};
-use crate::photogrammetry::input::epoch::{is_valid_identifier, CameraInput, ImageInput};
-use crate::photogrammetry::{Camera, EpochError};
+use cliffwatch_core::detect::detect_bytes;
+use cliffwatch_core::detect::identify::Seed;
+use cliffwatch_core::detect::settings::{DetectionSettings, DetectionUsed};
+use cliffwatch_core::photogrammetry::input::epoch::{is_valid_identifier, CameraInput, ImageInput};
+use cliffwatch_core::photogrammetry::{Camera, EpochError};
 
 /// One station's image after detection.
 pub(super) struct StationData {

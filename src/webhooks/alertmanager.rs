@@ -12,7 +12,7 @@ use chrono::{DateTime, Duration, SecondsFormat, Utc};
 
 use serde::{Deserialize, Serialize};
 
-use crate::analysis::AlertLevel;
+use cliffwatch_core::analysis::AlertLevel;
 use crate::url_path::seg;
 
 /// How many re-post periods an alert posted firing stays firing in Alertmanager without news

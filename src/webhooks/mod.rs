@@ -5,7 +5,7 @@
 //!   = base64-decoded part of the secret after `whsec_` (Standard Webhooks specification,
 //!   <https://www.standardwebhooks.com>).
 //! - [`payload`]: the contract body `{"type", "timestamp", "data": {...}}` built from an
-//!   [`crate::analysis::AlertEvent`], per-endpoint level filtering, the Alertmanager webhook body (v4) and the
+//!   [`cliffwatch_core::analysis::AlertEvent`], per-endpoint level filtering, the Alertmanager webhook body (v4) and the
 //!   Alertmanager API v2 body (`POST /api/v2/alerts`); [`render`] gives the body of an endpoint's
 //!   [`PayloadFormat`].
 //! - [`alertmanager`]: what Alertmanager is to hold of each alert now (every level up to the
@@ -54,4 +54,27 @@ pub fn set_public_url(url: Option<String>) {
 /// The public URL the event bodies link to, as set by [`set_public_url`].
 pub fn public_url() -> Option<String> {
     PUBLIC_URL.read().ok().and_then(|u| u.clone())
+}
+
+#[cfg(test)]
+mod tests {
+    /// The daemon's own contract names (payload formats, webhook sources) parse back to their
+    /// value and equal the serde name the API carries.
+    #[test]
+    fn daemon_names_round_trip_and_match_serde() {
+        fn round_trip<T>(all: &[T])
+        where
+            T: Copy + std::fmt::Debug + PartialEq + std::str::FromStr + serde::Serialize,
+            T: std::fmt::Display,
+        {
+            for &v in all {
+                let name = v.to_string();
+                assert_eq!(name.parse::<T>().ok(), Some(v));
+                assert_eq!(serde_json::to_value(v).unwrap(), serde_json::json!(name));
+            }
+            assert!("no such name".parse::<T>().is_err());
+        }
+        round_trip(super::PayloadFormat::ALL);
+        round_trip(crate::store::webhooks::WebhookSource::ALL);
+    }
 }

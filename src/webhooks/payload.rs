@@ -10,7 +10,7 @@ use super::alertmanager::{
     alert_page_url, fingerprint, labels, number, postable_alerts, CurrentAlert, PostableAlert,
     HOLD_PERIODS,
 };
-use crate::analysis::{AlertEvent, AlertEventType, AlertLevel};
+use cliffwatch_core::analysis::{AlertEvent, AlertEventType, AlertLevel};
 
 /// Default re-post period of the Alertmanager API v2 endpoints, seconds
 /// (`alertmanager_resend_secs`).
@@ -34,7 +34,7 @@ pub enum PayloadFormat {
     AlertmanagerApiV2,
 }
 
-crate::contract_names!(PayloadFormat, "webhook body format" {
+cliffwatch_core::contract_names!(PayloadFormat, "webhook body format" {
     Standard => "standard",
     AlertmanagerWebhook => "alertmanager_webhook",
     AlertmanagerApiV2 => "alertmanager_api_v2",
@@ -119,7 +119,7 @@ pub struct WebhookData {
     /// it (the rule's level, value, σ, threshold, confidence; absent otherwise, and in events
     /// recorded before it existed).
     #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub cleared_by: Option<crate::analysis::ClearingTest>,
+    pub cleared_by: Option<cliffwatch_core::analysis::ClearingTest>,
 }
 
 /// The contract body `{"type", "timestamp", "data"}`.

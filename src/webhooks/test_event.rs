@@ -9,7 +9,7 @@ use super::alertmanager::PostableAlert;
 use super::payload::{
     AlertmanagerAlert, AlertmanagerBody, PayloadFormat, WebhookData, WebhookPayload,
 };
-use crate::analysis::AlertLevel;
+use cliffwatch_core::analysis::AlertLevel;
 
 /// The `type` of the test event in the contract body.
 pub const TEST_EVENT: &str = "test";

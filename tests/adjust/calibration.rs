@@ -6,7 +6,7 @@
 //!   reported joint covariance Σ (1 for the inner-constraint datum, where SΣSᵀ = Σ; √(1 − 7/(3n))
 //!   would hold only for a covariance that still carried the 7 datum components);
 //! - rms of (displacement / its σ) per axis in the stable-point datum of
-//!   [`cliffwatch::analysis::analyse_epoch`] (points outside the datum, joint covariance of all
+//!   [`cliffwatch_core::analysis::analyse_epoch`] (points outside the datum, joint covariance of all
 //!   points) within 0.9–1.06 of 1; the same with the joint covariance of the stable points only
 //!   (today's service) is printed, not asserted: it is 8 % optimistic in depth (docs/accuracy.md);
 //! - rms of (translation / its σ) per axis of the 6-point block (`analysis::rigid_body`, estimated
@@ -21,16 +21,16 @@
 use crate::support;
 
 use chrono::{DateTime, Utc};
-use cliffwatch::analysis::rigid_body::{estimate_block, BlockPoint};
-use cliffwatch::analysis::{
+use cliffwatch_core::analysis::rigid_body::{estimate_block, BlockPoint};
+use cliffwatch_core::analysis::{
     analyse_epoch, AnalysisConfig, EpochCoordinates, GroupConfig, GroupKind, History, PointConfig,
     PointRole,
 };
-use cliffwatch::photogrammetry::adjust::report::VarianceModel;
-use cliffwatch::photogrammetry::{adjust, AdjustOptions, Adjustment, JointCovariance};
-use cliffwatch::simulate::monitoring::FailureLaw;
-use cliffwatch::simulate::scenes::Truth;
-use cliffwatch::simulate::series::{image_series, ImageSeriesScenario};
+use cliffwatch_core::photogrammetry::adjust::report::VarianceModel;
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions, Adjustment, JointCovariance};
+use cliffwatch_sim::monitoring::FailureLaw;
+use cliffwatch_sim::scenes::Truth;
+use cliffwatch_sim::series::{image_series, ImageSeriesScenario};
 use nalgebra::DMatrix;
 
 /// Simulated image noise: 0.25 px of 10.5 µm, in mm.
@@ -253,7 +253,7 @@ fn run_case(sigma_factor: f64) -> Tally {
 /// The still block's translation (its error) over its σ, per axis: as analysed (joint
 /// covariance of the members) and re-estimated from the members' own covariances alone.
 fn block_errors(
-    a: &cliffwatch::analysis::EpochAnalysis,
+    a: &cliffwatch_core::analysis::EpochAnalysis,
     group: &str,
     xyz: &std::collections::HashMap<String, [f64; 3]>,
     t: &mut Tally,

@@ -1,7 +1,7 @@
 //! `cliffwatch adjust FILE --truth TRUTH` as a user runs it: the report it prints is the
 //! in-process adjustment of the same file, written as one compact JSON line into a pipe.
 
-use cliffwatch::photogrammetry::{adjust, AdjustOptions, EpochInput};
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions, EpochInput};
 use serde_json::Value;
 
 fn cliffwatch(args: &[&std::ffi::OsStr]) -> std::process::Output {

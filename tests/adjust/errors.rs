@@ -1,8 +1,8 @@
 //! Bad input gives a typed error naming the image or point; malformed epochs never panic.
 
-use cliffwatch::photogrammetry::input::epoch::ControlInput;
-use cliffwatch::photogrammetry::{adjust, AdjustError, AdjustOptions, EpochError, EpochInput};
-use cliffwatch::simulate::scenes::{
+use cliffwatch_core::photogrammetry::input::epoch::ControlInput;
+use cliffwatch_core::photogrammetry::{adjust, AdjustError, AdjustOptions, EpochError, EpochInput};
+use cliffwatch_sim::scenes::{
     long_range, paper_table1, with_true_approx, LongRangeParams, PaperParams,
 };
 use proptest::prelude::*;
@@ -25,7 +25,7 @@ fn fewer_than_four_known_points_names_the_image() {
     for (k, name) in ["N1", "N2", "N3", "N4", "N5"].iter().enumerate() {
         for im in 0..3 {
             e.images[im].observations.push(
-                cliffwatch::photogrammetry::input::epoch::ObservationInput {
+                cliffwatch_core::photogrammetry::input::epoch::ObservationInput {
                     point: name.to_string(),
                     x_mm: Some(k as f64 * 0.7 - 1.0 + im as f64 * 0.1),
                     y_mm: Some(1.3 - k as f64 * 0.4),
@@ -50,7 +50,7 @@ fn point_in_one_image_only_names_the_point() {
     let mut e = base();
     e.images[0]
         .observations
-        .push(cliffwatch::photogrammetry::input::epoch::ObservationInput {
+        .push(cliffwatch_core::photogrammetry::input::epoch::ObservationInput {
             point: "LONER".into(),
             x_mm: Some(1.0),
             y_mm: Some(2.0),
@@ -121,7 +121,7 @@ fn nan_coordinates_name_the_image_and_point() {
 
 #[test]
 fn an_observation_off_the_sensor_names_the_image_and_point() {
-    use cliffwatch::simulate::scenes::{long_range, LongRangeParams};
+    use cliffwatch_sim::scenes::{long_range, LongRangeParams};
     let (good, _) = long_range(&LongRangeParams::default()).unwrap();
     let (w, h) = (
         good.cameras[0].width_px.unwrap() as f64,
@@ -195,7 +195,7 @@ fn an_observations_own_sigma_weights_it() {
         o.sigma_mm = Some(10.0 * s);
     }
     let light = adjust(&e, &AdjustOptions::default()).unwrap().report;
-    let rms = |r: &cliffwatch::photogrammetry::AdjustmentReport| r.images[0].rms_mm;
+    let rms = |r: &cliffwatch_core::photogrammetry::AdjustmentReport| r.images[0].rms_mm;
     assert!(
         rms(&light) > rms(&plain),
         "image 0 weighs less: its residuals grow ({} mm vs {} mm)",
@@ -448,10 +448,10 @@ fn the_orthogonal_model_says_which_parameters_it_holds() {
             .into_iter()
             .find(|w| w.contains("estimates only c"))
     };
-    let w = warned(cliffwatch::photogrammetry::Model::Orthogonal).expect("a warning");
+    let w = warned(cliffwatch_core::photogrammetry::Model::Orthogonal).expect("a warning");
     assert!(w.contains(&format!("camera '{}'", e.cameras[0].id)), "{w}");
     assert!(w.contains("x0, k1"), "{w}");
-    assert!(warned(cliffwatch::photogrammetry::Model::Central).is_none());
+    assert!(warned(cliffwatch_core::photogrammetry::Model::Central).is_none());
 }
 
 /// A target that moved since its approximate coordinates were taken misfits every image's

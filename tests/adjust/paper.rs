@@ -4,8 +4,8 @@
 use crate::support;
 use support::adjust as common;
 
-use cliffwatch::photogrammetry::{adjust, Model};
-use cliffwatch::simulate::scenes::{
+use cliffwatch_core::photogrammetry::{adjust, Model};
+use cliffwatch_sim::scenes::{
     paper_table1, with_true_approx, PaperCase, PaperParams, PAPER_C_MM,
 };
 use common::*;
@@ -17,8 +17,8 @@ fn epochs(
     case: u32,
 ) -> Vec<(
     String,
-    cliffwatch::photogrammetry::EpochInput,
-    cliffwatch::simulate::scenes::Truth,
+    cliffwatch_core::photogrammetry::EpochInput,
+    cliffwatch_sim::scenes::Truth,
 )> {
     let mut out = Vec::new();
     for seed in [101, 102, 103] {

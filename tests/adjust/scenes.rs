@@ -5,8 +5,8 @@
 use crate::support;
 use support::adjust as common;
 
-use cliffwatch::photogrammetry::{adjust, AdjustError, Model};
-use cliffwatch::simulate::scenes::{
+use cliffwatch_core::photogrammetry::{adjust, AdjustError, Model};
+use cliffwatch_sim::scenes::{
     calibration, long_range, with_true_approx, CalibrationParams, LongRangeParams,
 };
 use common::*;
@@ -94,7 +94,7 @@ fn enu_frame_gives_the_same_shape() {
         assert!((ia - ib).abs() < 1e-3, "seed {seed}: {ia} vs {ib} mm");
         assert!((sa - sb).abs() < 1e-3 * sa, "seed {seed}: σ0 {sa} vs {sb}");
         // Precision is the same too: the traces of the point covariances agree.
-        let tr = |adj: &cliffwatch::photogrammetry::Adjustment| -> f64 {
+        let tr = |adj: &cliffwatch_core::photogrammetry::Adjustment| -> f64 {
             adj.points
                 .iter()
                 .map(|p| p.covariance_m2[0][0] + p.covariance_m2[1][1] + p.covariance_m2[2][2])
@@ -373,9 +373,9 @@ fn no_false_convergence_over_60_seeds() {
 /// Every observation ends on its side of the critical value: a dropped one with |w| above it (else
 /// the backward step would have taken it back), an active one at or below it unless it could not
 /// be dropped (its point in two images, or its image down to four observations).
-fn snooping_is_consistent(adj: &cliffwatch::photogrammetry::Adjustment, label: &str) -> usize {
+fn snooping_is_consistent(adj: &cliffwatch_core::photogrammetry::Adjustment, label: &str) -> usize {
     use std::collections::HashMap;
-    let critical = cliffwatch::photogrammetry::AdjustOptions::default().critical_w;
+    let critical = cliffwatch_core::photogrammetry::AdjustOptions::default().critical_w;
     let r = &adj.report.residuals;
     let mut per_point: HashMap<&str, usize> = HashMap::new();
     let mut per_image: HashMap<&str, usize> = HashMap::new();
@@ -407,7 +407,7 @@ fn snooping_is_consistent(adj: &cliffwatch::photogrammetry::Adjustment, label: &
 
 #[test]
 fn snooping_leaves_every_observation_on_its_side_of_the_critical_value() {
-    use cliffwatch::simulate::scenes::{large, LargeParams};
+    use cliffwatch_sim::scenes::{large, LargeParams};
     let mut drops = 0;
     for seed in 1..=3 {
         let (epoch, _) = large(&LargeParams {
@@ -436,7 +436,7 @@ fn snooping_leaves_every_observation_on_its_side_of_the_critical_value() {
 fn a_large_network_gives_the_same_report_on_every_run() {
     // Its sums run on the rayon pool; they must not depend on how the threads shared the work
     // (the datum projection's sum once did: σ differed in the 10th digit from run to run).
-    use cliffwatch::simulate::scenes::{large, LargeParams};
+    use cliffwatch_sim::scenes::{large, LargeParams};
     let (epoch, _) = large(&LargeParams::default()).unwrap();
     let report = || {
         let adj = adjust(&epoch, &options(Model::Orthogonal)).unwrap();

@@ -1,8 +1,8 @@
 //! σ0 in image mm when the cameras' a-priori σ differ: expressed in the observations'
 //! quadratic-mean a-priori σ, so it does not depend on which camera is listed first.
 
-use cliffwatch::photogrammetry::{adjust, AdjustOptions, EpochInput};
-use cliffwatch::simulate::scenes::{paper_table1, PaperParams};
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions, EpochInput};
+use cliffwatch_sim::scenes::{paper_table1, PaperParams};
 
 /// Paper case 2 (c held) with image C on a second camera of the same c and twice the σ;
 /// `swap` lists the second camera first.

@@ -10,7 +10,7 @@ use crate::support;
 use std::path::Path;
 
 use chrono::{DateTime, Utc};
-use cliffwatch::simulate::series::SeriesTruth;
+use cliffwatch_sim::series::SeriesTruth;
 use reqwest::Method;
 use serde_json::{json, Value};
 use support::alerts::{write_config, Daemon};

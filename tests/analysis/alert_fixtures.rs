@@ -5,7 +5,7 @@
 
 use chrono::{DateTime, Duration, TimeZone, Utc};
 
-use cliffwatch::analysis::{
+use cliffwatch_core::analysis::{
     evaluate_alerts, AlertConfig, AlertEventType, AlertLevel, AlertRule, AlertState, DatumMethod,
     DatumReport, DisplacementRecord, EpochAnalysis, PointAnalysis, PointRole,
 };
@@ -145,8 +145,8 @@ pub fn feed_sigma(
 }
 
 /// A filtered state of `d` mm along X with σ `s` mm on each axis, still.
-pub fn filtered_along_x(d: f64, s: f64) -> cliffwatch::analysis::FilteredValues {
-    cliffwatch::analysis::FilteredValues {
+pub fn filtered_along_x(d: f64, s: f64) -> cliffwatch_core::analysis::FilteredValues {
+    cliffwatch_core::analysis::FilteredValues {
         f_dx_mm: d,
         f_dy_mm: 0.0,
         f_dz_mm: 0.0,

@@ -1,7 +1,7 @@
 //! Rules' readings: threshold exceedance at the confidence (σ = 0.5 mm), time-to-failure rules
 //! at 95 %, persistence (`for_epochs`), the filtered and either sources, and block rules.
 
-use cliffwatch::analysis::{
+use cliffwatch_core::analysis::{
     evaluate_alerts, resolve, AlertConfig, AlertEventType, AlertLevel, AlertRule, AlertState,
 };
 
@@ -33,7 +33,7 @@ fn threshold_exceedance_is_tested_at_the_confidence() {
     .expect("rule");
     let cfg = AlertConfig::new("kamo", vec![ttf]);
     let mut a = analysis_sigma(2, 30.0, 0.5, true, None, &[]);
-    let f = |h: f64, s: f64| -> cliffwatch::analysis::FailureForecast {
+    let f = |h: f64, s: f64| -> cliffwatch_core::analysis::FailureForecast {
         serde_json::from_value(serde_json::json!({
             "time_to_failure_hours": h, "sigma_hours": s, "r2": 0.9, "velocities": 8
         }))
@@ -67,7 +67,7 @@ fn time_to_failure_rules_default_to_95_percent() {
         ))
         .expect("rule")
     };
-    let f = |h: f64, s: f64| -> cliffwatch::analysis::FailureForecast {
+    let f = |h: f64, s: f64| -> cliffwatch_core::analysis::FailureForecast {
         serde_json::from_value(serde_json::json!({
             "time_to_failure_hours": h, "sigma_hours": s, "r2": 0.9, "velocities": 8
         }))
@@ -144,7 +144,7 @@ fn for_epochs_asks_for_consecutive_triggering_epochs() {
 /// Rules read the filtered state when they say so (and velocity and time to failure by default).
 #[test]
 fn filtered_source_reads_the_filtered_state() {
-    use cliffwatch::analysis::{Metric, Source};
+    use cliffwatch_core::analysis::{Metric, Source};
     let rule: AlertRule = serde_json::from_str(
         r#"{"level": "warning", "metric": "displacement_mm", "above": 10, "source": "filtered"}"#,
     )
@@ -177,7 +177,7 @@ fn filtered_source_reads_the_filtered_state() {
 /// when both are under the clear threshold.
 #[test]
 fn either_source_fires_on_raw_or_filtered_and_clears_on_both() {
-    use cliffwatch::analysis::{Metric, Source};
+    use cliffwatch_core::analysis::{Metric, Source};
     use AlertEventType::*;
     use AlertLevel::*;
     let watch: AlertRule = serde_json::from_str(
@@ -226,8 +226,8 @@ fn either_source_fires_on_raw_or_filtered_and_clears_on_both() {
 /// `point` null, the group and its points; the block's own points are not alerted by it.
 #[test]
 fn block_rules_raise_group_alerts() {
-    use cliffwatch::analysis::rigid_body::{BlockModel, BlockMotion};
-    use cliffwatch::analysis::{BlockAnalysis, Metric, Reading, Readings, Source};
+    use cliffwatch_core::analysis::rigid_body::{BlockModel, BlockMotion};
+    use cliffwatch_core::analysis::{BlockAnalysis, Metric, Reading, Readings, Source};
     let rule: AlertRule = serde_json::from_str(
         r#"{"level": "warning", "metric": "displacement_mm", "above": 10, "group": "B1"}"#,
     )

@@ -6,7 +6,7 @@
 
 use chrono::Duration;
 
-use cliffwatch::analysis::{
+use cliffwatch_core::analysis::{
     acknowledge, analysis_failed, check_overdue, evaluate_alerts, reconcile, resolve, AlertConfig,
     AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState, AlertStatus, AnalysisError,
     DatumMethod, EpochAnalysis,

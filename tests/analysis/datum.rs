@@ -4,11 +4,11 @@ use crate::support;
 use support::analysis as common;
 
 use chrono::{TimeZone, Utc};
-use cliffwatch::analysis::{
+use cliffwatch_core::analysis::{
     analyse_epoch, AlertConfig, AnalysisConfig, AnalysisError, DatumMethod, EpochCoordinates,
     History, PointConfig, PointCoordinates, PointRole,
 };
-use cliffwatch::simulate::monitoring::MonitoringScenario;
+use cliffwatch_sim::monitoring::MonitoringScenario;
 use proptest::prelude::*;
 
 /// Without stable points, IWST keeps the moving block from dragging the datum: the block's displacement
@@ -320,7 +320,7 @@ fn a_grossly_different_datum_gives_the_same_displacements() {
             }
             for ((a, b), c) in plain.points.iter().zip(&gross.points).zip(&other.points) {
                 let (ra, rb, rc) = (&a.record, &b.record, &c.record);
-                let d = |r: &cliffwatch::analysis::DisplacementRecord| {
+                let d = |r: &cliffwatch_core::analysis::DisplacementRecord| {
                     [
                         r.dx_mm,
                         r.dy_mm,

@@ -12,15 +12,15 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 
-use cliffwatch::analysis::failure::{
+use cliffwatch_core::analysis::failure::{
     fit_law_to_displacements, fit_law_to_displacements_3d, forecast_from_displacements,
 };
-use cliffwatch::analysis::kalman::{filter, smooth, KalmanConfig, Measurement, MotionModel};
-use cliffwatch::analysis::rigid_body::{
+use cliffwatch_core::analysis::kalman::{filter, smooth, KalmanConfig, Measurement, MotionModel};
+use cliffwatch_core::analysis::rigid_body::{
     estimate_block, estimate_block_correlated, translation_share, BlockModel, BlockPoint,
 };
-use cliffwatch::analysis::AnalysisError;
-use cliffwatch::simulate::monitoring::FailureLaw;
+use cliffwatch_core::analysis::AnalysisError;
+use cliffwatch_sim::monitoring::FailureLaw;
 
 /// An anisotropic, correlated covariance like a long-range point's (lateral 0.7 mm, depth 2 mm).
 fn covariance(rng: &mut ChaCha8Rng) -> Matrix3<f64> {
@@ -526,8 +526,8 @@ fn block_motion_with_shared_errors_keeps_an_honest_sigma() {
 /// the χ² profile of the failure time is not quite parabolic).
 #[test]
 fn shared_reference_error_leaves_the_forecast_and_narrows_its_sigma() {
-    use cliffwatch::analysis::tracking::{track, Observed};
-    use cliffwatch::analysis::AnalysisConfig;
+    use cliffwatch_core::analysis::tracking::{track, Observed};
+    use cliffwatch_core::analysis::AnalysisConfig;
     let law = FailureLaw {
         creep_mm_per_day: 0.5,
         acceleration_start_days: Some(28.0),

@@ -10,11 +10,11 @@
 use crate::support;
 use support::analysis as common;
 
-use cliffwatch::analysis::{
+use cliffwatch_core::analysis::{
     evaluate_alerts, AlertConfig, AlertEventType, AlertKind, AlertState, AnalysisConfig,
     EpochAnalysis,
 };
-use cliffwatch::simulate::monitoring::{MonitoringScenario, MonitoringSeries};
+use cliffwatch_sim::monitoring::{MonitoringScenario, MonitoringSeries};
 
 /// Replays the `reference_unstable` rule over `analyses`: (epochs in which it was raised, stable
 /// point-epochs it named). `old_rule` forgets `datum.moved`, which makes every exclusion count,

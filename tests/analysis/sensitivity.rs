@@ -6,8 +6,8 @@
 //! face-plane against depth σ of a long-range network) and both the direction of interest and the
 //! worst direction.
 
-use cliffwatch::analysis::sensitivity::{minimum_detectable, DEFAULT_POWER};
-use cliffwatch::analysis::stats::chi2_quantile;
+use cliffwatch_core::analysis::sensitivity::{minimum_detectable, DEFAULT_POWER};
+use cliffwatch_core::analysis::stats::chi2_quantile;
 use nalgebra::{Matrix3, Rotation3, SymmetricEigen, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

@@ -4,12 +4,12 @@
 use crate::support;
 use support::analysis as common;
 
-use cliffwatch::analysis::stats::beta_inc;
-use cliffwatch::analysis::{
+use cliffwatch_core::analysis::stats::beta_inc;
+use cliffwatch_core::analysis::{
     analyse_epoch, AlertConfig, AlertEventType, AlertKind, AlertLevel, AlertRule, AnalysisConfig,
     DatumMethod, History, Metric, PointRole,
 };
-use cliffwatch::simulate::monitoring::MonitoringScenario;
+use cliffwatch_sim::monitoring::MonitoringScenario;
 
 fn rule(
     level: AlertLevel,
@@ -70,7 +70,7 @@ fn contract_rules() -> Vec<AlertRule> {
 /// eᵀΣ⁻¹e of the displacement errors follows χ²(3): ≥ 97 % below χ²(3; 0.99) = 11.34 on every seed.
 #[test]
 fn displacement_errors_are_consistent_with_their_covariances() {
-    let crit = cliffwatch::analysis::stats::chi2_quantile(0.99, 3.0);
+    let crit = cliffwatch_core::analysis::stats::chi2_quantile(0.99, 3.0);
     let mut total = (0usize, 0usize);
     for seed in 1..=5 {
         let sc = MonitoringScenario {
@@ -566,7 +566,7 @@ fn still_stable_points_rarely_raise_reference_unstable() {
 /// with those against the first epoch, and its velocity and time-to-failure alarms hold.
 #[test]
 fn velocity_and_forecast_do_not_depend_on_where_the_reference_lies() {
-    use cliffwatch::analysis::{analyse_series, GroupConfig, GroupKind, SeriesAnalysis};
+    use cliffwatch_core::analysis::{analyse_series, GroupConfig, GroupKind, SeriesAnalysis};
     for seed in 1..=3 {
         let sc = MonitoringScenario {
             seed,

@@ -1,14 +1,14 @@
-//! The time-to-failure alarm on realistic kinematics ([`cliffwatch::simulate::kinematics`]):
+//! The time-to-failure alarm on realistic kinematics ([`cliffwatch_sim::kinematics`]):
 //! the goals of `docs/accuracy.md`'s time-to-failure benchmark on a few seeds per kind, and steady
 //! creep that scatters far beyond its σ.
 
-use cliffwatch::analysis::{analyse_series, AlertConfig, AlertKind};
-use cliffwatch::simulate::kinematics::{case, case_with_scatter, MotionKind, EPOCHS};
-use cliffwatch::simulate::ttf_benchmark::{
+use cliffwatch_core::analysis::{analyse_series, AlertConfig, AlertKind};
+use cliffwatch_sim::kinematics::{case, case_with_scatter, MotionKind, EPOCHS};
+use cliffwatch_sim::ttf_benchmark::{
     config, not_earlier_than_baseline, oracle_in_window, rules, run_all, score, series_table,
     table, ALARM_BELOW_HOURS,
 };
-use cliffwatch::simulate::ttf_bound::oracle_alarm_lead_hours;
+use cliffwatch_sim::ttf_bound::oracle_alarm_lead_hours;
 
 /// Steady creep (0.2–2 mm/day) whose motion scatters 8 × the block's σ along it, 90 daily
 /// epochs, 6 seeds: no time-to-failure alert at any level on any subject.

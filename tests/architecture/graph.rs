@@ -16,8 +16,9 @@ pub(crate) struct Crate {
 }
 
 impl Crate {
-    pub(crate) fn load() -> Crate {
-        let files = load_sources();
+    /// The crate in `dir`, one of [`crate::sources::CRATES`].
+    pub(crate) fn load(dir: &str) -> Crate {
+        let files = load_sources(dir);
         let mut by_module = HashMap::new();
         for (k, f) in files.iter().enumerate() {
             if !f.module.is_empty() {

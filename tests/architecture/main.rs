@@ -1,10 +1,15 @@
-//! The house rules of `src/`, read from the source text (no build of the crate is needed):
+//! The house rules of each crate's `src/` (the daemon, `crates/cliffwatch-core`,
+//! `crates/cliffwatch-sim`), read from the source text (no build of the crate is needed):
 //!
-//! 1. no import cycle between top-level modules, nor between files, counting every path that
+//! 1. no import cycle between top-level modules, nor between files, in any crate, counting every
+//!    path that
 //!    starts with `crate::`, `super::`, `self::`, `cliffwatch::` (the binary's name for the
 //!    library), a child module's name, or a name a `use` brought in, outside `#[cfg(test)]` items;
 //! 2. no `sqlx` (nor `libsqlite3_sys`) and no SQL text outside `src/store`, read the same way;
-//! 3. no Rust file in `src/`, `tests/`, `benches/` or `examples/` over 700 lines.
+//! 3. no Rust file in `src/`, `tests/`, `benches/` or `examples/` of any crate over 700 lines;
+//! 4. the crate boundaries: the core's and the simulator's dependency graphs (`cargo tree`, normal
+//!    dependencies, default features) hold no server, database or HTTP crate, so that a library
+//!    user of the core links none of them.
 //!
 //! A path is followed to the file that defines its item: through modules (a directory's `mod.rs`
 //! or a `name.rs`) and through `use` re-exports, so a `mod.rs` that only re-exports is no hub of
@@ -29,7 +34,7 @@ const ALLOWED_MODULE_CYCLES: &[&[&str]] = &[];
 const MAX_LINES: usize = 700;
 
 use graph::{graphs, report, Crate};
-use sources::{collect_files, module_of};
+use sources::{collect_files, module_of, CRATES};
 use tokens::Tok;
 
 fn top_module(rel: &str) -> Option<String> {
@@ -54,8 +59,21 @@ fn allowed(
 
 #[test]
 fn no_import_cycles() {
-    let krate = Crate::load();
-    let (files, modules) = graphs(&krate);
+    let mut failures = Vec::new();
+    for dir in CRATES {
+        println!("crate {}:", if dir.is_empty() { "cliffwatch" } else { dir });
+        failures.extend(cycles_of(&Crate::load(dir)));
+    }
+    assert!(
+        failures.is_empty(),
+        "import cycles outside ALLOWED_MODULE_CYCLES (details above):\n  {}",
+        failures.join("\n  ")
+    );
+}
+
+/// The cycles of one crate that [`ALLOWED_MODULE_CYCLES`] does not allow, printed with its graph.
+fn cycles_of(krate: &Crate) -> Vec<String> {
+    let (files, modules) = graphs(krate);
     println!("top-level module edges:");
     for (a, es) in &modules {
         println!(
@@ -87,22 +105,18 @@ fn no_import_cycles() {
             None => failures.push(format!("files: {}", c.join(", "))),
         }
     }
-    assert!(
-        failures.is_empty(),
-        "import cycles outside ALLOWED_MODULE_CYCLES (details above):\n  {}",
-        failures.join("\n  ")
-    );
+    failures
 }
 
 #[test]
 fn database_only_in_store() {
-    let krate = Crate::load();
+    let crates: Vec<Crate> = CRATES.iter().map(|dir| Crate::load(dir)).collect();
     let sql = regex::Regex::new(
         r"\b(SELECT\s[\s\S]*\bFROM|INSERT\s+INTO|UPDATE\s+\w+\s+SET|DELETE\s+FROM|CREATE\s+(TABLE|INDEX|UNIQUE)|DROP\s+(TABLE|INDEX)|ALTER\s+TABLE|PRAGMA\s+\w+|BEGIN\s+(IMMEDIATE|TRANSACTION))\b",
     )
     .unwrap();
     let mut found = Vec::new();
-    for f in &krate.files {
+    for f in crates.iter().flat_map(|k| &k.files) {
         if f.rel.starts_with("src/store/") {
             continue;
         }
@@ -135,12 +149,17 @@ fn truncate(s: &str) -> String {
 
 #[test]
 fn no_file_over_700_lines() {
-    let krate = Crate::load();
+    let in_src: usize = CRATES.iter().map(|dir| Crate::load(dir).files.len()).sum();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     // every file, the test-only ones too, and the tests', benchmarks' and examples' own
     let mut paths = Vec::new();
-    for dir in ["src", "tests", "benches", "examples"] {
-        collect_files(&root.join(dir), &mut paths);
+    for krate in CRATES {
+        for dir in ["src", "tests", "benches", "examples"] {
+            let dir = root.join(krate).join(dir);
+            if dir.is_dir() {
+                collect_files(&dir, &mut paths);
+            }
+        }
     }
     let mut longest: Vec<(usize, String)> = paths
         .iter()
@@ -156,7 +175,7 @@ fn no_file_over_700_lines() {
     println!(
         "{} Rust files ({} in src/ outside test modules); the longest:",
         paths.len(),
-        krate.files.len()
+        in_src
     );
     for (n, p) in longest.iter().take(5) {
         println!("  {n:5} {p}");
@@ -171,4 +190,39 @@ fn no_file_over_700_lines() {
         "files over {MAX_LINES} lines:\n  {}",
         over.join("\n  ")
     );
+}
+
+/// Crates no library crate of the workspace may link: the async runtime, the database, HTTP and
+/// the OpenAPI generator (the core's `openapi` feature, off by default, is the one way in).
+const SERVER_CRATES: &[&str] = &[
+    "tokio", "sqlx", "axum", "hyper", "reqwest", "tower", "tower-http", "utoipa", "maud",
+    "libsqlite3-sys", "notify", "metrics",
+];
+
+#[test]
+fn the_core_and_the_simulator_link_no_server_crate() {
+    for package in ["cliffwatch-core", "cliffwatch-sim"] {
+        let out = std::process::Command::new(env!("CARGO"))
+            .args(["tree", "--offline", "-e", "normal", "--prefix", "none", "-p", package])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .expect("cargo tree runs");
+        assert!(
+            out.status.success(),
+            "cargo tree -p {package}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let tree = String::from_utf8(out.stdout).unwrap();
+        let names: BTreeSet<&str> = tree
+            .lines()
+            .filter_map(|l| l.split_whitespace().next())
+            .collect();
+        println!("{package}: {} packages in its graph", names.len());
+        assert!(names.contains(package), "{tree}");
+        let server: Vec<&&str> = SERVER_CRATES
+            .iter()
+            .filter(|c| names.contains(**c))
+            .collect();
+        assert!(server.is_empty(), "{package} links {server:?}:\n{tree}");
+    }
 }

@@ -1,4 +1,5 @@
-//! The files of `src/`, their module paths, and the `use` trees and code paths in each.
+//! The files of each crate's `src/`, their module paths, and the `use` trees and code paths in
+//! each.
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -7,9 +8,14 @@ use crate::tokens::{is_ident, is_punct, strip_test_items, tokenize, Tok, Token};
 
 // Files and modules
 
-/// One source file of `src/`.
+/// The workspace's crates, as directories relative to the repository ("" is the daemon, the root
+/// package).
+pub(crate) const CRATES: &[&str] = &["", "crates/cliffwatch-core", "crates/cliffwatch-sim"];
+
+/// One source file of a crate's `src/`.
 pub(crate) struct SourceFile {
-    /// relative to the repository, e.g. `src/store/mod.rs`
+    /// relative to the repository, e.g. `src/store/mod.rs` or
+    /// `crates/cliffwatch-core/src/analysis/mod.rs`
     pub(crate) rel: String,
     /// the module path, e.g. `["store"]`; empty for `lib.rs` and `main.rs`
     pub(crate) module: Vec<String>,
@@ -34,8 +40,9 @@ pub(crate) fn collect_files(dir: &Path, out: &mut Vec<PathBuf>) {
 
 pub(crate) fn module_of(rel: &str) -> Vec<String> {
     let inner = rel
-        .strip_prefix("src/")
+        .split_once("src/")
         .unwrap()
+        .1
         .strip_suffix(".rs")
         .unwrap();
     let mut parts: Vec<String> = inner.split('/').map(str::to_string).collect();
@@ -46,11 +53,11 @@ pub(crate) fn module_of(rel: &str) -> Vec<String> {
     parts
 }
 
-/// Every non-test file of `src/`.
-pub(crate) fn load_sources() -> Vec<SourceFile> {
+/// Every non-test file of the `src/` of the crate in `dir` (one of [`CRATES`]).
+pub(crate) fn load_sources(dir: &str) -> Vec<SourceFile> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut paths = Vec::new();
-    collect_files(&root.join("src"), &mut paths);
+    collect_files(&root.join(dir).join("src"), &mut paths);
     let mut files = Vec::new();
     let mut test_only: BTreeSet<Vec<String>> = BTreeSet::new();
     for p in &paths {

@@ -66,7 +66,7 @@ async fn global_test(s: &TestServer, site: &str, epoch: i64) -> (f64, f64, f64, 
     };
     let vf = report["variance_factor"].as_f64().expect("variance_factor");
     let dof = report["dof"].as_i64().expect("dof");
-    let t = cliffwatch::photogrammetry::statistics::GlobalTest::of(dof, vf);
+    let t = cliffwatch_core::photogrammetry::statistics::GlobalTest::of(dof, vf);
     (vf, t.lower, t.upper, report)
 }
 

@@ -6,8 +6,8 @@
 
 use crate::support;
 
-use cliffwatch::analysis::sensitivity::{minimum_detectable, DEFAULT_POWER};
-use cliffwatch::analysis::stats::chi2_quantile;
+use cliffwatch_core::analysis::sensitivity::{minimum_detectable, DEFAULT_POWER};
+use cliffwatch_core::analysis::stats::chi2_quantile;
 use nalgebra::Matrix3;
 use serde_json::Value;
 use support::dashboard::{fill, html, name, POINTS, SITE, STABLE};

@@ -4,8 +4,8 @@
 use std::collections::BTreeMap;
 use std::process::Command;
 
-use cliffwatch::detect::GreyImage;
-use cliffwatch::simulate::images::{encode_png, render, scatter_targets, ImageSpec, TargetTruth};
+use cliffwatch_core::detect::GreyImage;
+use cliffwatch_sim::images::{encode_png, render, scatter_targets, ImageSpec, TargetTruth};
 
 use crate::support::bad_images::{
     giant_file, odd_tiff16, one_pixel_png, png_claiming, truncated_jpeg,

@@ -9,10 +9,10 @@
 
 use crate::support;
 
-use cliffwatch::detect::first_epoch::{
+use cliffwatch_core::detect::first_epoch::{
     identify_first_epoch, FirstEpoch, FirstEpochError, FirstEpochOptions, StationView,
 };
-use cliffwatch::detect::identify::Seed;
+use cliffwatch_core::detect::identify::Seed;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};

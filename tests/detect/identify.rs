@@ -6,7 +6,7 @@ use crate::support;
 
 use std::collections::BTreeMap;
 
-use cliffwatch::detect::identify::{
+use cliffwatch_core::detect::identify::{
     identify, Identification, IdentifyError, IdentifyOptions, Prior, Seed,
 };
 use rand::{Rng, SeedableRng};

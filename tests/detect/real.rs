@@ -4,7 +4,7 @@
 
 use std::sync::OnceLock;
 
-use cliffwatch::detect::{detect_bytes, CentreMethod, DetectOptions, Detections, Polarity};
+use cliffwatch_core::detect::{detect_bytes, CentreMethod, DetectOptions, Detections, Polarity};
 
 pub use crate::support::dbat::{marks, DIR};
 

@@ -6,11 +6,11 @@
 use std::collections::HashMap;
 use std::sync::OnceLock;
 
-use cliffwatch::detect::Target;
-use cliffwatch::photogrammetry::input::epoch::{
+use cliffwatch_core::detect::Target;
+use cliffwatch_core::photogrammetry::input::epoch::{
     ApproxInput, CameraInput, ImageInput, ObservationInput,
 };
-use cliffwatch::photogrammetry::{adjust, AdjustOptions, Adjustment, EpochInput, Model};
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions, Adjustment, EpochInput, Model};
 
 use super::real::detections;
 use crate::support::dbat::{marks, pm_points, C_MM, PIXEL_MM, SIZE_PX};

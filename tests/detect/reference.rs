@@ -1,7 +1,7 @@
 //! The independently rendered reference images: every target found, radial RMS against truth,
 //! no target on the clutter image.
 
-use cliffwatch::detect::{detect_bytes, CentreMethod, DetectOptions};
+use cliffwatch_core::detect::{detect_bytes, CentreMethod, DetectOptions};
 
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/images");
 

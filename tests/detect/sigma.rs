@@ -2,8 +2,8 @@
 //! centring method, over several seeds and sizes, without the floor for what real images add
 //! (`DetectOptions::sigma_floor_px` 0).
 
-use cliffwatch::detect::{detect, CentreMethod, DetectOptions};
-use cliffwatch::simulate::images::{render, scatter_targets, ImageSpec};
+use cliffwatch_core::detect::{detect, CentreMethod, DetectOptions};
+use cliffwatch_sim::images::{render, scatter_targets, ImageSpec};
 
 /// rms of (error / σ) over col and row, and the rms error (px), of every target of `diameter` px
 /// over `seeds` (8-bit, noise σ 3, contrast-to-noise `cnr`), with the method that centred them.

@@ -1,10 +1,10 @@
 //! Detection on images of the crate's renderer: centring accuracy against truth over several seeds
 //! (8- and 16-bit, 3–12 px), no false target on clutter, typed errors on bad input.
 
-use cliffwatch::detect::{
+use cliffwatch_core::detect::{
     decode, decode_with_limit, detect, detect_bytes, DetectError, DetectOptions, GreyImage,
 };
-use cliffwatch::simulate::images::{
+use cliffwatch_sim::images::{
     encode_jpeg, encode_png, random_clutter, render, scatter_targets, Clutter, ImageSpec,
     RenderError,
 };

@@ -305,7 +305,7 @@ fn patterns(v: &Value, out: &mut Vec<String>) {
 
 #[tokio::test]
 async fn upload_form_bounds_in_the_document_are_the_cores_limits() {
-    use cliffwatch::photogrammetry::input::epoch::{MAX_IMAGE_COORDINATE, MAX_OBJECT_COORDINATE_M};
+    use cliffwatch_core::photogrammetry::input::epoch::{MAX_IMAGE_COORDINATE, MAX_OBJECT_COORDINATE_M};
     let s = TestServer::start(|_| {}).await;
     let (_, doc) = s.get("/api/v1/openapi.json").await;
     let schemas = &doc["components"]["schemas"];
@@ -335,7 +335,7 @@ async fn upload_form_bounds_in_the_document_are_the_cores_limits() {
         identifiers.iter().all(|p| *p == "^[A-Za-z0-9._-]{1,64}$"),
         "{identifiers:?}"
     );
-    use cliffwatch::photogrammetry::input::epoch::is_valid_identifier as valid;
+    use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier as valid;
     assert!(valid(&"a".repeat(64)) && valid("T-1.b_2"));
     assert!(!valid(&"a".repeat(65)) && !valid("") && !valid("a b") && !valid("é"));
     s.stop().await;
@@ -496,7 +496,7 @@ async fn openapi_describes_every_contract_endpoint_with_schemas() {
     assert_eq!(c["k1"]["maximum"], json!(1000));
     assert_eq!(
         c["calibrate"]["items"]["enum"],
-        json!(cliffwatch::photogrammetry::model::camera::INTERIOR_NAMES)
+        json!(cliffwatch_core::photogrammetry::model::camera::INTERIOR_NAMES)
     );
     for (k, (field, value)) in [("c_mm", json!(0.0)), ("k1", json!(1000.5))]
         .into_iter()

@@ -510,7 +510,7 @@ fn stored_times_display_as_chrono_prints_them() {
 
 #[test]
 fn analysis_records_map_to_rows_and_back() {
-    use cliffwatch::analysis::DisplacementRecord;
+    use cliffwatch_core::analysis::DisplacementRecord;
     let t = DateTime::parse_from_rfc3339("2026-03-01T12:34:56.789012Z")
         .unwrap()
         .with_timezone(&Utc);
@@ -534,7 +534,7 @@ fn analysis_records_map_to_rows_and_back() {
         velocity_mm_per_day: None,
         time_to_failure_hours: Some(36.0),
         time_to_failure_sigma_hours: Some(4.5),
-        filtered: Some(cliffwatch::analysis::FilteredValues {
+        filtered: Some(cliffwatch_core::analysis::FilteredValues {
             f_dx_mm: 1.2,
             f_dy_mm: -0.45,
             f_dz_mm: 0.01,

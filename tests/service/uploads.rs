@@ -3,7 +3,7 @@
 
 use crate::support;
 
-use cliffwatch::photogrammetry::{adjust, AdjustOptions, EpochInput};
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions, EpochInput};
 use serde_json::{json, Value};
 use support::server::{paper, TestServer, PAPER};
 

@@ -1,9 +1,9 @@
 //! Helpers shared by the `adjust_*` integration tests.
 #![allow(dead_code)]
 
-use cliffwatch::photogrammetry::statistics::quality::fit_similarity;
-use cliffwatch::photogrammetry::{AdjustOptions, Adjustment, EpochInput, Model};
-use cliffwatch::simulate::scenes::Truth;
+use cliffwatch_core::photogrammetry::statistics::quality::fit_similarity;
+use cliffwatch_core::photogrammetry::{AdjustOptions, Adjustment, EpochInput, Model};
+use cliffwatch_sim::scenes::Truth;
 
 /// The shared epoch and truth of one paper case and seed, or None when `../shared` is absent.
 pub fn shared(case: u32, seed: u64) -> Option<(EpochInput, Truth)> {

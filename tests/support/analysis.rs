@@ -1,11 +1,11 @@
 //! Shared helpers of the analysis tests: run a simulated series through the analysis and the alerts.
 #![allow(dead_code)]
 
-use cliffwatch::analysis::{
+use cliffwatch_core::analysis::{
     analyse_epoch, evaluate_alerts, AlertConfig, AlertEvent, AlertState, AnalysisConfig,
     EpochAnalysis, History, PointConfig,
 };
-use cliffwatch::simulate::monitoring::MonitoringSeries;
+use cliffwatch_sim::monitoring::MonitoringSeries;
 
 /// One analysed epoch with the alert events it produced.
 pub struct Step {

@@ -7,8 +7,8 @@
 
 use std::path::Path;
 
-use cliffwatch::detect::{GreyImage, MAX_IMAGE_FILE_BYTES};
-use cliffwatch::simulate::images::{encode_jpeg, encode_png};
+use cliffwatch_core::detect::{GreyImage, MAX_IMAGE_FILE_BYTES};
+use cliffwatch_sim::images::{encode_jpeg, encode_png};
 
 /// CRC-32 (PNG) of `bytes`.
 fn crc32(bytes: &[u8]) -> u32 {

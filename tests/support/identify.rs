@@ -5,8 +5,8 @@
 
 use std::collections::BTreeMap;
 
-use cliffwatch::photogrammetry::{Camera, ImageOrientation};
-use cliffwatch::simulate::scenes::{long_range, LongRangeParams, Truth};
+use cliffwatch_core::photogrammetry::{Camera, ImageOrientation};
+use cliffwatch_sim::scenes::{long_range, LongRangeParams, Truth};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;

@@ -5,10 +5,10 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use cliffwatch::photogrammetry::input::epoch::ObservationInput;
-use cliffwatch::photogrammetry::EpochInput;
-use cliffwatch::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
-use cliffwatch::simulate::scenes::{long_range, LongRangeParams};
+use cliffwatch_core::photogrammetry::input::epoch::ObservationInput;
+use cliffwatch_core::photogrammetry::EpochInput;
+use cliffwatch_sim::images::{encode_png, render, ImageSpec, TargetTruth};
+use cliffwatch_sim::scenes::{long_range, LongRangeParams};
 
 /// The long-range scene at 1080 × 720 px (21 µm pixels), without image noise, its approximations
 /// known to 1 cm (a site with earlier epochs; ±0.5 m would leave every target ambiguous, as it

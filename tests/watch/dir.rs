@@ -7,9 +7,9 @@ use crate::support;
 
 use std::path::Path;
 
-use cliffwatch::photogrammetry::input::epoch::ObservationInput;
-use cliffwatch::photogrammetry::EpochInput;
-use cliffwatch::simulate::images::{encode_png, render, ImageSpec, TargetTruth};
+use cliffwatch_core::photogrammetry::input::epoch::ObservationInput;
+use cliffwatch_core::photogrammetry::EpochInput;
+use cliffwatch_sim::images::{encode_png, render, ImageSpec, TargetTruth};
 use cliffwatch::watch::{scan_once, WatchOptions};
 use support::server::TestServer;
 
@@ -195,7 +195,7 @@ async fn watched_folders_are_detected_identified_ingested_once() {
         .write(true)
         .open(&png)
         .unwrap()
-        .set_len(cliffwatch::detect::MAX_IMAGE_FILE_BYTES + 1)
+        .set_len(cliffwatch_core::detect::MAX_IMAGE_FILE_BYTES + 1)
         .unwrap();
     let r = scan_once(&server.store, &opts).await;
     let dest = r[0].as_ref().unwrap();

@@ -18,10 +18,10 @@ use crate::support;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use cliffwatch::photogrammetry::input::epoch::{ApproxInput, ObservationInput};
-use cliffwatch::photogrammetry::EpochInput;
-use cliffwatch::simulate::images::{encode_png, random_clutter, render, ImageSpec, TargetTruth};
-use cliffwatch::simulate::scenes::{long_range, project, LongRangeParams, Truth};
+use cliffwatch_core::photogrammetry::input::epoch::{ApproxInput, ObservationInput};
+use cliffwatch_core::photogrammetry::EpochInput;
+use cliffwatch_sim::images::{encode_png, random_clutter, render, ImageSpec, TargetTruth};
+use cliffwatch_sim::scenes::{long_range, project, LongRangeParams, Truth};
 use cliffwatch::store::epochs;
 use cliffwatch::watch::{scan_once, WatchOptions};
 use rand::{Rng, SeedableRng};

@@ -10,7 +10,7 @@ use crate::support;
 
 use std::collections::BTreeMap;
 
-use cliffwatch::simulate::scenes::{long_range, project, LongRangeParams};
+use cliffwatch_sim::scenes::{long_range, project, LongRangeParams};
 use cliffwatch::store::Store;
 use cliffwatch::watch::{scan_once, WatchOptions};
 use rand::SeedableRng;

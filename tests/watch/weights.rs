@@ -5,7 +5,7 @@
 
 use crate::support;
 
-use cliffwatch::detect::SIGMA_FLOOR_PX;
+use cliffwatch_core::detect::SIGMA_FLOOR_PX;
 use cliffwatch::watch::{scan_once, WatchOptions};
 use serde_json::json;
 use support::server::TestServer;

@@ -2,7 +2,7 @@
 //! level or format changed) keeps its id and its pending deliveries; one no longer configured
 //! loses them; a new one is added.
 
-use cliffwatch::analysis::AlertLevel;
+use cliffwatch_core::analysis::AlertLevel;
 use cliffwatch::store::webhooks::{list, replace_configured, NewWebhook};
 use cliffwatch::store::{Store, StoreOptions};
 use cliffwatch::webhooks::PayloadFormat;

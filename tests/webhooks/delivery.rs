@@ -17,7 +17,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sha2::Sha256;
 
-use cliffwatch::analysis::{Alert, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertStatus};
+use cliffwatch_core::analysis::{Alert, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertStatus};
 use cliffwatch::webhooks::{
     accepts, alertmanager_alerts, alertmanager_body, backoff_delay, deliver, message_id,
     next_retry, parse_retry_after, render, sign, verify, DeliveryOutcome, PayloadFormat,

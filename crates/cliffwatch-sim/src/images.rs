@@ -3,8 +3,8 @@
 //! noise, quantised to 8 or 16 bits. Coordinates follow the contract: the centre of the top-left pixel
 //! is (0, 0), columns grow right, rows down; a pixel covers ±0.5 px around its centre.
 
-use crate::detect::ellipse::normal_cdf;
-use crate::detect::GreyImage;
+use cliffwatch_core::detect::ellipse::normal_cdf;
+use cliffwatch_core::detect::GreyImage;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};

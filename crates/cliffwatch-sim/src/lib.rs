@@ -1,4 +1,7 @@
-//! Simulated scenes with truth, for tests and benchmarks.
+//! # cliffwatch-sim
+//!
+//! Simulated scenes with truth, for the tests and benchmarks of cliffwatch and `cliffwatch
+//! simulate`.
 //!
 //! - [`scenes`]: the paper's Table 1 scene, the long-range cliff, flat faces, calibration networks.
 //! - [`images`]: rendered target images with ground-truth centres.
@@ -8,6 +11,8 @@
 //! - [`kinematics`]: block motions as real slopes make them (failures, bursts, steps, cycles,
 //!   creep, scatter, shared errors), and [`ttf_benchmark`], the time-to-failure benchmark on them,
 //!   with [`ttf_bound`], what any forecaster could do on them (the Cramér–Rao bound).
+
+#![warn(missing_docs)]
 
 pub mod images;
 pub mod kinematics;

@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::analysis::{
+use cliffwatch_core::analysis::{
     EpochCoordinates, JointCovarianceM2, PointConfig, PointCoordinates, PointRole,
 };
 

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use super::monitoring::FailureLaw;
 use super::scenes::{long_range, project, LongRangeParams, SceneError, Truth, TruthCamera};
-use crate::photogrammetry::input::epoch::{EpochInput, ObservationInput};
+use cliffwatch_core::photogrammetry::input::epoch::{EpochInput, ObservationInput};
 
 /// Parameters of [`image_series`].
 #[derive(Debug, Clone, PartialEq)]

@@ -12,7 +12,7 @@ use chrono::{DateTime, Utc};
 
 use super::kinematics::{case, MotionCase, MotionKind};
 use super::ttf_bound::oracle_alarm_lead_hours;
-use crate::analysis::{
+use cliffwatch_core::analysis::{
     analyse_series, AlertConfig, AlertEventType, AlertKind, AlertLevel, AlertRule, AnalysisConfig,
     DisplacementRecord, FailureConfig, GroupConfig, GroupKind,
 };
@@ -116,7 +116,7 @@ pub fn config_with(c: &MotionCase, failure: &FailureConfig) -> AnalysisConfig {
 pub fn rules_with(confidence: Option<f64>, for_epochs: Option<u32>) -> Vec<AlertRule> {
     let mut rules = rules();
     for r in &mut rules {
-        if r.metric == crate::analysis::alerts::Metric::TimeToFailureHours {
+        if r.metric == cliffwatch_core::analysis::alerts::Metric::TimeToFailureHours {
             r.confidence = confidence.or(r.confidence);
             r.for_epochs = for_epochs.or(r.for_epochs);
         }

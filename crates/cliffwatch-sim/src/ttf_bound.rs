@@ -9,13 +9,13 @@
 //! best the σ of the bound, `σ²(t_f) = [(Jᵀ J)⁻¹]_{t_f t_f} σ²` (J the model's derivatives at the
 //! epochs). The oracle alarms as cliffwatch's rule does, on the one-sided upper bound: at the
 //! first epoch where the true time to failure plus `z·σ` (z at the rule's default confidence,
-//! [`crate::analysis::failure::BOUND_CONFIDENCE`]) falls below the rule's threshold
+//! [`cliffwatch_core::analysis::failure::BOUND_CONFIDENCE`]) falls below the rule's threshold
 //! ([`oracle_alarm_lead_hours`]). No forecaster can alarm earlier on that rule but by chance.
 
 use nalgebra::{Matrix4, Vector4};
 
 use super::kinematics::MotionCase;
-use crate::analysis::failure::{upper_bound_hours, BOUND_CONFIDENCE};
+use cliffwatch_core::analysis::failure::{upper_bound_hours, BOUND_CONFIDENCE};
 
 /// The failing block's displacement along its direction at `t` days (mm): creep at `v0` mm/day,
 /// then from the onset `ta` the inverse-velocity law to the failure at `tf` (as
@@ -87,7 +87,7 @@ pub fn oracle_alarm_lead_hours(c: &MotionCase, below_hours: f64) -> Option<f64> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulate::kinematics::{case, case_with_scatter, MotionKind};
+    use crate::kinematics::{case, case_with_scatter, MotionKind};
 
     /// The bound shrinks as the failure nears and grows with the scatter (σ ∝ scatter).
     #[test]

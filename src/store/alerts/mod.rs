@@ -9,7 +9,7 @@ use utoipa::ToSchema;
 use chrono::{DateTime, Utc};
 
 use super::{display_timestamp, timestamp, StoreError};
-use crate::analysis::{AlertEventType, AlertLevel, AlertStatus};
+use cliffwatch_core::analysis::{AlertEventType, AlertLevel, AlertStatus};
 
 /// A stored alert.
 #[derive(Debug, Clone, Default, Serialize, FromRow, ToSchema)]
@@ -240,7 +240,7 @@ pub async fn active_levels(
 /// event (`open`, `acknowledged` or `resolved`), `updated_at` the event's time.
 pub async fn save(
     db: &mut AnyConnection,
-    a: &crate::analysis::Alert,
+    a: &cliffwatch_core::analysis::Alert,
     state: AlertStatus,
     updated_at: DateTime<Utc>,
 ) -> Result<(), StoreError> {
@@ -288,7 +288,7 @@ pub async fn save(
 /// observation time, message and the points concerned (a later epoch can add stable points to
 /// `reference_unstable`, or points to a block's alert, without changing the level). Its state and
 /// `updated_at` change only with events, [`save`].
-pub async fn refresh(db: &mut AnyConnection, a: &crate::analysis::Alert) -> Result<(), StoreError> {
+pub async fn refresh(db: &mut AnyConnection, a: &cliffwatch_core::analysis::Alert) -> Result<(), StoreError> {
     sqlx::query(
         "UPDATE alerts SET value = $1, threshold = $2, epoch_id = $3, observed_at = $4, \
          message = $5, points = $6 WHERE id = $7",

@@ -24,7 +24,7 @@ pub fn readable(format: u8) -> bool {
 }
 
 /// The Kalman filter's values of a row and the raw forecast's σ (see
-/// [`crate::analysis::FilteredValues`]): mm, mm/day, mm/day², hours.
+/// [`cliffwatch_core::analysis::FilteredValues`]): mm, mm/day, mm/day², hours.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Filtered {
     /// f_dx, f_dy, f_dz, f_d, σ of each, f_velocity (mm/day) and its σ.

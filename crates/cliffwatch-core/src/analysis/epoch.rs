@@ -73,7 +73,8 @@ impl EpochCoordinates {
 }
 
 /// Role of a point (contract: `stable` or `monitored`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum PointRole {
     /// Assumed not to move: defines the datum, checked by the congruence test.

@@ -10,21 +10,21 @@
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 /// A site's declared orientation (the `frame` setting of a site).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct SiteFrame {
     /// The vertical (up) direction in the site frame, any length (e.g. `[0, 0, 1]` for E, N, Up,
     /// `[0, 1, 0]` for a local frame with Y up).
     #[serde(default = "default_up")]
-    #[schema(min_items = 3, max_items = 3)]
+    #[cfg_attr(feature = "openapi", schema(min_items = 3, max_items = 3))]
     pub up: [f64; 3],
     /// The face's outward normal (towards the cameras), any length; absent: derived from the
     /// stable points' plane (see the module's notes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(min_items = 3, max_items = 3)]
+    #[cfg_attr(feature = "openapi", schema(min_items = 3, max_items = 3))]
     pub face_normal: Option<[f64; 3]>,
 }
 

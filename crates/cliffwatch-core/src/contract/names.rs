@@ -98,8 +98,6 @@ mod tests {
         round_trip(AlertStatus::ALL);
         round_trip(AlertEventType::ALL);
         round_trip(PointRole::ALL);
-        round_trip(crate::webhooks::PayloadFormat::ALL);
-        round_trip(crate::store::webhooks::WebhookSource::ALL);
         round_trip(Model::ALL);
     }
 

@@ -9,8 +9,8 @@ use std::io::Cursor;
 pub const DEFAULT_MAX_PIXELS: u64 = 250_000_000;
 
 /// Largest image file read (bytes, 512 MiB: a 16-bit colour TIFF of 60 megapixels is 360 MB).
-/// A file is read whole before decoding; a larger one is refused (the shell reads image files
-/// through `crate::watch::image_file`).
+/// A file is read whole before decoding; a larger one is refused (the daemon reads image files
+/// through its watched directory's `image_file`).
 pub const MAX_IMAGE_FILE_BYTES: u64 = 512 << 20;
 
 /// A grey image: row-major grey levels (0..=255 for 8-bit, 0..=65535 for 16-bit).

@@ -3,7 +3,6 @@
 //! the site's field by field, and what neither gives is [`DetectOptions::default`].
 
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::{DetectOptions, Polarity};
 
@@ -13,7 +12,8 @@ pub const MIN_DIAMETER_PX: f64 = 1.0;
 pub const MAX_DIAMETER_PX: f64 = 1000.0;
 
 /// Which targets to look for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum PolarityChoice {
     /// Both polarities searched, the one that yields more targets kept.
@@ -54,7 +54,8 @@ impl PolarityChoice {
 }
 
 /// Detection settings; every field optional (absent: the next source's, then the default).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct DetectionSettings {
     /// `auto` (default), `bright` or `dark`.
@@ -62,16 +63,17 @@ pub struct DetectionSettings {
     pub polarity: Option<PolarityChoice>,
     /// Smallest target diameter in px (default 2.5; 1 to 1000).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 1.0, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 1.0, maximum = 1000.0))]
     pub min_diameter_px: Option<f64>,
     /// Largest target diameter in px (default 64; 1 to 1000, above the smallest).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 1.0, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 1.0, maximum = 1000.0))]
     pub max_diameter_px: Option<f64>,
 }
 
 /// The settings a detection ran with and where each came from, as an epoch's report keeps them.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DetectionUsed {
     /// The polarity asked for: `auto`, `bright` or `dark`.
     pub polarity: PolarityChoice,

@@ -29,7 +29,7 @@ pub enum EpochError {
     #[error("observed_at '{}' falls outside the years 0000–9999 in UTC", cut(.0))]
     TimestampOutOfRange(String),
     /// `observed_at` lies further after the server's clock than an epoch may
-    /// ([`crate::service::ingest::MAX_DAYS_AHEAD`]): a mistyped year or a camera clock set wrong.
+    /// (the daemon's `MAX_DAYS_AHEAD`): a mistyped year or a camera clock set wrong.
     #[error(
         "observed_at '{}' lies more than {days} days after the server's clock ({now})",
         cut(.observed_at)

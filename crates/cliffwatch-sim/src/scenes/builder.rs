@@ -10,12 +10,12 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::photogrammetry::adjust::result::AdjustedPoint;
-use crate::photogrammetry::input::epoch::{
+use cliffwatch_core::photogrammetry::adjust::result::AdjustedPoint;
+use cliffwatch_core::photogrammetry::input::epoch::{
     ApproxInput, CameraInput, EpochInput, ImageInput, ObservationInput,
 };
-use crate::photogrammetry::model::camera::brown_distort;
-use crate::photogrammetry::statistics::quality::{index3_rmse_mm, index4_rmse_mm, QualityError};
+use cliffwatch_core::photogrammetry::model::camera::brown_distort;
+use cliffwatch_core::photogrammetry::statistics::quality::{index3_rmse_mm, index4_rmse_mm, QualityError};
 
 /// The true scene behind a simulated epoch (the form of the `*.truth.json` files `cliffwatch
 /// simulate` writes).

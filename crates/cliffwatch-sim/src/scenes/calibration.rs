@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use rand::Rng;
 
 use super::builder::*;
-use crate::photogrammetry::input::epoch::{ControlInput, EpochInput};
+use cliffwatch_core::photogrammetry::input::epoch::{ControlInput, EpochInput};
 
 /// Parameters of [`calibration`] (defaults: 20 convergent images of a 7 × 7 plate, 24 mm lens on a
 /// 36 × 24 mm sensor, ≈ 0.3 mm radial distortion at the corner).

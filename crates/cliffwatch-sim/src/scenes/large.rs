@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use rand::Rng;
 
 use super::builder::*;
-use crate::photogrammetry::input::epoch::{EpochInput, ObservationInput};
+use cliffwatch_core::photogrammetry::input::epoch::{EpochInput, ObservationInput};
 
 /// Parameters of [`large`]: a long wall photographed from a line of stations, each point seen in
 /// `images_per_point` consecutive images (defaults: 20 images × 500 points, each in 10 images).

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use rand::Rng;
 
 use super::builder::*;
-use crate::photogrammetry::input::epoch::{EpochInput, ImageInput, ObservationInput};
+use cliffwatch_core::photogrammetry::input::epoch::{EpochInput, ImageInput, ObservationInput};
 
 /// The frame the long-range scene is written in.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

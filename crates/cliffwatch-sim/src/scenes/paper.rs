@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 
 use super::builder::*;
-use crate::photogrammetry::input::epoch::EpochInput;
+use cliffwatch_core::photogrammetry::input::epoch::EpochInput;
 
 /// Which of the paper's simulation cases (Table 1, §4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

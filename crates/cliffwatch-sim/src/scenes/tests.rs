@@ -1,6 +1,6 @@
 use super::*;
-use crate::photogrammetry::adjust::result::AdjustedPoint;
-use crate::photogrammetry::input::epoch::EpochInput;
+use cliffwatch_core::photogrammetry::adjust::result::AdjustedPoint;
+use cliffwatch_core::photogrammetry::input::epoch::EpochInput;
 
 fn shared(name: &str) -> Option<String> {
     std::fs::read_to_string(format!(

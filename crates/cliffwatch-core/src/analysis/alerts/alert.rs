@@ -9,20 +9,8 @@ use serde::{Deserialize, Serialize};
 use super::metric::AlertKind;
 
 /// Alert level; ordered `watch` < `warning` < `alarm` (the default is the lowest).
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    Default,
-    PartialEq,
-    Eq,
-    PartialOrd,
-    Ord,
-    Hash,
-    Serialize,
-    Deserialize,
-    utoipa::ToSchema,
-)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum AlertLevel {
     /// Lowest level.
@@ -41,7 +29,8 @@ crate::contract_names!(AlertLevel, "alert level" {
 });
 
 /// Lifecycle of an alert.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum AlertStatus {
     /// Open, not acknowledged.
@@ -206,7 +195,8 @@ pub struct AlertEvent {
 }
 
 /// How an active rule stopped being active.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum ClearedHow {
     /// The value passed the rule's clear threshold (`clear_below` / `clear_above`, the
@@ -223,7 +213,8 @@ pub enum ClearedHow {
 }
 
 /// The rule test that made an alert leave a level (`alert.deescalated`, `alert.resolved`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ClearingTest {
     /// Level of the rule that stopped being active.
     pub level: AlertLevel,

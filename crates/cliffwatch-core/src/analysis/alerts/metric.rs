@@ -4,7 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 /// A point metric rules can threshold.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Metric {
     /// 3-D displacement `d_mm`, mm.
@@ -51,7 +52,8 @@ impl Metric {
 
 /// Which estimate of a metric a rule reads (contract: `"source": "raw" | "filtered"`, and
 /// `"either"`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Source {
     /// The epoch's own value (displacement against the reference; velocity and time to failure

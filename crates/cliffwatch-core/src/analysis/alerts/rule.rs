@@ -29,7 +29,8 @@ pub const MAX_EPOCHS: u32 = 1000;
 pub const MAX_THRESHOLD: f64 = 1e9;
 
 /// One alert rule (contract JSON, plus optional fields).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct AlertRule {
     /// Level raised when the rule triggers.
     pub level: AlertLevel,
@@ -37,19 +38,19 @@ pub struct AlertRule {
     pub metric: Metric,
     /// Triggers when the value is above this (unit of the metric).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0))]
     pub above: Option<f64>,
     /// Triggers when the value is below this (unit of the metric).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0))]
     pub below: Option<f64>,
     /// Hysteresis of an `above` rule: once active, clears only below this value.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0))]
     pub clear_below: Option<f64>,
     /// Hysteresis of a `below` rule: once active, clears only above this value.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1_000_000_000.0, maximum = 1_000_000_000.0))]
     pub clear_above: Option<f64>,
     /// Restricts the rule to points of this group (all points and all declared blocks when
     /// absent); when the group is declared a block, the rule applies to the block's motion
@@ -65,7 +66,7 @@ pub struct AlertRule {
         skip_serializing_if = "Option::is_none",
         deserialize_with = "crate::contract::json_integer::optional_u32"
     )]
-    #[schema(minimum = 1, maximum = 1000)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 1, maximum = 1000))]
     pub for_epochs: Option<u32>,
     /// Only significant values trigger (default true).
     #[serde(default = "yes")]
@@ -76,13 +77,13 @@ pub struct AlertRule {
         skip_serializing_if = "Option::is_none",
         deserialize_with = "crate::contract::json_integer::optional_u32"
     )]
-    #[schema(maximum = 1000)]
+    #[cfg_attr(feature = "openapi", schema(maximum = 1000))]
     pub quiet_epochs: Option<u32>,
     /// One-sided confidence at which the value must exceed the threshold, in (0.5, 1) (default
     /// [`AlertRule::confidence`]: the site's, and for `time_to_failure_hours` at most
     /// [`FORECAST_CONFIDENCE`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 0.500_001, maximum = 0.999_999)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 0.500_001, maximum = 0.999_999))]
     pub confidence: Option<f64>,
 }
 
@@ -468,7 +469,8 @@ mod tests {
     }
 
     /// The schema's bounds of the four thresholds are ±[`MAX_THRESHOLD`], the bound `validate`
-    /// checks.
+    /// checks (with the feature `openapi`, which derives the schema).
+    #[cfg(feature = "openapi")]
     #[test]
     fn the_schema_shows_the_threshold_bound() {
         use utoipa::PartialSchema;

@@ -6,7 +6,8 @@ use serde::{Deserialize, Serialize};
 use crate::photogrammetry::model::Model;
 
 /// The variance behind the data snooping's test statistics.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum VarianceModel {
     /// Baarda's w with the a-priori σ and the normal critical value (the global test accepted σ).
@@ -18,7 +19,8 @@ pub enum VarianceModel {
 }
 
 /// Adjusted interior orientation of one camera.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CameraReport {
     /// Camera id.
     pub id: String,
@@ -32,7 +34,8 @@ pub struct CameraReport {
 }
 
 /// One estimated interior parameter.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CalibratedParameter {
     /// c, x0, y0, k1, k2, k3, p1 or p2.
     pub name: String,
@@ -43,7 +46,8 @@ pub struct CalibratedParameter {
 }
 
 /// Adjusted coordinates of one point: metres in the site frame, σ in mm.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[allow(non_snake_case)]
 pub struct PointReport {
     /// Point name.
@@ -63,7 +67,8 @@ pub struct PointReport {
 }
 
 /// Per-image summary.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ImageReport {
     /// Image id.
     pub id: String,
@@ -74,7 +79,8 @@ pub struct ImageReport {
 }
 
 /// An observation dropped by data snooping.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DroppedObservation {
     /// Image id.
     pub image: String,

@@ -15,23 +15,24 @@ use crate::photogrammetry::model::camera::{Camera, MIN_SIGMA_MM};
 
 /// One campaign at one site as uploaded (JSON form of the contract; the OpenAPI document's
 /// upload form is derived from these types).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct EpochInput {
     /// When the images were taken (RFC 3339, UTC), unique within the site.
-    #[schema(format = DateTime)]
+    #[cfg_attr(feature = "openapi", schema(format = DateTime))]
     pub observed_at: String,
     /// Free text label, without control characters, at most [`MAX_LABEL_CHARS`] (200) characters.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(pattern = "^[^\\u0000-\\u001F\\u007F-\\u009F]*$", max_length = 200)]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[^\\u0000-\\u001F\\u007F-\\u009F]*$", max_length = 200))]
     pub label: Option<String>,
     /// Cameras (interior orientation) used by the images, at most [`MAX_CAMERAS`].
     #[serde(default)]
-    #[schema(required = true, min_items = 1, max_items = 200)]
+    #[cfg_attr(feature = "openapi", schema(required = true, min_items = 1, max_items = 200))]
     pub cameras: Vec<CameraInput>,
     /// Images with their target observations, at most [`MAX_IMAGES`].
     #[serde(default)]
-    #[schema(required = true, min_items = 1, max_items = 200)]
+    #[cfg_attr(feature = "openapi", schema(required = true, min_items = 1, max_items = 200))]
     pub images: Vec<ImageInput>,
     /// Points with known coordinates, weighted by `sigma_m`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -42,95 +43,99 @@ pub struct EpochInput {
 }
 
 /// One image of the upload form.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct ImageInput {
     /// Image identifier, unique within the epoch.
-    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[A-Za-z0-9._-]{1,64}$"))]
     pub id: String,
     /// The camera id that took it.
-    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[A-Za-z0-9._-]{1,64}$"))]
     pub camera: String,
     /// The station (camera set-up position) name; defaults to the image id.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[A-Za-z0-9._-]{1,64}$"))]
     pub station: Option<String>,
     /// Target observations.
     #[serde(default)]
-    #[schema(required = true)]
+    #[cfg_attr(feature = "openapi", schema(required = true))]
     pub observations: Vec<ObservationInput>,
 }
 
 /// One target observation: either (`x_mm`, `y_mm`) or (`col`, `row`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct ObservationInput {
     /// Point name.
-    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[A-Za-z0-9._-]{1,64}$"))]
     pub point: String,
     /// Image x in mm (right, from the principal point).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = -1e7, maximum = 1e7)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1e7, maximum = 1e7))]
     pub x_mm: Option<f64>,
     /// Image y in mm (up, from the principal point).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = -1e7, maximum = 1e7)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1e7, maximum = 1e7))]
     pub y_mm: Option<f64>,
     /// Pixel column (centre of the top-left pixel is 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = -1e7, maximum = 1e7)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1e7, maximum = 1e7))]
     pub col: Option<f64>,
     /// Pixel row (grows downward).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = -1e7, maximum = 1e7)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1e7, maximum = 1e7))]
     pub row: Option<f64>,
     /// A-priori standard deviation of each of this observation's coordinates in mm (default: its
     /// camera's `sigma_mm`), from [`MIN_SIGMA_MM`] to 1000 mm: e.g. a detected target's own σ.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 1e-6, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 1e-6, maximum = 1000.0))]
     pub sigma_mm: Option<f64>,
 }
 
 /// A control point: known coordinates (m) weighted by `sigma_m`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 #[allow(non_snake_case)]
 pub struct ControlInput {
     /// Point name.
-    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[A-Za-z0-9._-]{1,64}$"))]
     pub point: String,
     /// X in m.
-    #[schema(minimum = -1e8, maximum = 1e8)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1e8, maximum = 1e8))]
     pub X: f64,
     /// Y in m.
-    #[schema(minimum = -1e8, maximum = 1e8)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1e8, maximum = 1e8))]
     pub Y: f64,
     /// Z in m.
-    #[schema(minimum = -1e8, maximum = 1e8)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1e8, maximum = 1e8))]
     pub Z: f64,
     /// Standard deviation of each coordinate in m (default 0.001 m), at least
     /// [`MIN_CONTROL_SIGMA_M`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 1e-9)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 1e-9))]
     pub sigma_m: Option<f64>,
 }
 
 /// Approximate coordinates (m): start values only.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 #[allow(non_snake_case)]
 pub struct ApproxInput {
     /// Point name.
-    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[A-Za-z0-9._-]{1,64}$"))]
     pub point: String,
     /// X in m.
-    #[schema(minimum = -1e8, maximum = 1e8)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1e8, maximum = 1e8))]
     pub X: f64,
     /// Y in m.
-    #[schema(minimum = -1e8, maximum = 1e8)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1e8, maximum = 1e8))]
     pub Y: f64,
     /// Z in m.
-    #[schema(minimum = -1e8, maximum = 1e8)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1e8, maximum = 1e8))]
     pub Z: f64,
 }
 

@@ -5,71 +5,73 @@ use serde::{Deserialize, Serialize};
 use crate::photogrammetry::error::EpochError;
 
 /// A camera (interior orientation) of the upload form. Only `c_mm` is required.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct CameraInput {
     /// Camera identifier referenced by images.
-    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
+    #[cfg_attr(feature = "openapi", schema(pattern = "^[A-Za-z0-9._-]{1,64}$"))]
     pub id: String,
     /// Principal distance c in mm.
-    #[schema(exclusive_minimum = 0.0, maximum = 100_000.0)]
+    #[cfg_attr(feature = "openapi", schema(exclusive_minimum = 0.0, maximum = 100_000.0))]
     pub c_mm: f64,
     /// Estimate c (shorthand for `calibrate: ["c"]`).
     #[serde(default)]
     pub calibrate_c: bool,
     /// Names of the parameters to estimate: any of c, x0, y0, k1, k2, k3, p1, p2.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(inline, value_type = Option<Vec<InteriorName>>)]
+    #[cfg_attr(feature = "openapi", schema(inline, value_type = Option<Vec<InteriorName>>))]
     pub calibrate: Option<Vec<String>>,
     /// Pixel size in mm (needed for pixel observations), at least [`MIN_PIXEL_SIZE_MM`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 1e-4, maximum = 1.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 1e-4, maximum = 1.0))]
     pub pixel_size_mm: Option<f64>,
     /// Image width in pixels.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 1)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 1))]
     pub width_px: Option<u32>,
     /// Image height in pixels.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 1)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 1))]
     pub height_px: Option<u32>,
     /// Principal point offset x0 in mm.
     #[serde(default)]
-    #[schema(minimum = -1000.0, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1000.0, maximum = 1000.0))]
     pub x0_mm: f64,
     /// Principal point offset y0 in mm.
     #[serde(default)]
-    #[schema(minimum = -1000.0, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1000.0, maximum = 1000.0))]
     pub y0_mm: f64,
     /// Radial distortion k1 (mm⁻²).
     #[serde(default)]
-    #[schema(minimum = -1000.0, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1000.0, maximum = 1000.0))]
     pub k1: f64,
     /// Radial distortion k2 (mm⁻⁴).
     #[serde(default)]
-    #[schema(minimum = -1000.0, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1000.0, maximum = 1000.0))]
     pub k2: f64,
     /// Radial distortion k3 (mm⁻⁶).
     #[serde(default)]
-    #[schema(minimum = -1000.0, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1000.0, maximum = 1000.0))]
     pub k3: f64,
     /// Decentring distortion p1 (mm⁻¹).
     #[serde(default)]
-    #[schema(minimum = -1000.0, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1000.0, maximum = 1000.0))]
     pub p1: f64,
     /// Decentring distortion p2 (mm⁻¹).
     #[serde(default)]
-    #[schema(minimum = -1000.0, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = -1000.0, maximum = 1000.0))]
     pub p2: f64,
     /// A-priori standard deviation of one image coordinate in mm
     /// (default 0.5 px when the pixel size is known, else 0.002 mm), at least
     /// [`MIN_SIGMA_MM`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 1e-6, maximum = 1000.0)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 1e-6, maximum = 1000.0))]
     pub sigma_mm: Option<f64>,
 }
 
 /// The names `calibrate` accepts (documentation of the upload form's schema).
+#[cfg(feature = "openapi")]
 #[derive(utoipa::ToSchema)]
 #[allow(dead_code, non_camel_case_types)]
 enum InteriorName {

@@ -14,9 +14,8 @@ pub(crate) mod rotation;
 use serde::{Deserialize, Serialize};
 
 /// Which projection model an adjustment uses.
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default, utoipa::ToSchema,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum Model {
     /// Ono & Hattori's orthogonal projection model (eqs 5, 9–14) with self-calibrated c.

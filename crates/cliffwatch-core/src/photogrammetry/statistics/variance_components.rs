@@ -6,14 +6,14 @@
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::precision::Cofactors;
 use crate::photogrammetry::model::bundle::Bundle;
 use crate::photogrammetry::solve::normal_equations::PARALLEL_MIN_OBSERVATIONS;
 
 /// One camera's variance component in one adjustment.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct VarianceComponent {
     /// Camera id.
     pub camera: String,
@@ -95,7 +95,8 @@ pub fn per_camera(b: &Bundle, q: &Cofactors, cameras: &[String]) -> Vec<Variance
 }
 
 /// A camera's σ estimated from a window of epochs.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PooledSigma {
     /// Camera id.
     pub camera: String,

@@ -17,7 +17,8 @@ pub const GLOBAL_TEST_CONFIDENCE: f64 = 0.998;
 /// The global test of an adjustment: is the variance factor σ̂0²/σ² consistent with the a-priori
 /// σ? Two-sided at [`GLOBAL_TEST_CONFIDENCE`], the bounds being χ²(r)/r quantiles (r = the degrees
 /// of freedom, at least 2, as the snooping's [`variance_model`] takes them).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct GlobalTest {
     /// Whether the variance factor lies within the bounds.
     pub accepted: bool,
