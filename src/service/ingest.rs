@@ -53,7 +53,7 @@ pub const JOINT_COVARIANCE_ALL_POINTS_MAX: usize = 40;
 /// [`JOINT_COVARIANCE_ALL_POINTS_MAX`] points, else the stable ones and the members of the
 /// declared blocks (`kept`). The displacement analysis propagates the stable-point datum with the
 /// cross-covariances between each point and the datum points (without them the depth σ of
-/// displacements came out 8 % optimistic in `tests/adjust/calibration.rs`), and a block's motion
+/// displacements came out 8 % optimistic in `crates/cliffwatch-core/tests/adjust/calibration.rs`), and a block's motion
 /// uses those between its members.
 pub fn joint_covariance_points(points: &[String], kept: Vec<String>) -> Vec<String> {
     if points.len() <= JOINT_COVARIANCE_ALL_POINTS_MAX {

@@ -2,7 +2,7 @@
 //! detects" equals the minimum detectable displacement computed from the API's covariance of the
 //! same row (80 % power, the site's 99 % confidence), a still point reads "no movement above this
 //! is seen", and the site plan's tooltip gives the same figure. (That the MDD itself is right is
-//! checked against Monte Carlo in `tests/analysis/sensitivity.rs`.)
+//! checked against Monte Carlo in `crates/cliffwatch-core/tests/analysis/sensitivity.rs`.)
 
 use crate::support;
 

@@ -8,19 +8,27 @@
 //!   webhook receiver that verifies signatures;
 //! - `dashboard`: a site with a moving block filled through the API, page fetching and links;
 //! - `watch`: rendered epochs written into a watched folder;
-//! - `dbat`: DBAT's real photographs and PhotoModeler's marks and points;
-//! - `identify`: the long-range scene with its cameras, orientations and seeds;
-//! - `adjust`, `analysis`: the shared epochs and checks of the adjustment and analysis tests;
+//! - `dbat`, `identify`, `bad_images`: DBAT's real photographs, the long-range scene and broken
+//!   image files, the core's test helpers (`crates/cliffwatch-core/tests/support`), taken by path;
 //! - `pg`: a throwaway PostgreSQL cluster;
 //! - `plot`: the long-history plot checked on either backend.
 #![allow(dead_code)]
 
-pub mod adjust;
+/// The folder that holds the shared reference data, `../shared` beside the repository, as a
+/// string literal (for the core's helpers taken below).
+macro_rules! shared_dir {
+    () => {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../shared")
+    };
+}
+
 pub mod alerts;
-pub mod analysis;
+#[path = "../../crates/cliffwatch-core/tests/support/bad_images.rs"]
 pub mod bad_images;
 pub mod dashboard;
+#[path = "../../crates/cliffwatch-core/tests/support/dbat.rs"]
 pub mod dbat;
+#[path = "../../crates/cliffwatch-core/tests/support/identify.rs"]
 pub mod identify;
 pub mod pg;
 pub mod plot;

@@ -6,7 +6,7 @@
 //! and a straight line through the last 7 smoothed inverse velocities).
 //!
 //! `cargo run --release --example ttf_benchmark [-- SEEDS]` prints the table of
-//! `docs/accuracy.md`; `tests/analysis/ttf.rs` asserts the goals on a few seeds per kind.
+//! `docs/accuracy.md`; `crates/cliffwatch-core/tests/analysis/ttf.rs` asserts the goals on a few seeds per kind.
 
 use chrono::{DateTime, Utc};
 

@@ -7,7 +7,6 @@
 mod support;
 
 mod calibration;
-mod command;
 mod errors;
 mod paper;
 mod scenes;

@@ -6,7 +6,6 @@
 #[path = "../support/mod.rs"]
 mod support;
 
-mod bad_input;
 mod first_epoch;
 mod identify;
 mod real;

@@ -4,10 +4,7 @@
 use std::collections::HashMap;
 
 /// The data's directory.
-pub const DIR: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/data/real/dbat-camcal"
-);
+pub const DIR: &str = concat!(shared_dir!(), "/data/real/dbat-camcal");
 
 /// Image width and height in px.
 pub const SIZE_PX: (u32, u32) = (2272, 1704);
