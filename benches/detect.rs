@@ -9,9 +9,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use std::time::Duration;
 
 use cliffwatch_core::detect::{detect_bytes, DetectOptions, StageTimings};
-use cliffwatch_sim::images::{
-    encode_jpeg, random_clutter, render, scatter_targets, ImageSpec,
-};
+use cliffwatch_sim::images::{encode_jpeg, random_clutter, render, scatter_targets, ImageSpec};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));

@@ -30,6 +30,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde_json::json;
 
+use cliffwatch::service::ingest::joint_covariance_points;
 use cliffwatch_core::analysis::{
     analyse_epoch, evaluate_alerts, AlertConfig, AlertEventType, AlertLevel, AlertRule, AlertState,
     AnalysisConfig, EpochAnalysis, EpochCoordinates, GroupConfig, GroupKind, History, PointConfig,
@@ -37,7 +38,6 @@ use cliffwatch_core::analysis::{
 };
 use cliffwatch_core::photogrammetry::model::camera::DEFAULT_SIGMA_MM;
 use cliffwatch_core::photogrammetry::{adjust_problem, AdjustOptions};
-use cliffwatch::service::ingest::joint_covariance_points;
 use cliffwatch_sim::monitoring::FailureLaw;
 use cliffwatch_sim::series::{image_series, ImageSeries, ImageSeriesScenario};
 

@@ -1,9 +1,8 @@
 //! The daemon: opens the database, applies the configuration, and runs its parts under one
 //! shutdown signal ([`crate::shutdown`]): the HTTP server ([`crate::http`]: the API and the dashboard), the
-//! watched directory ([`crate::watch`]), the webhook delivery worker
-//! ([`service::webhook_delivery`]), the Alertmanager re-posts ([`service::alertmanager_resend`]),
-//! the campaign check ([`service::overdue`]), the deliveries'
-//! retention ([`service::retention`]) and, on SQLite, the WAL checkpoints
+//! watched directory ([`crate::watch`]), and the background loops of [`crate::workers`] (webhook
+//! delivery, the Alertmanager re-posts, the campaign check, the retentions) and, on SQLite, the
+//! WAL checkpoints
 //! ([`store::wal_checkpoint`]).
 //!
 //! On shutdown the listener stops accepting, in-flight requests (uploads included) finish within
@@ -24,6 +23,7 @@ use crate::service;
 use crate::service::admission::UploadGate;
 use crate::shutdown;
 use crate::store::{self, Store, StoreError, StoreOptions};
+use crate::workers;
 
 /// The server cannot start or failed.
 #[derive(Debug, Error)]
@@ -152,24 +152,24 @@ impl Bound {
                 }
             }));
         }
-        parts.push(tokio::spawn(service::webhook_delivery::run(
+        parts.push(tokio::spawn(workers::webhook_delivery::run(
             store.clone(),
-            service::webhook_delivery::WorkerConfig::from_config(&state.config),
+            workers::webhook_delivery::WorkerConfig::from_config(&state.config),
             stop.clone(),
         )));
-        parts.push(tokio::spawn(service::alertmanager_resend::run(
+        parts.push(tokio::spawn(workers::alertmanager_resend::run(
             store.clone(),
-            service::alertmanager_resend::ResendConfig::from_config(&state.config),
+            workers::alertmanager_resend::ResendConfig::from_config(&state.config),
             stop.clone(),
         )));
-        parts.push(tokio::spawn(service::overdue::run(
+        parts.push(tokio::spawn(workers::overdue::run(
             store.clone(),
             Duration::from_secs(state.config.overdue_check_secs.max(1)),
             stop.clone(),
         )));
-        let retention = service::retention::Retention::from_config(&state.config);
+        let retention = workers::retention::Retention::from_config(&state.config);
         if retention.any() {
-            parts.push(tokio::spawn(service::retention::run(
+            parts.push(tokio::spawn(workers::retention::run(
                 store.clone(),
                 retention,
                 stop.clone(),
@@ -177,7 +177,7 @@ impl Bound {
         }
         let done_days = state.config.watch_done_retention_days;
         if let (Some(dir), true) = (&state.config.watch_dir, done_days > 0) {
-            parts.push(tokio::spawn(crate::watch::retention::run(
+            parts.push(tokio::spawn(workers::watch_retention::run(
                 store.clone(),
                 dir.clone(),
                 Duration::from_secs(done_days.saturating_mul(86_400)),

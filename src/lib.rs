@@ -19,7 +19,7 @@
 //! - [`store`]: all SQL (SQLite or PostgreSQL through sqlx, behind one `Store`); migrations under
 //!   `migrations/sqlite/` and `migrations/postgres/`.
 //! - [`service`]: the use cases, one file each (ingest an epoch, recompute a site, change its
-//!   settings, acknowledge an alert, the campaign check, the webhook worker); each owns its
+//!   settings, acknowledge an alert); each owns its
 //!   transaction and calls the core and the store.
 //! - [`http`]: the HTTP layer below the API and the dashboard: the shared state, the router's
 //!   composition, auth and sessions, errors and extractors.
@@ -31,6 +31,8 @@
 //! - [`url_path`]: the percent-encoding of URL path segments, shared by [`http`] and [`webhooks`].
 //! - [`watch`]: the watched directory: its folders, each station's detection, the naming of the
 //!   targets, and a folder's ingestion (as an upload, through [`service::ingest`]).
+//! - [`workers`]: the background loops (webhook delivery, Alertmanager re-posts, the campaign
+//!   check, retentions).
 //! - [`daemon`] and [`shutdown`]: start and stop every part with one shutdown signal.
 //!
 //! A module is `pub` when the binary, the tests, the benchmarks or the examples use it; the
@@ -48,3 +50,4 @@ pub mod store;
 pub(crate) mod url_path;
 pub mod watch;
 pub mod webhooks;
+pub mod workers;

@@ -29,7 +29,10 @@ pub(super) fn reference_stability(processed: &[Processed]) -> [usize; 7] {
                 let (n, _) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
                 st = n;
                 let now = st
-                    .find(None, cliffwatch_core::analysis::AlertKind::ReferenceUnstable)
+                    .find(
+                        None,
+                        cliffwatch_core::analysis::AlertKind::ReferenceUnstable,
+                    )
                     .map_or(0, |x| x.points.len());
                 named += now;
                 any |= now > 0;

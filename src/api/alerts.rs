@@ -6,12 +6,12 @@ use serde::Deserialize;
 use utoipa::ToSchema;
 
 use super::list::{Listing, Page, PageParams};
-use cliffwatch_core::analysis::AlertStatus;
 use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use crate::http::AppState;
 use crate::service;
 use crate::store::alerts;
 use crate::webhooks::WebhookPayload;
+use cliffwatch_core::analysis::AlertStatus;
 
 /// Query of the alert list.
 #[derive(Debug, Default, Deserialize)]

@@ -13,11 +13,11 @@ use super::schemas::EpochSummary;
 use super::sites::find;
 use crate::http::error::{ApiError, ApiPath, ApiQuery};
 use crate::http::AppState;
+use crate::service::{ingest, ServiceError};
+use crate::store::{alerts, displacements, epochs, Store, StoreError};
 use cliffwatch_core::photogrammetry::input::epoch::CameraInput;
 use cliffwatch_core::photogrammetry::input::epoch_csv::{csv_camera, epoch_from_csv};
 use cliffwatch_core::photogrammetry::EpochInput;
-use crate::service::{ingest, ServiceError};
-use crate::store::{alerts, displacements, epochs, Store, StoreError};
 
 /// Bodies up to this many times the limit are read to the end before answering 413, so the client
 /// sees the answer instead of a reset connection; larger ones are cut off.

@@ -11,13 +11,13 @@ use utoipa::ToSchema;
 use super::list::{encode, Listing, Page, PageParams};
 use super::points::SeriesParams;
 use super::sites::find;
-use cliffwatch_core::analysis::{GroupConfig, GroupKind};
-use cliffwatch_core::contract::truncate_for_message;
 use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use crate::http::AppState;
-use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::series::{format_rows, SeriesFormat};
 use crate::store::{block_motions, groups, points};
+use cliffwatch_core::analysis::{GroupConfig, GroupKind};
+use cliffwatch_core::contract::truncate_for_message;
+use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier;
 
 /// Body of `PUT .../groups/{group}`.
 #[derive(Debug, Clone, Deserialize, ToSchema)]
@@ -128,7 +128,9 @@ fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
     }
     if let Some(d) = body.direction {
         if !cliffwatch_core::analysis::is_usable_direction(d) {
-            return Err(invalid(cliffwatch_core::analysis::UNUSABLE_DIRECTION.into()));
+            return Err(invalid(
+                cliffwatch_core::analysis::UNUSABLE_DIRECTION.into(),
+            ));
         }
     }
     let points = body.points.clone().unwrap_or_default();

@@ -14,15 +14,15 @@ use serde_json::json;
 
 use super::list::{encode, Listing, Page, PageParams};
 use super::sites::find;
-use cliffwatch_core::analysis::{AlertLevel, PointRole};
 use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use crate::http::time_bound::time_bound;
 use crate::http::AppState;
-use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier;
 use crate::store::displacements::{self, Displacement};
 use crate::store::points::{self, PointSettings};
 use crate::store::series::{self, SeriesFormat, SeriesQuery};
 use crate::store::{alerts, display_timestamp};
+use cliffwatch_core::analysis::{AlertLevel, PointRole};
+use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier;
 
 /// One line of the point list.
 #[derive(Debug, Serialize, utoipa::ToSchema)]

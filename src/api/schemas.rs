@@ -7,11 +7,11 @@
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 use crate::store::alerts::Alert;
 use crate::store::displacements::Displacement;
 use crate::store::epoch_report::EpochReport;
 use crate::store::epochs::{EpochListItem, StoredResidual};
+use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 
 /// The error body lives with the errors it writes ([`crate::http::error`]); named here for the
 /// OpenAPI document's paths.

@@ -9,9 +9,9 @@ use utoipa::ToSchema;
 use super::list::{Listing, Page, PageParams};
 use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use crate::http::AppState;
-use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier;
 use crate::service::ServiceError;
 use crate::store::sites::{self, NewSite, Site};
+use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier;
 
 /// `POST /api/v1/sites`: creates a site (201), or 409 when the id exists.
 #[utoipa::path(post, path = "/api/v1/sites", operation_id = "create_site", request_body = NewSite,

@@ -14,11 +14,11 @@ use serde::Deserialize;
 use super::layout::{level_badge, metric_name, num, page, seg, Viewer};
 use super::local_time::when;
 use super::page::viewer;
-use cliffwatch_core::analysis::AlertStatus;
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::service::acknowledge::{MAX_COMMENT_CHARS, MAX_NAME_CHARS};
 use crate::store::alerts::Alert;
+use cliffwatch_core::analysis::AlertStatus;
 
 /// The acknowledgement form's fields.
 #[derive(Debug, Deserialize)]

@@ -6,8 +6,8 @@
 use maud::{html, Markup};
 use serde::Deserialize;
 
-use cliffwatch_core::analysis::{AlertLevel, AlertStatus};
 use crate::store::alerts::Alert;
+use cliffwatch_core::analysis::{AlertLevel, AlertStatus};
 
 /// The query of the site page, as sent.
 #[derive(Debug, Default, Clone, Deserialize)]

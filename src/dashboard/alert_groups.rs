@@ -13,8 +13,8 @@ use maud::{html, Markup};
 use super::acknowledge::alert_row;
 use super::layout::{level_badge, metric_name, seg, Viewer};
 use super::local_time::when;
-use cliffwatch_core::analysis::{AlertLevel, AlertStatus};
 use crate::store::alerts::Alert;
+use cliffwatch_core::analysis::{AlertLevel, AlertStatus};
 
 /// Whose alerts a row gathers.
 #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]

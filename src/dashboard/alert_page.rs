@@ -14,10 +14,10 @@ use maud::{html, Markup};
 use super::layout::{level_badge, metric_name, num, page, seg};
 use super::local_time::when;
 use super::page::{viewer, PageError};
-use cliffwatch_core::analysis::{ClearedHow, ClearingTest};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::alerts;
+use cliffwatch_core::analysis::{ClearedHow, ClearingTest};
 
 /// The alert page.
 pub async fn alert(

@@ -17,12 +17,12 @@ use super::local_time::{text, when};
 use super::page::{site_or_404, viewer, PageError};
 use super::plot_data::inverse_line;
 use super::time_plot_svg::{time_plot, time_plot_with_line};
-use cliffwatch_core::analysis::AlertLevel;
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::displacements::Displacement;
 use crate::store::series::columns::{unix_seconds, SeriesColumns};
 use crate::store::{alerts, block_motions, groups, points};
+use cliffwatch_core::analysis::AlertLevel;
 
 /// Rows of the forecast history shown (the newest).
 const FORECASTS_SHOWN: usize = 30;

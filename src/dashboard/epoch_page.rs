@@ -18,8 +18,8 @@ use super::local_time::when;
 use super::page::{viewer, PageError};
 use crate::http::auth::Access;
 use crate::http::AppState;
-use cliffwatch_core::photogrammetry::adjust::report::VarianceModel;
 use crate::store::epochs::{self, ObservationResidual};
+use cliffwatch_core::photogrammetry::adjust::report::VarianceModel;
 
 /// The epoch page.
 pub async fn epoch(

@@ -13,11 +13,11 @@ use maud::{html, Markup};
 use super::layout::{level_class, seg};
 use super::local_time::{text, when};
 use super::page::PageError;
-use cliffwatch_core::analysis::AlertLevel;
 use crate::http::AppState;
 use crate::store::displacements::Displacement;
 use crate::store::sites::Site;
 use crate::store::{alerts, block_motions, displacements, epochs, parse_timestamp};
+use cliffwatch_core::analysis::AlertLevel;
 
 /// Open alerts read to find the worst (the store lists them newest first).
 const ALERTS_READ: i64 = 500;

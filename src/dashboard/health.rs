@@ -7,10 +7,10 @@
 use maud::{html, Markup};
 
 use super::layout::num;
-use cliffwatch_core::photogrammetry::statistics::variance_components::PooledSigma;
-use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 use crate::store::epochs::EpochListItem;
 use crate::store::sites::AprioriSigma;
+use cliffwatch_core::photogrammetry::statistics::variance_components::PooledSigma;
+use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 
 /// The recent epochs the verdict reads.
 pub const RECENT: usize = 10;

@@ -323,8 +323,9 @@ fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
     }
     let confidence = cliffwatch_core::analysis::failure::BOUND_CONFIDENCE;
     let sigma_hours = if s.is_finite() { s } else { 0.0 };
-    let bound_hours = cliffwatch_core::analysis::failure::upper_bound_hours(h, sigma_hours, confidence)
-        .unwrap_or(f64::INFINITY);
+    let bound_hours =
+        cliffwatch_core::analysis::failure::upper_bound_hours(h, sigma_hours, confidence)
+            .unwrap_or(f64::INFINITY);
     let tf = c.t[i] + h * 3600.0;
     let s = sigma_hours * 3600.0;
     let (lower, upper) = ((tf - 2.0 * s).max(c.t[i]), tf + 2.0 * s);

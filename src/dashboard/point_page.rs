@@ -15,13 +15,13 @@ use maud::html;
 use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma};
 use super::local_time::when;
 use super::page::{viewer, PageError};
-use cliffwatch_core::analysis::site_frame::{FaceAxes, SiteFrame};
-use cliffwatch_core::analysis::PointRole;
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::displacements::Displacement;
 use crate::store::sites::Site;
 use crate::store::{alerts, displacements, points};
+use cliffwatch_core::analysis::site_frame::{FaceAxes, SiteFrame};
+use cliffwatch_core::analysis::PointRole;
 
 /// The point page.
 pub async fn point(

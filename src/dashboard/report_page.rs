@@ -20,12 +20,12 @@ use super::page::{viewer, PageError};
 use super::plan_svg::{face_plan, PlanPoint};
 use super::report_sections::{self as sections, BlockRow};
 use super::time_plot_svg::time_plot;
-use cliffwatch_core::analysis::{AlertLevel, PointRole};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::series::columns::unix_seconds;
 use crate::store::sites::Site;
 use crate::store::{alerts, block_motions, displacements, epochs, groups, points, Store};
+use cliffwatch_core::analysis::{AlertLevel, PointRole};
 
 /// The period of the report.
 #[derive(Debug, Deserialize)]

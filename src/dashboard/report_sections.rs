@@ -8,11 +8,11 @@ use maud::{html, Markup};
 use super::headline::{bound_confidence_words, failure_time};
 use super::layout::{level_badge, metric_name, num, seg, time_to_failure, with_sigma};
 use super::local_time::{text, when};
-use cliffwatch_core::photogrammetry::statistics::variance_components::PooledSigma;
-use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 use crate::store::alerts::Alert;
 use crate::store::displacements::Displacement;
 use crate::store::epochs::EpochListItem;
+use cliffwatch_core::photogrammetry::statistics::variance_components::PooledSigma;
+use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 
 /// One block of the report: its name, member count and latest motion in the period.
 pub struct BlockRow {

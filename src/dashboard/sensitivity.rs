@@ -4,10 +4,12 @@
 
 use nalgebra::Matrix3;
 
-use cliffwatch_core::analysis::sensitivity::{minimum_detectable, MinimumDetectable, DEFAULT_POWER};
+use crate::store::displacements::Displacement;
+use cliffwatch_core::analysis::sensitivity::{
+    minimum_detectable, MinimumDetectable, DEFAULT_POWER,
+};
 use cliffwatch_core::analysis::stats::chi2_quantile;
 use cliffwatch_core::analysis::unit_direction;
-use crate::store::displacements::Displacement;
 
 /// The MDD of row `d` (mm) along `direction` (any length; None: 3-D only) at `confidence`
 /// (0–1); None for rows stored without their covariance, or a degenerate one.

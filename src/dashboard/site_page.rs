@@ -17,10 +17,10 @@ use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma, Vi
 use super::local_time::when;
 use super::page::{viewer, PageError};
 use super::plan_svg::{face_plan, PlanPoint};
-use cliffwatch_core::analysis::{AlertLevel, PointRole};
 use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::{alerts, displacements, epochs, points};
+use cliffwatch_core::analysis::{AlertLevel, PointRole};
 
 /// Epochs listed on the site page (newest first).
 const EPOCHS_SHOWN: i64 = 30;

@@ -9,9 +9,9 @@ use serde_json::{json, Value};
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use cliffwatch_core::photogrammetry::input::epoch_csv::CsvError;
 use crate::service::ServiceError;
 use crate::store::StoreError;
+use cliffwatch_core::photogrammetry::input::epoch_csv::CsvError;
 
 /// The error answer of every endpoint, as [`ApiError`] writes it.
 #[derive(Serialize, ToSchema)]

@@ -1,7 +1,7 @@
 //! Acknowledging an alert: the staff member on duty says they have seen it.
 
-use cliffwatch_core::analysis::{self, AnalysisError};
 use crate::store::{self, alert_states, alerts, Store, StoreError};
+use cliffwatch_core::analysis::{self, AnalysisError};
 
 use super::alert_outcome::save_and_record;
 use super::ServiceError;

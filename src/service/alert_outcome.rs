@@ -2,14 +2,16 @@
 //! pure rules of [`cliffwatch_core::analysis`] decide, save the state, and write each event's alert row,
 //! outbox message and one pending delivery per endpoint that takes it (but Alertmanager API v2
 //! endpoints, which the re-post loop keeps up to date from the store:
-//! [`super::alertmanager_resend`]).
+//! [`crate::workers::alertmanager_resend`]).
 
 use chrono::{DateTime, Utc};
 
-use cliffwatch_core::analysis::{self, AlertEvent, AlertEventType, AlertState, AlertStatus, EpochAnalysis};
 use crate::store::sites::Site;
 use crate::store::{self, alert_states, alerts, epochs, outbox, webhooks, Connection, StoreError};
 use crate::webhooks::{accepts, message_id, render, PayloadFormat, WebhookPayload};
+use cliffwatch_core::analysis::{
+    self, AlertEvent, AlertEventType, AlertState, AlertStatus, EpochAnalysis,
+};
 
 use super::analysis_inputs::alert_config;
 
@@ -27,7 +29,7 @@ fn state_after(event: &AlertEvent) -> AlertStatus {
 /// holding the body in the endpoint's format when that is not the contract's ([`render`]), so
 /// that every retry sends the same bytes. An `alertmanager_api_v2` endpoint gets no delivery:
 /// Alertmanager is told the state, re-derived from the store every period
-/// ([`super::alertmanager_resend`]), not a queue of events whose retries could post a state
+/// ([`crate::workers::alertmanager_resend`]), not a queue of events whose retries could post a state
 /// that is no longer true. `start` is the transaction's time on the store's clock
 /// ([`store::clock`]): the delivery worker compares due times with that clock (the database's on
 /// PostgreSQL), and the messages' times keep their order whichever node wrote them. Returns how

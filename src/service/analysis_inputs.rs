@@ -5,13 +5,13 @@
 
 use std::collections::HashMap;
 
+use crate::store::displacements::{self, Displacement};
+use crate::store::sites::Site;
+use crate::store::{self, epochs, joint_covariances, points, Connection, Store, StoreError};
 use cliffwatch_core::analysis::{
     self, AlertConfig, AlertRule, AnalysisConfig, AnalysisError, DisplacementRecord,
     EpochCoordinates, History, PointConfig, PointCoordinates,
 };
-use crate::store::displacements::{self, Displacement};
-use crate::store::sites::Site;
-use crate::store::{self, epochs, joint_covariances, points, Connection, Store, StoreError};
 
 use super::ServiceError;
 

@@ -4,11 +4,11 @@
 //! `apriori_sigma: estimated` an epoch's adjustment uses it in place of the uploaded σ, once
 //! [`MIN_EPOCHS`] earlier epochs carry components.
 
+use crate::store::{epoch_health, Connection, Store, StoreError};
 use cliffwatch_core::photogrammetry::statistics::variance_components::{
     pooled, PooledSigma, VarianceComponent,
 };
 use cliffwatch_core::photogrammetry::EpochProblem;
-use crate::store::{epoch_health, Connection, Store, StoreError};
 
 /// The sliding window of epochs the estimate pools.
 pub const WINDOW_EPOCHS: usize = 20;

@@ -5,8 +5,8 @@ use thiserror::Error;
 
 use cliffwatch_core::contract::truncate_for_message as cut;
 
-use cliffwatch_core::photogrammetry::{AdjustError, EpochError};
 use crate::store::StoreError;
+use cliffwatch_core::photogrammetry::{AdjustError, EpochError};
 
 /// Why a use case failed; nothing of it was stored.
 #[derive(Debug, Error)]

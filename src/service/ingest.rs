@@ -12,12 +12,14 @@ use std::time::Instant;
 use chrono::{DateTime, Utc};
 use sha2::{Digest, Sha256};
 
-use cliffwatch_core::analysis::{self, EpochCoordinates, GroupKind, History};
-use cliffwatch_core::photogrammetry::{adjust_problem, AdjustOptions, Adjustment, EpochError, EpochInput};
 use crate::store::block_motions;
 use crate::store::displacements::{self, Displacement};
 use crate::store::sites::{AprioriSigma, Site};
 use crate::store::{self, epochs, groups, points, sites, watch_state, Connection, Store};
+use cliffwatch_core::analysis::{self, EpochCoordinates, GroupKind, History};
+use cliffwatch_core::photogrammetry::{
+    adjust_problem, AdjustOptions, Adjustment, EpochError, EpochInput,
+};
 
 use super::admission::UploadSlot;
 use super::alert_outcome;

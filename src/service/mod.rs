@@ -1,7 +1,7 @@
 //! The use cases, one file each. Each owns its transaction, calls the pure core
 //! ([`cliffwatch_core::photogrammetry`], [`cliffwatch_core::analysis`]) on blocking threads and the store
 //! ([`crate::store`]) for every read and write; the API handlers, the watched directory and the
-//! daemon call them.
+//! daemon call them; the daemon's background loops are in [`crate::workers`].
 //!
 //! - [`ingest`]: an epoch in (upload or watched directory): adjust, analyse, alert, one
 //!   transaction.
@@ -11,11 +11,6 @@
 //! - [`webhooks`]: webhook endpoints added and removed.
 //! - [`configured`]: the sites and webhooks of the configuration file, applied at start.
 //! - [`acknowledge`]: staff acknowledge an alert.
-//! - [`overdue`]: the campaign schedule check.
-//! - [`webhook_delivery`]: the outbox worker.
-//! - [`alertmanager_resend`]: every open alert posted to Alertmanager again each period.
-//! - [`retention`]: finished webhook deliveries and old epochs' observations deleted after
-//!   their retention periods.
 //!
 //! Adjustment health: [`apriori_sigma`] estimates the cameras' a-priori σ from the recent
 //! epochs' variance components and applies it when the site asks.
@@ -28,18 +23,14 @@
 pub(crate) mod acknowledge;
 pub mod admission;
 pub(crate) mod alert_outcome;
-pub mod alertmanager_resend;
 pub(crate) mod analysis_inputs;
 pub mod apriori_sigma;
 pub mod configured;
 pub(crate) mod error;
 pub mod ingest;
-pub(crate) mod overdue;
 pub mod recompute;
-pub mod retention;
 pub(crate) mod site_settings;
 pub mod sites;
-pub(crate) mod webhook_delivery;
 pub mod webhooks;
 
 pub use error::ServiceError;

@@ -3,10 +3,10 @@
 //! older version. Runs inside the caller's write transaction, so the change and everything
 //! derived from it commit together.
 
-use cliffwatch_core::analysis::analyse_series;
 use crate::store::{
     self, block_motions, displacements, epochs, sites, Connection, Store, StoreError,
 };
+use cliffwatch_core::analysis::analyse_series;
 
 use super::alert_outcome;
 use super::analysis_inputs::{

@@ -2,9 +2,9 @@
 //! declared block groups and the points' roles, groups and directions. Each change and the
 //! recompute it causes commit in one transaction.
 
-use cliffwatch_core::analysis::{GroupConfig, PointRole};
 use crate::store::points::{self, Point, PointSettings};
 use crate::store::{epochs, groups, sites, Store, StoreError};
+use cliffwatch_core::analysis::{GroupConfig, PointRole};
 
 use super::alert_outcome::count_raised;
 use super::recompute::{recompute_site, RecomputeCause};

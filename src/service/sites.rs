@@ -2,11 +2,11 @@
 //! transaction. The checks are also those of the sites in the configuration file
 //! ([`super::configured`]).
 
+use crate::store::sites::{self, NewSite, Site};
+use crate::store::{Store, StoreError};
 use cliffwatch_core::analysis::alerts::{MAX_CONFIDENCE, MIN_CONFIDENCE};
 use cliffwatch_core::analysis::AlertRule;
 use cliffwatch_core::photogrammetry::input::epoch::is_valid_identifier;
-use crate::store::sites::{self, NewSite, Site};
-use crate::store::{Store, StoreError};
 
 use super::ServiceError;
 

@@ -1,4 +1,4 @@
-//! The alerts Alertmanager is to hold now (the re-post loop, `service::alertmanager_resend`):
+//! The alerts Alertmanager is to hold now (the re-post loop, `workers::alertmanager_resend`):
 //! every open or acknowledged alert, and those resolved recently enough that Alertmanager may
 //! still hold them firing.
 

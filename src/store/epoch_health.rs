@@ -5,7 +5,9 @@ use sqlx::AnyExecutor;
 
 use super::epoch_report::EpochReport;
 use super::StoreError;
-use cliffwatch_core::photogrammetry::statistics::variance_components::{PooledSigma, VarianceComponent};
+use cliffwatch_core::photogrammetry::statistics::variance_components::{
+    PooledSigma, VarianceComponent,
+};
 
 /// The epochs observed between `from` and `to` (store format, inclusive; `None`: open) whose
 /// adjustment used cameras' σ estimated from earlier epochs, oldest first, with those σ.

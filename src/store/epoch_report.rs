@@ -9,7 +9,9 @@ use utoipa::ToSchema;
 use cliffwatch_core::photogrammetry::adjust::report::{
     CameraReport, DroppedObservation, ImageReport, PointReport, VarianceModel,
 };
-use cliffwatch_core::photogrammetry::statistics::variance_components::{PooledSigma, VarianceComponent};
+use cliffwatch_core::photogrammetry::statistics::variance_components::{
+    PooledSigma, VarianceComponent,
+};
 use cliffwatch_core::photogrammetry::statistics::GlobalTest;
 
 /// The stored report of one epoch, as the epoch summary and the dashboard show it.

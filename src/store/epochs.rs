@@ -11,6 +11,7 @@ use utoipa::ToSchema;
 
 use super::epoch_report::EpochReport;
 use super::{display_timestamp, timestamp, StoreError};
+use cliffwatch_core::photogrammetry::input::epoch::ImageInput;
 use cliffwatch_core::photogrammetry::statistics::variance_components::PooledSigma;
 use cliffwatch_core::photogrammetry::{Adjustment, EpochInput, Model};
 
@@ -411,8 +412,7 @@ async fn insert_images(
         }
         q.execute(&mut *db).await?;
     }
-    let images: Vec<(usize, &cliffwatch_core::photogrammetry::input::epoch::ImageInput)> =
-        rec.input.images.iter().enumerate().collect();
+    let images: Vec<(usize, &ImageInput)> = rec.input.images.iter().enumerate().collect();
     for chunk in images.chunks(super::rows_per_insert(6)) {
         let sql = format!(
             "INSERT INTO images (site_id, epoch_id, id, camera, station, seq) VALUES {}",

@@ -8,8 +8,8 @@ use utoipa::openapi::schema::{Object, ObjectBuilder, Type};
 use utoipa::ToSchema;
 
 use super::{display_timestamp, now, StoreError};
-use cliffwatch_core::analysis::AlertLevel;
 use crate::webhooks::PayloadFormat;
+use cliffwatch_core::analysis::AlertLevel;
 
 /// OpenAPI schema of a `format` field: a string, one of [`PayloadFormat`]'s names.
 fn format_schema() -> Object {

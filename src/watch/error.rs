@@ -1,10 +1,10 @@
 //! Why a watched folder failed.
 
+use crate::service::ServiceError;
+use crate::store::StoreError;
 use cliffwatch_core::detect::first_epoch::FirstEpochError;
 use cliffwatch_core::detect::identify::IdentifyError;
 use cliffwatch_core::detect::DetectError;
-use crate::service::ServiceError;
-use crate::store::StoreError;
 
 /// Why a watched folder failed (written to its `error.txt`).
 #[derive(Debug, thiserror::Error)]

@@ -12,14 +12,14 @@ use super::naming::name_targets;
 use super::state::{load_orientations, save_state};
 use super::stations::{detect_station, station_of, StationCounts, StationData, StationNamed};
 use super::{WatchError, WatchOptions};
+use crate::service::ingest::{ingest_watched, Ingested, WatchedFolder};
+use crate::store::sites::ImageWeights;
+use crate::store::{points, watch_state, Store};
 use cliffwatch_core::detect::convergent::ConvergentSite;
 use cliffwatch_core::detect::identify::{resect_seeds, Seed};
 use cliffwatch_core::detect::settings::DetectionSettings;
 use cliffwatch_core::photogrammetry::input::epoch::ObservationInput;
 use cliffwatch_core::photogrammetry::{EpochInput, ImageOrientation, Model};
-use crate::service::ingest::{ingest_watched, Ingested, WatchedFolder};
-use crate::store::sites::ImageWeights;
-use crate::store::{points, watch_state, Store};
 
 /// A folder's targets detected and named: the upload form with the named observations, and what
 /// the resection of each station needs.

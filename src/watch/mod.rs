@@ -49,7 +49,6 @@ pub(crate) mod ingest;
 pub mod inside;
 mod naming;
 mod options;
-pub mod retention;
 mod settle;
 mod state;
 mod stations;

@@ -5,8 +5,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use super::folders::read_state_file;
-use cliffwatch_core::photogrammetry::ImageOrientation;
 use crate::store::{self, watch_state, Store, StoreError};
+use cliffwatch_core::photogrammetry::ImageOrientation;
 
 /// Orientations from the file of earlier versions (`<site>/.state/orientations.json`), if any.
 pub(super) fn legacy_orientations(site_dir: &Path) -> BTreeMap<String, ImageOrientation> {

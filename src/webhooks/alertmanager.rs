@@ -3,7 +3,7 @@
 //! one posted resolved until the `endsAt` Alertmanager held has passed, and the level as one
 //! alert per level at or below the current one (lower levels stay firing while a higher one is
 //! active; an inhibit rule mutes them, README "Alertmanager"), so no receiver sees a resolution
-//! at the moment things got worse. Pure: the re-post loop ([`crate::service::alertmanager_resend`])
+//! at the moment things got worse. Pure: the re-post loop ([`crate::workers::alertmanager_resend`])
 //! reads the alerts from the store and sends what these functions build.
 
 use std::collections::BTreeMap;
@@ -12,8 +12,8 @@ use chrono::{DateTime, Duration, SecondsFormat, Utc};
 
 use serde::{Deserialize, Serialize};
 
-use cliffwatch_core::analysis::AlertLevel;
 use crate::url_path::seg;
+use cliffwatch_core::analysis::AlertLevel;
 
 /// How many re-post periods an alert posted firing stays firing in Alertmanager without news
 /// (`endsAt` = now + this × period): Prometheus uses 4 × its resend delay, so that a couple of

@@ -15,12 +15,12 @@ use std::time::{Duration, Instant};
 
 use chrono::{DateTime, Utc};
 
-use cliffwatch_core::analysis::AlertLevel;
 use crate::shutdown::Shutdown;
 use crate::store::{self, alert_repost, webhooks, Store, StoreError};
 use crate::webhooks::{
     deliver, message_id_of, resend_body, CurrentAlert, DeliveryOutcome, PayloadFormat, HOLD_PERIODS,
 };
+use cliffwatch_core::analysis::AlertLevel;
 
 /// Settings of the loop.
 #[derive(Debug, Clone)]

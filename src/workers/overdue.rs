@@ -5,12 +5,12 @@ use std::time::Duration;
 
 use chrono::{DateTime, Utc};
 
-use cliffwatch_core::analysis;
 use crate::shutdown::Shutdown;
 use crate::store::{self, alert_states, epochs, sites, Store, StoreError};
+use cliffwatch_core::analysis;
 
-use super::alert_outcome::save_and_record;
-use super::analysis_inputs::alert_config;
+use crate::service::alert_outcome::save_and_record;
+use crate::service::analysis_inputs::alert_config;
 
 /// Checks every site with a schedule at `now`, one write transaction per site that changes.
 /// Returns how many alerts were raised.
@@ -43,7 +43,7 @@ pub async fn check_all(store: &Store, now: DateTime<Utc>) -> Result<usize, Store
 pub async fn run(store: Store, every: Duration, shutdown: Shutdown) {
     loop {
         match check_once(&store).await {
-            Ok(n) if n > 0 => super::alert_outcome::count_raised(n),
+            Ok(n) if n > 0 => crate::service::alert_outcome::count_raised(n),
             Ok(_) => {}
             Err(e) => tracing::warn!(error = %e, "campaign schedule check failed"),
         }

@@ -8,7 +8,7 @@
 //!   changes are unaffected; the epoch records when they went (`observations_pruned_at`).
 //!
 //! Run periodically by the daemon. (The watched directory's taken folders have their own
-//! retention, [`crate::watch::retention`].)
+//! retention, [`super::watch_retention`].)
 
 use std::time::Duration;
 

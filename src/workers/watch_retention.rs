@@ -6,9 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
-use super::folders;
 use crate::shutdown::Shutdown;
 use crate::store::{Store, StoreError};
+use crate::watch::folders;
 
 /// How often the pass runs.
 const EVERY: Duration = Duration::from_secs(3600);

@@ -195,15 +195,34 @@ fn no_file_over_700_lines() {
 /// Crates no library crate of the workspace may link: the async runtime, the database, HTTP and
 /// the OpenAPI generator (the core's `openapi` feature, off by default, is the one way in).
 const SERVER_CRATES: &[&str] = &[
-    "tokio", "sqlx", "axum", "hyper", "reqwest", "tower", "tower-http", "utoipa", "maud",
-    "libsqlite3-sys", "notify", "metrics",
+    "tokio",
+    "sqlx",
+    "axum",
+    "hyper",
+    "reqwest",
+    "tower",
+    "tower-http",
+    "utoipa",
+    "maud",
+    "libsqlite3-sys",
+    "notify",
+    "metrics",
 ];
 
 #[test]
 fn the_core_and_the_simulator_link_no_server_crate() {
     for package in ["cliffwatch-core", "cliffwatch-sim"] {
         let out = std::process::Command::new(env!("CARGO"))
-            .args(["tree", "--offline", "-e", "normal", "--prefix", "none", "-p", package])
+            .args([
+                "tree",
+                "--offline",
+                "-e",
+                "normal",
+                "--prefix",
+                "none",
+                "-p",
+                package,
+            ])
             .current_dir(env!("CARGO_MANIFEST_DIR"))
             .output()
             .expect("cargo tree runs");

@@ -167,7 +167,7 @@ async fn run_scenario(s: &TestServer) {
         .unwrap()
         .to_utc();
     let keep = std::time::Duration::from_secs(3 * 86_400);
-    let pruned = cliffwatch::service::retention::prune_observations(&s.store, keep, now)
+    let pruned = cliffwatch::workers::retention::prune_observations(&s.store, keep, now)
         .await
         .unwrap();
     assert_eq!(pruned, 5);

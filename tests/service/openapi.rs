@@ -305,7 +305,9 @@ fn patterns(v: &Value, out: &mut Vec<String>) {
 
 #[tokio::test]
 async fn upload_form_bounds_in_the_document_are_the_cores_limits() {
-    use cliffwatch_core::photogrammetry::input::epoch::{MAX_IMAGE_COORDINATE, MAX_OBJECT_COORDINATE_M};
+    use cliffwatch_core::photogrammetry::input::epoch::{
+        MAX_IMAGE_COORDINATE, MAX_OBJECT_COORDINATE_M,
+    };
     let s = TestServer::start(|_| {}).await;
     let (_, doc) = s.get("/api/v1/openapi.json").await;
     let schemas = &doc["components"]["schemas"];

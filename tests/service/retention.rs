@@ -170,7 +170,7 @@ async fn old_epochs_lose_their_observations_and_nothing_else() {
     assert_eq!(second.upload(SITE, &other).await.0, 409);
     // A second pass finds nothing left to delete.
     let keep = Duration::from_secs(30 * 86_400);
-    let again = cliffwatch::service::retention::prune_observations(&second.store, keep, Utc::now())
+    let again = cliffwatch::workers::retention::prune_observations(&second.store, keep, Utc::now())
         .await
         .unwrap();
     assert_eq!(again, 0);

@@ -8,8 +8,8 @@ use crate::support::bad_images;
 
 use std::path::{Path, PathBuf};
 
-use cliffwatch_core::detect::{decode, GreyImage};
 use cliffwatch::watch::{scan_once, WatchOptions};
+use cliffwatch_core::detect::{decode, GreyImage};
 use support::server::TestServer;
 use support::watch::{small_scene, write_epoch};
 

@@ -7,10 +7,10 @@ use crate::support;
 
 use std::path::Path;
 
+use cliffwatch::watch::{scan_once, WatchOptions};
 use cliffwatch_core::photogrammetry::input::epoch::ObservationInput;
 use cliffwatch_core::photogrammetry::EpochInput;
 use cliffwatch_sim::images::{encode_png, render, ImageSpec, TargetTruth};
-use cliffwatch::watch::{scan_once, WatchOptions};
 use support::server::TestServer;
 
 /// The first station image (`.png`) that `folder` lists.

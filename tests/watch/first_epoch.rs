@@ -18,12 +18,12 @@ use crate::support;
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use cliffwatch::store::epochs;
+use cliffwatch::watch::{scan_once, WatchOptions};
 use cliffwatch_core::photogrammetry::input::epoch::{ApproxInput, ObservationInput};
 use cliffwatch_core::photogrammetry::EpochInput;
 use cliffwatch_sim::images::{encode_png, random_clutter, render, ImageSpec, TargetTruth};
 use cliffwatch_sim::scenes::{long_range, project, LongRangeParams, Truth};
-use cliffwatch::store::epochs;
-use cliffwatch::watch::{scan_once, WatchOptions};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;

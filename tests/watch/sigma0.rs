@@ -10,9 +10,9 @@ use crate::support;
 
 use std::collections::BTreeMap;
 
-use cliffwatch_sim::scenes::{long_range, project, LongRangeParams};
 use cliffwatch::store::Store;
 use cliffwatch::watch::{scan_once, WatchOptions};
+use cliffwatch_sim::scenes::{long_range, project, LongRangeParams};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};

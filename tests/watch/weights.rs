@@ -5,8 +5,8 @@
 
 use crate::support;
 
-use cliffwatch_core::detect::SIGMA_FLOOR_PX;
 use cliffwatch::watch::{scan_once, WatchOptions};
+use cliffwatch_core::detect::SIGMA_FLOOR_PX;
 use serde_json::json;
 use support::server::TestServer;
 use support::watch::{small_scene, write_epoch};

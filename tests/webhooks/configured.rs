@@ -2,10 +2,10 @@
 //! level or format changed) keeps its id and its pending deliveries; one no longer configured
 //! loses them; a new one is added.
 
-use cliffwatch_core::analysis::AlertLevel;
 use cliffwatch::store::webhooks::{list, replace_configured, NewWebhook};
 use cliffwatch::store::{Store, StoreOptions};
 use cliffwatch::webhooks::PayloadFormat;
+use cliffwatch_core::analysis::AlertLevel;
 
 const OLD: &str = "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw";
 const NEW: &str = "whsec_Y2xpZmZ3YXRjaC1hbS13ZWJob29rLXY0";

@@ -17,11 +17,13 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sha2::Sha256;
 
-use cliffwatch_core::analysis::{Alert, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertStatus};
 use cliffwatch::webhooks::{
     accepts, alertmanager_alerts, alertmanager_body, backoff_delay, deliver, message_id,
     next_retry, parse_retry_after, render, sign, verify, DeliveryOutcome, PayloadFormat,
     RetryPolicy, WebhookEndpoint, WebhookPayload,
+};
+use cliffwatch_core::analysis::{
+    Alert, AlertEvent, AlertEventType, AlertKind, AlertLevel, AlertStatus,
 };
 
 const SECRET: &str = "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw";

@@ -288,7 +288,10 @@ pub async fn save(
 /// observation time, message and the points concerned (a later epoch can add stable points to
 /// `reference_unstable`, or points to a block's alert, without changing the level). Its state and
 /// `updated_at` change only with events, [`save`].
-pub async fn refresh(db: &mut AnyConnection, a: &cliffwatch_core::analysis::Alert) -> Result<(), StoreError> {
+pub async fn refresh(
+    db: &mut AnyConnection,
+    a: &cliffwatch_core::analysis::Alert,
+) -> Result<(), StoreError> {
     sqlx::query(
         "UPDATE alerts SET value = $1, threshold = $2, epoch_id = $3, observed_at = $4, \
          message = $5, points = $6 WHERE id = $7",

@@ -227,7 +227,7 @@ pub struct FailureConfig {
     /// How the filtered forecast is fitted.
     pub method: ForecastMethod,
     /// Epochs whose displacements enter the fit of the integrated law
-    /// ([`ForecastMethod::Displacement`]): short enough that the creep before the acceleration
+    /// (`ForecastMethod::Displacement`): short enough that the creep before the acceleration
     /// does not pull the failure time late (12 epochs measured best on the detection benchmark).
     pub law_window: Window,
     /// Hours over which a forecast must converge before it is published (0: no confirmation):
@@ -241,8 +241,8 @@ pub struct FailureConfig {
     /// forecast's 90 % interval (the two agree both ways).
     pub confirm_both_ways: bool,
     /// Epochs whose displacements enter the test for an onset of acceleration
-    /// ([`super::onset`], creep then the law, against a straight line) that must pass before the
-    /// law is fitted ([`ForecastMethod::Displacement`]): long, so the creep before the onset pins
+    /// (`super::onset`, creep then the law, against a straight line) that must pass before the
+    /// law is fitted (`ForecastMethod::Displacement`): long, so the creep before the onset pins
     /// the line (40 epochs measured best on the detection benchmark; capped by `filter_epochs`).
     pub acceleration_window: Window,
 }

@@ -330,7 +330,7 @@ pub(super) fn min_over_failure_time(
 /// the 90 % interval from Δχ² = 2.71. None for fewer than 5 epochs, B not positive, a line that
 /// does not advance, or a failure time beyond the scan. Whether the law is shown at all is the
 /// caller's test: [`LawFit::gain_over_line`] here, or the onset of acceleration over a longer
-/// window ([`super::onset`]).
+/// window (`super::onset`).
 pub fn fit_law_to_displacements(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) -> Option<LawFit> {
     let mut t = vec![];
     let mut d = vec![];

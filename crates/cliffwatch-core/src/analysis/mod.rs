@@ -2,26 +2,26 @@
 //!
 //! The path of an epoch through this module:
 //! 1. [`analyse_epoch`]: the current epoch's coordinates are brought into the reference datum by an
-//!    S-transformation onto the stable points ([`datum`]), whose congruence is tested and whose moving
-//!    members are excluded ([`congruence`]; an exclusion is a move for `reference_unstable` only
+//!    S-transformation onto the stable points (`datum`), whose congruence is tested and whose moving
+//!    members are excluded (`congruence`; an exclusion is a move for `reference_unstable` only
 //!    when the point also changed from its own earlier epochs, [`reference_change`]); every point gets its displacement with covariance and
-//!    significance test ([`displacement`]), velocity and acceleration ([`velocity`]) and, while it
+//!    significance test (`displacement`), velocity and acceleration (`velocity`) and, while it
 //!    accelerates, an inverse-velocity time-to-failure forecast ([`failure`]); the Kalman filter
 //!    ([`kalman`]) over the point's last epochs gives its filtered displacement, velocity and
 //!    forecast ([`tracking`]); each declared block gets its rigid-body motion ([`rigid_body`]) with the
-//!    joint covariance of its points and the same filtered kinematics ([`block_analysis`]). The
-//!    reference may be the mean of several epochs ([`reference`](self::reference)).
+//!    joint covariance of its points and the same filtered kinematics (`block_analysis`). The
+//!    reference may be the mean of several epochs ([`reference`](mod@self::reference)).
 //! 2. [`evaluate_alerts`]: the site's rules turn the analysis into alert transitions and events
 //!    ([`alerts`]): a rule fires when its value exceeds the threshold at the site's one-sided
 //!    confidence, for points and blocks; [`check_overdue`] watches the campaign schedule; [`acknowledge`] and [`resolve`] are the
 //!    user's actions.
 //! 3. [`analyse_series`]: a whole series again against one reference, the rules replayed over it
-//!    ([`series`]), when the reference or the history changes.
+//!    (`series`), when the reference or the history changes.
 //!
-//! The inputs and settings of these steps are in [`epoch`](self::epoch) (the Kalman filter's too);
-//! one epoch's analysis is [`epoch_analysis`](self::epoch_analysis), the blocks' [`block_analysis`];
-//! a point's past records and what is read from them are in [`history`](self::history), the small
-//! linear algebra they share in [`linalg`](self::linalg).
+//! The inputs and settings of these steps are in `epoch` (the Kalman filter's too);
+//! one epoch's analysis is `epoch_analysis`, the blocks' `block_analysis`;
+//! a point's past records and what is read from them are in `history`, the small
+//! linear algebra they share in `linalg`.
 //!
 //! Units are in the names: m for coordinates, mm and mm² for displacements and their covariances, mm/day,
 //! hours. Methods: Caspary 1987 and Niemeier 2008 (S-transformation, congruence test), Chen 1983 (IWST),
@@ -45,7 +45,7 @@ pub mod kalman;
 pub(crate) mod linalg;
 pub(crate) mod onset;
 pub(crate) mod onset_law;
-pub(crate) mod reference;
+pub mod reference;
 pub mod reference_change;
 pub mod rigid_body;
 pub mod sensitivity;

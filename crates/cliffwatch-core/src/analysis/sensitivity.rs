@@ -1,5 +1,5 @@
 //! The minimum detectable displacement (MDD) of the single-point test in
-//! [`super::displacement`]: the smallest true displacement that the test `d'ᵀ Σ⁻¹ d' > c` detects
+//! `super::displacement`: the smallest true displacement that the test `d'ᵀ Σ⁻¹ d' > c` detects
 //! with a stated probability (the power, e.g. 80 %), at the site's confidence.
 //!
 //! Under a true displacement δ·u (u a unit vector) the statistic is non-central χ² with `h` degrees

@@ -1,6 +1,6 @@
 //! Filtered kinematics of one subject (a point or a block) at the current epoch: the Kalman filter
 //! ([`super::kalman`]) over the subject's displacement series up to the current epoch, and the
-//! inverse-velocity forecast once the series shows an onset of acceleration ([`super::onset`],
+//! inverse-velocity forecast once the series shows an onset of acceleration (`super::onset`,
 //! [`super::failure`]).
 //!
 //! The filter runs again over the last [`AnalysisConfig::filter_epochs`] epochs at every analysis
@@ -54,7 +54,7 @@ pub struct Tracked {
 /// Runs the filter over `series` (oldest first, the current epoch last) with process noise
 /// `process_noise` (None: the configuration's). `direction`: the direction of interest (need not
 /// be normalised); the velocity is taken along it, else along the subject's filtered motion since
-/// its origin ([`motion_since_origin`]; `reference_t_days`: the reference epoch's time relative
+/// its origin (`motion_since_origin`; `reference_t_days`: the reference epoch's time relative
 /// to the current epoch, days).
 /// `shared_mm2`: the share of every epoch's covariance that all epochs have in common (the
 /// reference epoch's errors, mm²): the law's fit for the forecast has a free intercept, which

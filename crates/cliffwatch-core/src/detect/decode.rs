@@ -223,6 +223,6 @@ fn from_dynamic(img: DynamicImage) -> Result<GreyImage, DetectError> {
 
 /// The Rec. 601 luma of an RGB triple, rounded (grey levels of the same depth).
 #[inline]
-pub(crate) fn luma<T: Into<u32>>(r: T, g: T, b: T) -> u16 {
+pub fn luma<T: Into<u32>>(r: T, g: T, b: T) -> u16 {
     ((299 * r.into() + 587 * g.into() + 114 * b.into() + 500) / 1000) as u16
 }

@@ -5,11 +5,11 @@
 //! approximations are used last:
 //! 1. each seed (a hand measurement, ±1 px) is snapped to its detection;
 //! 2. the targets seeded in every station fix the stations' affine cameras relative to each other
-//!    ([`multiview::factorize`]); no object coordinates are used;
+//!    (`multiview::factorize`); no object coordinates are used;
 //! 3. detections are matched across stations by epipolar and third-view consistency
-//!    ([`multiview::match_tracks`]); the cameras are refitted on every target found in all stations
+//!    (`multiview::match_tracks`); the cameras are refitted on every target found in all stations
 //!    and the matching repeated with the tighter tolerance this allows;
-//! 4. only then are the tracks named ([`naming::name_tracks`]): a global assignment to the
+//! 4. only then are the tracks named (`naming::name_tracks`): a global assignment to the
 //!    approximations through a 3-D affine map fitted to all of them, accepting a name only when it
 //!    wins by a clear margin. An ambiguous target is left out, not guessed.
 //!
@@ -147,9 +147,9 @@ pub struct FirstEpoch {
     pub ambiguous: Vec<(String, String)>,
     /// Scatter σ per coordinate of the approximations about the images' geometry, m.
     pub approx_sigma_m: f64,
-    /// The targets' median spacing as the images show it ([`naming::Naming::spacing_m`]), m.
+    /// The targets' median spacing as the images show it (`naming::Naming::spacing_m`), m.
     pub spacing_m: f64,
-    /// The scatter beyond which no target is named ([`naming::Naming::max_sigma_m`]), m.
+    /// The scatter beyond which no target is named (`naming::Naming::max_sigma_m`), m.
     pub max_sigma_m: f64,
     /// rms misfit of the affine cameras per image coordinate in mm (perspective and noise).
     pub camera_misfit_mm: f64,

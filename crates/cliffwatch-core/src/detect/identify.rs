@@ -8,7 +8,7 @@
 //! of two points, or a point with two blobs in its gate, is left out and listed as ambiguous — never
 //! guessed. When the first pass finds fewer than half the targets in view, the station was set up
 //! again or re-aimed: the pattern's shift on the image is found by voting
-//! ([`super::re_pointing`]) and the matching repeated. Then a 2-D similarity from the unique
+//! (`super::re_pointing`) and the matching repeated. Then a 2-D similarity from the unique
 //! matches to the detections absorbs the rest of the re-pointing, and the matching is repeated.
 
 use super::re_pointing::{translation_by_votes, MIN_VOTES};

@@ -1,8 +1,8 @@
 //! Circular target detection and sub-pixel centring (pure: bytes in, targets out; no I/O).
 //!
-//! Pipeline: [`decode`] (JPEG/PNG/TIFF, 8/16-bit, grey/colour → grey) → [`threshold`] (robust
-//! background grid, noise σ, runs above background + k·σ) → [`components`] (8-connected regions,
-//! shape tests: area, aspect, fill) → [`centroid`] (plane background from an annulus, Gaussian-windowed
+//! Pipeline: [`decode`](mod@decode) (JPEG/PNG/TIFF, 8/16-bit, grey/colour → grey) → [`threshold`] (robust
+//! background grid, noise σ, runs above background + k·σ) → `components` (8-connected regions,
+//! shape tests: area, aspect, fill) → `centroid` (plane background from an annulus, Gaussian-windowed
 //! centroid iterated on the re-centred window) → for targets of ≥ 6 px, [`ellipse`] (least-squares fit of
 //! a blurred-ellipse model started from the centroid) → [`Target`] (centre, size, contrast, quality,
 //! [`CentreMethod`] used).
@@ -10,9 +10,9 @@
 pub(crate) mod centroid;
 pub(crate) mod components;
 pub mod convergent;
-pub(crate) mod decode;
+pub mod decode;
 pub mod dual_conic;
-pub(crate) mod ellipse;
+pub mod ellipse;
 pub(crate) mod error;
 pub mod first_epoch;
 pub mod identify;

@@ -4,15 +4,15 @@
 //! - [`input`]: the upload form, checked, becomes the problem to solve;
 //! - [`start`]: start values from four known points per image (affine resection, perspective
 //!   refinement, ray intersection);
-//! - [`model`]: the [`model::orthogonal`] and [`model::central`] projection models, the working
-//!   [`model::frame`], and the observation equations of the [`model::bundle`];
-//! - [`solve`]: normal equations with the Schur complement and Levenberg–Marquardt;
+//! - [`model`]: the [`model::orthogonal`] and `model::central` projection models, the working
+//!   [`model::frame`], and the observation equations of the `model::bundle`;
+//! - `solve`: normal equations with the Schur complement and Levenberg–Marquardt;
 //! - [`statistics`]: precision, data snooping, and the paper's quality indexes;
-//! - [`adjust`]: the adjustment as a whole ([`adjust::adjuster`]), its options and result, and the
+//! - [`adjust`](mod@adjust): the adjustment as a whole (`adjust::adjuster`), its options and result, and the
 //!   contract's report.
 //!
 //! The solver, the bundle's internals, precision and snooping are crate-private: callers use
-//! [`adjust`] / [`adjust_problem`] and the types re-exported here.
+//! [`adjust()`] / [`adjust_problem`] and the types re-exported here.
 
 pub mod adjust;
 pub(crate) mod error;

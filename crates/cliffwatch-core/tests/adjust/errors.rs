@@ -48,16 +48,16 @@ fn fewer_than_four_known_points_names_the_image() {
 #[test]
 fn point_in_one_image_only_names_the_point() {
     let mut e = base();
-    e.images[0]
-        .observations
-        .push(cliffwatch_core::photogrammetry::input::epoch::ObservationInput {
+    e.images[0].observations.push(
+        cliffwatch_core::photogrammetry::input::epoch::ObservationInput {
             point: "LONER".into(),
             x_mm: Some(1.0),
             y_mm: Some(2.0),
             col: None,
             row: None,
             sigma_mm: None,
-        });
+        },
+    );
     match run(&e) {
         Err(AdjustError::PointInTooFewImages { point, images }) => {
             assert_eq!(point, "LONER");

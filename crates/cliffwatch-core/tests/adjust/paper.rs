@@ -5,9 +5,7 @@ use crate::support;
 use support::adjust as common;
 
 use cliffwatch_core::photogrammetry::{adjust, Model};
-use cliffwatch_sim::scenes::{
-    paper_table1, with_true_approx, PaperCase, PaperParams, PAPER_C_MM,
-};
+use cliffwatch_sim::scenes::{paper_table1, with_true_approx, PaperCase, PaperParams, PAPER_C_MM};
 use common::*;
 
 const NOISE_MM: f64 = 0.001;

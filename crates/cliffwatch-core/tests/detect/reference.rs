@@ -3,7 +3,7 @@
 
 use cliffwatch_core::detect::{detect_bytes, CentreMethod, DetectOptions};
 
-const DIR: &str = concat!(shared_dir!(), "/data/images");
+const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/images");
 
 fn truth(name: &str) -> Vec<(f64, f64)> {
     let s = std::fs::read_to_string(format!("{DIR}/truth.json")).unwrap();

@@ -7,8 +7,8 @@ use cliffwatch_sim::scenes::Truth;
 
 /// The shared epoch and truth of one paper case and seed, or None when `../shared` is absent.
 pub fn shared(case: u32, seed: u64) -> Option<(EpochInput, Truth)> {
-    let dir = std::env::var("CLIFFWATCH_SHARED_DATA")
-        .unwrap_or(concat!(shared_dir!(), "/data").into());
+    let dir =
+        std::env::var("CLIFFWATCH_SHARED_DATA").unwrap_or(concat!(shared_dir!(), "/data").into());
     let e =
         std::fs::read_to_string(format!("{dir}/paper-case{case}-seed{seed}.epoch.json")).ok()?;
     let t =

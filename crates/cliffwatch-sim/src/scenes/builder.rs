@@ -15,7 +15,9 @@ use cliffwatch_core::photogrammetry::input::epoch::{
     ApproxInput, CameraInput, EpochInput, ImageInput, ObservationInput,
 };
 use cliffwatch_core::photogrammetry::model::camera::brown_distort;
-use cliffwatch_core::photogrammetry::statistics::quality::{index3_rmse_mm, index4_rmse_mm, QualityError};
+use cliffwatch_core::photogrammetry::statistics::quality::{
+    index3_rmse_mm, index4_rmse_mm, QualityError,
+};
 
 /// The true scene behind a simulated epoch (the form of the `*.truth.json` files `cliffwatch
 /// simulate` writes).

@@ -1,6 +1,6 @@
 //! Simulated epochs with known truth, deterministic by seed (`rand_chacha::ChaCha8Rng`).
 //!
-//! Every generator returns the epoch in the upload form ([`EpochInput`]) and its [`Truth`] (the form
+//! Every generator returns the epoch in the upload form (`EpochInput`) and its [`Truth`] (the form
 //! of the `*.truth.json` files `cliffwatch simulate` writes). Conventions are those of
 //! `docs/model.md`: object
 //! coordinates in m, image coordinates in mm (x right, y up) or pixels, camera coordinates

@@ -9,7 +9,9 @@ use serde::{Deserialize, Serialize};
 use super::metric::AlertKind;
 
 /// Alert level; ordered `watch` < `warning` < `alarm` (the default is the lowest).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum AlertLevel {

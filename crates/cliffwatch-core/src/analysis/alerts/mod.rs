@@ -11,12 +11,12 @@
 //! in the datum for `reference_quiet_epochs` epochs) and `campaign_overdue` (no epoch within the schedule).
 //! Everything here is pure: the state goes in, the new state and the events come out.
 //!
-//! One file per concept: [`alert`] (an alert, its level, status, events and the site's state),
-//! [`metric`] (what a rule thresholds), [`readings`] (the values a subject offers the rules),
-//! [`rule`] (a rule and a site's configuration), [`transition`] (how one subject's alert is raised,
-//! escalated or resolved), [`evaluate`] (an epoch's analysis through the rules), [`reconcile`]
-//! (a recomputed series against the stored state), [`overdue`] (the campaign schedule) and
-//! [`by_hand`] (acknowledgement and resolution by a person).
+//! One file per concept: `alert` (an alert, its level, status, events and the site's state),
+//! `metric` (what a rule thresholds), `readings` (the values a subject offers the rules),
+//! `rule` (a rule and a site's configuration), `transition` (how one subject's alert is raised,
+//! escalated or resolved), `evaluate` (an epoch's analysis through the rules), [`reconcile`]
+//! (a recomputed series against the stored state), `overdue` (the campaign schedule) and
+//! `by_hand` (acknowledgement and resolution by a person).
 
 pub(crate) mod alert;
 pub(crate) mod by_hand;

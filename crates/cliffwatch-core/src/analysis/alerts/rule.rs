@@ -113,7 +113,7 @@ pub const RULE_MEMBERS: [&str; 12] = [
 
 impl AlertRule {
     /// Checks that exactly one of `above` / `below` is set, finite, and that the clear threshold
-    /// lies on the right side; that no threshold exceeds ±[`MAX_THRESHOLD`]; that a
+    /// lies on the right side; that no threshold exceeds ±`MAX_THRESHOLD`; that a
     /// `time_to_failure_hours` rule has a positive `below` and a `displacement_mm` rule a
     /// threshold of at least 0.
     pub fn validate(&self) -> Result<(), AnalysisError> {

@@ -1,5 +1,5 @@
 //! The adjustment of an epoch as a whole: `prepare` makes the epoch ready for the solver (start
-//! values, working frame, datum, unknowns), [`adjuster`] runs it (Levenberg–Marquardt, data
+//! values, working frame, datum, unknowns), `adjuster` runs it (Levenberg–Marquardt, data
 //! snooping), `site_result` brings the solution into the site frame (datum, precision,
 //! orientations, residuals), [`result`] is what it returns with the options that steer it, and
 //! [`report`] the contract's adjustment report.
@@ -8,6 +8,6 @@ pub(crate) mod adjuster;
 pub(crate) mod options;
 mod prepare;
 pub mod report;
-pub(crate) mod result;
+pub mod result;
 pub(crate) mod robust;
 mod site_result;

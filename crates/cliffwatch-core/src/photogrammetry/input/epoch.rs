@@ -24,15 +24,24 @@ pub struct EpochInput {
     pub observed_at: String,
     /// Free text label, without control characters, at most [`MAX_LABEL_CHARS`] (200) characters.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[cfg_attr(feature = "openapi", schema(pattern = "^[^\\u0000-\\u001F\\u007F-\\u009F]*$", max_length = 200))]
+    #[cfg_attr(
+        feature = "openapi",
+        schema(pattern = "^[^\\u0000-\\u001F\\u007F-\\u009F]*$", max_length = 200)
+    )]
     pub label: Option<String>,
     /// Cameras (interior orientation) used by the images, at most [`MAX_CAMERAS`].
     #[serde(default)]
-    #[cfg_attr(feature = "openapi", schema(required = true, min_items = 1, max_items = 200))]
+    #[cfg_attr(
+        feature = "openapi",
+        schema(required = true, min_items = 1, max_items = 200)
+    )]
     pub cameras: Vec<CameraInput>,
     /// Images with their target observations, at most [`MAX_IMAGES`].
     #[serde(default)]
-    #[cfg_attr(feature = "openapi", schema(required = true, min_items = 1, max_items = 200))]
+    #[cfg_attr(
+        feature = "openapi",
+        schema(required = true, min_items = 1, max_items = 200)
+    )]
     pub images: Vec<ImageInput>,
     /// Points with known coordinates, weighted by `sigma_m`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

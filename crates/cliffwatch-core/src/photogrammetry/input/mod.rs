@@ -2,4 +2,4 @@
 //! [`epoch_csv`] reads the same from CSV.
 
 pub mod epoch;
-pub(crate) mod epoch_csv;
+pub mod epoch_csv;

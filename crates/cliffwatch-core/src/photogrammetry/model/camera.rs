@@ -13,7 +13,10 @@ pub struct CameraInput {
     #[cfg_attr(feature = "openapi", schema(pattern = "^[A-Za-z0-9._-]{1,64}$"))]
     pub id: String,
     /// Principal distance c in mm.
-    #[cfg_attr(feature = "openapi", schema(exclusive_minimum = 0.0, maximum = 100_000.0))]
+    #[cfg_attr(
+        feature = "openapi",
+        schema(exclusive_minimum = 0.0, maximum = 100_000.0)
+    )]
     pub c_mm: f64,
     /// Estimate c (shorthand for `calibrate: ["c"]`).
     #[serde(default)]

@@ -1,7 +1,7 @@
 //! The projection models and the unknowns they act on: [`camera`] (interior orientation and lens
-//! distortion), [`rotation`], [`orthogonal`] (Ono & Hattori, eqs 5, 9–14) and [`central`]
-//! (collinearity), the [`frame`] the adjustment works in, and [`bundle`]: the unknowns of an epoch
-//! and the observation equations of one image point, with exact Jacobians by [`dual`] numbers.
+//! distortion), `rotation`, [`orthogonal`] (Ono & Hattori, eqs 5, 9–14) and `central`
+//! (collinearity), the [`frame`] the adjustment works in, and `bundle`: the unknowns of an epoch
+//! and the observation equations of one image point, with exact Jacobians by `dual` numbers.
 
 pub(crate) mod bundle;
 pub mod camera;

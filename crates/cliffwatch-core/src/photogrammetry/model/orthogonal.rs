@@ -104,7 +104,7 @@ pub fn project<T: Scalar>(
 }
 
 /// Columns of [`project_jacobian`]: rotation increments δ (rad, the convention of
-/// [`super::rotation::perturbed`]), m, A4, A8, c, then the point X, Y, Z.
+/// `super::rotation::perturbed`), m, A4, A8, c, then the point X, Y, Z.
 pub const JACOBIAN_COLUMNS: usize = 10;
 
 /// The closed-form forward model (eq 9 inverted, as in [`project`]) and its exact Jacobian, derived by

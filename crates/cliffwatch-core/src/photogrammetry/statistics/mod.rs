@@ -1,5 +1,5 @@
-//! What the adjustment says about itself: [`precision`] (cofactors of points and images from the
-//! reduced system), [`snooping`] (normalised residuals and blunder detection), and [`quality`]
+//! What the adjustment says about itself: `precision` (cofactors of points and images from the
+//! reduced system), `snooping` (normalised residuals and blunder detection), and [`quality`]
 //! (the paper's quality indexes against truth).
 
 pub(crate) mod variance_factor;

@@ -11,12 +11,12 @@ use crate::photogrammetry::model::bundle::Bundle;
 /// in each tail).
 pub(crate) const GLOBAL_TEST_Z: f64 = 3.09;
 
-/// Confidence of the global test, two-sided: 0.1 % in each tail ([`GLOBAL_TEST_Z`]).
+/// Confidence of the global test, two-sided: 0.1 % in each tail (`GLOBAL_TEST_Z`).
 pub const GLOBAL_TEST_CONFIDENCE: f64 = 0.998;
 
 /// The global test of an adjustment: is the variance factor σ̂0²/σ² consistent with the a-priori
 /// σ? Two-sided at [`GLOBAL_TEST_CONFIDENCE`], the bounds being χ²(r)/r quantiles (r = the degrees
-/// of freedom, at least 2, as the snooping's [`variance_model`] takes them).
+/// of freedom, at least 2, as the snooping's `variance_model` takes them).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct GlobalTest {
