@@ -328,7 +328,7 @@ pub(super) fn min_over_failure_time(
 /// refinement). The fit does not differentiate noisy data, so it neither lags nor needs smoothing.
 /// Its σ comes from the χ² profile (Δχ² = 1, scaled by the variance factor when that exceeds 1),
 /// the 90 % interval from Δχ² = 2.71. None for fewer than 5 epochs, B not positive, a line that
-/// does not advance, or a failure time beyond the scan. Whether the law is shown at all is the
+/// does not advance, or a failure time at either end of the scan (1 hour, 1000 days). Whether the law is shown at all is the
 /// caller's test: [`LawFit::gain_over_line`] here, or the onset of acceleration over a longer
 /// window (`super::onset`).
 pub fn fit_law_to_displacements(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) -> Option<LawFit> {
@@ -376,7 +376,12 @@ pub(super) fn profile_law(
     let tf = min_over_failure_time(120, 60, &chi)?;
     let chi2 = chi(tf);
     let factor = misfit(tf);
-    if !chi2.is_finite() || !advances(tf) || tf >= SCAN_END_DAYS * 0.999 || !factor.is_finite() {
+    // A minimum at either end of the scan is no fit: at the far end the law is a straight line;
+    // at the near end χ² keeps falling as the failure time reaches the last epoch, whose own
+    // offset the law's singular term then absorbs (a target knocked forward, a cycle's fast day:
+    // "failure in 1 h" at every epoch for days, ttf_benchmark's step and cyclic series).
+    let at_an_end = tf >= SCAN_END_DAYS * 0.999 || tf <= SCAN_START_DAYS * 1.001;
+    if !chi2.is_finite() || !advances(tf) || at_an_end || !factor.is_finite() {
         return None;
     }
     // A variance factor estimated from the fit's own residuals (over `epochs − 3` degrees of
