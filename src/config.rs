@@ -58,6 +58,19 @@ pub struct Config {
     pub upload_queue_secs: f64,
     /// Time in-flight requests get to finish after SIGTERM / ctrl-c, in seconds.
     pub shutdown_grace_secs: u64,
+    /// Longest an upload's adjustment may compute, in seconds; past it the upload is answered
+    /// 503 `compute_budget_exceeded` and nothing is stored. An upload whose client is answered
+    /// or gone (request time limit, closed connection) stops computing at once.
+    #[serde(default = "default_compute_budget_secs")]
+    pub compute_budget_secs: u64,
+    /// Most points (targets) one epoch may hold; a larger epoch is refused (413) before any
+    /// computation.
+    #[serde(default = "default_max_epoch_points")]
+    pub max_epoch_points: usize,
+    /// Most image observations one epoch may hold, over all its images; a larger epoch is
+    /// refused (413) before any computation.
+    #[serde(default = "default_max_epoch_observations")]
+    pub max_epoch_observations: usize,
     /// Log format.
     pub log_format: LogFormat,
     /// Connections of the read pool.
@@ -139,6 +152,15 @@ fn default_session_lifetime_hours() -> f64 {
     168.0
 }
 
+fn default_compute_budget_secs() -> u64 {
+    120
+}
+fn default_max_epoch_points() -> usize {
+    20_000
+}
+fn default_max_epoch_observations() -> usize {
+    200_000
+}
 fn default_upload_queue_secs() -> f64 {
     30.0
 }
@@ -365,6 +387,17 @@ impl Config {
                 "upload_queue_secs {}: 0 to request_timeout_secs ({})",
                 self.upload_queue_secs, self.request_timeout_secs
             )));
+        }
+        if !(1..=86_400).contains(&self.compute_budget_secs) {
+            return Err(ConfigError::Invalid(format!(
+                "compute_budget_secs {}: 1 to 86400 seconds",
+                self.compute_budget_secs
+            )));
+        }
+        if self.max_epoch_points == 0 || self.max_epoch_observations == 0 {
+            return Err(ConfigError::Invalid(
+                "max_epoch_points and max_epoch_observations: at least 1".into(),
+            ));
         }
         if !(1.0..=3600.0).contains(&self.alertmanager_resend_secs) {
             return Err(ConfigError::Invalid(format!(

@@ -93,7 +93,8 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
     let uploads = UploadGate::new(
         config.max_concurrent_uploads,
         Duration::try_from_secs_f64(config.upload_queue_secs).unwrap_or_default(),
-    );
+    )
+    .with_budget(Duration::from_secs(config.compute_budget_secs));
     tracing::info!(
         slots = uploads.size(),
         wait_secs = config.upload_queue_secs,
@@ -144,7 +145,8 @@ impl Bound {
         let mut parts = Vec::new();
         if let Some(dir) = &state.config.watch_dir {
             tracing::info!(watch_dir = %dir.display(), "watching directory");
-            let opts = crate::watch::WatchOptions::new(dir.clone());
+            let mut opts = crate::watch::WatchOptions::new(dir.clone());
+            opts.limits = service::ingest::EpochLimits::from_config(&state.config);
             let (store, stop) = (store.clone(), stop.clone());
             parts.push(tokio::spawn(async move {
                 if let Err(e) = crate::watch::run(store, opts, stop).await {
@@ -195,26 +197,42 @@ impl Bound {
             }
         };
         tracing::info!(%addr, "listening");
+        let uploads = state.uploads.clone();
         // The one service: the API's and the dashboard's routes on the shared HTTP layer.
         let app = crate::http::router(state, crate::api::routes(), crate::dashboard::routes());
         let server = axum::serve(listener, app).with_graceful_shutdown(graceful);
+        // The grace period covers the whole stop: the requests drain for all of it but the end
+        // reserve, in which the background parts stop and the database closes.
+        let reserve = END_RESERVE.min(grace / 2);
         let grace_over = async move {
             stop.requested().await;
-            tokio::time::sleep(grace).await;
+            tokio::time::sleep(grace - reserve).await;
         };
         tokio::select! {
             r = server => r.map_err(|source| ServeError::Io { addr: addr.to_string(), source })?,
             _ = grace_over => tracing::warn!("grace period over: dropping the remaining connections"),
         }
-        // The parts see the same signal; a webhook attempt in flight is at most repeated later.
+        // Whatever still computes for an upload is no longer wanted: nothing of it is stored.
+        uploads.stop_computing();
+        // The parts see the same signal and get one deadline together; a webhook attempt in
+        // flight is at most repeated later, a folder being taken is taken again at the next start.
+        let parts_deadline = tokio::time::Instant::now() + reserve / 2;
         for part in parts {
-            let _ = tokio::time::timeout(Duration::from_secs(15), part).await;
+            if tokio::time::timeout_at(parts_deadline, part).await.is_err() {
+                tracing::warn!("a background part did not stop in time; leaving it");
+            }
         }
         store.close().await;
         tracing::info!("stopped");
         Ok(())
     }
 }
+
+/// The end of the shutdown grace period (at most half of it) kept for the background parts
+/// (watched directory, workers), which get half of it together, and the database's close. A part
+/// between two steps stops at once; one inside a step (a webhook attempt, a folder's detection)
+/// is left to the process's exit, which stores nothing half-way.
+pub const END_RESERVE: Duration = Duration::from_secs(1);
 
 /// SQLite: checkpoints the WAL every [`store::wal_checkpoint::CHECKPOINT_INTERVAL`] until
 /// shutdown, so that no upload's commit does it ([`store::wal_checkpoint`]).

@@ -80,8 +80,8 @@ pub struct UploadParams {
     request_body(description = "the upload form (application/json) or CSV `image,point,x_mm,y_mm` (text/csv)", content((cliffwatch_core::photogrammetry::EpochInput = "application/json"), (String = "text/csv"))),
     responses((status = 201, description = "stored; the epoch summary", body = crate::api::schemas::EpochSummary), (status = 200, description = "the same body was stored before", body = crate::api::schemas::EpochSummary),
         (status = 400, description = "not JSON/CSV", body = crate::api::schemas::ErrorBody), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 409, description = "another body for this observed_at, or a CSV upload to a site without cameras yet (upload a JSON epoch first)", body = crate::api::schemas::ErrorBody),
-        (status = 413, description = "body too large", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid or cannot be adjusted; a CSV upload to a site of several cameras without `camera`, or naming none of them", body = crate::api::schemas::ErrorBody),
-        (status = 503, description = "every upload slot of the node stayed busy for `upload_queue_secs`; nothing stored, retry after the `Retry-After` header's seconds", body = crate::api::schemas::ErrorBody, headers(("Retry-After" = u64, description = "seconds to wait before retrying")))))]
+        (status = 413, description = "body too large, or an epoch with more points or observations than the node takes (`epoch_too_large`, naming `max_epoch_points` or `max_epoch_observations`); nothing computed or stored", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid or cannot be adjusted; a CSV upload to a site of several cameras without `camera`, or naming none of them", body = crate::api::schemas::ErrorBody),
+        (status = 503, description = "every upload slot of the node stayed busy for `upload_queue_secs` (`overloaded`), the adjustment ran past `compute_budget_secs` (`compute_budget_exceeded`) or the node is stopping (`shutting_down`); nothing stored, retry after the `Retry-After` header's seconds", body = crate::api::schemas::ErrorBody, headers(("Retry-After" = u64, description = "seconds to wait before retrying")))))]
 pub async fn upload(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
@@ -197,7 +197,8 @@ async fn upload_inner(
             .await
             .map_err(ApiError::internal)??
     };
-    let done = ingest::ingest(&state.store, site, input, slot).await?;
+    let limits = ingest::EpochLimits::from_config(&state.config);
+    let done = ingest::ingest(&state.store, site, input, limits, slot).await?;
     let summary = summary(&state.store, &done.site, done.epoch, false)
         .await?
         .ok_or_else(|| ApiError::internal("stored epoch not found"))?;

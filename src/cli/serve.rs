@@ -44,7 +44,12 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         .enable_all()
         .build()
         .context("starting the runtime")?;
-    runtime.block_on(serve(config, shutdown::signal()))?;
+    let result = runtime.block_on(serve(config, shutdown::signal()));
+    // Blocking tasks still running (an adjustment between two cancellation checks, an image
+    // being decoded) are not waited for: the process ends now, and nothing they would write is
+    // half-stored (each write is one transaction, begun after the computation).
+    runtime.shutdown_timeout(std::time::Duration::from_millis(100));
+    result?;
     Ok(())
 }
 

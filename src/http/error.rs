@@ -12,6 +12,7 @@ use utoipa::ToSchema;
 use crate::service::ServiceError;
 use crate::store::StoreError;
 use cliffwatch_core::photogrammetry::input::epoch_csv::CsvError;
+use cliffwatch_core::photogrammetry::AdjustError;
 
 /// The error answer of every endpoint, as [`ApiError`] writes it.
 #[derive(Serialize, ToSchema)]
@@ -153,7 +154,26 @@ impl From<ServiceError> for ApiError {
                 ApiError::new(StatusCode::CONFLICT, "conflict", e.to_string())
             }
             ServiceError::Invalid(err) => ApiError::unprocessable("invalid_epoch", err.to_string()),
+            ServiceError::Adjust(AdjustError::Cancelled { deadline }) => {
+                let (code, retry) = if deadline {
+                    ("compute_budget_exceeded", 60)
+                } else {
+                    ("shutting_down", 5)
+                };
+                let mut e = ApiError::new(
+                    StatusCode::SERVICE_UNAVAILABLE,
+                    code,
+                    format!("{}; nothing stored", AdjustError::Cancelled { deadline }),
+                );
+                e.retry_after_secs = Some(retry);
+                e
+            }
             ServiceError::Adjust(err) => ApiError::unprocessable("cannot_adjust", err.to_string()),
+            ServiceError::TooLarge { .. } => ApiError::new(
+                StatusCode::PAYLOAD_TOO_LARGE,
+                "epoch_too_large",
+                e.to_string(),
+            ),
             ServiceError::BadAcknowledgement(_) => {
                 ApiError::unprocessable("invalid_acknowledgement", e.to_string())
             }

@@ -4,10 +4,16 @@
 //! `Retry-After`). Without it, a burst of uploads shares the cores until every one of them runs
 //! past the request time limit and nothing is stored; with it, the first ones finish at full
 //! speed and the rest are told when to come back. A turned-away upload stores nothing.
+//!
+//! Each slot carries the upload's [`Cancel`]: its compute budget runs from the slot's taking, the
+//! daemon cancels every one at the end of its shutdown grace, and the upload's use case cancels
+//! its own when it is dropped (its client answered or gone), so an adjustment never outlives
+//! the request that asked for it by more than one iteration.
 
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
+use cliffwatch_core::photogrammetry::Cancel;
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 /// The upload slots of a node. Cloning shares the slots.
@@ -16,6 +22,10 @@ pub struct UploadGate {
     slots: Arc<Semaphore>,
     size: usize,
     wait: Duration,
+    /// Cancels every upload's computation ([`UploadGate::stop_computing`]).
+    computing: Cancel,
+    /// How long one upload may compute once it holds its slot.
+    budget: Duration,
 }
 
 /// An upload turned away: every slot stayed busy for the whole wait.
@@ -34,6 +44,26 @@ pub struct Overloaded {
 #[derive(Debug)]
 pub struct UploadSlot {
     _permit: OwnedSemaphorePermit,
+    cancel: Cancel,
+}
+
+impl UploadSlot {
+    /// The upload's cancellation: its compute budget, the daemon's shutdown, and its own.
+    pub fn cancel(&self) -> &Cancel {
+        &self.cancel
+    }
+}
+
+/// Cancels its handle when dropped: held by a use case's future, it stops the computation the
+/// future started on a blocking thread when the future is dropped before it ends (the client
+/// answered by the request time limit, or gone).
+#[derive(Debug)]
+pub struct CancelOnDrop(pub Cancel);
+
+impl Drop for CancelOnDrop {
+    fn drop(&mut self) {
+        self.0.cancel();
+    }
 }
 
 impl Drop for UploadSlot {
@@ -55,7 +85,20 @@ impl UploadGate {
             slots: Arc::new(Semaphore::new(size)),
             size,
             wait,
+            computing: Cancel::new(),
+            budget: Duration::from_secs(120),
         }
+    }
+
+    /// The same gate with each upload's compute budget (from the slot's taking).
+    pub fn with_budget(mut self, budget: Duration) -> Self {
+        self.budget = budget;
+        self
+    }
+
+    /// Cancels the computation of every upload, running or to come (the daemon's shutdown).
+    pub fn stop_computing(&self) {
+        self.computing.cancel();
     }
 
     /// Twice the cores this process may use (an upload also waits on the database, so the cores
@@ -86,7 +129,10 @@ impl UploadGate {
         match permit {
             Some(permit) => {
                 metrics::gauge!("cliffwatch_upload_slots_busy").increment(1.0);
-                Ok(UploadSlot { _permit: permit })
+                Ok(UploadSlot {
+                    _permit: permit,
+                    cancel: self.computing.child(Some(Instant::now() + self.budget)),
+                })
             }
             None => {
                 let waited_secs = self.wait.as_secs_f64().ceil() as u64;
@@ -135,6 +181,21 @@ mod tests {
         }
         assert_eq!(*order.lock().unwrap(), vec![0, 1]);
         drop(held);
+    }
+
+    #[tokio::test]
+    async fn a_slot_carries_its_budget_and_the_gate_cancels_every_slot() {
+        let gate = UploadGate::new(2, Duration::ZERO).with_budget(Duration::from_millis(50));
+        let a = gate.enter().await.unwrap();
+        assert!(!a.cancel().is_cancelled());
+        tokio::time::sleep(Duration::from_millis(80)).await;
+        assert!(a.cancel().is_cancelled() && a.cancel().deadline_passed());
+        let gate = UploadGate::new(2, Duration::ZERO);
+        let (b, c) = (gate.enter().await.unwrap(), gate.enter().await.unwrap());
+        drop(CancelOnDrop(b.cancel().clone()));
+        assert!(b.cancel().is_cancelled() && !c.cancel().is_cancelled());
+        gate.stop_computing();
+        assert!(c.cancel().is_cancelled() && !c.cancel().deadline_passed());
     }
 
     #[tokio::test]

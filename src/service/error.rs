@@ -55,6 +55,20 @@ pub enum ServiceError {
     /// The epoch cannot be adjusted (names the image or point).
     #[error(transparent)]
     Adjust(#[from] AdjustError),
+    /// The epoch is larger than the node takes (configuration `setting`).
+    #[error(
+        "the epoch has {count} {what}; this server takes at most {limit} per epoch ({setting})"
+    )]
+    TooLarge {
+        /// What was counted, e.g. `points`.
+        what: &'static str,
+        /// How many the epoch has.
+        count: usize,
+        /// The limit.
+        limit: usize,
+        /// The configuration setting of the limit.
+        setting: &'static str,
+    },
     /// Another body was stored for this `observed_at`.
     #[error("epoch {epoch} of site '{site}' has observed_at {observed_at} with another body")]
     Conflict {

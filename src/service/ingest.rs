@@ -21,7 +21,7 @@ use cliffwatch_core::photogrammetry::{
     adjust_problem, AdjustOptions, Adjustment, EpochError, EpochInput,
 };
 
-use super::admission::UploadSlot;
+use super::admission::{CancelOnDrop, UploadSlot};
 use super::alert_outcome;
 use super::analysis_inputs::{
     analysis_config, history, point_configs, reference_coordinates, reference_epoch,
@@ -85,15 +85,82 @@ async fn stable_and_block_points(
     Ok(names)
 }
 
+/// The largest epoch a node takes, checked before any computation (configuration
+/// `max_epoch_points`, `max_epoch_observations`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EpochLimits {
+    /// Most distinct points an epoch may name (observed, known or approximated).
+    pub points: usize,
+    /// Most image observations over all of an epoch's images.
+    pub observations: usize,
+}
+
+impl Default for EpochLimits {
+    /// The configuration's defaults: 20 000 points, 200 000 observations.
+    fn default() -> Self {
+        EpochLimits {
+            points: 20_000,
+            observations: 200_000,
+        }
+    }
+}
+
+impl EpochLimits {
+    /// The limits of the configuration.
+    pub fn from_config(config: &crate::config::Config) -> Self {
+        EpochLimits {
+            points: config.max_epoch_points,
+            observations: config.max_epoch_observations,
+        }
+    }
+
+    /// Refuses an epoch over a limit ([`ServiceError::TooLarge`], naming the limit and its
+    /// setting).
+    pub fn check(&self, input: &EpochInput) -> Result<(), ServiceError> {
+        let observations: usize = input.images.iter().map(|i| i.observations.len()).sum();
+        if observations > self.observations {
+            return Err(ServiceError::TooLarge {
+                what: "image observations",
+                count: observations,
+                limit: self.observations,
+                setting: "max_epoch_observations",
+            });
+        }
+        let names = input
+            .images
+            .iter()
+            .flat_map(|i| i.observations.iter().map(|o| &o.point));
+        let names = names
+            .chain(input.control.iter().map(|c| &c.point))
+            .chain(input.approx.iter().map(|a| &a.point));
+        let points = names.collect::<std::collections::HashSet<_>>().len();
+        if points > self.points {
+            return Err(ServiceError::TooLarge {
+                what: "points",
+                count: points,
+                limit: self.points,
+                setting: "max_epoch_points",
+            });
+        }
+        Ok(())
+    }
+}
+
 /// Ingests one epoch of the upload form into a site, holding the upload `slot` until the
-/// adjustment has ended: a caller that gives up (the request timed out) frees the slot only once
-/// the CPU work it started is over, so admission counts the work really running.
+/// adjustment has ended. The adjustment stops within one iteration once the slot's compute
+/// budget is spent (the answer is then [`AdjustError::Cancelled`]) or once this future is
+/// dropped (the client answered by the request time limit, or gone), so the slot is free again
+/// within a moment of the answer.
+///
+/// [`AdjustError::Cancelled`]: cliffwatch_core::photogrammetry::AdjustError::Cancelled
 pub async fn ingest(
     store: &Store,
     site_id: &str,
     input: EpochInput,
+    limits: EpochLimits,
     slot: UploadSlot,
 ) -> Result<Ingested, ServiceError> {
+    limits.check(&input)?;
     ingest_with_identification(store, site_id, input, None, Some(slot)).await
 }
 
@@ -112,8 +179,10 @@ pub async fn ingest_watched(
     store: &Store,
     site_id: &str,
     input: EpochInput,
+    limits: EpochLimits,
     folder: &WatchedFolder,
 ) -> Result<Ingested, ServiceError> {
+    limits.check(&input)?;
     ingest_with_identification(store, site_id, input, Some(folder), None).await
 }
 
@@ -176,6 +245,13 @@ async fn ingest_with_identification(
         AprioriSigma::Upload => None,
     };
     drop(db);
+    // Dropping this future (the client answered or gone) cancels the adjustment it started.
+    let cancel = slot
+        .as_ref()
+        .map(|s| s.cancel().clone())
+        .unwrap_or_default();
+    let _cancel_when_dropped = CancelOnDrop(cancel.clone());
+    let options = AdjustOptions { cancel, ..options };
     let started = Instant::now();
     // The slot goes with the blocking task and comes back when it ends (a dropped caller
     // leaves it with the task).

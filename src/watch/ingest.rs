@@ -47,7 +47,7 @@ pub(super) async fn process(
         hash: hash.to_string(),
         identification: serde_json::to_value(&found.counts)?,
     };
-    let ingested = ingest_watched(store, site, found.input, &watched).await?;
+    let ingested = ingest_watched(store, site, found.input, opts.limits, &watched).await?;
     let orientations =
         resect_stations(store, site, ingested.epoch, &found.stations, &found.names).await?;
     Ok((ingested, orientations))

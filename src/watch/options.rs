@@ -7,6 +7,8 @@ use cliffwatch_core::detect::first_epoch::FirstEpochOptions;
 use cliffwatch_core::detect::identify::IdentifyOptions;
 use cliffwatch_core::detect::DetectOptions;
 
+use crate::service::ingest::EpochLimits;
+
 /// Options of the watcher.
 #[derive(Debug, Clone)]
 pub struct WatchOptions {
@@ -23,6 +25,8 @@ pub struct WatchOptions {
     pub identify: IdentifyOptions,
     /// Multi-view identification options (stations of a first epoch, from their seeds).
     pub first_epoch: FirstEpochOptions,
+    /// The largest epoch taken (as for uploads).
+    pub limits: EpochLimits,
 }
 
 impl WatchOptions {
@@ -35,6 +39,7 @@ impl WatchOptions {
             detect: DetectOptions::default(),
             identify: IdentifyOptions::default(),
             first_epoch: FirstEpochOptions::default(),
+            limits: EpochLimits::default(),
         }
     }
 }

@@ -8,6 +8,7 @@ mod support;
 
 mod access;
 mod bounded;
+mod compute_bound;
 mod concurrency;
 mod crash;
 mod joint_covariance;

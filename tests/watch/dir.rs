@@ -312,9 +312,15 @@ async fn a_folder_whose_epoch_committed_before_a_crash_is_not_failed() {
         hash: cliffwatch::watch::content_hash(&folder).unwrap(),
         identification: serde_json::json!([]),
     };
-    let first = ingest_watched(&server.store, "kamo", committed, &watched)
-        .await
-        .unwrap();
+    let first = ingest_watched(
+        &server.store,
+        "kamo",
+        committed,
+        Default::default(),
+        &watched,
+    )
+    .await
+    .unwrap();
     assert_eq!(
         taken(&server.store).await,
         1,

@@ -187,4 +187,11 @@ pub enum AdjustError {
     /// The normal equations are singular.
     #[error("the normal equations are singular: {0}")]
     Singular(String),
+    /// The caller cancelled the adjustment ([`crate::photogrammetry::Cancel`]) before it ended:
+    /// its deadline passed (`deadline`) or it was no longer wanted.
+    #[error("{}", if *.deadline { "the adjustment ran out of its compute budget" } else { "the adjustment was cancelled" })]
+    Cancelled {
+        /// Whether the deadline, not a cancellation, stopped it.
+        deadline: bool,
+    },
 }

@@ -25,6 +25,7 @@ pub mod statistics;
 mod test_support;
 
 pub use adjust::adjuster::{adjust, adjust_problem};
+pub use adjust::cancel::Cancel;
 pub use adjust::options::AdjustOptions;
 pub use adjust::report::AdjustmentReport;
 pub use adjust::result::{AdjustedPoint, Adjustment, ImageOrientation, JointCovariance};

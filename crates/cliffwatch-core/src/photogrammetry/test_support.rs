@@ -62,6 +62,7 @@ pub fn bundle(nimg: usize, np: usize, per_point: usize) -> Bundle {
         control: vec![None; np],
         gauge: 0.0,
         interior_prior: vec![prior],
+        cancel: Default::default(),
     };
     b.gauge = 1e-6 * b.point_block_trace() / (3 * np) as f64;
     b

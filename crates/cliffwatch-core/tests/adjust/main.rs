@@ -7,6 +7,7 @@
 mod support;
 
 mod calibration;
+mod cancel;
 mod errors;
 mod paper;
 mod scenes;

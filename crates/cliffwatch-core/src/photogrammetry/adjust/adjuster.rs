@@ -35,6 +35,16 @@ pub fn adjust(input: &EpochInput, options: &AdjustOptions) -> Result<Adjustment,
     adjust_problem(&problem, options)
 }
 
+/// [`AdjustError::Cancelled`] once the caller no longer wants the adjustment.
+fn still_wanted(options: &AdjustOptions) -> Result<(), AdjustError> {
+    if options.cancel.is_cancelled() {
+        return Err(AdjustError::Cancelled {
+            deadline: options.cancel.deadline_passed(),
+        });
+    }
+    Ok(())
+}
+
 /// Solves the prepared adjustment; when the solution looks like a wrong basin (no convergence, or
 /// too many outliers with a failed global test), tries again from the affine bundle (orthogonal
 /// model) and keeps the better. A wrong basin either way is refused as inconsistent.
@@ -54,7 +64,7 @@ fn solve_or_retry(
     // Without snooping, a failed global test may be a wrong basin as well as gross errors kept: worth
     // the second try, though not a reason to refuse the result (it carries the test's warning).
     let suspect = |x: &Solved| failed(x) || (!options.snooping && global_test_fails(x));
-    if suspect(&solved) && options.model == Model::Orthogonal {
+    if suspect(&solved) && options.model == Model::Orthogonal && !options.cancel.is_cancelled() {
         // A wrong basin (many blunders and a failed global test): try again from the affine bundle.
         if let Ok(second) = run(true) {
             let vf = |x: &Solved| x.outcome.cost / dof_of(&x.bundle).max(1) as f64;
@@ -84,7 +94,12 @@ pub fn adjust_problem(
 ) -> Result<Adjustment, AdjustError> {
     check_geometry(problem)?;
     let prepared = prepare(problem, options)?;
-    let solved = solve_or_retry(problem, options, &prepared)?;
+    still_wanted(options)?;
+    // A cancelled solution stops unconverged, which would read as a wrong basin: the
+    // cancellation is what is reported.
+    let solved = solve_or_retry(problem, options, &prepared);
+    still_wanted(options)?;
+    let solved = solved?;
     let (observations, unknowns) = prepared.counts(&solved.bundle);
     if observations <= unknowns {
         return Err(AdjustError::TooFewObservations {
@@ -161,6 +176,7 @@ fn solve(
     // the solution into a wrong basin; then gross residuals are set aside (and, with snooping off,
     // taken back before the final adjustment).
     let converged = choose_mirrors(&mut bundle, &prepared.mirrors);
+    still_wanted(options)?;
     if affine_first && bundle.model == Model::Orthogonal {
         affine_stage(&mut bundle);
     }
@@ -182,7 +198,11 @@ fn solve(
             AdjustError::Singular("the normal equations are not positive definite".into())
         })
     };
+    // The cofactors and the snooping's statistics cost as much as the iterations: not for a
+    // solution no longer wanted.
+    still_wanted(options)?;
     let cof = invert(&bundle, normals)?;
+    still_wanted(options)?;
     let screened = if options.snooping {
         let snooped = snoop(&mut bundle, cof, options, invert, dof_of)?;
         Screened {
@@ -410,6 +430,8 @@ fn snoop(
     let mut outcome = None;
     let mut warning = None;
     loop {
+        // Each round re-solves: a cancelled adjustment stops snooping (its result is discarded).
+        still_wanted(options)?;
         let mut worst: Option<(usize, f64)> = None;
         for &k in lin.tracked() {
             if !bundle.obs[k].active || !counts.droppable(bundle, k) {

@@ -1,6 +1,7 @@
 //! What steers one adjustment: the projection model, prior coordinates, which joint covariance
 //! to return, and the data snooping and iteration settings (COLMAP's `BundleAdjustmentOptions`).
 
+use super::cancel::Cancel;
 use crate::photogrammetry::input::epoch::PriorCoordinates;
 use crate::photogrammetry::model::Model;
 
@@ -28,6 +29,9 @@ pub struct AdjustOptions {
     /// Report each camera's variance component (its share of vᵀPv and of the redundancy; one
     /// more pass over the observations' cofactors).
     pub variance_components: bool,
+    /// Stops the adjustment early (at its next iteration) when cancelled or past its deadline;
+    /// never by default.
+    pub cancel: Cancel,
 }
 
 impl Default for AdjustOptions {
@@ -41,6 +45,7 @@ impl Default for AdjustOptions {
             max_iterations: 100,
             central_from_orthogonal: true,
             variance_components: false,
+            cancel: Cancel::default(),
         }
     }
 }

@@ -310,6 +310,7 @@ pub(super) fn prepare(
             })
             .collect(),
         gauge: 0.0,
+        cancel: options.cancel.clone(),
         // A weak prior on c (10 % of the given value) keeps a self-calibrated c finite where the
         // geometry cannot determine it (a flat face at long range); elsewhere its weight is negligible.
         interior_prior: problem

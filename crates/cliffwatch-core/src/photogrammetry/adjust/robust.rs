@@ -233,6 +233,9 @@ pub(crate) fn choose_mirrors(
         let base = bundle.clone();
         let mut best = (f64::INFINITY, base.clone());
         for mask in 0u32..(1 << with_mirror.len()) {
+            if base.cancel.is_cancelled() {
+                break;
+            }
             let mut trial = base.clone();
             for (bit, &j) in with_mirror.iter().enumerate() {
                 if mask & (1 << bit) != 0 {
@@ -251,6 +254,9 @@ pub(crate) fn choose_mirrors(
     let mut current: Vec<ImageState> = bundle.images.clone();
     let mut alternative: Vec<Option<ImageState>> = mirrors.to_vec();
     for _pass in 0..3 {
+        if bundle.cancel.is_cancelled() {
+            break;
+        }
         let mut changed = false;
         for j in 0..alternative.len() {
             let Some(m) = alternative[j] else { continue };

@@ -6,6 +6,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::camera::brown_correct;
 use super::dual::{Dual, Scalar};
 use super::rotation::perturbed;
+use crate::photogrammetry::adjust::cancel::Cancel;
 use crate::photogrammetry::model::Model;
 use crate::photogrammetry::model::{central, orthogonal};
 
@@ -39,6 +40,8 @@ pub struct Bundle {
     pub gauge: f64,
     /// A-priori value and σ of interior parameters (weighted pseudo-observations), per camera.
     pub interior_prior: Vec<[Option<(f64, f64)>; 8]>,
+    /// Whether the adjustment is still wanted: the iteration stops at its next step once cancelled.
+    pub cancel: Cancel,
 }
 
 /// Local Jacobian columns of one observation: 0..6 image, 6..14 interior parameter k, 14..17 point.

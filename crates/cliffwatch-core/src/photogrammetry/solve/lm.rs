@@ -177,6 +177,10 @@ fn run(
     let mut buffer: Option<Normals> = None;
     let mut reduce_buffers = ReduceBuffers::default();
     while iterations < max_iterations {
+        // A cancelled adjustment stops here, unconverged; the adjuster then reports it as such.
+        if b.cancel.is_cancelled() {
+            break;
+        }
         let n = match buffer.take() {
             Some(mut n) => {
                 b.normals_into(&mut n);
@@ -187,6 +191,9 @@ fn run(
         let saved = (b.images.clone(), b.interior.clone(), b.points.clone());
         let mut accepted = None;
         for _ in 0..20 {
+            if b.cancel.is_cancelled() {
+                break;
+            }
             let Some((dc, dp)) = b.solve(&n, lambda, &mut reduce_buffers) else {
                 lambda *= 10.0;
                 continue;
@@ -234,9 +241,10 @@ fn run(
         let Some((c, step)) = accepted else {
             // No damping, however strong, gives a decrease: the gradient vanishes within rounding, so
             // the state is stationary (typically the start of a later stage that is already converged).
+            // Unless the tries were cut short by a cancellation: then nothing is known.
             let outcome = LmOutcome {
                 iterations,
-                converged: true,
+                converged: !b.cancel.is_cancelled(),
                 cost,
             };
             return (outcome, Some(n));
