@@ -152,14 +152,21 @@ fn default_session_lifetime_hours() -> f64 {
     168.0
 }
 
+/// Default of [`Config::compute_budget_secs`], seconds.
+pub const DEFAULT_COMPUTE_BUDGET_SECS: u64 = 120;
+/// Default of [`Config::max_epoch_points`].
+pub const DEFAULT_MAX_EPOCH_POINTS: usize = 20_000;
+/// Default of [`Config::max_epoch_observations`].
+pub const DEFAULT_MAX_EPOCH_OBSERVATIONS: usize = 200_000;
+
 fn default_compute_budget_secs() -> u64 {
-    120
+    DEFAULT_COMPUTE_BUDGET_SECS
 }
 fn default_max_epoch_points() -> usize {
-    20_000
+    DEFAULT_MAX_EPOCH_POINTS
 }
 fn default_max_epoch_observations() -> usize {
-    200_000
+    DEFAULT_MAX_EPOCH_OBSERVATIONS
 }
 fn default_upload_queue_secs() -> f64 {
     30.0

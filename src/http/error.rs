@@ -154,7 +154,7 @@ impl From<ServiceError> for ApiError {
                 ApiError::new(StatusCode::CONFLICT, "conflict", e.to_string())
             }
             ServiceError::Invalid(err) => ApiError::unprocessable("invalid_epoch", err.to_string()),
-            ServiceError::Adjust(AdjustError::Cancelled { deadline }) => {
+            ServiceError::Adjust(err @ AdjustError::Cancelled { deadline }) => {
                 let (code, retry) = if deadline {
                     ("compute_budget_exceeded", 60)
                 } else {
@@ -163,7 +163,7 @@ impl From<ServiceError> for ApiError {
                 let mut e = ApiError::new(
                     StatusCode::SERVICE_UNAVAILABLE,
                     code,
-                    format!("{}; nothing stored", AdjustError::Cancelled { deadline }),
+                    format!("{err}; nothing stored"),
                 );
                 e.retry_after_secs = Some(retry);
                 e

@@ -86,7 +86,7 @@ impl UploadGate {
             size,
             wait,
             computing: Cancel::new(),
-            budget: Duration::from_secs(120),
+            budget: Duration::from_secs(crate::config::DEFAULT_COMPUTE_BUDGET_SECS),
         }
     }
 

@@ -96,11 +96,11 @@ pub struct EpochLimits {
 }
 
 impl Default for EpochLimits {
-    /// The configuration's defaults: 20 000 points, 200 000 observations.
+    /// The configuration's defaults (20 000 points, 200 000 observations).
     fn default() -> Self {
         EpochLimits {
-            points: 20_000,
-            observations: 200_000,
+            points: crate::config::DEFAULT_MAX_EPOCH_POINTS,
+            observations: crate::config::DEFAULT_MAX_EPOCH_OBSERVATIONS,
         }
     }
 }
@@ -227,6 +227,12 @@ async fn ingest_with_identification(
         .into_iter()
         .map(|c| (c.point, c.xyz))
         .collect();
+    // Dropping this future (the client answered or gone) cancels the adjustment it starts.
+    let cancel = slot
+        .as_ref()
+        .map(|s| s.cancel().clone())
+        .unwrap_or_default();
+    let _cancel_when_dropped = CancelOnDrop(cancel.clone());
     let options = AdjustOptions {
         model: site.model,
         prior,
@@ -235,6 +241,7 @@ async fn ingest_with_identification(
             stable_and_block_points(&mut db, &site.id).await?,
         ),
         variance_components: true,
+        cancel,
         ..AdjustOptions::default()
     };
     let apriori_sigma_estimated = match site.apriori_sigma {
@@ -245,13 +252,6 @@ async fn ingest_with_identification(
         AprioriSigma::Upload => None,
     };
     drop(db);
-    // Dropping this future (the client answered or gone) cancels the adjustment it started.
-    let cancel = slot
-        .as_ref()
-        .map(|s| s.cancel().clone())
-        .unwrap_or_default();
-    let _cancel_when_dropped = CancelOnDrop(cancel.clone());
-    let options = AdjustOptions { cancel, ..options };
     let started = Instant::now();
     // The slot goes with the blocking task and comes back when it ends (a dropped caller
     // leaves it with the task).
