@@ -10,7 +10,7 @@ use crate::store::sites::Site;
 use crate::store::{self, alert_states, alerts, epochs, outbox, webhooks, Connection, StoreError};
 use crate::webhooks::{accepts, message_id, render, PayloadFormat, WebhookPayload};
 use cliffwatch_core::analysis::{
-    self, AlertEvent, AlertEventType, AlertState, AlertStatus, EpochAnalysis,
+    self, AlertEvent, AlertEventType, AlertKind, AlertState, AlertStatus, EpochAnalysis,
 };
 
 use super::analysis_inputs::alert_config;
@@ -204,16 +204,17 @@ pub async fn analysis_failed(
 }
 
 /// Brings the stored alert state of a site to the state replayed over a recomputed series
-/// ([`analysis::reconcile`]: only net changes are announced) and records the events. Returns
-/// how many alerts were raised.
+/// ([`analysis::reconcile`]: only net changes are announced; open alerts of the `kept` kinds are
+/// not lowered) and records the events. Returns how many alerts were raised.
 pub async fn reconcile(
     tx: &mut Connection,
     site: &str,
     replayed: &AlertState,
     now: DateTime<Utc>,
     cause: &str,
+    kept: &[AlertKind],
 ) -> Result<usize, StoreError> {
     let current = alert_states::load(&mut *tx, site).await?;
-    let (state, events) = analysis::reconcile(&current, replayed, now, cause);
+    let (state, events) = analysis::reconcile(&current, replayed, now, cause, kept);
     save_and_record(tx, site, &state, &events, now).await
 }

@@ -6,7 +6,7 @@
 use crate::store::{
     self, block_motions, displacements, epochs, sites, Connection, Store, StoreError,
 };
-use cliffwatch_core::analysis::analyse_series;
+use cliffwatch_core::analysis::{analyse_series, AlertKind, REFERENCE_INDEPENDENT};
 
 use super::alert_outcome;
 use super::analysis_inputs::{
@@ -69,9 +69,10 @@ pub async fn recompute_site(
     for (id, reason) in &out.failures {
         epochs::set_analysis_outcome(tx, &site.id, *id, Some(reason)).await?;
     }
+    let kept = cause.kept_kinds();
     let cause = cause.to_string();
     let now = store::clock(&mut *tx).await?;
-    Ok(alert_outcome::reconcile(tx, &site.id, &out.replayed, now, &cause).await?)
+    Ok(alert_outcome::reconcile(tx, &site.id, &out.replayed, now, &cause, kept).await?)
 }
 
 /// Why a site's series is recomputed; its text ends the message of an alert the recompute
@@ -90,6 +91,18 @@ pub enum RecomputeCause {
     Settings,
     /// The stored series was derived by an older version.
     NewerVersion,
+}
+
+impl RecomputeCause {
+    /// The alert kinds this change cannot lower: a new reference epoch (or a recomputation by a
+    /// newer version, which changes no input) leaves velocity and time to failure to the next
+    /// epoch's data ([`REFERENCE_INDEPENDENT`]); the other causes change what the rules read.
+    pub fn kept_kinds(&self) -> &'static [AlertKind] {
+        match self {
+            RecomputeCause::Reference(_) | RecomputeCause::NewerVersion => &REFERENCE_INDEPENDENT,
+            _ => &[],
+        }
+    }
 }
 
 impl std::fmt::Display for RecomputeCause {

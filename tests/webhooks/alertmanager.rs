@@ -403,3 +403,172 @@ async fn alertmanager_holds_every_open_alert_across_restarts_and_escalations() {
     tokio::time::sleep(PERIOD * 2).await;
     assert!(am.alerts().await.is_empty());
 }
+
+/// `(alert id, level)` of the open velocity and time-to-failure alerts of `site`.
+async fn open_rate_alerts(d: &Daemon, site: &str) -> BTreeSet<(String, String)> {
+    let (s, a) = d
+        .get(&format!("/api/v1/alerts?site={site}&limit=1000"))
+        .await;
+    assert_eq!(s, 200, "{a}");
+    a["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| {
+            a["state"] != "resolved"
+                && (a["rule"] == "velocity_mm_per_day" || a["rule"] == "time_to_failure_hours")
+        })
+        .map(|a| {
+            (
+                a["id"].as_str().unwrap().to_string(),
+                a["level"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect()
+}
+
+/// The `alert_id`s Alertmanager holds active.
+fn active_ids(alerts: &[Value]) -> BTreeSet<String> {
+    alerts
+        .iter()
+        .filter(|a| a["status"]["state"] == "active")
+        .filter_map(|a| a["annotations"]["alert_id"].as_str().map(str::to_string))
+        .collect()
+}
+
+/// Velocity and time to failure do not depend on the reference epoch. The monitoring series of
+/// `cliffwatch simulate` (seed 1: 40 epochs 12 h apart, a declared 5-target block accelerating
+/// to failure 12 h after the last) with the README's rules: moving the reference to epochs 21,
+/// 31 and 39 keeps every velocity and time-to-failure alert open at its level in cliffwatch
+/// (before the fix the move to epoch 39 resolved T119's alarm) and firing in Alertmanager, with
+/// no resolution notified.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn moving_the_reference_keeps_velocity_and_time_to_failure_alarms_firing() {
+    let Some(binary) = alertmanager_binary() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (tap, tap_url) = Tap::start().await;
+    let am_dir = dir.path().join("am");
+    std::fs::create_dir(&am_dir).unwrap();
+    let am = Alertmanager::start(binary, &am_dir, &tap_url).await;
+    let config = write_config(
+        dir.path(),
+        &format!(
+            "alertmanager_resend_secs = {}\n\
+             [[webhooks]]\nurl = \"{}\"\nsecret = \"{}\"\nmin_level = \"watch\"\n\
+             format = \"alertmanager_api_v2\"\n",
+            PERIOD.as_secs_f64(),
+            am.alerts_url(),
+            support::alerts::SECRET
+        ),
+    );
+    let d = Daemon::start(&dir.path().join("data"), &config).await;
+    let series =
+        cliffwatch_sim::series::image_series(&cliffwatch_sim::series::ImageSeriesScenario {
+            seed: 1,
+            epochs: 40,
+            ..Default::default()
+        })
+        .expect("the monitoring series");
+    let (s, b) = d
+        .send(
+            Method::POST,
+            "/api/v1/sites",
+            Some(
+                &json!({"id": SITE, "frame": {"up": [0, 1, 0]}, "alert_rules": [
+                {"level": "watch",   "metric": "displacement_mm", "above": 5, "clear_below": 4},
+                {"level": "warning", "metric": "velocity_mm_per_day", "above": 1},
+                {"level": "alarm",   "metric": "time_to_failure_hours", "below": 96}]}),
+            ),
+        )
+        .await;
+    assert_eq!(s, 201, "{b}");
+    let mut ids = vec![];
+    for (k, e) in series.epochs.iter().enumerate() {
+        let body = serde_json::to_value(e).unwrap();
+        ids.push(upload_new(&d, SITE, &body).await["id"].clone());
+        if k > 0 {
+            continue;
+        }
+        for p in series.truth.points.iter().filter(|p| p.role == "stable") {
+            let (s, b) = d
+                .send(
+                    Method::PUT,
+                    &format!("/api/v1/sites/{SITE}/points/{}", p.name),
+                    Some(&json!({"role": "stable"})),
+                )
+                .await;
+            assert_eq!(s, 200, "{b}");
+        }
+        let block: Vec<&str> = series
+            .truth
+            .points
+            .iter()
+            .filter(|p| p.group.is_some())
+            .map(|p| p.name.as_str())
+            .collect();
+        let (s, b) = d
+            .send(
+                Method::PUT,
+                &format!("/api/v1/sites/{SITE}/groups/B1"),
+                Some(&json!({"kind": "block", "points": block,
+                             "direction": series.truth.direction})),
+            )
+            .await;
+        assert_eq!(s, 200, "{b}");
+    }
+    let before = open_rate_alerts(&d, SITE).await;
+    let levels: BTreeSet<&str> = before.iter().map(|(_, l)| l.as_str()).collect();
+    assert!(
+        levels.contains("alarm") && levels.contains("warning"),
+        "the accelerating block has its velocity warning and time-to-failure alarm: {before:?}"
+    );
+    let before_ids: BTreeSet<String> = before.iter().map(|(id, _)| id.clone()).collect();
+    am.wait_for("every rate alert firing", PERIOD + SLACK * 4, |a| {
+        before_ids.is_subset(&active_ids(a))
+    })
+    .await;
+    // What the receiver was told while the series came in (the data resolved some alerts on the
+    // way), once Alertmanager has sent it.
+    tokio::time::sleep(PERIOD * 3).await;
+    let resolutions = |tap: &Tap| -> Vec<(String, String, String)> {
+        tap.notified()
+            .into_iter()
+            .filter(|(s, sev, _)| s == "resolved" && (sev == "alarm" || sev == "warning"))
+            .collect()
+    };
+    let resolved_before = resolutions(&tap).len();
+
+    for k in [20, 30, 38] {
+        let (s, b) = d
+            .send(
+                Method::PUT,
+                &format!("/api/v1/sites/{SITE}/reference"),
+                Some(&json!({"epoch": ids[k]})),
+            )
+            .await;
+        assert_eq!(s, 200, "{b}");
+        let after = open_rate_alerts(&d, SITE).await;
+        assert!(
+            before.is_subset(&after),
+            "reference at epoch {}: {before:?} → {after:?}",
+            ids[k]
+        );
+    }
+    // Several re-post periods and group intervals: a resolution would have reached Alertmanager
+    // and its receiver by now.
+    tokio::time::sleep(PERIOD * 3).await;
+    let held = am.alerts().await;
+    assert!(
+        before_ids.is_subset(&active_ids(&held)),
+        "{before_ids:?} not all active in {held:#?}"
+    );
+    let resolved = resolutions(&tap);
+    assert_eq!(
+        resolved.len(),
+        resolved_before,
+        "resolutions after the moves: {:?}",
+        &resolved[resolved_before..]
+    );
+}

@@ -59,7 +59,7 @@ pub use alerts::{
     acknowledge, analysis_failed, campaign_arrived, check_overdue, evaluate_alerts,
     may_acknowledge, reconcile, resolve, Alert, AlertConfig, AlertEvent, AlertEventType, AlertKind,
     AlertLevel, AlertRule, AlertState, AlertStatus, ClearedHow, ClearingTest, Metric, Reading,
-    Readings, Source,
+    Readings, Source, REFERENCE_INDEPENDENT, VELOCITY_CLEAR_FRACTION,
 };
 pub use block_analysis::{BlockAnalysis, MIN_BLOCK_POINTS};
 pub use congruence::CongruenceTest;

@@ -296,3 +296,81 @@ fn block_rules_raise_group_alerts() {
     let (st, _) = resolve(&st, &al.id, "ops", t0()).expect("resolve");
     assert!(st.rules.is_empty(), "{:?}", st.rules);
 }
+
+/// A filtered velocity that wobbles around a velocity rule's threshold (1 mm/day; the true
+/// velocity 1.05 mm/day with a ±0.15 mm/day sine and the filter's noise, σ 0.03 mm/day) raises
+/// the rule at most once and never flips it back: without a `clear_below` a velocity rule clears
+/// only below 0.8 of its threshold. Over 10 seeds of 40 epochs each. A velocity that truly falls
+/// to 0.5 mm/day still clears it.
+#[test]
+fn a_velocity_wobbling_around_its_threshold_changes_level_at_most_once() {
+    use cliffwatch_core::analysis::VELOCITY_CLEAR_FRACTION;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let rule: AlertRule = serde_json::from_str(
+        r#"{"level": "warning", "metric": "velocity_mm_per_day", "above": 1}"#,
+    )
+    .expect("rule");
+    assert_eq!(rule.clear_threshold(), Some(VELOCITY_CLEAR_FRACTION));
+    let cfg = AlertConfig::new("kamo", vec![rule]);
+    let epoch = |k: i64, v: f64| {
+        let mut a = analysis_sigma(k + 2, 20.0 + k as f64, 0.3, true, None, &[]);
+        let mut f = filtered_along_x(20.0 + k as f64, 0.3);
+        f.f_velocity_mm_per_day = v;
+        f.sigma_f_velocity_mm_per_day = 0.03;
+        a.points[0].record.filtered = Some(f);
+        a
+    };
+    let mut flips_without_hysteresis = 0;
+    for seed in 0..10u64 {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let noise = Normal::new(0.0, 0.03).expect("normal");
+        let mut st = AlertState::default();
+        let mut changes = vec![];
+        let mut above_then_below = 0;
+        let mut was_over = false;
+        for k in 0..40i64 {
+            let v = 1.05 + 0.15 * (k as f64 * 0.9).sin() + noise.sample(&mut rng);
+            let a = epoch(k, v);
+            let (next, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
+            st = next;
+            changes.extend(ev.iter().map(|e| (k, e.event_type)));
+            // What a rule without hysteresis would have done: raise over, resolve under.
+            let over = v - 2.326 * 0.03 > 1.0;
+            if was_over && !over {
+                above_then_below += 1;
+            }
+            was_over = over;
+        }
+        flips_without_hysteresis += above_then_below;
+        assert_eq!(
+            changes.len(),
+            1,
+            "seed {seed}: one raise and nothing after it: {changes:?}"
+        );
+        assert_eq!(changes[0].1, AlertEventType::Raised, "seed {seed}");
+        // Slowing down to half the threshold clears it.
+        let a = epoch(40, 0.5);
+        let (_, ev) = evaluate_alerts(&cfg, &st, &a, a.observed_at);
+        assert_eq!(ev.len(), 1, "seed {seed}: {ev:?}");
+        assert_eq!(ev[0].event_type, AlertEventType::Resolved, "seed {seed}");
+    }
+    // The series does wobble: a rule clearing at its threshold would have flipped many times.
+    assert!(flips_without_hysteresis >= 20, "{flips_without_hysteresis}");
+}
+
+/// An explicit `clear_below` wins over the velocity default, and other metrics get none.
+#[test]
+fn only_velocity_rules_without_a_clear_threshold_get_the_default() {
+    let parse = |s: &str| serde_json::from_str::<AlertRule>(s).expect("rule");
+    let v = parse(
+        r#"{"level": "warning", "metric": "velocity_mm_per_day", "above": 2, "clear_below": 0.5}"#,
+    );
+    assert_eq!(v.clear_threshold(), Some(0.5));
+    let v = parse(r#"{"level": "warning", "metric": "velocity_mm_per_day", "below": -2}"#);
+    assert_eq!(v.clear_threshold(), Some(-1.6));
+    let d = parse(r#"{"level": "warning", "metric": "displacement_mm", "above": 10}"#);
+    assert_eq!(d.clear_threshold(), None);
+    let t = parse(r#"{"level": "alarm", "metric": "time_to_failure_hours", "below": 96}"#);
+    assert_eq!(t.clear_threshold(), None);
+}

@@ -9,7 +9,7 @@ use chrono::Duration;
 use cliffwatch_core::analysis::{
     acknowledge, analysis_failed, check_overdue, evaluate_alerts, reconcile, resolve, AlertConfig,
     AlertEventType, AlertKind, AlertLevel, AlertRule, AlertState, AlertStatus, AnalysisError,
-    DatumMethod, EpochAnalysis,
+    DatumMethod, EpochAnalysis, REFERENCE_INDEPENDENT,
 };
 
 use super::alert_fixtures::*;
@@ -363,7 +363,7 @@ fn reconcile_announces_only_the_net_change() {
 
     // Replayed at the same level: nothing to send, the acknowledgement stays.
     let (_, same) = feed(&cfg, &[(3.0, true), (6.5, true)]);
-    let (r, ev) = reconcile(&st, &same, now, "the reference was set to epoch 2");
+    let (r, ev) = reconcile(&st, &same, now, "the reference was set to epoch 2", &[]);
     assert!(ev.is_empty(), "{ev:?}");
     let a = r.find(Some("T1"), AlertKind::DisplacementMm).expect("kept");
     assert_eq!(a.id, id);
@@ -374,7 +374,7 @@ fn reconcile_announces_only_the_net_change() {
 
     // Replayed at warning: one escalation, same id, open again.
     let (_, higher) = feed(&cfg, &[(11.0, true)]);
-    let (r, ev) = reconcile(&st, &higher, now, "the reference was set to epoch 2");
+    let (r, ev) = reconcile(&st, &higher, now, "the reference was set to epoch 2", &[]);
     assert_eq!(ev.len(), 1);
     assert_eq!(ev[0].event_type, Escalated);
     assert_eq!(ev[0].alert.id, id);
@@ -388,7 +388,7 @@ fn reconcile_announces_only_the_net_change() {
 
     // Replayed with nothing: resolved once; the overdue campaign is still open.
     let (_, none) = feed(&cfg, &[(1.0, true)]);
-    let (r, ev) = reconcile(&st, &none, now, "the reference was set to epoch 2");
+    let (r, ev) = reconcile(&st, &none, now, "the reference was set to epoch 2", &[]);
     assert_eq!(ev.len(), 1);
     assert_eq!(
         (ev[0].event_type, ev[0].alert.id.as_str()),
@@ -412,6 +412,7 @@ fn reconcile_announces_only_the_net_change() {
         &higher,
         now,
         "the reference was set to epoch 2",
+        &[],
     );
     assert_eq!(ev.len(), 1);
     assert_eq!(ev[0].event_type, Raised);
@@ -453,4 +454,60 @@ fn analysis_failed_raises_once_and_resolves_on_the_next_analysis() {
     assert_eq!(ev[0].event_type, Resolved);
     assert_eq!(ev[0].alert.rule, AlertKind::AnalysisFailed);
     assert!(st.alerts.is_empty());
+}
+
+/// Kinds the change cannot lower stay as they are: an open alert of a kept kind is neither
+/// resolved nor de-escalated by a replay that no longer finds it (or finds it lower), keeps its
+/// rules' memory, and a higher replay still escalates it. Velocity and time to failure are kept
+/// on a reference move.
+#[test]
+fn reconcile_keeps_the_kinds_the_change_cannot_lower() {
+    use AlertEventType::*;
+    assert!(REFERENCE_INDEPENDENT.contains(&AlertKind::VelocityMmPerDay));
+    assert!(REFERENCE_INDEPENDENT.contains(&AlertKind::TimeToFailureHours));
+    assert!(!REFERENCE_INDEPENDENT.contains(&AlertKind::DisplacementMm));
+    let cfg = contract_config();
+    let now = t0() + Duration::days(30);
+    let kept = [AlertKind::DisplacementMm];
+    // Stored: T1 at warning (11 mm).
+    let (_, st) = feed(&cfg, &[(11.0, true)]);
+    let stored = st.alerts[0].clone();
+    assert_eq!(stored.level, AlertLevel::Warning);
+    let memories = |s: &AlertState| -> Vec<(String, String)> {
+        s.rules
+            .iter()
+            .filter(|(k, _)| k.starts_with("T1|displacement_mm:"))
+            .map(|(k, m)| (k.clone(), format!("{m:?}")))
+            .collect()
+    };
+    assert!(!memories(&st).is_empty());
+    for (what, replay) in [("nothing", 1.0), ("lower", 6.0)] {
+        let (_, replayed) = feed(&cfg, &[(replay, true)]);
+        let (r, ev) = reconcile(
+            &st,
+            &replayed,
+            now,
+            "the reference was set to epoch 2",
+            &kept,
+        );
+        assert!(ev.is_empty(), "{what}: {ev:?}");
+        let a = r.find(Some("T1"), AlertKind::DisplacementMm).expect(what);
+        assert_eq!(a, &stored, "{what}");
+        assert_eq!(memories(&r), memories(&st), "{what}");
+        // Without the kind kept, the same replay changes it.
+        let (_, ev) = reconcile(&st, &replayed, now, "the reference was set to epoch 2", &[]);
+        assert_eq!(ev.len(), 1, "{what}");
+        assert!(matches!(ev[0].event_type, Resolved | Deescalated), "{what}");
+    }
+    // A replay at a higher level than stored still escalates a kept kind.
+    let (_, low) = feed(&cfg, &[(6.0, true)]);
+    let (_, high) = feed(&cfg, &[(11.0, true)]);
+    let (r, ev) = reconcile(&low, &high, now, "the reference was set to epoch 2", &kept);
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].event_type, Escalated);
+    assert_eq!(
+        r.find(Some("T1"), AlertKind::DisplacementMm)
+            .map(|a| a.level),
+        Some(AlertLevel::Warning)
+    );
 }

@@ -153,7 +153,7 @@ fn clearing_test(
         sigma: reading.sigma,
         threshold: r.threshold(),
         below: r.below.is_some(),
-        clear_threshold: r.clear_below.or(r.clear_above),
+        clear_threshold: r.clear_threshold(),
         confidence,
         z,
         significant: reading.significant,

@@ -5,7 +5,8 @@
 //! alert; its level is the highest level whose rule is active, so it is raised, escalates, de-escalates and
 //! resolves as the rules switch. A rule becomes active when its threshold is crossed by a significant value
 //! (significance required by default); an active rule clears (hysteresis) only when the value, significant
-//! or not, falls below `clear_below` (above `clear_above` for `below` rules) or, without such a threshold
+//! or not, falls below `clear_below` (above `clear_above` for `below` rules; a velocity rule without one
+//! clears at [`VELOCITY_CLEAR_FRACTION`] of its threshold) or, without such a threshold
 //! or without a value, after `quiet_epochs` consecutive epochs without triggering. Site-level alerts: `reference_unstable` (the
 //! congruence test excluded a stable point, which also changed from its own earlier epochs, in 2 of 3 epochs; it clears after the point has been kept
 //! in the datum for `reference_quiet_epochs` epochs) and `campaign_overdue` (no epoch within the schedule).
@@ -37,8 +38,8 @@ pub use evaluate::{analysis_failed, evaluate_alerts};
 pub use metric::{AlertKind, Metric, Source};
 pub use overdue::{campaign_arrived, check_overdue};
 pub use readings::{Reading, Readings};
-pub use reconcile::reconcile;
+pub use reconcile::{reconcile, REFERENCE_INDEPENDENT};
 pub use rule::{
     AlertConfig, AlertRule, FORECAST_CONFIDENCE, MAX_CONFIDENCE, MAX_EPOCHS, MIN_CONFIDENCE,
-    RULE_MEMBERS,
+    RULE_MEMBERS, VELOCITY_CLEAR_FRACTION,
 };

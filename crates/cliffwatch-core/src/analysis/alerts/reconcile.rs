@@ -2,7 +2,7 @@
 
 use chrono::{DateTime, Utc};
 
-use super::alert::{AlertEvent, AlertEventType, AlertState, AlertStatus};
+use super::alert::{Alert, AlertEvent, AlertEventType, AlertState, AlertStatus};
 use super::metric::AlertKind;
 
 /// After the derived series was recomputed (reference changed, an epoch arrived out of order):
@@ -17,11 +17,18 @@ use super::metric::AlertKind;
 /// series) and is kept as it is. The rules' memory is the replay's. `cause` says what made the
 /// series change (e.g. "the reference was set to epoch 7"); a resolved alert's message ends with
 /// it.
+///
+/// `kept`: the kinds the change cannot lower (velocity and time to failure do not depend on the
+/// reference epoch: [`REFERENCE_INDEPENDENT`]). An open alert of such a kind is neither resolved
+/// nor de-escalated by the replay, and keeps its rules' memory (hysteresis, quiet epochs): the
+/// next epoch's data decides. A replay that finds it higher still escalates it, and one that
+/// finds a new one raises it.
 pub fn reconcile(
     current: &AlertState,
     replayed: &AlertState,
     now: DateTime<Utc>,
     cause: &str,
+    kept: &[AlertKind],
 ) -> (AlertState, Vec<AlertEvent>) {
     let mut out = AlertState {
         alerts: vec![],
@@ -33,6 +40,9 @@ pub fn reconcile(
             continue;
         }
         match current.find_subject(r.point.as_deref(), r.group.as_deref(), r.rule) {
+            Some(c) if kept.contains(&c.rule) && r.level < c.level => {
+                keep(&mut out, current, c);
+            }
             Some(c) => {
                 let mut a = r.clone();
                 a.id = c.id.clone();
@@ -85,8 +95,13 @@ pub fn reconcile(
         }
         if replayed
             .find_subject(c.point.as_deref(), c.group.as_deref(), c.rule)
-            .is_none()
+            .is_some()
         {
+            continue;
+        }
+        if kept.contains(&c.rule) {
+            keep(&mut out, current, c);
+        } else {
             let mut a = c.clone();
             a.status = AlertStatus::Resolved;
             a.updated_at = now;
@@ -100,4 +115,25 @@ pub fn reconcile(
         }
     }
     (out, events)
+}
+
+/// The kinds a new reference epoch cannot change: velocity and time to failure are rates of the
+/// motion, the same whichever epoch the displacements count from.
+pub const REFERENCE_INDEPENDENT: [AlertKind; 2] =
+    [AlertKind::VelocityMmPerDay, AlertKind::TimeToFailureHours];
+
+/// Keeps `c` as it is in `out`, with the current memories of its subject's rules of its kind in
+/// place of the replay's.
+fn keep(out: &mut AlertState, current: &AlertState, c: &Alert) {
+    let subject = match (&c.point, &c.group) {
+        (Some(p), _) => format!("{p}|"),
+        (None, Some(g)) => format!("group:{g}|"),
+        (None, None) => "-|".to_string(),
+    };
+    let prefix = format!("{subject}{}:", c.rule.as_str());
+    out.rules.retain(|k, _| !k.starts_with(&prefix));
+    for (k, m) in current.rules.iter().filter(|(k, _)| k.starts_with(&prefix)) {
+        out.rules.insert(k.clone(), *m);
+    }
+    out.alerts.push(c.clone());
 }

@@ -94,6 +94,13 @@ pub struct AlertRule {
 /// comes, not whether the point moves (docs/accuracy.md, the time-to-failure benchmark).
 pub const FORECAST_CONFIDENCE: f64 = crate::analysis::failure::BOUND_CONFIDENCE;
 
+/// Fraction of a `velocity_mm_per_day` rule's threshold past which it clears when it names no
+/// `clear_below` (`clear_above`): a velocity near its threshold wobbles with the noise of the
+/// filter, and without hysteresis one epoch raised the level and the next resolved it (raised at
+/// epochs 24, 26 and 30, resolved at 25 and 27). Displacement rules carry their own clear
+/// threshold in the contract's examples; a velocity that has fallen by a fifth has slowed.
+pub const VELOCITY_CLEAR_FRACTION: f64 = 0.8;
+
 /// The members of an alert rule in the contract JSON; the API refuses others (a misspelt
 /// `clear_bellow` would otherwise be stored and ignored).
 pub const RULE_MEMBERS: [&str; 12] = [
@@ -291,11 +298,28 @@ impl AlertRule {
         }
     }
 
-    /// Whether an active rule clears at this value (with a clear threshold).
+    /// The value past which an active rule clears: its `clear_below` / `clear_above`, and for a
+    /// `velocity_mm_per_day` rule that names none, [`VELOCITY_CLEAR_FRACTION`] of its threshold
+    /// (unit of the metric). `None`: the rule clears after its quiet epochs.
+    pub fn clear_threshold(&self) -> Option<f64> {
+        let velocity = self.metric == Metric::VelocityMmPerDay;
+        match (self.above, self.below) {
+            (Some(a), None) => self
+                .clear_below
+                .or((velocity && a > 0.0).then_some(VELOCITY_CLEAR_FRACTION * a)),
+            (None, Some(b)) => self
+                .clear_above
+                .or((velocity && b < 0.0).then_some(VELOCITY_CLEAR_FRACTION * b)),
+            _ => None,
+        }
+    }
+
+    /// Whether an active rule clears at this value (with a clear threshold,
+    /// [`AlertRule::clear_threshold`]).
     pub(super) fn clears(&self, v: f64) -> Option<bool> {
         match (self.above, self.below) {
-            (Some(_), None) => self.clear_below.map(|c| v < c),
-            (None, Some(_)) => self.clear_above.map(|c| v > c),
+            (Some(_), None) => self.clear_threshold().map(|c| v < c),
+            (None, Some(_)) => self.clear_threshold().map(|c| v > c),
             _ => Some(true),
         }
     }
