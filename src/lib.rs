@@ -44,6 +44,7 @@ pub mod config;
 pub mod daemon;
 pub mod dashboard;
 pub mod http;
+pub(crate) mod natural_order;
 pub mod service;
 pub mod shutdown;
 pub mod store;

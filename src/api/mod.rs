@@ -11,6 +11,7 @@ pub(crate) mod cap;
 pub(crate) mod epochs;
 pub(crate) mod groups;
 pub(crate) mod health;
+pub(crate) mod incidents;
 pub mod list;
 pub(crate) mod openapi;
 pub mod points;
@@ -52,6 +53,11 @@ pub fn routes() -> Router<AppState> {
         .route(
             "/api/v1/sites/{site}/points/{point}/displacements",
             get(points::displacements),
+        )
+        .route("/api/v1/sites/{site}/incidents", get(incidents::list))
+        .route(
+            "/api/v1/sites/{site}/incidents/{incident}/ack",
+            post(incidents::acknowledge),
         )
         .route("/api/v1/alerts", get(alerts::list))
         .route("/api/v1/cap/feed.atom", get(cap::feed))

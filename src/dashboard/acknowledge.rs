@@ -117,3 +117,59 @@ pub async fn acknowledge(
         }
     }
 }
+
+/// The acknowledgement form of a whole incident (`block:B1`, `point:T203`, `site`) of `site`:
+/// one action for every open alert of it ([`crate::service::incidents::acknowledge`]).
+pub fn incident_form(site: &str, incident: &str, open: usize, v: &Viewer) -> Markup {
+    let action = format!(
+        "/dashboard/sites/{}/incidents/{}/ack",
+        seg(site),
+        seg(incident)
+    );
+    html! {
+        @if open > 0 && v.can_acknowledge {
+            form.ack.incident method="post" action=(action) {
+                input type="hidden" name="csrf" value=[v.csrf.as_deref()];
+                input name="by" placeholder="your name" required maxlength=(MAX_NAME_CHARS);
+                input name="comment" placeholder="comment" maxlength=(MAX_COMMENT_CHARS);
+                button type="submit" {
+                    "acknowledge " @if open > 1 { "all " (open) " open alerts" } @else { "the open alert" }
+                }
+            }
+        }
+    }
+}
+
+/// `POST /dashboard/sites/{site}/incidents/{incident}/ack`: acknowledges every open alert of the
+/// incident and redirects to the site page's alerts; a refusal is a page naming why.
+pub async fn acknowledge_incident(
+    State(state): State<AppState>,
+    Path((site, incident)): Path<(String, String)>,
+    access: Option<Extension<Access>>,
+    Form(form): Form<AckForm>,
+) -> Response {
+    let ack = crate::service::incidents::acknowledge(
+        &state.store,
+        &site,
+        &incident,
+        &form.by,
+        form.comment.as_deref(),
+    );
+    match ack.await {
+        Ok(_) => Redirect::to(&format!("/sites/{}#alerts", seg(&site))).into_response(),
+        Err(e) => {
+            let e = crate::http::error::ApiError::from(e);
+            let body = html! {
+                h1 { "Not acknowledged" }
+                p.error { (e.message) }
+                p { a href={ "/sites/" (seg(&site)) } { "back to the site" } }
+            };
+            let v = viewer(access.as_deref());
+            (
+                e.status,
+                Html(page("Not acknowledged", &[], &v, body).into_string()),
+            )
+                .into_response()
+        }
+    }
+}

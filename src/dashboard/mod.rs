@@ -38,7 +38,7 @@ pub(crate) mod layout;
 #[cfg(test)]
 mod level_colours;
 pub(crate) mod local_time;
-pub(crate) mod natural_order;
+pub(crate) use crate::natural_order;
 pub(crate) mod page;
 pub(crate) mod plan_labels;
 pub(crate) mod plan_svg;
@@ -73,6 +73,10 @@ pub fn routes() -> Router<AppState> {
         .route("/sites/{site}/alerts/{id}", get(alert_page::alert))
         .route("/dashboard/plot/{site}/{point}", get(plot_data::plot))
         .route("/dashboard/alerts/{id}/ack", post(acknowledge::acknowledge))
+        .route(
+            "/dashboard/sites/{site}/incidents/{incident}/ack",
+            post(acknowledge::acknowledge_incident),
+        )
         .route("/signin", get(sign_in::form).post(sign_in::sign_in))
         .route("/signout", post(sign_in::sign_out))
         .route("/assets/{file}", get(assets::asset))

@@ -132,7 +132,7 @@ pub async fn site(
             h2 { "Face plan" }
             (face_plan(&site.id, &site.frame, &plan))
         }
-        (alerts_section(&filter, &shown, &block_of(&blocks, &pts), older_alerts.as_deref(), &v, &site_href, tz))
+        (alerts_section(&filter, &shown, &crate::service::incidents::block_of(&blocks, &pts), older_alerts.as_deref(), &v, &site_href, tz))
         (points_table(&pts, &latest, &levels, &site_href))
         (health)
         (epochs_table(&epoch_page, &site_href, tz))
@@ -166,29 +166,6 @@ async fn health_section(
     }))
 }
 
-/// The declared block of each point in one: a block's listed points, or, when it lists none,
-/// the points whose group names it.
-fn block_of(
-    blocks: &[cliffwatch_core::analysis::GroupConfig],
-    pts: &[points::Point],
-) -> HashMap<String, String> {
-    let mut out = HashMap::new();
-    for b in blocks {
-        if b.points.is_empty() {
-            for p in pts
-                .iter()
-                .filter(|p| p.group.as_deref() == Some(b.name.as_str()))
-            {
-                out.insert(p.name.clone(), b.name.clone());
-            }
-        }
-        for p in &b.points {
-            out.insert(p.clone(), b.name.clone());
-        }
-    }
-    out
-}
-
 /// The alerts matching `filter`, one row per subject ([`super::alert_groups`]; `block_of`: the
 /// declared block of each point in one), each alert with its acknowledgement form where `v` may
 /// acknowledge; `older`: the query of the next page when this page's [`ALERTS_READ`] alerts
@@ -209,7 +186,7 @@ fn alerts_section(
             @if shown.is_empty() {
                 p.note { "No alert matches." }
             } @else {
-                (super::alert_groups::table(&super::alert_groups::group(shown, block_of), v, site_href, tz))
+                (super::alert_groups::table(&crate::service::incidents::group(shown, block_of), v, &shown[0].site, site_href, tz))
             }
             @if let Some(q) = older {
                 p.pager { "This page searched " (ALERTS_READ) " alerts of this state; older ones may match: "

@@ -58,7 +58,10 @@ pub fn required_role(method: &Method, path: &str) -> Option<Role> {
     let upload =
         (method == Method::POST && path.starts_with("/api/v1/sites/") && path.ends_with("/epochs"))
             || (method == Method::POST
-                && (path.starts_with("/api/v1/alerts/") || path.starts_with("/dashboard/alerts/"))
+                && (path.starts_with("/api/v1/alerts/")
+                    || path.starts_with("/dashboard/alerts/")
+                    || (path.starts_with("/api/v1/sites/") && path.contains("/incidents/"))
+                    || (path.starts_with("/dashboard/sites/") && path.contains("/incidents/")))
                 && path.ends_with("/ack"));
     Some(if upload { Role::Upload } else { Role::Admin })
 }

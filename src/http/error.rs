@@ -147,6 +147,7 @@ impl From<ServiceError> for ApiError {
             ServiceError::UnknownSite(_)
             | ServiceError::UnknownEpoch { .. }
             | ServiceError::UnknownAlert(_)
+            | ServiceError::UnknownIncident(_)
             | ServiceError::UnknownWebhook(_) => ApiError::not_found(e.to_string()),
             ServiceError::InvalidSite(m) => ApiError::unprocessable("invalid_site", m),
             ServiceError::InvalidWebhook(m) => ApiError::unprocessable("invalid_webhook", m),

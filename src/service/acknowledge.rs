@@ -1,6 +1,8 @@
 //! Acknowledging an alert: the staff member on duty says they have seen it.
 
-use crate::store::{self, alert_states, alerts, Store, StoreError};
+use chrono::{DateTime, Utc};
+
+use crate::store::{self, alert_states, alerts, Connection, Store, StoreError};
 use cliffwatch_core::analysis::{self, AnalysisError};
 
 use super::alert_outcome::save_and_record;
@@ -23,6 +25,27 @@ pub async fn acknowledge(
     by: &str,
     comment: Option<&str>,
 ) -> Result<alerts::Alert, ServiceError> {
+    let (by, comment) = checked_acknowledgement(by, comment)?;
+    // The alert's site decides the write lock; the alert is read again inside the transaction.
+    let Some(site) = alerts::get(store.reader(), id).await?.map(|a| a.site) else {
+        return Err(ServiceError::UnknownAlert(id.to_string()));
+    };
+    let mut tx = store.begin_write_site(&site).await?;
+    let now = store::clock(&mut tx).await?;
+    acknowledge_in(&mut tx, id, by, comment, now).await?;
+    let alert = alerts::get(&mut *tx, id)
+        .await?
+        .ok_or_else(|| ServiceError::UnknownAlert(id.to_string()))?;
+    tx.commit().await.map_err(StoreError::from)?;
+    Ok(alert)
+}
+
+/// `by` and `comment` of an acknowledgement, trimmed and checked: `by` 1 to [`MAX_NAME_CHARS`]
+/// characters, `comment` at most [`MAX_COMMENT_CHARS`] (blank is none), neither with NUL.
+pub(crate) fn checked_acknowledgement<'a>(
+    by: &'a str,
+    comment: Option<&'a str>,
+) -> Result<(&'a str, Option<&'a str>), ServiceError> {
     let by = by.trim();
     if by.is_empty() || by.chars().count() > MAX_NAME_CHARS {
         return Err(ServiceError::BadAcknowledgement(format!(
@@ -40,37 +63,41 @@ pub async fn acknowledge(
             "comment: at most {MAX_COMMENT_CHARS} characters"
         )));
     }
-    // The alert's site decides the write lock; the alert is read again inside the transaction.
-    let Some(site) = alerts::get(store.reader(), id).await?.map(|a| a.site) else {
-        return Err(ServiceError::UnknownAlert(id.to_string()));
-    };
-    let mut tx = store.begin_write_site(&site).await?;
+    Ok((by, comment))
+}
+
+/// Acknowledges alert `id` inside the site's write transaction `tx` at `now` (the store's
+/// clock), `by` and `comment` checked ([`checked_acknowledgement`]): an open alert moves to
+/// `acknowledged` and queues an `alert.acknowledged` event; a resolved one only records who
+/// acknowledged it.
+pub(crate) async fn acknowledge_in(
+    tx: &mut Connection,
+    id: &str,
+    by: &str,
+    comment: Option<&str>,
+    now: DateTime<Utc>,
+) -> Result<(), ServiceError> {
     let Some(stored) = alerts::get(&mut *tx, id).await? else {
         return Err(ServiceError::UnknownAlert(id.to_string()));
     };
-    let engine = alert_states::load(&mut tx, &stored.site).await?;
+    let engine = alert_states::load(&mut *tx, &stored.site).await?;
     let refused = |e: AnalysisError| match e {
         AnalysisError::AlreadyAcknowledged { id, by } => {
             ServiceError::AlreadyAcknowledged { id, by }
         }
         _ => ServiceError::UnknownAlert(id.to_string()),
     };
-    let now = store::clock(&mut tx).await?;
     match analysis::acknowledge(&engine, id, by, comment, now) {
         Ok((engine, event)) => {
-            save_and_record(&mut tx, &stored.site, &engine, &[event], now).await?;
+            save_and_record(&mut *tx, &stored.site, &engine, &[event], now).await?;
         }
         // Not active any more (resolved): note who acknowledged it, no event.
         Err(AnalysisError::UnknownAlert(_)) => {
             analysis::may_acknowledge(id, stored.state, stored.acknowledged_by.as_deref())
                 .map_err(refused)?;
-            alerts::acknowledge(&mut tx, id, by, comment, now).await?;
+            alerts::acknowledge(&mut *tx, id, by, comment, now).await?;
         }
         Err(e) => return Err(refused(e)),
     }
-    let alert = alerts::get(&mut *tx, id)
-        .await?
-        .ok_or_else(|| ServiceError::UnknownAlert(id.to_string()))?;
-    tx.commit().await.map_err(StoreError::from)?;
-    Ok(alert)
+    Ok(())
 }

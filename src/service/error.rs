@@ -25,6 +25,9 @@ pub enum ServiceError {
     /// No alert has that id.
     #[error("unknown alert '{}'", cut(.0))]
     UnknownAlert(String),
+    /// The site has no open incident with that id (`block:B1`, `point:T203`, `site`).
+    #[error("no open incident '{}' on this site", cut(.0))]
+    UnknownIncident(String),
     /// No webhook endpoint has that id.
     #[error("unknown webhook '{}'", cut(.0))]
     UnknownWebhook(String),

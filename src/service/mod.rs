@@ -11,6 +11,8 @@
 //! - [`webhooks`]: webhook endpoints added and removed.
 //! - [`configured`]: the sites and webhooks of the configuration file, applied at start.
 //! - [`acknowledge`]: staff acknowledge an alert.
+//! - [`incidents`]: the open alerts gathered per block or point, what staff act on, and their
+//!   acknowledgement in one action; [`forecast`] states a subject's failure time.
 //!
 //! Adjustment health: [`apriori_sigma`] estimates the cameras' a-priori σ from the recent
 //! epochs' variance components and applies it when the site asks.
@@ -27,6 +29,8 @@ pub(crate) mod analysis_inputs;
 pub mod apriori_sigma;
 pub mod configured;
 pub(crate) mod error;
+pub mod forecast;
+pub mod incidents;
 pub mod ingest;
 pub mod recompute;
 pub(crate) mod site_settings;

@@ -8,6 +8,7 @@ mod support;
 
 mod blocks;
 mod failed;
+mod incidents;
 mod recompute;
 mod series;
 mod service;

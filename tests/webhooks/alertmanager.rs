@@ -525,6 +525,33 @@ async fn moving_the_reference_keeps_velocity_and_time_to_failure_alarms_firing()
         "the accelerating block has its velocity warning and time-to-failure alarm: {before:?}"
     );
     let before_ids: BTreeSet<String> = before.iter().map(|(id, _)| id.clone()).collect();
+    // One incident for the block holds every one of them, with the block's own forecast.
+    let (s, b) = d.get(&format!("/api/v1/sites/{SITE}/incidents")).await;
+    assert_eq!(s, 200, "{b}");
+    let listed = b["items"].as_array().unwrap().clone();
+    let first = &listed[0];
+    assert_eq!(
+        first["id"], "block:B1",
+        "the most urgent incident: {listed:#?}"
+    );
+    assert_eq!(first["level"], "alarm", "{first}");
+    let held: BTreeSet<String> = first["alert_ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .collect();
+    assert!(before_ids.is_subset(&held), "{before_ids:?} ⊄ {held:?}");
+    let forecast = &first["forecast"];
+    assert_eq!(forecast["from"], "block B1", "{first}");
+    let likely = forecast["likely_before"].as_str().unwrap();
+    let truth = series.truth.failure_at.expect("the series fails");
+    let likely = chrono::DateTime::parse_from_rfc3339(likely).unwrap();
+    let last = series.truth.epochs.last().unwrap().observed_at;
+    assert!(
+        likely > last && likely < truth + chrono::Duration::hours(96),
+        "failure likely before {likely}, last epoch {last}, true failure {truth}"
+    );
     am.wait_for("every rate alert firing", PERIOD + SLACK * 4, |a| {
         before_ids.is_subset(&active_ids(a))
     })
