@@ -11,13 +11,16 @@ use axum::response::Html;
 use axum::Extension;
 use maud::{html, Markup};
 
+use super::acknowledge::incident_form;
 use super::layout::{level_badge, metric_name, num, page, seg};
 use super::local_time::when;
 use super::page::{viewer, PageError};
 use crate::http::auth::Access;
 use crate::http::AppState;
+use crate::service::acknowledge::{MAX_COMMENT_CHARS, MAX_NAME_CHARS};
+use crate::service::incidents;
 use crate::store::alerts;
-use cliffwatch_core::analysis::{ClearedHow, ClearingTest};
+use cliffwatch_core::analysis::{AlertStatus, ClearedHow, ClearingTest};
 
 /// The alert page.
 pub async fn alert(
@@ -46,12 +49,45 @@ pub async fn alert(
     };
     let v = viewer(access.as_deref());
     let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
+    // The incident the alert belongs to, and how many of its alerts are open.
+    let blocks = crate::store::groups::list(db, &site.id).await?;
+    let pts = crate::store::points::list(db, &site.id, None, i64::MAX).await?;
+    let block_of = incidents::block_of(&blocks, &pts);
+    let incident = incidents::subject_of(&a, &block_of);
+    let incident_open = alerts::list_active(db, &site.id, incidents::ALERTS_READ)
+        .await?
+        .into_iter()
+        .filter(|(_, x)| {
+            x.state == AlertStatus::Open && incidents::subject_of(x, &block_of) == incident
+        })
+        .count();
+    let acknowledge = html! {
+        @if v.can_acknowledge && (a.state == AlertStatus::Open || incident_open > 0) {
+            section.acknowledge aria-label="acknowledge" {
+                h2 { "Acknowledge" }
+                @if a.state == AlertStatus::Open {
+                    p { "This alert only:" }
+                    form.ack method="post" action={ "/dashboard/alerts/" (seg(&a.id)) "/ack" } {
+                        input type="hidden" name="csrf" value=[v.csrf.as_deref()];
+                        input name="by" placeholder="your name" required maxlength=(MAX_NAME_CHARS);
+                        input name="comment" placeholder="comment" maxlength=(MAX_COMMENT_CHARS);
+                        button type="submit" { "acknowledge this alert" }
+                    }
+                }
+                @if incident_open > 0 && incident != incidents::Subject::Site {
+                    p { "The whole incident (" (incident.words()) "):" }
+                    (incident_form(&site.id, &incident.key(), incident_open, &v))
+                }
+            }
+        }
+    };
     let body = html! {
         h1 { (level_badge(Some(a.level))) " " (metric_name(&a.rule)) " · " (subject) }
         p.rule { "rule metric " code { (a.rule) } @if let (Some(v), Some(t)) = (a.value, a.threshold) { " · value " (num(Some(v), 2)) " " (a.unit.as_deref().unwrap_or("")) " against " (num(Some(t), 2)) } }
         (headline)
         p { (a.message) }
         p { "state: " (a.state) " · highest level: " (a.peak_level.as_str()) }
+        (acknowledge)
         h2 { "History" }
         table.history {
             thead { tr { th { "event" } th { "processed at" } th { "level" } th.num { "value" } th { "epoch" } th { "epoch observed at" } th { "acknowledged by" } th { "comment" } } }

@@ -1,9 +1,11 @@
 //! The headline at the top of every page of a site: what the person on call reads first. It
-//! says in words the worst open alert (level, subject, metric, value ± 1σ at the subject's latest
-//! epoch; for a time to failure the date before which failure is likely (the one-sided bound the
-//! rule reads) and the forecast failure time with its ±2σ interval, in UTC and the site's zone,
-//! counted from that epoch and not from now), how old the last epoch
-//! is, and the site's response text and contacts (site settings).
+//! names the most urgent incident ([`crate::service::incidents`]: a declared block with its
+//! points, or a point outside blocks), its level, its velocity ± 1σ, and when a forecast is
+//! stated the date before which failure is likely (the one-sided bound the rules read), local
+//! time first then UTC, with "≈ N h from now" or "passed N h ago", the forecast failure time
+//! and its ±2σ interval counted from the epoch it comes from; else the worst alert's value. Then
+//! how old the last epoch is, and the site's response text and contacts (site settings). The
+//! block page, point pages, alert pages and the report quote the same incident.
 //!
 //! [`load`] reads what it needs; [`render`] is pure.
 
@@ -11,27 +13,28 @@ use chrono::{DateTime, Utc};
 use maud::{html, Markup};
 
 use super::layout::{level_class, seg};
-use super::local_time::{text, when};
+use super::local_time::{text_local_first, when};
 use super::page::PageError;
 use crate::http::AppState;
 pub use crate::service::forecast::{failure_time, FailureTime};
 use crate::service::forecast::{stated, ttf};
+use crate::service::incidents::{self, Incident, IncidentForecast};
 use crate::store::displacements::Displacement;
 use crate::store::sites::Site;
 use crate::store::{alerts, block_motions, displacements, epochs, parse_timestamp};
 use cliffwatch_core::analysis::AlertLevel;
 
-/// Open alerts read to find the worst (the store lists them newest first).
-const ALERTS_READ: i64 = 500;
-
 /// What the headline says, read from the store.
 #[derive(Debug, Clone)]
 pub struct Headline {
-    /// The worst open (unresolved) alert, when there is one.
+    /// The most urgent incident, when there is one.
+    pub incident: Option<Incident>,
+    /// Its worst alert.
     pub worst: Option<alerts::Alert>,
-    /// Open alerts besides the worst.
-    pub others: usize,
-    /// The latest row of the worst alert's subject (point or block), when it has one.
+    /// How many incidents the site has in all.
+    pub incidents: usize,
+    /// The latest row of the incident's subject (the block's motion or the point's), when it
+    /// has one.
     pub latest: Option<Displacement>,
     /// Observation time of the site's last epoch (RFC 3339).
     pub last_epoch: Option<String>,
@@ -64,25 +67,29 @@ fn worst_key<'a>(level: AlertLevel, rule: &str, raised_at: &'a str) -> (AlertLev
 /// Reads the headline of `site`.
 pub async fn load(state: &AppState, site: &Site) -> Result<Headline, PageError> {
     let db = state.store.reader();
-    let open: Vec<alerts::Alert> = alerts::list_active(db, &site.id, ALERTS_READ)
-        .await?
-        .into_iter()
-        .map(|(_, a)| a)
-        .collect();
-    let worst = worst(&open).cloned();
-    let latest = match &worst {
-        Some(a) if a.group.is_some() => {
-            let g = a.group.as_deref().unwrap_or_default();
-            block_motions::series(db, &site.id, g, a.observed_at.as_deref(), None, None, None)
-                .await?
-                .pop()
+    let all = incidents::list(&state.store, &site.id).await?;
+    let incident = all.first().cloned();
+    let worst = match &incident {
+        Some(i) => {
+            let mut of: Vec<alerts::Alert> = vec![];
+            for id in &i.alert_ids {
+                if let Some(a) = alerts::get(db, id).await? {
+                    of.push(a);
+                }
+            }
+            worst(&of).cloned()
         }
-        Some(a) if a.point.is_some() => {
-            let p = a.point.as_deref().unwrap_or_default();
+        None => None,
+    };
+    let latest = match incident.as_ref().map(|i| (i.kind.as_str(), &i.subject)) {
+        Some(("block", Some(g))) => block_motions::series(db, &site.id, g, None, None, None, None)
+            .await?
+            .pop(),
+        Some(("point", Some(p))) => {
             displacements::latest(&mut *state.store.read().await?, &site.id)
                 .await?
                 .into_iter()
-                .find(|d| d.point == p)
+                .find(|d| &d.point == p)
         }
         _ => None,
     };
@@ -92,7 +99,8 @@ pub async fn load(state: &AppState, site: &Site) -> Result<Headline, PageError> 
         .next()
         .map(|(_, e)| e.observed_at);
     Ok(Headline {
-        others: open.len().saturating_sub(1),
+        incidents: all.len(),
+        incident,
         worst,
         latest,
         last_epoch,
@@ -165,15 +173,15 @@ fn age(t: DateTime<Utc>, now: DateTime<Utc>) -> String {
 pub fn render(site: &Site, h: &Headline) -> Markup {
     let tz = site.time_zone.as_deref();
     let site_href = format!("/sites/{}", seg(&site.id));
-    let level = h.worst.as_ref().map(|a| a.level);
+    let level = h.incident.as_ref().map(|i| i.level);
     html! {
         section.headline.(level_class(level)) aria-label="headline" {
-            @match &h.worst {
-                None => p.what { strong { "No open alert." } }
-                Some(a) => p.what { (alert_words(a, h.latest.as_ref(), &site_href, tz)) }
+            @match (&h.incident, &h.worst) {
+                (Some(i), Some(a)) => p.what { (incident_words(i, a, h.latest.as_ref(), h.now, &site_href, tz)) }
+                _ => p.what { strong { "No open alert." } }
             }
-            @if h.others > 0 {
-                p.more { a href={ (site_href) "#alerts" } { (h.others) " more open alert" @if h.others > 1 { "s" } } }
+            @if h.incidents > 1 {
+                p.more { a href={ (site_href) "#alerts" } { (h.incidents - 1) " more incident" @if h.incidents > 2 { "s" } } }
             }
             p.last-epoch {
                 @match h.last_epoch.as_deref().and_then(|t| parse_timestamp(t).map(|p| (t, p))) {
@@ -205,43 +213,92 @@ pub fn render(site: &Site, h: &Headline) -> Markup {
     }
 }
 
-/// The worst alert in words: "ALARM · point T016 · time to failure 46 ± 9 h: failure expected …".
-fn alert_words(
+/// "≈ 14 h from now", "≈ 3 d 2 h from now", "passed 5 h ago": how far `t` (s since 1970) is
+/// from `now`.
+fn from_now(t: f64, now: DateTime<Utc>) -> String {
+    let h = (t - now.timestamp() as f64) / 3600.0;
+    let span = |h: f64| {
+        let h = h.round() as i64;
+        if h >= 48 {
+            format!("{} d {} h", h / 24, h % 24)
+        } else {
+            format!("{h} h")
+        }
+    };
+    if h >= 0.0 {
+        format!("≈ {} from now", span(h))
+    } else {
+        format!("passed {} ago", span(-h))
+    }
+}
+
+/// The subject's velocity in words: `velocity 3.21 ± 0.40 mm/day (1σ)` (the filtered one, as the
+/// rules read it by default, else the raw one).
+fn velocity_words(d: &Displacement) -> Option<String> {
+    let (v, s) = match d.f_velocity_mm_per_day.filter(|v| v.is_finite()) {
+        Some(v) => (v, d.sigma_f_velocity_mm_per_day),
+        None => (d.velocity_mm_per_day.filter(|v| v.is_finite())?, None),
+    };
+    Some(match s.filter(|s| s.is_finite()) {
+        Some(s) => format!("velocity {v:.2} ± {s:.2} mm/day (1σ)"),
+        None => format!("velocity {v:.2} mm/day"),
+    })
+}
+
+/// The ±2σ interval and the expected time of forecast `f` (s since 1970).
+fn expected(f: &IncidentForecast) -> Option<(f64, f64, f64)> {
+    let t0 = parse_timestamp(&f.observed_at)?.timestamp() as f64;
+    let s = f.sigma_hours.unwrap_or(0.0);
+    let at = t0 + f.hours * 3600.0;
+    Some((at, (at - 2.0 * s * 3600.0).max(t0), at + 2.0 * s * 3600.0))
+}
+
+/// The incident in words: "ALARM · block B1 · velocity 3.21 ± 0.40 mm/day (1σ) · failure likely
+/// before 2026-06-21 09:27 JST (00:27 UTC), ≈ 14 h from now (95 %, one-sided); time to failure
+/// 12 ± 2 h (1σ), expected …", or without a forecast the worst alert's metric and value.
+fn incident_words(
+    i: &Incident,
     a: &alerts::Alert,
     d: Option<&Displacement>,
+    now: DateTime<Utc>,
     site_href: &str,
     tz: Option<&str>,
 ) -> Markup {
-    let subject_href = match (&a.group, &a.point) {
-        (Some(g), _) => Some(format!("{site_href}/groups/{}", seg(g))),
-        (None, Some(p)) => Some(format!("{site_href}/points/{}", seg(p))),
-        _ => None,
-    };
-    let subject = match (&a.group, &a.point) {
-        (Some(g), _) => format!("block {g}"),
-        (None, Some(p)) => format!("point {p}"),
+    let subject = match (i.kind.as_str(), &i.subject) {
+        ("block", Some(b)) => format!("block {b}"),
+        ("point", Some(p)) => format!("point {p}"),
         _ => "site".to_string(),
     };
-    let level = a.level.as_str().to_uppercase();
+    let level = i.level.as_str().to_uppercase();
+    let velocity = d.and_then(velocity_words);
+    let forecast = i.forecast.as_ref().and_then(|f| {
+        let likely = parse_timestamp(&f.likely_before)?.timestamp() as f64;
+        Some((f, likely, expected(f)?))
+    });
     let value = d.and_then(|d| value_words(&a.rule, d));
-    let forecast = (a.rule == "time_to_failure_hours")
-        .then(|| d.and_then(|d| failure_time(d).map(|f| (f, d))))
-        .flatten();
+    let alerts = i.alert_ids.len();
     html! {
         strong.level { (level) } " · "
-        @match subject_href { Some(href) => a href=(href) { (subject) }, None => (subject) }
-        " · " (metric_words(&a.rule))
-        @if let Some(v) = &value { " " strong.value { (v) } }
-        @if let (Some(t), Some(u)) = (a.threshold, &a.unit) { " (threshold " (t) " " (u) ")" }
-        @if let Some((f, d)) = forecast {
-            ": failure likely before " strong.failure { (text(f.likely_before, tz)) }
-            " (" (bound_confidence_words()) ", one-sided); expected " (text(f.at, tz))
-            " (±2σ: " (text(f.lower, tz)) " to " (text(f.upper, tz)) "), counted from the last epoch ("
-            (when(&d.observed_at, tz)) "), not from now"
+        @if i.kind == "site" { (subject) } @else { a.subject href=(i.page) { (subject) } }
+        @if let Some(v) = &velocity { " · " strong.velocity { (v) } }
+        @if let Some((f, likely, (at, lower, upper))) = forecast {
+            " · failure likely before " strong.failure { (text_local_first(likely, tz)) } ", "
+            strong.eta { (from_now(likely, now)) }
+            " (" (bound_confidence_words()) ", one-sided); time to failure " (format!("{:.0}", f.hours))
+            @if let Some(s) = f.sigma_hours { " ± " (format!("{s:.0}")) } " h (1σ), expected "
+            (text_local_first(at, tz)) " (±2σ: " (text_local_first(lower, tz)) " to " (text_local_first(upper, tz))
+            "), the forecast of " (f.from) " counted from its last epoch ("
+            (text_local_first(parse_timestamp(&f.observed_at).map_or(0.0, |t| t.timestamp() as f64), tz)) ")"
+        } @else {
+            " · " (metric_words(&a.rule))
+            @if let Some(v) = &value { " " strong.value { (v) } }
+            @if let (Some(t), Some(u)) = (a.threshold, &a.unit) { " (threshold " (t) " " (u) ")" }
+            @if value.is_none() { ": " (a.message) }
         }
-        @if value.is_none() && forecast.is_none() { ": " (a.message) }
         ". "
-        span.raised { "Raised " (when(&a.raised_at, tz)) " · "
+        span.raised {
+            @if alerts > 1 { a href={ (site_href) "#alerts" } { (alerts) " alerts" } " in this incident · " }
+            "Raised " (when(&a.raised_at, tz)) " · "
             a href={ (site_href) "/alerts/" (seg(&a.id)) } { "history" } }
     }
 }
@@ -260,6 +317,17 @@ mod tests {
         assert_eq!(age(t, at(5 * 60 + 10)), "5 h 10 min");
         assert_eq!(age(t, at(3 * 1440 + 4 * 60 + 59)), "3 d 4 h");
         assert_eq!(age(t, at(-5)), "0 min");
+    }
+
+    #[test]
+    fn a_time_reads_from_now_or_as_passed() {
+        let now = DateTime::parse_from_rfc3339("2026-11-01T09:00:00Z")
+            .unwrap()
+            .with_timezone(&Utc);
+        let t = now.timestamp() as f64;
+        assert_eq!(from_now(t + 14.2 * 3600.0, now), "≈ 14 h from now");
+        assert_eq!(from_now(t + 74.0 * 3600.0, now), "≈ 3 d 2 h from now");
+        assert_eq!(from_now(t - 5.0 * 3600.0, now), "passed 5 h ago");
     }
 
     #[test]

@@ -38,6 +38,26 @@ pub fn text(unix_seconds: f64, tz: Option<&str>) -> String {
     out
 }
 
+/// `2026-11-26 18:00 JST (09:00 UTC)`: local time first, then UTC (the UTC date added when it
+/// differs); without a zone `2026-11-26 09:00 UTC`.
+pub fn text_local_first(unix_seconds: f64, tz: Option<&str>) -> String {
+    let Some(utc) = DateTime::<Utc>::from_timestamp(unix_seconds.round() as i64, 0) else {
+        return format!("{unix_seconds} s");
+    };
+    match tz.and_then(|z| z.parse::<Tz>().ok()) {
+        None => utc.format("%Y-%m-%d %H:%M UTC").to_string(),
+        Some(zone) => {
+            let local = utc.with_timezone(&zone);
+            let u = if local.date_naive() == utc.date_naive() {
+                utc.format("%H:%M UTC")
+            } else {
+                utc.format("%Y-%m-%d %H:%M UTC")
+            };
+            format!("{} ({u})", local.format("%Y-%m-%d %H:%M %Z"))
+        }
+    }
+}
+
 /// The local part: `18:00 JST`, or `2026-11-26 02:00 JST` across midnight.
 fn local_text(utc: DateTime<Utc>, zone: Tz) -> String {
     let local = utc.with_timezone(&zone);

@@ -44,6 +44,16 @@ impl PageError {
     }
 }
 
+impl From<crate::service::ServiceError> for PageError {
+    fn from(e: crate::service::ServiceError) -> Self {
+        let e = crate::http::error::ApiError::from(e);
+        PageError {
+            status: e.status,
+            message: e.message,
+        }
+    }
+}
+
 impl From<StoreError> for PageError {
     fn from(e: StoreError) -> Self {
         tracing::error!(error = %e, "dashboard: database read failed");

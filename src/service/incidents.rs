@@ -34,6 +34,15 @@ pub enum Subject {
 }
 
 impl Subject {
+    /// "block B1", "point T203", "the site": the subject in words.
+    pub fn words(&self) -> String {
+        match self {
+            Subject::Block(b) => format!("block {b}"),
+            Subject::Point(p) => format!("point {p}"),
+            Subject::Site => "the site".into(),
+        }
+    }
+
     /// Its key in the page (`block:B1`, `point:T203`, `site`), for `data-subject`.
     pub fn key(&self) -> String {
         match self {
@@ -87,7 +96,7 @@ impl SubjectAlerts<'_> {
 }
 
 /// The subject of alert `a`, given the declared block of each point in one (`block_of`).
-fn subject_of(a: &Alert, block_of: &HashMap<String, String>) -> Subject {
+pub fn subject_of(a: &Alert, block_of: &HashMap<String, String>) -> Subject {
     match (&a.group, &a.point) {
         (Some(g), _) => Subject::Block(g.clone()),
         (None, Some(p)) => match block_of.get(p) {

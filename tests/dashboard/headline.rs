@@ -26,6 +26,19 @@ fn utc_and_tokyo(unix: f64) -> String {
     format!("{} · {l}", utc.format("%Y-%m-%d %H:%M UTC"))
 }
 
+/// `2026-11-17 18:00 JST (09:00 UTC)`: the headline's local time first, then UTC (its date
+/// added when it differs), computed here with chrono-tz.
+fn tokyo_then_utc(unix: f64) -> String {
+    let utc = chrono::DateTime::from_timestamp(unix.round() as i64, 0).unwrap();
+    let local = utc.with_timezone(&chrono_tz::Asia::Tokyo);
+    let u = if local.date_naive() == utc.date_naive() {
+        utc.format("%H:%M UTC")
+    } else {
+        utc.format("%Y-%m-%d %H:%M UTC")
+    };
+    format!("{} ({u})", local.format("%Y-%m-%d %H:%M JST"))
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_headline_says_the_worst_alert_its_failure_date_and_what_to_do() {
     let Some(driver) = Driver::start().await else {
@@ -74,9 +87,9 @@ async fn the_headline_says_the_worst_alert_its_failure_date_and_what_to_do() {
         alarmed.iter().any(|p| p == subject),
         "{subject} of {alarmed:?}"
     );
-    assert!(what.contains(" · time to failure "), "{what}");
+    assert!(what.contains("; time to failure "), "{what}");
     // The failure date: the subject's last epoch plus its filtered time to failure, as the
-    // API gives them, in UTC and in Tokyo, with its interval; counted from that epoch.
+    // API gives them, local time first then UTC, with its interval; counted from that epoch.
     let (_, series) = s
         .get(&format!(
             "/api/v1/sites/tf/points/{subject}/displacements?limit=1000"
@@ -90,29 +103,37 @@ async fn the_headline_says_the_worst_alert_its_failure_date_and_what_to_do() {
         .as_f64()
         .expect("a forecast");
     let sigma = last["sigma_f_time_to_failure_hours"].as_f64().unwrap();
-    let expected = utc_and_tokyo(t0 + hours * 3600.0);
     assert!(
-        what.contains(&format!("{hours:.0} ± {sigma:.0} h")),
+        what.contains(&format!("{hours:.0} ± {sigma:.0} h (1σ)")),
         "{hours} ± {sigma}: {what}"
     );
+    // Its velocity ± 1σ, as the API gives it.
+    let v = last["f_velocity_mm_per_day"].as_f64().unwrap();
+    let sv = last["sigma_f_velocity_mm_per_day"].as_f64().unwrap();
     assert!(
-        what.contains(&format!("; expected {expected} (±2σ: ")),
+        what.contains(&format!(" · velocity {v:.2} ± {sv:.2} mm/day (1σ) · ")),
+        "{v} ± {sv}: {what}"
+    );
+    let expected = tokyo_then_utc(t0 + hours * 3600.0);
+    assert!(
+        what.contains(&format!(", expected {expected} (±2σ: ")),
         "{expected}: {what}"
     );
-    // The one-sided bound the alarm rule reads, first: failure likely before it.
-    let bound = utc_and_tokyo(t0 + (hours + 1.6449 * sigma) * 3600.0);
+    // The one-sided bound the alarm rule reads, first: failure likely before it, and how far
+    // that is from now (the fixture's epochs lie weeks in the past: passed).
+    let bound_at = t0 + (hours + 1.6449 * sigma) * 3600.0;
+    let bound = tokyo_then_utc(bound_at);
     assert!(
-        what.contains(&format!(
-            ": failure likely before {bound} (95 %, one-sided); expected "
-        )),
+        what.contains(&format!(" · failure likely before {bound}, passed ")),
         "{bound}: {what}"
     );
-    let upper = utc_and_tokyo(t0 + (hours + 2.0 * sigma) * 3600.0);
+    assert!(what.contains(" ago (95 %, one-sided); "), "{what}");
+    let upper = tokyo_then_utc(t0 + (hours + 2.0 * sigma) * 3600.0);
     assert!(what.contains(&format!(" to {upper})")), "{upper}: {what}");
     assert!(
         what.contains(&format!(
-            "counted from the last epoch ({}), not from now",
-            utc_and_tokyo(t0)
+            "the forecast of point {subject} counted from its last epoch ({})",
+            tokyo_then_utc(t0)
         )),
         "{what}"
     );
@@ -172,6 +193,61 @@ async fn the_headline_says_the_worst_alert_its_failure_date_and_what_to_do() {
             .screenshot(format!("headline-phone-{phone}.png"))
             .await;
     }
+    // The accelerating points declared a block: the headline names the block, not a point,
+    // and states the incident's forecast, the same instant the API's incident gives.
+    driver.emulate_phone_width(1280).await;
+    let members: Vec<String> = (support::dashboard::STABLE..support::dashboard::POINTS)
+        .map(name)
+        .collect();
+    let r = s
+        .client
+        .put(s.url("/api/v1/sites/tf/groups/B1"))
+        .json(&json!({"kind": "block", "points": members}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200, "{}", r.text().await.unwrap());
+    let (_, incidents) = s.get("/api/v1/sites/tf/incidents").await;
+    let first = &incidents["items"][0];
+    assert_eq!(first["id"], "block:B1", "{incidents}");
+    let likely = chrono::DateTime::parse_from_rfc3339(
+        first["forecast"]["likely_before"]
+            .as_str()
+            .unwrap_or_else(|| panic!("a forecast: {first}")),
+    )
+    .unwrap()
+    .timestamp() as f64;
+    for page in [
+        "/sites/tf",
+        "/sites/tf/groups/B1",
+        &format!("/sites/tf/points/{}", members[0]),
+    ] {
+        driver.goto(&s.url(page)).await;
+        let block_what = driver
+            .script("return document.querySelector('section.headline .what').textContent")
+            .await;
+        let block_what = block_what.as_str().unwrap();
+        eprintln!("{page}: {block_what}");
+        assert!(
+            block_what.starts_with("ALARM · block B1 · velocity "),
+            "{page}: {block_what}"
+        );
+        assert!(
+            block_what.contains(&format!(
+                " · failure likely before {}, ",
+                tokyo_then_utc(likely)
+            )),
+            "{page}: {block_what}"
+        );
+        assert!(
+            block_what.contains(&format!(
+                "the forecast of {} counted from its last epoch",
+                first["forecast"]["from"].as_str().unwrap()
+            )),
+            "{page}: {block_what}"
+        );
+    }
+    driver.screenshot("headline-block.png").await;
     driver.quit().await;
     s.stop().await;
 }
