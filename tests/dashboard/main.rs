@@ -13,6 +13,7 @@ mod browser;
 mod cap_feed;
 mod headline;
 mod pages;
+mod phone;
 mod plan_labels;
 mod plots;
 mod report;
