@@ -5,11 +5,17 @@ use std::sync::OnceLock;
 use axum::extract::State;
 use axum::http::{header, StatusCode};
 use axum::response::IntoResponse;
-use metrics_exporter_prometheus::{PrometheusBuilder, PrometheusHandle};
+use metrics_exporter_prometheus::{Matcher, PrometheusBuilder, PrometheusHandle};
 
 use super::schemas::Status;
 use crate::http::error::ApiError;
 use crate::http::AppState;
+
+/// Upper bounds (s) of the adjustment-time histogram's buckets: from a small epoch's tenth of a
+/// second to the default compute budget (120 s).
+const ADJUSTMENT_BUCKETS: [f64; 12] = [
+    0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0, 20.0, 30.0, 60.0, 120.0,
+];
 
 /// The process-wide Prometheus recorder (installed once, shared by every server of the process),
 /// every series labelled `node` with the name the first server of the process gives.
@@ -19,6 +25,11 @@ pub fn metrics_handle(node: &str) -> PrometheusHandle {
         .get_or_init(|| {
             let recorder = PrometheusBuilder::new()
                 .add_global_label("node", node)
+                .set_buckets_for_metric(
+                    Matcher::Full("cliffwatch_adjustment_seconds".into()),
+                    &ADJUSTMENT_BUCKETS,
+                )
+                .expect("the buckets are not empty")
                 .build_recorder();
             let handle = recorder.handle();
             // Another recorder may be installed already (tests): then ours only renders nothing.
@@ -45,6 +56,22 @@ fn describe() {
         "uploads being processed (of max_concurrent_uploads)"
     );
     metrics::describe_counter!("cliffwatch_alerts_raised_total", "alerts raised");
+    metrics::describe_gauge!(
+        "cliffwatch_open_alerts",
+        "open and acknowledged alerts by site and level"
+    );
+    metrics::describe_gauge!(
+        "cliffwatch_last_epoch_age_seconds",
+        "time since the observation of each site's last epoch (s)"
+    );
+    metrics::describe_gauge!(
+        "cliffwatch_site_schedule_seconds",
+        "each site's expected time between epochs (s), where set"
+    );
+    metrics::describe_counter!(
+        "cliffwatch_watch_folders_total",
+        "watched-directory epoch folders taken, by site and outcome (done, failed, error)"
+    );
     metrics::describe_counter!(
         "cliffwatch_alertmanager_posts_total",
         "posts of every held alert to the alertmanager_api_v2 endpoints, by outcome"
@@ -129,8 +156,49 @@ pub async fn metrics(State(state): State<AppState>) -> impl IntoResponse {
     if let Ok(n) = crate::store::webhooks::pending(state.store.reader()).await {
         metrics::gauge!("cliffwatch_webhook_queue_depth").set(n as f64);
     }
+    site_gauges(&state).await;
     (
         [(header::CONTENT_TYPE, "text/plain; version=0.0.4")],
         state.metrics.render(),
     )
+}
+
+/// The per-site gauges, read from the store at each scrape: open alerts by level (0 for a level
+/// without one, so that a resolved alarm reads 0 rather than vanishing), the age of the last
+/// epoch and the schedule (absent before the first epoch, or without a schedule). A store that
+/// cannot be read leaves the last values.
+async fn site_gauges(state: &AppState) {
+    use crate::store::operations;
+    use cliffwatch_core::analysis::AlertLevel;
+    let db = state.store.reader();
+    let (Ok(counts), Ok(sites)) = (
+        operations::open_alert_counts(db).await,
+        operations::site_freshness(db).await,
+    ) else {
+        return;
+    };
+    let now = chrono::Utc::now();
+    for (site, schedule, last) in sites {
+        for level in [AlertLevel::Watch, AlertLevel::Warning, AlertLevel::Alarm] {
+            let n = counts
+                .iter()
+                .find(|(s, l, _)| *s == site && l == level.as_str())
+                .map_or(0, |c| c.2);
+            metrics::gauge!("cliffwatch_open_alerts", "site" => site.clone(), "level" => level.as_str())
+                .set(n as f64);
+        }
+        // At 0 before a site's first folder, so that the first failure shows as an increase.
+        for outcome in ["done", "failed"] {
+            metrics::counter!("cliffwatch_watch_folders_total", "site" => site.clone(), "outcome" => outcome)
+                .increment(0);
+        }
+        if let Some(t) = last.as_deref().and_then(crate::store::parse_timestamp) {
+            metrics::gauge!("cliffwatch_last_epoch_age_seconds", "site" => site.clone())
+                .set((now - t).num_milliseconds() as f64 / 1000.0);
+        }
+        if let Some(h) = schedule {
+            metrics::gauge!("cliffwatch_site_schedule_seconds", "site" => site.clone())
+                .set(h * 3600.0);
+        }
+    }
 }

@@ -54,6 +54,7 @@ mod error;
 pub(crate) mod groups;
 pub mod joint_covariances;
 mod open;
+pub mod operations;
 pub(crate) mod outbox;
 pub mod points;
 mod pool;

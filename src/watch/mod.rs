@@ -96,7 +96,15 @@ async fn take_all(
         };
         // still a real folder (a link is never followed)
         if std::fs::symlink_metadata(&folder).is_ok_and(|m| m.is_dir()) {
-            out.push(take_folder(store, &site, &folder, opts).await);
+            let taken = take_folder(store, &site, &folder, opts).await;
+            let outcome = match &taken {
+                Ok(to) if to.components().any(|c| c.as_os_str() == ".failed") => "failed",
+                Ok(_) => "done",
+                Err(_) => "error",
+            };
+            metrics::counter!("cliffwatch_watch_folders_total", "site" => site.clone(), "outcome" => outcome)
+                .increment(1);
+            out.push(taken);
         }
         drop(claim);
     }

@@ -120,5 +120,27 @@ async fn a_bad_station_image_fails_its_folder_naming_the_file_and_stores_nothing
             assert_eq!(count(&server, table, site).await, 0, "{site}: {table}");
         }
     }
+    // Prometheus counts each site's folders by outcome: one failed, or one done.
+    let metrics = server
+        .client
+        .get(server.url("/metrics"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    for (site, _, _, reason) in &cases {
+        let outcome = if reason.is_empty() { "done" } else { "failed" };
+        let line = metrics
+            .lines()
+            .find(|l| {
+                l.starts_with("cliffwatch_watch_folders_total{")
+                    && l.contains(&format!("site=\"{site}\""))
+                    && l.contains(&format!("outcome=\"{outcome}\""))
+            })
+            .unwrap_or_else(|| panic!("{site} {outcome}: {metrics}"));
+        assert!(line.ends_with(" 1"), "{line}");
+    }
     server.stop().await;
 }

@@ -140,6 +140,102 @@ async fn promtool_passes_the_metrics_of_a_fresh_node_and_after_an_upload() {
         Some(1.0),
         "{after}"
     );
+    // The adjustment time is a histogram (buckets Prometheus can aggregate), not a summary.
+    assert_eq!(
+        series(
+            &after,
+            "cliffwatch_adjustment_seconds_bucket",
+            &["le=\"+Inf\""]
+        ),
+        Some(1.0),
+        "{after}"
+    );
+    assert!(!after.contains("cliffwatch_adjustment_seconds{"), "{after}");
+    // Per site: open alerts by level, the age of the last epoch, the watched folders at zero.
+    for level in ["watch", "warning", "alarm"] {
+        assert_eq!(
+            series(
+                &after,
+                "cliffwatch_open_alerts",
+                &["site=\"cliff\"", &format!("level=\"{level}\"")]
+            ),
+            Some(0.0),
+            "{after}"
+        );
+    }
+    let age = series(
+        &after,
+        "cliffwatch_last_epoch_age_seconds",
+        &["site=\"cliff\""],
+    )
+    .unwrap_or_else(|| panic!("{after}"));
+    let expected = (chrono::Utc::now().fixed_offset()
+        - chrono::DateTime::parse_from_rfc3339(&day(0)).unwrap())
+    .num_seconds() as f64;
+    assert!(
+        (age - expected).abs() < 120.0,
+        "{age} s against {expected} s"
+    );
+    assert_eq!(
+        series(
+            &after,
+            "cliffwatch_watch_folders_total",
+            &["site=\"cliff\"", "outcome=\"failed\""]
+        ),
+        Some(0.0),
+        "{after}"
+    );
+    // The block moves 10 mm against the stable points: the gauge counts the watch alerts the
+    // API lists.
+    support::alerts::mark_stable(&d, "cliff", &scene).await;
+    upload_new(&d, "cliff", &scene.epoch(&day(1), 32, 10.0)).await;
+    let moved = metrics_text(&d).await;
+    let (_, open) = d.get("/api/v1/alerts?site=cliff&state=open").await;
+    let watch = open["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["level"] == "watch")
+        .count();
+    assert!(watch > 0, "{open}");
+    assert_eq!(
+        series(
+            &moved,
+            "cliffwatch_open_alerts",
+            &["site=\"cliff\"", "level=\"watch\""]
+        ),
+        Some(watch as f64),
+        "{moved}"
+    );
+}
+
+/// The shipped operations rules (`deploy/prometheus/cliffwatch.rules.yml`) pass `promtool check
+/// rules`, and their unit tests (an unreachable daemon, an overdue campaign, a failed watched
+/// folder, webhook deliveries that gave up, each with the times it must and must not fire)
+/// pass `promtool test rules`.
+#[test]
+fn the_operations_rules_pass_promtool() {
+    if !available("promtool", &["--version"], "Debian's prometheus") {
+        return;
+    }
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("deploy/prometheus");
+    for args in [
+        &["check", "rules", "cliffwatch.rules.yml"][..],
+        &["test", "rules", "cliffwatch.rules.test.yml"][..],
+    ] {
+        let out = Command::new("promtool")
+            .args(args)
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(out.status.success(), "promtool {args:?}: {text}");
+        assert!(text.contains("SUCCESS"), "promtool {args:?}: {text}");
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
