@@ -165,11 +165,13 @@ fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
 pub async fn put(
     State(state): State<AppState>,
     ApiPath((site, group)): ApiPath<(String, String)>,
+    access: Option<axum::Extension<crate::http::auth::Access>>,
     ApiJson(body): ApiJson<GroupBody>,
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
     let config = check(&group, &body)?;
-    crate::service::site_settings::declare_group(&state.store, &site, &config).await?;
+    let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
+    crate::service::site_settings::declare_group(&state.store, &site, &config, &actor).await?;
     let stored = groups::get(state.store.reader(), &site, &group)
         .await?
         .ok_or_else(|| ApiError::internal("group vanished"))?;
@@ -298,4 +300,22 @@ pub async fn motion(
     serde_json::to_writer(&mut out, &next).map_err(ApiError::internal)?;
     out.push(b'}');
     Ok(([(header::CONTENT_TYPE, "application/json")], out).into_response())
+}
+
+/// `DELETE /api/v1/sites/{site}/groups/{group}`: deletes a group (its points stay, outside any
+/// block) and recomputes the site's series and alerts in the same transaction; recorded in the
+/// site's audit trail.
+#[utoipa::path(delete, path = "/api/v1/sites/{site}/groups/{group}", operation_id = "delete_group",
+    params(("site" = String, Path), ("group" = String, Path)),
+    responses((status = 204, description = "deleted"),
+              (status = 404, description = "unknown site or group", body = crate::api::schemas::ErrorBody)))]
+pub async fn delete(
+    State(state): State<AppState>,
+    ApiPath((site, group)): ApiPath<(String, String)>,
+    access: Option<axum::Extension<crate::http::auth::Access>>,
+) -> Result<impl IntoResponse, ApiError> {
+    find(&state, &site).await?;
+    let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
+    crate::service::site_admin::delete_group(&state.store, &site, &group, &actor).await?;
+    Ok(axum::http::StatusCode::NO_CONTENT)
 }

@@ -32,7 +32,11 @@ pub fn routes() -> Router<AppState> {
         .route("/metrics", get(health::metrics))
         .route("/api/v1/openapi.json", get(openapi::openapi_json))
         .route("/api/v1/sites", post(sites::create).get(sites::list))
-        .route("/api/v1/sites/{site}", get(sites::get_one))
+        .route(
+            "/api/v1/sites/{site}",
+            get(sites::get_one).patch(sites::update),
+        )
+        .route("/api/v1/sites/{site}/audit", get(sites::audit))
         .route(
             "/api/v1/sites/{site}/epochs",
             post(epochs::upload).get(epochs::list),
@@ -43,7 +47,7 @@ pub fn routes() -> Router<AppState> {
         .route("/api/v1/sites/{site}/groups", get(groups::list))
         .route(
             "/api/v1/sites/{site}/groups/{group}",
-            put(groups::put).get(groups::get_one),
+            put(groups::put).get(groups::get_one).delete(groups::delete),
         )
         .route(
             "/api/v1/sites/{site}/groups/{group}/motion",

@@ -10,6 +10,7 @@ use utoipa::OpenApi;
     paths(
         super::health::healthz, super::health::readyz, super::health::metrics,
         super::sites::create, super::sites::list, super::sites::get_one, super::sites::set_reference,
+        super::sites::update, super::sites::audit, super::groups::delete,
         super::epochs::upload, super::epochs::list, super::epochs::get_one,
         super::points::list, super::points::update, super::points::displacements,
         super::groups::put, super::groups::list, super::groups::get_one, super::groups::motion,
@@ -21,7 +22,7 @@ use utoipa::OpenApi;
         crate::store::sites::NewSite, crate::store::sites::Site, crate::store::points::PointSettings,
         crate::store::points::Point, crate::store::displacements::Displacement, crate::store::alerts::Alert,
         crate::store::webhooks::NewWebhook, crate::store::webhooks::Webhook, crate::store::epochs::EpochListItem,
-        super::sites::ReferenceBody, super::alerts::AckBody, super::incidents::IncidentList,
+        super::sites::ReferenceBody, super::alerts::AckBody, super::incidents::IncidentList, super::sites::AuditPage, crate::store::audit::AuditEntry,
         crate::service::incidents::Incident, crate::service::incidents::IncidentForecast, super::alerts::AlertHistory, super::points::PointItem,
         crate::webhooks::WebhookPayload, crate::webhooks::WebhookData, super::webhooks::WebhookTest,
         super::schemas::ErrorBody, super::schemas::ErrorDetail, super::schemas::Status,

@@ -3,10 +3,12 @@
 use axum::extract::State;
 use axum::http::StatusCode;
 use axum::response::IntoResponse;
+use axum::Extension;
 use serde::Deserialize;
 use utoipa::ToSchema;
 
 use super::list::{Listing, Page, PageParams};
+use crate::http::auth::Access;
 use crate::http::error::{ApiError, ApiJson, ApiPath, ApiQuery};
 use crate::http::AppState;
 use crate::service::ServiceError;
@@ -99,9 +101,11 @@ pub struct ReferenceBody {
 pub async fn set_reference(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
+    access: Option<Extension<Access>>,
     ApiJson(body): ApiJson<ReferenceBody>,
 ) -> Result<impl IntoResponse, ApiError> {
-    crate::service::site_settings::set_reference(&state.store, &site, body.epoch)
+    let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
+    crate::service::site_settings::set_reference(&state.store, &site, body.epoch, &actor)
         .await
         .map_err(|e| match e {
             // Named in the body, like an unknown camera of an upload: 422, not 404.
@@ -111,4 +115,89 @@ pub async fn set_reference(
             e => ApiError::from(e),
         })?;
     Ok(axum::Json(find(&state, &site).await?))
+}
+
+/// `PATCH /api/v1/sites/{site}`: changes a site's settings with a JSON merge patch (RFC 7396:
+/// the members given replace the stored ones, null removes an optional one), checked as a new
+/// site is; a change of the rules or the analysis settings recomputes the site and
+/// re-evaluates its alerts at once. Recorded in the site's audit trail. A site of the
+/// configuration file is refused (409 `configured_site`): the file is applied at every start.
+#[utoipa::path(patch, path = "/api/v1/sites/{site}", operation_id = "update_site", params(("site" = String, Path)),
+    request_body(content = Object, content_type = "application/merge-patch+json", description = "the members of the site form to change (not `id`); null removes an optional one"),
+    responses((status = 200, description = "the site after", body = Site),
+        (status = 400, description = "not JSON", body = crate::api::schemas::ErrorBody),
+        (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody),
+        (status = 409, description = "a site of the configuration file (code `configured_site`)", body = crate::api::schemas::ErrorBody),
+        (status = 422, description = "a setting refused (the field at fault is named), an unknown member, a new id, or a new model once the site has epochs", body = crate::api::schemas::ErrorBody)))]
+pub async fn update(
+    State(state): State<AppState>,
+    ApiPath(site): ApiPath<String>,
+    access: Option<Extension<Access>>,
+    ApiJson(patch): ApiJson<serde_json::Value>,
+) -> Result<impl IntoResponse, ApiError> {
+    find(&state, &site).await?;
+    if state.config.sites.iter().any(|s| s.id == site) {
+        return Err(ServiceError::ConfiguredSite(site).into());
+    }
+    let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
+    let after =
+        crate::service::site_admin::update_site(&state.store, &site, &patch, &actor).await?;
+    Ok(axum::Json(after))
+}
+
+/// A page of a site's audit trail.
+#[derive(Debug, serde::Serialize, ToSchema)]
+pub struct AuditPage {
+    /// Changes, newest first.
+    pub items: Vec<crate::store::audit::AuditEntry>,
+    /// Cursor of the next (older) page; null on the last.
+    pub next_cursor: Option<String>,
+}
+
+/// Query of the audit trail.
+#[derive(Debug, Default, Deserialize)]
+pub struct AuditParams {
+    /// Page size (default 100, at most 1000).
+    pub limit: Option<i64>,
+    /// Cursor of the page (`next_cursor` of the previous one).
+    pub cursor: Option<String>,
+}
+
+/// `GET /api/v1/sites/{site}/audit`: every change of the site's settings, newest first: when,
+/// who, from where, what, before and after.
+#[utoipa::path(get, path = "/api/v1/sites/{site}/audit", operation_id = "list_site_audit",
+    params(("site" = String, Path), ("limit" = Option<i64>, Query, minimum = 1, description = "page size (default 100; above 1000 read as 1000)"), ("cursor" = Option<String>, Query)),
+    responses((status = 200, description = "changes, newest first", body = AuditPage),
+        (status = 400, description = "bad page size or cursor", body = crate::api::schemas::ErrorBody),
+        (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody)))]
+pub async fn audit(
+    State(state): State<AppState>,
+    ApiPath(site): ApiPath<String>,
+    crate::http::error::ApiQuery(q): crate::http::error::ApiQuery<AuditParams>,
+) -> Result<impl IntoResponse, ApiError> {
+    find(&state, &site).await?;
+    let limit = match q.limit {
+        None => 100,
+        Some(n) if n >= 1 => n.min(1000),
+        Some(n) => return Err(ApiError::bad_request(format!("limit {n}: at least 1"))),
+    };
+    let after = match q.cursor.as_deref() {
+        None => None,
+        Some(c) => Some(c.split_once('|').ok_or_else(|| {
+            ApiError::bad_request(format!(
+                "cursor '{}': the next_cursor of a page",
+                cliffwatch_core::contract::truncate_for_message(c)
+            ))
+        })?),
+    };
+    let mut items =
+        crate::service::site_admin::audit_trail(&state.store, &site, after, limit + 1).await?;
+    let next_cursor = (items.len() as i64 > limit).then(|| {
+        items.truncate(limit as usize);
+        items.last().map(|e| format!("{}|{}", e.at, e.id))
+    });
+    Ok(axum::Json(AuditPage {
+        items,
+        next_cursor: next_cursor.flatten(),
+    }))
 }

@@ -27,6 +27,19 @@ pub struct Access {
     pub csrf: Option<String>,
     /// Authenticated by the session cookie.
     pub cookie: bool,
+    /// Who, for the audit trail: `token <first 16 hex digits of its SHA-256> (<role>)` (never
+    /// the token); `None` without tokens configured.
+    pub who: Option<String>,
+}
+
+impl Access {
+    /// The actor of a change made with these credentials through `source` (`api`, `page`).
+    pub fn actor(&self, source: &'static str) -> crate::service::site_admin::Actor {
+        crate::service::site_admin::Actor {
+            who: self.who.clone().unwrap_or_else(|| "anonymous".to_string()),
+            source,
+        }
+    }
 }
 
 impl Access {
@@ -269,6 +282,11 @@ pub async fn authorize(
                 role: Some(role),
                 csrf: None,
                 cookie: false,
+                who: Some(format!(
+                    "token {} ({})",
+                    session::token_name(presented),
+                    format!("{role:?}").to_lowercase()
+                )),
             }
         }
         None => {
@@ -282,6 +300,11 @@ pub async fn authorize(
                         req = with_csrf_of(req, &s).await?;
                     }
                     Access {
+                        who: Some(format!(
+                            "token {} ({})",
+                            s.token_name,
+                            format!("{:?}", s.role).to_lowercase()
+                        )),
                         role: Some(s.role),
                         csrf: Some(s.csrf),
                         cookie: true,

@@ -148,7 +148,11 @@ impl From<ServiceError> for ApiError {
             | ServiceError::UnknownEpoch { .. }
             | ServiceError::UnknownAlert(_)
             | ServiceError::UnknownIncident(_)
+            | ServiceError::UnknownGroup(_)
             | ServiceError::UnknownWebhook(_) => ApiError::not_found(e.to_string()),
+            ServiceError::ConfiguredSite(_) => {
+                ApiError::new(StatusCode::CONFLICT, "configured_site", e.to_string())
+            }
             ServiceError::InvalidSite(m) => ApiError::unprocessable("invalid_site", m),
             ServiceError::InvalidWebhook(m) => ApiError::unprocessable("invalid_webhook", m),
             ServiceError::SiteExists(_) => {

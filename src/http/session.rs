@@ -39,6 +39,8 @@ const TOUCH_EVERY_MS: i64 = 60_000;
 pub struct Session {
     /// The role of the token signed in with.
     pub role: Role,
+    /// The name of the token signed in with ([`token_name`]).
+    pub token_name: String,
     /// The CSRF token every change must carry (`x-csrf-token` header or `csrf` form field).
     pub csrf: String,
 }
@@ -201,6 +203,7 @@ pub async fn verify(
     }
     Ok(Some(Session {
         role,
+        token_name: s.token_name.clone(),
         csrf: csrf_of(value),
     }))
 }

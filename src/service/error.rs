@@ -28,6 +28,13 @@ pub enum ServiceError {
     /// The site has no open incident with that id (`block:B1`, `point:T203`, `site`).
     #[error("no open incident '{}' on this site", cut(.0))]
     UnknownIncident(String),
+    /// The site has no group of that name.
+    #[error("unknown group '{}'", cut(.0))]
+    UnknownGroup(String),
+    /// The site is defined in the configuration file, which is applied at every start: an edit
+    /// through the API would be undone at the next one.
+    #[error("site '{}' is defined in the configuration file ([[sites]]), which is applied at every start: change it there, or remove it from the file to manage it through the API", cut(.0))]
+    ConfiguredSite(String),
     /// No webhook endpoint has that id.
     #[error("unknown webhook '{}'", cut(.0))]
     UnknownWebhook(String),

@@ -8,6 +8,7 @@
 //! - [`recompute`]: a site's derived series again after its history changed.
 //! - [`sites`]: a site created, its definition checked.
 //! - [`site_settings`]: reference epoch and block groups, with the recompute they cause.
+//! - [`site_admin`]: a site's settings edited, a group deleted, each change in the audit trail.
 //! - [`webhooks`]: webhook endpoints added and removed.
 //! - [`configured`]: the sites and webhooks of the configuration file, applied at start.
 //! - [`acknowledge`]: staff acknowledge an alert.
@@ -33,6 +34,7 @@ pub mod forecast;
 pub mod incidents;
 pub mod ingest;
 pub mod recompute;
+pub mod site_admin;
 pub(crate) mod site_settings;
 pub mod sites;
 pub mod webhooks;

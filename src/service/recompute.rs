@@ -91,6 +91,8 @@ pub enum RecomputeCause {
     Settings,
     /// The stored series was derived by an older version.
     NewerVersion,
+    /// Staff changed the site's settings: what, by whom (the audit row).
+    Edit(String),
 }
 
 impl RecomputeCause {
@@ -126,6 +128,7 @@ impl std::fmt::Display for RecomputeCause {
             RecomputeCause::NewerVersion => {
                 write!(f, "the series was recomputed by a newer version")
             }
+            RecomputeCause::Edit(what) => write!(f, "{what}"),
         }
     }
 }

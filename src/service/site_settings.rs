@@ -6,8 +6,11 @@ use crate::store::points::{self, Point, PointSettings};
 use crate::store::{epochs, groups, sites, Store, StoreError};
 use cliffwatch_core::analysis::{GroupConfig, PointRole};
 
+use serde_json::json;
+
 use super::alert_outcome::count_raised;
 use super::recompute::{recompute_site, RecomputeCause};
+use super::site_admin::{record, Actor};
 use super::ServiceError;
 
 /// Sets the reference epoch of `site` (`None`: back to the earliest epoch) and recomputes its
@@ -16,11 +19,12 @@ pub async fn set_reference(
     store: &Store,
     site: &str,
     epoch: Option<i64>,
+    actor: &Actor,
 ) -> Result<(), ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
-    if sites::get(&mut *tx, site).await?.is_none() {
+    let Some(stored) = sites::get(&mut *tx, site).await? else {
         return Err(ServiceError::UnknownSite(site.to_string()));
-    }
+    };
     if let Some(e) = epoch {
         if epochs::observed_at_raw(&mut *tx, site, e).await?.is_none() {
             return Err(ServiceError::UnknownEpoch {
@@ -30,6 +34,22 @@ pub async fn set_reference(
         }
     }
     sites::set_reference(&mut *tx, site, epoch).await?;
+    if stored.reference_epoch != epoch {
+        let (b, a) = (
+            json!({"epoch": stored.reference_epoch}),
+            json!({"epoch": epoch}),
+        );
+        record(
+            &mut tx,
+            site,
+            actor,
+            "reference.set",
+            &format!("site {site}"),
+            Some(&b),
+            Some(&a),
+        )
+        .await?;
+    }
     let raised = recompute_site(&mut tx, site, &RecomputeCause::Reference(epoch)).await?;
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
@@ -41,12 +61,32 @@ pub async fn declare_group(
     store: &Store,
     site: &str,
     group: &GroupConfig,
+    actor: &Actor,
 ) -> Result<(), ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
     if sites::get(&mut *tx, site).await?.is_none() {
         return Err(ServiceError::UnknownSite(site.to_string()));
     }
+    let before = groups::get(&mut *tx, site, &group.name).await?;
     groups::put(&mut tx, site, group).await?;
+    if before.as_ref() != Some(group) {
+        let b = before
+            .map(|b| serde_json::to_value(b))
+            .transpose()
+            .map_err(StoreError::from)?;
+        let a = serde_json::to_value(group).map_err(StoreError::from)?;
+        let target = format!("group {}", group.name);
+        record(
+            &mut tx,
+            site,
+            actor,
+            "group.put",
+            &target,
+            b.as_ref(),
+            Some(&a),
+        )
+        .await?;
+    }
     let cause = RecomputeCause::Group(group.name.clone());
     let raised = recompute_site(&mut tx, site, &cause).await?;
     tx.commit().await.map_err(StoreError::from)?;

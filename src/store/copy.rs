@@ -269,6 +269,20 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
         ],
     ),
     (
+        "audit",
+        &[
+            ("id", T),
+            ("site_id", T),
+            ("at", T),
+            ("actor", T),
+            ("source", T),
+            ("action", T),
+            ("target", T),
+            ("value_before", T),
+            ("value_after", T),
+        ],
+    ),
+    (
         "webhook_outbox",
         &[
             ("id", T),

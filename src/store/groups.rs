@@ -77,3 +77,13 @@ pub async fn put(db: &mut AnyConnection, site: &str, g: &GroupConfig) -> Result<
     .await?;
     Ok(())
 }
+
+/// Deletes group `name` of `site`; false when there was none.
+pub async fn delete(db: impl AnyExecutor<'_>, site: &str, name: &str) -> Result<bool, StoreError> {
+    let done = sqlx::query("DELETE FROM groups WHERE site_id = $1 AND name = $2")
+        .bind(site)
+        .bind(name)
+        .execute(db)
+        .await?;
+    Ok(done.rows_affected() > 0)
+}

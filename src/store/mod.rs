@@ -41,6 +41,7 @@
 pub mod alert_repost;
 pub(crate) mod alert_states;
 pub mod alerts;
+pub mod audit;
 mod backup;
 pub(crate) mod block_motions;
 pub mod copy;
