@@ -11,6 +11,7 @@ mod bounded;
 mod compute_bound;
 mod concurrency;
 mod crash;
+mod implausible;
 mod joint_covariance;
 mod openapi;
 mod point_settings;

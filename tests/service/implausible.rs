@@ -1,0 +1,69 @@
+//! Implausible input caught at the door (issue 77): a first epoch with its approximations in
+//! millimetres, c in metres, pixels given as mm; an unknown metric, level or rule member; settings
+//! for a point the site never measured. Each is refused with 422 naming the field, and nothing
+//! is stored.
+
+use crate::support;
+
+use serde_json::{json, Value};
+use support::server::{paper, synthetic_epoch, TestServer};
+
+/// The error message of a refusal.
+fn message(e: &Value) -> &str {
+    e["error"]["message"].as_str().unwrap_or_default()
+}
+
+#[tokio::test]
+async fn a_first_epoch_in_wrong_units_is_refused_naming_the_field() {
+    let s = TestServer::start(|_| {}).await;
+    s.create_site("units").await;
+    let good = paper("paper-case1-seed101");
+    let synthetic = synthetic_epoch(4, 16, "2026-11-01T09:00:00Z", 1, 0.0, 16);
+    let before = s.snapshot().await;
+
+    let mut cases: Vec<(&str, Value, &str, &str)> = Vec::new();
+    for (name, epoch) in [("paper", &good), ("synthetic", &synthetic)] {
+        let mut mm = epoch.clone();
+        for a in mm["approx"].as_array_mut().unwrap() {
+            for k in ["X", "Y", "Z"] {
+                a[k] = json!(a[k].as_f64().unwrap() * 1000.0);
+            }
+        }
+        cases.push((name, mm, "approx: ", "look like millimetres"));
+        let mut metres = epoch.clone();
+        metres["cameras"][0]["c_mm"] = json!(0.3);
+        cases.push((
+            name,
+            metres,
+            "cameras[0].c_mm (camera 'cam'): ",
+            "looks like metres",
+        ));
+        let mut pixels = epoch.clone();
+        for image in pixels["images"].as_array_mut().unwrap() {
+            for o in image["observations"].as_array_mut().unwrap() {
+                for k in ["x_mm", "y_mm"] {
+                    o[k] = json!(o[k].as_f64().unwrap() / 0.005);
+                }
+            }
+        }
+        cases.push((name, pixels, ".x_mm, y_mm: ", "look like pixels"));
+    }
+    for (name, body, field, what) in &cases {
+        let (status, e) = s.upload("units", body).await;
+        assert_eq!(status, 422, "{name} {field}: {e}");
+        assert_eq!(e["error"]["code"], "invalid_epoch", "{e}");
+        let m = message(&e);
+        assert!(m.contains(field), "{name}: {m}");
+        assert!(m.contains(what), "{name}: {m}");
+        assert!(m.contains("; expected "), "{name}: {m}");
+    }
+    // Nothing stored: no epoch listed, no row anywhere.
+    let (_, list) = s.get("/api/v1/sites/units/epochs").await;
+    assert_eq!(list["items"], json!([]), "{list}");
+    let (_, points) = s.get("/api/v1/sites/units/points").await;
+    assert_eq!(points["items"], json!([]), "{points}");
+    assert_eq!(s.snapshot().await, before);
+    // The same epochs in the right units are taken.
+    assert_eq!(s.upload("units", &good).await.0, 201);
+    s.stop().await;
+}
