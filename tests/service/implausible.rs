@@ -67,3 +67,34 @@ async fn a_first_epoch_in_wrong_units_is_refused_naming_the_field() {
     assert_eq!(s.upload("units", &good).await.0, 201);
     s.stop().await;
 }
+
+#[tokio::test]
+async fn an_unknown_metric_level_or_member_is_named() {
+    let s = TestServer::start(|_| {}).await;
+    let before = s.snapshot().await;
+    for (rule, want) in [
+        (
+            json!({"level": "watch", "metric": "displacement_m", "above": 5}),
+            "alert_rules[0].metric: unknown metric 'displacement_m' (one of displacement_mm, \
+             displacement_along_mm, velocity_mm_per_day, time_to_failure_hours)",
+        ),
+        (
+            json!({"level": "red", "metric": "displacement_mm", "above": 5}),
+            "alert_rules[0].level: unknown alert level 'red' (one of watch, warning, alarm)",
+        ),
+        (
+            json!({"level": "watch", "metric": "displacement_mm", "abov": 5}),
+            "alert_rules[0].abov: unknown member; a rule has level, metric, above",
+        ),
+    ] {
+        let body = json!({"id": "rules", "name": "Rules", "alert_rules": [rule]});
+        let (status, e) = s.post("/api/v1/sites", &body).await;
+        assert_eq!(status, 422, "{e}");
+        assert_eq!(e["error"]["code"], "invalid_site", "{e}");
+        assert!(message(&e).starts_with(want), "{e}");
+    }
+    let (status, _) = s.get("/api/v1/sites/rules").await;
+    assert_eq!(status, 404, "nothing created");
+    assert_eq!(s.snapshot().await, before);
+    s.stop().await;
+}

@@ -39,6 +39,6 @@ pub use overdue::{campaign_arrived, check_overdue};
 pub use readings::{Reading, Readings};
 pub use reconcile::reconcile;
 pub use rule::{
-    AlertConfig, AlertRule, FORECAST_CONFIDENCE, MAX_CONFIDENCE, MAX_EPOCHS, MIN_CONFIDENCE,
-    RULE_MEMBERS,
+    AlertConfig, AlertRule, RuleRefused, FORECAST_CONFIDENCE, MAX_CONFIDENCE, MAX_EPOCHS,
+    MIN_CONFIDENCE, RULE_MEMBERS,
 };
