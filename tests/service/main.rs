@@ -18,5 +18,6 @@ mod point_settings;
 mod rejections;
 mod retention;
 mod series;
+mod unique_keys;
 mod uploads;
 mod wal;
