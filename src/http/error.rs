@@ -149,6 +149,9 @@ impl From<ServiceError> for ApiError {
             | ServiceError::UnknownAlert(_)
             | ServiceError::UnknownWebhook(_) => ApiError::not_found(e.to_string()),
             ServiceError::InvalidSite(m) => ApiError::unprocessable("invalid_site", m),
+            ServiceError::UnmeasuredPoint { .. } => {
+                ApiError::unprocessable("invalid_point", e.to_string())
+            }
             ServiceError::InvalidWebhook(m) => ApiError::unprocessable("invalid_webhook", m),
             ServiceError::SiteExists(_) => {
                 ApiError::new(StatusCode::CONFLICT, "conflict", e.to_string())

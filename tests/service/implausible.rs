@@ -98,3 +98,67 @@ async fn an_unknown_metric_level_or_member_is_named() {
     assert_eq!(s.snapshot().await, before);
     s.stop().await;
 }
+
+#[tokio::test]
+async fn settings_for_a_point_never_measured_are_refused_unless_planned() {
+    let s = TestServer::start(|_| {}).await;
+    s.create_site("pts").await;
+    // Before the first epoch every point is planned: roles are set up front.
+    let (status, p) = s
+        .send(
+            reqwest::Method::PUT,
+            "/api/v1/sites/pts/points/1",
+            Some(&json!({"role": "stable"})),
+        )
+        .await;
+    assert_eq!(status, 200, "{p}");
+    assert_eq!(s.upload("pts", &paper("paper-case1-seed101")).await.0, 201);
+    let (_, points) = s.get("/api/v1/sites/pts/points?limit=1000").await;
+    let before = s.snapshot().await;
+    // A name no epoch observed: refused, naming it.
+    let (status, e) = s
+        .send(
+            reqwest::Method::PUT,
+            "/api/v1/sites/pts/points/T999",
+            Some(&json!({"role": "stable"})),
+        )
+        .await;
+    assert_eq!(status, 422, "{e}");
+    assert_eq!(e["error"]["code"], "invalid_point", "{e}");
+    let m = message(&e);
+    assert!(
+        m.starts_with("point 'T999': site 'pts' has never measured it"),
+        "{m}"
+    );
+    assert!(m.contains("\"planned\": true"), "{m}");
+    assert_eq!(s.snapshot().await, before, "nothing stored");
+    assert_eq!(s.get("/api/v1/sites/pts/points?limit=1000").await.1, points);
+    // A measured point is set as before.
+    let (status, p) = s
+        .send(
+            reqwest::Method::PUT,
+            "/api/v1/sites/pts/points/2",
+            Some(&json!({"role": "stable"})),
+        )
+        .await;
+    assert_eq!((status, &p["role"]), (200, &json!("stable")), "{p}");
+    // Declared planned: set up, and listed.
+    let (status, p) = s
+        .send(
+            reqwest::Method::PUT,
+            "/api/v1/sites/pts/points/T999",
+            Some(&json!({"role": "stable", "planned": true})),
+        )
+        .await;
+    assert_eq!((status, &p["role"]), (200, &json!("stable")), "{p}");
+    let (_, after) = s.get("/api/v1/sites/pts/points?limit=1000").await;
+    assert!(
+        after["items"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|i| i["point"] == "T999"),
+        "{after}"
+    );
+    s.stop().await;
+}
