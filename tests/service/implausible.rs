@@ -162,3 +162,29 @@ async fn settings_for_a_point_never_measured_are_refused_unless_planned() {
     );
     s.stop().await;
 }
+
+/// A warning that does not block: the synthetic epoch's image noise (about 0.0006 mm) is a third
+/// of the default a-priori σ (0.002 mm). The upload is stored, and the answer and the epoch page
+/// say so in words.
+#[tokio::test]
+async fn an_apriori_sigma_far_from_the_scatter_is_said_in_the_answer_and_on_the_page() {
+    let s = TestServer::start(|_| {}).await;
+    s.create_site("sigma").await;
+    let epoch = synthetic_epoch(4, 16, "2026-11-01T09:00:00Z", 1, 0.0, 16);
+    let (status, answer) = s.upload("sigma", &epoch).await;
+    assert_eq!(status, 201, "{answer}");
+    let warning = answer["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(Value::as_str)
+        .find(|w| w.starts_with("the image measurements agree"))
+        .unwrap_or_else(|| panic!("no a-priori σ warning in {}", answer["warnings"]))
+        .to_string();
+    assert!(warning.contains("set sigma_mm nearer"), "{warning}");
+    let (status, page) =
+        support::dashboard::html(&s, &format!("/sites/sigma/epochs/{}", answer["id"])).await;
+    assert_eq!(status, 200);
+    assert!(page.contains("than their stated precision"), "{page}");
+    s.stop().await;
+}
