@@ -242,3 +242,46 @@ fn pixels_given_as_mm_are_refused_naming_the_observation() {
         assert!(message.contains("look like pixels"), "{name}: {message}");
     }
 }
+
+/// One grossly wrong control point among six (the long-range scene's first target mirrored
+/// through the cameras' mean centre) is not taken for a unit error: each image's distance is the
+/// median over pairs of points, most of which it is not in.
+#[test]
+fn one_gross_control_point_is_not_a_unit_error() {
+    use cliffwatch_core::photogrammetry::input::epoch::ControlInput;
+    let (mut e, truth) = long_range(&LongRangeParams::default()).expect("scene");
+    let n = truth.cameras.len() as f64;
+    let mut centre = [0.0; 3];
+    for cam in truth.cameras.values() {
+        for k in 0..3 {
+            centre[k] += cam.xo[k] / n;
+        }
+    }
+    e.control = e
+        .approx
+        .iter()
+        .take(6)
+        .map(|a| {
+            let p = truth.points[&a.point];
+            ControlInput {
+                point: a.point.clone(),
+                X: p[0],
+                Y: p[1],
+                Z: p[2],
+                sigma_m: None,
+            }
+        })
+        .collect();
+    let c = &mut e.control[0];
+    (c.X, c.Y, c.Z) = (
+        2.0 * centre[0] - c.X,
+        2.0 * centre[1] - c.Y,
+        2.0 * centre[2] - c.Z,
+    );
+    assert!(validate(&e).is_ok(), "{:?}", validate(&e));
+    // All six in mm is still a unit error.
+    for c in &mut e.control {
+        (c.X, c.Y, c.Z) = (c.X * 1000.0, c.Y * 1000.0, c.Z * 1000.0);
+    }
+    assert_eq!(implausible("control in mm", &e).0, "control");
+}

@@ -31,8 +31,12 @@ pub const MIN_PLAUSIBLE_C_MM: f64 = 1.0;
 /// of m puts a camera 10 m from its targets at 10 km.
 pub const MAX_CAMERA_DISTANCE_M: f64 = 5_000.0;
 
-/// Fewest points of known coordinates an image needs for its distance to be estimated.
-const MIN_POINTS_FOR_DISTANCE: usize = 3;
+/// Fewest points of known coordinates an image needs for its distance to be estimated (as many as
+/// its adjustment needs): with four, one grossly wrong point is in half of the pairs.
+const MIN_POINTS_FOR_DISTANCE: usize = 4;
+
+/// Most points of one image paired for its distance (2016 pairs).
+const MAX_POINTS_FOR_DISTANCE: usize = 64;
 
 /// Validates the upload form ([`EpochInput::validate`]) and checks its units ([`check_units`]):
 /// the problem the adjustment solves, from a form whose units fit.
@@ -154,11 +158,13 @@ impl Source {
 }
 
 /// The distance in m from image `j`'s camera to the points of `source` it sees, estimated as
-/// c × (object spread / image spread), spreads as root mean square distances from the centroid;
-/// None with fewer than [`MIN_POINTS_FOR_DISTANCE`] such points or no image spread.
+/// c × the lower median, over pairs of those points, of object distance / image distance: a unit
+/// error scales every pair, a single grossly wrong point only the pairs it is in (a minority from
+/// four points on). At most [`MAX_POINTS_FOR_DISTANCE`] points are paired. None with fewer than
+/// [`MIN_POINTS_FOR_DISTANCE`] such points or no pair apart in the image.
 fn image_distance(problem: &EpochProblem, j: usize, source: Source) -> Option<f64> {
     let image = &problem.images[j];
-    let (object, xy): (Vec<[f64; 3]>, Vec<[f64; 2]>) = image
+    let known: Vec<([f64; 3], [f64; 2])> = image
         .observations
         .iter()
         .filter_map(|o| {
@@ -169,30 +175,26 @@ fn image_distance(problem: &EpochProblem, j: usize, source: Source) -> Option<f6
             };
             Some((xyz, o.xy))
         })
-        .unzip();
-    if object.len() < MIN_POINTS_FOR_DISTANCE {
+        .take(MAX_POINTS_FOR_DISTANCE)
+        .collect();
+    if known.len() < MIN_POINTS_FOR_DISTANCE {
         return None;
     }
-    let s_object = spread(&object);
-    let s_image = spread(&xy);
-    (s_image > 1e-9 && s_object > 0.0)
-        .then(|| problem.cameras[image.camera].c() * s_object / s_image)
-}
-
-/// Root mean square distance of points from their centroid.
-fn spread<const N: usize>(points: &[[f64; N]]) -> f64 {
-    let n = points.len() as f64;
-    let mut centroid = [0.0; N];
-    for p in points {
-        for k in 0..N {
-            centroid[k] += p[k] / n;
+    let mut ratios = Vec::with_capacity(known.len() * (known.len() - 1) / 2);
+    for (i, (p, x)) in known.iter().enumerate() {
+        for (q, y) in &known[i + 1..] {
+            let image_mm = (x[0] - y[0]).hypot(x[1] - y[1]);
+            if image_mm > 1e-9 {
+                let object_m = (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
+                ratios.push(object_m / image_mm);
+            }
         }
     }
-    let sum: f64 = points
-        .iter()
-        .map(|p| (0..N).map(|k| (p[k] - centroid[k]).powi(2)).sum::<f64>())
-        .sum();
-    (sum / n).sqrt()
+    if ratios.is_empty() {
+        return None;
+    }
+    ratios.sort_by(f64::total_cmp);
+    Some(problem.cameras[image.camera].c() * ratios[(ratios.len() - 1) / 2])
 }
 
 /// The camera distances implied by the object coordinates of each source: the median over the
