@@ -229,7 +229,7 @@ pub async fn summary(
         None
     };
     Ok(Some(EpochSummary {
-        epoch,
+        epoch: epoch.into(),
         site: site.to_string(),
         global_test: report.global_test(),
         report,

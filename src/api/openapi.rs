@@ -29,7 +29,7 @@ use utoipa::OpenApi;
         cliffwatch_core::photogrammetry::EpochInput, cliffwatch_core::photogrammetry::input::epoch::CameraInput,
         cliffwatch_core::photogrammetry::input::epoch::ImageInput, cliffwatch_core::photogrammetry::input::epoch::ObservationInput,
         cliffwatch_core::photogrammetry::input::epoch::ControlInput, cliffwatch_core::photogrammetry::input::epoch::ApproxInput,
-        super::schemas::EpochSummary, super::groups::GroupBody, super::groups::Group,
+        super::schemas::EpochSummary, super::schemas::EpochHead, super::groups::GroupBody, super::groups::Group,
         cliffwatch_core::analysis::alerts::AlertRule, cliffwatch_core::analysis::alerts::AlertLevel,
         cliffwatch_core::analysis::alerts::Metric, cliffwatch_core::analysis::alerts::Source,
         crate::cap::SiteArea, crate::cap::Circle,

@@ -107,10 +107,11 @@ fn along(d: &Displacement, direction: Option<[f64; 3]>) -> Option<f64> {
 }
 
 /// `PUT /api/v1/sites/{site}/points/{point}`: sets role, group, direction of interest (creates the
-/// point when new, so roles can be set before the first epoch). A change on a site with epochs
-/// recomputes its series and alerts in the same transaction, as a reference change does.
+/// point when new, so roles can be set before the first epoch; once the site has epochs, a point
+/// none of them observed only with `"planned": true`, else 422 naming it). A change on a site with
+/// epochs recomputes its series and alerts in the same transaction, as a reference change does.
 #[utoipa::path(put, path = "/api/v1/sites/{site}/points/{point}", operation_id = "update_point", request_body = PointSettings, params(("site" = String, Path), ("point" = String, Path)),
-    responses((status = 200, body = crate::store::points::Point), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid settings", body = crate::api::schemas::ErrorBody)))]
+    responses((status = 200, body = crate::store::points::Point), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid settings, or a point the site has epochs but never measured, without \"planned\": true", body = crate::api::schemas::ErrorBody)))]
 pub async fn update(
     State(state): State<AppState>,
     ApiPath((site, point)): ApiPath<(String, String)>,

@@ -154,6 +154,9 @@ impl From<ServiceError> for ApiError {
                 ApiError::new(StatusCode::CONFLICT, "configured_site", e.to_string())
             }
             ServiceError::InvalidSite(m) => ApiError::unprocessable("invalid_site", m),
+            ServiceError::UnmeasuredPoint { .. } => {
+                ApiError::unprocessable("invalid_point", e.to_string())
+            }
             ServiceError::InvalidWebhook(m) => ApiError::unprocessable("invalid_webhook", m),
             ServiceError::SiteExists(_) => {
                 ApiError::new(StatusCode::CONFLICT, "conflict", e.to_string())

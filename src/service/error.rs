@@ -38,6 +38,19 @@ pub enum ServiceError {
     /// No webhook endpoint has that id.
     #[error("unknown webhook '{}'", cut(.0))]
     UnknownWebhook(String),
+    /// A point setting for a point the site has never measured, on a site with epochs, without
+    /// `"planned": true`: most likely a misspelt name.
+    #[error(
+        "point '{}': site '{site}' has never measured it (no epoch observed it); check the \
+         name, or send \"planned\": true to set up a point before its first measurement",
+        cut(.point)
+    )]
+    UnmeasuredPoint {
+        /// Site id.
+        site: String,
+        /// The point named.
+        point: String,
+    },
     /// A site definition that cannot be stored (the message names the field).
     #[error("{0}")]
     InvalidSite(String),

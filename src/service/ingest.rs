@@ -200,7 +200,8 @@ async fn ingest_with_identification(
     folder: Option<&WatchedFolder>,
     slot: Option<UploadSlot>,
 ) -> Result<Ingested, ServiceError> {
-    let mut problem = input.validate()?;
+    // The form, then its units by orders of magnitude (mm for m, c in metres, pixels as mm).
+    let mut problem = cliffwatch_core::photogrammetry::input::plausible::validate(&input)?;
     let now = Utc::now();
     if problem.observed_at > now + chrono::Duration::days(MAX_DAYS_AHEAD) {
         return Err(EpochError::TimestampAhead {

@@ -94,7 +94,9 @@ pub async fn declare_group(
     Ok(())
 }
 
-/// Sets a point's role, group or direction of interest (creating the point when new) and, when
+/// Sets a point's role, group or direction of interest (creating the point when new: before the
+/// site's first epoch, or declared `planned`; otherwise a name no epoch observed is refused as
+/// [`ServiceError::UnmeasuredPoint`]) and, when
 /// that changed anything and the site has epochs, recomputes the site: the stable points hold the
 /// datum, the group decides the block, the direction the value along it, so a series derived
 /// before the change would otherwise jump at the next epoch. Returns the stored point.
@@ -109,6 +111,13 @@ pub async fn set_point(
         return Err(ServiceError::UnknownSite(site.to_string()));
     }
     let before = points::get(&mut *tx, site, point).await?;
+    // Every point an epoch observed has a row; before the first epoch every point is planned.
+    if before.is_none() && !settings.planned && epochs::count(&mut *tx, site).await? > 0 {
+        return Err(ServiceError::UnmeasuredPoint {
+            site: site.to_string(),
+            point: point.to_string(),
+        });
+    }
     points::upsert(&mut *tx, site, point, settings).await?;
     let after = points::get(&mut *tx, site, point)
         .await?

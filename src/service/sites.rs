@@ -123,44 +123,8 @@ pub fn validate_site(s: &NewSite) -> Result<(), ServiceError> {
         area.validate().map_err(invalid)?;
     }
     for (i, rule) in s.alert_rules.iter().flatten().enumerate() {
-        let level = rule.get("level").and_then(|v| v.as_str()).unwrap_or("");
-        let metric = rule.get("metric").and_then(|v| v.as_str()).unwrap_or("");
-        let has_bound = rule.get("above").is_some_and(|v| v.is_number())
-            || rule.get("below").is_some_and(|v| v.is_number());
-        if !["watch", "warning", "alarm"].contains(&level)
-            || ![
-                "displacement_mm",
-                "displacement_along_mm",
-                "velocity_mm_per_day",
-                "time_to_failure_hours",
-            ]
-            .contains(&metric)
-            || !has_bound
-        {
-            return Err(invalid(format!("alert_rules[{i}]: needs level (watch|warning|alarm), metric and a numeric above or below"),
-            ));
-        }
-        if let Some(unknown) = rule.as_object().and_then(|o| {
-            o.keys()
-                .find(|k| !cliffwatch_core::analysis::alerts::RULE_MEMBERS.contains(&k.as_str()))
-        }) {
-            return Err(invalid(format!(
-                "alert_rules[{i}].{unknown}: unknown member; a rule has {}",
-                cliffwatch_core::analysis::alerts::RULE_MEMBERS.join(", ")
-            )));
-        }
-        // The rule as the engine reads it: source, for_epochs, hysteresis on the right side.
-        let parsed = serde_json::from_value::<AlertRule>(rule.clone())
-            .map_err(|e| e.to_string())
-            .and_then(|r| {
-                r.validate().map_err(|e| match e {
-                    cliffwatch_core::analysis::AnalysisError::InvalidConfig(m) => m,
-                    other => other.to_string(),
-                })
-            });
-        if let Err(e) = parsed {
-            return Err(invalid(format!("alert_rules[{i}]: {e}")));
-        }
+        // The rule as the engine reads it; the message names the member at fault.
+        AlertRule::from_json(rule).map_err(|e| invalid(e.at(&format!("alert_rules[{i}]"))))?;
     }
     Ok(())
 }

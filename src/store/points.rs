@@ -24,6 +24,11 @@ pub struct PointSettings {
     #[serde(default, deserialize_with = "present")]
     #[schema(value_type = Option<[f64; 3]>, min_items = 3, max_items = 3)]
     pub direction: Option<Option<[f64; 3]>>,
+    /// Declares a point no epoch has measured yet (a target about to be set up): without it,
+    /// settings for a point the site has never measured are refused once the site has epochs
+    /// (a misspelt name would otherwise appear as a new point). Not stored.
+    #[serde(default)]
+    pub planned: bool,
 }
 
 /// A member that is present: `Some(None)` for `null`, `Some(Some(v))` for a value (an absent

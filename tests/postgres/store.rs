@@ -105,12 +105,16 @@ async fn run_scenario(s: &TestServer) {
     let (st, b) = send(s, reqwest::Method::PUT, &path, json!({"epoch": null})).await;
     assert_eq!(st, 200, "{b}");
     // Point settings: a member left out is kept, a null one cleared (CASE flags in the upsert).
+    // X1 was never measured: on a site with epochs it is set up only when declared planned.
     let path = format!("/api/v1/sites/{SITE}/points/X1");
+    let (st, b) = send(s, reqwest::Method::PUT, &path, json!({"role": "stable"})).await;
+    assert_eq!(st, 422, "{b}");
+    assert!(b.to_string().contains("never measured"), "{b}");
     let (st, b) = send(
         s,
         reqwest::Method::PUT,
         &path,
-        json!({"group": "G9", "direction": [1.0, 0.0, 0.0]}),
+        json!({"group": "G9", "direction": [1.0, 0.0, 0.0], "planned": true}),
     )
     .await;
     assert_eq!(st, 200, "{b}");

@@ -118,7 +118,7 @@ async fn a_request_over_the_time_limit_is_a_408_with_the_error_body() {
     let answer = String::from_utf8_lossy(&answer);
     assert!(answer.starts_with("HTTP/1.1 408"), "{answer}");
     let json = &answer[answer.find("\r\n\r\n").unwrap() + 4..];
-    let e: Value = serde_json::from_str(json).unwrap();
+    let e = crate::support::unique_keys::parse_unique_keys(json).unwrap();
     assert_eq!(e["error"]["code"], "timeout", "{e}");
     assert_eq!(s.snapshot().await, before);
     s.stop().await;
@@ -165,7 +165,7 @@ async fn tokens_and_roles() {
         .await
         .unwrap();
     assert_eq!(r.status(), 403);
-    let e: Value = r.json().await.unwrap();
+    let e: Value = crate::support::server::checked_json(r).await;
     assert_eq!(e["error"]["code"], "forbidden");
     assert_eq!(s.snapshot().await, before);
     assert_eq!(post(Some("a".repeat(20))).await.unwrap().status(), 201);
@@ -224,7 +224,7 @@ async fn without_tokens_only_local_host_names_are_served() {
         let host = format!("{host}:{port}");
         let r = get("/api/v1/sites", &host).await.unwrap();
         assert_eq!(r.status(), 403, "GET with Host {host}");
-        let e: Value = r.json().await.unwrap();
+        let e: Value = crate::support::server::checked_json(r).await;
         assert!(
             e["error"]["message"].as_str().unwrap().contains("loopback"),
             "{e}"

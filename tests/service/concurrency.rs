@@ -99,7 +99,7 @@ async fn a_full_node_turns_uploads_away_and_they_are_stored_when_retried() {
     assert!(started.elapsed() >= std::time::Duration::from_millis(200));
     assert_eq!(r.status(), 503);
     assert_eq!(r.headers()["retry-after"], "1");
-    let answer: serde_json::Value = r.json().await.unwrap();
+    let answer: serde_json::Value = crate::support::server::checked_json(r).await;
     assert_eq!(answer["error"]["code"], "overloaded", "{answer}");
     assert_eq!(answer["error"]["details"]["retry_after_secs"], 1);
     let (_, list) = s.get("/api/v1/sites/busy/epochs").await;

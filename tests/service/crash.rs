@@ -113,7 +113,10 @@ async fn sigkill_during_uploads_leaves_whole_epochs() {
             .send()
             .await
             .unwrap();
-        (r.status().as_u16(), r.json().await.unwrap())
+        (
+            r.status().as_u16(),
+            crate::support::server::checked_json(r).await,
+        )
     };
     assert_eq!(status, 200);
     let stored = list["items"].as_array().unwrap().clone();

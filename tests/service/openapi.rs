@@ -48,11 +48,11 @@ async fn health_metrics_openapi_and_request_ids() {
     assert_eq!(hooks["items"][0]["format"], "standard");
     let r = s.client.post(s.url("/api/v1/webhooks")).json(&json!({"url": "http://127.0.0.1:9/am", "secret": "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw", "format": "alertmanager_api_v2"})).send().await.unwrap();
     assert_eq!(r.status(), 201);
-    let created: Value = r.json().await.unwrap();
+    let created: Value = crate::support::server::checked_json(r).await;
     assert_eq!(created["format"], "alertmanager_api_v2");
     let r = s.client.post(s.url("/api/v1/webhooks")).json(&json!({"url": "http://127.0.0.1:9/am", "secret": "whsec_MfKQ9r8GKYqrTwjUPD8ILPZIo2LaLaSw", "format": "prometheus"})).send().await.unwrap();
     assert_eq!(r.status(), 422);
-    let e: Value = r.json().await.unwrap();
+    let e: Value = crate::support::server::checked_json(r).await;
     assert!(
         e["error"]["message"].as_str().unwrap().contains("format"),
         "{e}"

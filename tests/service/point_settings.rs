@@ -18,7 +18,7 @@ async fn point_settings_keep_what_is_left_out_and_clear_what_is_null() {
         async move {
             let r = req.send().await.unwrap();
             let status = r.status().as_u16();
-            (status, r.json::<Value>().await.unwrap())
+            (status, crate::support::server::checked_json(r).await)
         }
     };
     let (st, p) = put(json!({"group": "B1", "direction": [0.0, -2.0, 1.0]})).await;

@@ -33,7 +33,7 @@ async fn rejections_store_nothing() {
         .await
         .unwrap();
     assert_eq!(r.status(), 400);
-    let e: Value = r.json().await.unwrap();
+    let e: Value = crate::support::server::checked_json(r).await;
     assert_eq!(e["error"]["code"], "bad_request");
 
     // a point seen in one image only, no approximations: cannot be adjusted → 422 naming it
@@ -104,7 +104,7 @@ async fn rejections_store_nothing() {
         .replace("12345.678", "1e400");
     let r = post(text.into_bytes()).await.unwrap();
     assert_eq!(r.status(), 422);
-    let e: Value = r.json().await.unwrap();
+    let e: Value = crate::support::server::checked_json(r).await;
     let msg = e["error"]["message"].as_str().unwrap();
     assert!(
         msg.starts_with("cameras[0].c_mm: number out of range"),
@@ -142,7 +142,7 @@ async fn rejections_store_nothing() {
         }
         let r = r.send().await.unwrap();
         assert_eq!(r.status(), 415, "{ctype:?}");
-        let e: Value = r.json().await.unwrap();
+        let e: Value = crate::support::server::checked_json(r).await;
         assert_eq!(e["error"]["code"], "unsupported_media_type");
     }
 
@@ -177,7 +177,7 @@ async fn rejections_store_nothing() {
 
     let r = post(vec![b' '; (1 << 20) + 10]).await.unwrap();
     assert_eq!(r.status(), 413);
-    let e: Value = r.json().await.unwrap();
+    let e: Value = crate::support::server::checked_json(r).await;
     assert_eq!(e["error"]["code"], "payload_too_large");
 
     let (status, _) = s.upload("nosuchsite", &good).await;

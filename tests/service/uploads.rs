@@ -304,7 +304,7 @@ async fn csv_upload_uses_the_site_cameras() {
         .await
         .unwrap();
     assert_eq!(r.status(), 409);
-    let e: Value = r.json().await.unwrap();
+    let e: Value = crate::support::server::checked_json(r).await;
     assert_eq!(e["error"]["code"], "no_cameras");
     let first = paper(PAPER[6]);
     assert_eq!(s.upload("csv", &first).await.0, 201);
@@ -350,7 +350,7 @@ async fn csv_upload_uses_the_site_cameras() {
         .unwrap();
     // A coordinate that is not a number: CSV of the wrong shape, 422 naming the line.
     assert_eq!(r.status(), 422);
-    let e: Value = r.json().await.unwrap();
+    let e: Value = crate::support::server::checked_json(r).await;
     assert!(
         e["error"]["message"].as_str().unwrap().contains("line 1"),
         "{e}"
@@ -406,7 +406,7 @@ async fn csv_upload_uses_the_site_cameras() {
             .await
             .unwrap();
         let status = r.status();
-        let body: Value = r.json().await.unwrap();
+        let body: Value = crate::support::server::checked_json(r).await;
         assert_eq!(status, want, "{query}: {body}");
         if want == 422 {
             let m = body["error"]["message"].as_str().unwrap();

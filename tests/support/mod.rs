@@ -11,7 +11,8 @@
 //! - `dbat`, `identify`, `bad_images`: DBAT's real photographs, the long-range scene and broken
 //!   image files, the core's test helpers (`crates/cliffwatch-core/tests/support`), taken by path;
 //! - `pg`: a throwaway PostgreSQL cluster;
-//! - `plot`: the long-history plot checked on either backend.
+//! - `plot`: the long-history plot checked on either backend;
+//! - `unique_keys`: JSON answers parsed with each key once per object (the server helpers' reads).
 #![allow(dead_code)]
 
 /// The folder that holds the shared reference data, `../shared` beside the repository, as a
@@ -33,6 +34,7 @@ pub mod identify;
 pub mod pg;
 pub mod plot;
 pub mod server;
+pub mod unique_keys;
 pub mod watch;
 
 use chrono::{DateTime, Duration, SecondsFormat, Utc};

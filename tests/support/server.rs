@@ -237,14 +237,13 @@ impl TestServer {
         (status, r.bytes().await.expect("answer").len())
     }
 
-    /// GETs JSON.
+    /// GETs JSON (each key once per object, [`json_answer`]).
     pub async fn get(&self, path: &str) -> (u16, Value) {
         let r = self.client.get(self.url(path)).send().await.unwrap();
-        let status = r.status().as_u16();
-        (status, r.json().await.unwrap_or(Value::Null))
+        json_answer(r, &format!("GET {path}")).await
     }
 
-    /// POSTs JSON; returns the status and the JSON answer.
+    /// POSTs JSON; returns the status and the JSON answer (each key once per object).
     pub async fn post(&self, path: &str, body: &Value) -> (u16, Value) {
         let r = self
             .client
@@ -253,8 +252,23 @@ impl TestServer {
             .send()
             .await
             .unwrap();
-        let status = r.status().as_u16();
-        (status, r.json().await.unwrap_or(Value::Null))
+        json_answer(r, &format!("POST {path}")).await
+    }
+
+    /// Sends a JSON request with any method; returns the status and the JSON answer (each key
+    /// once per object).
+    pub async fn send(
+        &self,
+        method: reqwest::Method,
+        path: &str,
+        body: Option<&Value>,
+    ) -> (u16, Value) {
+        let what = format!("{method} {path}");
+        let mut rq = self.client.request(method, self.url(path));
+        if let Some(b) = body {
+            rq = rq.json(b);
+        }
+        json_answer(rq.send().await.unwrap(), &what).await
     }
 
     /// Free text with the NUL character, which PostgreSQL cannot store and SQLite would: refused
@@ -289,6 +303,24 @@ impl TestServer {
     pub async fn snapshot(&self) -> Vec<(String, i64)> {
         snapshot(&self.store).await
     }
+}
+
+/// The status and JSON body of an answer (`Null` when the body is not JSON), failing the test
+/// when an object of it holds a key twice ([`super::unique_keys`]): every answer the helpers
+/// read is checked.
+pub async fn json_answer(r: reqwest::Response, what: &str) -> (u16, Value) {
+    let status = r.status().as_u16();
+    let text = r.text().await.unwrap_or_default();
+    (status, super::unique_keys::answer_json(&text, what))
+}
+
+/// The JSON body of an answer read straight from the client, failing the test when it is not
+/// JSON or an object of it holds a key twice.
+pub async fn checked_json(r: reqwest::Response) -> Value {
+    let url = r.url().path().to_string();
+    let text = r.text().await.expect("an answer body");
+    super::unique_keys::parse_unique_keys(&text)
+        .unwrap_or_else(|e| panic!("{url}: malformed JSON answer: {e}\n{text}"))
 }
 
 /// Row counts of every table of a store.
@@ -430,13 +462,12 @@ impl Daemon {
         path: &str,
         body: Option<&Value>,
     ) -> (u16, Value) {
+        let what = format!("{method} {path}");
         let mut rq = self.client.request(method, self.url(path));
         if let Some(b) = body {
             rq = rq.json(b);
         }
-        let r = rq.send().await.unwrap();
-        let s = r.status().as_u16();
-        (s, r.json().await.unwrap_or(Value::Null))
+        json_answer(rq.send().await.unwrap(), &what).await
     }
 
     /// GET JSON.

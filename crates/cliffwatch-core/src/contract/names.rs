@@ -68,6 +68,7 @@ macro_rules! contract_names {
 
 #[cfg(test)]
 mod tests {
+    use crate::analysis::alerts::{Metric, Source};
     use crate::analysis::{AlertEventType, AlertLevel, AlertStatus, PointRole};
     use crate::photogrammetry::Model;
 
@@ -99,6 +100,8 @@ mod tests {
         round_trip(AlertEventType::ALL);
         round_trip(PointRole::ALL);
         round_trip(Model::ALL);
+        round_trip(Metric::ALL);
+        round_trip(Source::ALL);
     }
 
     #[test]

@@ -105,6 +105,17 @@ pub enum EpochError {
         /// Image and point.
         item: String,
     },
+    /// A value of the right type and range whose order of magnitude does not fit the rest of the
+    /// epoch: a unit mistaken (`photogrammetry::input::plausible`).
+    #[error("{field}: {found}; expected {expected}")]
+    Implausible {
+        /// The field at fault, e.g. `cameras[0].c_mm (camera 'cam')` or `approx`.
+        field: String,
+        /// What looks wrong, with the figures that show it.
+        found: String,
+        /// What was expected.
+        expected: String,
+    },
     /// Pixel observations for a camera without pixel size or image size.
     #[error("image '{image}' has pixel observations but camera '{camera}' lacks pixel_size_mm, width_px or height_px")]
     PixelWithoutGeometry {

@@ -10,5 +10,6 @@ mod calibration;
 mod cancel;
 mod errors;
 mod paper;
+mod plausible;
 mod scenes;
 mod sigma0;

@@ -18,6 +18,13 @@ pub enum Metric {
     TimeToFailureHours,
 }
 
+crate::contract_names!(Metric, "metric" {
+    DisplacementMm => "displacement_mm",
+    DisplacementAlongMm => "displacement_along_mm",
+    VelocityMmPerDay => "velocity_mm_per_day",
+    TimeToFailureHours => "time_to_failure_hours",
+});
+
 impl Metric {
     /// Unit of the metric.
     pub fn unit(self) -> &'static str {
@@ -66,6 +73,12 @@ pub enum Source {
     /// alert only when the next epoch exceeds too, so one noisy epoch never alerts alone.
     Either,
 }
+
+crate::contract_names!(Source, "source" {
+    Raw => "raw",
+    Filtered => "filtered",
+    Either => "either",
+});
 
 /// What an alert is about: a point metric or a site-level kind (the webhook's `rule`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]

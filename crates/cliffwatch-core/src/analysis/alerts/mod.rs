@@ -40,6 +40,6 @@ pub use overdue::{campaign_arrived, check_overdue};
 pub use readings::{Reading, Readings};
 pub use reconcile::{reconcile, REFERENCE_INDEPENDENT};
 pub use rule::{
-    AlertConfig, AlertRule, FORECAST_CONFIDENCE, MAX_CONFIDENCE, MAX_EPOCHS, MIN_CONFIDENCE,
-    RULE_MEMBERS, VELOCITY_CLEAR_FRACTION,
+    AlertConfig, AlertRule, RuleRefused, FORECAST_CONFIDENCE, MAX_CONFIDENCE, MAX_EPOCHS,
+    MIN_CONFIDENCE, RULE_MEMBERS, VELOCITY_CLEAR_FRACTION,
 };

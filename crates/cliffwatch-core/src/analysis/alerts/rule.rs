@@ -87,6 +87,83 @@ pub struct AlertRule {
     pub confidence: Option<f64>,
 }
 
+/// The JSON type of a value, for messages.
+fn json_kind(v: &serde_json::Value) -> &'static str {
+    match v {
+        serde_json::Value::Null => "null",
+        serde_json::Value::Bool(_) => "a boolean",
+        serde_json::Value::Number(_) => "a number",
+        serde_json::Value::String(_) => "a string",
+        serde_json::Value::Array(_) => "an array",
+        serde_json::Value::Object(_) => "an object",
+    }
+}
+
+/// Why [`AlertRule::from_json`] refused a rule: the member at fault and what is wrong with it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RuleRefused {
+    /// The member at fault (`metric`, a misspelt `clear_bellow`); None: the rule as a whole.
+    pub member: Option<String>,
+    /// What is wrong and what was expected.
+    pub message: String,
+}
+
+impl RuleRefused {
+    /// The message for a rule found at `path` (e.g. `alert_rules[2]`): `path.member: message`,
+    /// or `path: message` for the rule as a whole.
+    pub fn at(&self, path: &str) -> String {
+        match &self.member {
+            Some(m) => format!("{path}.{m}: {}", self.message),
+            None => format!("{path}: {}", self.message),
+        }
+    }
+}
+
+impl std::fmt::Display for RuleRefused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.member {
+            Some(m) => write!(f, "{m}: {}", self.message),
+            None => f.write_str(&self.message),
+        }
+    }
+}
+
+/// Member `key` of a rule, a contract name of `T`: missing (when `required`), not a string, or
+/// not one of the names is an error naming the member and the names known.
+fn named<T>(
+    members: &serde_json::Map<String, serde_json::Value>,
+    key: &str,
+    required: bool,
+) -> Result<(), RuleRefused>
+where
+    T: std::str::FromStr<Err = crate::contract::names::UnknownName>,
+{
+    // The names known, from the refusal of a name no enum has.
+    let expected = || {
+        "\u{0}"
+            .parse::<T>()
+            .err()
+            .map_or_else(String::new, |e| e.expected.to_string())
+    };
+    let refused = |message: String| RuleRefused {
+        member: Some(key.to_string()),
+        message,
+    };
+    match members.get(key) {
+        None if required => Err(refused(format!("missing; one of {}", expected()))),
+        None => Ok(()),
+        Some(serde_json::Value::String(s)) => s
+            .parse::<T>()
+            .map(|_| ())
+            .map_err(|e| refused(e.to_string())),
+        Some(other) => Err(refused(format!(
+            "{} given; one of {}",
+            json_kind(other),
+            expected()
+        ))),
+    }
+}
+
 /// Default confidence of a `time_to_failure_hours` rule, when the site's is higher: the rule
 /// fires when the forecast's one-sided upper bound at this confidence (`hours + z·σ`) is below
 /// its threshold. The forecast exists only once the onset test has shown an acceleration and the
@@ -119,6 +196,48 @@ pub const RULE_MEMBERS: [&str; 12] = [
 ];
 
 impl AlertRule {
+    /// Reads a rule of the contract JSON and [`validate`](Self::validate)s it; the error names
+    /// the member at fault (`metric: unknown metric 'displacement_m' (one of …)`, `clear_bellow:
+    /// unknown member; …`), so that a caller only prefixes where the rule stands.
+    pub fn from_json(rule: &serde_json::Value) -> Result<AlertRule, RuleRefused> {
+        let whole = |message: String| RuleRefused {
+            member: None,
+            message,
+        };
+        let Some(members) = rule.as_object() else {
+            return Err(whole(format!(
+                "a rule is a JSON object with level, metric and above or below, not {}",
+                json_kind(rule)
+            )));
+        };
+        if let Some(unknown) = members.keys().find(|k| !RULE_MEMBERS.contains(&k.as_str())) {
+            return Err(RuleRefused {
+                member: Some(crate::contract::truncate_for_message(unknown).into_owned()),
+                message: format!("unknown member; a rule has {}", RULE_MEMBERS.join(", ")),
+            });
+        }
+        named::<AlertLevel>(members, "level", true)?;
+        named::<Metric>(members, "metric", true)?;
+        named::<Source>(members, "source", false)?;
+        if !["above", "below"]
+            .iter()
+            .any(|k| members.get(*k).is_some_and(serde_json::Value::is_number))
+        {
+            return Err(whole(
+                "needs a numeric `above` or `below` (the threshold, in the metric's unit)".into(),
+            ));
+        }
+        let parsed: AlertRule =
+            serde_json::from_value(rule.clone()).map_err(|e| whole(e.to_string()))?;
+        parsed.validate().map_err(|e| {
+            whole(match e {
+                AnalysisError::InvalidConfig(m) => m,
+                other => other.to_string(),
+            })
+        })?;
+        Ok(parsed)
+    }
+
     /// Checks that exactly one of `above` / `below` is set, finite, and that the clear threshold
     /// lies on the right side; that no threshold exceeds ±`MAX_THRESHOLD`; that a
     /// `time_to_failure_hours` rule has a positive `below` and a `displacement_mm` rule a
@@ -490,6 +609,58 @@ mod tests {
         ] {
             assert_eq!(rule(good).map_err(|e| e.to_string()), Ok(()), "{good}");
         }
+    }
+
+    /// An unknown metric, level, source or member is named as such, with what is known.
+    #[test]
+    fn unknown_names_and_members_are_named() {
+        let parse = |json: &str| {
+            AlertRule::from_json(&serde_json::from_str(json).unwrap()).map_err(|e| e.to_string())
+        };
+        for (bad, want) in [
+            (
+                r#"{"level": "watch", "metric": "displacement_m", "above": 5}"#,
+                "metric: unknown metric 'displacement_m' (one of displacement_mm, \
+                 displacement_along_mm, velocity_mm_per_day, time_to_failure_hours)",
+            ),
+            (
+                r#"{"level": "loud", "metric": "displacement_mm", "above": 5}"#,
+                "level: unknown alert level 'loud' (one of watch, warning, alarm)",
+            ),
+            (
+                r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "source": "kalman"}"#,
+                "source: unknown source 'kalman' (one of raw, filtered, either)",
+            ),
+            (
+                r#"{"level": "watch", "metric": "displacement_mm", "above": 5, "clear_bellow": 4}"#,
+                "clear_bellow: unknown member; a rule has level, metric",
+            ),
+            (
+                r#"{"metric": "displacement_mm", "above": 5}"#,
+                "level: missing; one of watch, warning, alarm",
+            ),
+            (
+                r#"{"level": "watch", "metric": 3, "above": 5}"#,
+                "metric: a number given; one of displacement_mm",
+            ),
+            (
+                r#"{"level": "watch", "metric": "displacement_mm", "above": "5"}"#,
+                "needs a numeric `above` or `below`",
+            ),
+            (r#"["watch"]"#, "a rule is a JSON object"),
+            (
+                r#"{"level": "watch", "metric": "displacement_mm", "below": 5}"#,
+                "displacement_mm rule: d_mm is a length",
+            ),
+        ] {
+            let e = parse(bad).unwrap_err();
+            assert!(e.starts_with(want), "{bad}: {e}");
+        }
+        let good = parse(r#"{"level": "alarm", "metric": "velocity_mm_per_day", "above": 2}"#);
+        assert_eq!(
+            good.map(|r| (r.level, r.metric)),
+            Ok((AlertLevel::Alarm, Metric::VelocityMmPerDay))
+        );
     }
 
     /// The schema's bounds of the four thresholds are ±[`MAX_THRESHOLD`], the bound `validate`

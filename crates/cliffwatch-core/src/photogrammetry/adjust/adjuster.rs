@@ -29,9 +29,10 @@ use crate::photogrammetry::statistics::variance_factor::{
     chi2_upper, variance_model, GLOBAL_TEST_Z,
 };
 
-/// Validates and adjusts an epoch of the upload form.
+/// Validates (the form and its units, [`crate::photogrammetry::input::plausible::validate`]) and
+/// adjusts an epoch of the upload form.
 pub fn adjust(input: &EpochInput, options: &AdjustOptions) -> Result<Adjustment, AdjustError> {
-    let problem = input.validate()?;
+    let problem = crate::photogrammetry::input::plausible::validate(input)?;
     adjust_problem(&problem, options)
 }
 

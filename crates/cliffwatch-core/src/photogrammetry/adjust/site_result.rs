@@ -86,6 +86,47 @@ impl ToSite<'_> {
     }
 }
 
+/// How far (a factor either way) σ0 may lie from the a-priori σ before the report says so in
+/// words: 3, a variance factor beyond 9 or below 1/9, far outside the global test's scatter at
+/// [`APRIORI_WARNING_MIN_DOF`] degrees of freedom or more.
+pub const APRIORI_WARNING_FACTOR: f64 = 3.0;
+
+/// Fewest degrees of freedom for the a-priori σ warning: fewer leave σ0 too uncertain to judge.
+pub const APRIORI_WARNING_MIN_DOF: i64 = 10;
+
+/// A warning, in words a newcomer understands, when the epoch's image coordinates scatter far more
+/// or far less than the a-priori σ (`apriori_mm`, the observations' quadratic mean) says: σ0
+/// (`sigma0_mm`) beyond [`APRIORI_WARNING_FACTOR`] times it, either way. It does not block: the
+/// precisions reported already carry the variance factor.
+pub(super) fn apriori_sigma_warning(apriori_mm: f64, sigma0_mm: f64, dof: i64) -> Option<String> {
+    if dof < APRIORI_WARNING_MIN_DOF || !(apriori_mm > 0.0 && sigma0_mm.is_finite()) {
+        return None;
+    }
+    let ratio = sigma0_mm / apriori_mm;
+    let figures = format!(
+        "σ0 {sigma0_mm:.2e} mm against the stated {apriori_mm:.2e} mm (the cameras' or \
+         observations' sigma_mm)"
+    );
+    if ratio >= APRIORI_WARNING_FACTOR {
+        Some(format!(
+            "the image measurements scatter {ratio:.1} times more than their stated precision \
+             ({figures}): that precision is too optimistic, or some measurements are wrong. The \
+             coordinates' σ use what this epoch showed; if it repeats, set sigma_mm nearer \
+             {sigma0_mm:.2e} mm"
+        ))
+    } else if ratio <= 1.0 / APRIORI_WARNING_FACTOR {
+        Some(format!(
+            "the image measurements agree {:.1} times better than their stated precision \
+             ({figures}): that precision is too cautious, which weakens the search for wrong \
+             measurements and the images' weight against control points. The coordinates' σ \
+             use what this epoch showed; set sigma_mm nearer {sigma0_mm:.2e} mm",
+            1.0 / ratio
+        ))
+    } else {
+        None
+    }
+}
+
 /// Precision, datum transformation and the report of a solution. Refuses one that did not
 /// converge; a variance factor above the global test's 99.9 % bound is reported as a warning.
 pub(super) fn site_result(s: Solution) -> Result<Adjustment, AdjustError> {
@@ -118,6 +159,11 @@ pub(super) fn site_result(s: Solution) -> Result<Adjustment, AdjustError> {
         ));
     }
     let sigma0_mm = problem.reference_sigma_mm() * variance_factor.sqrt();
+    warnings.extend(apriori_sigma_warning(
+        problem.reference_sigma_mm(),
+        sigma0_mm,
+        dof,
+    ));
     let to_site = ToSite {
         frame: &frame,
         // Free network: the similarity onto the start coordinates gives the inner-constraint datum.
@@ -361,4 +407,30 @@ fn residual_reports(
         })
         .collect();
     (residuals, images)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::apriori_sigma_warning;
+
+    /// Either direction beyond the factor is named in words; within it, or with too few degrees
+    /// of freedom to judge, nothing is said.
+    #[test]
+    fn the_apriori_sigma_warning_names_the_direction() {
+        let optimistic = apriori_sigma_warning(0.001, 0.004, 40).unwrap();
+        assert!(
+            optimistic.starts_with("the image measurements scatter 4.0 times more")
+                && optimistic.contains("too optimistic"),
+            "{optimistic}"
+        );
+        let cautious = apriori_sigma_warning(0.01, 0.001, 40).unwrap();
+        assert!(
+            cautious.starts_with("the image measurements agree 10.0 times better")
+                && cautious.contains("too cautious"),
+            "{cautious}"
+        );
+        assert_eq!(apriori_sigma_warning(0.001, 0.0025, 40), None);
+        assert_eq!(apriori_sigma_warning(0.001, 0.0004, 40), None);
+        assert_eq!(apriori_sigma_warning(0.001, 0.004, 9), None);
+    }
 }

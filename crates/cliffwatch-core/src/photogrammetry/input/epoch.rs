@@ -306,7 +306,8 @@ impl EpochInput {
     }
 
     /// Validates the upload form into an [`EpochProblem`]: identifiers, finite numbers, known cameras,
-    /// no duplicate observations, pixel geometry where pixel observations are used.
+    /// no duplicate observations, pixel geometry where pixel observations are used. The adjustment
+    /// and the service take the form through `plausible::validate`, which checks its units too.
     ///
     /// Geometric sufficiency (≥ 4 known points per image, each point in ≥ 2 images) is checked by the
     /// adjustment, because earlier epochs of a site may supply the known points.
@@ -445,13 +446,23 @@ impl EpochInput {
 /// Known coordinates (m) of points from earlier epochs of the site, used as start values.
 pub type PriorCoordinates = BTreeMap<String, [f64; 3]>;
 
-/// X, Y, Z of `item` in m: finite and within [`MAX_OBJECT_COORDINATE_M`].
+/// X, Y, Z of `item` in m: finite and within [`MAX_OBJECT_COORDINATE_M`] (beyond it, the unit is
+/// the likely mistake: UTM coordinates in mm pass 10⁸).
 fn object_xyz([x, y, z]: [f64; 3], item: &str) -> Result<[f64; 3], EpochError> {
-    Ok([
-        bounded(x, MAX_OBJECT_COORDINATE_M, item, "X")?,
-        bounded(y, MAX_OBJECT_COORDINATE_M, item, "Y")?,
-        bounded(z, MAX_OBJECT_COORDINATE_M, item, "Z")?,
-    ])
+    let one = |v: f64, field: &str| {
+        bounded(v, MAX_OBJECT_COORDINATE_M, item, field).map_err(|e| match e {
+            EpochError::OutOfRange { item, field, .. } => EpochError::OutOfRange {
+                item,
+                field,
+                reason: format!(
+                    "{v:e} is beyond ±{MAX_OBJECT_COORDINATE_M:e}: it looks like millimetres \
+                     or another unit; expected metres"
+                ),
+            },
+            other => other,
+        })
+    };
+    Ok([one(x, "X")?, one(y, "Y")?, one(z, "Z")?])
 }
 
 /// The epoch's point names in order of first observation, with their indices.
