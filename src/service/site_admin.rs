@@ -89,7 +89,7 @@ pub fn as_new_site(s: &Site) -> NewSite {
         response_text: s.response_text.clone(),
         contacts: (!s.contacts.is_empty()).then(|| s.contacts.clone()),
         image_weights: Some(s.image_weights),
-        frame: Some(s.frame.clone()),
+        frame: Some(s.frame),
         apriori_sigma: Some(s.apriori_sigma),
         detection: Some(s.detection),
     }

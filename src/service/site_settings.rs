@@ -71,7 +71,7 @@ pub async fn declare_group(
     groups::put(&mut tx, site, group).await?;
     if before.as_ref() != Some(group) {
         let b = before
-            .map(|b| serde_json::to_value(b))
+            .map(serde_json::to_value)
             .transpose()
             .map_err(StoreError::from)?;
         let a = serde_json::to_value(group).map_err(StoreError::from)?;

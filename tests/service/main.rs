@@ -7,6 +7,7 @@
 mod support;
 
 mod access;
+mod admin;
 mod bounded;
 mod compute_bound;
 mod concurrency;
