@@ -197,7 +197,7 @@ pub async fn block(
                 figure.inverse {
                     figcaption {
                         "inverse velocity 1/v (day/mm), where the block moves forward"
-                        @if fit.is_some() { "; dashed: the latest forecast's law, fitted to its last epochs, whose zero is the forecast failure time" }
+                        @if fit.is_some() { "; dashed: the latest forecast's law, fitted to the smoothed (Rauch–Tung–Striebel) velocities of its last epochs rather than to the filtered values plotted, so it may run beside them; its zero is the forecast failure time" }
                         @else { "; no line: the latest epoch has no forecast yet" }
                     }
                     (time_plot_with_line(&t, &inv, &none, &[], "day/mm", fit))

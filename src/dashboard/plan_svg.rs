@@ -1,8 +1,10 @@
 //! The face plan drawn as SVG: points in the best-fit plane of the face ([`super::face_plan`]),
 //! coloured by alert level, stable points as triangles, displacement vectors exaggerated, with
 //! the exaggeration and two scale bars (plan metres, displacement millimetres). The component
-//! out of the face (along its normal, towards the side the normal points to) is written under
-//! each name as "⊥ ±x.x mm", since a plan cannot draw it.
+//! out of the face (along its normal, towards the side the normal points to) is drawn as a ring
+//! around the point whose radius is that displacement on the vectors' scale (solid blue towards
+//! the cameras, dashed brown into the face), so a block moving mostly out of the face shows as
+//! plainly as one sliding down it, and is written under each name as "⊥ ±x.x mm".
 
 use maud::{html, Markup};
 
@@ -54,13 +56,14 @@ pub fn face_plan(site: &str, frame: &SiteFrame, points: &[PlanPoint]) -> Markup 
     let scale = ((W - 2.0 * PAD) / (u1 - u0).max(1e-3)).min((H - 2.0 * PAD) / (v1 - v0).max(1e-3));
     let sx = |u: f64| PAD + (u - u0) * scale;
     let sy = |v: f64| H - PAD - (v - v0) * scale;
-    // Exaggeration: the largest in-plane displacement drawn as 15 % of the plan's extent.
+    // Exaggeration: the largest displacement, in the face or out of it, drawn as 15 % of the
+    // plan's extent.
     let max_d_m = points
         .iter()
         .filter_map(|p| p.d_mm)
         .map(|d| {
             let v = plane.project_vector(d);
-            (v[0].hypot(v[1])) / 1000.0
+            v[0].hypot(v[1]).max(plane.out_of_plane(d).abs()) / 1000.0
         })
         .fold(0.0f64, f64::max);
     let exaggeration = if max_d_m > 0.0 {
@@ -76,6 +79,15 @@ pub fn face_plan(site: &str, frame: &SiteFrame, points: &[PlanPoint]) -> Markup 
         .map(|p| {
             let n = plane.out_of_plane(p.d_mm?);
             (n.abs() >= 0.05).then(|| format!("⊥ {n:+.1} mm"))
+        })
+        .collect();
+    // Each point's out-of-face ring: radius in plan units and whether towards the cameras.
+    let rings: Vec<Option<(f64, bool)>> = points
+        .iter()
+        .map(|p| {
+            let n = plane.out_of_plane(p.d_mm?);
+            let r = n.abs() / 1000.0 * exaggeration * scale;
+            (r > 1.5).then_some((r, n > 0.0))
         })
         .collect();
     // Each point's arrow in plan units (y down), when long enough to draw.
@@ -132,6 +144,9 @@ pub fn face_plan(site: &str, frame: &SiteFrame, points: &[PlanPoint]) -> Markup 
                     @let (x, y) = (sx(q[0]), sy(q[1]));
                     @let class = level_class(p.level);
                     a href={ "/sites/" (seg(site)) "/points/" (seg(&p.name)) } {
+                        @if let Some((r, toward)) = rings[i] {
+                            circle class={ "out " (if toward { "toward" } else { "into" }) } cx=(fmt(x)) cy=(fmt(y)) r=(fmt(r)) {}
+                        }
                         @if let Some((dx, dy)) = arrows[i] {
                             line.vector x1=(fmt(x)) y1=(fmt(y)) x2=(fmt(x + dx)) y2=(fmt(y + dy)) marker-end="url(#arrow)" {}
                         }
@@ -159,7 +174,9 @@ pub fn face_plan(site: &str, frame: &SiteFrame, points: &[PlanPoint]) -> Markup 
             }
             figcaption.legend {
                 "Scale bar: " (short(bar_m)) " m on the face, " (short(bar_mm)) " mm of displacement; vectors × "
-                (short(exaggeration)) ". Along the face →, height ↑; ⊥: displacement out of the face (mm), + towards the cameras. "
+                (short(exaggeration)) ". Along the face →, height ↑; ⊥: displacement out of the face (mm), + towards the cameras, "
+                "drawn as a ring of that radius on the vectors' scale: " span.ring.toward { "solid blue" } " towards the cameras, "
+                span.ring.into { "dashed brown" } " into the face. "
                 span.frame { "Up is " (SiteFrame::describe(frame.up)) "; out of the face is " (SiteFrame::describe(plane.axes.out)) ", "
                     (match plane.axes.source {
                         NormalSource::Declared => "as the site declares",
@@ -234,5 +251,59 @@ mod tests {
             "{svg}"
         );
         assert!(svg.contains("/sites/s%3C1%3E/points/T1"));
+    }
+
+    /// A block moving 83 mm out of the face and 46 mm down: its rings are larger than its
+    /// arrows (the same scale), solid towards the cameras, and the legend says so.
+    #[test]
+    fn motion_out_of_the_face_is_drawn_as_plainly_as_in_it() {
+        let pts: Vec<PlanPoint> = (0..6)
+            .map(|i| PlanPoint {
+                name: format!("T{i}"),
+                xyz: [(i % 3) as f64 * 4.0, 100.0, (i / 3) as f64 * 4.0],
+                d_mm: Some(if i < 3 {
+                    [0.0, 0.0, 0.0]
+                } else {
+                    [0.0, -83.0, -46.0]
+                }),
+                level: None,
+                stable: i < 3,
+                mdd_mm: None,
+            })
+            .collect();
+        let svg = face_plan("s", &SiteFrame::default(), &pts).into_string();
+        let number = |tag: &str, attr: &str| -> Vec<f64> {
+            svg.split(tag)
+                .skip(1)
+                .filter_map(|t| {
+                    t.split(&format!("{attr}=\""))
+                        .nth(1)?
+                        .split('"')
+                        .next()?
+                        .parse()
+                        .ok()
+                })
+                .collect()
+        };
+        let radii = number("<circle class=\"out ", "r");
+        assert_eq!(radii.len(), 3, "{svg}");
+        let (y1, y2) = (
+            number("<line class=\"vector\"", "y1"),
+            number("<line class=\"vector\"", "y2"),
+        );
+        assert_eq!(y1.len(), 3, "{svg}");
+        for ((r, a), b) in radii.iter().zip(&y1).zip(&y2) {
+            let arrow = (b - a).abs();
+            assert!(*r > 1.5 * arrow, "ring {r} against arrow {arrow}");
+            assert!(
+                (r / arrow - 83.0 / 46.0).abs() < 0.1,
+                "ring {r}, arrow {arrow}"
+            );
+        }
+        assert!(svg.contains("class=\"out toward\"") || svg.contains("class=\"out into\""));
+        assert!(
+            svg.contains("drawn as a ring of that radius on the vectors' scale"),
+            "{svg}"
+        );
     }
 }
