@@ -28,6 +28,9 @@ const READERS: usize = 50;
 const POINTS: usize = 16;
 const STABLE: usize = 8;
 
+/// A read: its route's name and the path it asks for of site `k`.
+type Read = (&'static str, fn(usize) -> String);
+
 /// `(route, status, latency)` of every request.
 type Log = Arc<Mutex<Vec<(&'static str, u16, Duration)>>>;
 
@@ -122,7 +125,7 @@ async fn load(seconds: u64) {
             }
         }));
     }
-    let reads: [(&'static str, fn(usize) -> String); 6] = [
+    let reads: [Read; 6] = [
         ("GET /sites/{site} (page)", |s| format!("/sites/s{s}")),
         ("GET /api/v1/sites/{site}/points", |s| {
             format!("/api/v1/sites/s{s}/points")
