@@ -43,7 +43,10 @@ pub fn routes() -> Router<AppState> {
         )
         .route("/api/v1/sites/{site}/epochs/{epoch}", get(epochs::get_one))
         .route("/api/v1/sites/{site}/reference", put(sites::set_reference))
-        .route("/api/v1/sites/{site}/points", get(points::list))
+        .route(
+            "/api/v1/sites/{site}/points",
+            get(points::list).put(points::update_many),
+        )
         .route("/api/v1/sites/{site}/groups", get(groups::list))
         .route(
             "/api/v1/sites/{site}/groups/{group}",

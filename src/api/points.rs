@@ -115,15 +115,26 @@ fn along(d: &Displacement, direction: Option<[f64; 3]>) -> Option<f64> {
 pub async fn update(
     State(state): State<AppState>,
     ApiPath((site, point)): ApiPath<(String, String)>,
+    access: Option<axum::Extension<crate::http::auth::Access>>,
     ApiJson(settings): ApiJson<PointSettings>,
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
-    if !is_valid_identifier(&point) {
+    check_settings(&point, &settings)?;
+    let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
+    let stored =
+        crate::service::site_settings::set_point(&state.store, &site, &point, &settings, &actor)
+            .await?;
+    Ok(axum::Json(stored))
+}
+
+/// The point's name, group and direction checked, naming the one at fault.
+fn check_settings(point: &str, settings: &PointSettings) -> Result<(), ApiError> {
+    if !is_valid_identifier(point) {
         return Err(ApiError::unprocessable(
             "invalid_point",
             format!(
                 "point '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
-                cliffwatch_core::contract::truncate_for_message(&point)
+                cliffwatch_core::contract::truncate_for_message(point)
             ),
         ));
     }
@@ -132,7 +143,8 @@ pub async fn update(
             return Err(ApiError::unprocessable(
                 "invalid_point",
                 format!(
-                    "group '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
+                    "point '{}': group '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
+                    cliffwatch_core::contract::truncate_for_message(point),
                     cliffwatch_core::contract::truncate_for_message(g)
                 ),
             ));
@@ -142,13 +154,62 @@ pub async fn update(
         if !cliffwatch_core::analysis::is_usable_direction(d) {
             return Err(ApiError::unprocessable(
                 "invalid_point",
-                cliffwatch_core::analysis::UNUSABLE_DIRECTION,
+                format!(
+                    "point '{}': {}",
+                    cliffwatch_core::contract::truncate_for_message(point),
+                    cliffwatch_core::analysis::UNUSABLE_DIRECTION
+                ),
             ));
         }
     }
-    let stored =
-        crate::service::site_settings::set_point(&state.store, &site, &point, &settings).await?;
-    Ok(axum::Json(stored))
+    Ok(())
+}
+
+/// `PUT /api/v1/sites/{site}/points`: sets several points at once, `{"T101": {"role":
+/// "stable"}, "T102": {"role": "stable"}, …}` (each value the body of `PUT …/points/{point}`,
+/// at most 10 000), in one transaction with one recompute: all are stored or none (422 naming
+/// the first at fault).
+#[utoipa::path(put, path = "/api/v1/sites/{site}/points", operation_id = "update_points", params(("site" = String, Path)),
+    request_body(content = std::collections::BTreeMap<String, PointSettings>, description = "point name → its settings"),
+    responses((status = 200, description = "the points after, by name", body = UpdatedPoints),
+        (status = 400, description = "not JSON", body = crate::api::schemas::ErrorBody),
+        (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody),
+        (status = 422, description = "invalid settings, a point the site has epochs but never measured without \"planned\": true, or more than 10 000 points; nothing stored", body = crate::api::schemas::ErrorBody)))]
+pub async fn update_many(
+    State(state): State<AppState>,
+    ApiPath(site): ApiPath<String>,
+    access: Option<axum::Extension<crate::http::auth::Access>>,
+    ApiJson(body): ApiJson<std::collections::BTreeMap<String, PointSettings>>,
+) -> Result<impl IntoResponse, ApiError> {
+    find(&state, &site).await?;
+    let max = crate::service::site_settings::MAX_POINTS_PER_CHANGE;
+    if body.len() > max {
+        return Err(ApiError::unprocessable(
+            "invalid_point",
+            format!("{} points: at most {max} in one change", body.len()),
+        ));
+    }
+    if body.is_empty() {
+        return Err(ApiError::unprocessable(
+            "invalid_point",
+            "no point: the body maps point names to their settings, e.g. {\"T101\": {\"role\": \"stable\"}}",
+        ));
+    }
+    for (point, settings) in &body {
+        check_settings(point, settings)?;
+    }
+    let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
+    let changes: Vec<(String, PointSettings)> = body.into_iter().collect();
+    let items =
+        crate::service::site_settings::set_points(&state.store, &site, &changes, &actor).await?;
+    Ok(axum::Json(UpdatedPoints { items }))
+}
+
+/// The answer of a bulk point change.
+#[derive(Debug, serde::Serialize, utoipa::ToSchema)]
+pub struct UpdatedPoints {
+    /// The points after the change, by name.
+    pub items: Vec<crate::store::points::Point>,
 }
 
 /// Query of the time series.

@@ -79,8 +79,8 @@ pub async fn recompute_site(
 /// resolves.
 #[derive(Debug, Clone, PartialEq)]
 pub enum RecomputeCause {
-    /// The reference epoch was set (`None`: back to the earliest epoch).
-    Reference(Option<i64>),
+    /// The reference epoch was set (`None`: back to the earliest epoch), by whom.
+    Reference(Option<i64>, String),
     /// A block group was declared or replaced.
     Group(String),
     /// A point's role, group or direction changed.
@@ -101,7 +101,7 @@ impl RecomputeCause {
     /// epoch's data ([`REFERENCE_INDEPENDENT`]); the other causes change what the rules read.
     pub fn kept_kinds(&self) -> &'static [AlertKind] {
         match self {
-            RecomputeCause::Reference(_) | RecomputeCause::NewerVersion => &REFERENCE_INDEPENDENT,
+            RecomputeCause::Reference(..) | RecomputeCause::NewerVersion => &REFERENCE_INDEPENDENT,
             _ => &[],
         }
     }
@@ -110,9 +110,14 @@ impl RecomputeCause {
 impl std::fmt::Display for RecomputeCause {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            RecomputeCause::Reference(Some(e)) => write!(f, "the reference was set to epoch {e}"),
-            RecomputeCause::Reference(None) => {
-                write!(f, "the reference was set back to the earliest epoch")
+            RecomputeCause::Reference(Some(e), by) => {
+                write!(f, "the reference was set to epoch {e} by {by}")
+            }
+            RecomputeCause::Reference(None, by) => {
+                write!(
+                    f,
+                    "the reference was set back to the earliest epoch by {by}"
+                )
             }
             RecomputeCause::Group(g) => write!(f, "block group {g} was declared anew"),
             RecomputeCause::Point(p) => write!(f, "the settings of point {p} changed"),

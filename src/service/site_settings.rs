@@ -50,7 +50,8 @@ pub async fn set_reference(
         )
         .await?;
     }
-    let raised = recompute_site(&mut tx, site, &RecomputeCause::Reference(epoch)).await?;
+    let cause = RecomputeCause::Reference(epoch, actor.who.clone());
+    let raised = recompute_site(&mut tx, site, &cause).await?;
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
     Ok(())
@@ -94,47 +95,94 @@ pub async fn declare_group(
     Ok(())
 }
 
-/// Sets a point's role, group or direction of interest (creating the point when new: before the
-/// site's first epoch, or declared `planned`; otherwise a name no epoch observed is refused as
-/// [`ServiceError::UnmeasuredPoint`]) and, when
-/// that changed anything and the site has epochs, recomputes the site: the stable points hold the
-/// datum, the group decides the block, the direction the value along it, so a series derived
-/// before the change would otherwise jump at the next epoch. Returns the stored point.
+/// Most points one bulk change may set.
+pub const MAX_POINTS_PER_CHANGE: usize = 10_000;
+
+/// Sets a point's role, group or direction of interest ([`set_points`] with one point).
 pub async fn set_point(
     store: &Store,
     site: &str,
     point: &str,
     settings: &PointSettings,
+    actor: &Actor,
 ) -> Result<Point, ServiceError> {
+    let mut done = set_points(store, site, &[(point.to_string(), settings.clone())], actor).await?;
+    done.pop().ok_or_else(|| {
+        StoreError::Corrupt(format!("point '{point}' of site '{site}' vanished")).into()
+    })
+}
+
+/// Sets the role, group or direction of interest of each of `changes` in one transaction
+/// (creating a point when new: before the site's first epoch, or declared `planned`; otherwise
+/// a name no epoch observed is refused as [`ServiceError::UnmeasuredPoint`] and nothing is
+/// stored), each change in the audit trail, and, when that changed anything and the site has
+/// epochs, recomputes the site once: the stable points hold the datum, the group decides the
+/// block, the direction the value along it, so a series derived before the change would
+/// otherwise jump at the next epoch. Returns the stored points in the order given.
+pub async fn set_points(
+    store: &Store,
+    site: &str,
+    changes: &[(String, PointSettings)],
+    actor: &Actor,
+) -> Result<Vec<Point>, ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
     if sites::get(&mut *tx, site).await?.is_none() {
         return Err(ServiceError::UnknownSite(site.to_string()));
     }
-    let before = points::get(&mut *tx, site, point).await?;
-    // Every point an epoch observed has a row; before the first epoch every point is planned.
-    if before.is_none() && !settings.planned && epochs::count(&mut *tx, site).await? > 0 {
-        return Err(ServiceError::UnmeasuredPoint {
-            site: site.to_string(),
-            point: point.to_string(),
+    let has_epochs = epochs::count(&mut *tx, site).await? > 0;
+    let mut stored = Vec::with_capacity(changes.len());
+    let mut changed = vec![];
+    for (point, settings) in changes {
+        let before = points::get(&mut *tx, site, point).await?;
+        // Every point an epoch observed has a row; before the first epoch every point is planned.
+        if before.is_none() && !settings.planned && has_epochs {
+            return Err(ServiceError::UnmeasuredPoint {
+                site: site.to_string(),
+                point: point.to_string(),
+            });
+        }
+        points::upsert(&mut *tx, site, point, settings).await?;
+        let after = points::get(&mut *tx, site, point).await?.ok_or_else(|| {
+            StoreError::Corrupt(format!("point '{point}' of site '{site}' vanished"))
+        })?;
+        // A point without settings is a monitored one outside any group.
+        let was = before.clone().unwrap_or_else(|| Point {
+            name: after.name.clone(),
+            role: PointRole::Monitored,
+            group: None,
+            direction: None,
         });
+        if was != after {
+            let b = before
+                .as_ref()
+                .map(serde_json::to_value)
+                .transpose()
+                .map_err(StoreError::from)?;
+            let a = serde_json::to_value(&after).map_err(StoreError::from)?;
+            let target = format!("point {point}");
+            record(
+                &mut tx,
+                site,
+                actor,
+                "point.set",
+                &target,
+                b.as_ref(),
+                Some(&a),
+            )
+            .await?;
+            changed.push(point.clone());
+        }
+        stored.push(after);
     }
-    points::upsert(&mut *tx, site, point, settings).await?;
-    let after = points::get(&mut *tx, site, point)
-        .await?
-        .ok_or_else(|| StoreError::Corrupt(format!("point '{point}' of site '{site}' vanished")))?;
-    // A point without settings is a monitored one outside any group.
-    let before = before.unwrap_or_else(|| Point {
-        name: after.name.clone(),
-        role: PointRole::Monitored,
-        group: None,
-        direction: None,
-    });
     let mut raised = 0;
-    if before != after && epochs::count(&mut *tx, site).await? > 0 {
-        let cause = RecomputeCause::Point(point.to_string());
+    if !changed.is_empty() && has_epochs {
+        let cause = match changed.as_slice() {
+            [one] => RecomputeCause::Point(one.clone()),
+            many => RecomputeCause::Point(format!("{} and {} more", many[0], many.len() - 1)),
+        };
         raised = recompute_site(&mut tx, site, &cause).await?;
     }
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
-    Ok(after)
+    Ok(stored)
 }

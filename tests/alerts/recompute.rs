@@ -129,7 +129,7 @@ async fn reference_change_reevaluates_alerts_without_resending_history() {
         after.iter().all(|a| a["message"]
             .as_str()
             .unwrap()
-            .ends_with("resolved: the reference was set to epoch 5")),
+            .ends_with("resolved: the reference was set to epoch 5 by anonymous")),
         "{after:?}"
     );
     // a resolved alert still says how high it went

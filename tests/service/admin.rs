@@ -24,16 +24,24 @@ async fn moving_site(s: &TestServer) {
         )
         .await;
     assert_eq!(st, 201, "{b}");
-    for i in 0..STABLE {
-        let (st, b) = s
-            .send(
-                Method::PUT,
-                &format!("/api/v1/sites/cliff/points/T{:03}", i + 1),
-                Some(&json!({"role": "stable"})),
-            )
-            .await;
-        assert_eq!(st, 200, "{b}");
-    }
+    // The stable points in one call.
+    let stable: serde_json::Map<String, Value> = (0..STABLE)
+        .map(|i| (format!("T{:03}", i + 1), json!({"role": "stable"})))
+        .collect();
+    let (st, b) = s
+        .send(
+            Method::PUT,
+            "/api/v1/sites/cliff/points",
+            Some(&Value::Object(stable)),
+        )
+        .await;
+    assert_eq!(st, 200, "{b}");
+    assert_eq!(b["items"].as_array().unwrap().len(), STABLE, "{b}");
+    assert!(b["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|p| p["role"] == "stable"));
     let block: Vec<String> = (STABLE..N).map(|i| format!("T{:03}", i + 1)).collect();
     let (st, b) = s
         .send(
@@ -73,12 +81,32 @@ async fn a_site_is_edited_its_group_deleted_and_every_change_audited() {
     moving_site(&s).await;
     let watch = open_alerts(&s).await;
     assert!(!watch.is_empty(), "the block's points alert");
-    // Creating the site is not an edit; the group declaration is one.
+    // Creating the site is not an edit; the stable points and the group declaration are.
     let before = audit(&s).await;
-    assert_eq!(before.len(), 1, "{before:#?}");
+    assert_eq!(before.len(), STABLE + 1, "{before:#?}");
     assert_eq!(before[0]["action"], "group.put");
     assert_eq!(before[0]["actor"], "anonymous");
     assert!(before[0]["value_before"].is_null());
+    assert!(
+        before[1..].iter().all(|r| r["action"] == "point.set"),
+        "{before:#?}"
+    );
+
+    // Bulk point settings are all or nothing: one never-measured name refuses the whole change.
+    let snap = snapshot(&s.store).await;
+    let (st, b) = s
+        .send(
+            Method::PUT,
+            "/api/v1/sites/cliff/points",
+            Some(&json!({"T007": {"role": "stable"}, "T999": {"role": "stable"}})),
+        )
+        .await;
+    assert_eq!(st, 422, "{b}");
+    assert!(
+        b["error"]["message"].as_str().unwrap().contains("T999"),
+        "{b}"
+    );
+    assert_eq!(snapshot(&s.store).await, snap, "nothing stored");
 
     // The rule tuned after the first season: the open alerts are re-evaluated at once and say
     // which change decided them.
@@ -205,7 +233,7 @@ async fn a_site_is_edited_its_group_deleted_and_every_change_audited() {
     // Newest first, paged.
     let ats: Vec<&str> = rows.iter().map(|r| r["at"].as_str().unwrap()).collect();
     assert!(ats.windows(2).all(|w| w[0] >= w[1]), "{ats:?}");
-    assert_eq!(rows.len(), 5, "{rows:#?}");
+    assert_eq!(rows.len(), STABLE + 5, "{rows:#?}");
     let (_, first) = s.get("/api/v1/sites/cliff/audit?limit=2").await;
     let cursor = first["next_cursor"].as_str().unwrap();
     let (_, second) = s
