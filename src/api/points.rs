@@ -143,8 +143,7 @@ fn check_settings(point: &str, settings: &PointSettings) -> Result<(), ApiError>
             return Err(ApiError::unprocessable(
                 "invalid_point",
                 format!(
-                    "point '{}': group '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
-                    cliffwatch_core::contract::truncate_for_message(point),
+                    "group '{}': identifiers must match [A-Za-z0-9._-]{{1,64}} and not be . or ..",
                     cliffwatch_core::contract::truncate_for_message(g)
                 ),
             ));
@@ -154,11 +153,7 @@ fn check_settings(point: &str, settings: &PointSettings) -> Result<(), ApiError>
         if !cliffwatch_core::analysis::is_usable_direction(d) {
             return Err(ApiError::unprocessable(
                 "invalid_point",
-                format!(
-                    "point '{}': {}",
-                    cliffwatch_core::contract::truncate_for_message(point),
-                    cliffwatch_core::analysis::UNUSABLE_DIRECTION
-                ),
+                cliffwatch_core::analysis::UNUSABLE_DIRECTION,
             ));
         }
     }
@@ -196,7 +191,16 @@ pub async fn update_many(
         ));
     }
     for (point, settings) in &body {
-        check_settings(point, settings)?;
+        check_settings(point, settings).map_err(|mut e| {
+            if !e.message.starts_with("point '") {
+                e.message = format!(
+                    "point '{}': {}",
+                    cliffwatch_core::contract::truncate_for_message(point),
+                    e.message
+                );
+            }
+            e
+        })?;
     }
     let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
     let changes: Vec<(String, PointSettings)> = body.into_iter().collect();
