@@ -40,6 +40,18 @@ fn observed_at(k: usize) -> String {
     .to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
 }
 
+/// Epoch `k` of site `s`: 4 stations, the block moving 0.3 mm an epoch.
+fn epoch(s: usize, k: usize) -> serde_json::Value {
+    synthetic_epoch(
+        4,
+        POINTS,
+        &observed_at(k),
+        (s * 10_000 + k) as u64,
+        0.3 * k as f64,
+        STABLE,
+    )
+}
+
 async fn timed(
     client: &reqwest::Client,
     method: Method,
@@ -108,14 +120,7 @@ async fn load(seconds: u64) {
             let client = reqwest::Client::new();
             let mut k = 0;
             while Instant::now() < end {
-                let body = synthetic_epoch(
-                    4,
-                    POINTS,
-                    &observed_at(k),
-                    (s * 10_000 + k) as u64,
-                    0.3 * k as f64,
-                    STABLE,
-                );
+                let body = epoch(s, k);
                 let url = format!("{base}/api/v1/sites/s{s}/epochs");
                 let (st, t) = timed(&client, Method::POST, url, Some(&body)).await;
                 log.lock()
@@ -208,14 +213,7 @@ async fn kill9() {
             let client = reqwest::Client::new();
             let mut acknowledged = vec![];
             for k in 0..1000 {
-                let body = synthetic_epoch(
-                    4,
-                    POINTS,
-                    &observed_at(k),
-                    (s * 10_000 + k) as u64,
-                    0.3 * k as f64,
-                    STABLE,
-                );
+                let body = epoch(s, k);
                 match client
                     .post(format!("{base}/api/v1/sites/s{s}/epochs"))
                     .json(&body)

@@ -32,17 +32,7 @@ pub async fn apply_configured(store: &Store, config: &Config) -> Result<(), Conf
         // recomputed (like a new reference epoch through the API), so that an alert of a rule
         // that is gone or no longer met resolves now instead of staying open.
         if let (Some(b), Some(a)) = (before, sites::get(&mut *tx, &site.id).await?) {
-            if (
-                b.reference_epochs,
-                b.process_noise,
-                b.confidence,
-                &b.alert_rules,
-            ) != (
-                a.reference_epochs,
-                a.process_noise,
-                a.confidence,
-                &a.alert_rules,
-            ) {
+            if super::site_admin::analysis_changed(&b, &a) {
                 tracing::info!(site = %site.id, "analysis settings or alert rules changed in the \
                     configuration file: the site's series and alerts are recomputed");
                 let cause = super::recompute::RecomputeCause::Settings;
