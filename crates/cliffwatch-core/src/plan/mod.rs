@@ -1,0 +1,367 @@
+//! Campaign design (issue 78): the precision and the smallest detectable movement of every target
+//! of a *planned* camera network, before anyone installs it.
+//!
+//! The pre-analysis takes the plan's geometry as truth: [`network::planned_epoch`] projects each
+//! target into each station with collinearity (eq 2 of the paper; the orthogonal model (5)+(9) is
+//! as rigorous, so the residuals are zero), and the ordinary adjustment
+//! ([`crate::photogrammetry::adjust()`]) solves that noise-free epoch with the planned a-priori σ
+//! and [`AdjustOptions::apriori_precision`]: its covariances are then σ0²·Qxx from the normal
+//! equations at the planned geometry with the variance factor 1 — what an epoch of the plan will
+//! show on average, with no simulation. Each target's 3 × 3 covariance gives σX, σY, σZ, the σ
+//! along the face normal, and the minimum detectable displacement between two epochs of the plan
+//! (displacement covariance 2Σ, two independent epochs of the same network) by
+//! [`minimum_detectable`], the point page's definition (single-point χ²(3) test at the confidence,
+//! detected with probability `power`).
+
+pub mod network;
+
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::analysis::sensitivity::{minimum_detectable, DEFAULT_POWER};
+use crate::analysis::stats::chi2_quantile;
+use crate::photogrammetry::input::epoch::DEFAULT_CONTROL_SIGMA_M;
+use crate::photogrammetry::{adjust, AdjustError, AdjustOptions, Model};
+
+pub use network::{look_at, planned_epoch, PlannedEpoch};
+
+/// A planned network (the JSON of `cliffwatch plan`; `docs/api.md`, "Campaign design").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plan {
+    /// Projection model of the adjustment (default orthogonal).
+    #[serde(default)]
+    pub model: Model,
+    /// A-priori σ of one image coordinate in pixels (e.g. 0.25).
+    pub sigma_px: f64,
+    /// Confidence of the displacement test, 0.5–0.999999 (default 0.95).
+    #[serde(default = "default_confidence")]
+    pub confidence: f64,
+    /// Detection probability the MDD is stated at, 0–1 (default 0.8).
+    #[serde(default = "default_power")]
+    pub power: f64,
+    /// σ of each coordinate of a known (stable) target in m (default 0.001 m, the upload form's).
+    #[serde(default = "default_known_sigma")]
+    pub known_sigma_m: f64,
+    /// Outward face normal (any length, site frame); default: from the targets' centroid toward
+    /// the stations' centroid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub face_normal: Option<[f64; 3]>,
+    /// Cameras (lens and sensor).
+    pub cameras: Vec<PlanCamera>,
+    /// Camera stations, one image each.
+    pub stations: Vec<PlanStation>,
+    /// Targets with approximate coordinates.
+    pub targets: Vec<PlanTarget>,
+}
+
+fn default_confidence() -> f64 {
+    0.95
+}
+fn default_power() -> f64 {
+    DEFAULT_POWER
+}
+fn default_known_sigma() -> f64 {
+    DEFAULT_CONTROL_SIGMA_M
+}
+
+/// A planned camera: lens and sensor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlanCamera {
+    /// Camera id, referenced by stations.
+    pub id: String,
+    /// Principal distance c in mm.
+    pub c_mm: f64,
+    /// Self-calibrate c (default true, as the orthogonal model's adjustment does).
+    #[serde(default = "yes")]
+    pub calibrate_c: bool,
+    /// Pixel size in mm.
+    pub pixel_size_mm: f64,
+    /// Sensor width in pixels.
+    pub width_px: u32,
+    /// Sensor height in pixels.
+    pub height_px: u32,
+    /// This camera's σ of one image coordinate in pixels (default: the plan's `sigma_px`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_px: Option<f64>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// A planned camera station.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlanStation {
+    /// Station name (also the image id).
+    pub name: String,
+    /// Camera id.
+    pub camera: String,
+    /// Projection centre in m (site frame).
+    pub position: [f64; 3],
+    /// The point the camera is aimed at, m (site frame).
+    pub aim: [f64; 3],
+    /// The image's upward direction in the site frame (default `[0, 0, 1]`, Z up).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub up: Option<[f64; 3]>,
+}
+
+/// A planned target.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlanTarget {
+    /// Point name.
+    pub point: String,
+    /// Approximate coordinates in m (site frame).
+    pub xyz: [f64; 3],
+    /// A stable point of known coordinates (control of the adjustment).
+    #[serde(default)]
+    pub known: bool,
+    /// σ of each known coordinate in m (default: the plan's `known_sigma_m`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_m: Option<f64>,
+}
+
+/// A plan that cannot be analysed; each variant names the item at fault.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum PlanError {
+    /// A station names a camera the plan does not have.
+    #[error("station {station}: camera '{camera}' is not in the plan's cameras")]
+    UnknownCamera {
+        /// The station.
+        station: String,
+        /// The camera it names.
+        camera: String,
+    },
+    /// A station's aim is its position, or its `up` lies along the view.
+    #[error("station {station}: aim equals the position, or 'up' lies along the view direction")]
+    BadAim {
+        /// The station.
+        station: String,
+    },
+    /// A station sees no target (all behind it or off its sensor).
+    #[error("station {station} sees no target: all are behind it or off its sensor")]
+    SeesNothing {
+        /// The station.
+        station: String,
+    },
+    /// A value out of range.
+    #[error("{item}: {why}")]
+    Invalid {
+        /// The field or item.
+        item: String,
+        /// What is wrong.
+        why: String,
+    },
+    /// The planned adjustment cannot be solved (too few known points seen, singular network…).
+    #[error("the planned network cannot be adjusted: {0}")]
+    Adjustment(#[from] AdjustError),
+}
+
+/// σ of the three site-frame coordinates in mm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SigmaXyz {
+    /// σX in mm.
+    pub x: f64,
+    /// σY in mm.
+    pub y: f64,
+    /// σZ in mm.
+    pub z: f64,
+}
+
+/// The predicted precision of one target.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TargetPrecision {
+    /// Point name.
+    pub point: String,
+    /// A known (stable) point.
+    pub known: bool,
+    /// Number of stations that see it.
+    pub cameras: usize,
+    /// The stations that see it.
+    pub stations: Vec<String>,
+    /// σX, σY, σZ in mm (None when seen by fewer than two stations).
+    pub sigma_mm: Option<SigmaXyz>,
+    /// The 3 × 3 covariance in mm² (site frame).
+    pub covariance_mm2: Option<[[f64; 3]; 3]>,
+    /// σ along the face normal in mm.
+    pub sigma_normal_mm: Option<f64>,
+    /// Minimum detectable displacement between two epochs along the face normal, mm.
+    pub mdd_normal_mm: Option<f64>,
+    /// Minimum detectable displacement between two epochs in the worst 3-D direction, mm.
+    pub mdd_3d_mm: Option<f64>,
+}
+
+/// The predicted σ of one camera's self-calibrated c.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InteriorPrecision {
+    /// Camera id.
+    pub camera: String,
+    /// σ of c in mm (None when c is held fixed).
+    pub sigma_c_mm: Option<f64>,
+}
+
+/// The pre-analysis of a plan.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanReport {
+    /// Projection model.
+    pub model: Model,
+    /// Confidence of the displacement test (0–1).
+    pub confidence: f64,
+    /// Detection probability of the MDD (0–1).
+    pub power: f64,
+    /// The unit face normal used (site frame).
+    pub face_normal: [f64; 3],
+    /// Degrees of freedom of the planned adjustment.
+    pub dof: i64,
+    /// The largest σ of a self-calibrated c over the cameras, mm (None when every c is fixed).
+    pub sigma_c_mm: Option<f64>,
+    /// σ of c per camera.
+    pub interior: Vec<InteriorPrecision>,
+    /// One entry per target, in plan order.
+    pub targets: Vec<TargetPrecision>,
+    /// Weak points of the plan, in words.
+    pub warnings: Vec<String>,
+}
+
+/// Checks the plan's numbers; the error names the item.
+fn check(plan: &Plan) -> Result<(), PlanError> {
+    let bad = |item: &str, why: &str| {
+        Err(PlanError::Invalid {
+            item: item.into(),
+            why: why.into(),
+        })
+    };
+    if !(plan.sigma_px.is_finite() && plan.sigma_px > 0.0) {
+        return bad("sigma_px", "must be a positive number of pixels");
+    }
+    if !(0.5..1.0).contains(&plan.confidence) {
+        return bad("confidence", "must lie in [0.5, 1)");
+    }
+    if !(plan.power > 0.0 && plan.power < 1.0) {
+        return bad("power", "must lie in (0, 1)");
+    }
+    if plan.cameras.is_empty() || plan.stations.len() < 2 {
+        return bad(
+            "stations",
+            "a plan needs a camera and at least two stations",
+        );
+    }
+    for c in &plan.cameras {
+        if !(c.c_mm > 0.0 && c.pixel_size_mm > 0.0 && c.width_px > 0 && c.height_px > 0) {
+            return bad(
+                &format!("camera {}", c.id),
+                "c_mm, pixel_size_mm, width_px and height_px must be positive",
+            );
+        }
+    }
+    if plan.targets.iter().filter(|t| t.known).count() < 4 {
+        return bad("targets", "at least four known (stable) targets are needed");
+    }
+    Ok(())
+}
+
+/// The face normal: the plan's, or from the targets' centroid toward the stations'.
+fn face_normal(plan: &Plan) -> Vector3<f64> {
+    let mean = |v: &mut dyn Iterator<Item = [f64; 3]>| {
+        let (s, n) = v.fold((Vector3::zeros(), 0.0), |(s, n), x| {
+            (s + Vector3::from(x), n + 1.0)
+        });
+        s / f64::max(n, 1.0)
+    };
+    let n = plan.face_normal.map(Vector3::from).unwrap_or_else(|| {
+        mean(&mut plan.stations.iter().map(|s| s.position))
+            - mean(&mut plan.targets.iter().map(|t| t.xyz))
+    });
+    n.try_normalize(0.0).unwrap_or_else(Vector3::z)
+}
+
+/// The pre-analysis of a plan: each target's predicted covariance, σ, σ along the face normal and
+/// minimum detectable displacements, σ of c, and warnings (targets seen by fewer than two
+/// stations). See the module documentation for the method.
+pub fn pre_analysis(plan: &Plan) -> Result<PlanReport, PlanError> {
+    check(plan)?;
+    let planned = planned_epoch(plan)?;
+    let options = AdjustOptions {
+        model: plan.model,
+        apriori_precision: true,
+        snooping: false,
+        ..AdjustOptions::default()
+    };
+    let adjustment = adjust(&planned.epoch, &options)?;
+    let normal = face_normal(plan);
+    let critical = chi2_quantile(plan.confidence, 3.0);
+    let mut warnings = Vec::new();
+    let targets = plan
+        .targets
+        .iter()
+        .zip(&planned.seen_by)
+        .map(|(t, (_, stations))| {
+            let mut out = TargetPrecision {
+                point: t.point.clone(),
+                known: t.known,
+                cameras: stations.len(),
+                stations: stations.clone(),
+                sigma_mm: None,
+                covariance_mm2: None,
+                sigma_normal_mm: None,
+                mdd_normal_mm: None,
+                mdd_3d_mm: None,
+            };
+            let Some(p) = adjustment.point(&t.point).filter(|_| stations.len() >= 2) else {
+                warnings.push(format!(
+                    "target {} is seen by {} station(s): at least two are needed, it is not \
+                     measured",
+                    t.point,
+                    stations.len()
+                ));
+                return out;
+            };
+            let cov = Matrix3::from_fn(|i, j| p.covariance_m2[i][j] * 1e6);
+            out.sigma_mm = Some(SigmaXyz {
+                x: cov[(0, 0)].sqrt(),
+                y: cov[(1, 1)].sqrt(),
+                z: cov[(2, 2)].sqrt(),
+            });
+            out.covariance_mm2 = Some(std::array::from_fn(|i| {
+                std::array::from_fn(|j| cov[(i, j)])
+            }));
+            out.sigma_normal_mm = Some((normal.transpose() * cov * normal)[(0, 0)].max(0.0).sqrt());
+            // Two independent epochs of the same network: the displacement's covariance is 2Σ.
+            if let Some(m) =
+                minimum_detectable(&(cov * 2.0), critical, 3, plan.power, Some(&normal))
+            {
+                out.mdd_normal_mm = m.along_mm;
+                out.mdd_3d_mm = Some(m.worst_mm);
+            }
+            out
+        })
+        .collect();
+    let interior: Vec<InteriorPrecision> = adjustment
+        .report
+        .cameras
+        .iter()
+        .map(|c| InteriorPrecision {
+            camera: c.id.clone(),
+            sigma_c_mm: c.c_sigma_mm,
+        })
+        .collect();
+    let sigma_c_mm = interior
+        .iter()
+        .filter_map(|c| c.sigma_c_mm)
+        .reduce(f64::max);
+    Ok(PlanReport {
+        model: plan.model,
+        confidence: plan.confidence,
+        power: plan.power,
+        face_normal: normal.into(),
+        dof: adjustment.report.dof,
+        sigma_c_mm,
+        interior,
+        targets,
+        warnings,
+    })
+}

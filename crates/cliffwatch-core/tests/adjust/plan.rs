@@ -1,0 +1,246 @@
+//! Campaign design (`cliffwatch_core::plan`): the pre-analysis's σ are claims, checked against
+//! simulation; dropping a station weakens the network; weak plans are reported, not panicked on.
+
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions};
+use cliffwatch_core::plan::{
+    planned_epoch, pre_analysis, Plan, PlanCamera, PlanError, PlanStation, PlanTarget,
+};
+use cliffwatch_sim::scenes::{long_range, LongRangeParams, Truth};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+/// σ of one image coordinate in the plans below, pixels.
+const SIGMA_PX: f64 = 0.25;
+
+/// The long-range scene of `seed`: 4 stations about 150 m from a 5 m × 3 m face, 16 targets,
+/// 400 mm lens, exact image coordinates (no noise, c given exactly).
+fn scene(seed: u64) -> (LongRangeParams, Truth) {
+    let p = LongRangeParams {
+        seed,
+        n_points: 16,
+        n_stations: 4,
+        distance_min_m: 145.0,
+        distance_max_m: 155.0,
+        c_error: 0.0,
+        noise_px: 0.0,
+        pixel_observations: false,
+        ..LongRangeParams::default()
+    };
+    let (_, truth) = long_range(&p).expect("scene");
+    (p, truth)
+}
+
+/// Targets that are known (stable) points: spread over the 6 × 3 grid of 16 targets.
+const KNOWN: [&str; 4] = ["T101", "T106", "T113", "T116"];
+
+/// The plan of a scene: its cameras aimed exactly as in the truth (aim 100 m along the view,
+/// up = r2), its targets at their true coordinates, four of them known.
+fn plan_of(p: &LongRangeParams, truth: &Truth) -> Plan {
+    let stations = truth
+        .cameras
+        .iter()
+        .map(|(name, cam)| {
+            let r3 = cam.r[2];
+            PlanStation {
+                name: name.clone(),
+                camera: "cam".into(),
+                position: cam.xo,
+                aim: std::array::from_fn(|i| cam.xo[i] - 100.0 * r3[i]),
+                up: Some(cam.r[1]),
+            }
+        })
+        .collect();
+    let targets = truth
+        .points
+        .iter()
+        .map(|(name, xyz)| PlanTarget {
+            point: name.clone(),
+            xyz: *xyz,
+            known: KNOWN.contains(&name.as_str()),
+            sigma_m: None,
+        })
+        .collect();
+    Plan {
+        model: Default::default(),
+        sigma_px: SIGMA_PX,
+        confidence: 0.95,
+        power: 0.8,
+        known_sigma_m: 0.001,
+        face_normal: None,
+        cameras: vec![PlanCamera {
+            id: "cam".into(),
+            c_mm: p.c_mm,
+            calibrate_c: true,
+            pixel_size_mm: p.pixel_size_mm,
+            width_px: p.width_px,
+            height_px: p.height_px,
+            sigma_px: None,
+        }],
+        stations,
+        targets,
+    }
+}
+
+/// The plan's exact image coordinates are the simulator's (noise-free, mm) to 1e-9 mm: the
+/// stations' rotations from position, aim and up reproduce the truth; adjusted, they leave
+/// σ0 below 1e-7 mm (the premise of the pre-analysis).
+#[test]
+fn plan_projects_as_the_simulator_does() {
+    let (p, truth) = scene(3);
+    let (sim, _) = long_range(&p).expect("scene");
+    let planned = planned_epoch(&plan_of(&p, &truth)).expect("planned epoch");
+    let mut compared = 0;
+    for image in &sim.images {
+        let mine = planned
+            .epoch
+            .images
+            .iter()
+            .find(|i| i.id == image.id)
+            .expect("same image");
+        for o in &image.observations {
+            let m = mine
+                .observations
+                .iter()
+                .find(|m| m.point == o.point)
+                .expect("same observation");
+            let dx = m.x_mm.unwrap() - o.x_mm.unwrap();
+            let dy = m.y_mm.unwrap() - o.y_mm.unwrap();
+            assert!(
+                dx.abs() < 1e-9 && dy.abs() < 1e-9,
+                "{} {}: {dx} {dy}",
+                image.id,
+                o.point
+            );
+            compared += 1;
+        }
+    }
+    assert!(compared >= 50, "{compared}");
+    // Zero residuals: the noise-free epoch fits the orthogonal model exactly.
+    let adjusted = adjust(&planned.epoch, &AdjustOptions::default()).expect("adjusts");
+    assert!(
+        adjusted.report.sigma0_mm < 1e-7,
+        "{}",
+        adjusted.report.sigma0_mm
+    );
+}
+
+/// Statistics are claims: over 12 seeds of the long-range scene (4 stations at ≈ 150 m, 16
+/// targets, 4 known with σ 1 mm, c self-calibrated), Gaussian noise of the planned σ on the
+/// image coordinates (0.25 px) and on the known coordinates (1 mm), adjusted as an epoch; the rms
+/// of (error / predicted σ) per axis over all targets and seeds must lie in [0.8, 1.25].
+#[test]
+fn plan_sigma_matches_simulation() {
+    let mut sum = [0.0f64; 3];
+    let mut n = 0usize;
+    for seed in 1..=12u64 {
+        let (p, truth) = scene(seed);
+        let plan = plan_of(&p, &truth);
+        let report = pre_analysis(&plan).expect("pre-analysis");
+        assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+        let mut epoch = planned_epoch(&plan).expect("planned").epoch;
+        let mut rng = ChaCha8Rng::seed_from_u64(1000 + seed);
+        let image_noise = Normal::new(0.0, SIGMA_PX * p.pixel_size_mm).unwrap();
+        for image in &mut epoch.images {
+            for o in &mut image.observations {
+                *o.x_mm.as_mut().unwrap() += image_noise.sample(&mut rng);
+                *o.y_mm.as_mut().unwrap() += image_noise.sample(&mut rng);
+            }
+        }
+        let control_noise = Normal::new(0.0, plan.known_sigma_m).unwrap();
+        for c in &mut epoch.control {
+            c.X += control_noise.sample(&mut rng);
+            c.Y += control_noise.sample(&mut rng);
+            c.Z += control_noise.sample(&mut rng);
+        }
+        let adjusted = adjust(&epoch, &AdjustOptions::default()).expect("adjusts");
+        for t in &report.targets {
+            let s = t.sigma_mm.expect("measured");
+            let est = adjusted.point(&t.point).expect("adjusted").xyz;
+            let tru = truth.points[&t.point];
+            for (k, sigma) in [s.x, s.y, s.z].into_iter().enumerate() {
+                let e = (est[k] - tru[k]) * 1e3 / sigma;
+                sum[k] += e * e;
+            }
+            n += 1;
+        }
+    }
+    let rms = sum.map(|s| (s / n as f64).sqrt());
+    eprintln!("plan: rms of error/σ (x, y, z) over {n} targets: {rms:?}");
+    for (axis, r) in ["x", "y", "z"].iter().zip(rms) {
+        assert!((0.8..=1.25).contains(&r), "{axis}: rms of error/σ {r}");
+    }
+}
+
+/// Dropping a station never improves a target's predicted σ, and worsens some by more than 5 %;
+/// the MDDs follow.
+#[test]
+fn plan_dropping_a_station_raises_sigma() {
+    let (p, truth) = scene(5);
+    let full = plan_of(&p, &truth);
+    let mut fewer = full.clone();
+    fewer.stations.remove(1);
+    let a = pre_analysis(&full).expect("full");
+    let b = pre_analysis(&fewer).expect("fewer");
+    let norm = |s: cliffwatch_core::plan::SigmaXyz| (s.x * s.x + s.y * s.y + s.z * s.z).sqrt();
+    let mut worse = 0;
+    for (ta, tb) in a.targets.iter().zip(&b.targets) {
+        let (sa, sb) = (norm(ta.sigma_mm.unwrap()), norm(tb.sigma_mm.unwrap()));
+        assert!(sb >= sa * (1.0 - 1e-6), "{}: {sa} → {sb}", ta.point);
+        assert!(tb.mdd_3d_mm.unwrap() >= ta.mdd_3d_mm.unwrap() * (1.0 - 1e-6));
+        if sb > 1.05 * sa {
+            worse += 1;
+        }
+        assert_eq!(tb.cameras + 1, ta.cameras, "{}", ta.point);
+    }
+    assert!(worse > 0);
+    assert!(b.sigma_c_mm.unwrap() > a.sigma_c_mm.unwrap());
+}
+
+/// A target seen by one station, and one behind every station, are reported as such (no σ, a
+/// warning naming them); a station naming an unknown camera is an error naming it.
+#[test]
+fn plan_reports_targets_seen_by_fewer_than_two_stations() {
+    let (p, truth) = scene(2);
+    let mut plan = plan_of(&p, &truth);
+    plan.targets.push(PlanTarget {
+        point: "LONE".into(),
+        xyz: [40.0, 1.5, 0.5],
+        known: false,
+        sigma_m: None,
+    });
+    plan.targets.push(PlanTarget {
+        point: "BEHIND".into(),
+        xyz: [0.0, 1.5, 400.0],
+        known: false,
+        sigma_m: None,
+    });
+    plan.stations.push(PlanStation {
+        name: "S9".into(),
+        camera: "cam".into(),
+        position: [40.0, 1.5, 150.0],
+        aim: [40.0, 1.5, 0.5],
+        up: Some([0.0, 1.0, 0.0]),
+    });
+    let report = pre_analysis(&plan).expect("pre-analysis");
+    let lone = report.targets.iter().find(|t| t.point == "LONE").unwrap();
+    assert_eq!(lone.cameras, 1);
+    assert!(lone.sigma_mm.is_none() && lone.mdd_3d_mm.is_none());
+    let behind = report.targets.iter().find(|t| t.point == "BEHIND").unwrap();
+    assert_eq!(behind.cameras, 0);
+    assert!(report.warnings.iter().any(|w| w.contains("LONE")));
+    assert!(report.warnings.iter().any(|w| w.contains("BEHIND")));
+    assert!(
+        report
+            .targets
+            .iter()
+            .filter(|t| t.sigma_mm.is_some())
+            .count()
+            == 16
+    );
+
+    plan.stations[0].camera = "nikon".into();
+    let err = pre_analysis(&plan).unwrap_err();
+    assert!(matches!(err, PlanError::UnknownCamera { .. }), "{err}");
+    assert!(err.to_string().contains("nikon"));
+}
