@@ -6,3 +6,4 @@ mod support;
 
 mod adjust;
 mod detect;
+mod plan;
