@@ -223,9 +223,14 @@ pub struct PlanReport {
     pub interior: Vec<InteriorPrecision>,
     /// One entry per target, in plan order.
     pub targets: Vec<TargetPrecision>,
-    /// Weak points of the plan, in words.
+    /// Weak points of the plan, in words: targets seen by fewer than two stations, a
+    /// self-calibrated c with σ beyond [`WEAK_C_RELATIVE_SIGMA`] of c.
     pub warnings: Vec<String>,
 }
+
+/// σ of a self-calibrated c, relative to c, beyond which the report warns that c is weakly
+/// determined: 1 % (a scale error of that size in the targets' distances from the cameras).
+pub const WEAK_C_RELATIVE_SIGMA: f64 = 0.01;
 
 /// Checks the plan's numbers; the error names the item.
 fn check(plan: &Plan) -> Result<(), PlanError> {
@@ -349,6 +354,21 @@ pub fn pre_analysis(plan: &Plan) -> Result<PlanReport, PlanError> {
             sigma_c_mm: c.c_sigma_mm,
         })
         .collect();
+    for c in &adjustment.report.cameras {
+        if let Some(sc) = c
+            .c_sigma_mm
+            .filter(|sc| *sc > WEAK_C_RELATIVE_SIGMA * c.c_mm)
+        {
+            warnings.push(format!(
+                "camera {}: c is weakly determined (σ {sc:.2} mm, {:.1} % of c): c shows only \
+                 through the perspective of the targets' depth differences as seen from the \
+                 stations; more relief among the targets, stations at different distances or \
+                 more convergent views strengthen it, or hold c fixed from a calibration",
+                c.id,
+                100.0 * sc / c.c_mm
+            ));
+        }
+    }
     let sigma_c_mm = interior
         .iter()
         .filter_map(|c| c.sigma_c_mm)

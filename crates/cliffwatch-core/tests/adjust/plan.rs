@@ -137,7 +137,11 @@ fn plan_sigma_matches_simulation() {
         let (p, truth) = scene(seed);
         let plan = plan_of(&p, &truth);
         let report = pre_analysis(&plan).expect("pre-analysis");
-        assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+        assert!(
+            report.warnings.iter().all(|w| !w.contains("station(s)")),
+            "{:?}",
+            report.warnings
+        );
         let mut epoch = planned_epoch(&plan).expect("planned").epoch;
         let mut rng = ChaCha8Rng::seed_from_u64(1000 + seed);
         let image_noise = Normal::new(0.0, SIGMA_PX * p.pixel_size_mm).unwrap();
@@ -195,6 +199,39 @@ fn plan_dropping_a_station_raises_sigma() {
     }
     assert!(worse > 0);
     assert!(b.sigma_c_mm.unwrap() > a.sigma_c_mm.unwrap());
+}
+
+/// c is said to be weakly determined exactly when its σ exceeds 1 % of c: a flat face (5 cm of
+/// relief) at 150 m gets the warning, and the warning's absence matches the figure.
+#[test]
+fn plan_warns_when_c_is_weakly_determined() {
+    use cliffwatch_core::plan::WEAK_C_RELATIVE_SIGMA;
+    let (p, mut truth) = scene(4);
+    for (_, xyz) in truth.points.iter_mut() {
+        xyz[2] *= 0.05;
+    }
+    for flat in [false, true] {
+        let plan = if flat {
+            plan_of(&p, &truth)
+        } else {
+            plan_of(&p, &scene(4).1)
+        };
+        let report = pre_analysis(&plan).expect("pre-analysis");
+        let relative = report.sigma_c_mm.unwrap() / p.c_mm;
+        let warned = report
+            .warnings
+            .iter()
+            .any(|w| w.contains("c is weakly determined"));
+        assert_eq!(
+            warned,
+            relative > WEAK_C_RELATIVE_SIGMA,
+            "{relative}: {:?}",
+            report.warnings
+        );
+        if flat {
+            assert!(warned, "{relative}");
+        }
+    }
 }
 
 /// A target seen by one station, and one behind every station, are reported as such (no σ, a
