@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use nalgebra::Vector3;
 
-use super::{Plan, PlanError};
+use super::input::{Plan, PlanCamera, PlanError};
 use crate::photogrammetry::input::epoch::{
     ApproxInput, CameraInput, ControlInput, EpochInput, ImageInput, ObservationInput,
 };
@@ -64,7 +64,7 @@ fn projection_camera(c_mm: f64) -> Camera {
 
 /// Builds the noise-free epoch of a checked plan. Errors name the station or camera at fault.
 pub fn planned_epoch(plan: &Plan) -> Result<PlannedEpoch, PlanError> {
-    let cameras: BTreeMap<&str, &super::PlanCamera> =
+    let cameras: BTreeMap<&str, &PlanCamera> =
         plan.cameras.iter().map(|c| (c.id.as_str(), c)).collect();
     let mut seen: BTreeMap<&str, Vec<String>> = BTreeMap::new();
     let mut images = Vec::new();
