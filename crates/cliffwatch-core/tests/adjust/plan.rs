@@ -1,11 +1,13 @@
 //! Campaign design (`cliffwatch_core::plan`): the pre-analysis's σ are claims, checked against
 //! simulation; dropping a station weakens the network; weak plans are reported, not panicked on.
 
-use cliffwatch_core::photogrammetry::{adjust, AdjustOptions};
+use cliffwatch_core::analysis::stats::chi2_quantile;
+use cliffwatch_core::photogrammetry::{adjust, AdjustOptions, Adjustment};
 use cliffwatch_core::plan::{
     planned_epoch, pre_analysis, Plan, PlanCamera, PlanError, PlanStation, PlanTarget,
 };
 use cliffwatch_sim::scenes::{long_range, LongRangeParams, Truth};
+use nalgebra::{Matrix3, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -125,14 +127,40 @@ fn plan_projects_as_the_simulator_does() {
     );
 }
 
+/// One simulated epoch of a plan: its exact image coordinates with Gaussian noise of the planned
+/// σ (0.25 px of `pixel_size_mm`), its known coordinates with noise of `known_sigma_m`, adjusted
+/// with c started 1 % off.
+fn simulated_epoch(plan: &Plan, pixel_size_mm: f64, rng: &mut ChaCha8Rng) -> Adjustment {
+    let mut epoch = planned_epoch(plan).expect("planned").epoch;
+    // c given 1 % off, as a lens's nominal value would be: the adjustment estimates it.
+    epoch.cameras[0].c_mm *= 1.01;
+    let image_noise = Normal::new(0.0, SIGMA_PX * pixel_size_mm).unwrap();
+    for image in &mut epoch.images {
+        for o in &mut image.observations {
+            *o.x_mm.as_mut().unwrap() += image_noise.sample(rng);
+            *o.y_mm.as_mut().unwrap() += image_noise.sample(rng);
+        }
+    }
+    let control_noise = Normal::new(0.0, plan.known_sigma_m).unwrap();
+    for c in &mut epoch.control {
+        c.X += control_noise.sample(rng);
+        c.Y += control_noise.sample(rng);
+        c.Z += control_noise.sample(rng);
+    }
+    adjust(&epoch, &AdjustOptions::default()).expect("adjusts")
+}
+
 /// Statistics are claims: over 12 seeds of the long-range scene (4 stations at ≈ 150 m, 16
 /// targets, 4 known with σ 1 mm, c self-calibrated), Gaussian noise of the planned σ on the
 /// image coordinates (0.25 px) and on the known coordinates (1 mm), adjusted as an epoch; the rms
-/// of (error / predicted σ) per axis over all targets and seeds must lie in [0.8, 1.25].
+/// of (error / predicted σ) per axis over all targets and seeds must lie in [0.8, 1.25]; that of
+/// c's error / predicted σc over the 12 seeds in [0.45, 1.6] (the 99.9 % range of the rms of 12
+/// standard normal values).
 #[test]
 fn plan_sigma_matches_simulation() {
     let mut sum = [0.0f64; 3];
     let mut n = 0usize;
+    let mut c_sum = 0.0;
     for seed in 1..=12u64 {
         let (p, truth) = scene(seed);
         let plan = plan_of(&p, &truth);
@@ -142,22 +170,10 @@ fn plan_sigma_matches_simulation() {
             "{:?}",
             report.warnings
         );
-        let mut epoch = planned_epoch(&plan).expect("planned").epoch;
         let mut rng = ChaCha8Rng::seed_from_u64(1000 + seed);
-        let image_noise = Normal::new(0.0, SIGMA_PX * p.pixel_size_mm).unwrap();
-        for image in &mut epoch.images {
-            for o in &mut image.observations {
-                *o.x_mm.as_mut().unwrap() += image_noise.sample(&mut rng);
-                *o.y_mm.as_mut().unwrap() += image_noise.sample(&mut rng);
-            }
-        }
-        let control_noise = Normal::new(0.0, plan.known_sigma_m).unwrap();
-        for c in &mut epoch.control {
-            c.X += control_noise.sample(&mut rng);
-            c.Y += control_noise.sample(&mut rng);
-            c.Z += control_noise.sample(&mut rng);
-        }
-        let adjusted = adjust(&epoch, &AdjustOptions::default()).expect("adjusts");
+        let adjusted = simulated_epoch(&plan, p.pixel_size_mm, &mut rng);
+        let c_error = adjusted.report.cameras[0].c_mm - p.c_mm;
+        c_sum += (c_error / report.sigma_c_mm.unwrap()).powi(2);
         for t in &report.targets {
             let s = t.sigma_mm.expect("measured");
             let est = adjusted.point(&t.point).expect("adjusted").xyz;
@@ -174,6 +190,54 @@ fn plan_sigma_matches_simulation() {
     for (axis, r) in ["x", "y", "z"].iter().zip(rms) {
         assert!((0.8..=1.25).contains(&r), "{axis}: rms of error/σ {r}");
     }
+    let c_rms = (c_sum / 12.0).sqrt();
+    eprintln!("plan: rms of (c error)/σc over 12 seeds: {c_rms}");
+    assert!((0.45..=1.6).contains(&c_rms), "c: rms of error/σ {c_rms}");
+}
+
+/// The MDD is a claim too: a target moved by its predicted `mdd_normal_mm` along the face normal
+/// between two simulated epochs (each with noise as planned, the 2nd with the target moved) is
+/// detected by the single-point test `dᵀ(2Σ)⁻¹d > χ²(3; 0.95)` at the predicted power, 80 %:
+/// over 10 seeds × 20 pairs the detection rate must lie in [0.72, 0.88] (± 2.8 binomial σ).
+#[test]
+fn plan_mdd_is_detected_at_the_stated_power() {
+    let critical = chi2_quantile(0.95, 3.0);
+    let (mut detected, mut trials) = (0usize, 0usize);
+    for seed in 1..=10u64 {
+        let (p, truth) = scene(seed);
+        let plan = plan_of(&p, &truth);
+        let report = pre_analysis(&plan).expect("pre-analysis");
+        let t = report.targets.iter().find(|t| t.point == "T108").unwrap();
+        let cov = Matrix3::from_fn(|i, j| t.covariance_mm2.unwrap()[i][j]);
+        let inverse = (cov * 2.0).try_inverse().expect("invertible");
+        let n = Vector3::from(report.face_normal);
+        let mdd = t.mdd_normal_mm.unwrap();
+        let mut moved = plan.clone();
+        let target = moved
+            .targets
+            .iter_mut()
+            .find(|x| x.point == "T108")
+            .unwrap();
+        for k in 0..3 {
+            target.xyz[k] += mdd * 1e-3 * n[k];
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(5000 + seed);
+        for _ in 0..20 {
+            let a = simulated_epoch(&plan, p.pixel_size_mm, &mut rng);
+            let b = simulated_epoch(&moved, p.pixel_size_mm, &mut rng);
+            let (xa, xb) = (a.point("T108").unwrap().xyz, b.point("T108").unwrap().xyz);
+            let d = Vector3::from_fn(|k, _| (xb[k] - xa[k]) * 1e3);
+            if (d.transpose() * inverse * d)[(0, 0)] > critical {
+                detected += 1;
+            }
+            trials += 1;
+        }
+    }
+    let rate = detected as f64 / trials as f64;
+    eprintln!(
+        "plan: a displacement of the predicted MDD detected in {detected}/{trials} = {rate:.3}"
+    );
+    assert!((0.72..=0.88).contains(&rate), "detection rate {rate}");
 }
 
 /// Dropping a station never improves a target's predicted σ, and worsens some by more than 5 %;
@@ -280,4 +344,32 @@ fn plan_reports_targets_seen_by_fewer_than_two_stations() {
     let err = pre_analysis(&plan).unwrap_err();
     assert!(matches!(err, PlanError::UnknownCamera { .. }), "{err}");
     assert!(err.to_string().contains("nikon"));
+}
+
+/// The predicted σ of c is conservative at long range: over 4 geometries × 50 simulated epochs
+/// (4 stations at ≈ 150 m, σc ≈ 7 % of c) the rms of (c error)/σc per geometry lies in
+/// [0.55, 1.1] — measured 0.66–0.80 when written: the linearised σc overstates the scatter of ĉ by
+/// about a quarter there (the adjustment's own reported σc is the same figure), while the
+/// coordinates' σ hold (`plan_sigma_matches_simulation`). The bound pins this behaviour: a σc
+/// that became optimistic (rms above 1.1) or far too pessimistic fails.
+#[test]
+fn plan_sigma_c_is_conservative_at_long_range() {
+    let mut all = Vec::new();
+    for seed in 1..=4u64 {
+        let (p, truth) = scene(seed);
+        let plan = plan_of(&p, &truth);
+        let report = pre_analysis(&plan).expect("pre-analysis");
+        let sigma_c = report.sigma_c_mm.unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(77 + seed);
+        let mut sum = 0.0;
+        for _ in 0..50 {
+            let a = simulated_epoch(&plan, p.pixel_size_mm, &mut rng);
+            sum += ((a.report.cameras[0].c_mm - p.c_mm) / sigma_c).powi(2);
+        }
+        all.push(((sum / 50.0).sqrt(), sigma_c));
+    }
+    eprintln!("plan: rms of (c error)/σc and σc (mm) per geometry: {all:?}");
+    for (rms, sigma_c) in all {
+        assert!((0.55..=1.1).contains(&rms), "rms {rms} at σc {sigma_c} mm");
+    }
 }
