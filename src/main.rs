@@ -1,4 +1,4 @@
-//! The `cliffwatch` command line: `serve`, `adjust`, `detect`, `simulate`, `backup`,
+//! The `cliffwatch` command line: `serve`, `adjust`, `detect`, `simulate`, `plan`, `backup`,
 //! `migrate-store`.
 
 mod cli;
@@ -23,6 +23,8 @@ enum Command {
     Detect(cli::detect::DetectArgs),
     /// Generate simulated epochs with truth.
     Simulate(cli::simulate::SimulateArgs),
+    /// Predict the precision and the minimum detectable displacement of a planned camera network.
+    Plan(cli::plan::PlanArgs),
     /// Take a consistent online copy of the database.
     Backup(cli::backup::BackupArgs),
     /// Copy a whole installation into an empty store (SQLite <-> PostgreSQL), offline.
@@ -35,6 +37,7 @@ fn main() -> anyhow::Result<()> {
         Command::Adjust(args) => cli::adjust::run(args),
         Command::Detect(args) => cli::detect::run(args),
         Command::Simulate(args) => cli::simulate::run(args),
+        Command::Plan(args) => cli::plan::run(args),
         Command::Backup(args) => cli::backup::run(args),
         Command::MigrateStore(args) => cli::migrate_store::run(args),
     };

@@ -7,5 +7,6 @@ pub mod detect;
 pub mod heap;
 pub mod migrate_store;
 pub mod overlay;
+pub mod plan;
 pub mod serve;
 pub mod simulate;

@@ -6,4 +6,5 @@ mod support;
 
 mod adjust;
 mod detect;
+mod plan;
 mod readme;

@@ -12,6 +12,8 @@
 //! - [`detect`]: images → circular targets with sub-pixel centres → identified observations.
 //! - [`analysis`]: stable-point datum, congruence test, displacements, velocity, time to failure,
 //!   alert rules.
+//! - [`plan`]: campaign design, the predicted precision and minimum detectable displacement of a
+//!   planned camera network (pre-analysis with zero residuals).
 //! - [`contract`]: the names of the domain's enums (levels, states, roles, models) as the API, the
 //!   webhooks and the database spell them; the integers of JSON bodies.
 //!
@@ -105,3 +107,4 @@ pub mod analysis;
 pub mod contract;
 pub mod detect;
 pub mod photogrammetry;
+pub mod plan;

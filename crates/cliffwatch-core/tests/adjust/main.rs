@@ -10,6 +10,7 @@ mod calibration;
 mod cancel;
 mod errors;
 mod paper;
+mod plan;
 mod plausible;
 mod scenes;
 mod sigma0;

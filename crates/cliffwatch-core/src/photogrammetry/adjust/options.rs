@@ -29,6 +29,10 @@ pub struct AdjustOptions {
     /// Report each camera's variance component (its share of vᵀPv and of the redundancy; one
     /// more pass over the observations' cofactors).
     pub variance_components: bool,
+    /// Scale the covariances and the calibrated parameters' σ by the a-priori variance (variance
+    /// factor 1) rather than the a-posteriori one: the pre-analysis of a planned network, whose
+    /// noise-free image coordinates leave zero residuals (`photogrammetry::plan`). Off by default.
+    pub apriori_precision: bool,
     /// Stops the adjustment early (at its next iteration) when cancelled or past its deadline;
     /// never by default.
     pub cancel: Cancel,
@@ -45,6 +49,7 @@ impl Default for AdjustOptions {
             max_iterations: 100,
             central_from_orthogonal: true,
             variance_components: false,
+            apriori_precision: false,
             cancel: Cancel::default(),
         }
     }

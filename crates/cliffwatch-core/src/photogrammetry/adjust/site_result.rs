@@ -159,11 +159,20 @@ pub(super) fn site_result(s: Solution) -> Result<Adjustment, AdjustError> {
         ));
     }
     let sigma0_mm = problem.reference_sigma_mm() * variance_factor.sqrt();
-    warnings.extend(apriori_sigma_warning(
-        problem.reference_sigma_mm(),
-        sigma0_mm,
-        dof,
-    ));
+    if !options.apriori_precision {
+        warnings.extend(apriori_sigma_warning(
+            problem.reference_sigma_mm(),
+            sigma0_mm,
+            dof,
+        ));
+    }
+    // The factor the cofactors are scaled by: the a-posteriori variance factor, or 1 (a-priori σ)
+    // for a pre-analysis.
+    let scale = if options.apriori_precision {
+        1.0
+    } else {
+        variance_factor
+    };
     let to_site = ToSite {
         frame: &frame,
         // Free network: the similarity onto the start coordinates gives the inner-constraint datum.
@@ -171,11 +180,11 @@ pub(super) fn site_result(s: Solution) -> Result<Adjustment, AdjustError> {
             Datum::Free => similarity_fit(&bundle.points, start_points),
             Datum::Control => None,
         },
-        variance_factor,
+        variance_factor: scale,
     };
     let (points, point_reports) = adjusted_points(problem, &bundle, &cof, &to_site);
     let joint_covariance = joint_covariance(problem, options, &cof, &to_site);
-    let (cameras, camera_reports) = calibrated_cameras(problem, &bundle, &cof, variance_factor);
+    let (cameras, camera_reports) = calibrated_cameras(problem, &bundle, &cof, scale);
     let orientations = orientations(problem, &bundle, &to_site);
     let (residuals, image_reports) = residual_reports(problem, &bundle, &w);
     let variance_components = if options.variance_components {

@@ -1,0 +1,252 @@
+//! Campaign design (issue 78): the precision and the smallest detectable movement of every target
+//! of a *planned* camera network, before anyone installs it.
+//!
+//! The pre-analysis takes the plan's geometry as truth: [`network::planned_epoch`] projects each
+//! target into each station with collinearity (eq 2 of the paper; the orthogonal model (5)+(9) is
+//! as rigorous, so the residuals are zero), and the ordinary adjustment
+//! ([`crate::photogrammetry::adjust()`]) solves that noise-free epoch with the planned a-priori σ
+//! and [`AdjustOptions::apriori_precision`]: its covariances are then σ0²·Qxx from the normal
+//! equations at the planned geometry with the variance factor 1 — what an epoch of the plan will
+//! show on average, with no simulation. Each target's 3 × 3 covariance gives σX, σY, σZ, the σ
+//! along the face normal, and the minimum detectable displacement between two epochs of the plan
+//! (displacement covariance 2Σ, two independent epochs of the same network) by
+//! [`minimum_detectable`], the point page's definition (single-point χ²(3) test at the confidence,
+//! detected with probability `power`).
+
+pub mod input;
+pub mod network;
+
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::analysis::sensitivity::minimum_detectable;
+use crate::analysis::stats::chi2_quantile;
+use crate::photogrammetry::{adjust, AdjustOptions, Model};
+
+pub use input::{Plan, PlanCamera, PlanError, PlanStation, PlanTarget};
+pub use network::{look_at, planned_epoch, PlannedEpoch};
+
+/// σ of the three site-frame coordinates in mm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SigmaXyz {
+    /// σX in mm.
+    pub x: f64,
+    /// σY in mm.
+    pub y: f64,
+    /// σZ in mm.
+    pub z: f64,
+}
+
+/// The predicted precision of one target.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TargetPrecision {
+    /// Point name.
+    pub point: String,
+    /// A known (stable) point.
+    pub known: bool,
+    /// Number of stations that see it.
+    pub cameras: usize,
+    /// The stations that see it.
+    pub stations: Vec<String>,
+    /// σX, σY, σZ in mm (None when seen by fewer than two stations).
+    pub sigma_mm: Option<SigmaXyz>,
+    /// The 3 × 3 covariance in mm² (site frame).
+    pub covariance_mm2: Option<[[f64; 3]; 3]>,
+    /// σ along the face normal in mm.
+    pub sigma_normal_mm: Option<f64>,
+    /// Minimum detectable displacement between two epochs along the face normal, mm.
+    pub mdd_normal_mm: Option<f64>,
+    /// Minimum detectable displacement between two epochs in the worst 3-D direction, mm.
+    pub mdd_3d_mm: Option<f64>,
+}
+
+/// The predicted σ of one camera's self-calibrated c.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InteriorPrecision {
+    /// Camera id.
+    pub camera: String,
+    /// σ of c in mm (None when c is held fixed).
+    pub sigma_c_mm: Option<f64>,
+}
+
+/// The pre-analysis of a plan.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanReport {
+    /// Projection model.
+    pub model: Model,
+    /// Confidence of the displacement test (0–1).
+    pub confidence: f64,
+    /// Detection probability of the MDD (0–1).
+    pub power: f64,
+    /// The unit face normal used (site frame).
+    pub face_normal: [f64; 3],
+    /// Degrees of freedom of the planned adjustment.
+    pub dof: i64,
+    /// The largest σ of a self-calibrated c over the cameras, mm (None when every c is fixed).
+    pub sigma_c_mm: Option<f64>,
+    /// σ of c per camera.
+    pub interior: Vec<InteriorPrecision>,
+    /// One entry per target, in plan order.
+    pub targets: Vec<TargetPrecision>,
+    /// Weak points of the plan, in words: targets seen by fewer than two stations, a
+    /// self-calibrated c with σ beyond [`WEAK_C_RELATIVE_SIGMA`] of c.
+    pub warnings: Vec<String>,
+}
+
+/// σ of a self-calibrated c, relative to c, beyond which the report warns that c is weakly
+/// determined: 1 % (a scale error of that size in the targets' distances from the cameras).
+pub const WEAK_C_RELATIVE_SIGMA: f64 = 0.01;
+
+/// Checks the plan's numbers; the error names the item.
+fn check(plan: &Plan) -> Result<(), PlanError> {
+    let bad = |item: &str, why: &str| {
+        Err(PlanError::Invalid {
+            item: item.into(),
+            why: why.into(),
+        })
+    };
+    if !(plan.sigma_px.is_finite() && plan.sigma_px > 0.0) {
+        return bad("sigma_px", "must be a positive number of pixels");
+    }
+    if !(0.5..1.0).contains(&plan.confidence) {
+        return bad("confidence", "must lie in [0.5, 1)");
+    }
+    if !(plan.power > 0.0 && plan.power < 1.0) {
+        return bad("power", "must lie in (0, 1)");
+    }
+    if plan.cameras.is_empty() || plan.stations.len() < 2 {
+        return bad(
+            "stations",
+            "a plan needs a camera and at least two stations",
+        );
+    }
+    for c in &plan.cameras {
+        if !(c.c_mm > 0.0 && c.pixel_size_mm > 0.0 && c.width_px > 0 && c.height_px > 0) {
+            return bad(
+                &format!("camera {}", c.id),
+                "c_mm, pixel_size_mm, width_px and height_px must be positive",
+            );
+        }
+    }
+    if plan.targets.iter().filter(|t| t.known).count() < 4 {
+        return bad("targets", "at least four known (stable) targets are needed");
+    }
+    Ok(())
+}
+
+/// The face normal: the plan's, or from the targets' centroid toward the stations'.
+fn face_normal(plan: &Plan) -> Vector3<f64> {
+    let mean = |v: &mut dyn Iterator<Item = [f64; 3]>| {
+        let (s, n) = v.fold((Vector3::zeros(), 0.0), |(s, n), x| {
+            (s + Vector3::from(x), n + 1.0)
+        });
+        s / f64::max(n, 1.0)
+    };
+    let n = plan.face_normal.map(Vector3::from).unwrap_or_else(|| {
+        mean(&mut plan.stations.iter().map(|s| s.position))
+            - mean(&mut plan.targets.iter().map(|t| t.xyz))
+    });
+    n.try_normalize(0.0).unwrap_or_else(Vector3::z)
+}
+
+/// The pre-analysis of a plan: each target's predicted covariance, σ, σ along the face normal and
+/// minimum detectable displacements, σ of c, and warnings (targets seen by fewer than two
+/// stations). See the module documentation for the method.
+pub fn pre_analysis(plan: &Plan) -> Result<PlanReport, PlanError> {
+    check(plan)?;
+    let planned = planned_epoch(plan)?;
+    let options = AdjustOptions {
+        model: plan.model,
+        apriori_precision: true,
+        snooping: false,
+        ..AdjustOptions::default()
+    };
+    let adjustment = adjust(&planned.epoch, &options)?;
+    let normal = face_normal(plan);
+    let critical = chi2_quantile(plan.confidence, 3.0);
+    let mut warnings = Vec::new();
+    let targets = plan
+        .targets
+        .iter()
+        .zip(&planned.seen_by)
+        .map(|(t, (_, stations))| {
+            let mut out = TargetPrecision {
+                point: t.point.clone(),
+                known: t.known,
+                cameras: stations.len(),
+                stations: stations.clone(),
+                sigma_mm: None,
+                covariance_mm2: None,
+                sigma_normal_mm: None,
+                mdd_normal_mm: None,
+                mdd_3d_mm: None,
+            };
+            let Some(p) = adjustment.point(&t.point).filter(|_| stations.len() >= 2) else {
+                warnings.push(format!(
+                    "target {} is seen by {} station(s): at least two are needed, it is not \
+                     measured",
+                    t.point,
+                    stations.len()
+                ));
+                return out;
+            };
+            let cov = Matrix3::from_fn(|i, j| p.covariance_m2[i][j] * 1e6);
+            out.sigma_mm = Some(SigmaXyz {
+                x: cov[(0, 0)].sqrt(),
+                y: cov[(1, 1)].sqrt(),
+                z: cov[(2, 2)].sqrt(),
+            });
+            out.covariance_mm2 = Some(std::array::from_fn(|i| {
+                std::array::from_fn(|j| cov[(i, j)])
+            }));
+            out.sigma_normal_mm = Some((normal.transpose() * cov * normal)[(0, 0)].max(0.0).sqrt());
+            // Two independent epochs of the same network: the displacement's covariance is 2Σ.
+            if let Some(m) =
+                minimum_detectable(&(cov * 2.0), critical, 3, plan.power, Some(&normal))
+            {
+                out.mdd_normal_mm = m.along_mm;
+                out.mdd_3d_mm = Some(m.worst_mm);
+            }
+            out
+        })
+        .collect();
+    let interior: Vec<InteriorPrecision> = adjustment
+        .report
+        .cameras
+        .iter()
+        .map(|c| InteriorPrecision {
+            camera: c.id.clone(),
+            sigma_c_mm: c.c_sigma_mm,
+        })
+        .collect();
+    for c in &adjustment.report.cameras {
+        if let Some(sc) = c
+            .c_sigma_mm
+            .filter(|sc| *sc > WEAK_C_RELATIVE_SIGMA * c.c_mm)
+        {
+            warnings.push(format!(
+                "camera {}: c is weakly determined (σ {sc:.2} mm, {:.1} % of c): c shows only \
+                 through the perspective of the targets' depth differences as seen from the \
+                 stations; more relief among the targets, stations at different distances or \
+                 more convergent views strengthen it, or hold c fixed from a calibration",
+                c.id,
+                100.0 * sc / c.c_mm
+            ));
+        }
+    }
+    let sigma_c_mm = interior
+        .iter()
+        .filter_map(|c| c.sigma_c_mm)
+        .reduce(f64::max);
+    Ok(PlanReport {
+        model: plan.model,
+        confidence: plan.confidence,
+        power: plan.power,
+        face_normal: normal.into(),
+        dof: adjustment.report.dof,
+        sigma_c_mm,
+        interior,
+        targets,
+        warnings,
+    })
+}
