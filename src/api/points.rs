@@ -174,9 +174,30 @@ pub async fn update_many(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
     access: Option<axum::Extension<crate::http::auth::Access>>,
-    ApiJson(body): ApiJson<std::collections::BTreeMap<String, PointSettings>>,
+    ApiJson(raw): ApiJson<std::collections::BTreeMap<String, serde_json::Value>>,
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
+    // Each value an object of the single-point form (serde would read a struct from an array).
+    let mut body = std::collections::BTreeMap::new();
+    for (point, value) in raw {
+        let named = |m: String| {
+            ApiError::unprocessable(
+                "invalid_point",
+                format!(
+                    "point '{}': {m}",
+                    cliffwatch_core::contract::truncate_for_message(&point)
+                ),
+            )
+        };
+        if !value.is_object() {
+            return Err(named(
+                "its settings must be a JSON object such as {\"role\": \"stable\"}".into(),
+            ));
+        }
+        let settings: PointSettings =
+            serde_json::from_value(value).map_err(|e| named(e.to_string()))?;
+        body.insert(point, settings);
+    }
     let max = crate::service::site_settings::MAX_POINTS_PER_CHANGE;
     if body.len() > max {
         return Err(ApiError::unprocessable(

@@ -107,6 +107,21 @@ async fn a_site_is_edited_its_group_deleted_and_every_change_audited() {
         "{b}"
     );
     assert_eq!(snapshot(&s.store).await, snap, "nothing stored");
+    for (body, words) in [
+        (json!({"T007": []}), "JSON object"),
+        (json!({"T007": {"role": "boss"}}), "boss"),
+        (json!({}), "no point"),
+    ] {
+        let (st, b) = s
+            .send(Method::PUT, "/api/v1/sites/cliff/points", Some(&body))
+            .await;
+        assert_eq!(st, 422, "{body}: {b}");
+        assert!(
+            b["error"]["message"].as_str().unwrap().contains(words),
+            "{body}: {b}"
+        );
+        assert_eq!(snapshot(&s.store).await, snap, "{body}: nothing stored");
+    }
 
     // The rule tuned after the first season: the open alerts are re-evaluated at once and say
     // which change decided them.
