@@ -394,7 +394,27 @@ async fn plots_draw_and_an_alert_is_acknowledged_in_chromium() {
     driver.goto(&s.url(&format!("/sites/{SITE}/report"))).await;
     let (pdf, pages) = driver.print_a4().await;
     let text = String::from_utf8_lossy(&pdf);
-    assert!(text.contains("595") && text.contains("842"), "A4 media box");
+    // Every page's MediaBox is A4, 595.28 × 841.89 pt, to Chromium's rounding to its pixel grid
+    // (595.92 × 841.92 or 842.88 seen).
+    let boxes: Vec<Vec<f64>> = text
+        .match_indices("/MediaBox [")
+        .map(|(i, m)| {
+            text[i + m.len()..]
+                .split(']')
+                .next()
+                .unwrap_or("")
+                .split_whitespace()
+                .filter_map(|v| v.parse().ok())
+                .collect()
+        })
+        .collect();
+    assert!(!boxes.is_empty(), "a MediaBox");
+    for b in &boxes {
+        assert!(
+            b.len() == 4 && (b[2] - 595.28).abs() < 1.5 && (b[3] - 841.89).abs() < 1.5,
+            "A4 media box: {boxes:?}"
+        );
+    }
     if let Some(dir) = std::env::var_os("CLIFFWATCH_SCREENSHOTS") {
         std::fs::write(Path::new(&dir).join("report.pdf"), &pdf).unwrap();
         eprintln!("report: {} bytes, {pages} page objects", pdf.len());
