@@ -10,7 +10,8 @@
 //!   cameras, drifting c), for end-to-end tests through the service.
 //! - [`kinematics`]: block motions as real slopes make them (failures, bursts, steps, cycles,
 //!   creep, scatter, shared errors), and [`ttf_benchmark`], the time-to-failure benchmark on them,
-//!   with [`ttf_bound`], what any forecaster could do on them (the Cramér–Rao bound).
+//!   with [`ttf_bound`], what any forecaster could do on them (the Cramér–Rao bound), and
+//!   [`ttf_undeclared`], the same series with the block not declared.
 
 #![warn(missing_docs)]
 
@@ -21,3 +22,4 @@ pub mod scenes;
 pub mod series;
 pub mod ttf_benchmark;
 pub mod ttf_bound;
+pub mod ttf_undeclared;

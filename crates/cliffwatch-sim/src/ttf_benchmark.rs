@@ -5,7 +5,7 @@
 //! direction: daily velocities, a 7-epoch moving average, Carlà et al. 2017's long-term window,
 //! and a straight line through the last 7 smoothed inverse velocities).
 //!
-//! `cargo run --release --example ttf_benchmark [-- SEEDS]` prints the table of
+//! `cargo run --release -p cliffwatch-sim --example ttf_benchmark [-- SEEDS]` prints the table of
 //! `docs/accuracy.md`; `crates/cliffwatch-core/tests/analysis/ttf.rs` asserts the goals on a few seeds per kind.
 
 use chrono::{DateTime, Utc};

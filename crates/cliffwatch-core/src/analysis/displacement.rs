@@ -138,6 +138,10 @@ pub struct PointAnalysis {
     /// Time-to-failure forecast from the filtered velocities (None unless accelerating).
     #[serde(default)]
     pub filtered_failure: Option<FailureForecast>,
+    /// The targets whose mean series gave `filtered_failure` with this one (not declared as a
+    /// block, they move together: `super::pooling`); empty for the point's own forecast.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pooled_with: Vec<String>,
 }
 
 /// Result of the single-point test.

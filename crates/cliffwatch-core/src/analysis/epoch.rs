@@ -245,6 +245,11 @@ pub struct FailureConfig {
     /// law is fitted (`ForecastMethod::Displacement`): long, so the creep before the onset pins
     /// the line (40 epochs measured best on the detection benchmark; capped by `filter_epochs`).
     pub acceleration_window: Window,
+    /// Targets not in a declared block that lie within this distance (m) of each other and move
+    /// together (displacements and filtered velocities equal within their σ) have their mean
+    /// series forecast, and each takes that forecast when it is tighter than its own
+    /// (`super::pooling`; 0: never pooled).
+    pub pool_radius_m: f64,
 }
 
 impl Default for FailureConfig {
@@ -259,6 +264,7 @@ impl Default for FailureConfig {
             confirm_hours: 72.0,
             confirm_both_ways: false,
             acceleration_window: Window::Epochs(40),
+            pool_radius_m: super::pooling::DEFAULT_POOL_RADIUS_M,
         }
     }
 }

@@ -17,6 +17,7 @@ use super::epoch::{AnalysisConfig, EpochCoordinates, PointConfig, PointRole};
 use super::error::AnalysisError;
 use super::history::{observed_of, raw_kinematics, samples_of, History};
 use super::linalg::sigma_length;
+use super::pooling::{pool_forecasts, PoolInputs};
 use super::reference_change::changed_since_baseline;
 use super::stats::{f_quantile, normal_quantile};
 use super::tracking::{track, Observed};
@@ -426,6 +427,7 @@ fn analyse_point(
         failure,
         filtered_along_mm: tracked.and_then(|t| t.along_mm),
         filtered_failure: tracked.and_then(|t| t.failure),
+        pooled_with: vec![],
     }
 }
 
@@ -510,7 +512,8 @@ pub fn analyse_epoch(
         current.observed_at,
         &epoch_wide,
     ));
-    let out: Vec<PointAnalysis> = transformed
+    let filter_cov: Vec<Matrix3<f64>> = transformed.iter().map(|(_, c)| *c).collect();
+    let mut out: Vec<PointAnalysis> = transformed
         .into_iter()
         .enumerate()
         .map(|(i, (d, cov))| {
@@ -524,6 +527,20 @@ pub fn analyse_epoch(
             analyse_point(point, d, cov, shared[i], &epoch_wide)
         })
         .collect();
+    if !same_epoch {
+        pool_forecasts(
+            &mut out,
+            &PoolInputs {
+                current,
+                history,
+                config,
+                filter_cov: &filter_cov,
+                shared: &shared,
+                reference_t_days: epoch_wide.reference_t_days,
+                critical3: epoch_wide.critical3,
+            },
+        );
+    }
     // The joint covariance of any set of points' displacements (the blocks' members).
     let index: HashMap<&str, usize> = diffs
         .names

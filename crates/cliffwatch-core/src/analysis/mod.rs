@@ -45,6 +45,7 @@ pub mod kalman;
 pub(crate) mod linalg;
 pub(crate) mod onset;
 pub(crate) mod onset_law;
+pub mod pooling;
 pub mod reference;
 pub mod reference_change;
 pub mod rigid_body;

@@ -91,6 +91,7 @@ pub fn analysis_sigma(
             failure: None,
             filtered_along_mm: None,
             filtered_failure: None,
+            pooled_with: vec![],
         }],
         new_points: vec![],
         warnings: vec![],

@@ -15,3 +15,4 @@ mod reference_stability;
 mod sensitivity;
 mod simulation;
 mod ttf;
+mod undeclared;

@@ -3,17 +3,20 @@
 //! bound) and a plain inverse-velocity baseline on the same series. Prints the tables of
 //! `docs/accuracy.md`.
 //!
-//! `cargo run --release --example ttf_benchmark [-- SEEDS [FIRST]]` (default 40 seeds per kind
+//! `cargo run --release -p cliffwatch-sim --example ttf_benchmark [-- SEEDS [FIRST]]` (default 40 seeds per kind
 //! from 0: 200 series). For the trade-off table, the time-to-failure settings from the
 //! environment: `TTF_CONFIRM_HOURS` (hours a forecast must converge over, 0 for none),
 //! `TTF_BOTH_WAYS` (1: the earlier and current failure times agree both ways, 0: one way),
-//! `TTF_METHOD` (`onset_law`, `displacement` or `smoothed_velocity`), `TTF_KINDS` (comma-separated
+//! `TTF_POOL_RADIUS` (m, 0: no pooling of undeclared targets), `TTF_METHOD` (`onset_law`, `displacement` or `smoothed_velocity`), `TTF_KINDS` (comma-separated
 //! kinds, e.g. `failing,burst`), and of the time-to-failure rule `TTF_CONFIDENCE` and
-//! `TTF_FOR_EPOCHS`; `TTF_SERIES=1` adds the failing series one by one.
+//! `TTF_FOR_EPOCHS`; `TTF_SERIES=1` adds the failing series one by one;
+//! `TTF_UNDECLARED=1` runs the series with the block not declared (`ttf_undeclared`), each
+//! target's σ scaled by `TTF_TARGET_SIGMA`.
 
 use cliffwatch_core::analysis::FailureConfig;
 use cliffwatch_sim::kinematics::MotionKind;
 use cliffwatch_sim::ttf_benchmark::{rules_with, run_kinds, series_table, table};
+use cliffwatch_sim::ttf_undeclared::{run_undeclared_kinds, undeclared_table};
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -38,6 +41,12 @@ fn main() {
             }
         }
     }
+    if let Some(r) = std::env::var("TTF_POOL_RADIUS")
+        .ok()
+        .and_then(|r| r.parse().ok())
+    {
+        failure.pool_radius_m = r;
+    }
     let kinds: Vec<MotionKind> = match std::env::var("TTF_KINDS") {
         Ok(names) => names
             .split(',')
@@ -50,6 +59,22 @@ fn main() {
     let for_epochs = number("TTF_FOR_EPOCHS").map(|n| n as u32);
     let rules = rules_with(confidence, for_epochs);
     let started = std::time::Instant::now();
+    if std::env::var("TTF_UNDECLARED").is_ok_and(|v| v == "1") {
+        let target_sigma = number("TTF_TARGET_SIGMA").unwrap_or(1.0);
+        let outcomes = run_undeclared_kinds(first, seeds, &kinds, &failure, &rules, target_sigma);
+        if std::env::var_os("TTF_VERBOSE").is_some() {
+            for o in &outcomes {
+                println!("{o:?}");
+            }
+        }
+        println!(
+            "{} series with the block undeclared ({seeds} seeds per kind from {first}), {:.1} s\n",
+            outcomes.len(),
+            started.elapsed().as_secs_f64()
+        );
+        print!("{}", undeclared_table(&outcomes));
+        return;
+    }
     let outcomes = run_kinds(first, seeds, &kinds, &failure, &rules);
     if std::env::var_os("TTF_VERBOSE").is_some() {
         for o in &outcomes {
