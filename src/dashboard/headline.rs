@@ -82,9 +82,7 @@ pub async fn load(state: &AppState, site: &Site) -> Result<Headline, PageError> 
         None => None,
     };
     let latest = match incident.as_ref().map(|i| (i.kind.as_str(), &i.subject)) {
-        Some(("block", Some(g))) => block_motions::series(db, &site.id, g, None, None, None, None)
-            .await?
-            .pop(),
+        Some(("block", Some(g))) => block_motions::latest(db, &site.id, g).await?,
         Some(("point", Some(p))) => {
             displacements::latest(&mut *state.store.read().await?, &site.id)
                 .await?

@@ -246,9 +246,7 @@ async fn forecast_of(
     latest: &[displacements::Displacement],
 ) -> Result<Option<IncidentForecast>, StoreError> {
     if let Subject::Block(b) = subject {
-        let own = block_motions::series(store.reader(), site, b, None, None, None, None)
-            .await?
-            .pop();
+        let own = block_motions::latest(store.reader(), site, b).await?;
         if let Some(f) = own.as_ref().and_then(|d| {
             failure_time(d).and_then(|f| IncidentForecast::of(format!("block {b}"), d, f))
         }) {

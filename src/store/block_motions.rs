@@ -4,7 +4,7 @@
 
 use sqlx::{AnyConnection, AnyExecutor};
 
-use super::displacements::{insert_into, series_of, Displacement};
+use super::displacements::{insert_into, latest_of, series_of, Displacement};
 use super::StoreError;
 
 /// Stores block motion rows (observed_at in store format); inside the epoch's write transaction.
@@ -48,4 +48,13 @@ pub async fn series(
         limit,
     )
     .await
+}
+
+/// The newest motion row of `block` (None before its first), read alone.
+pub async fn latest(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    block: &str,
+) -> Result<Option<Displacement>, StoreError> {
+    latest_of(db, "block_motions", "block", site, block).await
 }

@@ -159,6 +159,31 @@ pub(super) async fn series_of(
     Ok(display(rows))
 }
 
+/// The newest row of `name` in `table` (`name_column` naming it), or None: one indexed read
+/// where [`series_of`] would read the whole series to keep its last row.
+pub(super) async fn latest_of(
+    db: impl AnyExecutor<'_>,
+    table: &str,
+    name_column: &str,
+    site: &str,
+    name: &str,
+) -> Result<Option<Displacement>, StoreError> {
+    let columns = select_list(COLUMNS, "").replacen(
+        "point",
+        &format!("{name_column} AS point"),
+        usize::from(name_column != "point"),
+    );
+    let rows: Vec<Displacement> = sqlx::query_as(&format!(
+        "SELECT {columns} FROM {table} WHERE site_id = $1 AND {name_column} = $2 \
+         ORDER BY observed_at DESC LIMIT 1"
+    ))
+    .bind(site)
+    .bind(name)
+    .fetch_all(db)
+    .await?;
+    Ok(display(rows).pop())
+}
+
 /// The last `n` rows of each point of `site` observed before `before` (store format), newest
 /// first, one entry per point with rows, times in store format: the analysis' history of a new
 /// epoch (without the filtered values, which the analysis recomputes).
