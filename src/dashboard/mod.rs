@@ -18,7 +18,7 @@
 //! every value); assets are embedded ([`assets`]). Access follows the API's roles
 //! ([`crate::http::auth`], [`crate::http::session`], [`sign_in`]); acknowledging needs `upload` and the
 //! session's CSRF token ([`acknowledge`]); the site page's settings form ([`site_edit`]) needs
-//! `admin` and the same token.
+//! `admin` and the same token, as its retirement form.
 //!
 //! Pure parts (no I/O): [`face_plan`] (the face's plane), [`downsample`] (which epochs a plot
 //! draws), [`image_preview`] (a station image made small), [`plan_svg`], [`time_plot_svg`], [`local_time`] and [`layout`] (markup).
@@ -83,6 +83,7 @@ pub fn routes() -> Router<AppState> {
             post(acknowledge::acknowledge_incident),
         )
         .route("/dashboard/sites/{site}/settings", post(site_edit::save))
+        .route("/dashboard/sites/{site}/retire", post(site_edit::retire))
         .route("/signin", get(sign_in::form).post(sign_in::sign_in))
         .route("/signout", post(sign_in::sign_out))
         .route("/assets/{file}", get(assets::asset))

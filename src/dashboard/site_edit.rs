@@ -4,7 +4,9 @@
 //! acknowledgement form), which calls the use case of `PATCH /api/v1/sites/{site}`
 //! ([`crate::service::site_admin::update_site`]): checked as a new site is, recorded in the
 //! audit trail with the source `page`, and a rule change re-evaluates the open alerts at once.
-//! Done: back to the site page's changes; refused: a page naming the field at fault.
+//! Done: back to the site page's changes; refused: a page naming the field at fault. Beside it
+//! the retirement form (`POST /dashboard/sites/{site}/retire`, the use case of the API's
+//! retirement), and for a retired site the link of its export.
 
 use axum::extract::{Path, State};
 use axum::response::{Html, IntoResponse, Redirect, Response};
@@ -17,6 +19,7 @@ use super::layout::{page, seg, Viewer};
 use super::page::viewer;
 use crate::http::auth::Access;
 use crate::http::AppState;
+use crate::service::site_lifecycle::MAX_REASON_CHARS;
 use crate::service::ServiceError;
 use crate::store::sites::Site;
 
@@ -62,8 +65,71 @@ pub fn section(site: &Site, v: &Viewer, configured: bool) -> Markup {
                     p.note { "Saving re-evaluates the open alerts at once and is recorded in the changes below." }
                 }
             }
+            @if v.can_administer && !configured { (retirement(site, v)) }
         }
     }
+}
+
+/// For an administrator: the retirement form of a site in service, or the export link of a
+/// retired one (the deletion needs that export; it stays an API call).
+fn retirement(site: &Site, v: &Viewer) -> Markup {
+    let s = seg(&site.id);
+    html! {
+        @if site.retired_at.is_some() {
+            p.note {
+                a href={ "/api/v1/sites/" (s) "/export" } download { "Download the site's data (JSON)" }
+                ": recorded in the changes; once downloaded after the retirement, the site can be deleted ("
+                code { "DELETE /api/v1/sites/" (site.id) } ")."
+            }
+        } @else {
+            form.retire method="post" action={ "/dashboard/sites/" (s) "/retire" } {
+                input type="hidden" name="csrf" value=[v.csrf.as_deref()];
+                label { "Reason " input name="reason" required maxlength=(MAX_REASON_CHARS) size="60"; }
+                button type="submit" { "retire the site" }
+                p.note { "Retiring refuses every further epoch and change, and closes each open alert with the reason; the pages stay." }
+            }
+        }
+    }
+}
+
+/// The retirement form's field.
+#[derive(Debug, Deserialize)]
+pub struct RetireForm {
+    /// Why the site is retired.
+    pub reason: String,
+}
+
+/// `POST /dashboard/sites/{site}/retire`: retires the site as `POST /api/v1/sites/{site}/retire`
+/// does (audited as `page`); redirects to the site page, or answers a page naming why not.
+pub async fn retire(
+    State(state): State<AppState>,
+    Path(site): Path<String>,
+    access: Option<Extension<Access>>,
+    Form(form): Form<RetireForm>,
+) -> Response {
+    let v = viewer(access.as_deref());
+    let actor = access.map(|a| a.0).unwrap_or_default().actor("page");
+    let outcome = async {
+        if state.config.sites.iter().any(|s| s.id == site) {
+            return Err(ServiceError::ConfiguredSite(site.clone()));
+        }
+        crate::service::site_lifecycle::retire_site(&state.store, &site, &form.reason, &actor).await
+    };
+    match outcome.await {
+        Ok(_) => Redirect::to(&format!("/sites/{}", seg(&site))).into_response(),
+        Err(e) => refused(&site, "Site not retired", e, &v),
+    }
+}
+
+/// The page of a refused form: the message naming what was wrong, nothing changed.
+fn refused(site: &str, title: &str, e: ServiceError, v: &Viewer) -> Response {
+    let e = crate::http::error::ApiError::from(e);
+    let body = html! {
+        h1 { (title) }
+        p.error { (e.message) }
+        p { "Nothing was changed. " a href={ "/sites/" (seg(site)) "#settings" } { "back to the site" } }
+    };
+    (e.status, Html(page(title, &[], v, body).into_string())).into_response()
 }
 
 /// `POST /dashboard/sites/{site}/settings`: applies the form as a merge patch through the
@@ -94,18 +160,6 @@ pub async fn save(
     };
     match outcome.await {
         Ok(_) => Redirect::to(&format!("/sites/{}#audit", seg(&site))).into_response(),
-        Err(e) => {
-            let e = crate::http::error::ApiError::from(e);
-            let body = html! {
-                h1 { "Settings not saved" }
-                p.error { (e.message) }
-                p { "Nothing was changed. " a href={ "/sites/" (seg(&site)) "#settings" } { "back to the site" } }
-            };
-            (
-                e.status,
-                Html(page("Settings not saved", &[], &v, body).into_string()),
-            )
-                .into_response()
-        }
+        Err(e) => refused(&site, "Settings not saved", e, &v),
     }
 }

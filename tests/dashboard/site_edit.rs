@@ -244,3 +244,64 @@ async fn open_alerts(s: &TestServer) -> (Vec<Value>, Vec<Value>) {
         .collect();
     (open, all)
 }
+
+/// An administrator retires the site from its page: the page then says since when and why, the
+/// form gives way to the export's link, and the trail records the retirement from the page.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_site_is_retired_from_its_page() {
+    let s = TestServer::start(|_| {}).await;
+    fill(&s, 6, None).await;
+    let client = reqwest::Client::builder()
+        .redirect(reqwest::redirect::Policy::none())
+        .build()
+        .unwrap();
+    let page = |client: reqwest::Client| {
+        let url = s.url(&format!("/sites/{SITE}"));
+        async move { client.get(url).send().await.unwrap().text().await.unwrap() }
+    };
+    let before = page(client.clone()).await;
+    assert!(before.contains("retire the site"), "the form");
+    let r = client
+        .post(s.url(&format!("/dashboard/sites/{SITE}/retire")))
+        .form(&[("reason", "   ")])
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 422);
+    let refused = r.text().await.unwrap();
+    assert!(refused.contains("Site not retired"), "{refused}");
+    assert!(
+        refused.contains("reason: why the site is retired"),
+        "{refused}"
+    );
+    let r = client
+        .post(s.url(&format!("/dashboard/sites/{SITE}/retire")))
+        .form(&[(
+            "reason",
+            "Block B1 fell on 2026-12-01; nothing left to watch",
+        )])
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 303);
+    let after = page(client.clone()).await;
+    assert!(after.contains("Retired on"), "the banner");
+    assert!(
+        after.contains("Block B1 fell on 2026-12-01; nothing left to watch"),
+        "the reason"
+    );
+    assert!(after.contains("No open alert."), "the alerts closed");
+    assert!(
+        after.contains("Download the site&#39;s data (JSON)")
+            || after.contains("Download the site's data (JSON)")
+    );
+    assert!(!after.contains("retire the site"), "no second retirement");
+    assert!(
+        !after.contains("save the settings"),
+        "no edit of a retired site"
+    );
+    let (_, trail) = s.get(&format!("/api/v1/sites/{SITE}/audit")).await;
+    assert_eq!(trail["items"][0]["action"], "site.retire", "{trail}");
+    assert_eq!(trail["items"][0]["source"], "page", "{trail}");
+    s.stop().await;
+}
