@@ -300,6 +300,18 @@ async fn the_site_is_retired_from_its_page() {
         !after.contains("save the settings"),
         "no edit of a retired site"
     );
+    let sites = client
+        .get(s.url("/"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    assert!(
+        sites.contains("<span class=\"badge retired\">retired</span>"),
+        "the sites list marks it"
+    );
     let (_, trail) = s.get(&format!("/api/v1/sites/{SITE}/audit")).await;
     assert_eq!(trail["items"][0]["action"], "site.retire", "{trail}");
     assert_eq!(trail["items"][0]["source"], "page", "{trail}");
