@@ -84,7 +84,7 @@ fn retirement(site: &Site, v: &Viewer) -> Markup {
         } @else {
             form.retire method="post" action={ "/dashboard/sites/" (s) "/retire" } {
                 input type="hidden" name="csrf" value=[v.csrf.as_deref()];
-                label { "Reason " input name="reason" required maxlength=(MAX_REASON_CHARS) size="60"; }
+                label { "Reason " input name="reason" required maxlength=(MAX_REASON_CHARS); }
                 button type="submit" { "retire the site" }
                 p.note { "Retiring refuses every further epoch and change, and closes each open alert with the reason; the pages stay." }
             }
