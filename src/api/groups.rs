@@ -158,7 +158,7 @@ fn check(name: &str, body: &GroupBody) -> Result<GroupConfig, ApiError> {
 /// the site's series and alerts in the same transaction.
 #[utoipa::path(put, path = "/api/v1/sites/{site}/groups/{group}", operation_id = "put_group", request_body = GroupBody,
     params(("site" = String, Path), ("group" = String, Path, pattern = "^[A-Za-z0-9._-]{1,64}$")),
-    responses((status = 200, body = Group),
+    responses((status = 409, description = "the site is retired (code `site_retired`): it takes no more changes", body = crate::api::schemas::ErrorBody), (status = 200, body = Group),
               (status = 400, description = "not JSON", body = crate::api::schemas::ErrorBody),
               (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody),
               (status = 422, description = "invalid group (the field at fault is named)", body = crate::api::schemas::ErrorBody)))]
@@ -307,7 +307,7 @@ pub async fn motion(
 /// site's audit trail.
 #[utoipa::path(delete, path = "/api/v1/sites/{site}/groups/{group}", operation_id = "delete_group",
     params(("site" = String, Path), ("group" = String, Path)),
-    responses((status = 204, description = "deleted"),
+    responses((status = 409, description = "the site is retired (code `site_retired`): it takes no more changes", body = crate::api::schemas::ErrorBody), (status = 204, description = "deleted"),
               (status = 404, description = "unknown site or group", body = crate::api::schemas::ErrorBody)))]
 pub async fn delete(
     State(state): State<AppState>,

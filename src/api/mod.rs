@@ -16,6 +16,7 @@ pub mod list;
 pub(crate) mod openapi;
 pub mod points;
 pub(crate) mod schemas;
+pub(crate) mod site_lifecycle;
 pub(crate) mod sites;
 pub(crate) mod webhooks;
 
@@ -34,9 +35,13 @@ pub fn routes() -> Router<AppState> {
         .route("/api/v1/sites", post(sites::create).get(sites::list))
         .route(
             "/api/v1/sites/{site}",
-            get(sites::get_one).patch(sites::update),
+            get(sites::get_one)
+                .patch(sites::update)
+                .delete(site_lifecycle::delete),
         )
         .route("/api/v1/sites/{site}/audit", get(sites::audit))
+        .route("/api/v1/sites/{site}/retire", post(site_lifecycle::retire))
+        .route("/api/v1/sites/{site}/export", get(site_lifecycle::export))
         .route(
             "/api/v1/sites/{site}/epochs",
             post(epochs::upload).get(epochs::list),

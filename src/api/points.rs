@@ -111,7 +111,7 @@ fn along(d: &Displacement, direction: Option<[f64; 3]>) -> Option<f64> {
 /// none of them observed only with `"planned": true`, else 422 naming it). A change on a site with
 /// epochs recomputes its series and alerts in the same transaction, as a reference change does.
 #[utoipa::path(put, path = "/api/v1/sites/{site}/points/{point}", operation_id = "update_point", request_body = PointSettings, params(("site" = String, Path), ("point" = String, Path)),
-    responses((status = 200, body = crate::store::points::Point), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid settings, or a point the site has epochs but never measured, without \"planned\": true", body = crate::api::schemas::ErrorBody)))]
+    responses((status = 409, description = "the site is retired (code `site_retired`): it takes no more changes", body = crate::api::schemas::ErrorBody), (status = 200, body = crate::store::points::Point), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody), (status = 422, description = "invalid settings, or a point the site has epochs but never measured, without \"planned\": true", body = crate::api::schemas::ErrorBody)))]
 pub async fn update(
     State(state): State<AppState>,
     ApiPath((site, point)): ApiPath<(String, String)>,
@@ -166,7 +166,7 @@ fn check_settings(point: &str, settings: &PointSettings) -> Result<(), ApiError>
 /// the first at fault).
 #[utoipa::path(put, path = "/api/v1/sites/{site}/points", operation_id = "update_points", params(("site" = String, Path)),
     request_body(content = std::collections::BTreeMap<String, PointSettings>, description = "point name → its settings"),
-    responses((status = 200, description = "the points after, by name", body = UpdatedPoints),
+    responses((status = 409, description = "the site is retired (code `site_retired`): it takes no more changes", body = crate::api::schemas::ErrorBody), (status = 200, description = "the points after, by name", body = UpdatedPoints),
         (status = 400, description = "not JSON", body = crate::api::schemas::ErrorBody),
         (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody),
         (status = 422, description = "invalid settings, a point the site has epochs but never measured without \"planned\": true, or more than 10 000 points; nothing stored", body = crate::api::schemas::ErrorBody)))]

@@ -96,7 +96,7 @@ pub struct ReferenceBody {
 
 /// `PUT /api/v1/sites/{site}/reference`: sets the reference epoch and recomputes displacements.
 #[utoipa::path(put, path = "/api/v1/sites/{site}/reference", operation_id = "set_site_reference", request_body = ReferenceBody, params(("site" = String, Path)),
-    responses((status = 200, body = Site), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody),
+    responses((status = 409, description = "the site is retired (code `site_retired`): it takes no more changes", body = crate::api::schemas::ErrorBody), (status = 200, body = Site), (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody),
         (status = 422, description = "an epoch the site does not have, or a member other than `epoch`", body = crate::api::schemas::ErrorBody)))]
 pub async fn set_reference(
     State(state): State<AppState>,
@@ -127,7 +127,7 @@ pub async fn set_reference(
     responses((status = 200, description = "the site after", body = Site),
         (status = 400, description = "not JSON", body = crate::api::schemas::ErrorBody),
         (status = 404, description = "unknown site", body = crate::api::schemas::ErrorBody),
-        (status = 409, description = "a site of the configuration file (code `configured_site`)", body = crate::api::schemas::ErrorBody),
+        (status = 409, description = "a site of the configuration file (code `configured_site`), or a retired site (`site_retired`)", body = crate::api::schemas::ErrorBody),
         (status = 422, description = "a setting refused (the field at fault is named), an unknown member, a new id, or a new model once the site has epochs", body = crate::api::schemas::ErrorBody)))]
 pub async fn update(
     State(state): State<AppState>,

@@ -174,6 +174,12 @@ pub fn render(site: &Site, h: &Headline) -> Markup {
     let level = h.incident.as_ref().map(|i| i.level);
     html! {
         section.headline.(level_class(level)) aria-label="headline" {
+            @if let Some(at) = &site.retired_at {
+                p.retired {
+                    strong { "Retired on " (when(at, tz)) } ": " (site.retired_reason.as_deref().unwrap_or(""))
+                    " — it takes no more epochs; its record stays here."
+                }
+            }
             @match (&h.incident, &h.worst) {
                 (Some(i), Some(a)) => p.what { (incident_words(i, a, h.latest.as_ref(), h.now, &site_href, tz)) }
                 _ => p.what { strong { "No open alert." } }
@@ -187,7 +193,7 @@ pub fn render(site: &Site, h: &Headline) -> Markup {
                     Some((t, parsed)) => {
                         "Last epoch " (when(t, tz)) ", " (age(parsed, h.now)) " ago"
                         @if let Some(every) = site.schedule_hours {
-                            @if (h.now - parsed).num_minutes() as f64 > every * 60.0 * 1.5 {
+                            @if site.retired_at.is_none() && (h.now - parsed).num_minutes() as f64 > every * 60.0 * 1.5 {
                                 strong { " — overdue" } " (expected every " (every) " h)"
                             } @else {
                                 " (expected every " (every) " h)"

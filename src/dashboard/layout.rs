@@ -13,6 +13,8 @@ pub struct Viewer {
     pub csrf: Option<String>,
     /// May acknowledge (role `upload` or higher, or no tokens configured).
     pub can_acknowledge: bool,
+    /// May change the site's settings (role `admin`, or no tokens configured).
+    pub can_administer: bool,
     /// Signed in through the sign-in form (shows "sign out").
     pub signed_in: bool,
 }

@@ -8,7 +8,8 @@
 //! thresholds, alert markers, velocity and inverse velocity) → epoch ([`epoch_page`],
 //! `/sites/{site}/epochs/{epoch}`: the adjustment report and the residuals of each image, and for
 //! a watched epoch its images with the detected targets drawn over them, [`epoch_images`]), and
-//! alert ([`alert_page`], `/sites/{site}/alerts/{id}`: its history with every acknowledgement); the
+//! alert ([`alert_page`], `/sites/{site}/alerts/{id}`: its history with every acknowledgement), and
+//! the site's changes ([`audit_trail`], `/sites/{site}/audit`); the
 //! campaign report of a period ([`report_page`], `/sites/{site}/report?from=&to=`) prints on A4.
 //!
 //! Plots are drawn in the browser by the vendored uPlot from columnar JSON that
@@ -16,7 +17,8 @@
 //! the browser what a short one does. Templates are maud (checked at compile time, escaping
 //! every value); assets are embedded ([`assets`]). Access follows the API's roles
 //! ([`crate::http::auth`], [`crate::http::session`], [`sign_in`]); acknowledging needs `upload` and the
-//! session's CSRF token ([`acknowledge`]).
+//! session's CSRF token ([`acknowledge`]); the site page's settings form ([`site_edit`]) needs
+//! `admin` and the same token, as its retirement form.
 //!
 //! Pure parts (no I/O): [`face_plan`] (the face's plane), [`downsample`] (which epochs a plot
 //! draws), [`image_preview`] (a station image made small), [`plan_svg`], [`time_plot_svg`], [`local_time`] and [`layout`] (markup).
@@ -26,6 +28,7 @@ pub(crate) mod alert_filter;
 pub(crate) mod alert_groups;
 pub(crate) mod alert_page;
 pub(crate) mod assets;
+pub(crate) mod audit_trail;
 pub(crate) mod block_page;
 pub mod downsample;
 pub(crate) mod epoch_images;
@@ -48,6 +51,7 @@ pub(crate) mod report_page;
 pub(crate) mod report_sections;
 pub(crate) mod sensitivity;
 pub(crate) mod sign_in;
+pub(crate) mod site_edit;
 pub(crate) mod site_page;
 pub(crate) mod sites_page;
 pub(crate) mod time_plot_svg;
@@ -71,12 +75,15 @@ pub fn routes() -> Router<AppState> {
         )
         .route("/sites/{site}/report", get(report_page::report))
         .route("/sites/{site}/alerts/{id}", get(alert_page::alert))
+        .route("/sites/{site}/audit", get(audit_trail::audit))
         .route("/dashboard/plot/{site}/{point}", get(plot_data::plot))
         .route("/dashboard/alerts/{id}/ack", post(acknowledge::acknowledge))
         .route(
             "/dashboard/sites/{site}/incidents/{incident}/ack",
             post(acknowledge::acknowledge_incident),
         )
+        .route("/dashboard/sites/{site}/settings", post(site_edit::save))
+        .route("/dashboard/sites/{site}/retire", post(site_edit::retire))
         .route("/signin", get(sign_in::form).post(sign_in::sign_in))
         .route("/signout", post(sign_in::sign_out))
         .route("/assets/{file}", get(assets::asset))

@@ -91,6 +91,7 @@ pub fn viewer(access: Option<&crate::http::auth::Access>) -> layout::Viewer {
     let a = access.cloned().unwrap_or_default();
     layout::Viewer {
         can_acknowledge: a.allows(crate::config::Role::Upload),
+        can_administer: a.allows(crate::config::Role::Admin),
         signed_in: a.cookie,
         csrf: a.csrf,
     }

@@ -4,7 +4,8 @@
 //! block's motion, velocity, time to failure and forecast failure date, the displacement table,
 //! the plots of the blocks and of the points that moved most (server-drawn SVG, so printing does
 //! not wait for scripts), the epochs with their adjustment's health and the alert history with
-//! the epoch that raised each alert ([`super::report_sections`]).
+//! the epoch that raised each alert ([`super::report_sections`]), and the changes of the site's
+//! settings made in the period ([`super::audit_trail`]).
 
 use std::collections::HashMap;
 
@@ -35,6 +36,9 @@ pub struct Period {
     /// Last day or time (inclusive).
     pub to: Option<String>,
 }
+
+/// Quotes at most this many changes of the settings.
+const CHANGES: i64 = 50;
 
 /// Plots at most this many subjects: the blocks, then the points outside them that moved most.
 const PLOTS: usize = 4;
@@ -101,6 +105,8 @@ struct Report {
     )>,
     /// Alerts whose epoch lies in the period.
     history: Vec<alerts::Alert>,
+    /// The changes of the site's settings made in the period, oldest first.
+    changes: Vec<crate::store::audit::AuditEntry>,
 }
 
 impl Report {
@@ -135,6 +141,7 @@ impl Report {
         };
         disp.sort_by(|a, b| super::natural_order::natural_cmp(&a.point, &b.point));
         let history = alert_history(store, &site.id, from, to).await?;
+        let changes = crate::store::audit::between(db, &site.id, from, to, CHANGES).await?;
         let latest_epoch = epochs::list(db, &site.id, None, 1).await?;
         let plan_levels_now = match (latest_epoch.first(), epochs.first()) {
             (Some((_, newest)), Some(last)) => newest.id == last.id,
@@ -215,6 +222,7 @@ impl Report {
             headline,
             estimated_sigma,
             history,
+            changes,
         })
     }
 
@@ -272,6 +280,16 @@ impl Report {
                     h2 { "Alert history" }
                     @if self.history.is_empty() { p.note { "No alert in the period." } }
                     @else { (sections::history(&self.history, tz)) }
+                }
+                section.changes {
+                    h2 { "Changes of the settings in the period" }
+                    @if self.changes.is_empty() { p.note { "No change of the site's settings in the period." } }
+                    @else {
+                        (super::audit_trail::table(&self.changes, tz))
+                        @if self.changes.len() as i64 == CHANGES {
+                            p.note { "The first " (CHANGES) " changes; every one: " a href={ "/sites/" (seg(&site.id)) "/audit" } { "the site's changes" } "." }
+                        }
+                    }
                 }
             }
         }

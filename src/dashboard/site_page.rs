@@ -2,7 +2,8 @@
 //! ones by default; filtered by level, state and subject, [`super::alert_filter`];
 //! [`super::alert_groups`]), the epochs (time, σ0, c ± σ,
 //! dropped observations) and a table of the points (latest displacement ± σ, significance,
-//! velocity, time to failure).
+//! velocity, time to failure); the settings form for an administrator ([`super::site_edit`])
+//! and the latest changes ([`super::audit_trail`]).
 
 use std::collections::HashMap;
 
@@ -115,6 +116,9 @@ pub async fn site(
     blocks.sort_by(|a, b| super::natural_order::natural_cmp(&a.name, &b.name));
     let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
     let health = health_section(&state, &site).await?;
+    let changes =
+        crate::store::audit::list(db, &site.id, None, super::audit_trail::ON_SITE_PAGE).await?;
+    let configured = state.config.sites.iter().any(|s| s.id == site.id);
     let body = html! {
         h1 { (site.name) " " small { (site.id) } }
         (headline)
@@ -136,6 +140,8 @@ pub async fn site(
         (points_table(&pts, &latest, &levels, &site_href))
         (health)
         (epochs_table(&epoch_page, &site_href, tz))
+        (super::site_edit::section(&site, &v, configured))
+        (super::audit_trail::section(&site_href, &changes, tz))
     };
     let crumbs = [(site.name.clone(), site_href.clone())];
     Ok(Html(page(&site.name, &crumbs, &v, body).into_string()))

@@ -1,5 +1,6 @@
 //! `GET /`: every site with its state at a glance: highest open alert level (colour and word),
-//! last epoch and its time with an overdue badge, number of points.
+//! last epoch and its time with an overdue badge, number of points; a retired site is marked so
+//! (and never overdue).
 
 use axum::extract::State;
 use axum::response::Html;
@@ -30,7 +31,8 @@ pub async fn sites(
             .max();
         let last = epochs::list(db, &s.id, None, 1).await?.into_iter().next();
         let n_points = points::list(db, &s.id, None, 100_000).await?.len();
-        let overdue = match (&last, s.schedule_hours) {
+        // A retired site expects no more campaigns.
+        let overdue = match (&last, s.schedule_hours.filter(|_| s.retired_at.is_none())) {
             (Some((_, e)), Some(h)) => chrono::DateTime::parse_from_rfc3339(&e.observed_at)
                 .is_ok_and(|t| {
                     (now - t.with_timezone(&chrono::Utc)).num_seconds() as f64 > h * 3600.0
@@ -50,7 +52,10 @@ pub async fn sites(
                 tbody {
                     @for (s, level, last, n, overdue) in &rows {
                         tr {
-                            td { a href={ "/sites/" (seg(&s.id)) } { (s.name) } " " small { (s.id) } }
+                            td {
+                                a href={ "/sites/" (seg(&s.id)) } { (s.name) } " " small { (s.id) }
+                                @if s.retired_at.is_some() { " " span.badge.retired { "retired" } }
+                            }
                             td { (level_badge(*level)) }
                             td {
                                 @if let Some(e) = last {

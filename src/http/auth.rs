@@ -50,7 +50,8 @@ impl Access {
 }
 
 /// The role a request needs: reads `read`, except the webhook endpoints' list, `admin` (their
-/// URLs are often capabilities, such as a chat service's incoming-webhook URL); uploads and
+/// URLs are often capabilities, such as a chat service's incoming-webhook URL), and a site's
+/// export, `admin` (it is recorded and opens the way to the site's deletion); uploads and
 /// acknowledgements `upload`; every other change `admin`. `None`: open (liveness, readiness,
 /// the dashboard's assets and sign-in).
 pub fn required_role(method: &Method, path: &str) -> Option<Role> {
@@ -62,7 +63,11 @@ pub fn required_role(method: &Method, path: &str) -> Option<Role> {
     {
         return None;
     }
-    if path == "/api/v1/webhooks" || path.starts_with("/api/v1/webhooks/") {
+    // A site's export records itself (and opens the way to its deletion): admin, as the deletion.
+    if path == "/api/v1/webhooks"
+        || path.starts_with("/api/v1/webhooks/")
+        || (path.starts_with("/api/v1/sites/") && path.ends_with("/export"))
+    {
         return Some(Role::Admin);
     }
     if method == Method::GET || method == Method::HEAD || method == Method::OPTIONS {

@@ -153,6 +153,12 @@ impl From<ServiceError> for ApiError {
             ServiceError::ConfiguredSite(_) => {
                 ApiError::new(StatusCode::CONFLICT, "configured_site", e.to_string())
             }
+            ServiceError::RetiredSite { .. } => {
+                ApiError::new(StatusCode::CONFLICT, "site_retired", e.to_string())
+            }
+            ServiceError::NotDeletable(m) => {
+                ApiError::new(StatusCode::CONFLICT, "not_deletable", m)
+            }
             ServiceError::InvalidSite(m) => ApiError::unprocessable("invalid_site", m),
             ServiceError::UnmeasuredPoint { .. } => {
                 ApiError::unprocessable("invalid_point", e.to_string())

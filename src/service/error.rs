@@ -35,6 +35,20 @@ pub enum ServiceError {
     /// through the API would be undone at the next one.
     #[error("site '{}' is defined in the configuration file ([[sites]]), which is applied at every start: change it there, or remove it from the file to manage it through the API", cut(.0))]
     ConfiguredSite(String),
+    /// The site is retired: it takes no upload and no change of its settings any more.
+    #[error("site '{}' was retired on {at} ({}): it takes no more uploads or changes", cut(.site), cut(.reason))]
+    RetiredSite {
+        /// Site id.
+        site: String,
+        /// When it was retired (RFC 3339).
+        at: String,
+        /// Why.
+        reason: String,
+    },
+    /// The site cannot be deleted yet (not retired, or its data not exported since); the
+    /// message says which step is missing.
+    #[error("{0}")]
+    NotDeletable(String),
     /// No webhook endpoint has that id.
     #[error("unknown webhook '{}'", cut(.0))]
     UnknownWebhook(String),

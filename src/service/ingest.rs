@@ -217,6 +217,7 @@ async fn ingest_with_identification(
     let site = sites::get(&mut *db, site_id)
         .await?
         .ok_or_else(|| ServiceError::UnknownSite(site_id.to_string()))?;
+    super::sites::ensure_in_service(&site)?;
     let observed_at = store::timestamp(problem.observed_at);
     let hash = body_hash(&input);
     if let Some(done) = check_existing(&mut db, &site.id, &observed_at, &hash).await? {
@@ -276,6 +277,8 @@ async fn ingest_with_identification(
     let site = sites::get(&mut *tx, &site.id)
         .await?
         .ok_or_else(|| ServiceError::UnknownSite(site.id.clone()))?;
+    // Retired while this epoch adjusted: refused all the same.
+    super::sites::ensure_in_service(&site)?;
     // The history the analysis needs is read on its own connection while `tx` stores the epoch.
     let history = HistoryPrefetch::start(store, &site, &observed_at);
     let control: Vec<String> = input.control.iter().map(|c| c.point.clone()).collect();

@@ -9,6 +9,7 @@
 //! - [`sites`]: a site created, its definition checked.
 //! - [`site_settings`]: reference epoch and block groups, with the recompute they cause.
 //! - [`site_admin`]: a site's settings edited, a group deleted, each change in the audit trail.
+//! - [`site_lifecycle`]: a site retired (alerts closed), its data exported, then deleted.
 //! - [`webhooks`]: webhook endpoints added and removed.
 //! - [`configured`]: the sites and webhooks of the configuration file, applied at start.
 //! - [`acknowledge`]: staff acknowledge an alert.
@@ -35,6 +36,7 @@ pub mod incidents;
 pub mod ingest;
 pub mod recompute;
 pub mod site_admin;
+pub mod site_lifecycle;
 pub(crate) mod site_settings;
 pub mod sites;
 pub mod webhooks;

@@ -130,6 +130,7 @@ pub async fn update_site(
     let before = sites::get(&mut *tx, site)
         .await?
         .ok_or_else(|| ServiceError::UnknownSite(site.to_string()))?;
+    super::sites::ensure_in_service(&before)?;
     let before_json = serde_json::to_value(as_new_site(&before)).map_err(StoreError::from)?;
     if patch.get("id").is_some_and(|id| id.as_str() != Some(site)) {
         return Err(invalid(format!(
@@ -213,9 +214,10 @@ pub async fn delete_group(
     actor: &Actor,
 ) -> Result<(), ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
-    if sites::get(&mut *tx, site).await?.is_none() {
+    let Some(stored) = sites::get(&mut *tx, site).await? else {
         return Err(ServiceError::UnknownSite(site.to_string()));
-    }
+    };
+    super::sites::ensure_in_service(&stored)?;
     let Some(before) = groups::get(&mut *tx, site, group).await? else {
         return Err(ServiceError::UnknownGroup(group.to_string()));
     };

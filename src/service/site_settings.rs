@@ -25,6 +25,7 @@ pub async fn set_reference(
     let Some(stored) = sites::get(&mut *tx, site).await? else {
         return Err(ServiceError::UnknownSite(site.to_string()));
     };
+    super::sites::ensure_in_service(&stored)?;
     if let Some(e) = epoch {
         if epochs::observed_at_raw(&mut *tx, site, e).await?.is_none() {
             return Err(ServiceError::UnknownEpoch {
@@ -65,9 +66,10 @@ pub async fn declare_group(
     actor: &Actor,
 ) -> Result<(), ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
-    if sites::get(&mut *tx, site).await?.is_none() {
+    let Some(stored) = sites::get(&mut *tx, site).await? else {
         return Err(ServiceError::UnknownSite(site.to_string()));
-    }
+    };
+    super::sites::ensure_in_service(&stored)?;
     let before = groups::get(&mut *tx, site, &group.name).await?;
     groups::put(&mut tx, site, group).await?;
     if before.as_ref() != Some(group) {
@@ -126,9 +128,10 @@ pub async fn set_points(
     actor: &Actor,
 ) -> Result<Vec<Point>, ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
-    if sites::get(&mut *tx, site).await?.is_none() {
+    let Some(stored) = sites::get(&mut *tx, site).await? else {
         return Err(ServiceError::UnknownSite(site.to_string()));
-    }
+    };
+    super::sites::ensure_in_service(&stored)?;
     let has_epochs = epochs::count(&mut *tx, site).await? > 0;
     let mut stored = Vec::with_capacity(changes.len());
     let mut changed = vec![];

@@ -141,3 +141,15 @@ pub async fn create_site(store: &Store, site: &NewSite) -> Result<Site, ServiceE
         .await?
         .ok_or_else(|| ServiceError::UnknownSite(site.id.clone()))
 }
+
+/// Refuses a change of `site` once it is retired ([`ServiceError::RetiredSite`]).
+pub fn ensure_in_service(site: &Site) -> Result<(), ServiceError> {
+    match &site.retired_at {
+        Some(at) => Err(ServiceError::RetiredSite {
+            site: site.id.clone(),
+            at: at.clone(),
+            reason: site.retired_reason.clone().unwrap_or_default(),
+        }),
+        None => Ok(()),
+    }
+}

@@ -73,3 +73,24 @@ pub async fn list(
     .fetch_all(db)
     .await?)
 }
+
+/// The changes of `site` made between the stored times `from` and `to` (inclusive; `None`: no
+/// bound), oldest first, at most `limit`.
+pub async fn between(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    from: Option<&str>,
+    to: Option<&str>,
+    limit: i64,
+) -> Result<Vec<AuditEntry>, StoreError> {
+    Ok(sqlx::query_as(
+        "SELECT id, site_id, at, actor, source, action, target, value_before, value_after \
+         FROM audit WHERE site_id = $1 AND at >= $2 AND at <= $3 ORDER BY at, id LIMIT $4",
+    )
+    .bind(site)
+    .bind(from.unwrap_or(""))
+    .bind(to.map_or_else(|| super::TEXT_MAX.to_string(), |t| format!("{t}~")))
+    .bind(limit)
+    .fetch_all(db)
+    .await?)
+}

@@ -88,6 +88,9 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
             ("frame", T),
             ("apriori_sigma", T),
             ("detection", T),
+            ("retired_at", T),
+            ("retired_reason", T),
+            ("exported_at", T),
         ],
     ),
     (

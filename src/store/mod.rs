@@ -12,7 +12,8 @@
 //! One submodule per aggregate: [`sites`], [`epochs`] (their joint covariances:
 //! [`joint_covariances`]), [`points`], [`groups`],
 //! [`displacements`] (rows: [`displacement_row`]), [`block_motions`], [`alerts`],
-//! [`alert_states`], [`webhooks`], [`outbox`], [`watch_state`], the dashboard's [`sessions`];
+//! [`alert_states`], [`webhooks`], [`outbox`], [`watch_state`], the dashboard's [`sessions`],
+//! a retired site's deletion ([`site_removal`]);
 //! [`series`] serves a point's displacement time series fast from the packed blocks of
 //! [`series::blocks`] (layout: `series::record`), its wire writer (`series::wire`) formatting the API's bytes itself.
 //! The rest: the pool and transactions (`pool`, opened by `open`), the store's time (`time`),
@@ -61,6 +62,7 @@ pub mod points;
 mod pool;
 pub mod series;
 pub mod sessions;
+pub(crate) mod site_removal;
 pub(crate) mod sites;
 mod time;
 pub mod wal_checkpoint;

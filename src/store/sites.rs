@@ -187,6 +187,16 @@ pub struct Site {
     pub detection: DetectionSettings,
     /// Creation time (RFC 3339).
     pub created_at: String,
+    /// When the site was retired (RFC 3339): no more uploads, its pages kept; absent while it
+    /// is in service.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub retired_at: Option<String>,
+    /// Why it was retired (given with the retirement); absent while it is in service.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub retired_reason: Option<String>,
+    /// When its data was last exported (`GET .../export`, RFC 3339); absent if never.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exported_at: Option<String>,
 }
 
 #[derive(FromRow)]
@@ -210,6 +220,9 @@ struct SiteRow {
     apriori_sigma: Option<String>,
     detection: Option<String>,
     created_at: String,
+    retired_at: Option<String>,
+    retired_reason: Option<String>,
+    exported_at: Option<String>,
 }
 
 impl TryFrom<SiteRow> for Site {
@@ -269,13 +282,17 @@ impl TryFrom<SiteRow> for Site {
                 .transpose()?
                 .unwrap_or_default(),
             created_at: display_timestamp(&r.created_at),
+            retired_at: r.retired_at.as_deref().map(display_timestamp),
+            retired_reason: r.retired_reason,
+            exported_at: r.exported_at.as_deref().map(display_timestamp),
         })
     }
 }
 
 const COLUMNS: &str =
     "id, name, model, schedule_hours, confidence, alert_rules, reference_epoch, reference_epochs, \
-     process_noise, time_zone, area, response_text, contacts, image_weights, frame, apriori_sigma, detection, created_at";
+     process_noise, time_zone, area, response_text, contacts, image_weights, frame, apriori_sigma, detection, created_at, \
+     retired_at, retired_reason, exported_at";
 
 /// Reads one site.
 pub async fn get(db: impl AnyExecutor<'_>, id: &str) -> Result<Option<Site>, StoreError> {
@@ -468,11 +485,55 @@ pub async fn mark_current(db: impl AnyExecutor<'_>, site: &str) -> Result<(), St
     Ok(())
 }
 
-/// Ids of the sites with a campaign schedule (`schedule_hours` set).
+/// Ids of the sites in service (not retired) with a campaign schedule (`schedule_hours` set).
 pub async fn scheduled(db: impl AnyExecutor<'_>) -> Result<Vec<String>, StoreError> {
+    Ok(sqlx::query_scalar(
+        "SELECT id FROM sites WHERE schedule_hours IS NOT NULL AND retired_at IS NULL ORDER BY id",
+    )
+    .fetch_all(db)
+    .await?)
+}
+
+/// Marks `site` retired at `at` (store format) for `reason`.
+pub async fn retire(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    at: &str,
+    reason: &str,
+) -> Result<(), StoreError> {
+    sqlx::query("UPDATE sites SET retired_at = $1, retired_reason = $2 WHERE id = $3")
+        .bind(at)
+        .bind(reason)
+        .bind(site)
+        .execute(db)
+        .await?;
+    Ok(())
+}
+
+/// Records that the data of `site` was exported at `at` (store format).
+pub async fn mark_exported(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+    at: &str,
+) -> Result<(), StoreError> {
+    sqlx::query("UPDATE sites SET exported_at = $1 WHERE id = $2")
+        .bind(at)
+        .bind(site)
+        .execute(db)
+        .await?;
+    Ok(())
+}
+
+/// Raw `retired_at` and `exported_at` of `site` (store format, comparable as text); `None`
+/// when there is no such site.
+pub async fn retirement_raw(
+    db: impl AnyExecutor<'_>,
+    site: &str,
+) -> Result<Option<(Option<String>, Option<String>)>, StoreError> {
     Ok(
-        sqlx::query_scalar("SELECT id FROM sites WHERE schedule_hours IS NOT NULL ORDER BY id")
-            .fetch_all(db)
+        sqlx::query_as("SELECT retired_at, exported_at FROM sites WHERE id = $1")
+            .bind(site)
+            .fetch_optional(db)
             .await?,
     )
 }

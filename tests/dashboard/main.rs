@@ -20,4 +20,5 @@ mod report;
 mod security;
 mod sensitivity;
 mod sessions;
+mod site_edit;
 mod site_frame;

@@ -8,6 +8,7 @@ mod support;
 
 mod clocks;
 mod nodes;
+mod retire;
 mod sessions;
 mod store;
 mod watch;

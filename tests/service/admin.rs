@@ -15,7 +15,7 @@ const STABLE: usize = 6;
 
 /// Site `cliff` with a watch rule above 5 mm, its first points stable, block B1 of the others,
 /// and three epochs in which the block moves 8 mm a day.
-async fn moving_site(s: &TestServer) {
+pub(crate) async fn moving_site(s: &TestServer) {
     let (st, b) = s
         .post(
             "/api/v1/sites",
@@ -58,7 +58,7 @@ async fn moving_site(s: &TestServer) {
     }
 }
 
-async fn open_alerts(s: &TestServer) -> Vec<Value> {
+pub(crate) async fn open_alerts(s: &TestServer) -> Vec<Value> {
     let (_, a) = s.get("/api/v1/alerts?site=cliff&limit=1000").await;
     a["items"]
         .as_array()

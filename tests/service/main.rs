@@ -18,6 +18,7 @@ mod openapi;
 mod point_settings;
 mod rejections;
 mod retention;
+mod retire;
 mod series;
 mod unique_keys;
 mod uploads;

@@ -13,5 +13,6 @@ mod first_epoch;
 mod inside;
 mod live;
 mod real_first_epoch;
+mod retired;
 mod sigma0;
 mod weights;
