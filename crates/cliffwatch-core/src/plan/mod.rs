@@ -15,19 +15,24 @@
 
 pub mod input;
 pub mod network;
+pub mod site;
+pub mod whatif;
 
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::analysis::sensitivity::minimum_detectable;
 use crate::analysis::stats::chi2_quantile;
-use crate::photogrammetry::{adjust, AdjustOptions, Model};
+use crate::photogrammetry::{adjust, AdjustOptions, Cancel, Model};
 
-pub use input::{Plan, PlanCamera, PlanError, PlanStation, PlanTarget};
+pub use input::{Plan, PlanCamera, PlanDatum, PlanError, PlanStation, PlanTarget};
 pub use network::{look_at, planned_epoch, PlannedEpoch};
+pub use site::{site_plan, SiteNetwork};
+pub use whatif::{apply_changes, PlanChange};
 
 /// σ of the three site-frame coordinates in mm.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SigmaXyz {
     /// σX in mm.
     pub x: f64,
@@ -39,6 +44,7 @@ pub struct SigmaXyz {
 
 /// The predicted precision of one target.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct TargetPrecision {
     /// Point name.
     pub point: String,
@@ -62,6 +68,7 @@ pub struct TargetPrecision {
 
 /// The predicted σ of one camera's self-calibrated c.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct InteriorPrecision {
     /// Camera id.
     pub camera: String,
@@ -71,6 +78,7 @@ pub struct InteriorPrecision {
 
 /// The pre-analysis of a plan.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PlanReport {
     /// Projection model.
     pub model: Model,
@@ -120,7 +128,18 @@ fn check(plan: &Plan) -> Result<(), PlanError> {
             "a plan needs a camera and at least two stations",
         );
     }
+    if !(plan.known_sigma_m.is_finite() && plan.known_sigma_m > 0.0) {
+        return bad("known_sigma_m", "must be a positive number of metres");
+    }
+    for t in plan.targets.iter().filter(|t| t.sigma_m.is_some()) {
+        if !t.sigma_m.is_some_and(|v| v.is_finite() && v > 0.0) {
+            return bad(&format!("target {}", t.point), "sigma_m must be positive");
+        }
+    }
     for c in &plan.cameras {
+        if c.sigma_px.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
+            return bad(&format!("camera {}", c.id), "sigma_px must be positive");
+        }
         if !(c.c_mm > 0.0 && c.pixel_size_mm > 0.0 && c.width_px > 0 && c.height_px > 0) {
             return bad(
                 &format!("camera {}", c.id),
@@ -128,8 +147,27 @@ fn check(plan: &Plan) -> Result<(), PlanError> {
             );
         }
     }
-    if plan.targets.iter().filter(|t| t.known).count() < 4 {
-        return bad("targets", "at least four known (stable) targets are needed");
+    if plan.datum == PlanDatum::Control && plan.targets.iter().filter(|t| t.known).count() < 4 {
+        return bad(
+            "targets",
+            "at least four known (stable) targets are needed for the control datum",
+        );
+    }
+    if plan.targets.len() < 4 {
+        return bad("targets", "at least four targets are needed");
+    }
+    for t in &plan.targets {
+        if !t.xyz.iter().all(|v| v.is_finite()) {
+            return bad(&format!("target {}", t.point), "coordinates must be finite");
+        }
+    }
+    for s in &plan.stations {
+        if !s.position.iter().chain(&s.aim).all(|v| v.is_finite()) {
+            return bad(
+                &format!("station {}", s.name),
+                "position and aim must be finite",
+            );
+        }
     }
     Ok(())
 }
@@ -153,12 +191,19 @@ fn face_normal(plan: &Plan) -> Vector3<f64> {
 /// minimum detectable displacements, σ of c, and warnings (targets seen by fewer than two
 /// stations). See the module documentation for the method.
 pub fn pre_analysis(plan: &Plan) -> Result<PlanReport, PlanError> {
+    pre_analysis_cancellable(plan, Cancel::default())
+}
+
+/// [`pre_analysis`] that stops early (an [`crate::photogrammetry::AdjustError::Cancelled`]
+/// error) once `cancel` is cancelled or past its deadline.
+pub fn pre_analysis_cancellable(plan: &Plan, cancel: Cancel) -> Result<PlanReport, PlanError> {
     check(plan)?;
     let planned = planned_epoch(plan)?;
     let options = AdjustOptions {
         model: plan.model,
         apriori_precision: true,
         snooping: false,
+        cancel,
         ..AdjustOptions::default()
     };
     let adjustment = adjust(&planned.epoch, &options)?;

@@ -50,6 +50,7 @@ fn plan_of(p: &LongRangeParams, truth: &Truth) -> Plan {
                 position: cam.xo,
                 aim: std::array::from_fn(|i| cam.xo[i] - 100.0 * r3[i]),
                 up: Some(cam.r[1]),
+                sees: None,
             }
         })
         .collect();
@@ -69,6 +70,7 @@ fn plan_of(p: &LongRangeParams, truth: &Truth) -> Plan {
         confidence: 0.95,
         power: 0.8,
         known_sigma_m: 0.001,
+        datum: Default::default(),
         face_normal: None,
         cameras: vec![PlanCamera {
             id: "cam".into(),
@@ -322,6 +324,7 @@ fn plan_reports_targets_seen_by_fewer_than_two_stations() {
         position: [40.0, 1.5, 150.0],
         aim: [40.0, 1.5, 0.5],
         up: Some([0.0, 1.0, 0.0]),
+        sees: None,
     });
     let report = pre_analysis(&plan).expect("pre-analysis");
     let lone = report.targets.iter().find(|t| t.point == "LONE").unwrap();
