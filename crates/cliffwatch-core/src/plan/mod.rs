@@ -15,15 +15,20 @@
 
 pub mod input;
 pub mod network;
+pub mod quality;
 pub mod site;
 pub mod whatif;
+
+use std::collections::BTreeMap;
 
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::analysis::sensitivity::minimum_detectable;
 use crate::analysis::stats::chi2_quantile;
-use crate::photogrammetry::{adjust, AdjustOptions, Cancel, Model};
+use crate::photogrammetry::statistics::design::ParameterCorrelation;
+use crate::photogrammetry::{adjust, AdjustError, AdjustOptions, Cancel, Model};
+use quality::ObservationReliability;
 
 pub use input::{Plan, PlanCamera, PlanDatum, PlanError, PlanStation, PlanTarget};
 pub use network::{look_at, planned_epoch, PlannedEpoch};
@@ -64,6 +69,9 @@ pub struct TargetPrecision {
     pub mdd_normal_mm: Option<f64>,
     /// Minimum detectable displacement between two epochs in the worst 3-D direction, mm.
     pub mdd_3d_mm: Option<f64>,
+    /// The largest angle between two of its stations' rays, degrees (None when seen by fewer
+    /// than two).
+    pub intersection_deg: Option<f64>,
 }
 
 /// The predicted σ of one camera's self-calibrated c.
@@ -96,8 +104,21 @@ pub struct PlanReport {
     pub interior: Vec<InteriorPrecision>,
     /// One entry per target, in plan order.
     pub targets: Vec<TargetPrecision>,
-    /// Weak points of the plan, in words: targets seen by fewer than two stations, a
-    /// self-calibrated c with σ beyond [`WEAK_C_RELATIVE_SIGMA`] of c.
+    /// One entry per image observation of the planned adjustment: redundancy numbers and
+    /// smallest detectable blunders ([`quality::reliability`]).
+    pub observations: Vec<ObservationReliability>,
+    /// The smallest redundancy number of an image coordinate (None without observations).
+    pub min_redundancy: Option<f64>,
+    /// The strongest correlations of the self-calibrated parameters with each other and with
+    /// the images' exterior unknowns, strongest first (at most
+    /// [`quality::CORRELATIONS_LISTED`]).
+    pub correlations: Vec<ParameterCorrelation>,
+    /// Weak points of the plan, in words: targets seen by fewer than two stations, weak
+    /// intersections (below [`quality::WEAK_INTERSECTION_DEG`]), weakly controlled observations
+    /// (redundancy below [`quality::LOW_REDUNDANCY`]), a self-calibrated c with σ beyond
+    /// [`WEAK_C_RELATIVE_SIGMA`] of c, strongly correlated with another unknown, or not
+    /// determinable with the orthogonal model ([`quality::c_determinability`]), and the planned
+    /// adjustment's own warnings.
     pub warnings: Vec<String>,
 }
 
@@ -202,15 +223,45 @@ pub fn pre_analysis_cancellable(plan: &Plan, cancel: Cancel) -> Result<PlanRepor
     let options = AdjustOptions {
         model: plan.model,
         apriori_precision: true,
+        design_statistics: true,
         snooping: false,
         cancel,
         ..AdjustOptions::default()
     };
-    let adjustment = adjust(&planned.epoch, &options)?;
+    let xyz: BTreeMap<&str, [f64; 3]> = plan
+        .targets
+        .iter()
+        .map(|t| (t.point.as_str(), t.xyz))
+        .collect();
+    let seen: BTreeMap<&str, Vec<[f64; 3]>> = planned
+        .epoch
+        .images
+        .iter()
+        .map(|i| {
+            let pts = i
+                .observations
+                .iter()
+                .filter_map(|o| xyz.get(o.point.as_str()).copied())
+                .collect();
+            (i.id.as_str(), pts)
+        })
+        .collect();
+    // A singular network whose c the orthogonal model cannot determine: said with the reason.
+    let adjustment = adjust(&planned.epoch, &options).map_err(|e| {
+        let why = quality::c_determinability(plan, &seen);
+        if why.is_empty() || matches!(e, AdjustError::Cancelled { .. }) {
+            PlanError::Adjustment(e)
+        } else {
+            PlanError::Invalid {
+                item: "cameras".into(),
+                why: format!("{e}; {}", why.join("; ")),
+            }
+        }
+    })?;
     let normal = face_normal(plan);
     let critical = chi2_quantile(plan.confidence, 3.0);
     let mut warnings = Vec::new();
-    let targets = plan
+    let targets: Vec<TargetPrecision> = plan
         .targets
         .iter()
         .zip(&planned.seen_by)
@@ -225,6 +276,7 @@ pub fn pre_analysis_cancellable(plan: &Plan, cancel: Cancel) -> Result<PlanRepor
                 sigma_normal_mm: None,
                 mdd_normal_mm: None,
                 mdd_3d_mm: None,
+                intersection_deg: quality::intersection_deg(plan, t.xyz, stations),
             };
             let Some(p) = adjustment.point(&t.point).filter(|_| stations.len() >= 2) else {
                 warnings.push(format!(
@@ -279,6 +331,29 @@ pub fn pre_analysis_cancellable(plan: &Plan, cancel: Cancel) -> Result<PlanRepor
             ));
         }
     }
+    let angles: Vec<(String, f64)> = targets
+        .iter()
+        .filter(|t| t.sigma_mm.is_some())
+        .filter_map(|t| t.intersection_deg.map(|a| (t.point.clone(), a)))
+        .collect();
+    quality::weak_intersections(&angles, &mut warnings);
+    let design = adjustment.design.clone().unwrap_or_default();
+    let observations = quality::reliability(&design, plan.confidence, plan.power, &mut warnings);
+    let min_redundancy = observations
+        .iter()
+        .map(|o| o.redundancy[0].min(o.redundancy[1]))
+        .reduce(f64::min);
+    let correlations = quality::strongest_correlations(&design, &mut warnings);
+    warnings.extend(quality::c_determinability(plan, &seen));
+    warnings.extend(
+        adjustment
+            .report
+            .warnings
+            .iter()
+            // Normalized residuals of zero residuals say nothing (0/0 where r is tiny).
+            .filter(|w| !w.contains("|w|"))
+            .map(|w| format!("planned adjustment: {w}")),
+    );
     let sigma_c_mm = interior
         .iter()
         .filter_map(|c| c.sigma_c_mm)
@@ -292,6 +367,9 @@ pub fn pre_analysis_cancellable(plan: &Plan, cancel: Cancel) -> Result<PlanRepor
         sigma_c_mm,
         interior,
         targets,
+        observations,
+        min_redundancy,
+        correlations,
         warnings,
     })
 }

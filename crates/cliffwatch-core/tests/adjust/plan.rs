@@ -17,7 +17,7 @@ const SIGMA_PX: f64 = 0.25;
 
 /// The long-range scene of `seed`: 4 stations about 150 m from a 5 m × 3 m face, 16 targets,
 /// 400 mm lens, exact image coordinates (no noise, c given exactly).
-fn scene(seed: u64) -> (LongRangeParams, Truth) {
+pub(crate) fn scene(seed: u64) -> (LongRangeParams, Truth) {
     let p = LongRangeParams {
         seed,
         n_points: 16,
@@ -38,7 +38,7 @@ const KNOWN: [&str; 4] = ["T101", "T106", "T113", "T116"];
 
 /// The plan of a scene: its cameras aimed exactly as in the truth (aim 100 m along the view,
 /// up = r2), its targets at their true coordinates, four of them known.
-fn plan_of(p: &LongRangeParams, truth: &Truth) -> Plan {
+pub(crate) fn plan_of(p: &LongRangeParams, truth: &Truth) -> Plan {
     let stations = truth
         .cameras
         .iter()
