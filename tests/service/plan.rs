@@ -194,4 +194,27 @@ async fn site_plan_predicts_the_epoch_and_what_ifs_move_it() {
     assert!(m.contains("changes[0]") && m.contains("leica"), "{e}");
     let (status, e) = s.post("/api/v1/sites/nowhere/plan", &json!({})).await;
     assert_eq!(status, 404, "{e}");
+
+    // The page: the site's own pre-analysis beside what it achieved, linked from the site page.
+    let html = |path: &'static str| {
+        let (client, url) = (s.client.clone(), s.url(path));
+        async move {
+            let r = client.get(url).send().await.unwrap();
+            (r.status().as_u16(), r.text().await.unwrap())
+        }
+    };
+    let (status, page) = html("/sites/cliff/plan").await;
+    assert_eq!(status, 200, "{page}");
+    for words in [
+        "Campaign design",
+        "Worst targets",
+        "<svg",
+        "T001",
+        "a-priori scale",
+    ] {
+        assert!(page.contains(words), "{words}");
+    }
+    let (status, site_page) = html("/sites/cliff").await;
+    assert_eq!(status, 200);
+    assert!(site_page.contains("/sites/cliff/plan"));
 }

@@ -55,6 +55,8 @@ pub struct TargetPrecision {
     pub point: String,
     /// A known (stable) point.
     pub known: bool,
+    /// Its planned coordinates, m (site frame).
+    pub xyz: [f64; 3],
     /// Number of stations that see it.
     pub cameras: usize,
     /// The stations that see it.
@@ -269,6 +271,7 @@ pub fn pre_analysis_cancellable(plan: &Plan, cancel: Cancel) -> Result<PlanRepor
             let mut out = TargetPrecision {
                 point: t.point.clone(),
                 known: t.known,
+                xyz: t.xyz,
                 cameras: stations.len(),
                 stations: stations.clone(),
                 sigma_mm: None,
