@@ -128,6 +128,10 @@ pub struct PlanReport {
 /// determined: 1 % (a scale error of that size in the targets' distances from the cameras).
 pub const WEAK_C_RELATIVE_SIGMA: f64 = 0.01;
 
+/// Largest |coordinate| of a planned target or station, m (a site frame's coordinates, UTM
+/// included, stay far below).
+pub const MAX_COORDINATE_M: f64 = 1e7;
+
 /// Checks the plan's numbers; the error names the item.
 fn check(plan: &Plan) -> Result<(), PlanError> {
     let bad = |item: &str, why: &str| {
@@ -163,10 +167,17 @@ fn check(plan: &Plan) -> Result<(), PlanError> {
         if c.sigma_px.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
             return bad(&format!("camera {}", c.id), "sigma_px must be positive");
         }
-        if !(c.c_mm > 0.0 && c.pixel_size_mm > 0.0 && c.width_px > 0 && c.height_px > 0) {
+        if !(c.c_mm > 0.0
+            && c.c_mm <= 1e4
+            && c.pixel_size_mm > 0.0
+            && c.pixel_size_mm <= 1.0
+            && c.width_px > 0
+            && c.height_px > 0)
+        {
             return bad(
                 &format!("camera {}", c.id),
-                "c_mm, pixel_size_mm, width_px and height_px must be positive",
+                "c_mm (up to 10 000), pixel_size_mm (up to 1), width_px and height_px must be \
+                 positive",
             );
         }
     }
@@ -179,16 +190,20 @@ fn check(plan: &Plan) -> Result<(), PlanError> {
     if plan.targets.len() < 4 {
         return bad("targets", "at least four targets are needed");
     }
+    let inside = |v: &f64| v.is_finite() && v.abs() <= MAX_COORDINATE_M;
     for t in &plan.targets {
-        if !t.xyz.iter().all(|v| v.is_finite()) {
-            return bad(&format!("target {}", t.point), "coordinates must be finite");
+        if !t.xyz.iter().all(inside) {
+            return bad(
+                &format!("target {}", t.point),
+                "coordinates must be finite numbers within ±1e7 m",
+            );
         }
     }
     for s in &plan.stations {
-        if !s.position.iter().chain(&s.aim).all(|v| v.is_finite()) {
+        if !s.position.iter().chain(&s.aim).all(inside) {
             return bad(
                 &format!("station {}", s.name),
-                "position and aim must be finite",
+                "position and aim must be finite numbers within ±1e7 m",
             );
         }
     }
