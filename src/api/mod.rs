@@ -14,6 +14,7 @@ pub(crate) mod health;
 pub(crate) mod incidents;
 pub mod list;
 pub(crate) mod openapi;
+pub(crate) mod plan;
 pub mod points;
 pub(crate) mod schemas;
 pub(crate) mod site_lifecycle;
@@ -32,6 +33,8 @@ pub fn routes() -> Router<AppState> {
         .route("/readyz", get(health::readyz))
         .route("/metrics", get(health::metrics))
         .route("/api/v1/openapi.json", get(openapi::openapi_json))
+        .route("/api/v1/plan", post(plan::plan))
+        .route("/api/v1/sites/{site}/plan", post(plan::site_plan))
         .route("/api/v1/sites", post(sites::create).get(sites::list))
         .route(
             "/api/v1/sites/{site}",

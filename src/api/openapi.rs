@@ -13,6 +13,7 @@ use utoipa::OpenApi;
         super::sites::update, super::sites::audit, super::groups::delete,
         super::site_lifecycle::retire, super::site_lifecycle::export, super::site_lifecycle::delete,
         super::epochs::upload, super::epochs::list, super::epochs::get_one,
+        super::plan::plan, super::plan::site_plan,
         super::points::list, super::points::update, super::points::update_many, super::points::displacements,
         super::groups::put, super::groups::list, super::groups::get_one, super::groups::motion,
         super::alerts::list, super::alerts::acknowledge, super::alerts::events,
@@ -35,6 +36,8 @@ use utoipa::OpenApi;
         cliffwatch_core::analysis::alerts::AlertRule, cliffwatch_core::analysis::alerts::AlertLevel,
         cliffwatch_core::analysis::alerts::Metric, cliffwatch_core::analysis::alerts::Source,
         crate::cap::SiteArea, crate::cap::Circle,
+        cliffwatch_core::plan::Plan, cliffwatch_core::plan::PlanReport, cliffwatch_core::plan::PlanChange,
+        super::plan::WhatIf, crate::service::plan::SitePlan,
     )),
     modifiers(&BearerAuth, &CommonErrors)
 )]

@@ -44,6 +44,7 @@ pub(crate) mod local_time;
 pub(crate) use crate::natural_order;
 pub(crate) mod page;
 pub(crate) mod plan_labels;
+pub(crate) mod plan_page;
 pub(crate) mod plan_svg;
 pub(crate) mod plot_data;
 pub(crate) mod point_page;
@@ -74,6 +75,7 @@ pub fn routes() -> Router<AppState> {
             get(epoch_images::image),
         )
         .route("/sites/{site}/report", get(report_page::report))
+        .route("/sites/{site}/plan", get(plan_page::plan))
         .route("/sites/{site}/alerts/{id}", get(alert_page::alert))
         .route("/sites/{site}/audit", get(audit_trail::audit))
         .route("/dashboard/plot/{site}/{point}", get(plot_data::plot))

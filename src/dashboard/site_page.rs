@@ -124,6 +124,7 @@ pub async fn site(
         (headline)
         p {
             a href={ (site_href) "/report" } { "Campaign report" } " (printable; add " code { "?from=YYYY-MM-DD&to=YYYY-MM-DD" } " for a period) · "
+            a href={ (site_href) "/plan" } { "Campaign design" } " (the network's pre-analysis beside what it achieved) · "
             a href={ "/api/v1/cap/feed.atom?site=" (seg(&site.id)) } { "public-warning feed (CAP 1.2, Atom)" }
             @if let Some(z) = tz { " · times in UTC and " (z) }
         }

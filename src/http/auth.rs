@@ -49,7 +49,8 @@ impl Access {
     }
 }
 
-/// The role a request needs: reads `read`, except the webhook endpoints' list, `admin` (their
+/// The role a request needs: reads and the pre-analyses (`POST /api/v1/plan`, `POST
+/// /api/v1/sites/{site}/plan`) `read`, except the webhook endpoints' list, `admin` (their
 /// URLs are often capabilities, such as a chat service's incoming-webhook URL), and a site's
 /// export, `admin` (it is recorded and opens the way to the site's deletion); uploads and
 /// acknowledgements `upload`; every other change `admin`. `None`: open (liveness, readiness,
@@ -71,6 +72,15 @@ pub fn required_role(method: &Method, path: &str) -> Option<Role> {
         return Some(Role::Admin);
     }
     if method == Method::GET || method == Method::HEAD || method == Method::OPTIONS {
+        return Some(Role::Read);
+    }
+    // The pre-analyses compute and store nothing: a reader may ask them.
+    if method == Method::POST
+        && (path == "/api/v1/plan"
+            || (path.starts_with("/api/v1/sites/")
+                && path.ends_with("/plan")
+                && path.split('/').count() == 6))
+    {
         return Some(Role::Read);
     }
     let upload =

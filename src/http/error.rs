@@ -213,6 +213,8 @@ impl From<ServiceError> for ApiError {
                 e.retry_after_secs = Some(o.retry_after_secs);
                 e
             }
+            ServiceError::Plan(err) => ApiError::unprocessable("invalid_plan", err.to_string()),
+            ServiceError::NoNetwork(m) => ApiError::new(StatusCode::CONFLICT, "no_network", m),
             ServiceError::Store(err) => err.into(),
             ServiceError::Task(err) => ApiError::internal(err),
         }

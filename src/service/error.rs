@@ -116,6 +116,13 @@ pub enum ServiceError {
         /// The stored epoch's id.
         epoch: i64,
     },
+    /// A plan that cannot be analysed (the message names the item).
+    #[error(transparent)]
+    Plan(#[from] cliffwatch_core::plan::PlanError),
+    /// A site whose network cannot be rebuilt for a pre-analysis (no epoch, observations
+    /// deleted).
+    #[error("{0}")]
+    NoNetwork(String),
     /// The database failed.
     #[error(transparent)]
     Store(#[from] StoreError),

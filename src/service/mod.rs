@@ -19,6 +19,8 @@
 //! Adjustment health: [`apriori_sigma`] estimates the cameras' a-priori σ from the recent
 //! epochs' variance components and applies it when the site asks.
 //!
+//! Campaign design: [`plan`] the pre-analysis of a plan, and the what-if on a site's network.
+//!
 //! Admission: [`admission`] bounds the uploads a node processes at once.
 //!
 //! Shared steps: [`analysis_inputs`] loads what the analysis needs, [`alert_outcome`] writes
@@ -34,6 +36,7 @@ pub(crate) mod error;
 pub mod forecast;
 pub mod incidents;
 pub mod ingest;
+pub mod plan;
 pub mod recompute;
 pub mod site_admin;
 pub mod site_lifecycle;

@@ -58,6 +58,7 @@ pub mod joint_covariances;
 mod open;
 pub mod operations;
 pub(crate) mod outbox;
+pub mod plan_network;
 pub mod points;
 mod pool;
 pub mod series;

@@ -54,9 +54,22 @@ async fn the_document_lists_the_answers_of_authorization() {
                 "{method} {path} lists 401"
             );
             tried += 1;
-            // every role reads, except the webhooks' list (their URLs are capabilities) and a
-            // site's export (recorded; it opens the way to the site's deletion)
-            if m != reqwest::Method::GET || path == "/api/v1/webhooks" || path.ends_with("/export")
+            // every role reads and asks the pre-analyses (they store nothing), except the
+            // webhooks' list (their URLs are capabilities) and a site's export (recorded; it
+            // opens the way to the site's deletion)
+            let pre_analysis = path == "/api/v1/plan" || path == "/api/v1/sites/{site}/plan";
+            if pre_analysis {
+                let r = s
+                    .client
+                    .request(m, &url)
+                    .bearer_auth("r".repeat(20))
+                    .send()
+                    .await
+                    .unwrap();
+                assert_ne!(r.status(), 403, "{method} {path} with the read token");
+            } else if m != reqwest::Method::GET
+                || path == "/api/v1/webhooks"
+                || path.ends_with("/export")
             {
                 let r = s
                     .client

@@ -15,6 +15,7 @@ mod crash;
 mod implausible;
 mod joint_covariance;
 mod openapi;
+mod plan;
 mod point_settings;
 mod rejections;
 mod retention;

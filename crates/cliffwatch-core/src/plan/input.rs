@@ -11,6 +11,7 @@ use crate::photogrammetry::{AdjustError, Model};
 
 /// A planned network (the JSON of `cliffwatch plan`; `docs/api.md`, "Campaign design").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct Plan {
     /// Projection model of the adjustment (default orthogonal).
@@ -27,6 +28,10 @@ pub struct Plan {
     /// σ of each coordinate of a known (stable) target in m (default 0.001 m, the upload form's).
     #[serde(default = "default_known_sigma")]
     pub known_sigma_m: f64,
+    /// Datum of the planned adjustment: the known targets as control (default), or a free
+    /// network (inner constraints over all targets, as a site's later epochs without control).
+    #[serde(default, skip_serializing_if = "PlanDatum::is_control")]
+    pub datum: PlanDatum,
     /// Outward face normal (any length, site frame); default: from the targets' centroid toward
     /// the stations' centroid.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -37,6 +42,26 @@ pub struct Plan {
     pub stations: Vec<PlanStation>,
     /// Targets with approximate coordinates.
     pub targets: Vec<PlanTarget>,
+}
+
+/// Datum of a planned adjustment.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[serde(rename_all = "snake_case")]
+pub enum PlanDatum {
+    /// The known targets are control points with their σ (at least four needed).
+    #[default]
+    Control,
+    /// Free network: inner constraints over all targets' planned coordinates; `known` only marks
+    /// the stable points.
+    Free,
+}
+
+impl PlanDatum {
+    /// Whether this is the control-point datum (the default, not written out).
+    pub fn is_control(&self) -> bool {
+        *self == PlanDatum::Control
+    }
 }
 
 fn default_confidence() -> f64 {
@@ -51,6 +76,7 @@ fn default_known_sigma() -> f64 {
 
 /// A planned camera: lens and sensor.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct PlanCamera {
     /// Camera id, referenced by stations.
@@ -77,6 +103,7 @@ fn yes() -> bool {
 
 /// A planned camera station.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct PlanStation {
     /// Station name (also the image id).
@@ -90,10 +117,15 @@ pub struct PlanStation {
     /// The image's upward direction in the site frame (default `[0, 0, 1]`, Z up).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub up: Option<[f64; 3]>,
+    /// The targets this station observes (an existing station's image); default: every target in
+    /// front of it and inside its sensor. Listed targets must still lie in front of it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sees: Option<Vec<String>>,
 }
 
 /// A planned target.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct PlanTarget {
     /// Point name.
@@ -130,6 +162,14 @@ pub enum PlanError {
     SeesNothing {
         /// The station.
         station: String,
+    },
+    /// A target a station is said to observe lies behind it.
+    #[error("station {station}: target {point} lies behind the camera")]
+    Behind {
+        /// The station.
+        station: String,
+        /// The target.
+        point: String,
     },
     /// A value out of range.
     #[error("{item}: {why}")]

@@ -15,19 +15,29 @@
 
 pub mod input;
 pub mod network;
+pub mod quality;
+pub mod site;
+pub mod whatif;
+
+use std::collections::BTreeMap;
 
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::analysis::sensitivity::minimum_detectable;
 use crate::analysis::stats::chi2_quantile;
-use crate::photogrammetry::{adjust, AdjustOptions, Model};
+use crate::photogrammetry::statistics::design::ParameterCorrelation;
+use crate::photogrammetry::{adjust, AdjustError, AdjustOptions, Cancel, Model};
+use quality::ObservationReliability;
 
-pub use input::{Plan, PlanCamera, PlanError, PlanStation, PlanTarget};
+pub use input::{Plan, PlanCamera, PlanDatum, PlanError, PlanStation, PlanTarget};
 pub use network::{look_at, planned_epoch, PlannedEpoch};
+pub use site::{site_plan, SiteNetwork};
+pub use whatif::{apply_changes, PlanChange};
 
 /// σ of the three site-frame coordinates in mm.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SigmaXyz {
     /// σX in mm.
     pub x: f64,
@@ -39,11 +49,14 @@ pub struct SigmaXyz {
 
 /// The predicted precision of one target.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct TargetPrecision {
     /// Point name.
     pub point: String,
     /// A known (stable) point.
     pub known: bool,
+    /// Its planned coordinates, m (site frame).
+    pub xyz: [f64; 3],
     /// Number of stations that see it.
     pub cameras: usize,
     /// The stations that see it.
@@ -58,10 +71,14 @@ pub struct TargetPrecision {
     pub mdd_normal_mm: Option<f64>,
     /// Minimum detectable displacement between two epochs in the worst 3-D direction, mm.
     pub mdd_3d_mm: Option<f64>,
+    /// The largest angle between two of its stations' rays, degrees (None when seen by fewer
+    /// than two).
+    pub intersection_deg: Option<f64>,
 }
 
 /// The predicted σ of one camera's self-calibrated c.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct InteriorPrecision {
     /// Camera id.
     pub camera: String,
@@ -71,6 +88,7 @@ pub struct InteriorPrecision {
 
 /// The pre-analysis of a plan.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PlanReport {
     /// Projection model.
     pub model: Model,
@@ -88,14 +106,31 @@ pub struct PlanReport {
     pub interior: Vec<InteriorPrecision>,
     /// One entry per target, in plan order.
     pub targets: Vec<TargetPrecision>,
-    /// Weak points of the plan, in words: targets seen by fewer than two stations, a
-    /// self-calibrated c with σ beyond [`WEAK_C_RELATIVE_SIGMA`] of c.
+    /// One entry per image observation of the planned adjustment: redundancy numbers and
+    /// smallest detectable blunders ([`quality::reliability`]).
+    pub observations: Vec<ObservationReliability>,
+    /// The smallest redundancy number of an image coordinate (None without observations).
+    pub min_redundancy: Option<f64>,
+    /// The strongest correlations of the self-calibrated parameters with each other and with
+    /// the images' exterior unknowns, strongest first (at most
+    /// [`quality::CORRELATIONS_LISTED`]).
+    pub correlations: Vec<ParameterCorrelation>,
+    /// Weak points of the plan, in words: targets seen by fewer than two stations, weak
+    /// intersections (below [`quality::WEAK_INTERSECTION_DEG`]), weakly controlled observations
+    /// (redundancy below [`quality::LOW_REDUNDANCY`]), a self-calibrated c with σ beyond
+    /// [`WEAK_C_RELATIVE_SIGMA`] of c, strongly correlated with another unknown, or not
+    /// determinable with the orthogonal model ([`quality::c_determinability`]), and the planned
+    /// adjustment's own warnings.
     pub warnings: Vec<String>,
 }
 
 /// σ of a self-calibrated c, relative to c, beyond which the report warns that c is weakly
 /// determined: 1 % (a scale error of that size in the targets' distances from the cameras).
 pub const WEAK_C_RELATIVE_SIGMA: f64 = 0.01;
+
+/// Largest |coordinate| of a planned target or station, m (a site frame's coordinates, UTM
+/// included, stay far below).
+pub const MAX_COORDINATE_M: f64 = 1e7;
 
 /// Checks the plan's numbers; the error names the item.
 fn check(plan: &Plan) -> Result<(), PlanError> {
@@ -120,16 +155,57 @@ fn check(plan: &Plan) -> Result<(), PlanError> {
             "a plan needs a camera and at least two stations",
         );
     }
+    if !(plan.known_sigma_m.is_finite() && plan.known_sigma_m > 0.0) {
+        return bad("known_sigma_m", "must be a positive number of metres");
+    }
+    for t in plan.targets.iter().filter(|t| t.sigma_m.is_some()) {
+        if !t.sigma_m.is_some_and(|v| v.is_finite() && v > 0.0) {
+            return bad(&format!("target {}", t.point), "sigma_m must be positive");
+        }
+    }
     for c in &plan.cameras {
-        if !(c.c_mm > 0.0 && c.pixel_size_mm > 0.0 && c.width_px > 0 && c.height_px > 0) {
+        if c.sigma_px.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
+            return bad(&format!("camera {}", c.id), "sigma_px must be positive");
+        }
+        if !(c.c_mm > 0.0
+            && c.c_mm <= 1e4
+            && c.pixel_size_mm > 0.0
+            && c.pixel_size_mm <= 1.0
+            && c.width_px > 0
+            && c.height_px > 0)
+        {
             return bad(
                 &format!("camera {}", c.id),
-                "c_mm, pixel_size_mm, width_px and height_px must be positive",
+                "c_mm (up to 10 000), pixel_size_mm (up to 1), width_px and height_px must be \
+                 positive",
             );
         }
     }
-    if plan.targets.iter().filter(|t| t.known).count() < 4 {
-        return bad("targets", "at least four known (stable) targets are needed");
+    if plan.datum == PlanDatum::Control && plan.targets.iter().filter(|t| t.known).count() < 4 {
+        return bad(
+            "targets",
+            "at least four known (stable) targets are needed for the control datum",
+        );
+    }
+    if plan.targets.len() < 4 {
+        return bad("targets", "at least four targets are needed");
+    }
+    let inside = |v: &f64| v.is_finite() && v.abs() <= MAX_COORDINATE_M;
+    for t in &plan.targets {
+        if !t.xyz.iter().all(inside) {
+            return bad(
+                &format!("target {}", t.point),
+                "coordinates must be finite numbers within ±1e7 m",
+            );
+        }
+    }
+    for s in &plan.stations {
+        if !s.position.iter().chain(&s.aim).all(inside) {
+            return bad(
+                &format!("station {}", s.name),
+                "position and aim must be finite numbers within ±1e7 m",
+            );
+        }
     }
     Ok(())
 }
@@ -153,19 +229,56 @@ fn face_normal(plan: &Plan) -> Vector3<f64> {
 /// minimum detectable displacements, σ of c, and warnings (targets seen by fewer than two
 /// stations). See the module documentation for the method.
 pub fn pre_analysis(plan: &Plan) -> Result<PlanReport, PlanError> {
+    pre_analysis_cancellable(plan, Cancel::default())
+}
+
+/// [`pre_analysis`] that stops early (an [`crate::photogrammetry::AdjustError::Cancelled`]
+/// error) once `cancel` is cancelled or past its deadline.
+pub fn pre_analysis_cancellable(plan: &Plan, cancel: Cancel) -> Result<PlanReport, PlanError> {
     check(plan)?;
     let planned = planned_epoch(plan)?;
     let options = AdjustOptions {
         model: plan.model,
         apriori_precision: true,
+        design_statistics: true,
         snooping: false,
+        cancel,
         ..AdjustOptions::default()
     };
-    let adjustment = adjust(&planned.epoch, &options)?;
+    let xyz: BTreeMap<&str, [f64; 3]> = plan
+        .targets
+        .iter()
+        .map(|t| (t.point.as_str(), t.xyz))
+        .collect();
+    let seen: BTreeMap<&str, Vec<[f64; 3]>> = planned
+        .epoch
+        .images
+        .iter()
+        .map(|i| {
+            let pts = i
+                .observations
+                .iter()
+                .filter_map(|o| xyz.get(o.point.as_str()).copied())
+                .collect();
+            (i.id.as_str(), pts)
+        })
+        .collect();
+    // A singular network whose c the orthogonal model cannot determine: said with the reason.
+    let adjustment = adjust(&planned.epoch, &options).map_err(|e| {
+        let why = quality::c_determinability(plan, &seen);
+        if why.is_empty() || matches!(e, AdjustError::Cancelled { .. }) {
+            PlanError::Adjustment(e)
+        } else {
+            PlanError::Invalid {
+                item: "cameras".into(),
+                why: format!("{e}; {}", why.join("; ")),
+            }
+        }
+    })?;
     let normal = face_normal(plan);
     let critical = chi2_quantile(plan.confidence, 3.0);
     let mut warnings = Vec::new();
-    let targets = plan
+    let targets: Vec<TargetPrecision> = plan
         .targets
         .iter()
         .zip(&planned.seen_by)
@@ -173,6 +286,7 @@ pub fn pre_analysis(plan: &Plan) -> Result<PlanReport, PlanError> {
             let mut out = TargetPrecision {
                 point: t.point.clone(),
                 known: t.known,
+                xyz: t.xyz,
                 cameras: stations.len(),
                 stations: stations.clone(),
                 sigma_mm: None,
@@ -180,6 +294,7 @@ pub fn pre_analysis(plan: &Plan) -> Result<PlanReport, PlanError> {
                 sigma_normal_mm: None,
                 mdd_normal_mm: None,
                 mdd_3d_mm: None,
+                intersection_deg: quality::intersection_deg(plan, t.xyz, stations),
             };
             let Some(p) = adjustment.point(&t.point).filter(|_| stations.len() >= 2) else {
                 warnings.push(format!(
@@ -234,6 +349,29 @@ pub fn pre_analysis(plan: &Plan) -> Result<PlanReport, PlanError> {
             ));
         }
     }
+    let angles: Vec<(String, f64)> = targets
+        .iter()
+        .filter(|t| t.sigma_mm.is_some())
+        .filter_map(|t| t.intersection_deg.map(|a| (t.point.clone(), a)))
+        .collect();
+    quality::weak_intersections(&angles, &mut warnings);
+    let design = adjustment.design.clone().unwrap_or_default();
+    let observations = quality::reliability(&design, plan.confidence, plan.power, &mut warnings);
+    let min_redundancy = observations
+        .iter()
+        .map(|o| o.redundancy[0].min(o.redundancy[1]))
+        .reduce(f64::min);
+    let correlations = quality::strongest_correlations(&design, &mut warnings);
+    warnings.extend(quality::c_determinability(plan, &seen));
+    warnings.extend(
+        adjustment
+            .report
+            .warnings
+            .iter()
+            // Normalized residuals of zero residuals say nothing (0/0 where r is tiny).
+            .filter(|w| !w.contains("|w|"))
+            .map(|w| format!("planned adjustment: {w}")),
+    );
     let sigma_c_mm = interior
         .iter()
         .filter_map(|c| c.sigma_c_mm)
@@ -247,6 +385,9 @@ pub fn pre_analysis(plan: &Plan) -> Result<PlanReport, PlanError> {
         sigma_c_mm,
         interior,
         targets,
+        observations,
+        min_redundancy,
+        correlations,
         warnings,
     })
 }

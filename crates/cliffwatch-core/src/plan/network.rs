@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use nalgebra::Vector3;
 
-use super::input::{Plan, PlanCamera, PlanError};
+use super::input::{Plan, PlanCamera, PlanDatum, PlanError};
 use crate::photogrammetry::input::epoch::{
     ApproxInput, CameraInput, ControlInput, EpochInput, ImageInput, ObservationInput,
 };
@@ -95,10 +95,21 @@ pub fn planned_epoch(plan: &Plan) -> Result<PlannedEpoch, PlanError> {
         ];
         let mut observations = Vec::new();
         for t in &plan.targets {
+            let listed = s.sees.as_ref().map(|v| v.contains(&t.point));
+            if listed == Some(false) {
+                continue;
+            }
             let Some(xy) = orientation.project(&projector, t.xyz) else {
+                if listed == Some(true) {
+                    return Err(PlanError::Behind {
+                        station: s.name.clone(),
+                        point: t.point.clone(),
+                    });
+                }
                 continue;
             };
-            if xy[0].abs() > half[0] || xy[1].abs() > half[1] {
+            // A station's own list stands for its sensor: what it observed was on it.
+            if listed.is_none() && (xy[0].abs() > half[0] || xy[1].abs() > half[1]) {
                 continue;
             }
             seen.entry(t.point.as_str())
@@ -140,10 +151,11 @@ pub fn planned_epoch(plan: &Plan) -> Result<PlannedEpoch, PlanError> {
         image.observations.retain(|o| usable(&o.point));
     }
     images.retain(|i| !i.observations.is_empty());
+    let free = plan.datum == PlanDatum::Free;
     let control = plan
         .targets
         .iter()
-        .filter(|t| t.known && usable(&t.point))
+        .filter(|t| t.known && !free && usable(&t.point))
         .map(|t| ControlInput {
             point: t.point.clone(),
             X: t.xyz[0],
@@ -155,7 +167,7 @@ pub fn planned_epoch(plan: &Plan) -> Result<PlannedEpoch, PlanError> {
     let approx = plan
         .targets
         .iter()
-        .filter(|t| !t.known && usable(&t.point))
+        .filter(|t| (free || !t.known) && usable(&t.point))
         .map(|t| ApproxInput {
             point: t.point.clone(),
             X: t.xyz[0],

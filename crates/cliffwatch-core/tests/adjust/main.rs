@@ -11,6 +11,7 @@ mod cancel;
 mod errors;
 mod paper;
 mod plan;
+mod plan_quality;
 mod plausible;
 mod scenes;
 mod sigma0;

@@ -17,7 +17,7 @@ const SIGMA_PX: f64 = 0.25;
 
 /// The long-range scene of `seed`: 4 stations about 150 m from a 5 m × 3 m face, 16 targets,
 /// 400 mm lens, exact image coordinates (no noise, c given exactly).
-fn scene(seed: u64) -> (LongRangeParams, Truth) {
+pub(crate) fn scene(seed: u64) -> (LongRangeParams, Truth) {
     let p = LongRangeParams {
         seed,
         n_points: 16,
@@ -38,7 +38,7 @@ const KNOWN: [&str; 4] = ["T101", "T106", "T113", "T116"];
 
 /// The plan of a scene: its cameras aimed exactly as in the truth (aim 100 m along the view,
 /// up = r2), its targets at their true coordinates, four of them known.
-fn plan_of(p: &LongRangeParams, truth: &Truth) -> Plan {
+pub(crate) fn plan_of(p: &LongRangeParams, truth: &Truth) -> Plan {
     let stations = truth
         .cameras
         .iter()
@@ -50,6 +50,7 @@ fn plan_of(p: &LongRangeParams, truth: &Truth) -> Plan {
                 position: cam.xo,
                 aim: std::array::from_fn(|i| cam.xo[i] - 100.0 * r3[i]),
                 up: Some(cam.r[1]),
+                sees: None,
             }
         })
         .collect();
@@ -69,6 +70,7 @@ fn plan_of(p: &LongRangeParams, truth: &Truth) -> Plan {
         confidence: 0.95,
         power: 0.8,
         known_sigma_m: 0.001,
+        datum: Default::default(),
         face_normal: None,
         cameras: vec![PlanCamera {
             id: "cam".into(),
@@ -322,6 +324,7 @@ fn plan_reports_targets_seen_by_fewer_than_two_stations() {
         position: [40.0, 1.5, 150.0],
         aim: [40.0, 1.5, 0.5],
         up: Some([0.0, 1.0, 0.0]),
+        sees: None,
     });
     let report = pre_analysis(&plan).expect("pre-analysis");
     let lone = report.targets.iter().find(|t| t.point == "LONE").unwrap();

@@ -33,6 +33,10 @@ pub struct AdjustOptions {
     /// factor 1) rather than the a-posteriori one: the pre-analysis of a planned network, whose
     /// noise-free image coordinates leave zero residuals (`photogrammetry::plan`). Off by default.
     pub apriori_precision: bool,
+    /// Return the design statistics ([`Adjustment::design`](crate::photogrammetry::Adjustment)):
+    /// each image coordinate's redundancy number and the self-calibrated parameters'
+    /// correlations (one more pass over the observations' cofactors). Off by default.
+    pub design_statistics: bool,
     /// Stops the adjustment early (at its next iteration) when cancelled or past its deadline;
     /// never by default.
     pub cancel: Cancel,
@@ -50,6 +54,7 @@ impl Default for AdjustOptions {
             central_from_orthogonal: true,
             variance_components: false,
             apriori_precision: false,
+            design_statistics: false,
             cancel: Cancel::default(),
         }
     }

@@ -87,6 +87,10 @@ pub struct Adjustment {
     pub cameras: Vec<Camera>,
     /// The joint covariance of [`AdjustOptions::joint_covariance_of`](crate::photogrammetry::AdjustOptions::joint_covariance_of) (points that exist in the epoch).
     pub joint_covariance: Option<JointCovariance>,
+    /// Redundancy numbers and interior correlations, when
+    /// [`AdjustOptions::design_statistics`](crate::photogrammetry::AdjustOptions::design_statistics)
+    /// asked for them.
+    pub design: Option<crate::photogrammetry::statistics::design::DesignStatistics>,
 }
 
 impl Adjustment {

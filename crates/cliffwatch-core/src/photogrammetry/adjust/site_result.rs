@@ -21,6 +21,7 @@ use crate::photogrammetry::model::frame::{similarity_fit, Similarity, WorkingFra
 use crate::photogrammetry::model::orthogonal::OrthoImage;
 use crate::photogrammetry::model::Model;
 use crate::photogrammetry::solve::lm::LmOutcome;
+use crate::photogrammetry::statistics::design::design_statistics;
 use crate::photogrammetry::statistics::precision::Cofactors;
 use crate::photogrammetry::statistics::variance_components::per_camera;
 use crate::photogrammetry::statistics::variance_factor::{chi2_upper, GLOBAL_TEST_Z};
@@ -215,12 +216,18 @@ pub(super) fn site_result(s: Solution) -> Result<Adjustment, AdjustError> {
         variance_model,
         variance_components,
     };
+    let design = options.design_statistics.then(|| {
+        let images: Vec<String> = problem.images.iter().map(|i| i.id.clone()).collect();
+        let ids: Vec<String> = problem.cameras.iter().map(|c| c.id.clone()).collect();
+        design_statistics(&bundle, &cof, &images, &problem.points, &ids)
+    });
     Ok(Adjustment {
         report,
         points,
         orientations,
         cameras,
         joint_covariance,
+        design,
     })
 }
 

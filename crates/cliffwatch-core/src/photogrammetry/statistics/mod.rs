@@ -4,6 +4,7 @@
 
 pub(crate) mod variance_factor;
 pub use variance_factor::{GlobalTest, GLOBAL_TEST_CONFIDENCE};
+pub mod design;
 pub(crate) mod precision;
 pub mod quality;
 pub(crate) mod snooping;
