@@ -188,21 +188,7 @@ fn process(index: usize, confidence: f64) -> Processed {
         }
     }
     let dir = series.truth.direction;
-    let points: Vec<PointConfig> = series
-        .truth
-        .points
-        .iter()
-        .map(|p| PointConfig {
-            name: p.name.clone(),
-            role: if p.role == "stable" {
-                PointRole::Stable
-            } else {
-                PointRole::Monitored
-            },
-            group: p.group.as_ref().map(|_| "B1".to_string()),
-            direction: p.group.as_ref().map(|_| dir),
-        })
-        .collect();
+    let points: Vec<PointConfig> = series.truth.point_configs(Some("B1"), Some(dir));
     let stable: Vec<String> = points
         .iter()
         .filter(|p| p.role == PointRole::Stable)

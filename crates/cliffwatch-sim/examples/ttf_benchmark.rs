@@ -7,6 +7,7 @@
 //! from 0: 200 series). For the trade-off table, the time-to-failure settings from the
 //! environment: `TTF_CONFIRM_HOURS` (hours a forecast must converge over, 0 for none),
 //! `TTF_BOTH_WAYS` (1: the earlier and current failure times agree both ways, 0: one way),
+//! `TTF_SPREAD` (1: the spread of the confirmation's failure times in σ, 0: not),
 //! `TTF_POOL_RADIUS` (m, 0: no pooling of undeclared targets), `TTF_METHOD` (`onset_law`, `displacement` or `smoothed_velocity`), `TTF_KINDS` (comma-separated
 //! kinds, e.g. `failing,burst`), and of the time-to-failure rule `TTF_CONFIDENCE` and
 //! `TTF_FOR_EPOCHS`; `TTF_SERIES=1` adds the failing series one by one;
@@ -40,6 +41,9 @@ fn main() {
                 std::process::exit(2);
             }
         }
+    }
+    if let Ok(b) = std::env::var("TTF_SPREAD") {
+        failure.confirm_spread = b == "1";
     }
     if let Some(r) = std::env::var("TTF_POOL_RADIUS")
         .ok()

@@ -22,6 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use super::monitoring::FailureLaw;
 use super::scenes::{long_range, project, LongRangeParams, SceneError, Truth, TruthCamera};
+use cliffwatch_core::analysis::{PointConfig, PointRole};
 use cliffwatch_core::photogrammetry::input::epoch::{EpochInput, ObservationInput};
 
 /// Parameters of [`image_series`].
@@ -135,6 +136,33 @@ pub struct ImageSeries {
     pub epochs: Vec<EpochInput>,
     /// The truth.
     pub truth: SeriesTruth,
+}
+
+impl SeriesTruth {
+    /// The analysis' point settings of the series' targets: their roles, and the block's
+    /// targets in the group `block` (None: no group) with the direction `direction`.
+    pub fn point_configs(
+        &self,
+        block: Option<&str>,
+        direction: Option<[f64; 3]>,
+    ) -> Vec<PointConfig> {
+        self.points
+            .iter()
+            .map(|p| {
+                let on_block = p.group.is_some();
+                PointConfig {
+                    name: p.name.clone(),
+                    role: if p.role == "stable" {
+                        PointRole::Stable
+                    } else {
+                        PointRole::Monitored
+                    },
+                    group: block.filter(|_| on_block).map(str::to_string),
+                    direction: direction.filter(|_| on_block),
+                }
+            })
+            .collect()
+    }
 }
 
 fn at(start: DateTime<Utc>, days: f64) -> DateTime<Utc> {

@@ -211,6 +211,9 @@ pub enum ForecastMethod {
     SmoothedVelocity,
 }
 
+/// The default of [`FailureConfig::pool_radius_m`]: targets this close (m) may be pooled.
+pub const DEFAULT_POOL_RADIUS_M: f64 = 15.0;
+
 /// Time-to-failure (inverse velocity) settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -250,6 +253,11 @@ pub struct FailureConfig {
     /// series forecast, and each takes that forecast when it is tighter than its own
     /// (`super::pooling`; 0: never pooled).
     pub pool_radius_m: f64,
+    /// Whether the spread of the failure times forecast over `confirm_hours` (the current one
+    /// and each refit the confirmation makes) is added to the forecast's σ in quadrature. It
+    /// removes most alarms more than 120 h early and most intervals that miss the truth, but
+    /// more alarms then come less than 24 h before failure (`docs/accuracy.md`), so it is off.
+    pub confirm_spread: bool,
 }
 
 impl Default for FailureConfig {
@@ -264,7 +272,8 @@ impl Default for FailureConfig {
             confirm_hours: 72.0,
             confirm_both_ways: false,
             acceleration_window: Window::Epochs(40),
-            pool_radius_m: super::pooling::DEFAULT_POOL_RADIUS_M,
+            pool_radius_m: DEFAULT_POOL_RADIUS_M,
+            confirm_spread: false,
         }
     }
 }

@@ -71,7 +71,7 @@ pub fn stated(hours: f64, sigma_hours: f64) -> bool {
 }
 
 impl FailureForecast {
-    fn with_interval(mut self) -> Self {
+    pub(super) fn with_interval(mut self) -> Self {
         self.lower_hours =
             Some((self.time_to_failure_hours - INTERVAL_Z * self.sigma_hours).max(0.0));
         self.upper_hours = Some(self.time_to_failure_hours + INTERVAL_Z * self.sigma_hours);

@@ -208,6 +208,3 @@ fn pooled_forecast(
     )?
     .failure
 }
-
-/// The default of [`super::FailureConfig::pool_radius_m`]: targets this close (m) may be pooled.
-pub const DEFAULT_POOL_RADIUS_M: f64 = 15.0;

@@ -187,12 +187,13 @@ fn confirmed_forecast(
         return Some(now);
     }
     let mut last_checked: Option<f64> = None;
+    let mut failure_times = vec![now.time_to_failure_hours];
     for end in (2..meas.len()).rev() {
         let earlier = &meas[..end];
         // Hours from the earlier epoch to the current one (t_days is relative to the current).
         let elapsed_hours = -earlier[earlier.len() - 1].t_days * 24.0;
         if last_checked.is_some() && elapsed_hours > confirm_hours {
-            return Some(now);
+            return Some(with_spread(now, &failure_times, config));
         }
         if last_checked.is_some_and(|h| elapsed_hours - h < CONFIRM_SPACING * confirm_hours) {
             continue;
@@ -204,6 +205,7 @@ fn confirmed_forecast(
         // may push the forecast later); one earlier than it does not: a burst's or a step's
         // first epochs pull the failure time towards now.
         let previous = forecast_smoothed(earlier, kc, u, shared_mm2, config)?;
+        failure_times.push(previous.time_to_failure_hours);
         let lower = previous.lower_hours.unwrap_or(0.0);
         let upper = previous.upper_hours.unwrap_or(f64::INFINITY) + elapsed_hours;
         if !(lower..=upper).contains(&now.time_to_failure_hours) {
@@ -222,6 +224,32 @@ fn confirmed_forecast(
     }
     // Too few epochs before the current one to confirm it.
     None
+}
+
+/// `now` with the spread of the failure times forecast over the confirmation window
+/// (`failure_times`, hours from the current epoch, `now`'s first) added to its σ in quadrature,
+/// when `FailureConfig::confirm_spread` asks for it: forecasts that keep moving are less
+/// certain than each fit says.
+fn with_spread(
+    now: FailureForecast,
+    failure_times: &[f64],
+    config: &AnalysisConfig,
+) -> FailureForecast {
+    let n = failure_times.len();
+    if !config.failure.confirm_spread || n < 2 {
+        return now;
+    }
+    let mean = failure_times.iter().sum::<f64>() / n as f64;
+    let var = failure_times
+        .iter()
+        .map(|t| (t - mean).powi(2))
+        .sum::<f64>()
+        / (n - 1) as f64;
+    FailureForecast {
+        sigma_hours: (now.sigma_hours.powi(2) + var).sqrt(),
+        ..now
+    }
+    .with_interval()
 }
 
 /// The inverse-velocity forecast, once the displacements along `u` show an onset of

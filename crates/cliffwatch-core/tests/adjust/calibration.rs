@@ -145,21 +145,7 @@ fn run_case(sigma_factor: f64) -> Tally {
             ..ImageSeriesScenario::default()
         };
         let series = image_series(&sc).expect("series");
-        let points: Vec<PointConfig> = series
-            .truth
-            .points
-            .iter()
-            .map(|p| PointConfig {
-                name: p.name.clone(),
-                role: if p.role == "stable" {
-                    PointRole::Stable
-                } else {
-                    PointRole::Monitored
-                },
-                group: p.group.clone(),
-                direction: None,
-            })
-            .collect();
+        let points: Vec<PointConfig> = series.truth.point_configs(Some("block"), None);
         let stable: Vec<String> = points
             .iter()
             .filter(|p| p.role == PointRole::Stable)

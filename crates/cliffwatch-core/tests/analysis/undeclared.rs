@@ -10,7 +10,7 @@ use std::collections::BTreeSet;
 
 use cliffwatch_core::analysis::{
     analyse_series, AlertConfig, AlertEventType, AlertKind, AlertLevel, AnalysisConfig,
-    EpochCoordinates, FailureConfig, PointConfig, PointRole,
+    EpochCoordinates, FailureConfig, PointRole,
 };
 use cliffwatch_core::photogrammetry::{adjust, AdjustOptions};
 use cliffwatch_sim::kinematics::MotionKind;
@@ -32,21 +32,7 @@ fn undeclared_series(seed: u64, pool_radius_m: f64) -> (BTreeSet<String>, BTreeS
         ..ImageSeriesScenario::default()
     };
     let series = image_series(&sc).expect("series");
-    let points: Vec<PointConfig> = series
-        .truth
-        .points
-        .iter()
-        .map(|p| PointConfig {
-            name: p.name.clone(),
-            role: if p.role == "stable" {
-                PointRole::Stable
-            } else {
-                PointRole::Monitored
-            },
-            group: None,
-            direction: None,
-        })
-        .collect();
+    let points = series.truth.point_configs(None, None);
     let block: BTreeSet<String> = series
         .truth
         .points
