@@ -2,7 +2,7 @@
 //! `DELETE /api/v1/sites/{site}`: the end of a site's life ([`crate::service::site_lifecycle`]).
 
 use axum::extract::State;
-use axum::http::{header, StatusCode};
+use axum::http::{header, Method, StatusCode};
 use axum::response::IntoResponse;
 use axum::Extension;
 use serde::Deserialize;
@@ -70,16 +70,30 @@ pub async fn retire(
 pub async fn export(
     State(state): State<AppState>,
     ApiPath(site): ApiPath<String>,
+    method: Method,
     access: Option<Extension<Access>>,
-) -> Result<impl IntoResponse, ApiError> {
+) -> Result<axum::response::Response, ApiError> {
     find(&state, &site).await?;
+    let disposition = format!("attachment; filename=\"{site}.export.json\"");
+    // A HEAD (which the GET route also answers) downloads nothing, so it records no export:
+    // it must not open the way to the site's deletion.
+    if method == Method::HEAD {
+        return Ok((
+            [
+                (header::CONTENT_DISPOSITION, disposition),
+                (header::CONTENT_TYPE, "application/json".to_string()),
+            ],
+            (),
+        )
+            .into_response());
+    }
     let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
     let data = site_lifecycle::export_site(&state.store, &site, &actor).await?;
-    let disposition = format!("attachment; filename=\"{site}.export.json\"");
     Ok((
         [(header::CONTENT_DISPOSITION, disposition)],
         axum::Json(data),
-    ))
+    )
+        .into_response())
 }
 
 /// `DELETE /api/v1/sites/{site}`: deletes a retired site whose data was exported after the

@@ -143,6 +143,18 @@ async fn a_site_is_retired_exported_and_deleted_in_that_order() {
     assert_eq!(st, 409, "{b}");
     assert!(message(&b).contains("not been exported"), "{b}");
 
+    // A HEAD of the export downloads nothing and records nothing: still refused.
+    let head = s
+        .client
+        .head(s.url("/api/v1/sites/cliff/export"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(head.status(), 200);
+    let (st, b) = s.send(Method::DELETE, "/api/v1/sites/cliff", None).await;
+    assert_eq!(st, 409, "after a HEAD: {b}");
+    assert!(message(&b).contains("not been exported"), "{b}");
+
     // The export: a JSON download of everything, recorded.
     let r = s
         .client
