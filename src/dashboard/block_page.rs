@@ -141,9 +141,17 @@ pub async fn block(
     let site_href = format!("/sites/{s}");
     let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
     let rules = &site.alert_rules;
+    let incident = super::incident_panel::panel(
+        db,
+        &site.id,
+        &crate::service::incidents::Subject::Block(g.name.clone()),
+        &viewer(access.as_deref()),
+    )
+    .await?;
     let body = html! {
         h1 { "Block " (g.name) " " (level_badge(level)) }
         (headline)
+        (incident)
         p {
             (members.len()) " member points"
             @if let Some(dir) = g.direction { " · direction [" (num(Some(dir[0]), 3)) ", " (num(Some(dir[1]), 3)) ", " (num(Some(dir[2]), 3)) "]" }

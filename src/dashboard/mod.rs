@@ -37,6 +37,7 @@ pub(crate) mod face_plan;
 pub(crate) mod headline;
 pub(crate) mod health;
 pub mod image_preview;
+pub(crate) mod incident_panel;
 pub(crate) mod layout;
 #[cfg(test)]
 mod level_colours;

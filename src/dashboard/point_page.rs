@@ -50,9 +50,17 @@ pub async fn point(
     let csv = format!("/api/v1/sites/{s}/points/{n}/displacements?format=csv");
     let v = viewer(access.as_deref());
     let headline = super::headline::render(&site, &super::headline::load(&state, &site).await?);
+    let incident = super::incident_panel::panel(
+        db,
+        &site.id,
+        &crate::service::incidents::Subject::Point(p.name.clone()),
+        &v,
+    )
+    .await?;
     let body = html! {
         h1 { (p.name) " " (level_badge(level)) }
         (headline)
+        (incident)
         p {
             (p.role)
             @if let Some(g) = &p.group { " · block " a href={ "/sites/" (seg(&site.id)) "/groups/" (seg(g)) } { (g) } }

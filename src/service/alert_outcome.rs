@@ -8,7 +8,7 @@ use chrono::{DateTime, Utc};
 
 use crate::store::sites::Site;
 use crate::store::{self, alert_states, alerts, epochs, outbox, webhooks, Connection, StoreError};
-use crate::webhooks::{accepts, message_id, render, PayloadFormat, WebhookPayload};
+use crate::webhooks::{accepts, message_id, render, IncidentLink, PayloadFormat, WebhookPayload};
 use cliffwatch_core::analysis::{
     self, AlertEvent, AlertEventType, AlertKind, AlertState, AlertStatus, EpochAnalysis,
 };
@@ -33,7 +33,8 @@ fn state_after(event: &AlertEvent) -> AlertStatus {
 /// that is no longer true. `start` is the transaction's time on the store's clock
 /// ([`store::clock`]): the delivery worker compares due times with that clock (the database's on
 /// PostgreSQL), and the messages' times keep their order whichever node wrote them. Returns how
-/// many alerts were raised.
+/// many alerts were raised. Each body names the incident its alert belongs to and links its
+/// page ([`super::incident_subject::Subject::page`]), the declared blocks as they are in `tx`.
 pub async fn record_events(
     tx: &mut Connection,
     events: &[AlertEvent],
@@ -43,6 +44,7 @@ pub async fn record_events(
         return Ok(0);
     }
     let hooks = webhooks::enabled_endpoints(&mut *tx).await?;
+    let mut blocks: std::collections::HashMap<String, _> = std::collections::HashMap::new();
     let public_url = crate::webhooks::public_url();
     let public_url = public_url.as_deref();
     let due = store::timestamp(start);
@@ -57,7 +59,13 @@ pub async fn record_events(
             continue;
         }
         let created_at = message_time(tx, &e.alert.id, start, k).await?;
-        let body = serde_json::to_string(&WebhookPayload::from_event(e, public_url))?;
+        if !blocks.contains_key(&e.alert.site) {
+            let of_site = super::incident_subject::blocks_of_site(tx, &e.alert.site).await?;
+            blocks.insert(e.alert.site.clone(), of_site);
+        }
+        let incident = incident_of(&e.alert, &blocks[&e.alert.site]);
+        let incident = Some(&incident);
+        let body = serde_json::to_string(&WebhookPayload::from_event(e, public_url, incident))?;
         let message = outbox::OutboxMessage {
             id: &id,
             event_type: e.event_type.as_str(),
@@ -72,13 +80,26 @@ pub async fn record_events(
             let own_body = match h.format {
                 PayloadFormat::Standard => None,
                 PayloadFormat::AlertmanagerApiV2 => continue,
-                PayloadFormat::AlertmanagerWebhook => Some(render(e, h, public_url)?),
+                PayloadFormat::AlertmanagerWebhook => Some(render(e, h, public_url, incident)?),
             };
             // false: a 410 disabled the endpoint since `hooks` was read
             outbox::queue_delivery(&mut *tx, &id, &h.id, &due, own_body.as_deref()).await?;
         }
     }
     Ok(raised)
+}
+
+/// The incident alert `a` belongs to, given the declared block of each point in one.
+fn incident_of(
+    a: &analysis::Alert,
+    block_of: &std::collections::HashMap<String, String>,
+) -> IncidentLink {
+    let subject =
+        super::incident_subject::subject_for(a.group.as_deref(), a.point.as_deref(), block_of);
+    IncidentLink {
+        key: subject.key(),
+        page: subject.page(&a.site),
+    }
 }
 
 /// The `created_at` of the `k`-th message of a transaction that started at `start`: the

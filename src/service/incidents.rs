@@ -14,44 +14,14 @@ use serde::Serialize;
 
 use super::acknowledge::{acknowledge_in, checked_acknowledgement};
 use super::forecast::{failure_time, ttf, FailureTime};
+pub use super::incident_subject::{block_of, blocks_of_site, subject_for, subject_of, Subject};
 use super::ServiceError;
 use crate::store::alerts::Alert;
 use crate::store::{self, alerts, block_motions, displacements, groups, points, Store, StoreError};
-use cliffwatch_core::analysis::{AlertLevel, AlertStatus, GroupConfig};
+use cliffwatch_core::analysis::{AlertLevel, AlertStatus};
 
 /// Open alerts read per site to gather incidents (the store lists them newest first).
 pub const ALERTS_READ: i64 = 1000;
-
-/// Whose alerts a row gathers.
-#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Subject {
-    /// A declared block: its own alerts and its member points'.
-    Block(String),
-    /// A point that is in no declared block.
-    Point(String),
-    /// The site's own alerts (reference, schedule, analysis).
-    Site,
-}
-
-impl Subject {
-    /// "block B1", "point T203", "the site": the subject in words.
-    pub fn words(&self) -> String {
-        match self {
-            Subject::Block(b) => format!("block {b}"),
-            Subject::Point(p) => format!("point {p}"),
-            Subject::Site => "the site".into(),
-        }
-    }
-
-    /// Its key in the page (`block:B1`, `point:T203`, `site`), for `data-subject`.
-    pub fn key(&self) -> String {
-        match self {
-            Subject::Block(b) => format!("block:{b}"),
-            Subject::Point(p) => format!("point:{p}"),
-            Subject::Site => "site".into(),
-        }
-    }
-}
 
 /// One row: a subject and its alerts (most severe first).
 #[derive(Debug)]
@@ -95,18 +65,6 @@ impl SubjectAlerts<'_> {
     }
 }
 
-/// The subject of alert `a`, given the declared block of each point in one (`block_of`).
-pub fn subject_of(a: &Alert, block_of: &HashMap<String, String>) -> Subject {
-    match (&a.group, &a.point) {
-        (Some(g), _) => Subject::Block(g.clone()),
-        (None, Some(p)) => match block_of.get(p) {
-            Some(b) => Subject::Block(b.clone()),
-            None => Subject::Point(p.clone()),
-        },
-        (None, None) => Subject::Site,
-    }
-}
-
 /// Groups `alerts` into one row per subject: rows by worst level (highest first), then by the
 /// newest first raising, then by subject; `block_of` names the declared block of each point in
 /// one.
@@ -139,26 +97,6 @@ pub fn group<'a>(
         (b.worst(), raised(b), &a.subject).cmp(&(a.worst(), raised(a), &b.subject))
     });
     rows
-}
-
-/// The declared block of each point in one: a block's listed points, or, when it lists none,
-/// the points whose group names it.
-pub fn block_of(blocks: &[GroupConfig], pts: &[points::Point]) -> HashMap<String, String> {
-    let mut out = HashMap::new();
-    for b in blocks {
-        if b.points.is_empty() {
-            for p in pts
-                .iter()
-                .filter(|p| p.group.as_deref() == Some(b.name.as_str()))
-            {
-                out.insert(p.name.clone(), b.name.clone());
-            }
-        }
-        for p in &b.points {
-            out.insert(p.clone(), b.name.clone());
-        }
-    }
-    out
 }
 
 /// An incident's forecast: the block's own when it has one, else the earliest bound among its
@@ -326,19 +264,11 @@ fn incident(
     points: Vec<String>,
     forecast: Option<IncidentForecast>,
 ) -> Incident {
-    use crate::url_path::seg;
-    let (kind, subject, page) = match &r.subject {
-        Subject::Block(b) => (
-            "block",
-            Some(b.clone()),
-            format!("/sites/{}/groups/{}", seg(site), seg(b)),
-        ),
-        Subject::Point(p) => (
-            "point",
-            Some(p.clone()),
-            format!("/sites/{}/points/{}", seg(site), seg(p)),
-        ),
-        Subject::Site => ("site", None, format!("/sites/{}", seg(site))),
+    let page = r.subject.page(site);
+    let (kind, subject) = match &r.subject {
+        Subject::Block(b) => ("block", Some(b.clone())),
+        Subject::Point(p) => ("point", Some(p.clone())),
+        Subject::Site => ("site", None),
     };
     let mut acknowledged_by: Vec<String> = vec![];
     for a in &r.alerts {

@@ -34,6 +34,7 @@ pub mod apriori_sigma;
 pub mod configured;
 pub(crate) mod error;
 pub mod forecast;
+pub mod incident_subject;
 pub mod incidents;
 pub mod ingest;
 pub mod plan;

@@ -61,6 +61,43 @@ pub struct CurrentAlert {
     pub changed_at: DateTime<Utc>,
     /// Whether it is resolved.
     pub resolved: bool,
+    /// The incident it belongs to (its block, its point or the site), when known: its page is
+    /// the link Alertmanager carries (`generatorURL`).
+    pub incident: Option<IncidentLink>,
+}
+
+/// The incident an alert belongs to, as its links name it: its id within the site
+/// (`block:B1`, `point:T203`, `site`) and its dashboard page (a path, `/sites/s1/groups/B1`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct IncidentLink {
+    /// The incident's id within its site.
+    pub key: String,
+    /// Its dashboard page, a path from the dashboard's root.
+    pub page: String,
+}
+
+/// The incident's page under `public_url` (`{public_url}{page}`), or `None` without a public
+/// URL.
+pub fn incident_page_url(public_url: Option<&str>, incident: &IncidentLink) -> Option<String> {
+    let base = public_url?.trim_end_matches('/');
+    if base.is_empty() {
+        return None;
+    }
+    Some(format!("{base}{}", incident.page))
+}
+
+/// The page a receiver links to: the incident's when known (staff act on incidents), else the
+/// alert's; `None` without a public URL.
+pub fn link_of(
+    public_url: Option<&str>,
+    site: &str,
+    alert_id: &str,
+    incident: Option<&IncidentLink>,
+) -> Option<String> {
+    match incident {
+        Some(i) => incident_page_url(public_url, i),
+        None => alert_page_url(public_url, site, alert_id),
+    }
 }
 
 fn t(x: DateTime<Utc>) -> String {
@@ -138,7 +175,7 @@ pub fn labels(
     l
 }
 
-/// `summary`, `alert_id`, `level` (the level now), `value`, `threshold`, `unit`, `epoch`,
+/// `summary`, `alert_id`, `level` (the level now), `value`, `threshold`, `unit`, `epoch`, `incident`,
 /// `observed_at` and `points`, as far as known.
 fn annotations(a: &CurrentAlert) -> BTreeMap<String, String> {
     let mut m = BTreeMap::new();
@@ -162,6 +199,9 @@ fn annotations(a: &CurrentAlert) -> BTreeMap<String, String> {
     }
     if !a.points.is_empty() {
         m.insert("points".to_string(), a.points.join(","));
+    }
+    if let Some(i) = &a.incident {
+        m.insert("incident".to_string(), i.key.clone());
     }
     m
 }
@@ -192,7 +232,8 @@ fn told(
     public_url: Option<&str>,
 ) -> Vec<(bool, PostableAlert)> {
     let annotations = annotations(a);
-    let generator_url = alert_page_url(public_url, &a.site, &a.id).unwrap_or_default();
+    let generator_url =
+        link_of(public_url, &a.site, &a.id, a.incident.as_ref()).unwrap_or_default();
     let ended = a.changed_at.min(now);
     let still_told = now < a.changed_at + hold;
     LEVELS
@@ -254,7 +295,7 @@ pub struct PostableAlert {
     /// `point` (point alerts), `group` (group alerts), `rule`, `severity` (the level).
     pub labels: BTreeMap<String, String>,
     /// `summary`, `alert_id`, `level`, `value`, `threshold`, `unit`, `epoch`, `observed_at`,
-    /// `points` when known.
+    /// `points` and `incident` (`block:B1`, …) when known.
     pub annotations: BTreeMap<String, String>,
     /// When the alert was raised, RFC 3339.
     #[serde(rename = "startsAt")]
@@ -298,6 +339,7 @@ mod tests {
             raised_at: at("2026-12-01T10:00:00Z"),
             changed_at: at("2026-12-01T11:00:00Z"),
             resolved,
+            incident: None,
         }
     }
 

@@ -25,8 +25,8 @@ pub(crate) mod sign;
 pub(crate) mod test_event;
 
 pub use alertmanager::{
-    alert_page_url, fingerprint, labels, postable_alerts, resend_body, CurrentAlert, PostableAlert,
-    HOLD_PERIODS,
+    alert_page_url, fingerprint, incident_page_url, labels, link_of, postable_alerts, resend_body,
+    CurrentAlert, IncidentLink, PostableAlert, HOLD_PERIODS,
 };
 pub use deliver::{client, deliver, loggable_origin, DeliveryOutcome};
 pub use payload::{

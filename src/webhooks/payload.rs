@@ -7,8 +7,8 @@ use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 
 use super::alertmanager::{
-    alert_page_url, fingerprint, labels, number, postable_alerts, CurrentAlert, PostableAlert,
-    HOLD_PERIODS,
+    alert_page_url, fingerprint, incident_page_url, labels, link_of, number, postable_alerts,
+    CurrentAlert, IncidentLink, PostableAlert, HOLD_PERIODS,
 };
 use cliffwatch_core::analysis::{AlertEvent, AlertEventType, AlertLevel};
 
@@ -115,6 +115,14 @@ pub struct WebhookData {
     /// configured).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub url: Option<String>,
+    /// The incident the alert belongs to: `block:B1` (a declared block with its points),
+    /// `point:T203` (a point in no block) or `site`; what staff act on.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub incident: Option<String>,
+    /// The incident's dashboard page under `public_url` (the block's, the point's or the
+    /// site's; absent when no public URL is configured): the link to open.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub incident_url: Option<String>,
     /// For `alert.deescalated` and `alert.resolved` decided by the rules: the test that decided
     /// it (the rule's level, value, σ, threshold, confidence; absent otherwise, and in events
     /// recorded before it existed).
@@ -140,8 +148,13 @@ fn t(x: DateTime<Utc>) -> String {
 
 impl WebhookPayload {
     /// Builds the body of an event; `public_url` (where people reach the dashboard) gives
-    /// `data.url`, the alert's page.
-    pub fn from_event(event: &AlertEvent, public_url: Option<&str>) -> Self {
+    /// `data.url`, the alert's page, and with `incident` (the incident the alert belongs to)
+    /// `data.incident_url`.
+    pub fn from_event(
+        event: &AlertEvent,
+        public_url: Option<&str>,
+        incident: Option<&IncidentLink>,
+    ) -> Self {
         let a = &event.alert;
         let acknowledged = event.event_type == AlertEventType::Acknowledged;
         WebhookPayload {
@@ -168,6 +181,8 @@ impl WebhookPayload {
                 acknowledged_by: a.acknowledged_by.clone().filter(|_| acknowledged),
                 comment: a.comment.clone().filter(|_| acknowledged),
                 url: alert_page_url(public_url, &a.site, &a.id),
+                incident: incident.map(|i| i.key.clone()),
+                incident_url: incident.and_then(|i| incident_page_url(public_url, i)),
                 cleared_by: event.cleared_by.clone(),
             },
         }
@@ -262,22 +277,28 @@ pub struct AlertmanagerBody {
 /// ([`WebhookPayload`]), the Alertmanager webhook body with the endpoint id as `receiver`
 /// ([`alertmanager_body`]), or the Alertmanager API v2 array ([`alertmanager_alerts`], held
 /// [`HOLD_PERIODS`] default periods). `public_url`: where the dashboard is reached, for the
-/// links to the alert's page (`None`: no link).
+/// links to the alert's page (`None`: no link); `incident`: the incident the alert belongs to,
+/// whose page the links open when known.
 pub fn render(
     event: &AlertEvent,
     endpoint: &WebhookEndpoint,
     public_url: Option<&str>,
+    incident: Option<&IncidentLink>,
 ) -> Result<String, serde_json::Error> {
     match endpoint.format {
         PayloadFormat::Standard => {
-            serde_json::to_string(&WebhookPayload::from_event(event, public_url))
+            serde_json::to_string(&WebhookPayload::from_event(event, public_url, incident))
         }
-        PayloadFormat::AlertmanagerWebhook => {
-            serde_json::to_string(&alertmanager_body(event, &endpoint.id, public_url))
-        }
+        PayloadFormat::AlertmanagerWebhook => serde_json::to_string(&alertmanager_body(
+            event,
+            &endpoint.id,
+            public_url,
+            incident,
+        )),
         PayloadFormat::AlertmanagerApiV2 => serde_json::to_string(&alertmanager_alerts(
             event,
             public_url,
+            incident,
             chrono::Duration::seconds(i64::from(HOLD_PERIODS) * DEFAULT_RESEND_SECS),
         )),
     }
@@ -285,12 +306,13 @@ pub fn render(
 
 /// Alertmanager-compatible body of an event (`resolved` for `alert.resolved`, else `firing`),
 /// as Alertmanager sends it to a webhook receiver: `fingerprint` is Alertmanager's hash of the
-/// labels ([`fingerprint`]), `generatorURL` the alert's dashboard page (empty without a
-/// public URL), `externalURL` the public URL.
+/// labels ([`fingerprint`]), `generatorURL` the incident's dashboard page when `incident` is
+/// known, else the alert's (empty without a public URL), `externalURL` the public URL.
 pub fn alertmanager_body(
     event: &AlertEvent,
     receiver: &str,
     public_url: Option<&str>,
+    incident: Option<&IncidentLink>,
 ) -> AlertmanagerBody {
     let a = &event.alert;
     let status = if event.event_type == AlertEventType::Resolved {
@@ -318,6 +340,9 @@ pub fn alertmanager_body(
     ann.insert("unit".to_string(), a.unit.clone());
     if !a.points.is_empty() {
         ann.insert("points".to_string(), a.points.join(","));
+    }
+    if let Some(i) = incident {
+        ann.insert("incident".to_string(), i.key.clone());
     }
     let mut group = BTreeMap::new();
     group.insert("site".to_string(), a.site.clone());
@@ -349,13 +374,13 @@ pub fn alertmanager_body(
             } else {
                 "0001-01-01T00:00:00Z".into()
             },
-            generator_url: alert_page_url(public_url, &a.site, &a.id).unwrap_or_default(),
+            generator_url: link_of(public_url, &a.site, &a.id, incident).unwrap_or_default(),
         }],
     }
 }
 
-/// The alert of an event as it is after the event.
-pub fn current_of_event(event: &AlertEvent) -> CurrentAlert {
+/// The alert of an event as it is after the event, in `incident` when known.
+pub fn current_of_event(event: &AlertEvent, incident: Option<&IncidentLink>) -> CurrentAlert {
     let a = &event.alert;
     CurrentAlert {
         id: a.id.clone(),
@@ -375,6 +400,7 @@ pub fn current_of_event(event: &AlertEvent) -> CurrentAlert {
         raised_at: a.raised_at,
         changed_at: event.timestamp,
         resolved: event.event_type == AlertEventType::Resolved,
+        incident: incident.cloned(),
     }
 }
 
@@ -384,7 +410,13 @@ pub fn current_of_event(event: &AlertEvent) -> CurrentAlert {
 pub fn alertmanager_alerts(
     event: &AlertEvent,
     public_url: Option<&str>,
+    incident: Option<&IncidentLink>,
     hold: chrono::Duration,
 ) -> Vec<PostableAlert> {
-    postable_alerts(&current_of_event(event), event.timestamp, hold, public_url)
+    postable_alerts(
+        &current_of_event(event, incident),
+        event.timestamp,
+        hold,
+        public_url,
+    )
 }

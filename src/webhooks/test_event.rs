@@ -63,6 +63,8 @@ pub fn test_body(
                 acknowledged_by: None,
                 comment: None,
                 url: None,
+                incident: None,
+                incident_url: None,
                 cleared_by: None,
             },
         }),

@@ -18,7 +18,8 @@ use chrono::{DateTime, Utc};
 use crate::shutdown::Shutdown;
 use crate::store::{self, alert_repost, webhooks, Store, StoreError};
 use crate::webhooks::{
-    deliver, message_id_of, resend_body, CurrentAlert, DeliveryOutcome, PayloadFormat, HOLD_PERIODS,
+    deliver, message_id_of, resend_body, CurrentAlert, DeliveryOutcome, IncidentLink,
+    PayloadFormat, HOLD_PERIODS,
 };
 use cliffwatch_core::analysis::AlertLevel;
 
@@ -55,8 +56,10 @@ impl ResendConfig {
     }
 }
 
-/// An alert row as Alertmanager needs it; `None` for a row whose times do not parse.
-fn current(a: &store::alerts::Alert) -> Option<CurrentAlert> {
+/// An alert row as Alertmanager needs it, in its incident (`block_of`: the declared block of
+/// each point of its site in one); `None` for a row whose times do not parse.
+fn current(a: &store::alerts::Alert, block_of: &HashMap<String, String>) -> Option<CurrentAlert> {
+    let subject = crate::service::incidents::subject_of(a, block_of);
     let changed_at = store::parse_timestamp(&a.updated_at)?;
     Some(CurrentAlert {
         id: a.id.clone(),
@@ -76,6 +79,10 @@ fn current(a: &store::alerts::Alert) -> Option<CurrentAlert> {
         raised_at: store::parse_timestamp(&a.raised_at).unwrap_or(changed_at),
         changed_at,
         resolved: a.state == cliffwatch_core::analysis::AlertStatus::Resolved,
+        incident: Some(IncidentLink {
+            key: subject.key(),
+            page: subject.page(&a.site),
+        }),
     })
 }
 
@@ -126,7 +133,20 @@ pub async fn resend_once(
     let now = store.clock().await?;
     let hold = config.hold();
     let rows = alert_repost::held(store.reader(), &store::timestamp(now - hold)).await?;
-    let alerts: Vec<CurrentAlert> = rows.iter().filter_map(current).collect();
+    let mut blocks: HashMap<String, HashMap<String, String>> = HashMap::new();
+    {
+        let mut conn = store.read().await?;
+        for r in &rows {
+            if !blocks.contains_key(&r.site) {
+                let of_site = crate::service::incidents::blocks_of_site(&mut conn, &r.site).await?;
+                blocks.insert(r.site.clone(), of_site);
+            }
+        }
+    }
+    let alerts: Vec<CurrentAlert> = rows
+        .iter()
+        .filter_map(|r| current(r, &blocks[&r.site]))
+        .collect();
     for e in &endpoints {
         let min = e.min_level.unwrap_or(AlertLevel::Watch);
         let mine: Vec<CurrentAlert> = alerts

@@ -8,7 +8,9 @@ use std::collections::BTreeSet;
 
 use reqwest::Method;
 use serde_json::{json, Value};
-use support::alerts::{day, mark_stable, outbox_events, upload_new, write_config, Daemon, Scene};
+use support::alerts::{
+    day, mark_stable, outbox_events, outbox_payloads, upload_new, write_config, Daemon, Scene,
+};
 
 /// Site `id`: displacement watch and warning rules for every point and the block, the scene's
 /// fixed points stable, its moving points block B1, and `extra` (a point outside the block
@@ -60,7 +62,8 @@ async fn open_alerts(d: &Daemon, site: &str) -> Vec<Value> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_block_is_one_incident_acknowledged_in_one_action() {
     let dir = tempfile::tempdir().unwrap();
-    let config = write_config(dir.path(), "");
+    let public = "https://cw.example.org";
+    let config = write_config(dir.path(), &format!("public_url = \"{public}/\""));
     let data = dir.path().join("data");
     let d = Daemon::start(&data, &config).await;
     let scene = Scene { n: 16, stable: 8 };
@@ -120,6 +123,42 @@ async fn a_block_is_one_incident_acknowledged_in_one_action() {
         .map(|i| i["alert_ids"].as_array().unwrap().len())
         .sum();
     assert_eq!(all, alerts.len());
+
+    // Every webhook body names its alert's incident and links the incident's page: the block's
+    // for the block and its points, the point's own for the point outside it.
+    let payloads = outbox_payloads(&data).await;
+    assert!(!payloads.is_empty());
+    for (alert, p) in &payloads {
+        let (key, page) = if of_block.contains(alert) {
+            ("block:B1".to_string(), "/sites/cliff/groups/B1".to_string())
+        } else {
+            let point = p["data"]["point"].as_str().expect("a point alert");
+            assert_eq!(point, outside, "{p}");
+            (
+                format!("point:{point}"),
+                format!("/sites/cliff/points/{point}"),
+            )
+        };
+        assert_eq!(p["data"]["incident"], key, "{p}");
+        assert_eq!(p["data"]["incident_url"], format!("{public}{page}"), "{p}");
+    }
+    // That page (the block's) lists the incident's alerts and acknowledges them in one form; a
+    // member point's page sends the reader to it.
+    let (s, html) = d.get_text("/sites/cliff/groups/B1").await;
+    assert_eq!(s, 200);
+    assert!(html.contains("data-subject=\"block:B1\""), "{html}");
+    assert!(
+        html.contains(&format!("acknowledge all {} open alerts", of_block.len())),
+        "{html}"
+    );
+    let (s, html) = d
+        .get_text(&format!("/sites/cliff/points/{}", block[0]))
+        .await;
+    assert_eq!(s, 200);
+    assert!(
+        html.contains("incident of block B1") && html.contains("href=\"/sites/cliff/groups/B1\""),
+        "{html}"
+    );
 
     // One acknowledgement acknowledges every alert of the block, each with who and the comment,
     // and queues one alert.acknowledged per alert.

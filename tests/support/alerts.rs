@@ -288,6 +288,20 @@ pub async fn outbox_ids(data_dir: &Path) -> Vec<(String, String)> {
         .unwrap()
 }
 
+/// Every outbox message of a data directory's database (read-only): `(alert_id, payload)`, the
+/// payload parsed from the stored contract body.
+pub async fn outbox_payloads(data_dir: &Path) -> Vec<(String, Value)> {
+    let mut conn = read_only_database(data_dir).await;
+    let rows: Vec<(String, String)> =
+        sqlx::query_as("SELECT alert_id, payload FROM webhook_outbox ORDER BY id")
+            .fetch_all(&mut conn)
+            .await
+            .unwrap();
+    rows.into_iter()
+        .map(|(a, p)| (a, serde_json::from_str(&p).expect("a JSON payload")))
+        .collect()
+}
+
 /// Every outbox event of a data directory's database (read-only): `(id, event_type, alert_id)`.
 pub async fn outbox_events(data_dir: &Path) -> Vec<(String, String, String)> {
     let mut conn = read_only_database(data_dir).await;

@@ -3,7 +3,7 @@
 //! period (1 s here), so the alarms are back within one period after Alertmanager restarts; a
 //! resolution leaves Alertmanager within one period; an escalation keeps the lower level firing
 //! (muted by the documented inhibit rule), so Alertmanager's own webhook notifications show no
-//! resolution when things got worse; `generatorURL` opens the alert's dashboard page and the
+//! resolution when things got worse; `generatorURL` opens the page of the alert's incident and the
 //! fingerprint is Alertmanager's. Under `CI=true` a missing Alertmanager fails the test.
 
 use crate::support;
@@ -287,7 +287,7 @@ async fn alertmanager_holds_every_open_alert_across_restarts_and_escalations() {
     eprintln!("8 watch alerts in Alertmanager {took:?} after the upload's answer");
 
     // Each alert: Alertmanager's fingerprint of its labels, and a generatorURL that opens the
-    // alert's dashboard page.
+    // page of its incident (the point's: no block is declared), which lists the alert.
     for a in &held {
         let labels: std::collections::BTreeMap<String, String> =
             serde_json::from_value(a["labels"].clone()).unwrap();
@@ -297,18 +297,31 @@ async fn alertmanager_holds_every_open_alert_across_restarts_and_escalations() {
             "{a}"
         );
         let id = a["annotations"]["alert_id"].as_str().unwrap();
-        let page = a["generatorURL"].as_str().unwrap();
-        assert!(
-            page.starts_with(&format!("{public_url}/sites/{SITE}/alerts/")),
-            "{page}"
+        let point = a["labels"]["point"].as_str().unwrap();
+        assert_eq!(
+            a["annotations"]["incident"],
+            format!("point:{point}"),
+            "{a}"
         );
+        let page = a["generatorURL"].as_str().unwrap();
+        assert_eq!(page, format!("{public_url}/sites/{SITE}/points/{point}"));
         let r = daemon.client.get(page).send().await.unwrap();
         assert_eq!(r.status(), 200, "{page}");
         let html = r.text().await.unwrap();
-        let point = a["labels"]["point"].as_str().unwrap();
+        let encoded: String = id
+            .bytes()
+            .map(|b| match b {
+                b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'.' | b'_' | b'~' => {
+                    (b as char).to_string()
+                }
+                _ => format!("%{b:02X}"),
+            })
+            .collect();
+        let listed_on_page = format!("/alerts/{encoded}\"");
         assert!(
-            html.contains(point) && html.contains("displacement_mm"),
-            "{page}: {html}"
+            html.contains(&format!("data-subject=\"point:{point}\""))
+                && html.contains(&listed_on_page),
+            "{page} lists its incident and the alert {id}: {html}"
         );
         let (s, listed) = daemon
             .get(&format!("/api/v1/alerts?site={SITE}&state=open"))

@@ -17,6 +17,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sha2::Sha256;
 
+use cliffwatch::webhooks::IncidentLink;
 use cliffwatch::webhooks::{
     accepts, alertmanager_alerts, alertmanager_body, backoff_delay, deliver, message_id,
     next_retry, parse_retry_after, render, sign, verify, DeliveryOutcome, PayloadFormat,
@@ -107,7 +108,11 @@ fn event(ty: AlertEventType, level: AlertLevel) -> AlertEvent {
 
 #[test]
 fn payload_has_the_contract_shape() {
-    let p = WebhookPayload::from_event(&event(AlertEventType::Raised, AlertLevel::Warning), None);
+    let p = WebhookPayload::from_event(
+        &event(AlertEventType::Raised, AlertLevel::Warning),
+        None,
+        None,
+    );
     let v: serde_json::Value = serde_json::to_value(&p).expect("json");
     assert_eq!(v["type"], "alert.raised");
     assert_eq!(v["timestamp"], "2026-11-21T09:00:05Z");
@@ -131,20 +136,38 @@ fn payload_has_the_contract_shape() {
     }
     assert!(d["message"].is_string());
     assert!(d.get("url").is_none(), "no link without a public URL");
+    assert!(d.get("incident").is_none() && d.get("incident_url").is_none());
     let linked = WebhookPayload::from_event(
         &event(AlertEventType::Raised, AlertLevel::Warning),
         Some("https://cw.example.org/"),
+        None,
     );
     assert_eq!(
         linked.data.url.as_deref(),
         Some("https://cw.example.org/sites/kamo/alerts/kamo%2FT103%2Fdisplacement_mm%2F17")
     );
+    // In an incident (T103 in block B1): its id and page beside the alert's.
+    let b1 = IncidentLink {
+        key: "block:B1".into(),
+        page: "/sites/kamo/groups/B1".into(),
+    };
+    let in_block = WebhookPayload::from_event(
+        &event(AlertEventType::Raised, AlertLevel::Warning),
+        Some("https://cw.example.org/"),
+        Some(&b1),
+    );
+    assert_eq!(in_block.data.incident.as_deref(), Some("block:B1"));
+    assert_eq!(
+        in_block.data.incident_url.as_deref(),
+        Some("https://cw.example.org/sites/kamo/groups/B1")
+    );
+    assert_eq!(in_block.data.url, linked.data.url);
     // Site-level: point null, points listed.
     let mut e = event(AlertEventType::Raised, AlertLevel::Warning);
     e.alert.point = None;
     e.alert.points = vec!["R3".into()];
     e.alert.rule = AlertKind::ReferenceUnstable;
-    let v = serde_json::to_value(WebhookPayload::from_event(&e, None)).expect("json");
+    let v = serde_json::to_value(WebhookPayload::from_event(&e, None, None)).expect("json");
     assert!(v["data"]["point"].is_null());
     assert_eq!(v["data"]["points"], serde_json::json!(["R3"]));
     assert_eq!(v["data"]["rule"], "reference_unstable");
@@ -153,6 +176,7 @@ fn payload_has_the_contract_shape() {
         &event(AlertEventType::Resolved, AlertLevel::Watch),
         "ops",
         Some("https://cw.example.org"),
+        None,
     ))
     .expect("json");
     assert_eq!(am["version"], "4");
@@ -170,6 +194,31 @@ fn payload_has_the_contract_shape() {
         "https://cw.example.org/sites/kamo/alerts/kamo%2FT103%2Fdisplacement_mm%2F17"
     );
     assert_eq!(am["externalURL"], "https://cw.example.org");
+    // In an incident, Alertmanager's link opens the incident's page and names it.
+    let am = serde_json::to_value(alertmanager_body(
+        &event(AlertEventType::Raised, AlertLevel::Watch),
+        "ops",
+        Some("https://cw.example.org"),
+        Some(&b1),
+    ))
+    .expect("json");
+    let a = &am["alerts"][0];
+    assert_eq!(
+        a["generatorURL"],
+        "https://cw.example.org/sites/kamo/groups/B1"
+    );
+    assert_eq!(a["annotations"]["incident"], "block:B1");
+    let v2 = serde_json::to_value(alertmanager_alerts(
+        &event(AlertEventType::Raised, AlertLevel::Watch),
+        Some("https://cw.example.org"),
+        Some(&b1),
+        chrono::Duration::seconds(240),
+    ))
+    .expect("json");
+    assert_eq!(
+        v2[0]["generatorURL"],
+        "https://cw.example.org/sites/kamo/groups/B1"
+    );
 }
 
 #[test]
@@ -353,7 +402,7 @@ async fn retries_reuse_the_id_honour_retry_after_and_410_disables() {
     let (url, rx) = start(vec![(503, None), (429, Some("1")), (500, None)]).await;
     let client = cliffwatch::webhooks::client(Duration::from_secs(5)).expect("client");
     let ev = event(AlertEventType::Raised, AlertLevel::Warning);
-    let body = serde_json::to_vec(&WebhookPayload::from_event(&ev, None)).expect("body");
+    let body = serde_json::to_vec(&WebhookPayload::from_event(&ev, None, None)).expect("body");
     let id = message_id(&ev);
     let policy = RetryPolicy {
         base_seconds: 0.01,
@@ -431,6 +480,7 @@ fn alertmanager_v2_body_has_the_postable_alerts_shape() {
     let body = serde_json::to_value(alertmanager_alerts(
         &raised,
         Some("https://cw.example.org/"),
+        None,
         hold,
     ))
     .unwrap();
@@ -486,7 +536,7 @@ fn alertmanager_v2_body_has_the_postable_alerts_shape() {
     // Resolution ends every level reached at the event time; without a public URL there is no
     // generatorURL.
     let resolved = event(AlertEventType::Resolved, AlertLevel::Warning);
-    let body = serde_json::to_value(alertmanager_alerts(&resolved, None, hold)).unwrap();
+    let body = serde_json::to_value(alertmanager_alerts(&resolved, None, None, hold)).unwrap();
     assert_eq!(body.as_array().unwrap().len(), 2);
     for a in body.as_array().unwrap() {
         assert_eq!(time(&a["endsAt"]), resolved.timestamp);
@@ -525,12 +575,12 @@ fn each_format_renders_its_body() {
         enabled: true,
     };
     let body = |f| -> serde_json::Value {
-        serde_json::from_str(&render(&ev, &ep(f), None).expect("render")).expect("json")
+        serde_json::from_str(&render(&ev, &ep(f), None, None).expect("render")).expect("json")
     };
     let standard = body(PayloadFormat::Standard);
     assert_eq!(
         standard,
-        serde_json::to_value(WebhookPayload::from_event(&ev, None)).unwrap()
+        serde_json::to_value(WebhookPayload::from_event(&ev, None, None)).unwrap()
     );
     let v4 = body(PayloadFormat::AlertmanagerWebhook);
     assert_eq!(v4["version"], "4");
@@ -541,7 +591,7 @@ fn each_format_renders_its_body() {
     let hold = chrono::Duration::seconds(4 * cliffwatch::webhooks::DEFAULT_RESEND_SECS);
     assert_eq!(
         v2,
-        serde_json::to_value(alertmanager_alerts(&ev, None, hold)).unwrap()
+        serde_json::to_value(alertmanager_alerts(&ev, None, None, hold)).unwrap()
     );
     assert_eq!(v2.as_array().map(Vec::len), Some(2));
 }
@@ -568,7 +618,7 @@ async fn a_redirect_is_not_followed_and_is_retried() {
     let addr = serve(app).await;
     let client = cliffwatch::webhooks::client(Duration::from_secs(5)).expect("client");
     let ev = event(AlertEventType::Raised, AlertLevel::Alarm);
-    let body = serde_json::to_vec(&WebhookPayload::from_event(&ev, None)).expect("body");
+    let body = serde_json::to_vec(&WebhookPayload::from_event(&ev, None, None)).expect("body");
     let out = deliver(
         &client,
         &format!("http://{addr}/old"),
