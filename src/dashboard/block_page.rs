@@ -15,7 +15,7 @@ use super::headline::{bound_confidence_words, failure_time, FailureTime};
 use super::layout::{level_badge, num, page, seg, time_to_failure, with_sigma};
 use super::local_time::{text, when};
 use super::page::{site_or_404, viewer, PageError};
-use super::plot_data::inverse_line;
+use super::plot_data::{inverse_line, plotted_inverse};
 use super::time_plot_svg::{time_plot, time_plot_with_line};
 use crate::http::auth::Access;
 use crate::http::AppState;
@@ -107,25 +107,22 @@ pub async fn block(
     let along = col(&|r| r.d_along_mm);
     let v = col(&|r| r.f_velocity_mm_per_day);
     let sv = col(&|r| r.sigma_f_velocity_mm_per_day);
-    // 1/v where the block moves forward (v > 0); elsewhere a gap.
-    let inv = col(&|r| {
-        r.f_velocity_mm_per_day
-            .filter(|v| *v > 0.0)
-            .map(|v| 1.0 / v)
-    });
     let none = vec![f64::NAN; rows.len()];
-    // The columns the forecast's inverse-velocity line is fitted from (as on a point's plot).
-    let fit = inverse_line(&SeriesColumns {
+    // The columns of the inverse velocity and its line, as on a point's plot.
+    let columns = SeriesColumns {
         t: t.clone(),
-        d: [none.clone(), none.clone(), none.clone(), d.clone()],
-        sigma: [none.clone(), none.clone(), none.clone(), sd.clone()],
-        along: along.clone(),
+        f_velocity: [v.clone(), sv.clone()],
         f_ttf: [
             col(&|r| r.f_time_to_failure_hours),
             col(&|r| r.sigma_f_time_to_failure_hours),
         ],
         ..SeriesColumns::default()
-    });
+    };
+    // 1/v ± 2σ where the block moves significantly forward (v > 2σ); elsewhere a gap.
+    let (inv, sinv): (Vec<f64>, Vec<f64>) = (0..rows.len())
+        .map(|k| plotted_inverse(&columns, k).unwrap_or((f64::NAN, f64::NAN)))
+        .unzip();
+    let fit = inverse_line(&columns);
     // Every epoch with a forecast; the failure time only where the pages state it.
     let history: Vec<(&Displacement, Option<FailureTime>)> = rows
         .iter()
@@ -204,11 +201,11 @@ pub async fn block(
                 figure { figcaption { "filtered velocity (mm/day), ±2σ" } (time_plot(&t, &v, &sv, &thresholds(rules, "velocity_mm_per_day", &g.name), "mm/day")) }
                 figure.inverse {
                     figcaption {
-                        "inverse velocity 1/v (day/mm), where the block moves forward"
-                        @if fit.is_some() { "; dashed: the latest forecast's law, fitted to the smoothed (Rauch–Tung–Striebel) velocities of its last epochs rather than to the filtered values plotted, so it may run beside them; its zero is the forecast failure time" }
+                        "inverse velocity 1/v (day/mm) of the filtered velocity, ±2σ, where the block moves significantly forward (v > 2σ)"
+                        @if fit.is_some() { "; dashed: the latest forecast's law, fitted to the 1/v plotted over its last 12 epochs; its zero is the forecast failure time" }
                         @else { "; no line: the latest epoch has no forecast yet" }
                     }
-                    (time_plot_with_line(&t, &inv, &none, &[], "day/mm", fit))
+                    (time_plot_with_line(&t, &inv, &sinv, &[], "day/mm", fit))
                 }
             }
         }

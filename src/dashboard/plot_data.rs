@@ -264,15 +264,23 @@ fn write_columns(c: &SeriesColumns, out: &mut Vec<u8>) {
     }
 }
 
+/// The inverse velocity the plots draw at epoch `k`: `(1/v, σ of 1/v)` in day/mm where the
+/// filtered velocity is significantly forward (v > 2σ), else `None` (a gap: no 1/v to draw).
+/// σ(1/v) = σ_v / v² (first order).
+pub fn plotted_inverse(c: &SeriesColumns, k: usize) -> Option<(f64, f64)> {
+    let (v, sv) = (c.f_velocity[0][k], c.f_velocity[1][k]);
+    (v.is_finite() && sv.is_finite() && v > 2.0 * sv).then(|| (1.0 / v, sv / (v * v)))
+}
+
 /// The inverse-velocity line of the latest filtered forecast (Fukuzono 1985): the forecast's
 /// law `v = B/(t_f − t)` is a straight line `1/v = (t_f − t)/B` that reaches zero at the
-/// forecast failure time itself. `t_f` is the forecast's; the amplitude `B` is the law's at that
-/// failure time, fitted by weighted least squares (`d = a − B ln(t_f − t)`, weights 1/σ²) to the
-/// displacements along the direction of motion (the 3-D length without a direction) of the
-/// forecast's window, the last [`LINE_EPOCHS`] epochs. `[t0, y0, t_f, 0]` (s since 1970,
-/// day/mm) from the window's first epoch; None without a forecast, for one the pages do not
-/// state ([`cliffwatch_core::analysis::failure::stated`]: "no forecast yet"), or when the law does not
-/// advance.
+/// forecast failure time itself. `t_f` is the forecast's; the slope `1/B` is fitted by weighted
+/// least squares (weights 1/σ² of [`plotted_inverse`]) to the inverse velocities the plot draws
+/// over the forecast's window, the last [`LINE_EPOCHS`] epochs, so the line runs through the
+/// points it is drawn over. `[t0, y0, t_f, 0]` (s since 1970, day/mm) from the window's first
+/// epoch; None without a forecast, for one the pages do not state
+/// ([`cliffwatch_core::analysis::failure::stated`]: "no forecast yet"), with fewer than 3
+/// plotted points in the window, or when the law does not advance.
 pub fn inverse_line(c: &SeriesColumns) -> Option<[f64; 4]> {
     let i = c.t.len().checked_sub(1)?;
     let (h, s) = (c.f_ttf[0][i], c.f_ttf[1][i]);
@@ -282,30 +290,24 @@ pub fn inverse_line(c: &SeriesColumns) -> Option<[f64; 4]> {
     let day = |t: f64| t / 86_400.0;
     let tf = day(c.t[i]) + h / 24.0;
     let start = c.t.len().saturating_sub(LINE_EPOCHS);
-    let along = (start..=i).all(|k| c.along[k].is_finite());
-    let mut rows = vec![];
+    let (mut sxy, mut sxx, mut n) = (0.0, 0.0, 0);
     for k in start..=i {
-        let d = if along { c.along[k] } else { c.d[3][k] };
-        let sd = c.sigma[3][k];
         let rest = tf - day(c.t[k]);
-        if d.is_finite() && sd.is_finite() && sd > 0.0 && rest > 0.0 {
-            rows.push((-rest.ln(), d, 1.0 / (sd * sd)));
+        if let Some((y, sy)) = plotted_inverse(c, k).filter(|(_, sy)| *sy > 0.0) {
+            if rest > 0.0 {
+                let w = 1.0 / (sy * sy);
+                sxy += w * rest * y;
+                sxx += w * rest * rest;
+                n += 1;
+            }
         }
     }
-    if rows.len() < 3 {
-        return None;
-    }
-    let sw: f64 = rows.iter().map(|r| r.2).sum();
-    let xm = rows.iter().map(|r| r.2 * r.0).sum::<f64>() / sw;
-    let dm = rows.iter().map(|r| r.2 * r.1).sum::<f64>() / sw;
-    let sxx: f64 = rows.iter().map(|r| r.2 * (r.0 - xm).powi(2)).sum();
-    let sxd: f64 = rows.iter().map(|r| r.2 * (r.0 - xm) * (r.1 - dm)).sum();
-    let b = sxd / sxx;
-    if !(b.is_finite() && b > 0.0) {
+    let slope = sxy / sxx;
+    if n < 3 || !(slope.is_finite() && slope > 0.0) {
         return None;
     }
     let t0 = day(c.t[start]);
-    Some([c.t[start], (tf - t0) / b, tf * 86_400.0, 0.0])
+    Some([c.t[start], (tf - t0) * slope, tf * 86_400.0, 0.0])
 }
 
 /// The latest filtered forecast: failure time and ±2σ (s since 1970), the one-sided bound
@@ -338,7 +340,7 @@ fn forecast(c: &SeriesColumns, tz: Option<&str>) -> Value {
         format!(
             "Failure likely before {} ({percent:.0} %, one-sided, counted from the last epoch). \
              Forecast failure (filtered): {} (±2σ: {} to {}), {:.0} ± {:.0} h (1σ) after the last epoch. \
-             The line is the inverse-velocity law ending at the forecast failure time, fitted to the last {epochs} epochs \
+             The line is the inverse-velocity law ending at the forecast failure time, fitted to the 1/v plotted over the last {epochs} epochs \
              ({} to {}).",
             text(likely_before, tz),
             text(tf, tz),
@@ -475,5 +477,46 @@ mod tests {
         assert!(f["text"]
             .as_str()
             .is_some_and(|t| t.starts_with("No forecast yet")));
+    }
+
+    /// Filtered velocities that lag the displacements' law (half its velocity, as a Kalman
+    /// filter lags an acceleration): the line is fitted to the 1/v the plot draws, so it runs
+    /// through those points (within their ±2σ at every epoch of its window), not beside them.
+    #[test]
+    fn the_inverse_line_runs_through_the_plotted_points() {
+        let tf_day = 20_000.0;
+        let b = 6.0;
+        let mut c = SeriesColumns::default();
+        for k in 0..20 {
+            let t = tf_day - 20.0 + k as f64 * 0.9;
+            let v = 0.5 * b / (tf_day - t);
+            c.push(&SeriesRow {
+                epoch: k,
+                t: t * 86_400.0,
+                d: [0.0, 0.0, 0.0, 40.0 - b * (tf_day - t).ln()],
+                sigma: [0.3; 4],
+                along: f64::NAN,
+                velocity: f64::NAN,
+                ttf: f64::NAN,
+                f_d: [f64::NAN; 4],
+                sigma_f_d: [f64::NAN; 4],
+                f_velocity: [v, 0.05 * v],
+                f_ttf: [(tf_day - t) * 24.0, 0.1 * (tf_day - t) * 24.0],
+            });
+        }
+        let l = inverse_line(&c).expect("line");
+        let mut inside = 0;
+        for k in 0..c.t.len() {
+            let Some((y, sy)) = plotted_inverse(&c, k).filter(|_| c.t[k] >= l[0]) else {
+                continue;
+            };
+            let line = l[1] * (l[2] - c.t[k]) / (l[2] - l[0]);
+            assert!(
+                (line - y).abs() <= 2.0 * sy,
+                "epoch {k}: line {line}, 1/v {y} ± {sy}"
+            );
+            inside += 1;
+        }
+        assert_eq!(inside, LINE_EPOCHS);
     }
 }

@@ -108,7 +108,7 @@ pub async fn point(
                 figure { figcaption { "displacement along the direction of interest (mm), ±2σ" } div.plot data-panel="along" {} }
             }
             figure { figcaption { "velocity (mm/day), raw and filtered ±2σ" } div.plot data-panel="velocity" {} }
-            figure { figcaption { "inverse velocity (day/mm) with the forecast's inverse-velocity law (zero at the forecast failure time)" } div.plot data-panel="inverse" {} p.forecast {} }
+            figure { figcaption { "inverse velocity 1/v (day/mm) of the filtered velocity, ±2σ, where it is significantly forward (v > 2σ); dashed: the forecast's inverse-velocity law, fitted to the 1/v plotted over its last 12 epochs; its zero is the forecast failure time" } div.plot data-panel="inverse" {} p.forecast {} }
         }
         noscript { p.note { "The plots need JavaScript; the CSV link above has the same data." } }
     };

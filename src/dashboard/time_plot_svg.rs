@@ -30,7 +30,7 @@ pub fn time_plot(
 /// [`time_plot`] with a straight line `[t0, y0, t1, y1]` (s since 1970, the plot's unit) drawn
 /// over the values, the time axis extended to its end: the inverse-velocity law of a forecast
 /// ([`super::plot_data::inverse_line`]), whose end at zero is the forecast failure time (its
-/// `data-zero`, s since 1970).
+/// `data-zero`, s since 1970; its start `data-t0`, s since 1970, at `data-y0`, the plot's unit).
 pub fn time_plot_with_line(
     t: &[f64],
     v: &[f64],
@@ -125,7 +125,7 @@ pub fn time_plot_with_line(
             path.band d=(band) {}
             path.value d=(path(0.0)) {}
             @if let Some(l) = line {
-                line.fit data-zero=(format!("{:.0}", l[2])) x1=(format!("{:.1}", x(l[0]))) y1=(format!("{:.1}", y(l[1]))) x2=(format!("{:.1}", x(l[2]))) y2=(format!("{:.1}", y(l[3]))) {}
+                line.fit data-zero=(format!("{:.0}", l[2])) data-t0=(format!("{:.0}", l[0])) data-y0=(format!("{}", l[1])) x1=(format!("{:.1}", x(l[0]))) y1=(format!("{:.1}", y(l[1]))) x2=(format!("{:.1}", x(l[2]))) y2=(format!("{:.1}", y(l[3]))) {}
             }
             @for (v, level) in thresholds {
                 line class={ "threshold " (level_class(Some(*level))) } x1=(LEFT) x2=(W - 8.0) y1=(format!("{:.1}", y(*v))) y2=(format!("{:.1}", y(*v))) {}

@@ -190,6 +190,36 @@ async fn the_block_page_draws_the_forecast_line_down_to_the_failure_time() {
             .all(|r| !r.contains("2026-11-1") || r.matches("UTC").count() == 1),
         "a row without a forecast yet gives no failure date: {not_yet:?}"
     );
+    // The line runs through the points it is drawn over: at each epoch of its window where 1/v
+    // is plotted (v > 2σ), the line against 1/v ± 2σ(1/v) (σ_v / v²).
+    let fit = driver
+        .script("var l = document.querySelector('figure.inverse line.fit'); return [l.getAttribute('data-t0'), l.getAttribute('data-y0'), l.getAttribute('data-zero')]")
+        .await;
+    let num = |v: &Value| v.as_str().unwrap().parse::<f64>().unwrap();
+    let (t0, y0, zero) = (num(&fit[0]), num(&fit[1]), num(&fit[2]));
+    let mut normalised = vec![];
+    for r in motion["items"].as_array().unwrap() {
+        let t = chrono::DateTime::parse_from_rfc3339(r["observed_at"].as_str().unwrap())
+            .unwrap()
+            .timestamp() as f64;
+        let (Some(v), Some(sv)) = (
+            r["f_velocity_mm_per_day"].as_f64(),
+            r["sigma_f_velocity_mm_per_day"].as_f64(),
+        ) else {
+            continue;
+        };
+        if t + 1.0 < t0 || v <= 2.0 * sv {
+            continue;
+        }
+        let line = y0 * (zero - t) / (zero - t0);
+        normalised.push((line - 1.0 / v) / (sv / (v * v)));
+    }
+    eprintln!("line against the plotted 1/v, in σ: {normalised:?}");
+    assert!(normalised.len() >= 3, "{normalised:?}");
+    let last = *normalised.last().unwrap();
+    assert!(last.abs() <= 2.0, "the last epoch: {last} σ from the line");
+    let rms = (normalised.iter().map(|x| x * x).sum::<f64>() / normalised.len() as f64).sqrt();
+    assert!(rms <= 2.0, "rms {rms} σ: {normalised:?}");
     driver
         .script("document.querySelector('figure.inverse').scrollIntoView(); return true")
         .await;

@@ -208,7 +208,11 @@
       return draw(el, d.t, s3.concat(thresholds(d, ["velocity_mm_per_day"], n)), ev);
     }
     if (name === "inverse") {
-      var inv = d.f_velocity.map(function (v, i) { return v != null && d.sf_velocity[i] != null && v > 2 * d.sf_velocity[i] ? 1 / v : null; });
+      // 1/v and its σ (σ_v / v²) where the filtered velocity is significantly forward (v > 2σ),
+      // as the block page draws it and as the line is fitted (plot_data::plotted_inverse).
+      var sig = function (v, i) { return v != null && d.sf_velocity[i] != null && v > 2 * d.sf_velocity[i]; };
+      var inv = d.f_velocity.map(function (v, i) { return sig(v, i) ? 1 / v : null; });
+      var sinv = d.f_velocity.map(function (v, i) { return sig(v, i) ? d.sf_velocity[i] / (v * v) : null; });
       var f = el.parentNode.querySelector(".forecast");
       if (f) {
         f.textContent = d.forecast
@@ -222,10 +226,11 @@
       var l = d.inverse_line;
       if (l) {
         for (var i = 0; i < n; i++) if (t[i] >= l[0]) line[i] = l[1] + (l[3] - l[1]) * (t[i] - l[0]) / (l[2] - l[0]);
-        if (l[2] > t[n - 1]) { t.push(l[2]); inv.push(null); line.push(l[3]); }
+        if (l[2] > t[n - 1]) { t.push(l[2]); inv.push(null); sinv.push(null); line.push(l[3]); }
       }
       // gaps in 1/v stay gaps (a missing or insignificant velocity is not bridged)
-      var s4 = [{ kind: "line", label: "1/v (filtered, where v > 2σ)", stroke: RAW[3], width: 1.5, values: inv, gaps: true }];
+      var s4 = withBand("1/v (filtered, where v > 2σ)", RAW[3], inv, sinv);
+      s4[0].gaps = true;
       if (l) s4.push({ kind: "line", label: "forecast's inverse-velocity law", stroke: FILTERED, width: 1.5, dash: [6, 3], values: line });
       return draw(el, t, s4, ev);
     }
