@@ -86,6 +86,7 @@ fn main() {
             max(&q)
         );
     }
+    println!("  along the face normal: pooled {:.3}", a.normal_rms());
     let p_out = chi2_cdf(n * BAND.0 * BAND.0, n) + (1.0 - chi2_cdf(n * BAND.1 * BAND.1, n));
     let figures = 3 * a.targets.len();
     let outside = a

@@ -106,6 +106,8 @@ pub struct Agreement {
     pub sum_squares: [f64; 3],
     /// Number of (target, epoch) terms in each of `sum_squares`.
     pub terms: usize,
+    /// Σ (error along the face normal / predicted σ along it)² over targets and epochs.
+    pub normal_sum_squares: f64,
     /// Σ ((ĉ − c)/σc)² over the epochs, with σc the predicted `sigma_c_mm`.
     pub c_sum_squares: f64,
     /// Σ ((ĉ − c)/σc_repeat)² over the epochs, with the predicted `sigma_c_repeat_mm`.
@@ -136,6 +138,11 @@ impl Agreement {
     pub fn pooled_rms(&self) -> [f64; 3] {
         self.sum_squares
             .map(|s| (s / self.terms.max(1) as f64).sqrt())
+    }
+
+    /// Pooled rms of (error / predicted σ) along the face normal over targets and epochs.
+    pub fn normal_rms(&self) -> f64 {
+        (self.normal_sum_squares / self.terms.max(1) as f64).sqrt()
     }
 
     /// rms of (ĉ − c)/σc and of (ĉ − c)/σc_repeat over the epochs.
@@ -296,6 +303,7 @@ pub fn measure(options: &AgreementOptions) -> Result<Agreement, AgreementError> 
         report: report.clone(),
         sum_squares: [0.0; 3],
         terms: 0,
+        normal_sum_squares: 0.0,
         c_sum_squares: 0.0,
         c_repeat_sum_squares: 0.0,
         c_sigma_ratio: 0.0,
@@ -321,7 +329,7 @@ pub fn measure(options: &AgreementOptions) -> Result<Agreement, AgreementError> 
             &predicted,
             &a,
             &truth,
-            p.c_mm,
+            (p.c_mm, n),
             (sigma_c, sigma_c_repeat),
         )?;
         let (mean, worst) = site_ratios(&input, &a, plan.confidence)?;
@@ -422,7 +430,7 @@ fn errors(
     predicted: &[Predicted],
     a: &Adjustment,
     truth: &BTreeMap<String, [f64; 3]>,
-    c_mm: f64,
+    (c_mm, normal): (f64, Vector3<f64>),
     (sigma_c, sigma_c_repeat): (f64, f64),
 ) -> Result<(), AgreementError> {
     for (t, o) in predicted.iter().zip(&mut out.targets) {
@@ -432,6 +440,9 @@ fn errors(
         let tru = truth
             .get(&t.name)
             .ok_or_else(|| AgreementError::Missing("true point".into()))?;
+        let error = Vector3::from_fn(|i, _| (est.xyz[i] - tru[i]) * 1e3);
+        let along = (normal.transpose() * t.cov * normal)[(0, 0)].sqrt();
+        out.normal_sum_squares += (error.dot(&normal) / along).powi(2);
         for i in 0..3 {
             let s = t.cov[(i, i)].sqrt();
             let e = (est.xyz[i] - tru[i]) * 1e3 / s;

@@ -54,7 +54,7 @@ fn pooled(runs: &[Agreement]) -> ([f64; 3], f64, f64, f64, f64) {
 }
 
 /// The goals over 3 seeds × 40 epochs: every epoch adjusts; the pooled rms of error/σ per
-/// component within 0.9–1.1; a displacement of the predicted MDD detected in 80 % ± 5 % of the
+/// component and along the face normal within 0.9–1.1; a displacement of the predicted MDD detected in 80 % ± 5 % of the
 /// trials along the face normal and along the worst direction; the σ each epoch's adjustment
 /// reports (σ0 fixed to the a-priori) within 2 % of the planned network's on average and, for the
 /// epoch taken as an existing site (its site plan), within 5 % for every epoch, target and
@@ -95,6 +95,12 @@ fn plan_agreement_with_simulated_epochs() {
             "{axis}: pooled rms of error/σ {r}"
         );
     }
+    let terms: usize = runs.iter().map(|r| r.terms).sum();
+    let along = (runs.iter().map(|r| r.normal_sum_squares).sum::<f64>() / terms as f64).sqrt();
+    assert!(
+        (0.9..=1.1).contains(&along),
+        "along the normal: rms {along}"
+    );
     for (label, rate) in [("normal", normal), ("worst", worst)] {
         assert!(
             (0.75..=0.85).contains(&rate),
