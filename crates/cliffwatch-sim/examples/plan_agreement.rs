@@ -46,7 +46,10 @@ fn main() {
             std::process::exit(1);
         }
     };
-    let i = &a.report.interior[0];
+    let Some(i) = a.report.interior.first() else {
+        eprintln!("plan_agreement: the plan has no camera");
+        std::process::exit(1);
+    };
     println!(
         "plan: seed {}, {} targets, dof {}, σc {:.2} mm (σc_repeat {:.2} mm, prior share {:.0} %); \
          {} epochs adjusted, {} adjustments failed",

@@ -278,7 +278,10 @@ pub fn measure(options: &AgreementOptions) -> Result<Agreement, AgreementError> 
         }
         let (mut input, truth) = long_range_epoch(&given, &variation)?;
         for t in plan.targets.iter().filter(|t| t.known) {
-            let x = truth.points[&t.point];
+            let x = *truth
+                .points
+                .get(&t.point)
+                .ok_or_else(|| AgreementError::Missing("true point".into()))?;
             input.control.push(ControlInput {
                 point: t.point.clone(),
                 X: x[0] + control.sample(rng),
