@@ -18,6 +18,7 @@
 pub mod images;
 pub mod kinematics;
 pub mod monitoring;
+pub mod plan_agreement;
 pub mod scenes;
 pub mod series;
 pub mod ttf_benchmark;

@@ -29,6 +29,7 @@ pub use adjust::cancel::Cancel;
 pub use adjust::options::AdjustOptions;
 pub use adjust::report::AdjustmentReport;
 pub use adjust::result::{AdjustedPoint, Adjustment, ImageOrientation, JointCovariance};
+pub use adjust::C_PRIOR_RELATIVE;
 pub use error::{AdjustError, EpochError};
 pub use input::epoch::{EpochInput, EpochProblem, PriorCoordinates};
 pub use model::camera::Camera;

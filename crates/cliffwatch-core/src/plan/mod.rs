@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use crate::analysis::sensitivity::minimum_detectable;
 use crate::analysis::stats::chi2_quantile;
 use crate::photogrammetry::statistics::design::ParameterCorrelation;
-use crate::photogrammetry::{adjust, AdjustError, AdjustOptions, Cancel, Model};
+use crate::photogrammetry::{adjust, AdjustError, AdjustOptions, Cancel, Model, C_PRIOR_RELATIVE};
 use quality::ObservationReliability;
 
 pub use input::{Plan, PlanCamera, PlanDatum, PlanError, PlanStation, PlanTarget};
@@ -77,13 +77,40 @@ pub struct TargetPrecision {
 }
 
 /// The predicted σ of one camera's self-calibrated c.
+///
+/// The adjustment holds c with a weak prior centred on the given c (σ
+/// [`C_PRIOR_RELATIVE`] of it): `sigma_c_mm`, what an epoch's adjustment reports, counts the
+/// prior's information as if the given c were drawn afresh in each epoch. Every epoch of a camera
+/// gives the same c, so the prior's share is a common offset of those epochs, and ĉ scatters
+/// from epoch to epoch by `sigma_c_repeat_mm` = σc·√(1 − σc²/σp²) (σp the prior's σ), the
+/// sampling σ of the estimator with the prior centre fixed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct InteriorPrecision {
     /// Camera id.
     pub camera: String,
-    /// σ of c in mm (None when c is held fixed).
+    /// σ of c in mm, the adjustment's (None when c is held fixed).
     pub sigma_c_mm: Option<f64>,
+    /// σ of ĉ's scatter between epochs that give the same nominal c, mm (None when c is held
+    /// fixed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_c_repeat_mm: Option<f64>,
+    /// Share of c's information (1/σc²) that comes from the adjustment's prior on c rather than
+    /// from the images, 0–1 (None when c is held fixed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub c_prior_share: Option<f64>,
+}
+
+/// `(sigma_c_repeat_mm, c_prior_share)` of a self-calibrated c of σ `sigma_c_mm` whose given
+/// value is `c_mm` (see [`InteriorPrecision`]).
+pub fn c_repeatability(sigma_c_mm: f64, c_mm: f64) -> (f64, f64) {
+    let prior = C_PRIOR_RELATIVE * c_mm.abs();
+    let share = if prior > 0.0 {
+        (sigma_c_mm / prior).powi(2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (sigma_c_mm * (1.0 - share).sqrt(), share)
 }
 
 /// The pre-analysis of a plan.
@@ -329,23 +356,37 @@ pub fn pre_analysis_cancellable(plan: &Plan, cancel: Cancel) -> Result<PlanRepor
         .report
         .cameras
         .iter()
-        .map(|c| InteriorPrecision {
-            camera: c.id.clone(),
-            sigma_c_mm: c.c_sigma_mm,
+        .map(|c| {
+            let given = plan
+                .cameras
+                .iter()
+                .find(|p| p.id == c.id)
+                .map_or(c.c_mm, |p| p.c_mm);
+            let repeat = c.c_sigma_mm.map(|s| c_repeatability(s, given));
+            InteriorPrecision {
+                camera: c.id.clone(),
+                sigma_c_mm: c.c_sigma_mm,
+                sigma_c_repeat_mm: repeat.map(|r| r.0),
+                c_prior_share: repeat.map(|r| r.1),
+            }
         })
         .collect();
-    for c in &adjustment.report.cameras {
+    for (c, i) in adjustment.report.cameras.iter().zip(&interior) {
         if let Some(sc) = c
             .c_sigma_mm
             .filter(|sc| *sc > WEAK_C_RELATIVE_SIGMA * c.c_mm)
         {
             warnings.push(format!(
-                "camera {}: c is weakly determined (σ {sc:.2} mm, {:.1} % of c): c shows only \
-                 through the perspective of the targets' depth differences as seen from the \
-                 stations; more relief among the targets, stations at different distances or \
-                 more convergent views strengthen it, or hold c fixed from a calibration",
+                "camera {}: c is weakly determined (σ {sc:.2} mm, {:.1} % of c; {:.0} % of that \
+                 from the adjustment's prior of {:.0} % of the given c, the images alone \
+                 carrying the rest): c shows only through the perspective of the targets' depth \
+                 differences as seen from the stations; more relief among the targets, stations \
+                 at different distances or more convergent views strengthen it, or hold c fixed \
+                 from a calibration",
                 c.id,
-                100.0 * sc / c.c_mm
+                100.0 * sc / c.c_mm,
+                100.0 * i.c_prior_share.unwrap_or(0.0),
+                100.0 * C_PRIOR_RELATIVE
             ));
         }
     }

@@ -11,6 +11,7 @@ mod cancel;
 mod errors;
 mod paper;
 mod plan;
+mod plan_agreement;
 mod plan_quality;
 mod plausible;
 mod scenes;

@@ -153,13 +153,52 @@ pub const ENU_ORIGIN: [f64; 3] = [500_123.4, 3_900_456.7, 212.3];
 /// aimed at the face centre (±0.2 m) with +Y up. Targets outside a sensor are not observed.
 /// Every target gets an approximation with start error σ `approx_sigma_m`.
 pub fn long_range(params: &LongRangeParams) -> Result<(EpochInput, Truth), SceneError> {
+    long_range_epoch(
+        params,
+        &EpochVariation {
+            noise_seed: params.seed,
+            displaced: Vec::new(),
+        },
+    )
+}
+
+/// What differs between repeated epochs of one long-range scene ([`long_range_epoch`]): the image
+/// noise and the targets' displacements; the geometry, the start errors and c stay the scene's.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct EpochVariation {
+    /// Seed of the image noise alone ([`long_range`] uses the scene's seed).
+    pub noise_seed: u64,
+    /// Targets displaced before they are photographed: (index of the target, 0-based;
+    /// displacement in m, site frame). The truth gives the displaced positions.
+    pub displaced: Vec<(usize, [f64; 3])>,
+}
+
+/// One epoch of the long-range scene of `params` (same targets, stations and camera as
+/// [`long_range`]) with the image noise of `variation.noise_seed` and the targets of
+/// `variation.displaced` moved: repeated epochs of one network, e.g. to check a campaign plan's
+/// predicted precision against simulation. A displaced index beyond the targets is an error.
+pub fn long_range_epoch(
+    params: &LongRangeParams,
+    variation: &EpochVariation,
+) -> Result<(EpochInput, Truth), SceneError> {
     let p = params;
     p.check()?;
     let mut geo = stream(p.seed, GEOMETRY);
     let names: Vec<String> = (0..p.n_points).map(|i| format!("T{}", 101 + i)).collect();
-    let points = face_targets(p, &mut geo);
+    let mut points = face_targets(p, &mut geo);
     let stations = long_range_stations(p, &mut geo);
-    let images = photograph(p, &stations, &names, &points);
+    let (rot, origin) = site_frame(p.frame);
+    let rot_t = transpose(&rot);
+    for (k, d) in &variation.displaced {
+        let x = points
+            .get_mut(*k)
+            .ok_or_else(|| bad("displaced", "target index out of range"))?;
+        let local = mat_vec(&rot_t, *d);
+        for i in 0..3 {
+            x[i] += local[i];
+        }
+    }
+    let images = photograph(p, variation.noise_seed, &stations, &names, &points);
     let mut start = stream(p.seed, START);
     let mut approx = approx_list(
         &names,
@@ -179,12 +218,10 @@ pub fn long_range(params: &LongRangeParams) -> Result<(EpochInput, Truth), Scene
     camera.height_px = Some(p.height_px);
 
     // The object frame: a rigid motion of the local one (image data unchanged).
-    let (rot, origin) = site_frame(p.frame);
     let to_site = |x: V3| -> V3 {
         let v = mat_vec(&rot, x);
         [v[0] + origin[0], v[1] + origin[1], v[2] + origin[2]]
     };
-    let rot_t = transpose(&rot);
     for a in &mut approx {
         let v = to_site([a.X, a.Y, a.Z]);
         (a.X, a.Y, a.Z) = (v[0], v[1], v[2]);
@@ -310,9 +347,10 @@ fn long_range_stations(p: &LongRangeParams, geo: &mut impl Rng) -> Vec<(V3, M3)>
 }
 
 /// One image per station (`S1…`): every target inside the sensor, with Gaussian noise of
-/// `noise_px`, as pixels or mm as the parameters ask.
+/// `noise_px` from `noise_seed`, as pixels or mm as the parameters ask.
 fn photograph(
     p: &LongRangeParams,
+    noise_seed: u64,
     stations: &[(V3, M3)],
     names: &[String],
     points: &[V3],
@@ -324,7 +362,7 @@ fn photograph(
         (p.width_px as f64 - 1.0) / 2.0,
         (p.height_px as f64 - 1.0) / 2.0,
     );
-    let mut noise = stream(p.seed, NOISE);
+    let mut noise = stream(noise_seed, NOISE);
     let mut images = Vec::new();
     for (i, (xo, r)) in stations.iter().enumerate() {
         let id = format!("S{}", i + 1);

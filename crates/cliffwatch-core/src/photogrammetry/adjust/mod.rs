@@ -12,3 +12,5 @@ pub mod report;
 pub mod result;
 pub(crate) mod robust;
 mod site_result;
+
+pub use prepare::C_PRIOR_RELATIVE;
