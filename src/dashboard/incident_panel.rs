@@ -1,7 +1,7 @@
 //! The incident a block or point page is the page of: the links webhooks and Alertmanager
 //! carry open it ([`crate::service::incidents::Subject::page`]). A panel under the headline
-//! lists the incident's open and acknowledged alerts, each linked to its page, and carries the
-//! one form that acknowledges them all; a point inside a declared block points to its block's
+//! carries the one form that acknowledges all the incident's open alerts, and lists them (open
+//! and acknowledged, each linked to its page) in a fold below it; a point inside a declared block points to its block's
 //! page instead, where its incident is.
 
 use maud::{html, Markup};
@@ -48,34 +48,44 @@ pub async fn panel(
         .filter(|a| a.state == AlertStatus::Open)
         .count();
     let rows = incidents::group(&active, &block_of);
+    let mut metrics: Vec<String> = vec![];
+    for (m, _) in rows.iter().flat_map(|r| r.metrics()) {
+        let name = metric_name(m).to_string();
+        if !metrics.contains(&name) {
+            metrics.push(name);
+        }
+    }
     let s = seg(site);
     Ok(html! {
         section.incident aria-label="incident" data-subject=(subject.key()) {
             h2 { "Incident: " (subject.words()) }
             p {
-                (active.len()) " alert" @if active.len() != 1 { "s" } ", " (open) " open"
+                (active.len()) " alert" @if active.len() != 1 { "s" } " (" (metrics.join(", ")) "), " (open) " open"
                 @if open == 0 { " (all acknowledged)" }
             }
-            ul.incident-alerts {
-                @for r in &rows {
-                    @for a in &r.alerts {
-                        li {
-                            (level_badge(Some(a.level))) " "
-                            a href={ "/sites/" (s) "/alerts/" (seg(&a.id)) } {
-                                (metric_name(&a.rule))
-                                @if let Some(p) = &a.point { " · point " (p) }
-                                @else if let Some(g) = &a.group { " · block " (g) }
-                            }
-                            @if a.state == AlertStatus::Acknowledged {
-                                " (acknowledged"
-                                @if let Some(by) = &a.acknowledged_by { " by " (by) }
-                                ")"
+            (incident_form(site, &subject.key(), open, v))
+            details.incident-alerts {
+                summary { "its " (active.len()) " alert" @if active.len() != 1 { "s" } " one by one" }
+                ul {
+                    @for r in &rows {
+                        @for a in &r.alerts {
+                            li {
+                                (level_badge(Some(a.level))) " "
+                                a href={ "/sites/" (s) "/alerts/" (seg(&a.id)) } {
+                                    (metric_name(&a.rule))
+                                    @if let Some(p) = &a.point { " · point " (p) }
+                                    @else if let Some(g) = &a.group { " · block " (g) }
+                                }
+                                @if a.state == AlertStatus::Acknowledged {
+                                    " (acknowledged"
+                                    @if let Some(by) = &a.acknowledged_by { " by " (by) }
+                                    ")"
+                                }
                             }
                         }
                     }
                 }
             }
-            (incident_form(site, &subject.key(), open, v))
         }
     })
 }
