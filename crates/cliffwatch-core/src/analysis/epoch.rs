@@ -259,14 +259,16 @@ pub struct FailureConfig {
     /// more alarms then come less than 24 h before failure (`docs/accuracy.md`), so it is off.
     pub confirm_spread: bool,
     /// Whether a forecast is withheld when the motion went significantly backward along its
-    /// direction over some week of the onset law's window (a stretch's velocity 3 σ below zero,
-    /// σ scaled by the local scatter; `super::reversible::moves_backward`): a cycle's falling
-    /// half; a block that creeps and then accelerates never reverses (issue 75).
+    /// direction over a stretch of one to three weeks of the onset law's window (its velocity
+    /// 3 σ below zero, σ scaled by the local scatter; `super::reversible::moves_backward`): a
+    /// cycle's falling half; a block that creeps and then accelerates never reverses (issue 75).
+    /// Off: it stopped 1 of 5 cyclic alarms, the cycle alternative all (`docs/accuracy.md`).
     pub refuse_backward: bool,
     /// Whether a forecast is withheld when the motion slowed significantly within the onset
     /// law's window (a week's velocity 3 σ below an earlier week's;
     /// `super::reversible::slows_down`): a cycle slows every half period, but so does a burst
-    /// inside a real failure's acceleration.
+    /// inside a real failure's acceleration. Off: it stopped 1 of 5 cyclic alarms and delayed
+    /// a failing series' alarm (`docs/accuracy.md`).
     pub refuse_slowing: bool,
     /// Margin of the creep-plus-cycle alternative, in units of the law's variance factor
     /// (dimensionless; None: not asked): a forecast is withheld when creep plus a sinusoid

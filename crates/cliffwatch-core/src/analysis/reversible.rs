@@ -191,7 +191,17 @@ mod tests {
         let s = vec![0.3; 40];
         assert!(moves_backward(&t, &d, &s, 3.0));
         assert!(slows_down(&t, &d, &s, 3.0));
-        assert!(cycle_chi2(&t, &d, &s).is_some_and(|c| c < 1e-6));
+        // The scan's periods are log-spaced (3 % apart), so a cycle between two nodes keeps
+        // some χ²; the law fits the cycle far worse, when at all.
+        let cycle = cycle_chi2(&t, &d, &s).expect("cycle");
+        let (chi2_line, _, _) = line_fit(&t, &d, &[1.0 / 0.09; 40]).expect("line");
+        let chi2_law = crate::analysis::onset_law::fit_onset_law(&t, &d, &s)
+            .map_or(f64::INFINITY, |law| (1.0 - law.forecast.r2) * chi2_line);
+        println!("cycle χ² {cycle:.3}, law χ² {chi2_law:.3}");
+        assert!(
+            cycle < 2.0 && cycle < chi2_law,
+            "cycle {cycle}, law {chi2_law}"
+        );
     }
 
     #[test]
@@ -211,6 +221,20 @@ mod tests {
         let s = vec![0.3; 40];
         assert!(!moves_backward(&t, &d, &s, 3.0));
         assert!(!slows_down(&t, &d, &s, 3.0));
-        assert!(cycle_chi2(&t, &d, &s).is_some_and(|c| c > 0.0));
+        // The law fits its own shape exactly; no cycle follows 1/(t_f − t).
+        let law = crate::analysis::onset_law::fit_onset_law(&t, &d, &s).expect("law");
+        let (chi2_line, _, _) = line_fit(&t, &d, &[1.0 / 0.09; 40]).expect("line");
+        let chi2_law = (1.0 - law.forecast.r2) * chi2_line;
+        let cycle = cycle_chi2(&t, &d, &s).expect("cycle");
+        println!("law χ² {chi2_law:.3}, cycle χ² {cycle:.3}");
+        assert!(cycle > chi2_law + 9.0, "law {chi2_law}, cycle {cycle}");
+    }
+
+    #[test]
+    fn too_few_epochs_give_no_cycle() {
+        let t = window();
+        let d = vec![0.0; 40];
+        assert!(cycle_chi2(&t[..7], &d[..7], &[0.3; 7]).is_none());
+        assert!(cycle_chi2(&t, &d, &[f64::NAN; 40]).is_none());
     }
 }
