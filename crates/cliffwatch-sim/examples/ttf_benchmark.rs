@@ -8,6 +8,9 @@
 //! environment: `TTF_CONFIRM_HOURS` (hours a forecast must converge over, 0 for none),
 //! `TTF_BOTH_WAYS` (1: the earlier and current failure times agree both ways, 0: one way),
 //! `TTF_SPREAD` (1: the spread of the confirmation's failure times in σ, 0: not),
+//! `TTF_BACKWARD` (1: withheld when the motion went backward within the window),
+//! `TTF_SLOWING` (1: withheld when it slowed), `TTF_CYCLE` (margin: withheld when creep plus a
+//! cycle fits within it of the law; `off` for none),
 //! `TTF_POOL_RADIUS` (m, 0: no pooling of undeclared targets), `TTF_METHOD` (`onset_law`, `displacement` or `smoothed_velocity`), `TTF_KINDS` (comma-separated
 //! kinds, e.g. `failing,burst`), and of the time-to-failure rule `TTF_CONFIDENCE` and
 //! `TTF_FOR_EPOCHS`; `TTF_SERIES=1` adds the failing series one by one;
@@ -16,7 +19,9 @@
 
 use cliffwatch_core::analysis::FailureConfig;
 use cliffwatch_sim::kinematics::MotionKind;
-use cliffwatch_sim::ttf_benchmark::{rules_with, run_kinds, series_table, table};
+use cliffwatch_sim::ttf_benchmark::{
+    false_alarm_table, rules_with, run_kinds, series_table, table,
+};
 use cliffwatch_sim::ttf_undeclared::{run_undeclared_kinds, undeclared_table};
 
 fn main() {
@@ -44,6 +49,15 @@ fn main() {
     }
     if let Ok(b) = std::env::var("TTF_SPREAD") {
         failure.confirm_spread = b == "1";
+    }
+    if let Ok(b) = std::env::var("TTF_BACKWARD") {
+        failure.refuse_backward = b == "1";
+    }
+    if let Ok(b) = std::env::var("TTF_SLOWING") {
+        failure.refuse_slowing = b == "1";
+    }
+    if let Ok(m) = std::env::var("TTF_CYCLE") {
+        failure.cycle_margin = m.parse().ok();
     }
     if let Some(r) = std::env::var("TTF_POOL_RADIUS")
         .ok()
@@ -97,5 +111,6 @@ fn main() {
     print!("{}", table(&outcomes));
     if std::env::var_os("TTF_SERIES").is_some() {
         print!("\n{}", series_table(&outcomes));
+        print!("\n{}", false_alarm_table(&outcomes));
     }
 }

@@ -565,3 +565,31 @@ pub fn series_table(outcomes: &[Outcome]) -> String {
     }
     s
 }
+
+/// The never-failing series with a time-to-failure alarm one by one (Markdown): kind, seed,
+/// scatter, the first alarm (days after the first epoch) with its forecast ± σ (h), and the
+/// subjects that alarmed.
+pub fn false_alarm_table(outcomes: &[Outcome]) -> String {
+    let mut s = String::from(
+        "| kind | seed | scatter (× σ) | first alarm (day) | its forecast ± σ (h) | subjects |\n|---|---|---|---|---|---|\n",
+    );
+    for o in outcomes
+        .iter()
+        .filter(|o| !o.kind.fails() && o.false_alarms > 0)
+    {
+        let (at, forecast) = o.alarm.map_or(("—".into(), "—".into()), |a| {
+            (
+                format!("{:.0}", a.at_days),
+                format!("{:.0} ± {:.0}", a.forecast_hours, a.sigma_hours),
+            )
+        });
+        s.push_str(&format!(
+            "| {} | {} | {:.1} | {at} | {forecast} | {} |\n",
+            o.kind.name(),
+            o.seed,
+            o.scatter,
+            o.false_subjects.join(", "),
+        ));
+    }
+    s
+}

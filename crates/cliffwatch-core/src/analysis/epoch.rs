@@ -258,6 +258,25 @@ pub struct FailureConfig {
     /// removes most alarms more than 120 h early and most intervals that miss the truth, but
     /// more alarms then come less than 24 h before failure (`docs/accuracy.md`), so it is off.
     pub confirm_spread: bool,
+    /// Whether a forecast is withheld when the motion went significantly backward along its
+    /// direction over a stretch of one to three weeks of the onset law's window (its velocity
+    /// 3 σ below zero, σ scaled by the local scatter; `super::reversible::moves_backward`): a
+    /// cycle's falling half; a block that creeps and then accelerates never reverses (issue 75).
+    /// Off: it stopped 1 of 5 cyclic alarms, the cycle alternative all (`docs/accuracy.md`).
+    pub refuse_backward: bool,
+    /// Whether a forecast is withheld when the motion slowed significantly within the onset
+    /// law's window (a week's velocity 3 σ below an earlier week's;
+    /// `super::reversible::slows_down`): a cycle slows every half period, but so does a burst
+    /// inside a real failure's acceleration. Off: it stopped 1 of 5 cyclic alarms and delayed
+    /// a failing series' alarm (`docs/accuracy.md`).
+    pub refuse_slowing: bool,
+    /// Margin of the creep-plus-cycle alternative, in units of the law's variance factor
+    /// (dimensionless; None: not asked): a forecast is withheld when creep plus a sinusoid
+    /// (`super::reversible::cycle_chi2`, periods 10 days to 3 × the window) fits the onset law's
+    /// window with a χ² below the law's plus this margin. 0 by default: a forecast is published
+    /// only when the law fits better than a cycle (issue 75: cyclic series alarmed 5 of 20 →
+    /// 0, failing series' alarms kept; `docs/accuracy.md`).
+    pub cycle_margin: Option<f64>,
 }
 
 impl Default for FailureConfig {
@@ -274,6 +293,9 @@ impl Default for FailureConfig {
             acceleration_window: Window::Epochs(40),
             pool_radius_m: DEFAULT_POOL_RADIUS_M,
             confirm_spread: false,
+            refuse_backward: false,
+            refuse_slowing: false,
+            cycle_margin: Some(0.0),
         }
     }
 }

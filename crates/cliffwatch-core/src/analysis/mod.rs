@@ -48,6 +48,7 @@ pub(crate) mod onset_law;
 pub mod pooling;
 pub mod reference;
 pub mod reference_change;
+pub(crate) mod reversible;
 pub mod rigid_body;
 pub mod sensitivity;
 pub(crate) mod series;

@@ -13,11 +13,14 @@ use nalgebra::{Matrix3, Vector3};
 use super::displacement::FilteredValues;
 use super::epoch::AnalysisConfig;
 use super::epoch::ForecastMethod;
-use super::failure::{fit_law_to_displacements_3d, forecast_from_velocities, FailureForecast};
+use super::failure::{
+    fit_law_to_displacements_3d, forecast_from_velocities, line_fit, FailureForecast,
+};
 use super::kalman::{filter, smooth, KalmanConfig, KalmanState, Measurement};
 use super::linalg::length_of;
 use super::onset::{persistently_accelerating, PERSIST_EPOCHS};
 use super::onset_law::fit_onset_law;
+use super::reversible::{cycle_chi2, moves_backward, slows_down};
 use super::stats::normal_quantile;
 use super::velocity::{window_slice, Sample};
 
@@ -182,6 +185,9 @@ fn confirmed_forecast(
     config: &AnalysisConfig,
 ) -> Option<FailureForecast> {
     let now = forecast_smoothed(meas, kc, u, shared_mm2, config)?;
+    if looks_reversible(meas, u, shared_mm2, config, &now) {
+        return None;
+    }
     let confirm_hours = config.failure.confirm_hours;
     if !(confirm_hours > 0.0) {
         return Some(now);
@@ -295,15 +301,7 @@ fn forecast_smoothed(
             }
             let onset = persistently_accelerating(&t, &d, &s, n)?;
             if config.failure.method == ForecastMethod::OnsetLaw {
-                // The same window along u, each epoch weighed by its own error: the fit's
-                // free intercept absorbs the error all epochs share.
-                let (mut t, mut d, mut s) = (vec![], vec![], vec![]);
-                for m in &meas[meas.len() - n..] {
-                    let c = own_covariance(&Matrix3::from(m.cov_mm2), shared_mm2.as_ref());
-                    t.push(m.t_days);
-                    d.push(u.dot(&Vector3::from(m.d_mm)));
-                    s.push((u.transpose() * c * u)[(0, 0)].max(0.0).sqrt());
-                }
+                let (t, d, s) = own_along(&meas[meas.len() - n..], u, shared_mm2);
                 return fit_onset_law(&t, &d, &s).map(|f| f.forecast);
             }
             // The law's fit in three dimensions, weighed by each epoch's own error: its
@@ -332,6 +330,76 @@ fn forecast_smoothed(
             forecast_from_velocities(&t, &v, &s, &config.failure)
         }
     }
+}
+
+/// The epochs `meas` along `u`: times (days), displacements (mm) and σ (mm), each epoch
+/// weighed by its own error (its covariance less `shared_mm2`): a fit's free intercept absorbs
+/// the error all epochs share.
+fn own_along(
+    meas: &[Measurement],
+    u: Vector3<f64>,
+    shared_mm2: Option<Matrix3<f64>>,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let (mut t, mut d, mut s) = (vec![], vec![], vec![]);
+    for m in meas {
+        let c = own_covariance(&Matrix3::from(m.cov_mm2), shared_mm2.as_ref());
+        t.push(m.t_days);
+        d.push(u.dot(&Vector3::from(m.d_mm)));
+        s.push((u.transpose() * c * u)[(0, 0)].max(0.0).sqrt());
+    }
+    (t, d, s)
+}
+
+/// z of the tests for a reversal or a slowing within the window (one-sided; many stretches are
+/// tested, so more than the usual 2.33).
+const REVERSIBLE_Z: f64 = 3.0;
+
+/// Whether the onset law's window along `u` shows the evidence of a reversible motion that
+/// `FailureConfig` asks for ([`super::reversible`]): a stretch moving backward, a stretch
+/// slower than an earlier one, or creep plus a cycle fitting about as well as the law of `now`.
+/// Only for the onset law (`ForecastMethod::OnsetLaw`).
+fn looks_reversible(
+    meas: &[Measurement],
+    u: Vector3<f64>,
+    shared_mm2: Option<Matrix3<f64>>,
+    config: &AnalysisConfig,
+    now: &FailureForecast,
+) -> bool {
+    let f = &config.failure;
+    if f.method != ForecastMethod::OnsetLaw
+        || !(f.refuse_backward || f.refuse_slowing || f.cycle_margin.is_some())
+    {
+        return false;
+    }
+    let times: Vec<Sample> = meas
+        .iter()
+        .map(|m| Sample {
+            t_days: m.t_days,
+            d_mm: 0.0,
+            sigma_mm: 1.0,
+        })
+        .collect();
+    let n = window_slice(&times, f.acceleration_window).len();
+    let (t, d, s) = own_along(&meas[meas.len() - n..], u, shared_mm2);
+    if f.refuse_backward && moves_backward(&t, &d, &s, REVERSIBLE_Z) {
+        return true;
+    }
+    if f.refuse_slowing && slows_down(&t, &d, &s, REVERSIBLE_Z) {
+        return true;
+    }
+    if let Some(margin) = f.cycle_margin {
+        let w: Vec<f64> = s.iter().map(|s| 1.0 / (s * s)).collect();
+        let Some((chi2_line, _, _)) = line_fit(&t, &d, &w) else {
+            return false;
+        };
+        // The law's χ² from the share of the line's misfit it explains (its r²).
+        let chi2_law = (1.0 - now.r2) * chi2_line;
+        let factor = (chi2_law / n.saturating_sub(6).max(1) as f64).max(1.0);
+        if cycle_chi2(&t, &d, &s).is_some_and(|c| c < chi2_law + margin * factor) {
+            return true;
+        }
+    }
+    false
 }
 
 /// An epoch's own error: its covariance `total` less the share `shared` all epochs have in
