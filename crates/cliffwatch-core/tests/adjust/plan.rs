@@ -4,16 +4,13 @@
 use cliffwatch_core::analysis::stats::chi2_quantile;
 use cliffwatch_core::photogrammetry::{adjust, AdjustOptions, Adjustment};
 use cliffwatch_core::plan::{
-    planned_epoch, pre_analysis, Plan, PlanCamera, PlanError, PlanStation, PlanTarget,
+    planned_epoch, pre_analysis, Plan, PlanError, PlanStation, PlanTarget,
 };
 use cliffwatch_sim::scenes::{long_range, LongRangeParams, Truth};
 use nalgebra::{Matrix3, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-
-/// σ of one image coordinate in the plans below, pixels.
-const SIGMA_PX: f64 = 0.25;
 
 /// The long-range scene of `seed`: 4 stations about 150 m from a 5 m × 3 m face, 16 targets,
 /// 400 mm lens, exact image coordinates (no noise, c given exactly).
@@ -33,58 +30,11 @@ pub(crate) fn scene(seed: u64) -> (LongRangeParams, Truth) {
     (p, truth)
 }
 
-/// Targets that are known (stable) points: spread over the 6 × 3 grid of 16 targets.
-const KNOWN: [&str; 4] = ["T101", "T106", "T113", "T116"];
-
-/// The plan of a scene: its cameras aimed exactly as in the truth (aim 100 m along the view,
-/// up = r2), its targets at their true coordinates, four of them known.
-pub(crate) fn plan_of(p: &LongRangeParams, truth: &Truth) -> Plan {
-    let stations = truth
-        .cameras
-        .iter()
-        .map(|(name, cam)| {
-            let r3 = cam.r[2];
-            PlanStation {
-                name: name.clone(),
-                camera: "cam".into(),
-                position: cam.xo,
-                aim: std::array::from_fn(|i| cam.xo[i] - 100.0 * r3[i]),
-                up: Some(cam.r[1]),
-                sees: None,
-            }
-        })
-        .collect();
-    let targets = truth
-        .points
-        .iter()
-        .map(|(name, xyz)| PlanTarget {
-            point: name.clone(),
-            xyz: *xyz,
-            known: KNOWN.contains(&name.as_str()),
-            sigma_m: None,
-        })
-        .collect();
-    Plan {
-        model: Default::default(),
-        sigma_px: SIGMA_PX,
-        confidence: 0.95,
-        power: 0.8,
-        known_sigma_m: 0.001,
-        datum: Default::default(),
-        face_normal: None,
-        cameras: vec![PlanCamera {
-            id: "cam".into(),
-            c_mm: p.c_mm,
-            calibrate_c: true,
-            pixel_size_mm: p.pixel_size_mm,
-            width_px: p.width_px,
-            height_px: p.height_px,
-            sigma_px: None,
-        }],
-        stations,
-        targets,
-    }
-}
+/// The plan of a scene: its cameras aimed exactly as in the truth, its targets at their true
+/// coordinates, four of them known (the simulator's, shared with its `plan_agreement`).
+pub(crate) use cliffwatch_sim::plan_agreement::plan_of;
+// σ of one image coordinate in the plans, pixels.
+use cliffwatch_sim::plan_agreement::SIGMA_PX;
 
 /// The plan's exact image coordinates are the simulator's (noise-free, mm) to 1e-9 mm: the
 /// stations' rotations from position, aim and up reproduce the truth; adjusted, they leave
