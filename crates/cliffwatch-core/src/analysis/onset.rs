@@ -103,14 +103,7 @@ impl Onset {
 /// oldest first, the current epoch last). None for fewer than 6 usable epochs or when no
 /// forward creep fits.
 pub fn fit_onset(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) -> Option<Onset> {
-    let mut rows: Vec<(f64, f64, f64)> = t_days
-        .iter()
-        .zip(d_mm)
-        .zip(sigma_mm)
-        .filter(|((t, d), s)| t.is_finite() && d.is_finite() && s.is_finite() && **s > 0.0)
-        .map(|((&t, &d), &s)| (t, d, 1.0 / (s * s)))
-        .collect();
-    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let rows = super::stats::weighted_rows(t_days, d_mm, sigma_mm);
     let t: Vec<f64> = rows.iter().map(|r| r.0).collect();
     let d: Vec<f64> = rows.iter().map(|r| r.1).collect();
     let w: Vec<f64> = rows.iter().map(|r| r.2).collect();

@@ -122,14 +122,7 @@ fn fit(
     sigma_mm: &[f64],
     step_penalty: Option<f64>,
 ) -> Option<LawFit> {
-    let mut rows: Vec<(f64, f64, f64)> = t_days
-        .iter()
-        .zip(d_mm)
-        .zip(sigma_mm)
-        .filter(|((t, d), s)| t.is_finite() && d.is_finite() && s.is_finite() && **s > 0.0)
-        .map(|((&t, &d), &s)| (t, d, 1.0 / (s * s)))
-        .collect();
-    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let rows = super::stats::weighted_rows(t_days, d_mm, sigma_mm);
     let n = rows.len();
     if n < 12 {
         return None;

@@ -9,6 +9,7 @@
 //! [`super::epoch::FailureConfig`] setting.
 
 use super::failure::line_fit;
+use super::stats::weighted_rows;
 
 /// Days over which local velocities are fitted: one, two and three weeks of daily epochs (a
 /// slow cycle's backward half shows over the longer stretches only).
@@ -37,19 +38,6 @@ struct Stretch {
     sigma_v: f64,
     chi2: f64,
     dof: usize,
-}
-
-/// Weighted rows (t, d, w) of the usable epochs, oldest first.
-fn rows(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) -> Vec<(f64, f64, f64)> {
-    let mut r: Vec<(f64, f64, f64)> = t_days
-        .iter()
-        .zip(d_mm)
-        .zip(sigma_mm)
-        .filter(|((t, d), s)| t.is_finite() && d.is_finite() && s.is_finite() && **s > 0.0)
-        .map(|((&t, &d), &s)| (t, d, 1.0 / (s * s)))
-        .collect();
-    r.sort_by(|a, b| a.0.total_cmp(&b.0));
-    r
 }
 
 /// The velocity of each stretch of `days` starting at each epoch (stretches overlap).
@@ -108,7 +96,7 @@ fn local_factor(all: &[Stretch]) -> f64 {
 /// length of [`STRETCH_DAYS`]): a stretch's velocity plus `z` of its σ (scaled by the local
 /// scatter over the shortest stretches) below zero.
 pub fn moves_backward(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64], z: f64) -> bool {
-    let r = rows(t_days, d_mm, sigma_mm);
+    let r = weighted_rows(t_days, d_mm, sigma_mm);
     let f = local_factor(&stretches(&r, STRETCH_DAYS[0])).sqrt();
     STRETCH_DAYS.iter().any(|&days| {
         stretches(&r, days)
@@ -121,7 +109,7 @@ pub fn moves_backward(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64], z: f64) ->
 /// that of an earlier stretch it does not overlap by more than `z` σ of the difference (scaled
 /// by the local scatter).
 pub fn slows_down(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64], z: f64) -> bool {
-    let all = stretches(&rows(t_days, d_mm, sigma_mm), STRETCH_DAYS[0]);
+    let all = stretches(&weighted_rows(t_days, d_mm, sigma_mm), STRETCH_DAYS[0]);
     let f = local_factor(&all).sqrt();
     all.iter().any(|a| {
         all.iter().any(|b| {
@@ -134,7 +122,7 @@ pub fn slows_down(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64], z: f64) -> boo
 /// period P (log-spaced from [`MIN_PERIOD_DAYS`] to [`MAX_PERIOD_SPANS`] × the window's span).
 /// None for fewer than 8 usable epochs or a singular fit at every period.
 pub fn cycle_chi2(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) -> Option<f64> {
-    let r = rows(t_days, d_mm, sigma_mm);
+    let r = weighted_rows(t_days, d_mm, sigma_mm);
     if r.len() < 8 {
         return None;
     }

@@ -272,6 +272,21 @@ pub fn normal_quantile(p: f64) -> f64 {
     }
 }
 
+/// The usable epochs of a series along one direction as weighted rows `(t, d, w)`: time (days),
+/// displacement (mm) and weight 1/σ² (1/mm²), oldest first; epochs with a non-finite value or
+/// a σ that is not positive are left out.
+pub fn weighted_rows(t_days: &[f64], d_mm: &[f64], sigma_mm: &[f64]) -> Vec<(f64, f64, f64)> {
+    let mut rows: Vec<(f64, f64, f64)> = t_days
+        .iter()
+        .zip(d_mm)
+        .zip(sigma_mm)
+        .filter(|((t, d), s)| t.is_finite() && d.is_finite() && s.is_finite() && **s > 0.0)
+        .map(|((&t, &d), &s)| (t, d, 1.0 / (s * s)))
+        .collect();
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    rows
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

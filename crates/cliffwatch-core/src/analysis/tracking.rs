@@ -13,6 +13,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::displacement::FilteredValues;
 use super::epoch::AnalysisConfig;
 use super::epoch::ForecastMethod;
+use super::epoch::Window;
 use super::failure::{
     fit_law_to_displacements_3d, forecast_from_velocities, line_fit, FailureForecast,
 };
@@ -273,15 +274,6 @@ fn forecast_smoothed(
     shared_mm2: Option<Matrix3<f64>>,
     config: &AnalysisConfig,
 ) -> Option<FailureForecast> {
-    // The window's epochs (the window counts epochs or days back from the current one).
-    let times: Vec<Sample> = meas
-        .iter()
-        .map(|m| Sample {
-            t_days: m.t_days,
-            d_mm: 0.0,
-            sigma_mm: 1.0,
-        })
-        .collect();
     match config.failure.method {
         ForecastMethod::OnsetLaw | ForecastMethod::Displacement => {
             // The onset test, along u with the displacements' whole σ: its Δχ² over a scan of
@@ -290,7 +282,7 @@ fn forecast_smoothed(
             // It must pass on the windows ending at each of the last PERSIST_EPOCHS epochs, and
             // its variance factor (the motion's scatter beyond σ over the long window) is a
             // floor of the short law's.
-            let n = window_slice(&times, config.failure.acceleration_window).len();
+            let n = window_len(meas, config.failure.acceleration_window);
             let with_earlier = (n + PERSIST_EPOCHS - 1).min(meas.len());
             let (mut t, mut d, mut s) = (vec![], vec![], vec![]);
             for m in &meas[meas.len() - with_earlier..] {
@@ -306,7 +298,7 @@ fn forecast_smoothed(
             }
             // The law's fit in three dimensions, weighed by each epoch's own error: its
             // intercept absorbs the error all epochs share.
-            let n = window_slice(&times, config.failure.law_window).len();
+            let n = window_len(meas, config.failure.law_window);
             let win = &meas[meas.len() - n..];
             let t: Vec<f64> = win.iter().map(|m| m.t_days).collect();
             let d: Vec<Vector3<f64>> = win.iter().map(|m| Vector3::from(m.d_mm)).collect();
@@ -317,7 +309,7 @@ fn forecast_smoothed(
             fit_law_to_displacements_3d(&t, &d, &own, u, onset.variance_factor).map(|f| f.forecast)
         }
         ForecastMethod::SmoothedVelocity => {
-            let n = window_slice(&times, config.failure.window).len();
+            let n = window_len(meas, config.failure.window);
             let smoothed = smooth(meas, kc).ok()?;
             let win = &smoothed[smoothed.len() - n..];
             let (mut t, mut v, mut s) = (vec![], vec![], vec![]);
@@ -371,15 +363,7 @@ fn looks_reversible(
     {
         return false;
     }
-    let times: Vec<Sample> = meas
-        .iter()
-        .map(|m| Sample {
-            t_days: m.t_days,
-            d_mm: 0.0,
-            sigma_mm: 1.0,
-        })
-        .collect();
-    let n = window_slice(&times, f.acceleration_window).len();
+    let n = window_len(meas, f.acceleration_window);
     let (t, d, s) = own_along(&meas[meas.len() - n..], u, shared_mm2);
     if f.refuse_backward && moves_backward(&t, &d, &s, REVERSIBLE_Z) {
         return true;
@@ -400,6 +384,20 @@ fn looks_reversible(
         }
     }
     false
+}
+
+/// How many of the newest epochs of `meas` fall in `window` (epochs, or days back from the
+/// current one).
+fn window_len(meas: &[Measurement], window: Window) -> usize {
+    let times: Vec<Sample> = meas
+        .iter()
+        .map(|m| Sample {
+            t_days: m.t_days,
+            d_mm: 0.0,
+            sigma_mm: 1.0,
+        })
+        .collect();
+    window_slice(&times, window).len()
 }
 
 /// An epoch's own error: its covariance `total` less the share `shared` all epochs have in
