@@ -19,7 +19,7 @@ use crate::http::auth::Access;
 use crate::http::AppState;
 use crate::store::displacements::Displacement;
 use crate::store::sites::Site;
-use crate::store::{alerts, displacements, points};
+use crate::store::{alerts, displacements, points, pooled_forecasts};
 use cliffwatch_core::analysis::site_frame::{FaceAxes, SiteFrame};
 use cliffwatch_core::analysis::PointRole;
 
@@ -44,6 +44,10 @@ pub async fn point(
         .await?
         .into_iter()
         .find(|d| d.point == p.name);
+    let pooled_with = match &latest {
+        Some(d) => pooled_forecasts::of_point(db, &site.id, &p.name, d.epoch).await?,
+        None => vec![],
+    };
     let axes = face_axes(&state, &site).await?;
     let (s, n) = (seg(&site.id), seg(&p.name));
     let data = format!("/dashboard/plot/{s}/{n}");
@@ -86,7 +90,16 @@ pub async fn point(
                 tr { th { "filtered d (mm)" } td { (with_sigma(d.f_d_mm, d.sigma_f_d_mm, 2)) } }
                 tr { th { "filtered velocity (mm/day)" } td { (with_sigma(d.f_velocity_mm_per_day, d.sigma_f_velocity_mm_per_day, 3)) } }
                 tr { th { "raw velocity (mm/day)" } td { (num(d.velocity_mm_per_day, 3)) } }
-                tr { th { "filtered time to failure (h)" } td { (time_to_failure(d.f_time_to_failure_hours, d.sigma_f_time_to_failure_hours)) } }
+                tr {
+                    th { "filtered time to failure (h)" }
+                    td {
+                        (time_to_failure(d.f_time_to_failure_hours, d.sigma_f_time_to_failure_hours))
+                        @if !pooled_with.is_empty() {
+                            br;
+                            small.pooled { "pooled: the forecast of the mean series of " (p.name) " with " (names_in_words(&pooled_with)) ", which move together (not a declared block)" }
+                        }
+                    }
+                }
                 @if let Some(m) = super::sensitivity::of(d, p.direction, site.confidence) {
                     tr.mdd {
                         th { "smallest movement this epoch detects (" (num(Some(100.0 * m.power), 0)) " % of the time, " (num(Some(100.0 * site.confidence), 1)) " % confidence)" }
@@ -139,6 +152,15 @@ pub(super) async fn face_axes(
         .map(|c| c.xyz)
         .collect();
     Ok(FaceAxes::of(&site.frame, &stable, &all))
+}
+
+/// Names in words: "T1", "T1 and T2", "T1, T2 and T3".
+fn names_in_words(names: &[String]) -> String {
+    match names {
+        [] => String::new(),
+        [one] => one.clone(),
+        [init @ .., last] => format!("{} and {last}", init.join(", ")),
+    }
 }
 
 /// The displacement's 3×3 covariance in mm² (diagonal only for rows stored before the

@@ -14,6 +14,7 @@ use sha2::{Digest, Sha256};
 
 use crate::store::block_motions;
 use crate::store::displacements::{self, Displacement};
+use crate::store::pooled_forecasts::{self, PooledForecast};
 use crate::store::sites::{AprioriSigma, Site};
 use crate::store::{self, epochs, groups, points, sites, watch_state, Connection, Store};
 use cliffwatch_core::analysis::{self, EpochCoordinates, GroupKind, History};
@@ -312,6 +313,7 @@ async fn ingest_with_identification(
     .await?;
     displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
     block_motions::insert(&mut tx, &site.id, &derived.block_motions).await?;
+    pooled_forecasts::insert(&mut tx, &site.id, epoch, &derived.pooled).await?;
     tx.commit().await.map_err(store::StoreError::from)?;
     super::alert_outcome::count_raised(derived.raised);
     Ok(Ingested {
@@ -376,6 +378,8 @@ pub struct Derived {
     pub displacements: Vec<Displacement>,
     /// Motion rows of the site's declared blocks in this epoch (likewise).
     pub block_motions: Vec<Displacement>,
+    /// The points whose forecast was pooled with neighbours moving together (likewise).
+    pub pooled: Vec<PooledForecast>,
     /// Alerts raised by this epoch.
     pub raised: usize,
 }
@@ -458,10 +462,16 @@ async fn derive(
     }
     let displacements = to_rows(&analysis.records(), analysis.reference_epoch);
     let block_motions = to_rows(&analysis.block_records(), analysis.reference_epoch);
+    let pooled = analysis
+        .pooled()
+        .into_iter()
+        .map(|(point, pooled_with)| PooledForecast { point, pooled_with })
+        .collect();
     let raised = alert_outcome::evaluate(tx, site, &analysis, now).await?;
     Ok(Derived {
         displacements,
         block_motions,
+        pooled,
         raised,
     })
 }

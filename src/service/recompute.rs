@@ -4,7 +4,8 @@
 //! derived from it commit together.
 
 use crate::store::{
-    self, block_motions, displacements, epochs, sites, Connection, Store, StoreError,
+    self, block_motions, displacements, epochs, pooled_forecasts, sites, Connection, Store,
+    StoreError,
 };
 use cliffwatch_core::analysis::{analyse_series, AlertKind, REFERENCE_INDEPENDENT};
 
@@ -40,6 +41,7 @@ pub async fn recompute_site(
     sites::mark_current(&mut *tx, &site.id).await?;
     displacements::delete_site(tx, &site.id).await?;
     block_motions::delete_site(tx, &site.id).await?;
+    pooled_forecasts::delete_site(tx, &site.id).await?;
     let Some(reference) = reference_epoch(tx, &site).await? else {
         return Ok(0);
     };
@@ -63,6 +65,10 @@ pub async fn recompute_site(
     .await?;
     displacements::insert(tx, &site.id, &to_rows(&out.records, reference_id)).await?;
     block_motions::insert(tx, &site.id, &to_rows(&out.block_records, reference_id)).await?;
+    for (epoch, point, pooled_with) in out.pooled {
+        let row = pooled_forecasts::PooledForecast { point, pooled_with };
+        pooled_forecasts::insert(tx, &site.id, epoch, &[row]).await?;
+    }
     for id in &out.analysed {
         epochs::set_analysis_outcome(tx, &site.id, *id, None).await?;
     }

@@ -214,6 +214,15 @@ const TABLES: &[(&str, &[(&str, Kind)])] = &[
     ("displacements", &[]),
     ("block_motions", &[]),
     (
+        "pooled_forecasts",
+        &[
+            ("site_id", T),
+            ("epoch_id", I),
+            ("point", T),
+            ("pooled_with", T),
+        ],
+    ),
+    (
         "series_blocks",
         &[
             ("site_id", T),

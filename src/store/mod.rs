@@ -11,7 +11,7 @@
 //!
 //! One submodule per aggregate: [`sites`], [`epochs`] (their joint covariances:
 //! [`joint_covariances`]), [`points`], [`groups`],
-//! [`displacements`] (rows: [`displacement_row`]), [`block_motions`], [`alerts`],
+//! [`displacements`] (rows: [`displacement_row`]), [`block_motions`], [`pooled_forecasts`], [`alerts`],
 //! [`alert_states`], [`webhooks`], [`outbox`], [`watch_state`], the dashboard's [`sessions`],
 //! a retired site's deletion ([`site_removal`]);
 //! [`series`] serves a point's displacement time series fast from the packed blocks of
@@ -61,6 +61,7 @@ pub(crate) mod outbox;
 pub mod plan_network;
 pub mod points;
 mod pool;
+pub(crate) mod pooled_forecasts;
 pub mod series;
 pub mod sessions;
 pub(crate) mod site_removal;

@@ -24,6 +24,7 @@ const SITE_TABLES: &[(&str, &str)] = &[
     ("watch_orientations", "site_id = $1"),
     ("series_blocks", "site_id = $1"),
     ("series_seals", "site_id = $1"),
+    ("pooled_forecasts", "site_id = $1"),
     ("block_motions", "site_id = $1"),
     ("displacements", "site_id = $1"),
     ("joint_covariances", "site_id = $1"),

@@ -491,6 +491,29 @@ async fn the_forecast_reads_in_utc_and_the_site_zone() {
             && page.contains("raw velocity (mm/day)"),
         "{page}"
     );
+    // The block is not declared, so the forecast is the mean series' of the targets that move
+    // together with this one, and the page names them: the other moving targets, never a
+    // stable one.
+    let text = support::dashboard::text_of(&page);
+    let pooled = text
+        .split(&format!(
+            "pooled: the forecast of the mean series of {moving} with "
+        ))
+        .nth(1)
+        .and_then(|r| {
+            r.split(", which move together (not a declared block)")
+                .next()
+        })
+        .unwrap_or_else(|| panic!("the pooled forecast named: {text}"));
+    let named: Vec<&str> = pooled
+        .split([',', ' '])
+        .filter(|w| !w.is_empty() && *w != "and")
+        .collect();
+    let others: Vec<String> = (STABLE..POINTS - 1).map(name).collect();
+    assert!(
+        named.len() >= 2 && named.iter().all(|n| others.iter().any(|o| o == n)),
+        "pooled with {named:?}, the other moving targets {others:?}"
+    );
     let (_, plot) = s
         .get(&format!("/dashboard/plot/tf/{moving}?width=400"))
         .await;

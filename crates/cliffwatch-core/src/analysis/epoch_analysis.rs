@@ -77,6 +77,16 @@ impl EpochAnalysis {
         self.points.iter().map(|p| p.record.clone()).collect()
     }
 
+    /// The points whose filtered forecast is their neighbours' pooled one
+    /// ([`super::pooling`]), each with the other targets of the mean series.
+    pub fn pooled(&self) -> Vec<(String, Vec<String>)> {
+        self.points
+            .iter()
+            .filter(|p| !p.pooled_with.is_empty())
+            .map(|p| (p.record.point.clone(), p.pooled_with.clone()))
+            .collect()
+    }
+
     /// The rows of the blocks' motion series (one per block whose motion could be estimated),
     /// in the form of a point's row: `point` names the group.
     pub fn block_records(&self) -> Vec<DisplacementRecord> {

@@ -24,6 +24,9 @@ pub struct SeriesAnalysis {
     pub analysed: Vec<i64>,
     /// Every alert event of the replay, in order, with the epoch that caused it.
     pub events: Vec<(i64, AlertEvent)>,
+    /// Every pooled forecast, epoch by epoch: the epoch, the point and the other targets of
+    /// the mean series that gave its forecast ([`analysis::EpochAnalysis::pooled`]).
+    pub pooled: Vec<(i64, String, Vec<String>)>,
 }
 
 /// Analyses a whole series against one reference (pure; the analysis part of
@@ -53,6 +56,8 @@ pub fn analyse_series(
                     out.records.push(r);
                 }
                 out.block_records.extend(a.block_records());
+                out.pooled
+                    .extend(a.pooled().into_iter().map(|(p, with)| (e.epoch, p, with)));
                 let (state, events) =
                     analysis::evaluate_alerts(alerts, &out.replayed, &a, e.observed_at);
                 out.replayed = state;
