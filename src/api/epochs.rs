@@ -198,7 +198,7 @@ async fn upload_inner(
             .map_err(ApiError::internal)??
     };
     let limits = ingest::EpochLimits::from_config(&state.config);
-    let done = ingest::ingest(&state.store, site, input, limits, slot).await?;
+    let done = ingest::ingest(&state.store, site, input, limits, slot, state.public_url()).await?;
     let summary = summary(&state.store, &done.site, done.epoch, false)
         .await?
         .ok_or_else(|| ApiError::internal("stored epoch not found"))?;
