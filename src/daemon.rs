@@ -64,7 +64,6 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
         busy_timeout: Duration::from_millis(config.busy_timeout_ms),
         write_connections: config.database_write_connections,
     };
-    crate::webhooks::set_public_url(config.public_url.clone());
     let url = config.database_url();
     let store = Store::connect(&url, &options).await?;
     tracing::info!(database = %store::redacted_url(&url), backend = ?store.backend(), "database open");
@@ -76,7 +75,7 @@ pub async fn bind(config: Config) -> Result<Bound, ServeError> {
             }
             service::configured::ConfiguredError::Store(e) => ServeError::Store(e),
         })?;
-    service::recompute::recompute_outdated(&store)
+    service::recompute::recompute_outdated(&store, config.public_url.as_deref())
         .await
         .map_err(|e| ServeError::Site("(recompute at start)".into(), e.to_string()))?;
     let listener = TcpListener::bind(addr)
@@ -147,6 +146,7 @@ impl Bound {
             tracing::info!(watch_dir = %dir.display(), "watching directory");
             let mut opts = crate::watch::WatchOptions::new(dir.clone());
             opts.limits = service::ingest::EpochLimits::from_config(&state.config);
+            opts.public_url = state.config.public_url.clone();
             let (store, stop) = (store.clone(), stop.clone());
             parts.push(tokio::spawn(async move {
                 if let Err(e) = crate::watch::run(store, opts, stop).await {
@@ -167,6 +167,7 @@ impl Bound {
         parts.push(tokio::spawn(workers::overdue::run(
             store.clone(),
             Duration::from_secs(state.config.overdue_check_secs.max(1)),
+            state.config.public_url.clone(),
             stop.clone(),
         )));
         let retention = workers::retention::Retention::from_config(&state.config);

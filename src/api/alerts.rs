@@ -109,8 +109,9 @@ pub async fn acknowledge(
     ApiPath(id): ApiPath<String>,
     ApiJson(body): ApiJson<AckBody>,
 ) -> Result<impl IntoResponse, ApiError> {
+    let (by, comment) = (&body.by, body.comment.as_deref());
     let alert =
-        service::acknowledge::acknowledge(&state.store, &id, &body.by, body.comment.as_deref())
+        service::acknowledge::acknowledge(&state.store, &id, by, comment, state.public_url())
             .await?;
     Ok(axum::Json(alert))
 }

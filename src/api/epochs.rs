@@ -13,11 +13,10 @@ use super::schemas::EpochSummary;
 use super::sites::find;
 use crate::http::error::{ApiError, ApiPath, ApiQuery};
 use crate::http::AppState;
-use crate::service::{ingest, ServiceError};
-use crate::store::{alerts, displacements, epochs, Store, StoreError};
-use cliffwatch_core::photogrammetry::input::epoch::CameraInput;
-use cliffwatch_core::photogrammetry::input::epoch_csv::{csv_camera, epoch_from_csv};
-use cliffwatch_core::photogrammetry::EpochInput;
+use crate::service::ingest::EpochLimits;
+use crate::service::stored_epoch::{stored_epoch, StoredEpoch};
+use crate::service::upload::{upload as take_upload, Upload, UploadForm};
+use crate::store::{epochs, Store};
 
 /// Bodies up to this many times the limit are read to the end before answering 413, so the client
 /// sees the answer instead of a reset connection; larger ones are cut off.
@@ -100,9 +99,10 @@ pub async fn upload(
     Ok((status, [(header::LOCATION, location)], axum::Json(summary)))
 }
 
-/// Whether an upload is the CSV form (`text/csv`) rather than JSON (`application/json` or a
-/// `+json` type); anything else, or no content type, is 415.
-fn upload_is_csv(headers: &HeaderMap) -> Result<bool, ApiError> {
+/// What an upload's body is, by its `Content-Type`: the CSV form (`text/csv`, with the query's
+/// fields), JSON (`application/json` or a `+json` type), or another media type, which the upload
+/// refuses (415).
+fn upload_form(headers: &HeaderMap, params: UploadParams) -> UploadForm {
     let media = headers
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
@@ -114,48 +114,13 @@ fn upload_is_csv(headers: &HeaderMap) -> Result<bool, ApiError> {
                 .to_ascii_lowercase()
         });
     match media.as_deref() {
-        Some("text/csv") => Ok(true),
-        Some(m) if m == "application/json" || m.ends_with("+json") => Ok(false),
-        other => Err(ApiError::new(
-            StatusCode::UNSUPPORTED_MEDIA_TYPE,
-            "unsupported_media_type",
-            format!(
-                "an epoch is uploaded as application/json or text/csv, not {}",
-                other.unwrap_or("a body without Content-Type")
-            ),
-        )),
+        Some("text/csv") => UploadForm::Csv {
+            observed_at: params.observed_at,
+            camera: params.camera,
+        },
+        Some(m) if m == "application/json" || m.ends_with("+json") => UploadForm::Json,
+        _ => UploadForm::Other(media),
     }
-}
-
-/// The JSON upload form: 400 when the body is not JSON, 422 naming the field at fault when it is
-/// JSON of the wrong shape.
-fn parse_epoch(bytes: &[u8]) -> Result<EpochInput, ApiError> {
-    let mut de = serde_json::Deserializer::from_slice(bytes);
-    let parsed: Result<EpochInput, _> = serde_path_to_error::deserialize(&mut de);
-    let input = parsed.map_err(|e| {
-        let path = e.path().to_string();
-        let inner = e.into_inner();
-        // A number beyond f64 (`1e400`) is valid JSON that serde_json reports as a syntax
-        // error; it is a value out of range, named with its field like any other.
-        let out_of_range = inner.to_string().starts_with("number out of range");
-        match inner.classify() {
-            serde_json::error::Category::Data => ApiError::unprocessable(
-                "invalid_epoch",
-                if path == "." {
-                    inner.to_string()
-                } else {
-                    format!("{path}: {inner}")
-                },
-            ),
-            serde_json::error::Category::Syntax if out_of_range => {
-                ApiError::unprocessable("invalid_epoch", format!("{path}: {inner}"))
-            }
-            _ => ApiError::bad_request(format!("the body is not JSON: {inner}")),
-        }
-    })?;
-    de.end()
-        .map_err(|e| ApiError::bad_request(format!("the body is not JSON: {e}")))?;
-    Ok(input)
 }
 
 async fn upload_inner(
@@ -165,78 +130,48 @@ async fn upload_inner(
     headers: &HeaderMap,
     body: Body,
 ) -> Result<(StatusCode, EpochSummary), ApiError> {
-    // The slot is taken once the body has arrived: a client sending slowly (a field laptop on a
-    // cellular link) must not hold a slot while the CPU is idle.
+    // The use case takes an upload slot once the body has arrived: a client sending slowly (a
+    // field laptop on a cellular link) must not hold a slot while the CPU is idle.
     let bytes = read_limited(headers, body, state.config.body_limit_bytes).await?;
-    // An unknown site is named before anything is said about the body (ingestion checks again
-    // under the site's lock).
-    find(state, site).await?;
-    let slot = state.uploads.enter().await.map_err(ServiceError::from)?;
-    // Parsing a body of up to `body_limit_bytes` is CPU work: on a blocking thread, as the
-    // adjustment is.
-    let input: EpochInput = if upload_is_csv(headers)? {
-        let observed_at = params.observed_at.ok_or_else(|| {
-            ApiError::unprocessable("invalid_epoch", "a CSV upload needs ?observed_at=")
-        })?;
-        let cameras: Vec<CameraInput> = epochs::site_cameras(state.store.reader(), site)
-            .await?
-            .into_iter()
-            .map(serde_json::from_value)
-            .collect::<Result<_, _>>()
-            .map_err(StoreError::from)?;
-        let camera = csv_camera(cameras, params.camera.as_deref())?;
-        tokio::task::spawn_blocking(move || {
-            let text = std::str::from_utf8(&bytes)
-                .map_err(|_| ApiError::bad_request("the CSV is not UTF-8"))?;
-            Ok::<_, ApiError>(epoch_from_csv(text, &observed_at, camera)?)
-        })
-        .await
-        .map_err(ApiError::internal)??
-    } else {
-        tokio::task::spawn_blocking(move || parse_epoch(&bytes))
-            .await
-            .map_err(ApiError::internal)??
+    let upload = Upload {
+        form: upload_form(headers, params),
+        body: bytes,
     };
-    let limits = ingest::EpochLimits::from_config(&state.config);
-    let done = ingest::ingest(&state.store, site, input, limits, slot).await?;
-    let summary = summary(&state.store, &done.site, done.epoch, false)
-        .await?
-        .ok_or_else(|| ApiError::internal("stored epoch not found"))?;
+    let limits = EpochLimits::from_config(&state.config);
+    let (store, gate, public_url) = (&state.store, &state.uploads, state.public_url());
+    let done = take_upload(store, gate, site, upload, limits, public_url).await?;
     let status = if done.created {
         StatusCode::CREATED
     } else {
         StatusCode::OK
     };
-    Ok((status, summary))
+    Ok((status, summary_of(site, done.epoch)))
 }
 
 /// The summary of a stored epoch: list fields, the adjustment report (with the residuals when
-/// `residuals`), its displacements and the alerts it raised.
+/// read with them), its displacements and the alerts it raised.
+fn summary_of(site: &str, stored: StoredEpoch) -> EpochSummary {
+    EpochSummary {
+        epoch: stored.item.into(),
+        site: site.to_string(),
+        global_test: stored.report.global_test(),
+        report: stored.report,
+        residuals: stored.residuals,
+        displacements: stored.displacements,
+        alerts: stored.alerts,
+    }
+}
+
+/// The summary of stored epoch `id` of `site` ([`summary_of`]), with its residuals when
+/// `residuals`; `None` when the site has no such epoch.
 pub async fn summary(
     store: &Store,
     site: &str,
     id: i64,
     residuals: bool,
 ) -> Result<Option<EpochSummary>, ApiError> {
-    let mut conn = store.read().await?;
-    let db = &mut *conn;
-    let Some((epoch, report)) = epochs::get(&mut *db, site, id).await? else {
-        return Ok(None);
-    };
-    let residuals = if residuals {
-        Some(epochs::residuals(&mut *db, site, id).await?)
-    } else {
-        None
-    };
-    Ok(Some(EpochSummary {
-        epoch: epoch.into(),
-        site: site.to_string(),
-        global_test: report.global_test(),
-        report,
-        residuals,
-        displacements: displacements::of_epoch(&mut *db, site, id).await?,
-        alerts: alerts::of_epoch(&mut *db, site, id).await?,
-    }))
+    let stored = stored_epoch(store, site, id, residuals).await?;
+    Ok(stored.map(|e| summary_of(site, e)))
 }
 
 /// `GET /api/v1/sites/{site}/epochs`: newest first.

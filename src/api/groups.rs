@@ -171,7 +171,14 @@ pub async fn put(
     find(&state, &site).await?;
     let config = check(&group, &body)?;
     let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
-    crate::service::site_settings::declare_group(&state.store, &site, &config, &actor).await?;
+    crate::service::site_settings::declare_group(
+        &state.store,
+        &site,
+        &config,
+        &actor,
+        state.public_url(),
+    )
+    .await?;
     let stored = groups::get(state.store.reader(), &site, &group)
         .await?
         .ok_or_else(|| ApiError::internal("group vanished"))?;
@@ -316,6 +323,13 @@ pub async fn delete(
 ) -> Result<impl IntoResponse, ApiError> {
     find(&state, &site).await?;
     let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
-    crate::service::site_admin::delete_group(&state.store, &site, &group, &actor).await?;
+    crate::service::site_admin::delete_group(
+        &state.store,
+        &site,
+        &group,
+        &actor,
+        state.public_url(),
+    )
+    .await?;
     Ok(axum::http::StatusCode::NO_CONTENT)
 }

@@ -58,6 +58,7 @@ pub async fn acknowledge(
         &incident,
         &body.by,
         body.comment.as_deref(),
+        state.public_url(),
     )
     .await?;
     Ok(axum::Json(done))

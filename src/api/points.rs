@@ -121,9 +121,15 @@ pub async fn update(
     find(&state, &site).await?;
     check_settings(&point, &settings)?;
     let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
-    let stored =
-        crate::service::site_settings::set_point(&state.store, &site, &point, &settings, &actor)
-            .await?;
+    let stored = crate::service::site_settings::set_point(
+        &state.store,
+        &site,
+        &point,
+        &settings,
+        &actor,
+        state.public_url(),
+    )
+    .await?;
     Ok(axum::Json(stored))
 }
 
@@ -225,8 +231,14 @@ pub async fn update_many(
     }
     let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
     let changes: Vec<(String, PointSettings)> = body.into_iter().collect();
-    let items =
-        crate::service::site_settings::set_points(&state.store, &site, &changes, &actor).await?;
+    let items = crate::service::site_settings::set_points(
+        &state.store,
+        &site,
+        &changes,
+        &actor,
+        state.public_url(),
+    )
+    .await?;
     Ok(axum::Json(UpdatedPoints { items }))
 }
 

@@ -57,7 +57,14 @@ pub async fn retire(
     find(&state, &site).await?;
     not_configured(&state, &site)?;
     let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
-    let after = site_lifecycle::retire_site(&state.store, &site, &body.reason, &actor).await?;
+    let after = site_lifecycle::retire_site(
+        &state.store,
+        &site,
+        &body.reason,
+        &actor,
+        state.public_url(),
+    )
+    .await?;
     Ok(axum::Json(after))
 }
 

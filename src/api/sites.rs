@@ -105,15 +105,21 @@ pub async fn set_reference(
     ApiJson(body): ApiJson<ReferenceBody>,
 ) -> Result<impl IntoResponse, ApiError> {
     let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
-    crate::service::site_settings::set_reference(&state.store, &site, body.epoch, &actor)
-        .await
-        .map_err(|e| match e {
-            // Named in the body, like an unknown camera of an upload: 422, not 404.
-            ServiceError::UnknownEpoch { .. } => {
-                ApiError::unprocessable("unknown_epoch", e.to_string())
-            }
-            e => ApiError::from(e),
-        })?;
+    crate::service::site_settings::set_reference(
+        &state.store,
+        &site,
+        body.epoch,
+        &actor,
+        state.public_url(),
+    )
+    .await
+    .map_err(|e| match e {
+        // Named in the body, like an unknown camera of an upload: 422, not 404.
+        ServiceError::UnknownEpoch { .. } => {
+            ApiError::unprocessable("unknown_epoch", e.to_string())
+        }
+        e => ApiError::from(e),
+    })?;
     Ok(axum::Json(find(&state, &site).await?))
 }
 
@@ -140,8 +146,14 @@ pub async fn update(
         return Err(ServiceError::ConfiguredSite(site).into());
     }
     let actor = access.map(|a| a.0).unwrap_or_default().actor("api");
-    let after =
-        crate::service::site_admin::update_site(&state.store, &site, &patch, &actor).await?;
+    let after = crate::service::site_admin::update_site(
+        &state.store,
+        &site,
+        &patch,
+        &actor,
+        state.public_url(),
+    )
+    .await?;
     Ok(axum::Json(after))
 }
 

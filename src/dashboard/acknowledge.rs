@@ -82,6 +82,7 @@ pub async fn acknowledge(
         &id,
         &form.by,
         form.comment.as_deref(),
+        state.public_url(),
     );
     match ack.await {
         Ok(alert) => {
@@ -154,6 +155,7 @@ pub async fn acknowledge_incident(
         &incident,
         &form.by,
         form.comment.as_deref(),
+        state.public_url(),
     );
     match ack.await {
         Ok(_) => Redirect::to(&format!("/sites/{}#alerts", seg(&site))).into_response(),

@@ -113,7 +113,14 @@ pub async fn retire(
         if state.config.sites.iter().any(|s| s.id == site) {
             return Err(ServiceError::ConfiguredSite(site.clone()));
         }
-        crate::service::site_lifecycle::retire_site(&state.store, &site, &form.reason, &actor).await
+        crate::service::site_lifecycle::retire_site(
+            &state.store,
+            &site,
+            &form.reason,
+            &actor,
+            state.public_url(),
+        )
+        .await
     };
     match outcome.await {
         Ok(_) => Redirect::to(&format!("/sites/{}", seg(&site))).into_response(),
@@ -156,7 +163,14 @@ pub async fn save(
             "time_zone": if zone.is_empty() { Value::Null } else { json!(zone) },
             "alert_rules": rules,
         });
-        crate::service::site_admin::update_site(&state.store, &site, &patch, &actor).await
+        crate::service::site_admin::update_site(
+            &state.store,
+            &site,
+            &patch,
+            &actor,
+            state.public_url(),
+        )
+        .await
     };
     match outcome.await {
         Ok(_) => Redirect::to(&format!("/sites/{}#audit", seg(&site))).into_response(),

@@ -168,6 +168,14 @@ impl From<ServiceError> for ApiError {
                 ApiError::new(StatusCode::CONFLICT, "conflict", e.to_string())
             }
             ServiceError::Invalid(err) => ApiError::unprocessable("invalid_epoch", err.to_string()),
+            ServiceError::UnsupportedMedia(_) => ApiError::new(
+                StatusCode::UNSUPPORTED_MEDIA_TYPE,
+                "unsupported_media_type",
+                e.to_string(),
+            ),
+            ServiceError::BadBody(m) => ApiError::bad_request(m),
+            ServiceError::InvalidUpload(m) => ApiError::unprocessable("invalid_epoch", m),
+            ServiceError::Csv(err) => err.into(),
             ServiceError::Adjust(err @ AdjustError::Cancelled { deadline }) => {
                 let (code, retry) = if deadline {
                     ("compute_budget_exceeded", 60)

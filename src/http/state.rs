@@ -19,3 +19,11 @@ pub struct AppState {
     /// The upload slots of this node.
     pub uploads: crate::service::admission::UploadGate,
 }
+
+impl AppState {
+    /// Where people reach the dashboard (the configuration's `public_url`), which the use
+    /// cases that write alert events link the events' bodies under; `None`: no links.
+    pub fn public_url(&self) -> Option<&str> {
+        self.config.public_url.as_deref()
+    }
+}

@@ -18,12 +18,14 @@ pub const MAX_COMMENT_CHARS: usize = 2000;
 /// open alert moves to `acknowledged` and queues an `alert.acknowledged` event; a resolved one
 /// only records who acknowledged it. An acknowledgement already given stands
 /// ([`analysis::may_acknowledge`]): acknowledging again is [`ServiceError::AlreadyAcknowledged`]
-/// (an escalation opens the alert again, and then it can be). Returns the alert as stored after.
+/// (an escalation opens the alert again, and then it can be). The event's body links under
+/// `public_url` (the configuration's). Returns the alert as stored after.
 pub async fn acknowledge(
     store: &Store,
     id: &str,
     by: &str,
     comment: Option<&str>,
+    public_url: Option<&str>,
 ) -> Result<alerts::Alert, ServiceError> {
     let (by, comment) = checked_acknowledgement(by, comment)?;
     // The alert's site decides the write lock; the alert is read again inside the transaction.
@@ -32,7 +34,7 @@ pub async fn acknowledge(
     };
     let mut tx = store.begin_write_site(&site).await?;
     let now = store::clock(&mut tx).await?;
-    acknowledge_in(&mut tx, id, by, comment, now).await?;
+    acknowledge_in(&mut tx, id, by, comment, now, public_url).await?;
     let alert = alerts::get(&mut *tx, id)
         .await?
         .ok_or_else(|| ServiceError::UnknownAlert(id.to_string()))?;
@@ -69,13 +71,14 @@ pub(crate) fn checked_acknowledgement<'a>(
 /// Acknowledges alert `id` inside the site's write transaction `tx` at `now` (the store's
 /// clock), `by` and `comment` checked ([`checked_acknowledgement`]): an open alert moves to
 /// `acknowledged` and queues an `alert.acknowledged` event; a resolved one only records who
-/// acknowledged it.
+/// acknowledged it. The event's body links under `public_url`.
 pub(crate) async fn acknowledge_in(
     tx: &mut Connection,
     id: &str,
     by: &str,
     comment: Option<&str>,
     now: DateTime<Utc>,
+    public_url: Option<&str>,
 ) -> Result<(), ServiceError> {
     let Some(stored) = alerts::get(&mut *tx, id).await? else {
         return Err(ServiceError::UnknownAlert(id.to_string()));
@@ -89,7 +92,7 @@ pub(crate) async fn acknowledge_in(
     };
     match analysis::acknowledge(&engine, id, by, comment, now) {
         Ok((engine, event)) => {
-            save_and_record(&mut *tx, &stored.site, &engine, &[event], now).await?;
+            save_and_record(&mut *tx, &stored.site, &engine, &[event], now, public_url).await?;
         }
         // Not active any more (resolved): note who acknowledged it, no event.
         Err(AnalysisError::UnknownAlert(_)) => {

@@ -34,19 +34,20 @@ fn state_after(event: &AlertEvent) -> AlertStatus {
 /// ([`store::clock`]): the delivery worker compares due times with that clock (the database's on
 /// PostgreSQL), and the messages' times keep their order whichever node wrote them. Returns how
 /// many alerts were raised. Each body names the incident its alert belongs to and links its
-/// page ([`super::incident_subject::Subject::page`]), the declared blocks as they are in `tx`.
+/// page ([`super::incident_subject::Subject::page`]), the declared blocks as they are in `tx`;
+/// the links are under `public_url` (where people reach the dashboard, the configuration's
+/// `public_url`; `None`: no links).
 pub async fn record_events(
     tx: &mut Connection,
     events: &[AlertEvent],
     start: DateTime<Utc>,
+    public_url: Option<&str>,
 ) -> Result<usize, StoreError> {
     if events.is_empty() {
         return Ok(0);
     }
     let hooks = webhooks::enabled_endpoints(&mut *tx).await?;
     let mut blocks: std::collections::HashMap<String, _> = std::collections::HashMap::new();
-    let public_url = crate::webhooks::public_url();
-    let public_url = public_url.as_deref();
     let due = store::timestamp(start);
     let mut raised = 0;
     for (k, e) in events.iter().enumerate() {
@@ -128,17 +129,19 @@ pub fn count_raised(n: usize) {
 
 /// Saves the site's new alert state and records the events that led to it; the rows of the
 /// other active alerts take their latest value and message. `now` is the transaction's time on
-/// the store's clock ([`store::clock`]). Returns how many alerts were raised.
+/// the store's clock ([`store::clock`]); the bodies link under `public_url` ([`record_events`]).
+/// Returns how many alerts were raised.
 pub async fn save_and_record(
     tx: &mut Connection,
     site: &str,
     state: &AlertState,
     events: &[AlertEvent],
     now: DateTime<Utc>,
+    public_url: Option<&str>,
 ) -> Result<usize, StoreError> {
     let (state, events) = &fresh_ids(tx, state, events).await?;
     alert_states::save(&mut *tx, site, state, now).await?;
-    let raised = record_events(tx, events, now).await?;
+    let raised = record_events(tx, events, now, public_url).await?;
     // The active alerts without an event this time: their rows follow the latest value too.
     for a in &state.alerts {
         if !events.iter().any(|e| e.alert.id == a.id) {
@@ -186,11 +189,12 @@ pub async fn campaign_arrived(
     epoch: i64,
     observed_at: DateTime<Utc>,
     now: DateTime<Utc>,
+    public_url: Option<&str>,
 ) -> Result<usize, StoreError> {
     let state = alert_states::load(&mut *tx, &site.id).await?;
     let (state, events) =
         analysis::campaign_arrived(&alert_config(site), &state, epoch, observed_at, now);
-    save_and_record(tx, &site.id, &state, &events, now).await
+    save_and_record(tx, &site.id, &state, &events, now, public_url).await
 }
 
 /// Evaluates a site's rules against one epoch's analysis and records the outcome (state, alerts,
@@ -200,10 +204,11 @@ pub async fn evaluate(
     site: &Site,
     analysis: &EpochAnalysis,
     now: DateTime<Utc>,
+    public_url: Option<&str>,
 ) -> Result<usize, StoreError> {
     let state = alert_states::load(&mut *tx, &site.id).await?;
     let (state, events) = analysis::evaluate_alerts(&alert_config(site), &state, analysis, now);
-    save_and_record(tx, &site.id, &state, &events, now).await
+    save_and_record(tx, &site.id, &state, &events, now, public_url).await
 }
 
 /// Makes a failed analysis visible: the epoch's status becomes `analysis_failed` with the reason
@@ -216,12 +221,13 @@ pub async fn analysis_failed(
     observed_at: DateTime<Utc>,
     reason: &str,
     now: DateTime<Utc>,
+    public_url: Option<&str>,
 ) -> Result<usize, StoreError> {
     epochs::set_analysis_outcome(&mut *tx, &site.id, epoch, Some(reason)).await?;
     let state = alert_states::load(&mut *tx, &site.id).await?;
     let (state, events) =
         analysis::analysis_failed(&alert_config(site), &state, epoch, observed_at, reason, now);
-    save_and_record(tx, &site.id, &state, &events, now).await
+    save_and_record(tx, &site.id, &state, &events, now, public_url).await
 }
 
 /// Brings the stored alert state of a site to the state replayed over a recomputed series
@@ -234,8 +240,9 @@ pub async fn reconcile(
     now: DateTime<Utc>,
     cause: &str,
     kept: &[AlertKind],
+    public_url: Option<&str>,
 ) -> Result<usize, StoreError> {
     let current = alert_states::load(&mut *tx, site).await?;
     let (state, events) = analysis::reconcile(&current, replayed, now, cause, kept);
-    save_and_record(tx, site, &state, &events, now).await
+    save_and_record(tx, site, &state, &events, now, public_url).await
 }

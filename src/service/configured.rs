@@ -36,9 +36,14 @@ pub async fn apply_configured(store: &Store, config: &Config) -> Result<(), Conf
                 tracing::info!(site = %site.id, "analysis settings or alert rules changed in the \
                     configuration file: the site's series and alerts are recomputed");
                 let cause = super::recompute::RecomputeCause::Settings;
-                raised += super::recompute::recompute_site(&mut tx, &a.id, &cause)
-                    .await
-                    .map_err(|e| ConfiguredError::Item(site.id.clone(), e.to_string()))?;
+                raised += super::recompute::recompute_site(
+                    &mut tx,
+                    &a.id,
+                    &cause,
+                    config.public_url.as_deref(),
+                )
+                .await
+                .map_err(|e| ConfiguredError::Item(site.id.clone(), e.to_string()))?;
             }
         }
     }

@@ -6,6 +6,7 @@ use thiserror::Error;
 use cliffwatch_core::contract::truncate_for_message as cut;
 
 use crate::store::StoreError;
+use cliffwatch_core::photogrammetry::input::epoch_csv::CsvError;
 use cliffwatch_core::photogrammetry::{AdjustError, EpochError};
 
 /// Why a use case failed; nothing of it was stored.
@@ -89,6 +90,23 @@ pub enum ServiceError {
     /// The upload is not a valid epoch (names the field, image or point).
     #[error(transparent)]
     Invalid(#[from] EpochError),
+    /// An upload whose body is of another media type than the upload's forms (`None`: the
+    /// request said none).
+    #[error(
+        "an epoch is uploaded as application/json or text/csv, not {}",
+        .0.as_deref().unwrap_or("a body without Content-Type")
+    )]
+    UnsupportedMedia(Option<String>),
+    /// An upload whose body cannot be read as its form says (not JSON, a CSV not UTF-8).
+    #[error("{0}")]
+    BadBody(String),
+    /// An upload of the wrong shape: JSON not of the upload form (names the field), a CSV
+    /// without its observation time.
+    #[error("{0}")]
+    InvalidUpload(String),
+    /// A CSV upload that cannot be read, or whose camera the site cannot tell.
+    #[error(transparent)]
+    Csv(#[from] CsvError),
     /// The epoch cannot be adjusted (names the image or point).
     #[error(transparent)]
     Adjust(#[from] AdjustError),

@@ -308,13 +308,14 @@ fn incident(
 /// it, in one write transaction, as [`super::acknowledge::acknowledge`] does one (same limits on
 /// `by` and `comment`). [`ServiceError::UnknownIncident`] when the site has no such incident;
 /// [`ServiceError::AlreadyAcknowledged`] when every alert of it is acknowledged already. Returns
-/// the incident after.
+/// the incident after. The events' bodies link under `public_url` (the configuration's).
 pub async fn acknowledge(
     store: &Store,
     site: &str,
     id: &str,
     by: &str,
     comment: Option<&str>,
+    public_url: Option<&str>,
 ) -> Result<Incident, ServiceError> {
     let (by, comment) = checked_acknowledgement(by, comment)?;
     let mut tx = store.begin_write_site(site).await?;
@@ -348,7 +349,7 @@ pub async fn acknowledge(
     }
     let now = store::clock(&mut tx).await?;
     for alert in &pending {
-        acknowledge_in(&mut tx, alert, by, comment, now).await?;
+        acknowledge_in(&mut tx, alert, by, comment, now, public_url).await?;
     }
     tx.commit().await.map_err(StoreError::from)?;
     list(store, site)

@@ -151,7 +151,8 @@ impl EpochLimits {
 /// adjustment has ended. The adjustment stops within one iteration once the slot's compute
 /// budget is spent (the answer is then [`AdjustError::Cancelled`]) or once this future is
 /// dropped (the client answered by the request time limit, or gone), so the slot is free again
-/// within a moment of the answer.
+/// within a moment of the answer. The bodies of the alert events it writes link under
+/// `public_url` (the configuration's).
 ///
 /// [`AdjustError::Cancelled`]: cliffwatch_core::photogrammetry::AdjustError::Cancelled
 pub async fn ingest(
@@ -160,9 +161,10 @@ pub async fn ingest(
     input: EpochInput,
     limits: EpochLimits,
     slot: UploadSlot,
+    public_url: Option<&str>,
 ) -> Result<Ingested, ServiceError> {
     limits.check(&input)?;
-    ingest_with_identification(store, site_id, input, None, Some(slot)).await
+    ingest_with_identification(store, site_id, input, None, Some(slot), public_url).await
 }
 
 /// The watched folder an epoch comes from.
@@ -182,9 +184,10 @@ pub async fn ingest_watched(
     input: EpochInput,
     limits: EpochLimits,
     folder: &WatchedFolder,
+    public_url: Option<&str>,
 ) -> Result<Ingested, ServiceError> {
     limits.check(&input)?;
-    ingest_with_identification(store, site_id, input, Some(folder), None).await
+    ingest_with_identification(store, site_id, input, Some(folder), None, public_url).await
 }
 
 /// How far after the server's clock an epoch's `observed_at` may lie, in days. An epoch from
@@ -200,6 +203,7 @@ async fn ingest_with_identification(
     input: EpochInput,
     folder: Option<&WatchedFolder>,
     slot: Option<UploadSlot>,
+    public_url: Option<&str>,
 ) -> Result<Ingested, ServiceError> {
     // The form, then its units by orders of magnitude (mm for m, c in metres, pixels as mm).
     let mut problem = cliffwatch_core::photogrammetry::input::plausible::validate(&input)?;
@@ -309,6 +313,7 @@ async fn ingest_with_identification(
         &adjustment,
         history,
         now,
+        public_url,
     )
     .await?;
     displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
@@ -394,7 +399,9 @@ pub struct Derived {
 /// the webhook outbox, all at `now` (the transaction's time on the store's clock). An epoch whose
 /// analysis fails (e.g. too few points in common with the reference) is stored without
 /// displacements, with status `analysis_failed`, the reason in its report (`analysis_error`) and
-/// a site-level `analysis_failed` alert for the staff.
+/// a site-level `analysis_failed` alert for the staff. The events' bodies link under
+/// `public_url`.
+#[allow(clippy::too_many_arguments)]
 async fn derive(
     tx: &mut Connection,
     site: &Site,
@@ -403,6 +410,7 @@ async fn derive(
     adjustment: &Adjustment,
     history: HistoryPrefetch,
     now: DateTime<Utc>,
+    public_url: Option<&str>,
 ) -> Result<Derived, ServiceError> {
     let later = epochs::count_after(&mut *tx, &site.id, observed_at).await?;
     let reference = reference_epoch(tx, site).await?.unwrap_or(epoch);
@@ -416,11 +424,11 @@ async fn derive(
         // Out of order: later epochs' histories (velocities, forecasts) and, when this epoch is the
         // earliest without a set reference, the reference itself change. Recompute the series.
         let cause = recompute::RecomputeCause::EarlierEpoch(epoch);
-        let mut raised = recompute::recompute_site(tx, &site.id, &cause).await?;
+        let mut raised = recompute::recompute_site(tx, &site.id, &cause, public_url).await?;
         // The newest epoch, inside a reference of several: a campaign arrived on time after all
         // (a recompute keeps `campaign_overdue` as it was; it depends on the clock).
         if let (0, Some(t)) = (later, store::parse_timestamp(observed_at)) {
-            raised += alert_outcome::campaign_arrived(tx, site, epoch, t, now).await?;
+            raised += alert_outcome::campaign_arrived(tx, site, epoch, t, now, public_url).await?;
         }
         return Ok(Derived {
             raised,
@@ -440,7 +448,7 @@ async fn derive(
             Some(r) => r,
             None => {
                 let reason = format!("the reference epoch {reference} has no coordinates");
-                return failed(tx, site, epoch, t, &reason, now).await;
+                return failed(tx, site, epoch, t, &reason, now, public_url).await;
             }
         }
     };
@@ -454,7 +462,7 @@ async fn derive(
         Ok(a) => a,
         Err(e) => {
             let reason = format!("analysis against reference epoch {reference_id}: {e}");
-            return failed(tx, site, epoch, t, &reason, now).await;
+            return failed(tx, site, epoch, t, &reason, now, public_url).await;
         }
     };
     for w in &analysis.warnings {
@@ -467,7 +475,7 @@ async fn derive(
         .into_iter()
         .map(|(point, pooled_with)| PooledForecast { point, pooled_with })
         .collect();
-    let raised = alert_outcome::evaluate(tx, site, &analysis, now).await?;
+    let raised = alert_outcome::evaluate(tx, site, &analysis, now, public_url).await?;
     Ok(Derived {
         displacements,
         block_motions,
@@ -484,9 +492,11 @@ async fn failed(
     t: DateTime<Utc>,
     reason: &str,
     now: DateTime<Utc>,
+    public_url: Option<&str>,
 ) -> Result<Derived, ServiceError> {
     tracing::warn!(site = %site.id, epoch, reason, "epoch stored without displacements");
-    let raised = alert_outcome::analysis_failed(tx, site, epoch, t, reason, now).await?;
+    let raised =
+        alert_outcome::analysis_failed(tx, site, epoch, t, reason, now, public_url).await?;
     Ok(Derived {
         raised,
         ..Derived::default()

@@ -5,6 +5,8 @@
 //!
 //! - [`ingest`]: an epoch in (upload or watched directory): adjust, analyse, alert, one
 //!   transaction.
+//! - [`upload`]: an upload as the client sent it (JSON, or CSV with its camera and time) read
+//!   into the upload form, ingested, and read back as stored ([`stored_epoch`]).
 //! - [`recompute`]: a site's derived series again after its history changed.
 //! - [`sites`]: a site created, its definition checked.
 //! - [`site_settings`]: reference epoch and block groups, with the recompute they cause.
@@ -43,6 +45,8 @@ pub mod site_admin;
 pub mod site_lifecycle;
 pub(crate) mod site_settings;
 pub mod sites;
+pub mod stored_epoch;
+pub mod upload;
 pub mod webhooks;
 
 pub use error::ServiceError;

@@ -27,13 +27,15 @@ use super::ServiceError;
 ///    already received; open alerts keep their id and acknowledgement.
 ///
 /// The site is read inside `tx`, so changes the caller made to it there (a new reference) count.
-/// `cause` says why (a resolved alert's message ends with it).
+/// `cause` says why (a resolved alert's message ends with it); the event bodies link under
+/// `public_url` ([`alert_outcome::record_events`]).
 ///
 /// Returns how many alerts were raised.
 pub async fn recompute_site(
     tx: &mut Connection,
     site_id: &str,
     cause: &RecomputeCause,
+    public_url: Option<&str>,
 ) -> Result<usize, ServiceError> {
     let site = sites::get(&mut *tx, site_id)
         .await?
@@ -78,7 +80,10 @@ pub async fn recompute_site(
     let kept = cause.kept_kinds();
     let cause = cause.to_string();
     let now = store::clock(&mut *tx).await?;
-    Ok(alert_outcome::reconcile(tx, &site.id, &out.replayed, now, &cause, kept).await?)
+    Ok(
+        alert_outcome::reconcile(tx, &site.id, &out.replayed, now, &cause, kept, public_url)
+            .await?,
+    )
 }
 
 /// Why a site's series is recomputed; its text ends the message of an alert the recompute
@@ -146,9 +151,12 @@ impl std::fmt::Display for RecomputeCause {
 
 /// Recomputes, once, every site whose stored series an older binary derived
 /// ([`sites::ANALYSIS_VERSION`]: e.g. rows without the filtered values), one write transaction per
-/// site, skipping a site another node has recomputed meanwhile; called at start. Returns how many
-/// sites this call recomputed.
-pub async fn recompute_outdated(store: &Store) -> Result<usize, ServiceError> {
+/// site, skipping a site another node has recomputed meanwhile; called at start (`public_url`:
+/// the links of the event bodies). Returns how many sites this call recomputed.
+pub async fn recompute_outdated(
+    store: &Store,
+    public_url: Option<&str>,
+) -> Result<usize, ServiceError> {
     let mut recomputed = 0;
     for id in &sites::outdated(store.reader()).await? {
         let mut tx = store.begin_write_site(id).await?;
@@ -158,7 +166,7 @@ pub async fn recompute_outdated(store: &Store) -> Result<usize, ServiceError> {
             continue;
         }
         tracing::info!(site = %id, "recomputing the series derived by an older version");
-        let raised = recompute_site(&mut tx, id, &RecomputeCause::NewerVersion).await?;
+        let raised = recompute_site(&mut tx, id, &RecomputeCause::NewerVersion, public_url).await?;
         tx.commit().await.map_err(StoreError::from)?;
         super::alert_outcome::count_raised(raised);
         recomputed += 1;

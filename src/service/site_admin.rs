@@ -113,12 +113,14 @@ pub fn analysis_changed(b: &Site, a: &Site) -> bool {
 /// Applies the JSON merge patch `patch` to the settings of `site` (every member of the create
 /// form but `id`; null removes an optional one), with the checks of a new site, in one
 /// transaction with its audit row; a change of the rules or the analysis settings recomputes
-/// the site and re-evaluates its alerts at once. Returns the stored site.
+/// the site and re-evaluates its alerts at once (the event bodies link under `public_url`, the
+/// configuration's). Returns the stored site.
 pub async fn update_site(
     store: &Store,
     site: &str,
     patch: &Value,
     actor: &Actor,
+    public_url: Option<&str>,
 ) -> Result<Site, ServiceError> {
     let invalid = |m: String| ServiceError::InvalidSite(m);
     if !patch.is_object() {
@@ -181,7 +183,7 @@ pub async fn update_site(
             "the site's settings were changed by {} (audit {id})",
             actor.who
         ));
-        raised = recompute_site(&mut tx, site, &cause).await?;
+        raised = recompute_site(&mut tx, site, &cause, public_url).await?;
     }
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
@@ -206,12 +208,14 @@ fn changed_members(before: &Value, after: &Value) -> (Value, Value) {
 }
 
 /// Deletes block group `group` of `site` (its points stay, as points outside any block) and
-/// recomputes the site, with its audit row. [`ServiceError::UnknownGroup`] when there is none.
+/// recomputes the site, with its audit row (the event bodies link under `public_url`).
+/// [`ServiceError::UnknownGroup`] when there is none.
 pub async fn delete_group(
     store: &Store,
     site: &str,
     group: &str,
     actor: &Actor,
+    public_url: Option<&str>,
 ) -> Result<(), ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
     let Some(stored) = sites::get(&mut *tx, site).await? else {
@@ -238,7 +242,7 @@ pub async fn delete_group(
         "block group {group} was deleted by {} (audit {id})",
         actor.who
     ));
-    let raised = recompute_site(&mut tx, site, &cause).await?;
+    let raised = recompute_site(&mut tx, site, &cause, public_url).await?;
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
     Ok(())

@@ -30,12 +30,14 @@ pub const MAX_REASON_CHARS: usize = 2000;
 /// Retires `site` for `reason` (trimmed, 1 to [`MAX_REASON_CHARS`] characters): from now on
 /// its uploads are refused, its pages stay and say since when and why; every open or
 /// acknowledged alert is resolved, its resolution event naming the retirement. One transaction
-/// with its audit row (`site.retire`). Returns the site after.
+/// with its audit row (`site.retire`); the events' bodies link under `public_url` (the
+/// configuration's). Returns the site after.
 pub async fn retire_site(
     store: &Store,
     site: &str,
     reason: &str,
     actor: &Actor,
+    public_url: Option<&str>,
 ) -> Result<Site, ServiceError> {
     let reason = reason.trim();
     if reason.is_empty() || reason.chars().count() > MAX_REASON_CHARS || reason.contains('\0') {
@@ -51,7 +53,7 @@ pub async fn retire_site(
     let now = store::clock(&mut tx).await?;
     let at = store::timestamp(now);
     sites::retire(&mut *tx, site, &at, reason).await?;
-    let closed = close_alerts(&mut tx, site, reason, actor, now).await?;
+    let closed = close_alerts(&mut tx, site, reason, actor, now, public_url).await?;
     record(
         &mut tx,
         site,
@@ -71,13 +73,14 @@ pub async fn retire_site(
 }
 
 /// Resolves every active alert of `site` at `now`, each event's message ending with the
-/// retirement's reason; returns how many.
+/// retirement's reason (the bodies link under `public_url`); returns how many.
 async fn close_alerts(
     tx: &mut Connection,
     site: &str,
     reason: &str,
     actor: &Actor,
     now: chrono::DateTime<chrono::Utc>,
+    public_url: Option<&str>,
 ) -> Result<usize, ServiceError> {
     let mut state = alert_states::load(&mut *tx, site).await?;
     let ids: Vec<String> = state.alerts.iter().map(|a| a.id.clone()).collect();
@@ -93,7 +96,7 @@ async fn close_alerts(
         events.push(event);
     }
     if !events.is_empty() {
-        save_and_record(tx, site, &state, &events, now).await?;
+        save_and_record(tx, site, &state, &events, now, public_url).await?;
     }
     Ok(events.len())
 }

@@ -14,12 +14,13 @@ use super::site_admin::{record, Actor};
 use super::ServiceError;
 
 /// Sets the reference epoch of `site` (`None`: back to the earliest epoch) and recomputes its
-/// displacements and alerts.
+/// displacements and alerts (the event bodies link under `public_url`, the configuration's).
 pub async fn set_reference(
     store: &Store,
     site: &str,
     epoch: Option<i64>,
     actor: &Actor,
+    public_url: Option<&str>,
 ) -> Result<(), ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
     let Some(stored) = sites::get(&mut *tx, site).await? else {
@@ -52,18 +53,20 @@ pub async fn set_reference(
         .await?;
     }
     let cause = RecomputeCause::Reference(epoch, actor.who.clone());
-    let raised = recompute_site(&mut tx, site, &cause).await?;
+    let raised = recompute_site(&mut tx, site, &cause, public_url).await?;
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
     Ok(())
 }
 
-/// Declares (or replaces) a block group of `site` and recomputes the site's series and alerts.
+/// Declares (or replaces) a block group of `site` and recomputes the site's series and alerts
+/// (the event bodies link under `public_url`).
 pub async fn declare_group(
     store: &Store,
     site: &str,
     group: &GroupConfig,
     actor: &Actor,
+    public_url: Option<&str>,
 ) -> Result<(), ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
     let Some(stored) = sites::get(&mut *tx, site).await? else {
@@ -91,7 +94,7 @@ pub async fn declare_group(
         .await?;
     }
     let cause = RecomputeCause::Group(group.name.clone());
-    let raised = recompute_site(&mut tx, site, &cause).await?;
+    let raised = recompute_site(&mut tx, site, &cause, public_url).await?;
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);
     Ok(())
@@ -107,8 +110,10 @@ pub async fn set_point(
     point: &str,
     settings: &PointSettings,
     actor: &Actor,
+    public_url: Option<&str>,
 ) -> Result<Point, ServiceError> {
-    let mut done = set_points(store, site, &[(point.to_string(), settings.clone())], actor).await?;
+    let changes = [(point.to_string(), settings.clone())];
+    let mut done = set_points(store, site, &changes, actor, public_url).await?;
     done.pop().ok_or_else(|| {
         StoreError::Corrupt(format!("point '{point}' of site '{site}' vanished")).into()
     })
@@ -120,12 +125,14 @@ pub async fn set_point(
 /// stored), each change in the audit trail, and, when that changed anything and the site has
 /// epochs, recomputes the site once: the stable points hold the datum, the group decides the
 /// block, the direction the value along it, so a series derived before the change would
-/// otherwise jump at the next epoch. Returns the stored points in the order given.
+/// otherwise jump at the next epoch (the event bodies link under `public_url`). Returns the
+/// stored points in the order given.
 pub async fn set_points(
     store: &Store,
     site: &str,
     changes: &[(String, PointSettings)],
     actor: &Actor,
+    public_url: Option<&str>,
 ) -> Result<Vec<Point>, ServiceError> {
     let mut tx = store.begin_write_site(site).await?;
     let Some(stored) = sites::get(&mut *tx, site).await? else {
@@ -183,7 +190,7 @@ pub async fn set_points(
             [one] => RecomputeCause::Point(one.clone()),
             many => RecomputeCause::Point(format!("{} and {} more", many[0], many.len() - 1)),
         };
-        raised = recompute_site(&mut tx, site, &cause).await?;
+        raised = recompute_site(&mut tx, site, &cause, public_url).await?;
     }
     tx.commit().await.map_err(StoreError::from)?;
     count_raised(raised);

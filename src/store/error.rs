@@ -31,6 +31,15 @@ pub enum StoreError {
     /// A stored value is not one this version knows.
     #[error("stored value: {0}")]
     Corrupt(String),
+    /// The stored body of one of an alert's outbox events does not parse as the contract body
+    /// it was written as ([`crate::webhooks::WebhookPayload`]).
+    #[error("stored event body of alert '{alert}': {source}")]
+    EventBody {
+        /// The alert's id.
+        alert: String,
+        /// Why the body does not parse.
+        source: serde_json::Error,
+    },
     /// A stored name (level, state, role, model…) is not one this version knows.
     #[error("stored value: {0}")]
     Name(#[from] cliffwatch_core::contract::names::UnknownName),

@@ -47,7 +47,9 @@ pub(super) async fn process(
         hash: hash.to_string(),
         identification: serde_json::to_value(&found.counts)?,
     };
-    let ingested = ingest_watched(store, site, found.input, opts.limits, &watched).await?;
+    let public_url = opts.public_url.as_deref();
+    let ingested =
+        ingest_watched(store, site, found.input, opts.limits, &watched, public_url).await?;
     let orientations =
         resect_stations(store, site, ingested.epoch, &found.stations, &found.names).await?;
     Ok((ingested, orientations))

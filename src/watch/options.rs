@@ -27,10 +27,14 @@ pub struct WatchOptions {
     pub first_epoch: FirstEpochOptions,
     /// The largest epoch taken (as for uploads).
     pub limits: EpochLimits,
+    /// Where people reach the dashboard (the configuration's `public_url`), for the links in
+    /// the bodies of the alert events an epoch writes; `None`: no links.
+    pub public_url: Option<String>,
 }
 
 impl WatchOptions {
-    /// Defaults for `dir`: rescan every 30 s, take a folder once it has not changed for 2 s.
+    /// Defaults for `dir`: rescan every 30 s, take a folder once it has not changed for 2 s, no
+    /// public URL.
     pub fn new(dir: PathBuf) -> Self {
         Self {
             dir,
@@ -40,6 +44,7 @@ impl WatchOptions {
             identify: IdentifyOptions::default(),
             first_epoch: FirstEpochOptions::default(),
             limits: EpochLimits::default(),
+            public_url: None,
         }
     }
 }

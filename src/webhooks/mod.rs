@@ -38,24 +38,6 @@ pub use retry::{backoff_delay, next_retry, parse_retry_after, RetryPolicy};
 pub use sign::{sign, signing_key, verify, WebhookError};
 pub use test_event::{test_body, TEST_EVENT};
 
-/// Where people reach the dashboard (`public_url` of the configuration), for the links to an
-/// alert's page in the bodies written with each alert event: set once by the daemon at start
-/// ([`set_public_url`]), read by the alert outcome ([`public_url`]). A process-wide setting
-/// because the events are written by every use case that changes alerts.
-static PUBLIC_URL: std::sync::RwLock<Option<String>> = std::sync::RwLock::new(None);
-
-/// Sets the public URL the event bodies link to (`None`: no links).
-pub fn set_public_url(url: Option<String>) {
-    if let Ok(mut u) = PUBLIC_URL.write() {
-        *u = url;
-    }
-}
-
-/// The public URL the event bodies link to, as set by [`set_public_url`].
-pub fn public_url() -> Option<String> {
-    PUBLIC_URL.read().ok().and_then(|u| u.clone())
-}
-
 #[cfg(test)]
 mod tests {
     /// The daemon's own contract names (payload formats, webhook sources) parse back to their

@@ -12,9 +12,14 @@ use cliffwatch_core::analysis;
 use crate::service::alert_outcome::save_and_record;
 use crate::service::analysis_inputs::alert_config;
 
-/// Checks every site with a schedule at `now`, one write transaction per site that changes.
-/// Returns how many alerts were raised.
-pub async fn check_all(store: &Store, now: DateTime<Utc>) -> Result<usize, StoreError> {
+/// Checks every site with a schedule at `now`, one write transaction per site that changes;
+/// the events' bodies link under `public_url` (the configuration's). Returns how many alerts
+/// were raised.
+pub async fn check_all(
+    store: &Store,
+    now: DateTime<Utc>,
+    public_url: Option<&str>,
+) -> Result<usize, StoreError> {
     let mut raised = 0;
     for id in sites::scheduled(store.reader()).await? {
         let mut tx = store.begin_write_site(&id).await?;
@@ -30,7 +35,7 @@ pub async fn check_all(store: &Store, now: DateTime<Utc>) -> Result<usize, Store
         }
         // Recorded at this transaction's time: a sweep over many sites takes a while.
         let at = store::clock(&mut tx).await?;
-        raised += save_and_record(&mut tx, &id, &state, &events, at).await?;
+        raised += save_and_record(&mut tx, &id, &state, &events, at, public_url).await?;
         tx.commit().await?;
     }
     Ok(raised)
@@ -39,10 +44,10 @@ pub async fn check_all(store: &Store, now: DateTime<Utc>) -> Result<usize, Store
 /// Runs [`check_all`] every `every` until shutdown; with several nodes on one database, one
 /// node at a time ([`Store::try_job_lock`]), the others skip the pass. The time checked against
 /// is the store's clock ([`Store::clock`]), so a node whose clock runs ahead raises no campaign
-/// early and one whose clock runs behind none late.
-pub async fn run(store: Store, every: Duration, shutdown: Shutdown) {
+/// early and one whose clock runs behind none late. `public_url`: as for [`check_all`].
+pub async fn run(store: Store, every: Duration, public_url: Option<String>, shutdown: Shutdown) {
     loop {
-        match check_once(&store).await {
+        match check_once(&store, public_url.as_deref()).await {
             Ok(n) if n > 0 => crate::service::alert_outcome::count_raised(n),
             Ok(_) => {}
             Err(e) => tracing::warn!(error = %e, "campaign schedule check failed"),
@@ -54,9 +59,9 @@ pub async fn run(store: Store, every: Duration, shutdown: Shutdown) {
     tracing::info!("campaign schedule check stopped");
 }
 
-async fn check_once(store: &Store) -> Result<usize, StoreError> {
+async fn check_once(store: &Store, public_url: Option<&str>) -> Result<usize, StoreError> {
     match store.try_job_lock("campaign schedule").await? {
-        Some(_held) => check_all(store, store.clock().await?).await,
+        Some(_held) => check_all(store, store.clock().await?, public_url).await,
         None => Ok(0),
     }
 }

@@ -318,6 +318,7 @@ async fn a_folder_whose_epoch_committed_before_a_crash_is_not_failed() {
         committed,
         Default::default(),
         &watched,
+        None,
     )
     .await
     .unwrap();

@@ -479,8 +479,10 @@ fn oldest_first<T>(mut items: Vec<(String, String, T)>) -> Vec<T> {
 }
 
 /// The recorded changes of one alert (its outbox events) as the CAP feed reads them, oldest
-/// first: type, level after, and when each was recorded (UTC). Events recorded in one
-/// transaction share the recording time and are ordered by the time of their epoch.
+/// first: type, level after, when each was recorded (UTC) and the alert as the event's body
+/// ([`crate::webhooks::WebhookPayload`], the typed body it was written from) states it. Events
+/// recorded in one transaction share the recording time and are ordered by the time of their
+/// epoch. A body that does not parse is [`StoreError::EventBody`], naming the alert.
 pub async fn changes_of(
     db: impl AnyExecutor<'_>,
     alert_id: &str,
@@ -496,28 +498,34 @@ pub async fn changes_of(
         let Some(at) = super::parse_timestamp(&created) else {
             continue;
         };
-        let body = serde_json::from_str::<serde_json::Value>(&payload).unwrap_or_default();
-        let event_time = body["timestamp"].as_str().unwrap_or_default().to_string();
-        let data = &body["data"];
-        let snapshot = crate::cap::Snapshot {
-            value: data["value"].as_f64(),
-            threshold: data["threshold"].as_f64(),
-            unit: data["unit"].as_str().map(str::to_string),
-            observed_at: data["observed_at"].as_str().map(str::to_string),
-            message: data["message"].as_str().unwrap_or_default().to_string(),
-        };
+        let body: crate::webhooks::WebhookPayload =
+            serde_json::from_str(&payload).map_err(|source| StoreError::EventBody {
+                alert: alert_id.to_string(),
+                source,
+            })?;
         changes.push((
             created,
-            event_time,
+            body.timestamp,
             crate::cap::Change {
                 event_type: event_type.parse()?,
                 level: level.as_deref().map(str::parse).transpose()?,
                 at,
-                snapshot,
+                snapshot: snapshot_of(body.data),
             },
         ));
     }
     Ok(oldest_first(changes))
+}
+
+/// The alert as an event's body states it, as a CAP message shows it.
+fn snapshot_of(data: crate::webhooks::WebhookData) -> crate::cap::Snapshot {
+    crate::cap::Snapshot {
+        value: data.value,
+        threshold: data.threshold,
+        unit: Some(data.unit),
+        observed_at: data.observed_at,
+        message: data.message,
+    }
 }
 
 /// The movement alerts ([`crate::cap::PUBLIC_RULES`]) that ever reached `warning` or `alarm`
