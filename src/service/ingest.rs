@@ -13,7 +13,7 @@ use chrono::{DateTime, Utc};
 use sha2::{Digest, Sha256};
 
 use crate::store::block_motions;
-use crate::store::displacements::{self, Displacement};
+use crate::store::displacements;
 use crate::store::pooled_forecasts::{self, PooledForecast};
 use crate::store::sites::{AprioriSigma, Site};
 use crate::store::{self, epochs, groups, points, sites, watch_state, Connection, Store};
@@ -305,7 +305,7 @@ async fn ingest_with_identification(
     if let Some(f) = folder {
         watch_state::record_folder(&mut tx, &site.id, &f.hash, epoch, now).await?;
     }
-    let derived = derive(
+    let raised = derive(
         &mut tx,
         &site,
         epoch,
@@ -316,11 +316,8 @@ async fn ingest_with_identification(
         public_url,
     )
     .await?;
-    displacements::insert(&mut tx, &site.id, &derived.displacements).await?;
-    block_motions::insert(&mut tx, &site.id, &derived.block_motions).await?;
-    pooled_forecasts::insert(&mut tx, &site.id, epoch, &derived.pooled).await?;
     tx.commit().await.map_err(store::StoreError::from)?;
-    super::alert_outcome::count_raised(derived.raised);
+    super::alert_outcome::count_raised(raised);
     Ok(Ingested {
         site: site.id,
         epoch,
@@ -375,28 +372,17 @@ impl Drop for HistoryPrefetch {
     }
 }
 
-/// What an epoch makes besides its own rows: its displacements and how many alerts it raised
-/// (alert rows and outbox rows are already written).
-#[derive(Debug, Default)]
-pub struct Derived {
-    /// Displacements of this epoch (empty when the whole site was recomputed instead).
-    pub displacements: Vec<Displacement>,
-    /// Motion rows of the site's declared blocks in this epoch (likewise).
-    pub block_motions: Vec<Displacement>,
-    /// The points whose forecast was pooled with neighbours moving together (likewise).
-    pub pooled: Vec<PooledForecast>,
-    /// Alerts raised by this epoch.
-    pub raised: usize,
-}
-
 /// THE seam of the displacement analysis and the alert rules: runs inside the epoch's write
 /// transaction, which holds the site's write lock, so the history (`history`, read from the last
 /// commit while `tx` holds the lock) is consistent with what is written.
 ///
 /// Loads the reference epoch's coordinates (with the stable points' joint covariance), the point
 /// configurations and the history the windows need, runs [`cliffwatch_core::analysis::analyse_epoch`] on a
-/// blocking thread, then evaluates the site's alert rules and writes the alert state, the alerts and
-/// the webhook outbox, all at `now` (the transaction's time on the store's clock). An epoch whose
+/// blocking thread, writes every row derived from the epoch (displacements, the declared blocks'
+/// motions, the pooled forecasts), then evaluates the site's alert rules and writes the alert
+/// state, the alerts and the webhook outbox, all at `now` (the transaction's time on the store's
+/// clock); returns how many alerts it raised. An out-of-order epoch recomputes the whole site
+/// instead ([`recompute::recompute_site`]). An epoch whose
 /// analysis fails (e.g. too few points in common with the reference) is stored without
 /// displacements, with status `analysis_failed`, the reason in its report (`analysis_error`) and
 /// a site-level `analysis_failed` alert for the staff. The events' bodies link under
@@ -411,7 +397,7 @@ async fn derive(
     history: HistoryPrefetch,
     now: DateTime<Utc>,
     public_url: Option<&str>,
-) -> Result<Derived, ServiceError> {
+) -> Result<usize, ServiceError> {
     let later = epochs::count_after(&mut *tx, &site.id, observed_at).await?;
     let reference = reference_epoch(tx, site).await?.unwrap_or(epoch);
     // An epoch inside a reference of several epochs changes the reference itself.
@@ -430,13 +416,10 @@ async fn derive(
         if let (0, Some(t)) = (later, store::parse_timestamp(observed_at)) {
             raised += alert_outcome::campaign_arrived(tx, site, epoch, t, now, public_url).await?;
         }
-        return Ok(Derived {
-            raised,
-            ..Derived::default()
-        });
+        return Ok(raised);
     }
     let Some(t) = store::parse_timestamp(observed_at) else {
-        return Ok(Derived::default());
+        return Ok(0);
     };
     let current = EpochCoordinates::from_adjustment(epoch, t, adjustment);
     let config = site_analysis_config(tx, site).await?;
@@ -469,19 +452,16 @@ async fn derive(
         tracing::warn!(site = %site.id, epoch, "analysis: {w}");
     }
     let displacements = to_rows(&analysis.records(), analysis.reference_epoch);
+    displacements::insert(tx, &site.id, &displacements).await?;
     let block_motions = to_rows(&analysis.block_records(), analysis.reference_epoch);
-    let pooled = analysis
+    block_motions::insert(tx, &site.id, &block_motions).await?;
+    let pooled: Vec<PooledForecast> = analysis
         .pooled()
         .into_iter()
         .map(|(point, pooled_with)| PooledForecast { point, pooled_with })
         .collect();
-    let raised = alert_outcome::evaluate(tx, site, &analysis, now, public_url).await?;
-    Ok(Derived {
-        displacements,
-        block_motions,
-        pooled,
-        raised,
-    })
+    pooled_forecasts::insert(tx, &site.id, epoch, &pooled).await?;
+    Ok(alert_outcome::evaluate(tx, site, &analysis, now, public_url).await?)
 }
 
 /// Stores an epoch's failed analysis (see [`alert_outcome::analysis_failed`]) and logs it.
@@ -493,14 +473,9 @@ async fn failed(
     reason: &str,
     now: DateTime<Utc>,
     public_url: Option<&str>,
-) -> Result<Derived, ServiceError> {
+) -> Result<usize, ServiceError> {
     tracing::warn!(site = %site.id, epoch, reason, "epoch stored without displacements");
-    let raised =
-        alert_outcome::analysis_failed(tx, site, epoch, t, reason, now, public_url).await?;
-    Ok(Derived {
-        raised,
-        ..Derived::default()
-    })
+    Ok(alert_outcome::analysis_failed(tx, site, epoch, t, reason, now, public_url).await?)
 }
 
 #[cfg(test)]
