@@ -283,7 +283,7 @@ pub struct FailureConfig {
     /// `round(k / bin)`), so epochs this far apart or farther stay one per bin and windows
     /// counted in epochs count bins: an hourly series is then fitted as daily means, each
     /// 24 × better known, at a daily series' cost. 0 by default; a site sampled hourly sets 24
-    /// with `AnalysisConfig::filter_epochs` 1000 (30 days of history: 7 of 8 hourly failures
+    /// with `AnalysisConfig::filter_epochs` 1000 (30 days of history: 12 of 16 hourly failures
     /// alarmed 24–120 h before, none at the defaults; `docs/accuracy.md`).
     pub forecast_bin_hours: f64,
 }
