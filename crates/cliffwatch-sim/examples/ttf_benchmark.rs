@@ -13,14 +13,17 @@
 //! cycle fits within it of the law; `off` for none),
 //! `TTF_POOL_RADIUS` (m, 0: no pooling of undeclared targets), `TTF_METHOD` (`onset_law`, `displacement` or `smoothed_velocity`), `TTF_KINDS` (comma-separated
 //! kinds, e.g. `failing,burst`), and of the time-to-failure rule `TTF_CONFIDENCE` and
-//! `TTF_FOR_EPOCHS`; `TTF_SERIES=1` adds the failing series one by one;
+//! `TTF_FOR_EPOCHS`; the windows `TTF_WINDOW`, `TTF_LAW_WINDOW`, `TTF_ACCELERATION_WINDOW`
+//! (`N` epochs or `Dd` days), `TTF_BIN_HOURS` (`FailureConfig::forecast_bin_hours`) and
+//! `TTF_FILTER_EPOCHS` (`AnalysisConfig::filter_epochs`); kinds `failing_hourly` and
+//! `burst_hourly` are sampled hourly; `TTF_SERIES=1` adds the failing series one by one;
 //! `TTF_UNDECLARED=1` runs the series with the block not declared (`ttf_undeclared`), each
 //! target's σ scaled by `TTF_TARGET_SIGMA`.
 
-use cliffwatch_core::analysis::FailureConfig;
-use cliffwatch_sim::kinematics::MotionKind;
+use cliffwatch_core::analysis::{AnalysisConfig, FailureConfig, Window};
+use cliffwatch_sim::kinematics::{case, MotionKind};
 use cliffwatch_sim::ttf_benchmark::{
-    false_alarm_table, rules_with, run_kinds, series_table, table,
+    false_alarm_table, rules_with, run_kinds_in, series_table, table,
 };
 use cliffwatch_sim::ttf_undeclared::{run_undeclared_kinds, undeclared_table};
 
@@ -65,10 +68,43 @@ fn main() {
     {
         failure.pool_radius_m = r;
     }
+    // Windows: `N` epochs or `Dd` days.
+    let window = |name: &str| -> Option<Window> {
+        let v = std::env::var(name).ok()?;
+        match v.strip_suffix('d') {
+            Some(d) => d.parse().ok().map(Window::Days),
+            None => v.parse().ok().map(Window::Epochs),
+        }
+    };
+    if let Some(w) = window("TTF_WINDOW") {
+        failure.window = w;
+    }
+    if let Some(w) = window("TTF_LAW_WINDOW") {
+        failure.law_window = w;
+    }
+    if let Some(w) = window("TTF_ACCELERATION_WINDOW") {
+        failure.acceleration_window = w;
+    }
+    if let Some(h) = std::env::var("TTF_BIN_HOURS")
+        .ok()
+        .and_then(|h| h.parse().ok())
+    {
+        failure.forecast_bin_hours = h;
+    }
+    let mut base = AnalysisConfig {
+        failure: failure.clone(),
+        ..AnalysisConfig::default()
+    };
+    if let Some(n) = std::env::var("TTF_FILTER_EPOCHS")
+        .ok()
+        .and_then(|n| n.parse().ok())
+    {
+        base.filter_epochs = n;
+    }
     let kinds: Vec<MotionKind> = match std::env::var("TTF_KINDS") {
         Ok(names) => names
             .split(',')
-            .filter_map(|n| MotionKind::ALL.into_iter().find(|k| k.name() == n.trim()))
+            .filter_map(|n| MotionKind::EVERY.into_iter().find(|k| k.name() == n.trim()))
             .collect(),
         Err(_) => MotionKind::ALL.to_vec(),
     };
@@ -93,7 +129,15 @@ fn main() {
         print!("{}", undeclared_table(&outcomes));
         return;
     }
-    let outcomes = run_kinds(first, seeds, &kinds, &failure, &rules);
+    let outcomes = run_kinds_in(first, seeds, &kinds, &base, &rules);
+    let epochs: usize = kinds
+        .iter()
+        .map(|&k| {
+            (first..first + seeds)
+                .map(|s| case(k, s).scenario.epochs)
+                .sum::<usize>()
+        })
+        .sum();
     if std::env::var_os("TTF_VERBOSE").is_some() {
         for o in &outcomes {
             println!("{o:?}");
@@ -101,12 +145,21 @@ fn main() {
     }
     println!(
         "{} series ({seeds} seeds per kind from {first}; method {:?}, confirmation over {} h (both ways: {}), \
-         rule confidence {confidence:?}, for_epochs {for_epochs:?}), {:.1} s\n",
+         rule confidence {confidence:?}, for_epochs {for_epochs:?}; windows {:?} / {:?} / {:?}, \
+         bins of {} h, filter over {} epochs), {:.1} s, {:.1} ms per epoch on {} threads\n",
         outcomes.len(),
         failure.method,
         failure.confirm_hours,
         failure.confirm_both_ways,
-        started.elapsed().as_secs_f64()
+        failure.window,
+        failure.law_window,
+        failure.acceleration_window,
+        failure.forecast_bin_hours,
+        base.filter_epochs,
+        started.elapsed().as_secs_f64(),
+        1e3 * started.elapsed().as_secs_f64() * rayon::current_num_threads() as f64
+            / epochs.max(1) as f64,
+        rayon::current_num_threads(),
     );
     print!("{}", table(&outcomes));
     if std::env::var_os("TTF_SERIES").is_some() {

@@ -4,8 +4,9 @@
 //! a series alarms.
 //!
 //! `cargo run --release -p cliffwatch-sim --example ttf_trace -- KIND SEED` (KIND `failing`,
-//! `burst`, `step`, `cyclic` or `creep`); the benchmark's `TTF_*` settings are not read here,
-//! only the defaults.
+//! `burst`, `step`, `cyclic`, `creep`, `failing_hourly` or `burst_hourly`); of the benchmark's
+//! `TTF_*` settings only `TTF_BIN_HOURS`,
+//! `TTF_CONFIRM_HOURS` and `TTF_FILTER_EPOCHS` are read here.
 
 use cliffwatch_core::analysis::{
     analyse_series, AlertConfig, AlertEventType, AlertKind, AlertLevel,
@@ -17,7 +18,10 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let kind_name = args.next().unwrap_or_else(|| "cyclic".into());
     let seed: u64 = args.next().and_then(|s| s.parse().ok()).unwrap_or(0);
-    let Some(kind) = MotionKind::ALL.into_iter().find(|k| k.name() == kind_name) else {
+    let Some(kind) = MotionKind::EVERY
+        .into_iter()
+        .find(|k| k.name() == kind_name)
+    else {
         eprintln!("unknown kind {kind_name:?}");
         std::process::exit(2);
     };
@@ -33,13 +37,18 @@ fn main() {
         .map(|e| e.coordinates.clone())
         .collect();
     let alerts = AlertConfig::new("ttf-trace", rules());
-    let out = analyse_series(
-        &epochs[0],
-        &epochs[1..],
-        &series.points,
-        &config(&c),
-        &alerts,
-    );
+    let mut config = config(&c);
+    let number = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f64>().ok());
+    if let Some(h) = number("TTF_BIN_HOURS") {
+        config.failure.forecast_bin_hours = h;
+    }
+    if let Some(h) = number("TTF_CONFIRM_HOURS") {
+        config.failure.confirm_hours = h;
+    }
+    if let Some(n) = number("TTF_FILTER_EPOCHS") {
+        config.filter_epochs = n as usize;
+    }
+    let out = analyse_series(&epochs[0], &epochs[1..], &series.points, &config, &alerts);
     println!("epoch | d along | v ± σ | a | ttf ± σ");
     for r in out.block_records.iter().filter(|r| r.point == GROUP) {
         let f = r.filtered;

@@ -7,6 +7,12 @@
 //! before a failure, Carlà et al. 2017, *Landslides* 14), and on some days every monitored point
 //! shares an error (refraction, a disturbed station).
 //!
+//! The hourly kinds ([`MotionKind::FailingHourly`], [`MotionKind::BurstHourly`]) are the same
+//! motions sampled every hour over the last [`HOURLY_DAYS`] days (the failing ones: before the
+//! failure), as an automatic station records a slope once it is watched closely; an hourly
+//! campaign is shorter and runs through the day's heat shimmer, so a target's σ is twice the
+//! daily one ([`HOURLY_SIGMA_MM`]) and the motion's scatter 1–8 × the block's σ as daily.
+//!
 //! A case draws its parameters from its seed and gives a [`MonitoringScenario`] with the path
 //! tabulated epoch by epoch ([`MotionPath`]); days after the first epoch, displacements in mm.
 
@@ -28,6 +34,10 @@ pub const OTHER_POINTS: usize = 4;
 pub const STABLE_POINTS: usize = 8;
 /// Lateral σ of a target's coordinate (mm; depth twice that), as [`MonitoringScenario::sigma_mm`].
 pub const SIGMA_MM: f64 = 0.5;
+/// Lateral σ of a target's coordinate in an hourly series (mm; depth twice that).
+pub const HOURLY_SIGMA_MM: f64 = 1.0;
+/// Days an hourly series covers (failing: the last ones before the failure).
+pub const HOURLY_DAYS: f64 = 30.0;
 /// Probability that an epoch carries an error shared by every monitored point.
 pub const SHARED_ERROR_RATE: f64 = 0.1;
 
@@ -45,6 +55,12 @@ pub enum MotionKind {
     Cyclic,
     /// Steady creep at 0.2–2 mm/day.
     Creep,
+    /// [`MotionKind::Failing`] sampled hourly over the last [`HOURLY_DAYS`] days before the
+    /// failure.
+    FailingHourly,
+    /// [`MotionKind::Burst`] sampled hourly over [`HOURLY_DAYS`] days, the burst starting 10–20
+    /// days in.
+    BurstHourly,
 }
 
 impl MotionKind {
@@ -57,9 +73,37 @@ impl MotionKind {
         MotionKind::Creep,
     ];
 
+    /// The hourly kinds, the failing one first.
+    pub const HOURLY: [MotionKind; 2] = [MotionKind::FailingHourly, MotionKind::BurstHourly];
+
+    /// Every kind, daily then hourly.
+    pub const EVERY: [MotionKind; 7] = [
+        MotionKind::Failing,
+        MotionKind::Burst,
+        MotionKind::Step,
+        MotionKind::Cyclic,
+        MotionKind::Creep,
+        MotionKind::FailingHourly,
+        MotionKind::BurstHourly,
+    ];
+
     /// Whether the block fails.
     pub fn fails(self) -> bool {
-        self == MotionKind::Failing
+        matches!(self, MotionKind::Failing | MotionKind::FailingHourly)
+    }
+
+    /// Whether the series is sampled hourly (else daily).
+    pub fn hourly(self) -> bool {
+        matches!(self, MotionKind::FailingHourly | MotionKind::BurstHourly)
+    }
+
+    /// The daily kind whose motion it samples.
+    fn motion(self) -> MotionKind {
+        match self {
+            MotionKind::FailingHourly => MotionKind::Failing,
+            MotionKind::BurstHourly => MotionKind::Burst,
+            k => k,
+        }
     }
 
     /// Its name in tables.
@@ -70,6 +114,8 @@ impl MotionKind {
             MotionKind::Step => "step",
             MotionKind::Cyclic => "cyclic",
             MotionKind::Creep => "creep",
+            MotionKind::FailingHourly => "failing_hourly",
+            MotionKind::BurstHourly => "burst_hourly",
         }
     }
 }
@@ -115,10 +161,10 @@ impl Burst {
     }
 }
 
-/// σ of the mean of [`BLOCK_POINTS`] targets along `u` (mm): lateral σ [`SIGMA_MM`], depth (Y)
+/// σ of the mean of [`BLOCK_POINTS`] targets along `u` (mm): lateral σ `sigma_mm`, depth (Y)
 /// twice that, as the scenario draws them on average.
-fn block_sigma_along(u: [f64; 3]) -> f64 {
-    let var = SIGMA_MM * SIGMA_MM * (u[0] * u[0] + 4.0 * u[1] * u[1] + u[2] * u[2]);
+fn block_sigma_along(u: [f64; 3], sigma_mm: f64) -> f64 {
+    let var = sigma_mm * sigma_mm * (u[0] * u[0] + 4.0 * u[1] * u[1] + u[2] * u[2]);
     (var / BLOCK_POINTS as f64).sqrt()
 }
 
@@ -130,6 +176,11 @@ pub fn case(kind: MotionKind, seed: u64) -> MotionCase {
 /// The case of `kind` drawn from `seed`, with the scatter (× the block's σ along its direction)
 /// given instead of drawn from 1–8.
 pub fn case_with_scatter(kind: MotionKind, seed: u64, scatter: Option<f64>) -> MotionCase {
+    // An hourly kind draws the motion of its daily kind from the same seed.
+    let hourly = kind.hourly();
+    let sigma_mm = if hourly { HOURLY_SIGMA_MM } else { SIGMA_MM };
+    let kind_drawn = kind;
+    let kind = kind.motion();
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0005_eed0_f7e5 ^ ((kind as u64) << 40));
     let raw: [f64; 3] = [
         rng.gen_range(-1.0..1.0),
@@ -140,7 +191,7 @@ pub fn case_with_scatter(kind: MotionKind, seed: u64, scatter: Option<f64>) -> M
     let u = [raw[0] / norm, raw[1] / norm, raw[2] / norm];
     let drawn = rng.gen_range(1.0..8.0);
     let scatter = scatter.unwrap_or(drawn);
-    let scatter_mm = scatter * block_sigma_along(u);
+    let scatter_mm = scatter * block_sigma_along(u, sigma_mm);
     let v0 = match kind {
         MotionKind::Creep => rng.gen_range(0.2..2.0),
         MotionKind::Cyclic => rng.gen_range(0.0..0.5),
@@ -181,7 +232,22 @@ pub fn case_with_scatter(kind: MotionKind, seed: u64, scatter: Option<f64>) -> M
                 rng.gen_range(0.0..TAU),
             ));
         }
-        MotionKind::Step | MotionKind::Creep => {}
+        _ => {}
+    }
+    // Where the series starts (days on the daily kind's clock) and its epochs' spacing (days).
+    let (start, interval) = if hourly {
+        let end = match (failure_days, bursts.first()) {
+            // The last hour before the failure, at a random phase.
+            (Some(tf), _) => tf - rng.gen_range(0.0..1.0) / 24.0,
+            (None, Some(b)) => b.start + rng.gen_range(HOURLY_DAYS - 20.0..HOURLY_DAYS - 10.0),
+            (None, None) => HOURLY_DAYS,
+        };
+        (end - HOURLY_DAYS, 1.0 / 24.0)
+    } else {
+        (0.0, 1.0)
+    };
+    if hourly {
+        epochs = (HOURLY_DAYS * 24.0).round() as usize + 1;
     }
     let law = |t: f64| -> f64 {
         match (onset_days, failure_days) {
@@ -193,11 +259,13 @@ pub fn case_with_scatter(kind: MotionKind, seed: u64, scatter: Option<f64>) -> M
         }
     };
     let mut gauss = || -> f64 { StandardNormal.sample(&mut rng) };
+    let motion = |t: f64| law(t) + bursts.iter().map(|b| b.extra_mm(v0, t)).sum::<f64>();
+    let origin = motion(start);
     let mut block_mm = vec![];
     let mut shared_mm = vec![];
     for e in 0..epochs {
-        let t = e as f64;
-        let mut d = law(t) + bursts.iter().map(|b| b.extra_mm(v0, t)).sum::<f64>();
+        let t = start + e as f64 * interval;
+        let mut d = motion(t) - origin;
         if let Some((amp, period, phase)) = cycle {
             d += amp * ((TAU * t / period + phase).sin() - phase.sin());
         }
@@ -209,9 +277,9 @@ pub fn case_with_scatter(kind: MotionKind, seed: u64, scatter: Option<f64>) -> M
         let shared = if e > 0 && gauss().abs() > 1.6449 {
             // P(|z| > 1.645) = 0.1: SHARED_ERROR_RATE
             [
-                2.0 * SIGMA_MM * gauss(),
-                4.0 * SIGMA_MM * gauss(),
-                2.0 * SIGMA_MM * gauss(),
+                2.0 * sigma_mm * gauss(),
+                4.0 * sigma_mm * gauss(),
+                2.0 * sigma_mm * gauss(),
             ]
         } else {
             [0.0; 3]
@@ -237,14 +305,18 @@ pub fn case_with_scatter(kind: MotionKind, seed: u64, scatter: Option<f64>) -> M
         let at = rng.gen_range(30..85);
         steps.push((other, at, step(&mut rng)));
     }
+    // Onset and failure on the series' own clock (days after its first epoch; an hourly
+    // series' onset may lie before it).
+    let failure_days = failure_days.map(|tf| tf - start);
+    let onset_days = onset_days.map(|ta| ta - start);
     let scenario = MonitoringScenario {
-        seed: seed.wrapping_mul(7919).wrapping_add(kind as u64),
+        seed: seed.wrapping_mul(7919).wrapping_add(kind_drawn as u64),
         stable_points: STABLE_POINTS,
         block_points: BLOCK_POINTS,
         other_points: OTHER_POINTS,
         epochs,
-        interval_hours: 24.0,
-        sigma_mm: SIGMA_MM,
+        interval_hours: interval * 24.0,
+        sigma_mm,
         creep_mm_per_day: v0,
         acceleration_start_days: onset_days,
         failure_days: failure_days.unwrap_or(1e9),
@@ -257,7 +329,7 @@ pub fn case_with_scatter(kind: MotionKind, seed: u64, scatter: Option<f64>) -> M
         ..MonitoringScenario::default()
     };
     MotionCase {
-        kind,
+        kind: kind_drawn,
         seed,
         creep_mm_per_day: v0,
         scatter,
@@ -304,6 +376,26 @@ mod tests {
             let step = case(MotionKind::Step, seed);
             let steps = &step.scenario.path.as_ref().expect("path").steps;
             assert_eq!(steps.len(), 2);
+        }
+        for seed in 0..20 {
+            // Hourly: the last HOURLY_DAYS days before the failure, the last epoch within the
+            // hour before it, the same motion as the daily kind of the seed.
+            let c = case(MotionKind::FailingHourly, seed);
+            let daily = case(MotionKind::Failing, seed);
+            let n = c.scenario.epochs;
+            assert_eq!(n, 24 * HOURLY_DAYS as usize + 1);
+            assert_eq!(c.scenario.interval_hours, 1.0);
+            let tf = c.failure_days.expect("fails");
+            let last = (n - 1) as f64 / 24.0;
+            assert!(last < tf && tf - last <= 1.0 / 24.0, "last {last}, tf {tf}");
+            let shift = daily.failure_days.expect("fails") - tf;
+            let ta = c.onset_days.expect("onset");
+            assert!((daily.onset_days.expect("onset") - shift - ta).abs() < 1e-9);
+            assert_eq!(c.creep_mm_per_day, daily.creep_mm_per_day);
+            let burst = case(MotionKind::BurstHourly, seed);
+            assert_eq!(burst.scenario.epochs, n);
+            assert!(burst.failure_days.is_none());
+            assert_eq!(burst.scenario.sigma_mm, HOURLY_SIGMA_MM);
         }
         // About one epoch in ten shares an error.
         let shared: usize = (0..20)

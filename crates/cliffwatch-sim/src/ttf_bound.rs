@@ -40,15 +40,21 @@ pub fn sigma_along_mm(c: &MotionCase) -> f64 {
 /// not fail, an epoch at or after the failure, or a singular information matrix.
 pub fn failure_time_bound_hours(c: &MotionCase, epoch: usize) -> Option<f64> {
     let (ta, tf) = (c.onset_days?, c.failure_days?);
-    let t_now = epoch as f64;
+    let interval_days = c.scenario.interval_hours / 24.0;
+    let t_now = epoch as f64 * interval_days;
     if t_now >= tf {
         return None;
     }
     let p = Vector4::new(0.0, c.creep_mm_per_day, ta, tf);
     let f = |p: &Vector4<f64>, t: f64| creep_then_law(t, p[0], p[1], p[2], p[3]);
     let mut info = Matrix4::<f64>::zeros();
+    // An onset before the first epoch (an hourly series of the last days) is not seen: the
+    // oracle is given it (its information is that of a known parameter).
+    if ta <= 0.0 {
+        info[(2, 2)] = 1e12;
+    }
     for e in 0..=epoch {
-        let t = e as f64;
+        let t = e as f64 * interval_days;
         let mut j = Vector4::zeros();
         for k in 0..4 {
             // Central differences; the step keeps t_f − h after the last epoch.
@@ -73,8 +79,9 @@ pub fn failure_time_bound_hours(c: &MotionCase, epoch: usize) -> Option<f64> {
 /// [`BOUND_CONFIDENCE`]) is below `below_hours`; None when no epoch before the failure has it.
 pub fn oracle_alarm_lead_hours(c: &MotionCase, below_hours: f64) -> Option<f64> {
     let tf = c.failure_days?;
+    let interval_days = c.scenario.interval_hours / 24.0;
     (0..c.scenario.epochs).find_map(|e| {
-        let lead = (tf - e as f64) * 24.0;
+        let lead = (tf - e as f64 * interval_days) * 24.0;
         if lead <= 0.0 {
             return None;
         }

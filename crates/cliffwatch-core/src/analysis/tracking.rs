@@ -120,7 +120,15 @@ pub fn track(
     // (process noise included) held the forecast back until a day or two before failure.
     let moving = m_len > z * m_sigma;
     let failure = if moving {
-        confirmed_forecast(&meas, &kc, u, shared_mm2, config)
+        match binned(&meas, config.failure.forecast_bin_hours) {
+            // The share all epochs have in common, of a full bin's mean (a partial bin's own
+            // error comes out a little larger: conservative).
+            Some((bins, m)) => {
+                let shared = shared_mm2.map(|s| s / m as f64);
+                confirmed_forecast(&bins, &kc, u, shared, config)
+            }
+            None => confirmed_forecast(&meas, &kc, u, shared_mm2, config),
+        }
     } else {
         None
     };
@@ -132,6 +140,50 @@ pub fn track(
         along_mm: dir.map(|_| (along.d_mm, along.sigma_d_mm)),
         failure,
     })
+}
+
+/// `meas` (oldest first, times relative to the current epoch) averaged over bins of
+/// `bin_hours` counted back from the current epoch (an epoch k hours back in bin
+/// `round(k / bin_hours)`): each bin's mean time and displacement, and the covariance of the
+/// mean as if its epochs were independent (`Σ Cᵢ / m²`: the onset test reads a bin's whole
+/// error as it reads an epoch's), with the most epochs any bin holds. None when nothing is
+/// binned (`bin_hours` ≤ 0, or one epoch per bin): the epochs as they are.
+fn binned(meas: &[Measurement], bin_hours: f64) -> Option<(Vec<Measurement>, usize)> {
+    if !(bin_hours > 0.0) {
+        return None;
+    }
+    let bin_of = |m: &Measurement| (-m.t_days * 24.0 / bin_hours).round() as i64;
+    if meas.windows(2).all(|w| bin_of(&w[0]) != bin_of(&w[1])) {
+        return None;
+    }
+    let mut out: Vec<Measurement> = vec![];
+    let mut most = 1;
+    let mut k = 0;
+    while k < meas.len() {
+        let b = bin_of(&meas[k]);
+        let end = k + meas[k..].iter().take_while(|m| bin_of(m) == b).count();
+        let group = &meas[k..end];
+        let m = group.len() as f64;
+        most = most.max(group.len());
+        let t = group.iter().map(|g| g.t_days).sum::<f64>() / m;
+        let d: Vector3<f64> = group
+            .iter()
+            .map(|g| Vector3::from(g.d_mm))
+            .sum::<Vector3<f64>>()
+            / m;
+        let cov: Matrix3<f64> = group
+            .iter()
+            .map(|g| Matrix3::from(g.cov_mm2))
+            .sum::<Matrix3<f64>>()
+            / (m * m);
+        out.push(Measurement {
+            t_days: t,
+            d_mm: d.into(),
+            cov_mm2: cov.into(),
+        });
+        k = end;
+    }
+    Some((out, most))
 }
 
 /// The subject's filtered motion at the current epoch (the last of `states`) since its origin,
@@ -461,5 +513,48 @@ mod tests {
         assert_eq!(own_covariance(&total, None), total);
         let singular = Matrix3::zeros();
         assert_eq!(own_covariance(&singular, Some(&small)), singular);
+    }
+
+    fn epoch(hours_back: f64, d: f64, var: f64) -> Measurement {
+        Measurement {
+            t_days: -hours_back / 24.0,
+            d_mm: [d, 0.0, 0.0],
+            cov_mm2: (Matrix3::identity() * var).into(),
+        }
+    }
+
+    /// Epochs at least a bin apart are left alone (a daily series under daily bins, a 12-hourly
+    /// one under 12-hour bins: the forecast sees exactly what it saw unbinned); an hourly series
+    /// becomes bins of the mean time and displacement, counted back from the current epoch, the
+    /// current bin holding the epochs less than half a bin back.
+    #[test]
+    fn bins_leave_sparse_series_alone_and_average_dense_ones() {
+        let daily: Vec<_> = (0..10)
+            .rev()
+            .map(|k| epoch(24.0 * k as f64, k as f64, 1.0))
+            .collect();
+        assert!(binned(&daily, 24.0).is_none());
+        assert!(binned(&daily, 0.0).is_none());
+        let twelve: Vec<_> = (0..10)
+            .rev()
+            .map(|k| epoch(12.0 * k as f64, 0.0, 1.0))
+            .collect();
+        assert!(binned(&twelve, 12.0).is_none());
+        // 72 hourly epochs, d = hours back: bins 0 (0–11 h), 1 (12–35 h), 2 (36–59 h), 3
+        // (60–71 h), oldest first.
+        let hourly: Vec<_> = (0..72)
+            .rev()
+            .map(|k| epoch(k as f64, k as f64, 2.0))
+            .collect();
+        let (bins, most) = binned(&hourly, 24.0).expect("binned");
+        assert_eq!(bins.len(), 4);
+        assert_eq!(most, 24);
+        let expect = [(60.0, 71.0), (36.0, 59.0), (12.0, 35.0), (0.0, 11.0)];
+        for (b, (lo, hi)) in bins.iter().zip(expect) {
+            let (mid, m) = (0.5 * (lo + hi), hi - lo + 1.0);
+            assert!((b.d_mm[0] - mid).abs() < 1e-9, "{b:?}");
+            assert!((b.t_days + mid / 24.0).abs() < 1e-9, "{b:?}");
+            assert!((b.cov_mm2[0][0] - 2.0 / m).abs() < 1e-12, "{b:?}");
+        }
     }
 }

@@ -2,13 +2,19 @@
 //! the goals of `docs/accuracy.md`'s time-to-failure benchmark on a few seeds per kind, and steady
 //! creep that scatters far beyond its σ.
 
-use cliffwatch_core::analysis::{analyse_series, AlertConfig, AlertKind};
-use cliffwatch_sim::kinematics::{case, case_with_scatter, MotionKind, EPOCHS};
+use cliffwatch_core::analysis::failure::{upper_bound_hours, BOUND_CONFIDENCE};
+use cliffwatch_core::analysis::tracking::{track, Observed};
+use cliffwatch_core::analysis::{analyse_series, AlertConfig, AlertKind, AnalysisConfig};
+use cliffwatch_sim::kinematics::{case, case_with_scatter, MotionKind, EPOCHS, HOURLY_DAYS};
 use cliffwatch_sim::ttf_benchmark::{
     config, not_earlier_than_baseline, oracle_in_window, rules, run_all, score, series_table,
     table, ALARM_BELOW_HOURS,
 };
-use cliffwatch_sim::ttf_bound::oracle_alarm_lead_hours;
+use cliffwatch_sim::ttf_bound::{oracle_alarm_lead_hours, sigma_along_mm};
+use nalgebra::{Matrix3, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
 
 /// Steady creep (0.2–2 mm/day) whose motion scatters 8 × the block's σ along it, 90 daily
 /// epochs, 6 seeds: no time-to-failure alert at any level on any subject.
@@ -124,4 +130,81 @@ fn the_oracle_alarms_on_the_upper_bound() {
             lead(8.0)
         );
     }
+}
+
+/// The first epoch (every 6 h from 10 days before the end) at which the block's forecast, the
+/// hourly block of `kind` and `seed` tracked alone (its mean along its direction with the
+/// measurement and the motion's scatter), has its upper bound below the rule's 96 h: hours
+/// before the series' last epoch, with the forecast and its σ (h).
+fn hourly_block_alarm(
+    kind: MotionKind,
+    seed: u64,
+    config: &AnalysisConfig,
+) -> Option<(f64, f64, f64)> {
+    let c = case(kind, seed);
+    let path = c.scenario.path.as_ref().expect("path");
+    let u = Vector3::from(c.direction);
+    let meas = sigma_along_mm(&c) / (1.0 + c.scatter * c.scatter).sqrt();
+    let var = meas * meas;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let d: Vec<f64> = path
+        .block_mm
+        .iter()
+        .map(|d| {
+            let z: f64 = StandardNormal.sample(&mut rng);
+            d + meas * z
+        })
+        .collect();
+    let n = c.scenario.epochs;
+    (n - 1 - 10 * 24..n).step_by(6).find_map(|end| {
+        let now = end as f64 / 24.0;
+        let series: Vec<Observed> = (0..=end)
+            .map(|e| Observed {
+                t_days: e as f64 / 24.0 - now,
+                d_mm: u * d[e],
+                cov_mm2: Matrix3::identity() * var,
+            })
+            .collect();
+        let f = track(&series, Some(u), None, None, -now, config)?.failure?;
+        let upper = upper_bound_hours(f.time_to_failure_hours, f.sigma_hours, BOUND_CONFIDENCE)?;
+        (upper < ALARM_BELOW_HOURS)
+            .then(|| ((n - 1 - end) as f64, f.time_to_failure_hours, f.sigma_hours))
+    })
+}
+
+/// A block failing, or bursting, sampled hourly over 30 days (`MotionKind::FailingHourly`,
+/// `BurstHourly`), its forecast alone (without the days of shared error), seeds 0–3 of each. At the defaults (windows counted in
+/// epochs, the filter's history 40 epochs: 40 hours) no forecast ever forms: the onset law
+/// asks the acceleration to have started 5 days back. With the hourly epochs fitted as daily
+/// means (`FailureConfig::forecast_bin_hours` 24) and 30 days of history (`filter_epochs`
+/// 1000), as `docs/accuracy.md` measures the whole analysis, the failing blocks alarm 24–120 h
+/// before failure and the bursts do not. Measured (2026-12-07): 4 of 4 in 24–120 h (85, 84, 25
+/// and 31 h before failure), no burst alarmed; asserted: ≥ 3 of 4 in the window (seed 2 lies an
+/// hour inside it), none more than 8 days early, no burst.
+#[test]
+fn hourly_blocks_alarm_from_daily_means() {
+    let default = AnalysisConfig::default();
+    let mut hourly = AnalysisConfig::default();
+    hourly.failure.forecast_bin_hours = 24.0;
+    hourly.filter_epochs = 1000;
+    let mut in_window = 0;
+    for seed in 0..4 {
+        let tf = case(MotionKind::FailingHourly, seed)
+            .failure_days
+            .expect("fails");
+        let last = (24.0 * HOURLY_DAYS).round() / 24.0;
+        let to_failure = 24.0 * (tf - last);
+        assert!(hourly_block_alarm(MotionKind::FailingHourly, seed, &default).is_none());
+        let alarm = hourly_block_alarm(MotionKind::FailingHourly, seed, &hourly);
+        let lead = alarm.map(|a| a.0 + to_failure);
+        println!("failing seed {seed}: {alarm:?}, {lead:?} h before failure");
+        assert!(
+            lead.is_none_or(|h| h <= 192.0),
+            "seed {seed}: {lead:?} h early"
+        );
+        in_window += usize::from(lead.is_some_and(|h| (24.0..=120.0).contains(&h)));
+        let burst = hourly_block_alarm(MotionKind::BurstHourly, seed, &hourly);
+        assert!(burst.is_none(), "burst seed {seed}: {burst:?}");
+    }
+    assert!(in_window >= 3, "{in_window} of 4 in 24–120 h");
 }
