@@ -167,19 +167,39 @@ pub async fn reference_coordinates(
     }))
 }
 
-/// The last `per_point` displacement records of every point observed before `before` (stored
-/// timestamp form), oldest first per point. One range scan of the primary key (site, point,
-/// observed_at) per point, so the cost does not grow with the length of the site's history.
+/// How far back the analysis of an epoch observed at `before` (stored timestamp form) reads
+/// each point's history under `config`: the records its windows count
+/// ([`AnalysisConfig::history_epochs`]), and every record of the filter's bins
+/// ([`AnalysisConfig::history_span_days`]: an hourly site's last 40 days), at most
+/// [`cliffwatch_core::analysis::MAX_FILTER_EPOCHS`] per point.
+pub fn history_reach(config: &AnalysisConfig, before: &str) -> displacements::Reach {
+    let records = config.history_epochs();
+    let span_ms = (config.history_span_days() * 86_400_000.0).ceil() as i64;
+    let since = store::parse_timestamp(before)
+        .and_then(|t| t.checked_sub_signed(chrono::Duration::milliseconds(span_ms)))
+        .map(store::timestamp)
+        .unwrap_or_else(|| before.to_string());
+    displacements::Reach {
+        records,
+        since,
+        cap: cliffwatch_core::analysis::MAX_FILTER_EPOCHS.max(records),
+    }
+}
+
+/// The displacement records of every point observed before `before` (stored timestamp form)
+/// that `reach` covers ([`history_reach`]), oldest first per point. One range scan of the
+/// primary key (site, point, observed_at) per point, so the cost does not grow with the
+/// length of the site's history.
 /// It reads the last committed state on its own connection ([`displacements::recent`]): call
 /// it while the epoch's write transaction holds the site's lock, before it commits.
 pub async fn history(
     store: &Store,
     site: &str,
     before: &str,
-    per_point: usize,
+    reach: &displacements::Reach,
 ) -> Result<History, StoreError> {
     let mut out: History = HashMap::new();
-    for (point, mut rows) in displacements::recent(store, site, before, per_point).await? {
+    for (point, mut rows) in displacements::recent(store, site, before, reach).await? {
         rows.reverse();
         let records: Vec<DisplacementRecord> =
             rows.iter().filter_map(Displacement::to_record).collect();

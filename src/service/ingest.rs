@@ -25,7 +25,7 @@ use cliffwatch_core::photogrammetry::{
 use super::admission::{CancelOnDrop, UploadSlot};
 use super::alert_outcome;
 use super::analysis_inputs::{
-    analysis_config, history, point_configs, reference_coordinates, reference_epoch,
+    analysis_config, history, history_reach, point_configs, reference_coordinates, reference_epoch,
     reference_window, site_analysis_config, to_rows,
 };
 use super::apriori_sigma;
@@ -355,9 +355,9 @@ struct HistoryPrefetch(tokio::task::JoinHandle<Result<History, store::StoreError
 impl HistoryPrefetch {
     fn start(store: &Store, site: &Site, observed_at: &str) -> HistoryPrefetch {
         let (store, site_id, before) = (store.clone(), site.id.clone(), observed_at.to_string());
-        let per_point = analysis_config(site).history_epochs();
+        let reach = history_reach(&analysis_config(site), &before);
         HistoryPrefetch(tokio::spawn(async move {
-            history(&store, &site_id, &before, per_point).await
+            history(&store, &site_id, &before, &reach).await
         }))
     }
 
@@ -458,9 +458,13 @@ async fn derive(
     let pooled: Vec<PooledForecast> = analysis
         .pooled()
         .into_iter()
-        .map(|(point, pooled_with)| PooledForecast { point, pooled_with })
+        .map(|(point, pooled_with)| PooledForecast {
+            epoch,
+            point,
+            pooled_with,
+        })
         .collect();
-    pooled_forecasts::insert(tx, &site.id, epoch, &pooled).await?;
+    pooled_forecasts::insert(tx, &site.id, &pooled).await?;
     Ok(alert_outcome::evaluate(tx, site, &analysis, now, public_url).await?)
 }
 

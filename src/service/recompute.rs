@@ -67,10 +67,18 @@ pub async fn recompute_site(
     .await?;
     displacements::insert(tx, &site.id, &to_rows(&out.records, reference_id)).await?;
     block_motions::insert(tx, &site.id, &to_rows(&out.block_records, reference_id)).await?;
-    for (epoch, point, pooled_with) in out.pooled {
-        let row = pooled_forecasts::PooledForecast { point, pooled_with };
-        pooled_forecasts::insert(tx, &site.id, epoch, &[row]).await?;
-    }
+    let pooled: Vec<pooled_forecasts::PooledForecast> = out
+        .pooled
+        .into_iter()
+        .map(
+            |(epoch, point, pooled_with)| pooled_forecasts::PooledForecast {
+                epoch,
+                point,
+                pooled_with,
+            },
+        )
+        .collect();
+    pooled_forecasts::insert(tx, &site.id, &pooled).await?;
     for id in &out.analysed {
         epochs::set_analysis_outcome(tx, &site.id, *id, None).await?;
     }

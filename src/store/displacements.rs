@@ -184,9 +184,21 @@ pub(super) async fn latest_of(
     Ok(display(rows).pop())
 }
 
-/// The last `n` rows of each point of `site` observed before `before` (store format), newest
-/// first, one entry per point with rows, times in store format: the analysis' history of a new
-/// epoch (without the filtered values, which the analysis recomputes).
+/// How far back a point's history reaches: its last `records` rows, and every row observed at
+/// or after `since` (store format; an hourly site's last 40 days), at most `cap` rows.
+#[derive(Debug, Clone)]
+pub struct Reach {
+    /// Rows read whatever their age.
+    pub records: usize,
+    /// Rows observed at or after this time (store format) are read too.
+    pub since: String,
+    /// Most rows read per point.
+    pub cap: usize,
+}
+
+/// The rows of each point of `site` observed before `before` (store format) that `reach`
+/// covers, newest first, one entry per point with rows, times in store format: the analysis'
+/// history of a new epoch (without the filtered values, which the analysis recomputes).
 ///
 /// Both backends read on their native read pool, not through sqlx's `Any` driver, whose copies
 /// of each value made this read most of an upload's time (28 points × 40 rows × 19 columns):
@@ -199,19 +211,26 @@ pub async fn recent(
     store: &Store,
     site: &str,
     before: &str,
-    n: usize,
+    reach: &Reach,
 ) -> Result<Vec<(String, Vec<Displacement>)>, StoreError> {
     let Some(pool) = store.sqlite_reader() else {
-        return recent_postgres(store, site, before, n).await;
+        return recent_postgres(store, site, before, reach).await;
     };
     let mut conn = pool.acquire().await?;
     let (site, before) = (site.to_string(), before.to_string());
+    // From the older of `since` and the point's `records`-th newest row ('' when it has fewer).
     let sql = format!(
-        "SELECT {} FROM displacements WHERE site_id = $1 AND point = $2 \
-         AND observed_at < $3 ORDER BY observed_at DESC LIMIT $4",
+        "SELECT {} FROM displacements WHERE site_id = ?1 AND point = ?2 \
+         AND observed_at < ?3 AND observed_at >= MIN(?4, COALESCE((SELECT observed_at \
+         FROM displacements WHERE site_id = ?1 AND point = ?2 AND observed_at < ?3 \
+         ORDER BY observed_at DESC LIMIT 1 OFFSET ?5), '')) \
+         ORDER BY observed_at DESC LIMIT ?6",
         select_list(HISTORY_COLUMNS, "")
     );
-    let limit = i64::try_from(n).unwrap_or(i64::MAX);
+    let n = reach.records.max(1);
+    let offset = i64::try_from(n - 1).unwrap_or(i64::MAX);
+    let limit = i64::try_from(reach.cap.max(n)).unwrap_or(i64::MAX);
+    let since = reach.since.clone();
     tokio::task::spawn_blocking(move || {
         let mut points = Vec::new();
         sqlite_raw::query(
@@ -223,13 +242,15 @@ pub async fn recent(
                 true
             },
         )?;
-        let params: Vec<[Param<'_>; 4]> = points
+        let params: Vec<[Param<'_>; 6]> = points
             .iter()
             .map(|p| {
                 [
                     Param::Text(&site),
                     Param::Text(p),
                     Param::Text(&before),
+                    Param::Text(&since),
+                    Param::Int(offset),
                     Param::Int(limit),
                 ]
             })
@@ -261,7 +282,7 @@ async fn recent_postgres(
     store: &Store,
     site: &str,
     before: &str,
-    n: usize,
+    reach: &Reach,
 ) -> Result<Vec<(String, Vec<Displacement>)>, StoreError> {
     let Some(pool) = store.postgres_reader() else {
         let missing = "the history read needs the store's native read pool";
@@ -270,12 +291,18 @@ async fn recent_postgres(
     let sql = format!(
         "SELECT {HISTORY_COLUMNS} FROM points p CROSS JOIN LATERAL (SELECT * FROM displacements d \
          WHERE d.site_id = p.site_id AND d.point = p.name AND d.observed_at < $2 \
+         AND d.observed_at >= LEAST($4, COALESCE((SELECT e.observed_at FROM displacements e \
+         WHERE e.site_id = p.site_id AND e.point = p.name AND e.observed_at < $2 \
+         ORDER BY e.observed_at DESC LIMIT 1 OFFSET $5), '')) \
          ORDER BY d.observed_at DESC LIMIT $3) d WHERE p.site_id = $1"
     );
+    let n = reach.records.max(1);
     let rows = sqlx::query(&sql)
         .bind(site)
         .bind(before)
-        .bind(i64::try_from(n).unwrap_or(i64::MAX))
+        .bind(i64::try_from(reach.cap.max(n)).unwrap_or(i64::MAX))
+        .bind(reach.since.as_str())
+        .bind(i64::try_from(n - 1).unwrap_or(i64::MAX))
         .fetch_all(pool)
         .await?;
     let mut out: Vec<(String, Vec<Displacement>)> = Vec::new();

@@ -9,6 +9,8 @@ use super::StoreError;
 /// One point's pooled forecast at one epoch: the other targets of its mean series.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PooledForecast {
+    /// The epoch (id) of the forecast.
+    pub epoch: i64,
     /// The point whose forecast was pooled.
     pub point: String,
     /// The other targets of the mean series, by name.
@@ -18,25 +20,28 @@ pub struct PooledForecast {
 /// Separates the stored names (names may hold commas; they hold no newline).
 const SEPARATOR: char = '\n';
 
-/// Stores an epoch's pooled forecasts; inside the epoch's write transaction.
+/// Stores pooled forecasts, as few statements as the backend's bound parameters allow; inside
+/// the epoch's (or the recompute's) write transaction.
 pub async fn insert(
     db: &mut AnyConnection,
     site: &str,
-    epoch: i64,
     rows: &[PooledForecast],
 ) -> Result<(), StoreError> {
-    for r in rows {
-        let names = r.pooled_with.join(&SEPARATOR.to_string());
-        sqlx::query(
-            "INSERT INTO pooled_forecasts (site_id, epoch_id, point, pooled_with) \
-             VALUES ($1, $2, $3, $4)",
-        )
-        .bind(site)
-        .bind(epoch)
-        .bind(&r.point)
-        .bind(names)
-        .execute(&mut *db)
-        .await?;
+    const COLS: usize = 4;
+    for chunk in rows.chunks(super::rows_per_insert(COLS)) {
+        let sql = format!(
+            "INSERT INTO pooled_forecasts (site_id, epoch_id, point, pooled_with) VALUES {}",
+            super::values_list(db, chunk.len(), COLS)
+        );
+        let mut q = sqlx::query(&sql);
+        for r in chunk {
+            q = q
+                .bind(site)
+                .bind(r.epoch)
+                .bind(&r.point)
+                .bind(r.pooled_with.join(&SEPARATOR.to_string()));
+        }
+        q.execute(&mut *db).await?;
     }
     Ok(())
 }

@@ -22,8 +22,10 @@ use cliffwatch_core::photogrammetry::Model;
 /// excluded in 2 of 3 epochs and lets it go after 10 kept (the alert state is replayed, so an
 /// alert the older rule left open for good resolves where the series no longer confirms it); 9:
 /// it counts only the exclusions in which the point also changed from its own earlier epochs
-/// (`DatumReport::moved`), so a point whose reference coordinates erred is no longer named.
-pub const ANALYSIS_VERSION: i64 = 9;
+/// (`DatumReport::moved`), so a point whose reference coordinates erred is no longer named;
+/// 10: forecasts fitted to daily means of epochs that come more often than daily, over the
+/// last 40 days of them, and the pooled forecasts stored (series derived before have none).
+pub const ANALYSIS_VERSION: i64 = 10;
 
 /// A site as created (`POST /api/v1/sites` or `[[sites]]` of the configuration).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]

@@ -199,6 +199,72 @@ async fn an_out_of_order_epoch_gives_the_in_order_series_and_alerts() {
     assert_same_series_and_alerts(&d, "ordered", "late", &scene, 6).await;
 }
 
+/// A site measured hourly: each upload's analysis reads the last 40 days of its history (the
+/// forecast's 40 daily bins), not its last 40 records, so the filter of an epoch uploaded in
+/// order runs over every hour since the reference, as a recompute's does. 60 hourly epochs,
+/// then a change of the rules recomputes the site from the same coordinates: every row's
+/// filtered values stay as the uploads stored them (to 1e-9). Had an upload read 40 records,
+/// the filters of hours 41–59 would start later than the recompute's and differ.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_hourly_site_reads_its_days_of_history_as_a_recompute_does() {
+    const HOURS: usize = 60;
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), "");
+    let d = Daemon::start(&dir.path().join("data"), &config).await;
+    let scene = Scene { n: 16, stable: 8 };
+    site(&d, "hourly", &scene).await;
+    for k in 0..HOURS {
+        let body = scene.epoch(&support::hour(k), 100 + k as u64, 0.25 * k as f64);
+        let (s, b) = d
+            .send(Method::POST, "/api/v1/sites/hourly/epochs", Some(&body))
+            .await;
+        assert_eq!(s, 201, "hour {k}: {b}");
+    }
+    let uploaded = series(&d, "hourly", &scene).await;
+    let rules = json!({"alert_rules": [
+        {"level": "watch", "metric": "displacement_mm", "above": 6.0}]});
+    let (s, b) = d
+        .send(Method::PATCH, "/api/v1/sites/hourly", Some(&rules))
+        .await;
+    assert_eq!(s, 200, "{b}");
+    let recomputed = series(&d, "hourly", &scene).await;
+    // The largest difference of the filtered values in the first 40 hours (any reach reads
+    // their whole history) and in the last 20 (only a reach in days does).
+    let (mut early, mut late) = (0.0_f64, 0.0_f64);
+    let mut moving = 0;
+    for (p, rows) in &uploaded {
+        assert_eq!(rows.len(), HOURS, "{p}");
+        assert_eq!(recomputed[p].len(), HOURS, "{p}");
+        for (k, (x, y)) in rows.iter().zip(&recomputed[p]).enumerate() {
+            assert_eq!(x["observed_at"], y["observed_at"], "{p}");
+            for c in [
+                "f_d_mm",
+                "f_velocity_mm_per_day",
+                "sigma_f_velocity_mm_per_day",
+            ] {
+                let (u, v) = (x[c].as_f64(), y[c].as_f64());
+                assert_eq!(u.is_some(), v.is_some(), "{p} hour {k} {c}: {x} vs {y}");
+                let diff = (u.unwrap_or(0.0) - v.unwrap_or(0.0)).abs();
+                if k < 40 {
+                    early = early.max(diff);
+                } else {
+                    late = late.max(diff);
+                }
+            }
+        }
+        let last = rows.last().unwrap()["f_velocity_mm_per_day"].as_f64();
+        moving += usize::from(last.is_some_and(|v| v > 3.0));
+    }
+    println!("largest difference: {early:e} in hours 0–39, {late:e} in hours 40–59");
+    assert!(early < 1e-4, "{early}");
+    assert!(
+        late <= 10.0 * early + 1e-9,
+        "hours 40–59 differ by {late}, 0–39 by {early}"
+    );
+    // The moving points' filtered velocity is the motion's, 6 mm/day.
+    assert_eq!(moving, scene.n - scene.stable, "{uploaded:?}");
+}
+
 /// The displacement series (each of `epochs` rows) and the open alerts of sites `one` and
 /// `other` agree.
 async fn assert_same_series_and_alerts(

@@ -312,14 +312,38 @@ fn assert_same(what: &str, have: &str, want: &str) {
     );
 }
 
+/// A history read of `records` rows per point, every row since `since` (an API time, or
+/// a text after every stored time for none), at most `cap`.
+fn reach(records: usize, since: &str, cap: usize) -> cliffwatch::store::displacements::Reach {
+    let since = cliffwatch::store::parse_timestamp(since)
+        .map(cliffwatch::store::timestamp)
+        .unwrap_or_else(|| since.to_string());
+    cliffwatch::store::displacements::Reach {
+        records,
+        since,
+        cap,
+    }
+}
+
 /// The analysis' history of an epoch after the scenario's last (`displacements::recent`, read
-/// natively on each backend: SQLite's C API, PostgreSQL's own driver): the last 4 rows per point.
+/// natively on each backend: SQLite's C API, PostgreSQL's own driver) as `reach` covers it.
 async fn history(
     s: &TestServer,
+    reach: &cliffwatch::store::displacements::Reach,
 ) -> Vec<(String, Vec<cliffwatch::store::displacements::Displacement>)> {
-    cliffwatch::store::displacements::recent(&s.store, SITE, "9999", 4)
+    cliffwatch::store::displacements::recent(&s.store, SITE, "9999", reach)
         .await
         .expect("history")
+}
+
+/// The reads [`history`] is compared on: the last 4 rows; the last 2 and every row since
+/// day 3 (the reach of a site sampled more often than its forecast bins); the same capped at 3.
+fn reaches() -> [cliffwatch::store::displacements::Reach; 3] {
+    [
+        reach(4, "9999", 1000),
+        reach(2, &day(3), 1000),
+        reach(2, &day(0), 3),
+    ]
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -332,7 +356,10 @@ async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
     assert_eq!(sqlite.store.backend(), cliffwatch::store::Backend::Sqlite);
     run_scenario(&sqlite).await;
     let expected = answers(&sqlite).await;
-    let expected_history = history(&sqlite).await;
+    let mut expected_history = vec![];
+    for r in &reaches() {
+        expected_history.push(history(&sqlite, r).await);
+    }
     sqlite.stop().await;
 
     let pg_url = url.clone();
@@ -371,19 +398,31 @@ async fn postgres_serves_what_sqlite_serves_and_keeps_it() {
     );
     // The history the next epoch's analysis would read: every point with 4 rows, newest first,
     // the same values to the bit on both backends (booleans and nulls included).
-    let got_history = history(&pg).await;
-    assert_eq!(got_history.len(), POINTS);
-    for (point, rows) in &got_history {
-        assert_eq!(rows.len(), 4, "{point}");
-        assert!(
-            rows.windows(2).all(|w| w[0].observed_at > w[1].observed_at),
-            "{point}"
-        );
+    // With a reach in time too, every row since day 3 (days 3–8), and no more than the cap.
+    let [last4, since3, capped] = reaches();
+    let since_day3 =
+        cliffwatch::store::timestamp(cliffwatch::store::parse_timestamp(&day(3)).expect("day 3"));
+    for (k, (reach, want)) in [(&last4, 4), (&since3, 6), (&capped, 3)]
+        .into_iter()
+        .enumerate()
+    {
+        let got_history = history(&pg, reach).await;
+        assert_eq!(got_history.len(), POINTS);
+        for (point, rows) in &got_history {
+            assert_eq!(rows.len(), want, "{point}, {reach:?}");
+            assert!(
+                rows.windows(2).all(|w| w[0].observed_at > w[1].observed_at),
+                "{point}"
+            );
+            if k == 1 {
+                assert!(rows.iter().all(|r| r.observed_at >= since_day3), "{point}");
+            }
+        }
+        let rows = got_history.iter().flat_map(|(_, r)| r);
+        assert!(rows.clone().any(|r| r.significant) && rows.clone().any(|r| !r.significant));
+        assert!(rows.clone().any(|r| r.velocity_mm_per_day.is_some()));
+        assert_eq!(got_history, expected_history[k], "{reach:?}");
     }
-    let rows = got_history.iter().flat_map(|(_, r)| r);
-    assert!(rows.clone().any(|r| r.significant) && rows.clone().any(|r| !r.significant));
-    assert!(rows.clone().any(|r| r.velocity_mm_per_day.is_some()));
-    assert_eq!(got_history, expected_history);
     assert_eq!(got.len(), expected.len());
     for (path, want) in &expected {
         let have = got.get(path).unwrap_or_else(|| panic!("{path} missing"));

@@ -16,14 +16,15 @@
 //! `TTF_FOR_EPOCHS`; the windows `TTF_WINDOW`, `TTF_LAW_WINDOW`, `TTF_ACCELERATION_WINDOW`
 //! (`N` epochs or `Dd` days), `TTF_BIN_HOURS` (`FailureConfig::forecast_bin_hours`) and
 //! `TTF_FILTER_EPOCHS` (`AnalysisConfig::filter_epochs`); kinds `failing_hourly` and
-//! `burst_hourly` are sampled hourly; `TTF_SERIES=1` adds the failing series one by one;
+//! `burst_hourly` are sampled hourly, or every `TTF_SPACING_HOURS`; `TTF_SERIES=1` adds the
+//! failing series one by one;
 //! `TTF_UNDECLARED=1` runs the series with the block not declared (`ttf_undeclared`), each
 //! target's σ scaled by `TTF_TARGET_SIGMA`.
 
 use cliffwatch_core::analysis::{AnalysisConfig, FailureConfig, Window};
-use cliffwatch_sim::kinematics::{case, MotionKind};
+use cliffwatch_sim::kinematics::{case_sampled, MotionKind};
 use cliffwatch_sim::ttf_benchmark::{
-    false_alarm_table, rules_with, run_kinds_in, series_table, table,
+    false_alarm_table, rules_with, run_cases_in, series_table, table,
 };
 use cliffwatch_sim::ttf_undeclared::{run_undeclared_kinds, undeclared_table};
 
@@ -129,15 +130,14 @@ fn main() {
         print!("{}", undeclared_table(&outcomes));
         return;
     }
-    let outcomes = run_kinds_in(first, seeds, &kinds, &base, &rules);
-    let epochs: usize = kinds
+    // The hourly kinds sampled every `TTF_SPACING_HOURS` instead (1 by default).
+    let spacing = number("TTF_SPACING_HOURS").unwrap_or(1.0);
+    let cases: Vec<_> = kinds
         .iter()
-        .map(|&k| {
-            (first..first + seeds)
-                .map(|s| case(k, s).scenario.epochs)
-                .sum::<usize>()
-        })
-        .sum();
+        .flat_map(|&k| (first..first + seeds).map(move |s| case_sampled(k, s, None, spacing)))
+        .collect();
+    let outcomes = run_cases_in(&cases, &base, &rules);
+    let epochs: usize = cases.iter().map(|c| c.scenario.epochs).sum();
     if std::env::var_os("TTF_VERBOSE").is_some() {
         for o in &outcomes {
             println!("{o:?}");

@@ -176,6 +176,17 @@ pub fn case(kind: MotionKind, seed: u64) -> MotionCase {
 /// The case of `kind` drawn from `seed`, with the scatter (× the block's σ along its direction)
 /// given instead of drawn from 1–8.
 pub fn case_with_scatter(kind: MotionKind, seed: u64, scatter: Option<f64>) -> MotionCase {
+    case_sampled(kind, seed, scatter, 1.0)
+}
+
+/// [`case_with_scatter`], an hourly kind sampled every `spacing_hours` instead (a 6-hourly or
+/// 12-hourly station; the same motion, σ and days; daily kinds ignore it).
+pub fn case_sampled(
+    kind: MotionKind,
+    seed: u64,
+    scatter: Option<f64>,
+    spacing_hours: f64,
+) -> MotionCase {
     // An hourly kind draws the motion of its daily kind from the same seed.
     let hourly = kind.hourly();
     let sigma_mm = if hourly { HOURLY_SIGMA_MM } else { SIGMA_MM };
@@ -242,12 +253,12 @@ pub fn case_with_scatter(kind: MotionKind, seed: u64, scatter: Option<f64>) -> M
             (None, Some(b)) => b.start + rng.gen_range(HOURLY_DAYS - 20.0..HOURLY_DAYS - 10.0),
             (None, None) => HOURLY_DAYS,
         };
-        (end - HOURLY_DAYS, 1.0 / 24.0)
+        (end - HOURLY_DAYS, spacing_hours / 24.0)
     } else {
         (0.0, 1.0)
     };
     if hourly {
-        epochs = (HOURLY_DAYS * 24.0).round() as usize + 1;
+        epochs = (HOURLY_DAYS * 24.0 / spacing_hours).round() as usize + 1;
     }
     let law = |t: f64| -> f64 {
         match (onset_days, failure_days) {

@@ -379,11 +379,20 @@ pub fn run_kinds_in(
     base: &AnalysisConfig,
     rules: &[AlertRule],
 ) -> Vec<Outcome> {
-    use rayon::prelude::*;
     let cases: Vec<MotionCase> = kinds
         .iter()
         .flat_map(|&k| (first..first + seeds).map(move |s| case(k, s)))
         .collect();
+    run_cases_in(&cases, base, rules)
+}
+
+/// Every case of `cases` run in parallel with the analysis settings `base`.
+pub fn run_cases_in(
+    cases: &[MotionCase],
+    base: &AnalysisConfig,
+    rules: &[AlertRule],
+) -> Vec<Outcome> {
+    use rayon::prelude::*;
     cases.par_iter().map(|c| run_in(c, base, rules)).collect()
 }
 

@@ -393,7 +393,9 @@ pub async fn epochs_of_point(
 }
 
 /// The recorded changes of the alerts that concern `point` (as the point of the alert or one of
-/// its points), oldest first.
+/// its points), oldest first, each at the time of the epoch its body names (an acknowledgement,
+/// or a body without one, at its recording time; a body that does not parse as well, with a
+/// warning naming the alert).
 pub async fn events_of_point(
     db: impl AnyExecutor<'_>,
     site: &str,
@@ -432,9 +434,14 @@ pub async fn events_of_point(
                 ..
             } = r;
             let event_type: AlertEventType = event_type.parse()?;
-            let observed = serde_json::from_str::<serde_json::Value>(&payload)
-                .ok()
-                .and_then(|v| v["data"]["observed_at"].as_str().map(str::to_string));
+            let observed = match serde_json::from_str::<crate::webhooks::WebhookPayload>(&payload) {
+                Ok(body) => body.data.observed_at,
+                Err(e) => {
+                    tracing::warn!(alert = %alert_id, error = %e,
+                        "an alert event's body does not parse; shown at its recording time");
+                    None
+                }
+            };
             let at = match (event_type, observed) {
                 (AlertEventType::Acknowledged, _) | (_, None) => created,
                 (_, Some(o)) => o,

@@ -13,7 +13,7 @@ use super::alerts::{Metric, Reading, Readings, Source};
 use super::displacement::{DisplacementRecord, PointAnalysis};
 use super::epoch::{AnalysisConfig, EpochCoordinates, GroupConfig, PointConfig};
 use super::failure::FailureForecast;
-use super::history::{raw_kinematics, record_covariance, History};
+use super::history::{past_start, raw_kinematics, record_covariance, History};
 use super::linalg::length_of;
 use super::rigid_body::{
     at_rest, estimate_block, estimate_block_correlated, translation_share, BlockMotion, BlockPoint,
@@ -248,8 +248,8 @@ fn at_reference_epoch(
     }
 }
 
-/// The block's translation in the past epochs of the history (the last
-/// `config.filter_epochs − 1` before `now`) in which every current member has a usable record,
+/// The block's translation in the past epochs of the history (those the filter reads before
+/// `now`: `past_start`) in which every current member has a usable record,
 /// oldest first; each with this epoch's correlations when `joint_now` is known.
 fn past_motions(
     members: &[String],
@@ -268,7 +268,7 @@ fn past_motions(
     for m in members {
         let Some(h) = history.get(m) else { continue };
         let end = h.partition_point(|r| r.observed_at < now);
-        let start = end.saturating_sub(config.filter_epochs.saturating_sub(1));
+        let start = past_start(&h[..end], now, config);
         for r in &h[start..end] {
             if let Some(cov) = record_covariance(r) {
                 by_epoch.entry(r.observed_at).or_default().push(BlockPoint {

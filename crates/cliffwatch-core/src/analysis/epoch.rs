@@ -7,6 +7,13 @@ use serde::{Deserialize, Serialize};
 use super::error::AnalysisError;
 use crate::photogrammetry::Adjustment;
 
+/// Default of [`FailureConfig::forecast_bin_hours`] (hours): daily means.
+pub const DEFAULT_FORECAST_BIN_HOURS: f64 = 24.0;
+
+/// Most epochs the filter and the forecast read of one subject (an hourly site's 40 daily bins
+/// hold 948; a site sampled more often reads its last 1 000 epochs).
+pub const MAX_FILTER_EPOCHS: usize = 1000;
+
 /// Adjusted coordinates of one point in one epoch.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PointCoordinates {
@@ -281,10 +288,11 @@ pub struct FailureConfig {
     /// law, the cycle alternative and the confirmation's refits; 0: every epoch on its own).
     /// Bins are counted back from the current epoch (epoch k hours back falls in bin
     /// `round(k / bin)`), so epochs this far apart or farther stay one per bin and windows
-    /// counted in epochs count bins: an hourly series is then fitted as daily means, each
-    /// 24 × better known, at a daily series' cost. 0 by default; a site sampled hourly sets 24
-    /// with `AnalysisConfig::filter_epochs` 1000 (30 days of history: 12 of 16 hourly failures
-    /// alarmed 24–120 h before, none at the defaults; `docs/accuracy.md`).
+    /// counted in epochs count bins; the filter's history reaches back
+    /// `AnalysisConfig::filter_epochs` bins ([`AnalysisConfig::filter_start`]). 24 by default:
+    /// a daily site's epochs stay as they are, an hourly, 6-hourly or 12-hourly site's are
+    /// fitted as daily means, each better known, at a daily series' cost (hourly failures: 12
+    /// of 16 alarmed 24–120 h before with daily bins, none without; `docs/accuracy.md`).
     pub forecast_bin_hours: f64,
 }
 
@@ -305,7 +313,7 @@ impl Default for FailureConfig {
             refuse_backward: false,
             refuse_slowing: false,
             cycle_margin: Some(0.0),
-            forecast_bin_hours: 0.0,
+            forecast_bin_hours: DEFAULT_FORECAST_BIN_HOURS,
         }
     }
 }
@@ -389,7 +397,9 @@ pub struct AnalysisConfig {
     pub failure: FailureConfig,
     /// The Kalman filter of the points' (and blocks') kinematics (model and process noise).
     pub kalman: KalmanConfig,
-    /// Epochs the filter runs over at each analysis (the current one and the ones before it).
+    /// Epochs the filter runs over at each analysis (the current one and the ones before it),
+    /// or forecast bins when the epochs come more often than one per bin
+    /// ([`AnalysisConfig::filter_start`]).
     pub filter_epochs: usize,
     /// Declared point groups (blocks).
     pub groups: Vec<GroupConfig>,
@@ -491,6 +501,35 @@ impl AnalysisConfig {
         }
     }
 
+    /// Index of the first of `len` epochs (oldest first; `days_back(k)`: epoch k's days before
+    /// the current epoch, ≥ 0) that the filter and the forecast read: the last `keep` of them
+    /// (`filter_epochs` with the current epoch, `filter_epochs − 1` of a history before it), or
+    /// every epoch of the last `filter_epochs` forecast bins when those reach further back (an
+    /// hourly site's last 40 days with the defaults), never more than [`MAX_FILTER_EPOCHS`].
+    /// A series with one epoch per bin or fewer reads its last `keep` epochs, as without bins.
+    pub fn filter_start(&self, len: usize, keep: usize, days_back: impl Fn(usize) -> f64) -> usize {
+        let by_count = len.saturating_sub(keep);
+        let bin = self.failure.forecast_bin_hours;
+        if !(bin > 0.0) || by_count == 0 {
+            return by_count;
+        }
+        let in_bins =
+            |k: usize| ((days_back(k) * 24.0 / bin).round() as usize) < self.filter_epochs;
+        let by_bins = (0..len).position(in_bins).unwrap_or(len);
+        by_count
+            .min(by_bins)
+            .max(len.saturating_sub(MAX_FILTER_EPOCHS))
+    }
+
+    /// Days of history the filter may read beyond its last `filter_epochs` records
+    /// ([`AnalysisConfig::filter_start`]: `filter_epochs` forecast bins; 0 without bins). The
+    /// store loads every record of these days as well as the last
+    /// [`AnalysisConfig::history_epochs`], at most [`MAX_FILTER_EPOCHS`] per point.
+    pub fn history_span_days(&self) -> f64 {
+        let bin = self.failure.forecast_bin_hours.max(0.0);
+        (self.filter_epochs as f64 - 0.5) * bin / 24.0
+    }
+
     /// How many past records per point the windows counted in epochs need.
     pub fn history_epochs(&self) -> usize {
         let n = |w: Window| match w {
@@ -502,5 +541,45 @@ impl AnalysisConfig {
             .max(n(self.failure.law_window))
             .max(n(self.failure.acceleration_window))
             .max(self.filter_epochs)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Where the filter starts in `n` epochs `spacing_hours` apart (the last one current, or,
+    /// with `keep` < 40, a spacing before it: a history), each late or early by up to 0.9 h
+    /// (daily; less in proportion for shorter spacings) at set phases (a schedule slips).
+    fn start(config: &AnalysisConfig, n: usize, spacing_hours: f64, keep: usize) -> usize {
+        let slip = |k: usize| [0.0, 0.9, -0.7, 0.4][k % 4] * spacing_hours.min(24.0) / 24.0;
+        let last = if keep < config.filter_epochs {
+            n
+        } else {
+            n - 1
+        };
+        config.filter_start(n, keep, |k| {
+            ((last - k) as f64 * spacing_hours + slip(k)).max(0.0) / 24.0
+        })
+    }
+
+    /// Daily epochs read the last 40 however late or early each was taken; with a day
+    /// missing too. Hourly ones read the last 40 daily bins (948 epochs: bins 0–39, bin 39
+    /// ending 39.5 days back); 10-minute ones the last 1 000; and without bins every site
+    /// reads its last 40 epochs.
+    #[test]
+    fn the_filter_reads_forty_epochs_or_forty_daily_bins() {
+        let c = AnalysisConfig::default();
+        assert_eq!(100 - start(&c, 100, 24.0, 40), 40);
+        assert_eq!(100 - start(&c, 100, 24.0, 39), 39);
+        assert_eq!(2000 - start(&c, 2000, 1.0, 40), 948);
+        assert_eq!(20 - start(&c, 20, 1.0, 40), 20);
+        assert_eq!(10_000 - start(&c, 10_000, 1.0 / 6.0, 40), MAX_FILTER_EPOCHS);
+        assert_eq!(200 - start(&c, 200, 6.0, 40), 158);
+        let mut unbinned = AnalysisConfig::default();
+        unbinned.failure.forecast_bin_hours = 0.0;
+        assert_eq!(2000 - start(&unbinned, 2000, 1.0, 40), 40);
+        assert_eq!(unbinned.history_span_days(), 0.0);
+        assert_eq!(c.history_span_days(), 39.5);
     }
 }

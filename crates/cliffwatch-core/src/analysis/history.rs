@@ -73,8 +73,21 @@ pub(super) fn record_covariance(r: &DisplacementRecord) -> Option<Matrix3<f64>> 
     (c.iter().all(|v| v.is_finite()) && c.cholesky().is_some()).then_some(c)
 }
 
-/// The filter's input from a point's past records (before `now`, the last
-/// [`AnalysisConfig::filter_epochs`] − 1 of them; rows without a usable covariance are skipped).
+/// Index of the first of `past` (a subject's records before `now`, oldest first) that the filter
+/// reads: the last [`AnalysisConfig::filter_epochs`] − 1, or those of its forecast bins
+/// ([`AnalysisConfig::filter_start`]).
+pub(super) fn past_start(
+    past: &[DisplacementRecord],
+    now: DateTime<Utc>,
+    config: &AnalysisConfig,
+) -> usize {
+    config.filter_start(past.len(), config.filter_epochs.saturating_sub(1), |k| {
+        -days_between(now, past[k].observed_at)
+    })
+}
+
+/// The filter's input from a point's past records (before `now`, those [`past_start`] keeps;
+/// rows without a usable covariance are skipped).
 pub(super) fn observed_of(
     history: Option<&Vec<DisplacementRecord>>,
     now: DateTime<Utc>,
@@ -82,7 +95,7 @@ pub(super) fn observed_of(
 ) -> Vec<Observed> {
     let Some(h) = history else { return vec![] };
     let end = h.partition_point(|r| r.observed_at < now);
-    let start = end.saturating_sub(config.filter_epochs.saturating_sub(1));
+    let start = past_start(&h[..end], now, config);
     h[start..end]
         .iter()
         .filter_map(|r| {

@@ -73,6 +73,7 @@ pub use displacement::{
 pub use epoch::{
     AnalysisConfig, DatumTransformation, EpochCoordinates, FailureConfig, GroupConfig, GroupKind,
     JointCovarianceM2, PointConfig, PointCoordinates, PointRole, Window,
+    DEFAULT_FORECAST_BIN_HOURS, MAX_FILTER_EPOCHS,
 };
 pub use epoch_analysis::{analyse_epoch, DatumReport, EpochAnalysis};
 pub use error::AnalysisError;

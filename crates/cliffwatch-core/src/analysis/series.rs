@@ -50,9 +50,7 @@ pub fn analyse_series(
                 for r in a.records() {
                     let h = history.entry(r.point.clone()).or_default();
                     h.push(r.clone());
-                    if h.len() > keep {
-                        h.remove(0);
-                    }
+                    trim_history(h, keep, config);
                     out.records.push(r);
                 }
                 out.block_records.extend(a.block_records());
@@ -86,4 +84,23 @@ pub fn analyse_series(
         }
     }
     out
+}
+
+/// Drops the oldest of a point's records (oldest first) that no later epoch reads: beyond the
+/// last `keep` and the last [`AnalysisConfig::history_span_days`] before the newest, or beyond
+/// [`analysis::MAX_FILTER_EPOCHS`].
+fn trim_history(h: &mut Vec<DisplacementRecord>, keep: usize, config: &AnalysisConfig) {
+    let Some(newest) = h.last().map(|r| r.observed_at) else {
+        return;
+    };
+    let cap = keep.max(analysis::MAX_FILTER_EPOCHS);
+    let span = config.history_span_days();
+    let old = |r: &DisplacementRecord| super::velocity::days_between(r.observed_at, newest) > span;
+    let drop = h
+        .iter()
+        .take(h.len().saturating_sub(keep))
+        .take_while(|r| old(r))
+        .count()
+        .max(h.len().saturating_sub(cap));
+    h.drain(..drop);
 }

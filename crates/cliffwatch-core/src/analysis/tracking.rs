@@ -3,7 +3,8 @@
 //! inverse-velocity forecast once the series shows an onset of acceleration (`super::onset`,
 //! [`super::failure`]).
 //!
-//! The filter runs again over the last [`AnalysisConfig::filter_epochs`] epochs at every analysis
+//! The filter runs again over the last [`AnalysisConfig::filter_epochs`] epochs (or forecast
+//! bins: [`AnalysisConfig::filter_start`]) at every analysis
 //! (no filter state is stored): a recompute or a replay gives bit-identical values, and the
 //! filter's memory (a few tens of epochs with the default process noise) is shorter than the
 //! window, so the truncation does not show.
@@ -72,7 +73,9 @@ pub fn track(
     reference_t_days: f64,
     config: &AnalysisConfig,
 ) -> Option<Tracked> {
-    let start = series.len().saturating_sub(config.filter_epochs.max(2));
+    let start = config.filter_start(series.len(), config.filter_epochs.max(2), |k| {
+        -series[k].t_days
+    });
     let series = &series[start..];
     let meas: Vec<Measurement> = series
         .iter()

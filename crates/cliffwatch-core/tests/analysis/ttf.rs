@@ -173,20 +173,24 @@ fn hourly_block_alarm(
 }
 
 /// A block failing, or bursting, sampled hourly over 30 days (`MotionKind::FailingHourly`,
-/// `BurstHourly`), its forecast alone (without the days of shared error), seeds 0–3 of each. At the defaults (windows counted in
-/// epochs, the filter's history 40 epochs: 40 hours) no forecast ever forms: the onset law
-/// asks the acceleration to have started 5 days back. With the hourly epochs fitted as daily
-/// means (`FailureConfig::forecast_bin_hours` 24) and 30 days of history (`filter_epochs`
-/// 1000), as `docs/accuracy.md` measures the whole analysis, the failing blocks alarm 24–120 h
-/// before failure and the bursts do not. Measured (2026-12-07): 4 of 4 in 24–120 h (85, 84, 25
-/// and 31 h before failure), no burst alarmed; asserted: ≥ 3 of 4 in the window (seed 2 lies an
-/// hour inside it), none more than 8 days early, no burst.
+/// `BurstHourly`), its forecast alone (without the days of shared error), seeds 0–3 of each.
+/// Every epoch on its own (`FailureConfig::forecast_bin_hours` 0, the default before) no
+/// forecast ever forms: the windows and the filter's history count epochs (40 hours), and the
+/// onset law asks the acceleration to have started 5 days back. At the defaults the hourly
+/// epochs are fitted as daily means over the last 40 days, as `docs/accuracy.md` measures the
+/// whole analysis: the failing blocks alarm 24–120 h before failure and the bursts do not.
+/// Measured (2026-12-07): 4 of 4 in 24–120 h (85, 84, 25 and 31 h before failure), no burst
+/// alarmed; asserted: ≥ 3 of 4 in the window (seed 2 lies an hour inside it), none more than
+/// 8 days early, no burst. The defaults read the same as 1 000 epochs of history would.
 #[test]
 fn hourly_blocks_alarm_from_daily_means() {
-    let default = AnalysisConfig::default();
-    let mut hourly = AnalysisConfig::default();
-    hourly.failure.forecast_bin_hours = 24.0;
-    hourly.filter_epochs = 1000;
+    let mut unbinned = AnalysisConfig::default();
+    unbinned.failure.forecast_bin_hours = 0.0;
+    let hourly = AnalysisConfig::default();
+    let longer = AnalysisConfig {
+        filter_epochs: 1000,
+        ..AnalysisConfig::default()
+    };
     let mut in_window = 0;
     for seed in 0..4 {
         let tf = case(MotionKind::FailingHourly, seed)
@@ -194,8 +198,13 @@ fn hourly_blocks_alarm_from_daily_means() {
             .expect("fails");
         let last = (24.0 * HOURLY_DAYS).round() / 24.0;
         let to_failure = 24.0 * (tf - last);
-        assert!(hourly_block_alarm(MotionKind::FailingHourly, seed, &default).is_none());
+        assert!(hourly_block_alarm(MotionKind::FailingHourly, seed, &unbinned).is_none());
         let alarm = hourly_block_alarm(MotionKind::FailingHourly, seed, &hourly);
+        let with_longer = hourly_block_alarm(MotionKind::FailingHourly, seed, &longer);
+        assert_eq!(
+            alarm, with_longer,
+            "seed {seed}: 40 daily bins hold the 30 days"
+        );
         let lead = alarm.map(|a| a.0 + to_failure);
         println!("failing seed {seed}: {alarm:?}, {lead:?} h before failure");
         assert!(
