@@ -515,7 +515,18 @@ impl AnalysisConfig {
         }
         let in_bins =
             |k: usize| ((days_back(k) * 24.0 / bin).round() as usize) < self.filter_epochs;
-        let by_bins = (0..len).position(in_bins).unwrap_or(len);
+        // The epochs are oldest first, so `in_bins` is false up to some index, then true:
+        // bisection (a daily site's ten years of history are 3 650 records per point).
+        let (mut lo, mut hi) = (0, len);
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if in_bins(mid) {
+                hi = mid;
+            } else {
+                lo = mid + 1;
+            }
+        }
+        let by_bins = lo;
         by_count
             .min(by_bins)
             .max(len.saturating_sub(MAX_FILTER_EPOCHS))
