@@ -7,6 +7,7 @@
 mod support;
 
 mod blocks;
+mod datum;
 mod failed;
 mod incidents;
 mod recompute;

@@ -277,6 +277,7 @@ pub(crate) fn datum_covariance(diffs: &Differences, datum: &[usize]) -> DMatrix<
     s
 }
 
+/// θ = (GᵀWG)⁻¹GᵀW d and A = (GᵀWG)⁻¹GᵀW.
 fn solve(
     g: &DMatrix<f64>,
     w: &DMatrix<f64>,
@@ -290,6 +291,49 @@ fn solve(
     let a = ch.solve(&gtw);
     let p = &a * d;
     Ok((p, a))
+}
+
+/// Share of a direction outside the Helmert motions (`‖(I − P_G) v‖`, v a unit eigenvector)
+/// below which it counts as one of them: 5e-7 to 2e-4 where it was one (the eigenvector of a
+/// rounding-level eigenvalue is itself known to about that).
+const IN_HELMERT_SPAN: f64 = 1e-2;
+
+/// Weight, relative to the largest of `w`, given to a direction of the differences without
+/// variance that is a Helmert motion (about the inverse of the smallest eigenvalue a Cholesky
+/// factor of such a covariance kept: 1e-8 of the largest).
+const EXACT_WEIGHT: f64 = 1e8;
+
+/// The weights of the transformation's fit: `w` (the pseudo-inverse of the differences'
+/// covariance `cov`), with every direction of `cov` without variance that is a Helmert motion
+/// weighted as known exactly. Such a direction arises when a rigid motion moves the datum
+/// points alone (a rotation about the line through collinear monitored points, under a free
+/// network's inner constraints): its differences are exact, but the pseudo-inverse gives them
+/// no weight, GᵀWG is then singular up to rounding and the fit took the rounding for a
+/// rotation of tens of mrad (a stable point 0.3 m off, a false "stable point moved"). A
+/// Cholesky inverse of the same covariance, when rounding left its eigenvalue positive, gave
+/// the right answer by weighting it ~1e8 times: so does this, whichever the sign. Also returns
+/// how many directions it weighted so.
+fn fit_weights(cov: &DMatrix<f64>, w: &DMatrix<f64>, g: &DMatrix<f64>) -> (DMatrix<f64>, usize) {
+    let eig = cov.clone().symmetric_eigen();
+    let max = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
+    let Some(gtg) = (g.transpose() * g).cholesky() else {
+        return (w.clone(), 0);
+    };
+    let w_max = w.diagonal().iter().cloned().fold(0.0, f64::max);
+    let mut out = w.clone();
+    let mut exact = 0;
+    for (k, &l) in eig.eigenvalues.iter().enumerate() {
+        if l > 1e-12 * max {
+            continue;
+        }
+        let v = eig.eigenvectors.column(k);
+        let in_span = g * gtg.solve(&(g.transpose() * v));
+        if (v - in_span).norm() < IN_HELMERT_SPAN {
+            out += (v * v.transpose()) * (EXACT_WEIGHT * w_max);
+            exact += 1;
+        }
+    }
+    (out, exact)
 }
 
 /// S-transformation onto `datum` weighted by the inverse covariance of their differences.
@@ -307,11 +351,17 @@ pub(crate) fn fit_weighted(
     }
     let c = centroid(diffs, datum);
     let (g, d) = design(diffs, datum, &c, u);
-    let (w, rank) =
-        sym_inverse(&datum_covariance(diffs, datum)).ok_or_else(|| AnalysisError::Singular {
-            what: "covariance of the datum points' differences".into(),
-        })?;
-    let (p, a) = solve(&g, &w, &d)?;
+    let cov = datum_covariance(diffs, datum);
+    let (w, rank) = sym_inverse(&cov).ok_or_else(|| AnalysisError::Singular {
+        what: "covariance of the datum points' differences".into(),
+    })?;
+    // Directions known exactly are observations too: each spends the parameter it fixes.
+    let ((p, a), exact) = if rank < 3 * datum.len() {
+        let (w_fit, exact) = fit_weights(&cov, &w, &g);
+        (solve(&g, &w_fit, &d)?, exact)
+    } else {
+        (solve(&g, &w, &d)?, 0)
+    };
     let v = &d - &g * &p;
     let omega = (v.transpose() * &w * &v)[(0, 0)];
     Ok(DatumFit {
@@ -320,7 +370,7 @@ pub(crate) fn fit_weighted(
         params: p,
         a,
         omega,
-        redundancy: rank.saturating_sub(u),
+        redundancy: (rank + exact).saturating_sub(u),
         u,
     })
 }
