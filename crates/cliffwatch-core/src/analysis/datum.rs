@@ -23,7 +23,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, Vector3};
 
 use super::epoch::{DatumTransformation, EpochCoordinates};
 use super::error::AnalysisError;
-use super::linalg::sym_inverse;
+use super::linalg::{sym_inverse, NULL_RELATIVE};
 
 /// Coordinate differences of the points common to two epochs, with everything needed for the covariances.
 #[derive(Debug, Clone)]
@@ -323,7 +323,8 @@ fn fit_weights(cov: &DMatrix<f64>, w: &DMatrix<f64>, g: &DMatrix<f64>) -> (DMatr
     let mut out = w.clone();
     let mut exact = 0;
     for (k, &l) in eig.eigenvalues.iter().enumerate() {
-        if l > 1e-12 * max {
+        // The directions the pseudo-inverse `w` left without weight.
+        if l > NULL_RELATIVE * max {
             continue;
         }
         let v = eig.eigenvectors.column(k);

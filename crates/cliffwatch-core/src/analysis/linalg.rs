@@ -3,8 +3,12 @@
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
+/// Eigenvalues of a symmetric matrix at or below this share of its largest count as zero
+/// ([`sym_inverse`]'s pseudo-inverse, and the directions it leaves without weight).
+pub(crate) const NULL_RELATIVE: f64 = 1e-12;
+
 /// Inverse of a symmetric matrix and its rank: Cholesky when positive definite, else the eigen
-/// pseudo-inverse (eigenvalues below 1e-12 × the largest count as zero).
+/// pseudo-inverse (eigenvalues at or below [`NULL_RELATIVE`] × the largest count as zero).
 pub(crate) fn sym_inverse(s: &DMatrix<f64>) -> Option<(DMatrix<f64>, usize)> {
     if s.nrows() == 0 {
         return Some((s.clone(), 0));
@@ -19,7 +23,7 @@ pub(crate) fn sym_inverse(s: &DMatrix<f64>) -> Option<(DMatrix<f64>, usize)> {
     }
     let mut rank = 0;
     let inv_vals = eig.eigenvalues.map(|l| {
-        if l > 1e-12 * max {
+        if l > NULL_RELATIVE * max {
             rank += 1;
             1.0 / l
         } else {
